@@ -1,0 +1,215 @@
+// Ray Engine throughput on the Stanford bunny against Embree, same rays, same run (design doc
+// sec. 7). Two workloads: 1024x1024 coherent primary rays from a camera framing the bunny, and
+// 1M incoherent diffuse rays (cosine-distributed about the normal at random surface points).
+// Prints Mrays/s for each and the ratio Penumbra / Embree (best of rtcIntersect1 and
+// rtcIntersect8).
+#include "penumbra/core/rng.h"
+#include "penumbra/io/scene_io.h"
+#include "penumbra/kernels/sampling.h"
+#include "penumbra/raytrace/camera_rays.h"
+#include "penumbra/raytrace/ray_engine.h"
+
+#include <benchmark/benchmark.h>
+#include <embree3/rtcore.h>
+#include <tbb/parallel_for.h>
+
+#include <cstdio>
+#include <cstring>
+#include <map>
+#include <string>
+
+namespace {
+
+using namespace penumbra;
+
+struct Workload {
+  Mesh mesh;
+  RayEngine engine;
+  RTCDevice device = nullptr;
+  RTCScene scene = nullptr;
+  RayBatch coherent, diffuse;
+};
+
+Workload& workload() {
+  static Workload w = [] {
+    Workload wl;
+    Expected<Scene> s = loadScene(std::string(PENUMBRA_BENCH_DATA) + "/bunny.ply");
+    if (!s) {
+      std::fprintf(stderr, "%s\n", s.error().describe().c_str());
+      std::exit(2);
+    }
+    wl.mesh = s->meshes[0];
+    wl.engine = RayEngine::build(wl.mesh.positions, wl.mesh.triangles);
+
+    wl.device = rtcNewDevice(nullptr);
+    wl.scene = rtcNewScene(wl.device);
+    rtcSetSceneBuildQuality(wl.scene, RTC_BUILD_QUALITY_HIGH);
+    RTCGeometry g = rtcNewGeometry(wl.device, RTC_GEOMETRY_TYPE_TRIANGLE);
+    auto* v = static_cast<float*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0,
+                                                          RTC_FORMAT_FLOAT3, 12,
+                                                          wl.mesh.positions.size()));
+    std::memcpy(v, wl.mesh.positions.data(), wl.mesh.positions.size() * 12);
+    auto* idx = static_cast<unsigned*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0,
+                                                               RTC_FORMAT_UINT3, 12,
+                                                               wl.mesh.triangles.size()));
+    std::memcpy(idx, wl.mesh.triangles.data(), wl.mesh.triangles.size() * 12);
+    rtcCommitGeometry(g);
+    rtcAttachGeometry(wl.scene, g);
+    rtcReleaseGeometry(g);
+    rtcCommitScene(wl.scene);
+
+    // Coherent: a camera framing the bunny.
+    const Camera cam = defaultCamera(*s);
+    const CameraRays rays(cam, 1024, 1024);
+    wl.coherent.resize(1024 * 1024);
+    for (int y = 0; y < 1024; ++y) {
+      for (int x = 0; x < 1024; ++x) {
+        wl.coherent.set(size_t(y) * 1024 + size_t(x), rays.ray(float(x) + 0.5f, float(y) + 0.5f));
+      }
+    }
+    // Incoherent: diffuse bounces off random surface points.
+    Rng rng(7, 7);
+    const size_t n = 1 << 20;
+    wl.diffuse.resize(n);
+    for (size_t i = 0; i < n; ++i) {
+      const glm::uvec3 t = wl.mesh.triangles[rng.uniformInt(uint32_t(wl.mesh.triangles.size()))];
+      const glm::vec3 p0 = wl.mesh.positions[t.x], p1 = wl.mesh.positions[t.y],
+                      p2 = wl.mesh.positions[t.z];
+      glm::vec3 nrm = glm::cross(p1 - p0, p2 - p0);
+      const float len = glm::length(nrm);
+      nrm = len > 0.0f ? nrm / len : glm::vec3(0, 1, 0);
+      const glm::vec2 b = sampleTriangleBarycentrics(rng.uniform(), rng.uniform());
+      const glm::vec3 p = (1.0f - b.x - b.y) * p0 + b.x * p1 + b.y * p2;
+      const glm::vec3 d = Frame::fromNormal(rng.uniform() < 0.5f ? nrm : -nrm)
+                              .toWorld(sampleCosineHemisphere(rng.uniform(), rng.uniform()));
+      wl.diffuse.set(i, Ray{p, 1e-4f, d, 1e30f});
+    }
+    return wl;
+  }();
+  return w;
+}
+
+const RayBatch& raysFor(int which) {
+  return which == 0 ? workload().coherent : workload().diffuse;
+}
+
+void penumbraTrace(benchmark::State& state) {
+  const RayBatch& rays = raysFor(int(state.range(0)));
+  const RayEngine& engine = workload().engine;
+  HitBatch hits;
+  hits.resize(rays.size());
+  for (auto _ : state) {
+    engine.intersect(rays, hits);
+    benchmark::DoNotOptimize(hits.t.data());
+  }
+  state.SetItemsProcessed(int64_t(state.iterations()) * int64_t(rays.size()));
+}
+
+void embreeTrace1(benchmark::State& state) {
+  const RayBatch& rays = raysFor(int(state.range(0)));
+  RTCScene scene = workload().scene;
+  std::vector<int32_t> prim(rays.size());
+  for (auto _ : state) {
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, rays.size(), 256),
+                      [&](const tbb::blocked_range<size_t>& r) {
+                        RTCIntersectContext ctx;
+                        rtcInitIntersectContext(&ctx);
+                        for (size_t i = r.begin(); i < r.end(); ++i) {
+                          RTCRayHit rh;
+                          rh.ray.org_x = rays.ox[i], rh.ray.org_y = rays.oy[i];
+                          rh.ray.org_z = rays.oz[i], rh.ray.tnear = rays.tmin[i];
+                          rh.ray.dir_x = rays.dx[i], rh.ray.dir_y = rays.dy[i];
+                          rh.ray.dir_z = rays.dz[i], rh.ray.tfar = rays.tmax[i];
+                          rh.ray.mask = ~0u, rh.ray.flags = 0, rh.ray.time = 0.0f;
+                          rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+                          rtcIntersect1(scene, &ctx, &rh);
+                          prim[i] = rh.hit.geomID == RTC_INVALID_GEOMETRY_ID ? -1
+                                                                             : int32_t(rh.hit.primID);
+                        }
+                      });
+    benchmark::DoNotOptimize(prim.data());
+  }
+  state.SetItemsProcessed(int64_t(state.iterations()) * int64_t(rays.size()));
+}
+
+void embreeTrace8(benchmark::State& state) {
+  const RayBatch& rays = raysFor(int(state.range(0)));
+  RTCScene scene = workload().scene;
+  std::vector<int32_t> prim(rays.size());
+  for (auto _ : state) {
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, rays.size() / 8, 32),
+                      [&](const tbb::blocked_range<size_t>& r) {
+                        RTCIntersectContext ctx;
+                        rtcInitIntersectContext(&ctx);
+                        alignas(32) int valid[8] = {-1, -1, -1, -1, -1, -1, -1, -1};
+                        for (size_t p = r.begin(); p < r.end(); ++p) {
+                          alignas(32) RTCRayHit8 rh;
+                          for (int k = 0; k < 8; ++k) {
+                            const size_t i = p * 8 + size_t(k);
+                            rh.ray.org_x[k] = rays.ox[i], rh.ray.org_y[k] = rays.oy[i];
+                            rh.ray.org_z[k] = rays.oz[i], rh.ray.tnear[k] = rays.tmin[i];
+                            rh.ray.dir_x[k] = rays.dx[i], rh.ray.dir_y[k] = rays.dy[i];
+                            rh.ray.dir_z[k] = rays.dz[i], rh.ray.tfar[k] = rays.tmax[i];
+                            rh.ray.mask[k] = ~0u, rh.ray.flags[k] = 0, rh.ray.time[k] = 0.0f;
+                            rh.hit.geomID[k] = RTC_INVALID_GEOMETRY_ID;
+                          }
+                          rtcIntersect8(valid, scene, &ctx, &rh);
+                          for (int k = 0; k < 8; ++k) {
+                            prim[p * 8 + size_t(k)] = rh.hit.geomID[k] == RTC_INVALID_GEOMETRY_ID
+                                                          ? -1
+                                                          : int32_t(rh.hit.primID[k]);
+                          }
+                        }
+                      });
+    benchmark::DoNotOptimize(prim.data());
+  }
+  state.SetItemsProcessed(int64_t(state.iterations()) * int64_t(rays.size()));
+}
+
+BENCHMARK(penumbraTrace)->Arg(0)->Arg(1)->ArgName("diffuse")->UseRealTime()->Unit(benchmark::kMillisecond)->MinTime(2.0);
+BENCHMARK(embreeTrace1)->Arg(0)->Arg(1)->ArgName("diffuse")->UseRealTime()->Unit(benchmark::kMillisecond)->MinTime(2.0);
+BENCHMARK(embreeTrace8)->Arg(0)->Arg(1)->ArgName("diffuse")->UseRealTime()->Unit(benchmark::kMillisecond)->MinTime(2.0);
+
+// Collects rays/s per benchmark so the ratios can be printed after the run.
+class RatioReporter : public benchmark::ConsoleReporter {
+ public:
+  void ReportRuns(const std::vector<Run>& runs) override {
+    for (const Run& r : runs) {
+      auto it = r.counters.find("items_per_second");
+      if (it != r.counters.end()) rates[r.benchmark_name()] = it->second.value;
+    }
+    ConsoleReporter::ReportRuns(runs);
+  }
+  std::map<std::string, double> rates;
+};
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  workload();  // build outside the timings
+  RatioReporter reporter;
+  benchmark::RunSpecifiedBenchmarks(&reporter);
+  auto rate = [&](const std::string& prefix) {
+    for (const auto& [name, value] : reporter.rates) {
+      if (name.rfind(prefix, 0) == 0) return value;
+    }
+    return 0.0;
+  };
+  for (const char* name : {"diffuse:0", "diffuse:1"}) {
+    const std::string suffix = std::string("/") + name + "/";
+    const double ours = rate("penumbraTrace" + suffix);
+    const double e1 = rate("embreeTrace1" + suffix);
+    const double e8 = rate("embreeTrace8" + suffix);
+    const double best = std::max(e1, e8);
+    if (ours > 0 && best > 0) {
+      std::printf("%s rays: penumbra %.2f Mrays/s, embree rtcIntersect1 %.2f, rtcIntersect8 %.2f; "
+                  "ratio to Embree's best %.2fx\n",
+                  std::string(name) == "diffuse:0" ? "coherent primary" : "incoherent diffuse",
+                  ours * 1e-6, e1 * 1e-6, e8 * 1e-6, ours / best);
+    }
+  }
+  benchmark::Shutdown();
+  return 0;
+}

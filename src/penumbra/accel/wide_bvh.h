@@ -1,0 +1,39 @@
+// The CPU layout of the BVH: 8-wide nodes with their children's boxes stored as structures of
+// arrays, so one AVX2 instruction sequence tests a ray against all eight (the layout of
+// Embree's BVH8, Wald et al. 2014). Converted from the canonical binary BVH by collapsing:
+// each wide node adopts the binary subtree below it, always opening the child with the largest
+// surface area, until it has eight children or only leaves (tinybvh's ConvertFrom does the
+// same).
+#pragma once
+
+#include "penumbra/accel/bvh.h"
+
+#include <cstdint>
+#include <vector>
+
+namespace penumbra {
+
+// 256 bytes: 6 x 8 floats of child boxes, 8 child references.
+struct alignas(64) Bvh8Node {
+  float lo_x[8], hi_x[8], lo_y[8], hi_y[8], lo_z[8], hi_z[8];
+  // >= 0: index of an inner node. < 0: a leaf, ~child = (first triangle << 4) | count, with
+  // the triangles in leaf order. Unused slots hold kEmpty and a box no ray can hit.
+  int32_t child[8];
+
+  static constexpr int32_t kEmpty = ~int32_t(0);  // a leaf with zero triangles
+};
+static_assert(sizeof(Bvh8Node) == 256);
+
+inline bool bvh8IsLeaf(int32_t child) { return child < 0; }
+inline uint32_t bvh8LeafFirst(int32_t child) { return uint32_t(~child) >> 4; }
+inline uint32_t bvh8LeafCount(int32_t child) { return uint32_t(~child) & 15u; }
+
+struct Bvh8 {
+  std::vector<Bvh8Node> nodes;  // nodes[0] is the root (when the tree is not a single leaf)
+  int32_t root = Bvh8Node::kEmpty;  // the root reference: an inner node or a leaf
+};
+
+// Requires leaves of at most 15 triangles and fewer than 2^27 triangles.
+Bvh8 collapseToBvh8(const Bvh& bvh);
+
+}  // namespace penumbra

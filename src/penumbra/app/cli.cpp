@@ -1,0 +1,110 @@
+#include "penumbra/app/commands.h"
+
+#include "penumbra/core/log.h"
+#include "penumbra/core/parallel.h"
+
+#include <CLI/CLI.hpp>
+
+#include <cstdio>
+#include <exception>
+#include <new>
+
+namespace penumbra {
+
+int reportError(const Error& error) {
+  std::fprintf(stderr, "penumbra: error: %s\n", error.describe().c_str());
+  return error.kind == ErrorKind::kInput ? 2 : 1;
+}
+
+namespace {
+
+void addCommon(CLI::App* app, CommonOptions& common) {
+  app->add_option("--threads", common.threads, "worker threads (0 = all cores)")
+      ->check(CLI::Range(0, 1024));
+  app->add_flag("--quiet", common.quiet, "no progress or information, only warnings and errors");
+}
+
+int parseAndRun(int argc, char** argv) {
+  CLI::App app{"Penumbra: diffuse and subsurface global illumination", "penumbra"};
+  app.require_subcommand(1);
+  app.set_version_flag("--version", "penumbra 0.1.0");
+  CommonOptions common;
+
+  RenderOptions render;
+  std::string tonemap = "reinhard";
+  CLI::App* render_cmd = app.add_subcommand("render", "render a scene to an image");
+  render_cmd->add_option("scene", render.scene,
+                         "built-in scene name (cornell, furnace) or a .json/.obj/.gltf/.glb/.ply "
+                         "file")
+      ->capture_default_str();
+  render_cmd->add_option("--method", render.method, "pathtrace")
+      ->capture_default_str();
+  render_cmd->add_option("--device", render.device, "cpu, gpu or auto")->capture_default_str();
+  render_cmd->add_option("-o,--output", render.outputs,
+                         "output image (.exr .hdr .pfm linear, .png tone mapped); may repeat");
+  render_cmd->add_option("--stats", render.stats, "write statistics to this JSON file");
+  render_cmd->add_option("--width", render.width, "image width (default 512)");
+  render_cmd->add_option("--height", render.height, "image height (default 512)");
+  render_cmd->add_option("--spp", render.spp, "samples per pixel (default 64)");
+  render_cmd->add_option("--max-depth", render.max_depth,
+                         "maximum bounces, 0 = unlimited (Russian roulette)");
+  render_cmd->add_option("--seed", render.seed, "random seed (default 0)");
+  render_cmd->add_option("--tonemap", tonemap, "PNG tone mapping: reinhard or exposure")
+      ->check(CLI::IsMember({"reinhard", "exposure"}))
+      ->capture_default_str();
+  render_cmd->add_option("--exposure", render.tonemap.exposure_stops,
+                         "exposure in stops before tone mapping");
+  render_cmd->add_option("--key", render.tonemap.key,
+                         "Reinhard key value (default: estimated from the image)");
+  addCommon(render_cmd, common);
+
+  TraceOptions trace;
+  CLI::App* trace_cmd =
+      app.add_subcommand("trace", "closest hits of a ray file against a mesh (the Ray Engine)");
+  trace_cmd->add_option("mesh", trace.mesh, "mesh file or built-in scene")->required();
+  trace_cmd->add_option("--rays", trace.rays, "rays: float32 ox oy oz tmin dx dy dz tmax")
+      ->required();
+  trace_cmd->add_option("-o,--output", trace.output, "hits: int32 triangle, float32 t u v")
+      ->required();
+  trace_cmd->add_option("--stats", trace.stats, "write statistics to this JSON file");
+  trace_cmd->add_option("--device", trace.device, "cpu, gpu or auto")->capture_default_str();
+  addCommon(trace_cmd, common);
+
+  InfoOptions info;
+  CLI::App* info_cmd = app.add_subcommand("info", "what a scene holds: sizes, lights, warnings");
+  info_cmd->add_option("scene", info.scene, "built-in scene name or file")->capture_default_str();
+  addCommon(info_cmd, common);
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::Success& e) {
+    return app.exit(e);
+  } catch (const CLI::ParseError& e) {
+    std::fprintf(stderr, "penumbra: error: %s (see penumbra --help)\n", e.what());
+    return 2;
+  }
+
+  render.tonemap.op = tonemap == "exposure" ? ToneMapOperator::kExposure : ToneMapOperator::kReinhard;
+  initLogging(common.quiet);
+  auto thread_limit = limitThreads(common.threads);
+  if (render_cmd->parsed()) return runRender(render, common);
+  if (trace_cmd->parsed()) return runTrace(trace, common);
+  if (info_cmd->parsed()) return runInfo(info, common);
+  return 2;
+}
+
+}  // namespace
+
+int runCli(int argc, char** argv) {
+  try {
+    return parseAndRun(argc, argv);
+  } catch (const std::bad_alloc&) {
+    std::fprintf(stderr, "penumbra: error: out of memory\n");
+    return 1;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "penumbra: error: %s\n", e.what());
+    return 1;
+  }
+}
+
+}  // namespace penumbra

@@ -1,0 +1,52 @@
+// The `penumbra` commands (design doc sec. 4). Each returns an exit code: 0 success, 2 bad input
+// or usage, 1 failure at run time.
+#pragma once
+
+#include "penumbra/core/expected.h"
+#include "penumbra/render/tonemap.h"
+
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace penumbra {
+
+struct CommonOptions {
+  int threads = 0;  // 0 = all cores
+  bool quiet = false;
+};
+
+struct RenderOptions {
+  std::string scene = "cornell";
+  std::string method = "pathtrace";
+  std::string device = "auto";
+  std::vector<std::string> outputs;  // -o, may repeat: one render, several files
+  std::string stats;
+  std::optional<int> width, height, spp, max_depth;
+  std::optional<uint64_t> seed;
+  ToneMapSettings tonemap;
+};
+
+struct TraceOptions {
+  std::string mesh;
+  std::string rays;
+  std::string output;
+  std::string stats;
+  std::string device = "auto";
+};
+
+struct InfoOptions {
+  std::string scene = "cornell";
+};
+
+int runRender(const RenderOptions& options, const CommonOptions& common);
+int runTrace(const TraceOptions& options, const CommonOptions& common);
+int runInfo(const InfoOptions& options, const CommonOptions& common);
+
+// Prints "penumbra: error: <file: place: message>" and returns the exit code for its kind.
+int reportError(const Error& error);
+
+// Entry point of the executable.
+int runCli(int argc, char** argv);
+
+}  // namespace penumbra

@@ -1,0 +1,74 @@
+// `penumbra info`: what a scene holds.
+#include "penumbra/app/commands.h"
+#include "penumbra/accel/bounds.h"
+#include "penumbra/io/scene_io.h"
+
+#include <glm/trigonometric.hpp>
+
+#include <cstdio>
+#include <fmt/format.h>
+#include <variant>
+
+namespace penumbra {
+
+int runInfo(const InfoOptions& options, const CommonOptions&) {
+  Expected<Scene> loaded = loadScene(options.scene);
+  if (!loaded) return reportError(loaded.error());
+  const Scene& s = *loaded;
+  Bounds3 bounds;
+  for (const Mesh& m : s.meshes) {
+    for (const glm::vec3& p : m.positions) bounds.extend(p);
+  }
+  fmt::print("scene      {}\n", s.source);
+  fmt::print("triangles  {}\nvertices   {}\n", s.triangleCount(), s.vertexCount());
+  fmt::print("bounds     ({:.4g}, {:.4g}, {:.4g}) to ({:.4g}, {:.4g}, {:.4g}) m\n", bounds.lo.x,
+             bounds.lo.y, bounds.lo.z, bounds.hi.x, bounds.hi.y, bounds.hi.z);
+  fmt::print("meshes     {}\n", s.meshes.size());
+  for (const Mesh& m : s.meshes) {
+    fmt::print("  {:<20} {:>9} triangles {:>9} vertices{}{}\n", m.name.empty() ? "-" : m.name,
+               m.triangles.size(), m.positions.size(), m.normals.empty() ? "" : ", normals",
+               m.uvs.empty() ? "" : ", uvs");
+  }
+  fmt::print("materials  {}\n", s.materials.size());
+  for (const Material& m : s.materials) {
+    fmt::print("  {:<20} reflectance ({:.3g}, {:.3g}, {:.3g})", m.name, m.reflectance.x,
+               m.reflectance.y, m.reflectance.z);
+    if (m.isEmissive()) {
+      fmt::print("  emission ({:.4g}, {:.4g}, {:.4g}) W/m^2/sr", m.emission.x, m.emission.y,
+                 m.emission.z);
+    }
+    fmt::print("\n");
+  }
+  fmt::print("lights     {}\n", s.lights.size());
+  for (const Light& l : s.lights) {
+    if (const auto* p = std::get_if<PointLight>(&l)) {
+      fmt::print("  point at ({:.4g}, {:.4g}, {:.4g}), intensity ({:.4g}, {:.4g}, {:.4g}) W/sr\n",
+                 p->position.x, p->position.y, p->position.z, p->intensity.x, p->intensity.y,
+                 p->intensity.z);
+    } else if (const auto* sp = std::get_if<SpotLight>(&l)) {
+      fmt::print("  spot at ({:.4g}, {:.4g}, {:.4g}), intensity ({:.4g}, {:.4g}, {:.4g}) W/sr, "
+                 "cone {:.1f}-{:.1f} deg\n",
+                 sp->position.x, sp->position.y, sp->position.z, sp->intensity.x, sp->intensity.y,
+                 sp->intensity.z, glm::degrees(sp->inner_angle), glm::degrees(sp->outer_angle));
+    } else if (const auto* d = std::get_if<DirectionalLight>(&l)) {
+      fmt::print("  directional towards ({:.3g}, {:.3g}, {:.3g}), irradiance ({:.4g}, {:.4g}, "
+                 "{:.4g}) W/m^2\n",
+                 d->direction.x, d->direction.y, d->direction.z, d->irradiance.x, d->irradiance.y,
+                 d->irradiance.z);
+    }
+  }
+  if (s.camera) {
+    fmt::print("camera     at ({:.4g}, {:.4g}, {:.4g}) looking at ({:.4g}, {:.4g}, {:.4g}), "
+               "vertical fov {:.2f} deg\n",
+               s.camera->position.x, s.camera->position.y, s.camera->position.z,
+               s.camera->look_at.x, s.camera->look_at.y, s.camera->look_at.z,
+               glm::degrees(s.camera->vertical_fov));
+  } else {
+    fmt::print("camera     none (render frames the bounding box)\n");
+  }
+  fmt::print("warnings   {}\n", s.warnings.size());
+  for (const std::string& w : s.warnings) fmt::print("  {}\n", w);
+  return 0;
+}
+
+}  // namespace penumbra

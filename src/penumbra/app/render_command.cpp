@@ -1,0 +1,153 @@
+// `penumbra render`: loads a scene, runs the chosen method, writes images and stats.
+#include "penumbra/app/commands.h"
+#include "penumbra/app/stats_file.h"
+#include "penumbra/core/file_util.h"
+#include "penumbra/core/memory.h"
+#include "penumbra/core/parallel.h"
+#include "penumbra/core/progress.h"
+#include "penumbra/core/timer.h"
+#include "penumbra/io/image_io.h"
+#include "penumbra/io/scene_io.h"
+#include "penumbra/raytrace/path_tracer.h"
+
+#include <filesystem>
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+namespace penumbra {
+
+namespace {
+
+// Reads an integer setting from the scene file's "settings": {"pathtrace": {...}}.
+Expected<int> sceneSetting(const Scene& scene, const std::string& method, const std::string& key,
+                           int fallback) {
+  if (!scene.settings.contains(method)) return fallback;
+  const nlohmann::json& m = scene.settings[method];
+  if (!m.is_object() || !m.contains(key)) return fallback;
+  if (!m[key].is_number_integer()) {
+    return inputError(scene.source, fmt::format("settings.{}.{}", method, key),
+                      "must be an integer");
+  }
+  return m[key].get<int>();
+}
+
+Status checkRange(const std::string& what, int value, int lo, int hi) {
+  if (value < lo || value > hi) {
+    return inputError("", "", fmt::format("{} {} is out of range [{}, {}]", what, value, lo, hi));
+  }
+  return {};
+}
+
+std::string sceneStem(const std::string& scene) {
+  const std::filesystem::path p(scene);
+  return p.has_extension() ? p.stem().string() : scene;
+}
+
+Status renderPathTrace(const RenderOptions& options, const CommonOptions& common) {
+  if (options.device == "gpu") {
+    return inputError("", "", "--device gpu: the path tracer has no GPU back end yet; use cpu");
+  }
+  std::vector<std::string> outputs = options.outputs;
+  if (outputs.empty()) outputs.push_back(sceneStem(options.scene) + ".png");
+  for (const std::string& out : outputs) {
+    if (!isSupportedImageExtension(out)) {
+      return inputError(out, "", fmt::format("unsupported image format '{}' (use .exr, .hdr, "
+                                             ".pfm or .png)",
+                                             extensionOf(out)));
+    }
+    PENUMBRA_TRY(checkOutputPath(out));
+  }
+  if (!options.stats.empty()) PENUMBRA_TRY(checkOutputPath(options.stats));
+
+  Timer load_timer;
+  Expected<Scene> scene = loadScene(options.scene);
+  if (!scene) return scene.error();
+  for (const std::string& w : scene->warnings) spdlog::warn("{}", w);
+
+  PathTracerSettings settings;
+  auto setting = [&](const std::optional<int>& cli, const char* key, int& dst) -> Status {
+    if (cli) {
+      dst = *cli;
+      return {};
+    }
+    Expected<int> v = sceneSetting(*scene, "pathtrace", key, dst);
+    if (!v) return v.error();
+    dst = *v;
+    return {};
+  };
+  PENUMBRA_TRY(setting(options.width, "width", settings.width));
+  PENUMBRA_TRY(setting(options.height, "height", settings.height));
+  PENUMBRA_TRY(setting(options.spp, "spp", settings.spp));
+  PENUMBRA_TRY(setting(options.max_depth, "max_depth", settings.max_depth));
+  if (options.seed) settings.seed = *options.seed;
+  PENUMBRA_TRY(checkRange("--width", settings.width, 1, 1 << 16));
+  PENUMBRA_TRY(checkRange("--height", settings.height, 1, 1 << 16));
+  PENUMBRA_TRY(checkRange("--spp", settings.spp, 1, 1 << 20));
+  PENUMBRA_TRY(checkRange("--max-depth", settings.max_depth, 0, 1 << 16));
+  // The image, its tone-mapped copy and the file buffers: about 40 bytes per pixel.
+  PENUMBRA_TRY(checkMemory(uint64_t(settings.width) * uint64_t(settings.height) * 40,
+                           fmt::format("a {}x{} image", settings.width, settings.height)));
+
+  const Camera camera = scene->camera ? *scene->camera : defaultCamera(*scene);
+  const double load_seconds = load_timer.seconds();
+  Timer build_timer;
+  const PathTracer tracer(*scene);
+  const double build_seconds = build_timer.seconds();
+  spdlog::info("{}: {} triangles, {} emissive, {} lights; {}x{} at {} spp on {} threads",
+               scene->source, tracer.geometry().triangles.size(), tracer.geometry().emitters.size(),
+               scene->lights.size(), settings.width, settings.height, settings.spp, threadCount());
+
+  Progress progress("rendering", uint64_t(settings.height),
+                    !common.quiet && Progress::stderrIsTerminal());
+  PathTracerStats stats;
+  const Image image = tracer.render(camera, settings, &stats, [&](int) { progress.add(1); });
+  progress.finish();
+
+  for (const std::string& out : outputs) PENUMBRA_TRY(writeImage(out, image, options.tonemap));
+  const double mrays = stats.seconds > 0.0 ? double(stats.rays) / stats.seconds * 1e-6 : 0.0;
+  spdlog::info("rendered in {:.2f} s ({:.2f} Mrays/s); wrote {}", stats.seconds, mrays,
+               fmt::join(outputs, ", "));
+  if (!options.stats.empty()) {
+    nlohmann::json j = {{"method", "pathtrace"},
+                        {"device", "cpu"},
+                        {"scene", scene->source},
+                        {"seconds", stats.seconds},
+                        {"load_seconds", load_seconds},
+                        {"build_seconds", build_seconds},
+                        {"width", settings.width},
+                        {"height", settings.height},
+                        {"spp", settings.spp},
+                        {"max_depth", settings.max_depth},
+                        {"seed", settings.seed},
+                        {"threads", threadCount()},
+                        {"triangles", tracer.geometry().triangles.size()},
+                        {"rays", stats.rays},
+                        {"mrays_per_s", mrays}};
+    PENUMBRA_TRY(writeStatsFile(options.stats, j));
+  }
+  return {};
+}
+
+}  // namespace
+
+int runRender(const RenderOptions& options, const CommonOptions& common) {
+  if (options.device != "cpu" && options.device != "gpu" && options.device != "auto") {
+    return reportError(inputError("", "", fmt::format("--device '{}': use cpu, gpu or auto",
+                                                      options.device)));
+  }
+  Status s;
+  if (options.method == "pathtrace") {
+    s = renderPathTrace(options, common);
+  } else if (options.method == "matrix" || options.method == "progressive" ||
+             options.method == "stochastic" || options.method == "sss" || options.method == "lpv") {
+    s = inputError("", "", fmt::format("--method {} is not available in this version (available: "
+                                       "pathtrace)",
+                                       options.method));
+  } else {
+    s = inputError("", "", fmt::format("unknown --method '{}' (available: pathtrace)",
+                                       options.method));
+  }
+  return s.ok() ? 0 : reportError(s.error());
+}
+
+}  // namespace penumbra

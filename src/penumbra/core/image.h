@@ -1,0 +1,23 @@
+// A linear RGB image in float, row-major, row 0 at the top.
+#pragma once
+
+#include <glm/vec3.hpp>
+
+#include <cstddef>
+#include <vector>
+
+namespace penumbra {
+
+struct Image {
+  int width = 0;
+  int height = 0;
+  std::vector<glm::vec3> pixels;  // width * height, linear radiance (W m^-2 sr^-1) or colour
+
+  Image() = default;
+  Image(int w, int h) : width(w), height(h), pixels(size_t(w) * size_t(h), glm::vec3(0.0f)) {}
+
+  glm::vec3& at(int x, int y) { return pixels[size_t(y) * size_t(width) + size_t(x)]; }
+  const glm::vec3& at(int x, int y) const { return pixels[size_t(y) * size_t(width) + size_t(x)]; }
+};
+
+}  // namespace penumbra

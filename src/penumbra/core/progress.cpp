@@ -1,0 +1,54 @@
+#include "penumbra/core/progress.h"
+
+#include <chrono>
+#include <cstdio>
+#include <unistd.h>
+
+namespace penumbra {
+
+namespace {
+double nowSeconds() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+}  // namespace
+
+Progress::Progress(std::string label, uint64_t total, bool enabled)
+    : label_(std::move(label)), total_(total), enabled_(enabled && total > 0) {
+  if (enabled_) draw(0, false);
+}
+
+Progress::~Progress() { finish(); }
+
+bool Progress::stderrIsTerminal() { return ::isatty(STDERR_FILENO) == 1; }
+
+void Progress::add(uint64_t units) {
+  const uint64_t done = done_.fetch_add(units) + units;
+  if (!enabled_) return;
+  std::unique_lock lock(mutex_, std::try_to_lock);
+  if (!lock.owns_lock() || finished_) return;
+  const double now = nowSeconds();
+  if (now - last_draw_ < 0.2) return;
+  last_draw_ = now;
+  draw(done, false);
+}
+
+void Progress::finish() {
+  if (!enabled_) return;
+  std::lock_guard lock(mutex_);
+  if (finished_) return;
+  finished_ = true;
+  draw(done_.load(), true);
+}
+
+void Progress::draw(uint64_t done, bool final) {
+  constexpr int kWidth = 40;
+  const double frac = total_ ? double(done < total_ ? done : total_) / double(total_) : 1.0;
+  const int filled = int(frac * kWidth);
+  std::string bar(size_t(filled), '#');
+  bar.append(size_t(kWidth - filled), '.');
+  std::fprintf(stderr, "\r%s [%s] %5.1f%%%s", label_.c_str(), bar.c_str(), frac * 100.0,
+               final ? "\n" : "");
+  std::fflush(stderr);
+}
+
+}  // namespace penumbra

@@ -1,0 +1,36 @@
+// A progress bar for long work: drawn on stderr when it is a terminal and not --quiet.
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <mutex>
+#include <string>
+
+namespace penumbra {
+
+class Progress {
+ public:
+  // `total` units of work; `enabled` false draws nothing.
+  Progress(std::string label, uint64_t total, bool enabled);
+  ~Progress();
+
+  // Thread-safe; redraws at most a few times per second.
+  void add(uint64_t units);
+  void finish();
+
+  // Whether stderr is a terminal.
+  static bool stderrIsTerminal();
+
+ private:
+  void draw(uint64_t done, bool final);
+
+  std::string label_;
+  uint64_t total_;
+  bool enabled_;
+  std::atomic<uint64_t> done_{0};
+  std::mutex mutex_;
+  double last_draw_ = -1.0;
+  bool finished_ = false;
+};
+
+}  // namespace penumbra

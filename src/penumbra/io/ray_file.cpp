@@ -1,0 +1,111 @@
+#include "penumbra/io/ray_file.h"
+
+#include "penumbra/core/file_util.h"
+
+#include <fmt/format.h>
+#include <bit>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <limits>
+
+namespace penumbra {
+
+static_assert(std::endian::native == std::endian::little,
+              "ray and hit files are little-endian; a big-endian build needs byte swapping");
+
+namespace {
+
+Status writeBytes(const std::string& path, const std::string& bytes) {
+  return writeAtomically(path, [&](const std::string& tmp) -> Status {
+    FILE* f = std::fopen(tmp.c_str(), "wb");
+    if (!f) return runtimeError(path, "cannot open for writing");
+    const bool ok = std::fwrite(bytes.data(), 1, bytes.size(), f) == bytes.size();
+    const bool closed = std::fclose(f) == 0;
+    if (!ok || !closed) return runtimeError(path, "write failed (disk full?)");
+    return {};
+  });
+}
+
+}  // namespace
+
+Expected<RayBatch> readRayFile(const std::string& path) {
+  Expected<std::string> bytes = readFile(path);
+  if (!bytes) return bytes.error();
+  const std::string& b = *bytes;
+  constexpr size_t kRayBytes = 8 * sizeof(float);
+  if (b.size() % kRayBytes != 0) {
+    return inputError(path, fmt::format("byte {}", b.size() - b.size() % kRayBytes),
+                      fmt::format("file size {} is not a multiple of 32 bytes (8 float32 per ray: "
+                                  "ox oy oz tmin dx dy dz tmax)",
+                                  b.size()));
+  }
+  const size_t n = b.size() / kRayBytes;
+  RayBatch rays;
+  rays.resize(n);
+  for (size_t i = 0; i < n; ++i) {
+    float f[8];
+    std::memcpy(f, b.data() + i * kRayBytes, kRayBytes);
+    const Ray r{{f[0], f[1], f[2]}, f[3], {f[4], f[5], f[6]}, f[7]};
+    const std::string place = fmt::format("ray {}", i);
+    if (!std::isfinite(r.origin.x) || !std::isfinite(r.origin.y) || !std::isfinite(r.origin.z)) {
+      return inputError(path, place, "origin is not finite");
+    }
+    if (!std::isfinite(r.dir.x) || !std::isfinite(r.dir.y) || !std::isfinite(r.dir.z)) {
+      return inputError(path, place, "direction is not finite");
+    }
+    if (r.dir.x == 0.0f && r.dir.y == 0.0f && r.dir.z == 0.0f) {
+      return inputError(path, place, "direction is zero");
+    }
+    if (!std::isfinite(r.tmin)) return inputError(path, place, "tmin is not finite");
+    if (std::isnan(r.tmax)) return inputError(path, place, "tmax is NaN");
+    rays.set(i, r);
+  }
+  return rays;
+}
+
+Status writeRayFile(const std::string& path, const RayBatch& rays) {
+  std::string bytes(rays.size() * 32, '\0');
+  for (size_t i = 0; i < rays.size(); ++i) {
+    const Ray r = rays.get(i);
+    const float f[8] = {r.origin.x, r.origin.y, r.origin.z, r.tmin,
+                        r.dir.x,    r.dir.y,    r.dir.z,    r.tmax};
+    std::memcpy(bytes.data() + i * 32, f, 32);
+  }
+  return writeBytes(path, bytes);
+}
+
+Expected<HitBatch> readHitFile(const std::string& path) {
+  Expected<std::string> bytes = readFile(path);
+  if (!bytes) return bytes.error();
+  if (bytes->size() % 16 != 0) {
+    return inputError(path, "",
+                      fmt::format("file size {} is not a multiple of 16 bytes", bytes->size()));
+  }
+  HitBatch hits;
+  hits.resize(bytes->size() / 16);
+  for (size_t i = 0; i < hits.size(); ++i) {
+    Hit h;
+    std::memcpy(&h.triangle, bytes->data() + i * 16, 4);
+    std::memcpy(&h.t, bytes->data() + i * 16 + 4, 4);
+    std::memcpy(&h.u, bytes->data() + i * 16 + 8, 4);
+    std::memcpy(&h.v, bytes->data() + i * 16 + 12, 4);
+    hits.set(i, h);
+  }
+  return hits;
+}
+
+Status writeHitFile(const std::string& path, const HitBatch& hits) {
+  std::string bytes(hits.size() * 16, '\0');
+  for (size_t i = 0; i < hits.size(); ++i) {
+    Hit h = hits.get(i);
+    if (!h.hit()) h = Hit{-1, std::numeric_limits<float>::infinity(), 0.0f, 0.0f};
+    std::memcpy(bytes.data() + i * 16, &h.triangle, 4);
+    std::memcpy(bytes.data() + i * 16 + 4, &h.t, 4);
+    std::memcpy(bytes.data() + i * 16 + 8, &h.u, 4);
+    std::memcpy(bytes.data() + i * 16 + 12, &h.v, 4);
+  }
+  return writeBytes(path, bytes);
+}
+
+}  // namespace penumbra

@@ -1,0 +1,21 @@
+// The `penumbra trace` file formats (design doc sec. 4). Rays: little-endian float32, 8 per ray:
+// ox oy oz tmin dx dy dz tmax. Hits: 16 bytes per ray: int32 triangle (-1 for a miss), float32
+// t, u, v (barycentrics of vertices 1 and 2); a miss has t = +inf and u = v = 0.
+#pragma once
+
+#include "penumbra/core/expected.h"
+#include "penumbra/raytrace/ray.h"
+
+#include <string>
+
+namespace penumbra {
+
+// Reads and validates a ray file: size a multiple of 32 bytes, finite origins and directions,
+// non-zero directions, tmin finite, tmax not NaN. Errors name the ray.
+Expected<RayBatch> readRayFile(const std::string& path);
+Status writeRayFile(const std::string& path, const RayBatch& rays);
+
+Expected<HitBatch> readHitFile(const std::string& path);
+Status writeHitFile(const std::string& path, const HitBatch& hits);
+
+}  // namespace penumbra

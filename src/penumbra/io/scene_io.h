@@ -1,0 +1,30 @@
+// Scene loading. Every loader returns a validated Scene in world space, or an Error naming the
+// file and the place in it. Polygons are fan-triangulated (v0 v1 v2, v0 v2 v3, ...) and triangle
+// i is the i-th triangle in file order.
+#pragma once
+
+#include "penumbra/core/expected.h"
+#include "penumbra/scene/scene.h"
+
+#include <string>
+
+namespace penumbra {
+
+// Wavefront OBJ with its MTL (Kd -> reflectance, Ke -> emission), through tinyobjloader.
+Expected<Scene> loadObj(const std::string& path);
+// glTF 2.0 (.gltf, .glb) through tinygltf: meshes with node transforms, PBR base colour ->
+// reflectance, emissive (times KHR_materials_emissive_strength) -> emission,
+// KHR_lights_punctual point/spot/directional lights, the first camera.
+Expected<Scene> loadGltf(const std::string& path);
+// PLY, ASCII and binary, through Assimp.
+Expected<Scene> loadPly(const std::string& path);
+// Penumbra's JSON scene format (docs/scene-format.md); paths relative to the scene file.
+Expected<Scene> loadSceneJson(const std::string& path);
+
+// By extension: .json, .obj, .gltf, .glb, .ply.
+Expected<Scene> loadSceneFile(const std::string& path);
+
+// A built-in scene name or a file path.
+Expected<Scene> loadScene(const std::string& name_or_path);
+
+}  // namespace penumbra

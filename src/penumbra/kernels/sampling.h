@@ -1,0 +1,68 @@
+// Sampling formulas shared by the Monte Carlo methods (pbrt-v4, ch. 2 and A.5).
+#pragma once
+
+#include <glm/geometric.hpp>
+#include <glm/vec2.hpp>
+#include <glm/vec3.hpp>
+
+#include <cmath>
+
+namespace penumbra {
+
+inline constexpr float kPi = 3.14159265358979323846f;
+inline constexpr float kInvPi = 0.31830988618379067154f;
+
+// An orthonormal basis around unit n (Duff et al., "Building an Orthonormal Basis, Revisited",
+// JCGT 6(1), 2017).
+struct Frame {
+  glm::vec3 t, b, n;
+
+  static Frame fromNormal(const glm::vec3& n) {
+    const float sign = std::copysign(1.0f, n.z);
+    const float a = -1.0f / (sign + n.z);
+    const float b = n.x * n.y * a;
+    return Frame{glm::vec3(1.0f + sign * n.x * n.x * a, sign * b, -sign * n.x),
+                 glm::vec3(b, sign + n.y * n.y * a, -n.y), n};
+  }
+  glm::vec3 toWorld(const glm::vec3& v) const { return v.x * t + v.y * b + v.z * n; }
+};
+
+// Cosine-weighted direction on the hemisphere around +z (Malley's method over a concentric
+// disc map, Shirley and Chiu 1997); pdf = cos(theta) / pi.
+inline glm::vec3 sampleCosineHemisphere(float u1, float u2) {
+  const float ox = 2.0f * u1 - 1.0f, oy = 2.0f * u2 - 1.0f;
+  float r = 0.0f, phi = 0.0f;
+  if (ox != 0.0f || oy != 0.0f) {
+    if (std::fabs(ox) > std::fabs(oy)) {
+      r = ox;
+      phi = 0.25f * kPi * (oy / ox);
+    } else {
+      r = oy;
+      phi = 0.5f * kPi - 0.25f * kPi * (ox / oy);
+    }
+  }
+  const float x = r * std::cos(phi), y = r * std::sin(phi);
+  return glm::vec3(x, y, std::sqrt(std::fmax(0.0f, 1.0f - x * x - y * y)));
+}
+
+// Uniform point on a triangle as barycentrics (b1, b2) of vertices 1 and 2 (Heitz, "A
+// Low-Distortion Map Between Triangle and Square", 2019).
+inline glm::vec2 sampleTriangleBarycentrics(float u1, float u2) {
+  float b0, b1;
+  if (u1 < u2) {
+    b0 = u1 / 2.0f;
+    b1 = u2 - b0;
+  } else {
+    b1 = u2 / 2.0f;
+    b0 = u1 - b1;
+  }
+  return glm::vec2(b1, 1.0f - b0 - b1);
+}
+
+// Veach's power heuristic (beta = 2) for two sampling strategies.
+inline float powerHeuristic(float pdf_a, float pdf_b) {
+  const float a = pdf_a * pdf_a, b = pdf_b * pdf_b;
+  return a + b > 0.0f ? a / (a + b) : 0.0f;
+}
+
+}  // namespace penumbra

@@ -1,0 +1,43 @@
+// Primary rays of a pinhole camera.
+#pragma once
+
+#include "penumbra/raytrace/ray.h"
+#include "penumbra/scene/camera.h"
+
+#include <glm/geometric.hpp>
+
+#include <cmath>
+
+namespace penumbra {
+
+// Maps image-plane positions to rays. Pixel (x, y) covers [x, x+1) x [y, y+1); y = 0 is the top
+// row; the image is centred on the view direction.
+class CameraRays {
+ public:
+  CameraRays(const Camera& cam, int width, int height) : origin_(cam.position) {
+    forward_ = glm::normalize(cam.look_at - cam.position);
+    right_ = glm::normalize(glm::cross(forward_, cam.up));
+    up_ = glm::cross(right_, forward_);
+    const float tan_half = std::tan(0.5f * cam.vertical_fov);
+    scale_y_ = tan_half;
+    scale_x_ = tan_half * float(width) / float(height);
+    inv_w_ = 1.0f / float(width);
+    inv_h_ = 1.0f / float(height);
+  }
+
+  // (px, py) in pixel units, e.g. x + 0.5 for the pixel centre. The direction is unit length.
+  Ray ray(float px, float py) const {
+    const float sx = (2.0f * px * inv_w_ - 1.0f) * scale_x_;
+    const float sy = (1.0f - 2.0f * py * inv_h_) * scale_y_;
+    Ray r;
+    r.origin = origin_;
+    r.dir = glm::normalize(forward_ + sx * right_ + sy * up_);
+    return r;
+  }
+
+ private:
+  glm::vec3 origin_, forward_, right_, up_;
+  float scale_x_, scale_y_, inv_w_, inv_h_;
+};
+
+}  // namespace penumbra

@@ -1,0 +1,61 @@
+// The Ray Engine (Carr, Hall, Hart 2002) as a service: batches of rays in, closest hits or
+// occlusion answers out, in input order. This is the CPU back end: the canonical binned-SAH
+// BVH (accel/bvh.h) collapsed to 8-wide nodes (accel/wide_bvh.h) whose child boxes one ray
+// tests with AVX2, traversed in parallel over the batch with oneTBB, and the watertight
+// ray-triangle test (kernels/ray_triangle.h) in the leaves.
+#pragma once
+
+#include "penumbra/accel/bvh.h"
+#include "penumbra/accel/wide_bvh.h"
+#include "penumbra/raytrace/ray.h"
+
+#include <glm/vec3.hpp>
+
+#include <cstdint>
+#include <span>
+#include <vector>
+
+namespace penumbra {
+
+class RayEngine {
+ public:
+  RayEngine() = default;
+
+  // Builds the acceleration structure over `triangles` (indices into `positions`); the
+  // triangle index reported in hits is the position in `triangles`.
+  static RayEngine build(std::span<const glm::vec3> positions,
+                         std::span<const glm::uvec3> triangles,
+                         const BvhBuildOptions& options = {});
+
+  // Single-ray conveniences.
+  Hit intersect(const Ray& ray) const;
+  bool occluded(const Ray& ray) const;
+
+  // Batches, traced in parallel; results in input order. `hits` / `occluded` are resized.
+  void intersect(const RayBatch& rays, HitBatch& hits) const;
+  void occluded(const RayBatch& rays, std::vector<uint8_t>& occluded) const;
+
+  size_t triangleCount() const { return triangles_.size(); }
+  const Bvh& bvh() const { return bvh_; }
+  const Bvh8& bvh8() const { return bvh8_; }
+  size_t memoryBytes() const {
+    return bvh8_.nodes.size() * sizeof(Bvh8Node) + bvh_.refs.size() * sizeof(uint32_t) +
+           triangles_.size() * sizeof(LeafTriangle);
+  }
+  Bounds3 bounds() const;
+
+ private:
+  // Vertices copied into leaf order so a leaf's triangles are contiguous in memory.
+  struct LeafTriangle {
+    glm::vec3 p0, p1, p2;
+  };
+
+  template <bool kAnyHit>
+  bool traverse(const Ray& ray, Hit& hit) const;
+
+  Bvh bvh_;    // canonical binary tree (kept for statistics and other layouts)
+  Bvh8 bvh8_;  // what the CPU traverses
+  std::vector<LeafTriangle> triangles_;  // in bvh_.refs order
+};
+
+}  // namespace penumbra

@@ -1,0 +1,36 @@
+// Delta lights, in radiometric units. Emissive geometry is not a Light: it is a Material with
+// emission on a mesh.
+#pragma once
+
+#include <glm/vec3.hpp>
+
+#include <variant>
+
+namespace penumbra {
+
+// Isotropic point light: radiant intensity I (W sr^-1) in every direction.
+struct PointLight {
+  glm::vec3 position{0.0f};
+  glm::vec3 intensity{1.0f};
+};
+
+// Spot light: intensity I on the axis, full inside `inner_angle`, smooth fall-off to zero at
+// `outer_angle` (half-angles, radians), with the glTF KHR_lights_punctual attenuation
+// clamp((cos a - cos outer) / (cos inner - cos outer), 0, 1)^2.
+struct SpotLight {
+  glm::vec3 position{0.0f};
+  glm::vec3 direction{0.0f, -1.0f, 0.0f};  // unit, the way the light points
+  glm::vec3 intensity{1.0f};
+  float inner_angle = 0.0f;
+  float outer_angle = 0.7853981634f;
+};
+
+// Distant light: irradiance E (W m^-2) on a surface facing it, arriving along `direction`.
+struct DirectionalLight {
+  glm::vec3 direction{0.0f, -1.0f, 0.0f};  // unit, the way the light travels
+  glm::vec3 irradiance{1.0f};
+};
+
+using Light = std::variant<PointLight, SpotLight, DirectionalLight>;
+
+}  // namespace penumbra

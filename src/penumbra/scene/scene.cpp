@@ -1,0 +1,152 @@
+#include "penumbra/scene/scene.h"
+
+#include <glm/geometric.hpp>
+
+#include <cmath>
+#include <fmt/format.h>
+
+namespace penumbra {
+
+size_t Scene::triangleCount() const {
+  size_t n = 0;
+  for (const Mesh& m : meshes) n += m.triangles.size();
+  return n;
+}
+
+size_t Scene::vertexCount() const {
+  size_t n = 0;
+  for (const Mesh& m : meshes) n += m.positions.size();
+  return n;
+}
+
+void Scene::append(Scene other) {
+  const uint32_t base = static_cast<uint32_t>(materials.size());
+  for (Material& m : other.materials) materials.push_back(std::move(m));
+  for (Mesh& mesh : other.meshes) {
+    for (uint32_t& id : mesh.material_ids) id += base;
+    meshes.push_back(std::move(mesh));
+  }
+  for (Light& l : other.lights) lights.push_back(l);
+  for (std::string& w : other.warnings) warnings.push_back(std::move(w));
+  if (!camera && other.camera) camera = other.camera;
+}
+
+namespace {
+
+bool finite3(const glm::vec3& v) {
+  return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z);
+}
+
+std::string meshPlace(const Mesh& mesh, size_t mesh_index) {
+  return mesh.name.empty() ? fmt::format("mesh {}", mesh_index)
+                           : fmt::format("mesh {} ('{}')", mesh_index, mesh.name);
+}
+
+}  // namespace
+
+Status validateScene(Scene& scene) {
+  for (size_t mi = 0; mi < scene.materials.size(); ++mi) {
+    const Material& m = scene.materials[mi];
+    const std::string place = fmt::format("material '{}'", m.name);
+    if (!finite3(m.reflectance) || glm::any(glm::lessThan(m.reflectance, glm::vec3(0.0f))) ||
+        glm::any(glm::greaterThan(m.reflectance, glm::vec3(1.0f)))) {
+      return inputError(scene.source, place,
+                        fmt::format("reflectance ({}, {}, {}) is outside [0, 1]", m.reflectance.x,
+                                    m.reflectance.y, m.reflectance.z));
+    }
+    if (!finite3(m.emission) || glm::any(glm::lessThan(m.emission, glm::vec3(0.0f)))) {
+      return inputError(scene.source, place,
+                        fmt::format("emission ({}, {}, {}) must be finite and non-negative",
+                                    m.emission.x, m.emission.y, m.emission.z));
+    }
+  }
+  for (size_t k = 0; k < scene.meshes.size(); ++k) {
+    Mesh& mesh = scene.meshes[k];
+    const std::string where = meshPlace(mesh, k);
+    for (size_t i = 0; i < mesh.positions.size(); ++i) {
+      if (!finite3(mesh.positions[i])) {
+        return inputError(scene.source, fmt::format("{}, vertex {}", where, i),
+                          "position is not a finite number");
+      }
+    }
+    if (!mesh.normals.empty() && mesh.normals.size() != mesh.positions.size()) {
+      return inputError(scene.source, where, "normal count differs from vertex count");
+    }
+    if (!mesh.uvs.empty() && mesh.uvs.size() != mesh.positions.size()) {
+      return inputError(scene.source, where, "texture coordinate count differs from vertex count");
+    }
+    for (size_t i = 0; i < mesh.normals.size(); ++i) {
+      glm::vec3& n = mesh.normals[i];
+      const float len = glm::length(n);
+      if (!finite3(n)) {
+        return inputError(scene.source, fmt::format("{}, normal {}", where, i),
+                          "normal is not a finite number");
+      }
+      // A zero normal carries no direction; shading falls back to the geometric normal.
+      n = len > 0.0f ? n / len : glm::vec3(0.0f);
+    }
+    for (size_t i = 0; i < mesh.uvs.size(); ++i) {
+      if (!std::isfinite(mesh.uvs[i].x) || !std::isfinite(mesh.uvs[i].y)) {
+        return inputError(scene.source, fmt::format("{}, texture coordinate {}", where, i),
+                          "not a finite number");
+      }
+    }
+    if (mesh.material_ids.size() != mesh.triangles.size()) {
+      return inputError(scene.source, where, "every triangle needs a material");
+    }
+    size_t degenerate = 0, first_degenerate = 0;
+    const size_t nv = mesh.positions.size();
+    for (size_t t = 0; t < mesh.triangles.size(); ++t) {
+      const glm::uvec3 tri = mesh.triangles[t];
+      if (tri.x >= nv || tri.y >= nv || tri.z >= nv) {
+        return inputError(scene.source, fmt::format("{}, triangle {}", where, t),
+                          fmt::format("vertex index out of range ({}, {}, {} with {} vertices)",
+                                      tri.x, tri.y, tri.z, nv));
+      }
+      if (mesh.material_ids[t] >= scene.materials.size()) {
+        return inputError(scene.source, fmt::format("{}, triangle {}", where, t),
+                          "material index out of range");
+      }
+      const glm::vec3 c = glm::cross(mesh.positions[tri.y] - mesh.positions[tri.x],
+                                     mesh.positions[tri.z] - mesh.positions[tri.x]);
+      if (!(glm::dot(c, c) > 0.0f)) {
+        if (degenerate == 0) first_degenerate = t;
+        ++degenerate;
+      }
+    }
+    if (degenerate > 0 && degenerate == mesh.triangles.size()) {
+      return inputError(scene.source, where, "every triangle is degenerate (zero area)");
+    }
+    if (degenerate > 0) {
+      scene.warnings.push_back(
+          fmt::format("{}: {} degenerate (zero-area) triangle(s), the first is triangle {}; they "
+                      "are kept for numbering and never hit",
+                      where, degenerate, first_degenerate));
+    }
+  }
+  if (scene.triangleCount() == 0) {
+    return inputError(scene.source, "", "the scene has no triangles");
+  }
+  return {};
+}
+
+Camera defaultCamera(const Scene& scene) {
+  glm::vec3 lo(INFINITY), hi(-INFINITY);
+  for (const Mesh& m : scene.meshes) {
+    for (const glm::vec3& p : m.positions) {
+      lo = glm::min(lo, p);
+      hi = glm::max(hi, p);
+    }
+  }
+  Camera cam;
+  if (!(lo.x <= hi.x)) return cam;
+  const glm::vec3 center = 0.5f * (lo + hi);
+  const float radius = 0.5f * glm::length(hi - lo);
+  const float distance = radius / std::tan(0.5f * cam.vertical_fov) + 1e-3f;
+  cam.look_at = center;
+  cam.position = center - glm::vec3(0.0f, 0.0f, distance);
+  cam.up = glm::vec3(0.0f, 1.0f, 0.0f);
+  return cam;
+}
+
+}  // namespace penumbra

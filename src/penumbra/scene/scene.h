@@ -1,0 +1,46 @@
+// A scene: world-space meshes, their materials, delta lights and an optional camera.
+#pragma once
+
+#include "penumbra/core/expected.h"
+#include "penumbra/scene/camera.h"
+#include "penumbra/scene/light.h"
+#include "penumbra/scene/material.h"
+#include "penumbra/scene/mesh.h"
+
+#include <nlohmann/json.hpp>
+
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace penumbra {
+
+struct Scene {
+  std::string source;  // file path or "builtin:NAME", for messages
+  std::vector<Mesh> meshes;
+  std::vector<Material> materials;
+  std::vector<Light> lights;
+  std::optional<Camera> camera;
+  // Per-method settings from the scene file ("settings": {"pathtrace": {...}}), applied before
+  // command-line options, which win.
+  nlohmann::json settings = nlohmann::json::object();
+  // Things a user should know about what was loaded (ignored features, degenerate triangles).
+  std::vector<std::string> warnings;
+
+  size_t triangleCount() const;
+  size_t vertexCount() const;
+
+  // Appends `other`'s meshes, materials, lights and warnings; material ids are re-based.
+  void append(Scene other);
+};
+
+// Checks what every consumer relies on: finite positions, normals and UVs, indices in range,
+// material ids in range, reflectance in [0, 1], non-negative finite emission. Degenerate
+// (zero-area) triangles are kept, so that triangle indices still follow the file, but are
+// counted in a warning; a mesh made only of degenerate triangles is an error.
+Status validateScene(Scene& scene);
+
+// A camera that frames the scene's bounding box from the front (-z looking +z) when it has none.
+Camera defaultCamera(const Scene& scene);
+
+}  // namespace penumbra
