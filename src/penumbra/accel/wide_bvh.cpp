@@ -9,9 +9,11 @@ namespace penumbra {
 
 namespace {
 
-int32_t leafRef(const BvhNode& n) {
-  PENUMBRA_CHECK_MSG(n.count <= 15 && n.index < (1u << 27), "leaf of {} at {}", n.count, n.index);
-  return ~int32_t((n.index << 4) | n.count);
+int32_t leafRef(const BvhNode& n, Bvh8& out) {
+  const uint32_t index = uint32_t(out.leaves.size());
+  PENUMBRA_CHECK_MSG(n.count <= 15 && index < (1u << 27), "leaf {} of {}", index, n.count);
+  out.leaves.push_back({n.index, n.count});
+  return ~int32_t((index << 4) | n.count);
 }
 
 // Builds the wide node for binary inner node `b`, recursively; returns its index.
@@ -48,7 +50,7 @@ int32_t collapse(const Bvh& bvh, uint32_t b, Bvh8& out) {
     node.lo_x[i] = c.lo.x, node.lo_y[i] = c.lo.y, node.lo_z[i] = c.lo.z;
     node.hi_x[i] = c.hi.x, node.hi_y[i] = c.hi.y, node.hi_z[i] = c.hi.z;
     if (c.isLeaf()) {
-      node.child[i] = leafRef(c);
+      node.child[i] = leafRef(c, out);
     } else {
       const int32_t child = collapse(bvh, kids[i], out);  // may reallocate out.nodes
       out.nodes[size_t(index)].child[i] = child;
@@ -63,7 +65,7 @@ Bvh8 collapseToBvh8(const Bvh& bvh) {
   Bvh8 out;
   if (bvh.nodes.empty()) return out;
   if (bvh.nodes[0].isLeaf()) {
-    out.root = leafRef(bvh.nodes[0]);
+    out.root = leafRef(bvh.nodes[0], out);
     return out;
   }
   out.nodes.reserve(bvh.nodes.size() / 4 + 1);

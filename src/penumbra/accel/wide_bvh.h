@@ -16,8 +16,8 @@ namespace penumbra {
 // 256 bytes: 6 x 8 floats of child boxes, 8 child references.
 struct alignas(64) Bvh8Node {
   float lo_x[8], hi_x[8], lo_y[8], hi_y[8], lo_z[8], hi_z[8];
-  // >= 0: index of an inner node. < 0: a leaf, ~child = (first triangle << 4) | count, with
-  // the triangles in leaf order. Unused slots hold kEmpty and a box no ray can hit.
+  // >= 0: index of an inner node. < 0: a leaf, ~child = (leaf index << 4) | triangle count.
+  // Unused slots hold kEmpty and a box no ray can hit.
   int32_t child[8];
 
   static constexpr int32_t kEmpty = ~int32_t(0);  // a leaf with zero triangles
@@ -25,15 +25,20 @@ struct alignas(64) Bvh8Node {
 static_assert(sizeof(Bvh8Node) == 256);
 
 inline bool bvh8IsLeaf(int32_t child) { return child < 0; }
-inline uint32_t bvh8LeafFirst(int32_t child) { return uint32_t(~child) >> 4; }
+inline uint32_t bvh8LeafIndex(int32_t child) { return uint32_t(~child) >> 4; }
 inline uint32_t bvh8LeafCount(int32_t child) { return uint32_t(~child) & 15u; }
 
 struct Bvh8 {
+  struct Leaf {
+    uint32_t first;  // into Bvh::refs
+    uint32_t count;
+  };
   std::vector<Bvh8Node> nodes;  // nodes[0] is the root (when the tree is not a single leaf)
+  std::vector<Leaf> leaves;     // in depth-first order
   int32_t root = Bvh8Node::kEmpty;  // the root reference: an inner node or a leaf
 };
 
-// Requires leaves of at most 15 triangles and fewer than 2^27 triangles.
+// Requires leaves of at most 15 triangles and fewer than 2^27 leaves.
 Bvh8 collapseToBvh8(const Bvh& bvh);
 
 }  // namespace penumbra

@@ -7,6 +7,7 @@
 
 #include "penumbra/accel/bvh.h"
 #include "penumbra/accel/wide_bvh.h"
+#include "penumbra/raytrace/cpu_simd.h"
 #include "penumbra/raytrace/ray.h"
 
 #include <glm/vec3.hpp>
@@ -35,27 +36,21 @@ class RayEngine {
   void intersect(const RayBatch& rays, HitBatch& hits) const;
   void occluded(const RayBatch& rays, std::vector<uint8_t>& occluded) const;
 
-  size_t triangleCount() const { return triangles_.size(); }
+  size_t triangleCount() const { return bvh_.refs.size(); }
   const Bvh& bvh() const { return bvh_; }
   const Bvh8& bvh8() const { return bvh8_; }
   size_t memoryBytes() const {
-    return bvh8_.nodes.size() * sizeof(Bvh8Node) + bvh_.refs.size() * sizeof(uint32_t) +
-           triangles_.size() * sizeof(LeafTriangle);
+    return bvh8_.nodes.size() * sizeof(Bvh8Node) + blocks_.size() * sizeof(TriangleBlock8);
   }
   Bounds3 bounds() const;
 
  private:
-  // Vertices copied into leaf order so a leaf's triangles are contiguous in memory.
-  struct LeafTriangle {
-    glm::vec3 p0, p1, p2;
-  };
-
   template <bool kAnyHit>
   bool traverse(const Ray& ray, Hit& hit) const;
 
   Bvh bvh_;    // canonical binary tree (kept for statistics and other layouts)
   Bvh8 bvh8_;  // what the CPU traverses
-  std::vector<LeafTriangle> triangles_;  // in bvh_.refs order
+  std::vector<TriangleBlock8> blocks_;  // one per leaf of bvh8_, vertices copied in
 };
 
 }  // namespace penumbra

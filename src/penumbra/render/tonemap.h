@@ -17,22 +17,31 @@ enum class ToneMapOperator {
 
 struct ToneMapSettings {
   ToneMapOperator op = ToneMapOperator::kReinhard;
-  float exposure_stops = 0.0f;  // multiplies radiance by 2^stops before either operator
-  float key = -1.0f;            // Reinhard key value a; < 0 selects the automatic estimate
-  float white = -1.0f;          // Reinhard L_white; < 0 selects the automatic estimate
+  // Multiplies radiance by 2^stops before either operator. kReinhard divides by the
+  // log-average luminance, so there the stops cancel out: brighten or darken with `key`.
+  float exposure_stops = 0.0f;
+  float key = -1.0f;    // Reinhard key value a; < 0 (or NaN) selects the automatic estimate
+  float white = -1.0f;  // Reinhard L_white, in units of the scaled luminance a L_w / L_av;
+                        // < 0 (or NaN) selects the automatic estimate, +inf means no burn-out
 };
 
 // Relative luminance of linear sRGB / Rec. 709 primaries.
-inline float luminance(const glm::vec3& c) { return 0.2126f * c.x + 0.7152f * c.y + 0.0722f * c.z; }
+inline float luminance(const glm::vec3& c) {
+  return 0.2126f * c.x + 0.7152f * c.y + 0.0722f * c.z;
+}
 
 // Reinhard 2002 (JGT) automatic key: a = 0.18 * 4^((2 log2 Lav - log2 Lmin - log2 Lmax) /
-// (log2 Lmax - log2 Lmin)), from the log-average, minimum and maximum luminance.
+// (log2 Lmax - log2 Lmin)), from the log-average, minimum and maximum luminance. Lmin and Lmax
+// are the 1st and 99th percentiles over the pixels with L > 0, and the result lies in
+// [0.045, 0.72]; 0.18 for an image that is black or uniform.
 float estimateKey(const Image& linear);
 
-// Maps linear radiance to display-linear values in [0, 1].
+// Maps linear radiance to display-linear values in [0, 1]. Negative and non-finite channel
+// values count as 0; the output is always finite.
 Image toneMap(const Image& linear, const ToneMapSettings& settings);
 
-// sRGB opto-electronic transfer function, 8-bit with rounding.
+// sRGB opto-electronic transfer function (IEC 61966-2-1), 8-bit with rounding; input outside
+// [0, 1] clamps (NaN gives 0).
 uint8_t encodeSrgb8(float display_linear);
 
 }  // namespace penumbra

@@ -1,0 +1,693 @@
+// glTF 2.0 loading (.gltf with external or data-URI buffers, .glb) through tinygltf.
+//
+// tinygltf parses the JSON and the buffers; everything read from a buffer is checked here
+// (accessor type, bounds inside its buffer view and buffer, finite values, index ranges) since
+// tinygltf does not check it, with errors naming the accessor. Conventions (docs/scene-format.md):
+//   - units are metres; the default scene's node hierarchy is flattened into world space, normals
+//     transformed by the inverse transpose; a node whose world transform mirrors (negative
+//     determinant) has its triangles' winding flipped so front faces stay counter-clockwise;
+//   - base colour factor (rgb) -> reflectance; emissive factor x
+//     KHR_materials_emissive_strength -> emission, taken as radiance in W m^-2 sr^-1;
+//   - KHR_lights_punctual intensities are photometric (cd for point and spot, lx for directional)
+//     and become radiometric by dividing by 683 lm/W and multiplying by the light's linear colour;
+//   - lights and cameras look down their node's local -Z; a camera's up is the node's local +Y.
+#include "penumbra/core/file_util.h"
+#include "penumbra/io/scene_io.h"
+
+#include <tiny_gltf.h>
+
+#include <glm/geometric.hpp>
+#include <glm/gtc/quaternion.hpp>
+#include <glm/mat3x3.hpp>
+#include <glm/mat4x4.hpp>
+#include <glm/matrix.hpp>
+
+#include <fmt/format.h>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <numbers>
+#include <string>
+#include <vector>
+
+namespace penumbra {
+
+namespace {
+
+// lm/W: luminous efficacy of monochromatic 555 nm light, the conversion KHR_lights_punctual
+// implementations use between photometric and radiometric quantities.
+constexpr double kLumensPerWatt = 683.0;
+
+// Textures are not used yet: images are not decoded (and a missing image is not an error).
+bool skipImage(tinygltf::Image*, const int, std::string*, std::string*, int, int,
+               const unsigned char*, int, void*) {
+  return true;
+}
+
+std::string oneLine(std::string s) {
+  for (char& c : s) {
+    if (c == '\n' || c == '\r') c = ' ';
+  }
+  while (!s.empty() && s.back() == ' ') s.pop_back();
+  return s;
+}
+
+// A checked view of an accessor's elements.
+struct AccessorView {
+  const unsigned char* data = nullptr;  // first element
+  size_t stride = 0;                    // bytes between elements
+  size_t count = 0;
+  int component_type = 0;
+  int components = 0;
+  bool normalized = false;
+
+  // Component c of element i as a double (float, or a normalized / plain integer).
+  double component(size_t i, int c) const {
+    const unsigned char* p = data + i * stride;
+    switch (component_type) {
+      case TINYGLTF_COMPONENT_TYPE_FLOAT: {
+        float f;
+        std::memcpy(&f, p + 4 * c, 4);
+        return f;
+      }
+      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: {
+        const double v = p[c];
+        return normalized ? v / 255.0 : v;
+      }
+      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: {
+        uint16_t v;
+        std::memcpy(&v, p + 2 * c, 2);
+        return normalized ? v / 65535.0 : v;
+      }
+      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT: {
+        uint32_t v;
+        std::memcpy(&v, p + 4 * c, 4);
+        return v;
+      }
+      default:
+        return 0.0;
+    }
+  }
+  uint32_t index(size_t i) const {
+    const unsigned char* p = data + i * stride;
+    switch (component_type) {
+      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE:
+        return p[0];
+      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: {
+        uint16_t v;
+        std::memcpy(&v, p, 2);
+        return v;
+      }
+      default: {
+        uint32_t v;
+        std::memcpy(&v, p, 4);
+        return v;
+      }
+    }
+  }
+};
+
+const char* typeName(int type) {
+  switch (type) {
+    case TINYGLTF_TYPE_SCALAR:
+      return "SCALAR";
+    case TINYGLTF_TYPE_VEC2:
+      return "VEC2";
+    case TINYGLTF_TYPE_VEC3:
+      return "VEC3";
+    case TINYGLTF_TYPE_VEC4:
+      return "VEC4";
+    default:
+      return "a matrix or unknown type";
+  }
+}
+
+class GltfReader {
+ public:
+  GltfReader(const std::string& path, const tinygltf::Model& model, Scene& scene)
+      : path_(path), model_(model), scene_(scene) {}
+
+  Status read();
+
+ private:
+  // `role` describes the use for messages ("mesh 0 primitive 1 POSITION"). `allowed` lists the
+  // accepted component types; `type` the accessor type.
+  Expected<AccessorView> view(int accessor_index, const std::string& role, int type,
+                              std::initializer_list<int> allowed);
+  Status visitNode(int node_index, const glm::dmat4& parent, size_t depth);
+  Status addPrimitive(const tinygltf::Node& node, int mesh_index, size_t primitive_index,
+                      const glm::dmat4& world_from_object);
+  Status addLight(int node_index, const glm::dmat4& world_from_light);
+  Status addCamera(int node_index, int camera_index, const glm::dmat4& world_from_camera);
+  Expected<uint32_t> materialFor(int gltf_material, const std::string& where);
+  Expected<glm::dmat4> localTransform(int node_index);
+
+  const std::string& path_;
+  const tinygltf::Model& model_;
+  Scene& scene_;
+  std::vector<int> material_map_;  // glTF material -> scene material, -1 until used
+  int default_material_ = -1;
+  std::vector<bool> on_path_;  // nodes on the current root-to-node path, to catch cycles
+};
+
+Expected<AccessorView> GltfReader::view(int accessor_index, const std::string& role, int type,
+                                        std::initializer_list<int> allowed) {
+  if (accessor_index < 0 || static_cast<size_t>(accessor_index) >= model_.accessors.size()) {
+    return inputError(path_, role,
+                      fmt::format("accessor {} does not exist (the file has {})", accessor_index,
+                                  model_.accessors.size()));
+  }
+  const tinygltf::Accessor& a = model_.accessors[static_cast<size_t>(accessor_index)];
+  const std::string place = fmt::format("accessor {} ({})", accessor_index, role);
+  if (a.sparse.isSparse) return inputError(path_, place, "sparse accessors are not supported");
+  if (a.type != type) {
+    return inputError(path_, place,
+                      fmt::format("type is {}, expected {}", typeName(a.type), typeName(type)));
+  }
+  bool type_ok = false;
+  for (int t : allowed) type_ok = type_ok || t == a.componentType;
+  if (!type_ok) {
+    return inputError(path_, place,
+                      fmt::format("component type {} is not supported here", a.componentType));
+  }
+  if (a.bufferView < 0 || static_cast<size_t>(a.bufferView) >= model_.bufferViews.size()) {
+    return inputError(path_, place,
+                      a.bufferView < 0 ? std::string("has no bufferView (not supported)")
+                                       : fmt::format("bufferView {} does not exist", a.bufferView));
+  }
+  const tinygltf::BufferView& bv = model_.bufferViews[static_cast<size_t>(a.bufferView)];
+  if (bv.buffer < 0 || static_cast<size_t>(bv.buffer) >= model_.buffers.size()) {
+    return inputError(path_, place,
+                      fmt::format("bufferView {} refers to buffer {}, which does not exist",
+                                  a.bufferView, bv.buffer));
+  }
+  const tinygltf::Buffer& buffer = model_.buffers[static_cast<size_t>(bv.buffer)];
+  // Sizes come from the file: compare without overflowing.
+  if (bv.byteOffset > buffer.data.size() || bv.byteLength > buffer.data.size() - bv.byteOffset) {
+    return inputError(
+        path_, place,
+        fmt::format("bufferView {} (byteOffset {}, byteLength {}) lies outside "
+                    "buffer {} ({} bytes)",
+                    a.bufferView, bv.byteOffset, bv.byteLength, bv.buffer, buffer.data.size()));
+  }
+  const int components = tinygltf::GetNumComponentsInType(static_cast<uint32_t>(a.type));
+  const int component_size =
+      tinygltf::GetComponentSizeInBytes(static_cast<uint32_t>(a.componentType));
+  const size_t element_size = static_cast<size_t>(components) * component_size;
+  const size_t stride = bv.byteStride == 0 ? element_size : bv.byteStride;
+  if (stride < element_size) {
+    return inputError(path_, place,
+                      fmt::format("byteStride {} of bufferView {} is smaller than an element "
+                                  "({} bytes)",
+                                  bv.byteStride, a.bufferView, element_size));
+  }
+  if (a.count == 0) return inputError(path_, place, "count is 0");
+  const size_t available = bv.byteLength;
+  if (a.byteOffset > available || element_size > available - a.byteOffset ||
+      (a.count - 1) > (available - a.byteOffset - element_size) / stride) {
+    return inputError(
+        path_, place,
+        fmt::format("byteOffset {} + {} elements of {} bytes (stride {}) run past "
+                    "the end of bufferView {} ({} bytes)",
+                    a.byteOffset, a.count, element_size, stride, a.bufferView, bv.byteLength));
+  }
+  AccessorView v;
+  v.data = buffer.data.data() + bv.byteOffset + a.byteOffset;
+  v.stride = stride;
+  v.count = a.count;
+  v.component_type = a.componentType;
+  v.components = components;
+  v.normalized = a.normalized;
+  return v;
+}
+
+Expected<uint32_t> GltfReader::materialFor(int gltf_material, const std::string& where) {
+  if (gltf_material < 0) {
+    if (default_material_ < 0) {
+      default_material_ = static_cast<int>(scene_.materials.size());
+      scene_.materials.push_back(Material{"default", glm::vec3(0.8f), glm::vec3(0.0f)});
+    }
+    return static_cast<uint32_t>(default_material_);
+  }
+  if (static_cast<size_t>(gltf_material) >= model_.materials.size()) {
+    return inputError(path_, where, fmt::format("material {} does not exist", gltf_material));
+  }
+  int& mapped = material_map_[static_cast<size_t>(gltf_material)];
+  if (mapped >= 0) return static_cast<uint32_t>(mapped);
+
+  const tinygltf::Material& gm = model_.materials[static_cast<size_t>(gltf_material)];
+  const std::string place = fmt::format("material {}", gltf_material);
+  Material m;
+  m.name = gm.name.empty() ? fmt::format("material{}", gltf_material) : gm.name;
+  const std::vector<double>& base = gm.pbrMetallicRoughness.baseColorFactor;
+  if (base.size() != 4) {
+    return inputError(path_, place, "pbrMetallicRoughness.baseColorFactor needs 4 numbers");
+  }
+  m.reflectance = glm::vec3(base[0], base[1], base[2]);
+  if (gm.pbrMetallicRoughness.baseColorTexture.index >= 0) {
+    scene_.warnings.push_back(
+        fmt::format("{}: {} ('{}'): baseColorTexture is not used yet, only baseColorFactor", path_,
+                    place, m.name));
+  }
+  double strength = 1.0;
+  auto ext = gm.extensions.find("KHR_materials_emissive_strength");
+  if (ext != gm.extensions.end()) {
+    if (!ext->second.IsObject() ||
+        (ext->second.Has("emissiveStrength") && !ext->second.Get("emissiveStrength").IsNumber())) {
+      return inputError(path_, place + ".extensions.KHR_materials_emissive_strength",
+                        "emissiveStrength must be a number");
+    }
+    if (ext->second.Has("emissiveStrength")) {
+      strength = ext->second.Get("emissiveStrength").GetNumberAsDouble();
+    }
+  }
+  if (!gm.emissiveFactor.empty()) {
+    if (gm.emissiveFactor.size() != 3) {
+      return inputError(path_, place, "emissiveFactor needs 3 numbers");
+    }
+    m.emission = glm::vec3(
+        glm::dvec3(gm.emissiveFactor[0], gm.emissiveFactor[1], gm.emissiveFactor[2]) * strength);
+  }
+  if (gm.emissiveTexture.index >= 0) {
+    scene_.warnings.push_back(
+        fmt::format("{}: {} ('{}'): emissiveTexture is not used yet, only emissiveFactor", path_,
+                    place, m.name));
+  }
+  mapped = static_cast<int>(scene_.materials.size());
+  scene_.materials.push_back(std::move(m));
+  return static_cast<uint32_t>(mapped);
+}
+
+Expected<glm::dmat4> GltfReader::localTransform(int node_index) {
+  const tinygltf::Node& node = model_.nodes[static_cast<size_t>(node_index)];
+  const std::string place = fmt::format("node {}", node_index);
+  if (!node.matrix.empty()) {
+    if (node.matrix.size() != 16) return inputError(path_, place, "matrix needs 16 numbers");
+    glm::dmat4 m;
+    for (int c = 0; c < 4; ++c) {
+      for (int r = 0; r < 4; ++r) m[c][r] = node.matrix[static_cast<size_t>(4 * c + r)];
+    }
+    return m;  // glTF matrices are column-major, like glm
+  }
+  glm::dmat4 t(1.0), r(1.0), s(1.0);
+  if (!node.translation.empty()) {
+    if (node.translation.size() != 3)
+      return inputError(path_, place, "translation needs 3 numbers");
+    t[3] = glm::dvec4(node.translation[0], node.translation[1], node.translation[2], 1.0);
+  }
+  if (!node.rotation.empty()) {
+    if (node.rotation.size() != 4) return inputError(path_, place, "rotation needs 4 numbers");
+    // glTF stores x y z w; glm::dquat's constructor takes w first.
+    const glm::dquat q(node.rotation[3], node.rotation[0], node.rotation[1], node.rotation[2]);
+    if (!(glm::length(q) > 0.0)) return inputError(path_, place, "rotation is a zero quaternion");
+    r = glm::mat4_cast(glm::normalize(q));
+  }
+  if (!node.scale.empty()) {
+    if (node.scale.size() != 3) return inputError(path_, place, "scale needs 3 numbers");
+    s[0][0] = node.scale[0];
+    s[1][1] = node.scale[1];
+    s[2][2] = node.scale[2];
+  }
+  return t * r * s;
+}
+
+Status GltfReader::visitNode(int node_index, const glm::dmat4& parent, size_t depth) {
+  if (node_index < 0 || static_cast<size_t>(node_index) >= model_.nodes.size()) {
+    return inputError(path_, "nodes", fmt::format("node {} does not exist", node_index));
+  }
+  const size_t ni = static_cast<size_t>(node_index);
+  if (on_path_[ni] || depth > model_.nodes.size()) {
+    return inputError(path_, fmt::format("node {}", node_index), "the node hierarchy has a cycle");
+  }
+  Expected<glm::dmat4> local = localTransform(node_index);
+  if (!local.ok()) return local.error();
+  const glm::dmat4 world = parent * *local;
+  for (int c = 0; c < 4; ++c) {
+    for (int r = 0; r < 4; ++r) {
+      if (!std::isfinite(world[c][r])) {
+        return inputError(path_, fmt::format("node {}", node_index), "the transform is not finite");
+      }
+    }
+  }
+  const tinygltf::Node& node = model_.nodes[ni];
+  if (node.mesh >= 0) {
+    if (static_cast<size_t>(node.mesh) >= model_.meshes.size()) {
+      return inputError(path_, fmt::format("node {}", node_index),
+                        fmt::format("mesh {} does not exist", node.mesh));
+    }
+    if (node.skin >= 0) {
+      scene_.warnings.push_back(
+          fmt::format("{}: node {}: skinning is ignored; the mesh is used as posed by the node "
+                      "transforms",
+                      path_, node_index));
+    }
+    const tinygltf::Mesh& mesh = model_.meshes[static_cast<size_t>(node.mesh)];
+    for (size_t p = 0; p < mesh.primitives.size(); ++p) {
+      PENUMBRA_TRY(addPrimitive(node, node.mesh, p, world));
+    }
+  }
+  if (node.camera >= 0) PENUMBRA_TRY(addCamera(node_index, node.camera, world));
+  auto light = node.extensions.find("KHR_lights_punctual");
+  if (light != node.extensions.end()) PENUMBRA_TRY(addLight(node_index, world));
+
+  on_path_[ni] = true;
+  for (int child : node.children) {
+    Status s = visitNode(child, world, depth + 1);
+    if (!s.ok()) {
+      on_path_[ni] = false;
+      return s;
+    }
+  }
+  on_path_[ni] = false;
+  return {};
+}
+
+Status GltfReader::addPrimitive(const tinygltf::Node& node, int mesh_index, size_t primitive_index,
+                                const glm::dmat4& world_from_object) {
+  const tinygltf::Mesh& gmesh = model_.meshes[static_cast<size_t>(mesh_index)];
+  const tinygltf::Primitive& prim = gmesh.primitives[primitive_index];
+  const std::string where = fmt::format("mesh {} primitive {}", mesh_index, primitive_index);
+  const int mode = prim.mode < 0 ? TINYGLTF_MODE_TRIANGLES : prim.mode;
+  if (mode != TINYGLTF_MODE_TRIANGLES && mode != TINYGLTF_MODE_TRIANGLE_STRIP &&
+      mode != TINYGLTF_MODE_TRIANGLE_FAN) {
+    scene_.warnings.push_back(
+        fmt::format("{}: {}: points and lines (mode {}) are skipped", path_, where, mode));
+    return {};
+  }
+  if (!prim.targets.empty()) {
+    scene_.warnings.push_back(
+        fmt::format("{}: {}: morph targets are ignored (the base shape is used)", path_, where));
+  }
+  auto pos_it = prim.attributes.find("POSITION");
+  if (pos_it == prim.attributes.end()) {
+    return inputError(path_, where, "the primitive has no POSITION attribute");
+  }
+  Expected<AccessorView> pos = view(pos_it->second, where + " POSITION", TINYGLTF_TYPE_VEC3,
+                                    {TINYGLTF_COMPONENT_TYPE_FLOAT});
+  if (!pos.ok()) return pos.error();
+  const size_t nv = pos->count;
+
+  Mesh mesh;
+  mesh.name = !node.name.empty()    ? node.name
+              : !gmesh.name.empty() ? gmesh.name
+                                    : fmt::format("mesh{}", mesh_index);
+  if (gmesh.primitives.size() > 1) mesh.name += fmt::format("#{}", primitive_index);
+
+  const glm::dmat3 linear(world_from_object);
+  const glm::dmat3 normal_from_object = glm::transpose(glm::inverse(linear));
+  const bool mirrored = glm::determinant(linear) < 0.0;
+
+  mesh.positions.resize(nv);
+  for (size_t i = 0; i < nv; ++i) {
+    const glm::dvec3 p(pos->component(i, 0), pos->component(i, 1), pos->component(i, 2));
+    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z)) {
+      return inputError(
+          path_, fmt::format("accessor {} ({} POSITION), vertex {}", pos_it->second, where, i),
+          "position is not a finite number");
+    }
+    mesh.positions[i] = glm::vec3(world_from_object * glm::dvec4(p, 1.0));
+  }
+
+  auto nrm_it = prim.attributes.find("NORMAL");
+  if (nrm_it != prim.attributes.end()) {
+    Expected<AccessorView> nrm = view(nrm_it->second, where + " NORMAL", TINYGLTF_TYPE_VEC3,
+                                      {TINYGLTF_COMPONENT_TYPE_FLOAT});
+    if (!nrm.ok()) return nrm.error();
+    if (nrm->count != nv) {
+      return inputError(path_, fmt::format("accessor {} ({} NORMAL)", nrm_it->second, where),
+                        fmt::format("count {} differs from POSITION's {}", nrm->count, nv));
+    }
+    mesh.normals.resize(nv);
+    for (size_t i = 0; i < nv; ++i) {
+      const glm::dvec3 n(nrm->component(i, 0), nrm->component(i, 1), nrm->component(i, 2));
+      if (!std::isfinite(n.x) || !std::isfinite(n.y) || !std::isfinite(n.z)) {
+        return inputError(
+            path_, fmt::format("accessor {} ({} NORMAL), vertex {}", nrm_it->second, where, i),
+            "normal is not a finite number");
+      }
+      const glm::dvec3 w = normal_from_object * n;
+      const double len = glm::length(w);
+      mesh.normals[i] = len > 0.0 ? glm::vec3(w / len) : glm::vec3(0.0f);
+    }
+  }
+
+  auto uv_it = prim.attributes.find("TEXCOORD_0");
+  if (uv_it != prim.attributes.end()) {
+    Expected<AccessorView> uv =
+        view(uv_it->second, where + " TEXCOORD_0", TINYGLTF_TYPE_VEC2,
+             {TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE,
+              TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT});
+    if (!uv.ok()) return uv.error();
+    if (uv->count != nv) {
+      return inputError(path_, fmt::format("accessor {} ({} TEXCOORD_0)", uv_it->second, where),
+                        fmt::format("count {} differs from POSITION's {}", uv->count, nv));
+    }
+    mesh.uvs.resize(nv);
+    for (size_t i = 0; i < nv; ++i) {
+      mesh.uvs[i] = glm::vec2(uv->component(i, 0), uv->component(i, 1));
+    }
+  }
+
+  // The primitive's vertex sequence, from the index accessor or 0 .. nv-1.
+  std::vector<uint32_t> seq;
+  if (prim.indices >= 0) {
+    Expected<AccessorView> idx =
+        view(prim.indices, where + " indices", TINYGLTF_TYPE_SCALAR,
+             {TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE, TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT,
+              TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT});
+    if (!idx.ok()) return idx.error();
+    seq.resize(idx->count);
+    for (size_t i = 0; i < idx->count; ++i) {
+      seq[i] = idx->index(i);
+      if (seq[i] >= nv) {
+        return inputError(
+            path_, fmt::format("accessor {} ({} indices), element {}", prim.indices, where, i),
+            fmt::format("vertex index {} is out of range ({} vertices)", seq[i], nv));
+      }
+    }
+  } else {
+    seq.resize(nv);
+    for (size_t i = 0; i < nv; ++i) seq[i] = static_cast<uint32_t>(i);
+  }
+
+  Expected<uint32_t> material = materialFor(prim.material, where);
+  if (!material.ok()) return material.error();
+  auto add = [&](uint32_t a, uint32_t b, uint32_t c) {
+    mesh.triangles.push_back(mirrored ? glm::uvec3(a, c, b) : glm::uvec3(a, b, c));
+    mesh.material_ids.push_back(*material);
+  };
+  const size_t n = seq.size();
+  if (mode == TINYGLTF_MODE_TRIANGLES) {
+    if (n % 3 != 0) {
+      scene_.warnings.push_back(
+          fmt::format("{}: {}: {} vertices is not a multiple of 3; the last {} are ignored", path_,
+                      where, n, n % 3));
+    }
+    for (size_t i = 0; i + 2 < n; i += 3) add(seq[i], seq[i + 1], seq[i + 2]);
+  } else if (mode == TINYGLTF_MODE_TRIANGLE_STRIP) {
+    // glTF 2.0 spec 3.7.2.1: triangle i is (v_i, v_{i+1+i%2}, v_{i+2-i%2}).
+    for (size_t i = 0; i + 2 < n; ++i) {
+      if (i % 2 == 0) {
+        add(seq[i], seq[i + 1], seq[i + 2]);
+      } else {
+        add(seq[i], seq[i + 2], seq[i + 1]);
+      }
+    }
+  } else {
+    // Fan: (v_{i+1}, v_{i+2}, v_0) in the spec, the same triangle as (v_0, v_{i+1}, v_{i+2}).
+    for (size_t i = 0; i + 2 < n; ++i) add(seq[0], seq[i + 1], seq[i + 2]);
+  }
+  if (mesh.triangles.empty()) {
+    scene_.warnings.push_back(fmt::format("{}: {}: no triangles", path_, where));
+    return {};
+  }
+  scene_.meshes.push_back(std::move(mesh));
+  return {};
+}
+
+Status GltfReader::addLight(int node_index, const glm::dmat4& world_from_light) {
+  const tinygltf::Node& node = model_.nodes[static_cast<size_t>(node_index)];
+  const tinygltf::Value& ext = node.extensions.at("KHR_lights_punctual");
+  const std::string place = fmt::format("node {}.extensions.KHR_lights_punctual", node_index);
+  if (!ext.IsObject() || !ext.Has("light") || !ext.Get("light").IsInt()) {
+    return inputError(path_, place, "needs an integer 'light'");
+  }
+  const int li = ext.Get("light").GetNumberAsInt();
+  if (li < 0 || static_cast<size_t>(li) >= model_.lights.size()) {
+    return inputError(path_, place, fmt::format("light {} does not exist", li));
+  }
+  const tinygltf::Light& gl = model_.lights[static_cast<size_t>(li)];
+  const std::string lplace = fmt::format("KHR_lights_punctual.lights[{}]", li);
+  glm::dvec3 color(1.0);
+  if (!gl.color.empty()) {
+    if (gl.color.size() != 3) return inputError(path_, lplace, "color needs 3 numbers");
+    color = glm::dvec3(gl.color[0], gl.color[1], gl.color[2]);
+  }
+  if (!(gl.intensity >= 0.0) || !std::isfinite(gl.intensity)) {
+    return inputError(path_, lplace, "intensity must be a finite non-negative number");
+  }
+  const glm::vec3 radiometric(color * (gl.intensity / kLumensPerWatt));
+  const glm::vec3 position(world_from_light * glm::dvec4(0.0, 0.0, 0.0, 1.0));
+  const glm::dvec3 axis = glm::dmat3(world_from_light) * glm::dvec3(0.0, 0.0, -1.0);
+  if (!(glm::length(axis) > 0.0)) {
+    return inputError(path_, fmt::format("node {}", node_index),
+                      "the light's transform is singular");
+  }
+  const glm::vec3 direction(glm::normalize(axis));
+  if (gl.range > 0.0) {
+    scene_.warnings.push_back(fmt::format(
+        "{}: {}: range {} is ignored (lights fall off with the inverse square law only)", path_,
+        lplace, gl.range));
+  }
+  if (gl.type == "point") {
+    scene_.lights.push_back(PointLight{position, radiometric});
+  } else if (gl.type == "spot") {
+    const double inner = gl.spot.innerConeAngle, outer = gl.spot.outerConeAngle;
+    if (!(inner >= 0.0 && inner < outer && outer <= 0.5 * std::numbers::pi + 1e-9)) {
+      return inputError(path_, lplace,
+                        fmt::format("spot cone angles need 0 <= innerConeAngle < outerConeAngle "
+                                    "<= pi/2 (got {} and {})",
+                                    inner, outer));
+    }
+    scene_.lights.push_back(SpotLight{position, direction, radiometric, static_cast<float>(inner),
+                                      static_cast<float>(outer)});
+  } else if (gl.type == "directional") {
+    scene_.lights.push_back(DirectionalLight{direction, radiometric});
+  } else {
+    return inputError(path_, lplace, fmt::format("unknown light type '{}'", gl.type));
+  }
+  return {};
+}
+
+Status GltfReader::addCamera(int node_index, int camera_index,
+                             const glm::dmat4& world_from_camera) {
+  if (static_cast<size_t>(camera_index) >= model_.cameras.size()) {
+    return inputError(path_, fmt::format("node {}", node_index),
+                      fmt::format("camera {} does not exist", camera_index));
+  }
+  if (scene_.camera) return {};  // the first camera wins
+  const tinygltf::Camera& gc = model_.cameras[static_cast<size_t>(camera_index)];
+  if (gc.type != "perspective") {
+    scene_.warnings.push_back(
+        fmt::format("{}: camera {}: '{}' cameras are not supported, only perspective", path_,
+                    camera_index, gc.type));
+    return {};
+  }
+  const double yfov = gc.perspective.yfov;
+  if (!(yfov > 0.0 && yfov < std::numbers::pi)) {
+    return inputError(path_, fmt::format("camera {}", camera_index),
+                      fmt::format("yfov {} must be in (0, pi)", yfov));
+  }
+  const glm::dmat3 linear(world_from_camera);
+  const glm::dvec3 forward = linear * glm::dvec3(0.0, 0.0, -1.0);
+  const glm::dvec3 up = linear * glm::dvec3(0.0, 1.0, 0.0);
+  if (!(glm::length(forward) > 0.0) || !(glm::length(up) > 0.0)) {
+    return inputError(path_, fmt::format("node {}", node_index),
+                      "the camera's transform is singular");
+  }
+  Camera cam;
+  const glm::dvec3 position(world_from_camera * glm::dvec4(0.0, 0.0, 0.0, 1.0));
+  cam.position = glm::vec3(position);
+  cam.look_at = glm::vec3(position + glm::normalize(forward));
+  cam.up = glm::vec3(glm::normalize(up));
+  cam.vertical_fov = static_cast<float>(yfov);
+  scene_.camera = cam;
+  return {};
+}
+
+const char* const kSupportedExtensions[] = {"KHR_lights_punctual",
+                                            "KHR_materials_emissive_strength"};
+
+Status GltfReader::read() {
+  for (const std::string& ext : model_.extensionsRequired) {
+    bool supported = false;
+    for (const char* s : kSupportedExtensions) supported = supported || ext == s;
+    if (!supported) {
+      return inputError(path_, "extensionsRequired",
+                        fmt::format("required extension '{}' is not supported", ext));
+    }
+  }
+  material_map_.assign(model_.materials.size(), -1);
+  on_path_.assign(model_.nodes.size(), false);
+
+  std::vector<int> roots;
+  if (!model_.scenes.empty()) {
+    const int si = model_.defaultScene >= 0 ? model_.defaultScene : 0;
+    if (static_cast<size_t>(si) >= model_.scenes.size()) {
+      return inputError(path_, "scene", fmt::format("scene {} does not exist", si));
+    }
+    roots = model_.scenes[static_cast<size_t>(si)].nodes;
+  } else {
+    // No scene: every node that is nobody's child is a root.
+    std::vector<bool> is_child(model_.nodes.size(), false);
+    for (const tinygltf::Node& n : model_.nodes) {
+      for (int c : n.children) {
+        if (c >= 0 && static_cast<size_t>(c) < is_child.size()) {
+          is_child[static_cast<size_t>(c)] = true;
+        }
+      }
+    }
+    for (size_t i = 0; i < model_.nodes.size(); ++i) {
+      if (!is_child[i]) roots.push_back(static_cast<int>(i));
+    }
+    if (!roots.empty()) {
+      scene_.warnings.push_back(
+          fmt::format("{}: the file defines no scene; all root nodes are loaded", path_));
+    }
+  }
+  for (int root : roots) PENUMBRA_TRY(visitNode(root, glm::dmat4(1.0), 0));
+  return {};
+}
+
+}  // namespace
+
+Expected<Scene> loadGltf(const std::string& path) {
+  Expected<std::string> bytes = readFile(path);
+  if (!bytes.ok()) return bytes.error();
+  if (bytes->empty()) return inputError(path, "", "the file is empty");
+  if (bytes->size() > 0xffffffffu) return inputError(path, "", "the file is larger than 4 GiB");
+
+  Scene scene;
+  scene.source = path;
+  tinygltf::Model model;
+  std::string err, warn;
+  bool ok = false;
+  try {
+    tinygltf::TinyGLTF loader;
+    loader.SetImageLoader(&skipImage, nullptr);
+    const std::string base_dir = std::filesystem::path(path).parent_path().string();
+    const bool binary = bytes->size() >= 4 && bytes->compare(0, 4, "glTF") == 0;
+    if (binary) {
+      ok = loader.LoadBinaryFromMemory(&model, &err, &warn,
+                                       reinterpret_cast<const unsigned char*>(bytes->data()),
+                                       static_cast<unsigned int>(bytes->size()), base_dir);
+    } else {
+      ok = loader.LoadASCIIFromString(&model, &err, &warn, bytes->data(),
+                                      static_cast<unsigned int>(bytes->size()), base_dir);
+    }
+  } catch (const std::exception& e) {
+    return inputError(path, "", fmt::format("tinygltf failed: {}", e.what()));
+  }
+  if (!ok) {
+    std::string message = oneLine(err.empty() ? "unknown error" : err);
+    std::string place;
+    // A JSON syntax error: nlohmann's message carries the line and column.
+    const size_t at = message.find("parse error at line ");
+    if (at != std::string::npos) {
+      const size_t colon = message.find(": ", at);
+      if (colon != std::string::npos) {
+        place = message.substr(at + 15, colon - at - 15);
+        message = "JSON " + message.substr(colon + 2);
+      }
+    }
+    return inputError(path, place, fmt::format("not a valid glTF 2.0 file: {}", message));
+  }
+  if (!warn.empty()) scene.warnings.push_back(fmt::format("{}: tinygltf: {}", path, oneLine(warn)));
+
+  GltfReader reader(path, model, scene);
+  PENUMBRA_TRY(reader.read());
+  PENUMBRA_TRY(validateScene(scene));
+  return scene;
+}
+
+}  // namespace penumbra

@@ -1,0 +1,450 @@
+// Wavefront OBJ loading through tinyobjloader.
+//
+// tinyobjloader is lenient: it skips lines it does not know, reads a malformed or "nan" number
+// as 0, resolves a relative index that points before the first vertex to a negative index, and
+// only warns (with the last line's number) about indices past the end. So the text is first
+// checked line by line here (statements, numbers, finite coordinates, index ranges), with
+// errors naming the line, and only then handed to tinyobjloader with triangulation off. Polygons
+// are fan-triangulated here (v0 v1 v2, v0 v2 v3, ...) so that triangle i is the i-th triangle in
+// file order. MTL files are read here too (so a missing one is a warning, not a failure):
+// Kd -> reflectance, Ke -> emission.
+#include "penumbra/core/file_util.h"
+#include "penumbra/io/scene_io.h"
+
+#include <tiny_obj_loader.h>
+
+#include <fmt/format.h>
+#include <cctype>
+#include <charconv>
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <string>
+#include <string_view>
+#include <unordered_map>
+#include <utility>
+#include <vector>
+
+namespace penumbra {
+
+namespace {
+
+void splitTokens(std::string_view line, std::vector<std::string_view>& tokens) {
+  tokens.clear();
+  size_t i = 0;
+  while (i < line.size()) {
+    while (i < line.size() && (line[i] == ' ' || line[i] == '\t')) ++i;
+    const size_t start = i;
+    while (i < line.size() && line[i] != ' ' && line[i] != '\t') ++i;
+    if (i > start) tokens.push_back(line.substr(start, i - start));
+  }
+}
+
+// A decimal number as OBJ writes it; "nan" and "inf" spellings, and numbers too large for a
+// double, are read as non-finite values so that the caller can report them. Returns false when
+// `token` is not a number at all.
+bool parseNumber(std::string_view token, double* out) {
+  const bool plus = !token.empty() && token[0] == '+';
+  const char* first = token.data() + (plus ? 1 : 0);
+  const char* last = token.data() + token.size();
+  if (first == last || *first == '+' || (plus && *first == '-')) return false;
+  const auto [ptr, ec] = std::from_chars(first, last, *out, std::chars_format::general);
+  if (ptr != last) return false;
+  if (ec == std::errc::result_out_of_range) {
+    // Overflow or underflow: only an overflow (a large exponent) matters.
+    *out = std::strtod(std::string(token).c_str(), nullptr);
+    return true;
+  }
+  return ec == std::errc();
+}
+
+bool parseInteger(std::string_view token, long* out) {
+  const char* first = token.data() + (!token.empty() && token[0] == '+' ? 1 : 0);
+  const char* last = token.data() + token.size();
+  if (first == last) return false;
+  const auto [ptr, ec] = std::from_chars(first, last, *out);
+  return ptr == last && ec == std::errc();
+}
+
+// What the line-by-line check learned.
+struct ObjScan {
+  size_t faces = 0;
+  std::vector<std::pair<std::string, size_t>> material_libraries;  // name, line
+  std::vector<std::pair<std::string, size_t>> material_uses;       // name, line
+  std::vector<std::string> warnings;
+};
+
+// Keywords that OBJ defines for free-form geometry and display attributes, which are ignored.
+bool isIgnoredStatement(std::string_view k) {
+  static const char* const kIgnored[] = {
+      "vp",    "cstype",   "deg",      "bmat", "step",   "curv",   "curv2",      "surf",
+      "parm",  "trim",     "hole",     "scrv", "sp",     "end",    "con",        "mg",
+      "bevel", "c_interp", "d_interp", "lod",  "maplib", "usemap", "shadow_obj", "trace_obj",
+      "ctech", "stech",    "call",     "csh",  "vw",     "t"};
+  for (const char* s : kIgnored) {
+    if (k == s) return true;
+  }
+  return false;
+}
+
+// Checks `text` and writes to `clean` the same lines without comments (tinyobjloader does not
+// accept a comment after a statement), so line numbers stay the same.
+Status scanObj(const std::string& path, const std::string& text, ObjScan* scan,
+               std::string* clean) {
+  clean->reserve(text.size());
+  size_t num_v = 0, num_vn = 0, num_vt = 0;
+  // Positive indices may refer to vertices defined later in the file (tinyobjloader allows it),
+  // so they are checked against the final counts; the first offender of each kind is kept.
+  struct Pending {
+    long index = 0;
+    size_t line = 0;
+  };
+  Pending max_v, max_vn, max_vt;
+  bool warned_lines = false, warned_ignored = false;
+
+  size_t line_no = 0;
+  size_t pos = 0;
+  std::vector<std::string_view> tok;
+  while (pos < text.size()) {
+    size_t eol = text.find('\n', pos);
+    if (eol == std::string::npos) eol = text.size();
+    std::string_view line(text.data() + pos, eol - pos);
+    pos = eol + 1;
+    ++line_no;
+    if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
+    auto place = [&line_no]() { return fmt::format("line {}", line_no); };
+    if (line.find('\0') != std::string_view::npos) {
+      return inputError(path, place(), "binary data: this is not a text OBJ file");
+    }
+    const size_t comment = line.find('#');
+    if (comment != std::string_view::npos) line = line.substr(0, comment);
+    clean->append(line);
+    clean->push_back('\n');
+    splitTokens(line, tok);
+    if (tok.empty()) continue;
+    if (!tok.back().empty() && tok.back().back() == '\\') {
+      return inputError(path, place(), "line continuation ('\\') is not supported");
+    }
+    const std::string_view key = tok[0];
+
+    if (key == "v" || key == "vn" || key == "vt") {
+      const size_t min_n = key == "vt" ? 1 : 3;
+      const size_t max_n = key == "v" ? 7 : 3;  // v: x y z [w] or x y z r g b
+      const size_t n = tok.size() - 1;
+      if (n < min_n || n > max_n) {
+        return inputError(
+            path, place(),
+            fmt::format("'{}' needs {} to {} numbers, found {}", key, min_n, max_n, n));
+      }
+      const size_t checked = key == "vt" ? std::min<size_t>(n, 2) : 3;
+      size_t& count = key == "v" ? num_v : key == "vn" ? num_vn : num_vt;
+      for (size_t i = 1; i < tok.size(); ++i) {
+        double value = 0.0;
+        if (!parseNumber(tok[i], &value)) {
+          return inputError(path, place(), fmt::format("'{}' is not a number", tok[i]));
+        }
+        if (i <= checked && !std::isfinite(static_cast<float>(value))) {
+          const char* what = key == "v" ? "vertex" : key == "vn" ? "normal" : "texture coordinate";
+          return inputError(path, fmt::format("{}, {} {}", place(), what, count + 1),
+                            fmt::format("coordinate '{}' is not a finite number", tok[i]));
+        }
+      }
+      ++count;
+      continue;
+    }
+
+    if (key == "f" || key == "l" || key == "p") {
+      const size_t min_corners = key == "f" ? 3 : key == "l" ? 2 : 1;
+      if (tok.size() - 1 < min_corners) {
+        return inputError(path, place(),
+                          fmt::format("'{}' needs at least {} vertices, found {}", key, min_corners,
+                                      tok.size() - 1));
+      }
+      for (size_t i = 1; i < tok.size(); ++i) {
+        // v, v/vt, v//vn or v/vt/vn
+        std::string_view corner = tok[i];
+        std::string_view parts[3];
+        size_t np = 0;
+        size_t start = 0;
+        for (;;) {
+          const size_t slash = corner.find('/', start);
+          if (np == 3) {
+            return inputError(path, place(),
+                              fmt::format("'{}' is not a vertex reference (v, v/vt, v//vn or "
+                                          "v/vt/vn)",
+                                          corner));
+          }
+          parts[np++] = corner.substr(
+              start, slash == std::string_view::npos ? std::string_view::npos : slash - start);
+          if (slash == std::string_view::npos) break;
+          start = slash + 1;
+        }
+        const char* const kNames[3] = {"vertex", "texture coordinate", "normal"};
+        const size_t counts[3] = {num_v, num_vt, num_vn};
+        Pending* const pendings[3] = {&max_v, &max_vt, &max_vn};
+        for (size_t k = 0; k < np; ++k) {
+          if (k > 0 && parts[k].empty() && !(k == 1 && np == 3)) {
+            return inputError(path, place(), fmt::format("'{}' has an empty index", corner));
+          }
+          if (parts[k].empty()) continue;  // the vt of v//vn
+          long index = 0;
+          if (!parseInteger(parts[k], &index)) {
+            return inputError(path, place(), fmt::format("'{}' is not a vertex reference", corner));
+          }
+          if (index == 0) {
+            return inputError(
+                path, place(),
+                fmt::format("{} index 0 in '{}' (OBJ indices start at 1)", kNames[k], corner));
+          }
+          if (index < 0) {
+            if (static_cast<size_t>(-index) > counts[k]) {
+              return inputError(path, place(),
+                                fmt::format("relative {} index {} in '{}' points before the first "
+                                            "{} ({} defined so far)",
+                                            kNames[k], index, corner, kNames[k], counts[k]));
+            }
+          } else if (index > pendings[k]->index) {
+            *pendings[k] = Pending{index, line_no};
+          }
+        }
+      }
+      if (key == "f") {
+        ++scan->faces;
+      } else if (!warned_lines) {
+        scan->warnings.push_back(
+            fmt::format("{}: {}: line and point elements are ignored", path, place()));
+        warned_lines = true;
+      }
+      continue;
+    }
+
+    if (key == "mtllib") {
+      for (size_t i = 1; i < tok.size(); ++i) {
+        scan->material_libraries.emplace_back(std::string(tok[i]), line_no);
+      }
+      continue;
+    }
+    if (key == "usemtl") {
+      if (tok.size() >= 2) scan->material_uses.emplace_back(std::string(tok[1]), line_no);
+      continue;
+    }
+    if (key == "g" || key == "o" || key == "s") continue;
+    if (isIgnoredStatement(key)) {
+      if (!warned_ignored) {
+        scan->warnings.push_back(
+            fmt::format("{}: {}: '{}' (free-form geometry or display attribute) is ignored", path,
+                        place(), key));
+        warned_ignored = true;
+      }
+      continue;
+    }
+    std::string shown(key.substr(0, 32));
+    for (char& c : shown) {
+      if (!std::isprint(static_cast<unsigned char>(c))) c = '?';
+    }
+    return inputError(path, place(),
+                      fmt::format("unknown statement '{}'{}", shown,
+                                  line_no == 1 ? " (is this an OBJ file?)" : ""));
+  }
+
+  struct Final {
+    const Pending* pending;
+    const char* name;
+    const char* plural;
+    size_t count;
+  };
+  const Final finals[3] = {{&max_v, "vertex", "vertices", num_v},
+                           {&max_vt, "texture coordinate", "texture coordinates", num_vt},
+                           {&max_vn, "normal", "normals", num_vn}};
+  for (const Final& f : finals) {
+    if (f.pending->index > 0 && static_cast<size_t>(f.pending->index) > f.count) {
+      return inputError(path, fmt::format("line {}", f.pending->line),
+                        fmt::format("{} index {} is out of range (the file has {} {})", f.name,
+                                    f.pending->index, f.count, f.count == 1 ? f.name : f.plural));
+    }
+  }
+  return {};
+}
+
+struct CornerKey {
+  int v, vn, vt;
+  bool operator==(const CornerKey&) const = default;
+};
+struct CornerKeyHash {
+  size_t operator()(const CornerKey& k) const {
+    size_t h = std::hash<int>()(k.v);
+    h = h * 1000003u ^ std::hash<int>()(k.vn);
+    return h * 1000003u ^ std::hash<int>()(k.vt);
+  }
+};
+
+}  // namespace
+
+Expected<Scene> loadObj(const std::string& path) {
+  Expected<std::string> text = readFile(path);
+  if (!text.ok()) return text.error();
+
+  ObjScan scan;
+  std::string clean;
+  PENUMBRA_TRY(scanObj(path, *text, &scan, &clean));
+  text->clear();
+  if (scan.faces == 0) return inputError(path, "", "no faces: the file has no polygons");
+
+  Scene scene;
+  scene.source = path;
+  scene.warnings = std::move(scan.warnings);
+
+  // The material libraries, read here so that a missing one is only a warning.
+  std::string mtl_text;
+  bool library_missing = false;
+  for (const auto& [name, line] : scan.material_libraries) {
+    const std::string mtl_path = resolveRelativeTo(path, name);
+    Expected<std::string> mtl = readFile(mtl_path);
+    if (!mtl.ok()) {
+      scene.warnings.push_back(
+          fmt::format("{}: line {}: material library '{}' cannot be read ({}); its materials "
+                      "are replaced by the default material",
+                      path, line, name, mtl.error().message));
+      library_missing = true;
+      continue;
+    }
+    mtl_text += *mtl;
+    mtl_text += "\n";
+  }
+
+  tinyobj::ObjReaderConfig config;
+  config.triangulate = false;
+  config.vertex_color = false;
+  tinyobj::ObjReader reader;
+  bool parsed = false;
+  try {
+    parsed = reader.ParseFromString(clean, mtl_text, config);
+  } catch (const std::exception& e) {
+    return inputError(path, "", fmt::format("tinyobjloader failed: {}", e.what()));
+  }
+  if (!parsed) {
+    std::string message = reader.Error();
+    while (!message.empty() && (message.back() == '\n' || message.back() == '\r')) {
+      message.pop_back();
+    }
+    return inputError(path, "", fmt::format("tinyobjloader: {}", message));
+  }
+
+  const tinyobj::attrib_t& attrib = reader.GetAttrib();
+  const std::vector<tinyobj::material_t>& obj_materials = reader.GetMaterials();
+  for (const tinyobj::material_t& m : obj_materials) {
+    Material mat;
+    mat.name = m.name;
+    mat.reflectance = glm::vec3(m.diffuse[0], m.diffuse[1], m.diffuse[2]);
+    mat.emission = glm::vec3(m.emission[0], m.emission[1], m.emission[2]);
+    if (!m.diffuse_texname.empty()) {
+      scene.warnings.push_back(
+          fmt::format("{}: material '{}': texture '{}' is not used yet (Kd is)", path, m.name,
+                      m.diffuse_texname));
+    }
+    scene.materials.push_back(std::move(mat));
+  }
+  for (const auto& [name, line] : scan.material_uses) {
+    bool found = false;
+    for (const tinyobj::material_t& m : obj_materials) found = found || m.name == name;
+    if (!found && !library_missing) {
+      scene.warnings.push_back(
+          fmt::format("{}: line {}: material '{}' is not defined in the material library; the "
+                      "default material is used",
+                      path, line, name));
+    }
+  }
+  int default_material = -1;
+  auto materialFor = [&](int obj_material) -> uint32_t {
+    if (obj_material >= 0 && static_cast<size_t>(obj_material) < obj_materials.size()) {
+      return static_cast<uint32_t>(obj_material);
+    }
+    if (default_material < 0) {
+      default_material = static_cast<int>(scene.materials.size());
+      scene.materials.push_back(Material{"default", glm::vec3(0.8f), glm::vec3(0.0f)});
+    }
+    return static_cast<uint32_t>(default_material);
+  };
+
+  const std::string stem = std::filesystem::path(path).stem().string();
+  size_t faces_read = 0;
+  for (const tinyobj::shape_t& shape : reader.GetShapes()) {
+    const tinyobj::mesh_t& sm = shape.mesh;
+    if (sm.num_face_vertices.empty()) continue;
+    faces_read += sm.num_face_vertices.size();
+
+    // Normals and texture coordinates are kept only when every corner of the shape has them.
+    bool has_normals = true, has_uvs = true, any_normals = false;
+    const size_t nv = attrib.vertices.size() / 3, nn = attrib.normals.size() / 3,
+                 nt = attrib.texcoords.size() / 2;
+    for (const tinyobj::index_t& idx : sm.indices) {
+      // The scan checked every index; this guards against tinyobjloader resolving one otherwise.
+      if (idx.vertex_index < 0 || static_cast<size_t>(idx.vertex_index) >= nv ||
+          (idx.normal_index >= 0 && static_cast<size_t>(idx.normal_index) >= nn) ||
+          (idx.texcoord_index >= 0 && static_cast<size_t>(idx.texcoord_index) >= nt)) {
+        return inputError(path, "", "tinyobjloader produced an index out of range");
+      }
+      has_normals = has_normals && idx.normal_index >= 0;
+      any_normals = any_normals || idx.normal_index >= 0;
+      has_uvs = has_uvs && idx.texcoord_index >= 0;
+    }
+    const std::string mesh_name = shape.name.empty() ? stem : shape.name;
+    if (any_normals && !has_normals) {
+      scene.warnings.push_back(
+          fmt::format("{}: '{}': some faces have no normals, so the shape's normals are dropped",
+                      path, mesh_name));
+    }
+
+    Mesh mesh;
+    mesh.name = mesh_name;
+    std::unordered_map<CornerKey, uint32_t, CornerKeyHash> vertex_of;
+    auto vertexFor = [&](const tinyobj::index_t& idx) -> uint32_t {
+      const CornerKey key{idx.vertex_index, has_normals ? idx.normal_index : -1,
+                          has_uvs ? idx.texcoord_index : -1};
+      auto [it, inserted] =
+          vertex_of.try_emplace(key, static_cast<uint32_t>(mesh.positions.size()));
+      if (inserted) {
+        const size_t v = static_cast<size_t>(key.v);
+        mesh.positions.emplace_back(attrib.vertices[3 * v], attrib.vertices[3 * v + 1],
+                                    attrib.vertices[3 * v + 2]);
+        if (has_normals) {
+          const size_t n = static_cast<size_t>(key.vn);
+          mesh.normals.emplace_back(attrib.normals[3 * n], attrib.normals[3 * n + 1],
+                                    attrib.normals[3 * n + 2]);
+        }
+        if (has_uvs) {
+          const size_t t = static_cast<size_t>(key.vt);
+          mesh.uvs.emplace_back(attrib.texcoords[2 * t], attrib.texcoords[2 * t + 1]);
+        }
+      }
+      return it->second;
+    };
+
+    size_t offset = 0;
+    for (size_t f = 0; f < sm.num_face_vertices.size(); ++f) {
+      const size_t n = sm.num_face_vertices[f];
+      const uint32_t material = materialFor(f < sm.material_ids.size() ? sm.material_ids[f] : -1);
+      const uint32_t v0 = vertexFor(sm.indices[offset]);
+      uint32_t prev = vertexFor(sm.indices[offset + 1]);
+      for (size_t k = 2; k < n; ++k) {
+        const uint32_t cur = vertexFor(sm.indices[offset + k]);
+        mesh.triangles.emplace_back(v0, prev, cur);
+        mesh.material_ids.push_back(material);
+        prev = cur;
+      }
+      offset += n;
+    }
+    scene.meshes.push_back(std::move(mesh));
+  }
+  if (faces_read != scan.faces) {
+    return inputError(path, "",
+                      fmt::format("tinyobjloader read {} faces where the file has {}; the file "
+                                  "uses a construct that cannot be loaded in file order",
+                                  faces_read, scan.faces));
+  }
+
+  PENUMBRA_TRY(validateScene(scene));
+  return scene;
+}
+
+}  // namespace penumbra

@@ -1,0 +1,424 @@
+// PLY loading (ASCII, binary little- and big-endian) through Assimp.
+//
+// Assimp is asked for no post-processing at all, so it neither merges nor reorders vertices or
+// faces: vertex i and face j are the file's. Polygons are fan-triangulated here (v0 v1 v2,
+// v0 v2 v3, ...; Assimp's aiProcess_Triangulate does not keep that order), points and lines are
+// skipped with a warning.
+//
+// Assimp does not check what it reads: it passes NaN coordinates and out-of-range face indices
+// through, and an ASCII file cut short silently repeats its last face. So the file is first
+// walked here (header, then every element of the body, ASCII or binary): that finds truncation,
+// non-finite vertex coordinates and out-of-range indices, and names the vertex or face (and the
+// line in an ASCII file). Only then is it handed to Assimp, whose face count is checked against
+// the walk.
+#include "penumbra/core/file_util.h"
+#include "penumbra/io/scene_io.h"
+
+#include <assimp/scene.h>
+#include <assimp/Importer.hpp>
+
+#include <fmt/format.h>
+#include <bit>
+#include <cctype>
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace penumbra {
+
+namespace {
+
+enum class PlyFormat { kAscii, kBinaryLittle, kBinaryBig };
+
+enum class PlyType { kInt8, kUInt8, kInt16, kUInt16, kInt32, kUInt32, kFloat32, kFloat64 };
+
+std::optional<PlyType> plyType(std::string_view s) {
+  if (s == "char" || s == "int8") return PlyType::kInt8;
+  if (s == "uchar" || s == "uint8") return PlyType::kUInt8;
+  if (s == "short" || s == "int16") return PlyType::kInt16;
+  if (s == "ushort" || s == "uint16") return PlyType::kUInt16;
+  if (s == "int" || s == "int32") return PlyType::kInt32;
+  if (s == "uint" || s == "uint32") return PlyType::kUInt32;
+  if (s == "float" || s == "float32") return PlyType::kFloat32;
+  if (s == "double" || s == "float64") return PlyType::kFloat64;
+  return std::nullopt;
+}
+
+size_t sizeOf(PlyType t) {
+  switch (t) {
+    case PlyType::kInt8:
+    case PlyType::kUInt8:
+      return 1;
+    case PlyType::kInt16:
+    case PlyType::kUInt16:
+      return 2;
+    case PlyType::kInt32:
+    case PlyType::kUInt32:
+    case PlyType::kFloat32:
+      return 4;
+    case PlyType::kFloat64:
+      return 8;
+  }
+  return 1;
+}
+
+struct PlyProperty {
+  std::string name;
+  bool is_list = false;
+  PlyType count_type = PlyType::kUInt8;  // lists only
+  PlyType type = PlyType::kFloat32;
+};
+
+struct PlyElement {
+  std::string name;
+  size_t count = 0;
+  std::vector<PlyProperty> properties;
+};
+
+std::vector<std::string_view> splitWords(std::string_view line) {
+  std::vector<std::string_view> words;
+  size_t i = 0;
+  while (i < line.size()) {
+    while (i < line.size() && std::isspace(static_cast<unsigned char>(line[i]))) ++i;
+    const size_t start = i;
+    while (i < line.size() && !std::isspace(static_cast<unsigned char>(line[i]))) ++i;
+    if (i > start) words.push_back(line.substr(start, i - start));
+  }
+  return words;
+}
+
+// Reads the body value by value, from ASCII tokens or binary bytes, tracking the place.
+class PlyBodyReader {
+ public:
+  PlyBodyReader(const std::string& text, size_t offset, PlyFormat format, size_t first_line)
+      : text_(text), pos_(offset), format_(format), line_(first_line) {}
+
+  // False at the end of the data or, for ASCII, when the token is not a number.
+  bool next(PlyType type, double* value, std::string* bad_token) {
+    if (format_ == PlyFormat::kAscii) {
+      while (pos_ < text_.size() && std::isspace(static_cast<unsigned char>(text_[pos_]))) {
+        if (text_[pos_] == '\n') ++line_;
+        ++pos_;
+      }
+      if (pos_ >= text_.size()) return false;
+      const size_t start = pos_;
+      while (pos_ < text_.size() && !std::isspace(static_cast<unsigned char>(text_[pos_]))) ++pos_;
+      const std::string token = text_.substr(start, pos_ - start);
+      char* end = nullptr;
+      *value = std::strtod(token.c_str(), &end);
+      if (end != token.c_str() + token.size()) {
+        *bad_token = token;
+        return false;
+      }
+      return true;
+    }
+    const size_t n = sizeOf(type);
+    if (n > text_.size() - pos_) {
+      pos_ = text_.size();
+      return false;
+    }
+    unsigned char b[8];
+    std::memcpy(b, text_.data() + pos_, n);
+    pos_ += n;
+    const bool swap =
+        (format_ == PlyFormat::kBinaryBig) == (std::endian::native == std::endian::little);
+    if (swap) {
+      for (size_t i = 0; i < n / 2; ++i) std::swap(b[i], b[n - 1 - i]);
+    }
+    switch (type) {
+      case PlyType::kInt8:
+        *value = static_cast<int8_t>(b[0]);
+        break;
+      case PlyType::kUInt8:
+        *value = b[0];
+        break;
+      case PlyType::kInt16: {
+        int16_t v;
+        std::memcpy(&v, b, 2);
+        *value = v;
+        break;
+      }
+      case PlyType::kUInt16: {
+        uint16_t v;
+        std::memcpy(&v, b, 2);
+        *value = v;
+        break;
+      }
+      case PlyType::kInt32: {
+        int32_t v;
+        std::memcpy(&v, b, 4);
+        *value = v;
+        break;
+      }
+      case PlyType::kUInt32: {
+        uint32_t v;
+        std::memcpy(&v, b, 4);
+        *value = v;
+        break;
+      }
+      case PlyType::kFloat32: {
+        float v;
+        std::memcpy(&v, b, 4);
+        *value = v;
+        break;
+      }
+      case PlyType::kFloat64: {
+        double v;
+        std::memcpy(&v, b, 8);
+        *value = v;
+        break;
+      }
+    }
+    return true;
+  }
+
+  bool ascii() const { return format_ == PlyFormat::kAscii; }
+  size_t line() const { return line_; }
+
+ private:
+  const std::string& text_;
+  size_t pos_;
+  PlyFormat format_;
+  size_t line_;
+};
+
+// What the walk over the file found.
+struct PlyScan {
+  size_t vertices = 0;
+  size_t faces = 0;
+  size_t triangles = 0;  // after fan triangulation
+  size_t points_and_lines = 0;
+};
+
+Status scanPly(const std::string& path, const std::string& text, PlyScan* scan) {
+  if (text.compare(0, 3, "ply") != 0 || text.size() < 4 || (text[3] != '\n' && text[3] != '\r')) {
+    return inputError(path, "line 1", "not a PLY file (it does not start with 'ply')");
+  }
+  // Header.
+  std::optional<PlyFormat> format;
+  std::vector<PlyElement> elements;
+  size_t pos = 0, line_no = 0;
+  bool ended = false;
+  while (pos < text.size()) {
+    size_t eol = text.find('\n', pos);
+    if (eol == std::string::npos) eol = text.size();
+    const std::string_view line(text.data() + pos, eol - pos);
+    pos = eol + 1;
+    ++line_no;
+    const std::string place = fmt::format("line {}", line_no);
+    const std::vector<std::string_view> w = splitWords(line);
+    if (line_no == 1 || w.empty() || w[0] == "comment" || w[0] == "obj_info") continue;
+    if (w[0] == "end_header") {
+      ended = true;
+      break;
+    }
+    if (w[0] == "format") {
+      if (w.size() != 3) return inputError(path, place, "'format' needs a type and a version");
+      if (w[1] == "ascii") {
+        format = PlyFormat::kAscii;
+      } else if (w[1] == "binary_little_endian") {
+        format = PlyFormat::kBinaryLittle;
+      } else if (w[1] == "binary_big_endian") {
+        format = PlyFormat::kBinaryBig;
+      } else {
+        return inputError(path, place, fmt::format("unknown format '{}'", w[1]));
+      }
+    } else if (w[0] == "element") {
+      if (w.size() != 3) return inputError(path, place, "'element' needs a name and a count");
+      PlyElement e;
+      e.name = std::string(w[1]);
+      const std::string count(w[2]);
+      char* end = nullptr;
+      errno = 0;
+      const unsigned long long n = std::strtoull(count.c_str(), &end, 10);
+      if (end != count.c_str() + count.size() || errno != 0 || count[0] == '-') {
+        return inputError(path, place, fmt::format("element count '{}' is not a number", count));
+      }
+      e.count = static_cast<size_t>(n);
+      elements.push_back(std::move(e));
+    } else if (w[0] == "property") {
+      if (elements.empty()) return inputError(path, place, "'property' before any 'element'");
+      PlyProperty p;
+      if (w.size() == 5 && w[1] == "list") {
+        const auto ct = plyType(w[2]), it = plyType(w[3]);
+        if (!ct || !it) return inputError(path, place, "unknown property type");
+        if (*ct == PlyType::kFloat32 || *ct == PlyType::kFloat64) {
+          return inputError(path, place, "a list count must be an integer type");
+        }
+        p.is_list = true;
+        p.count_type = *ct;
+        p.type = *it;
+        p.name = std::string(w[4]);
+      } else if (w.size() == 3) {
+        const auto t = plyType(w[1]);
+        if (!t) return inputError(path, place, fmt::format("unknown property type '{}'", w[1]));
+        p.type = *t;
+        p.name = std::string(w[2]);
+      } else {
+        return inputError(path, place, "malformed 'property' line");
+      }
+      elements.back().properties.push_back(std::move(p));
+    } else {
+      return inputError(path, place, fmt::format("unknown header keyword '{}'", w[0]));
+    }
+  }
+  if (!ended) return inputError(path, "header", "no 'end_header' (the file is truncated?)");
+  if (!format) return inputError(path, "header", "no 'format' line");
+
+  const PlyElement* vertex_element = nullptr;
+  for (const PlyElement& e : elements) {
+    if (e.name == "vertex") vertex_element = &e;
+    if (e.name == "tristrips") {
+      return inputError(path, "header", "'tristrips' elements are not supported");
+    }
+  }
+  if (!vertex_element) return inputError(path, "header", "no 'vertex' element");
+  scan->vertices = vertex_element->count;
+
+  // Body.
+  PlyBodyReader body(text, pos, *format, line_no + 1);
+  for (const PlyElement& e : elements) {
+    const bool is_vertex = e.name == "vertex";
+    const bool is_face = e.name == "face";
+    for (size_t i = 0; i < e.count; ++i) {
+      auto where = [&]() {
+        std::string s = fmt::format("{} {}", e.name, i);
+        if (body.ascii()) s = fmt::format("line {}, {}", body.line(), s);
+        return s;
+      };
+      for (const PlyProperty& p : e.properties) {
+        double value = 0.0;
+        std::string bad;
+        auto fail = [&]() -> Status {
+          if (!bad.empty()) {
+            return inputError(path, where(),
+                              fmt::format("'{}' is not a number (property '{}')", bad, p.name));
+          }
+          // No line number: the reader is past the last line.
+          return inputError(
+              path, fmt::format("{} {}", e.name, i),
+              fmt::format("the file ends early, in property '{}' (truncated?)", p.name));
+        };
+        if (!p.is_list) {
+          if (!body.next(p.type, &value, &bad)) return fail();
+          const bool coordinate = p.name == "x" || p.name == "y" || p.name == "z";
+          if (is_vertex && coordinate && !std::isfinite(static_cast<float>(value))) {
+            return inputError(
+                path, where(),
+                fmt::format("coordinate {} is not a finite number ({})", p.name, value));
+          }
+          continue;
+        }
+        if (!body.next(p.count_type, &value, &bad)) return fail();
+        if (!(value >= 0.0) || value != std::floor(value)) {
+          return inputError(path, where(),
+                            fmt::format("list length {} of '{}' is not a count", value, p.name));
+        }
+        const size_t n = static_cast<size_t>(value);
+        const bool indices = is_face && (p.name == "vertex_indices" || p.name == "vertex_index");
+        for (size_t k = 0; k < n; ++k) {
+          if (!body.next(p.type, &value, &bad)) return fail();
+          if (indices && !(value >= 0.0 && value < static_cast<double>(scan->vertices) &&
+                           value == std::floor(value))) {
+            return inputError(path, where(),
+                              fmt::format("vertex index {} is out of range ({} vertices)", value,
+                                          scan->vertices));
+          }
+        }
+        if (indices) {
+          ++scan->faces;
+          if (n >= 3) {
+            scan->triangles += n - 2;
+          } else {
+            ++scan->points_and_lines;
+          }
+        }
+      }
+    }
+  }
+  return {};
+}
+
+}  // namespace
+
+Expected<Scene> loadPly(const std::string& path) {
+  Expected<std::string> text = readFile(path);
+  if (!text.ok()) return text.error();
+  PlyScan scan;
+  PENUMBRA_TRY(scanPly(path, *text, &scan));
+  text->clear();
+  text->shrink_to_fit();
+
+  Scene scene;
+  scene.source = path;
+  Assimp::Importer importer;
+  const aiScene* ai = nullptr;
+  try {
+    // No post-processing: no vertex merging, no reordering, no triangulation.
+    ai = importer.ReadFile(path, 0u);
+  } catch (const std::exception& e) {
+    return inputError(path, "", fmt::format("Assimp failed: {}", e.what()));
+  }
+  if (!ai) return inputError(path, "", fmt::format("Assimp: {}", importer.GetErrorString()));
+
+  const std::string stem = std::filesystem::path(path).stem().string();
+  scene.materials.push_back(Material{"default", glm::vec3(0.8f), glm::vec3(0.0f)});
+  size_t faces_seen = 0;
+  for (unsigned mi = 0; mi < ai->mNumMeshes; ++mi) {
+    const aiMesh* am = ai->mMeshes[mi];
+    Mesh mesh;
+    mesh.name = ai->mNumMeshes == 1 ? stem : fmt::format("{}#{}", stem, mi);
+    mesh.positions.resize(am->mNumVertices);
+    for (unsigned v = 0; v < am->mNumVertices; ++v) {
+      mesh.positions[v] = glm::vec3(am->mVertices[v].x, am->mVertices[v].y, am->mVertices[v].z);
+    }
+    if (am->HasNormals()) {
+      mesh.normals.resize(am->mNumVertices);
+      for (unsigned v = 0; v < am->mNumVertices; ++v) {
+        mesh.normals[v] = glm::vec3(am->mNormals[v].x, am->mNormals[v].y, am->mNormals[v].z);
+      }
+    }
+    if (am->HasTextureCoords(0)) {
+      mesh.uvs.resize(am->mNumVertices);
+      for (unsigned v = 0; v < am->mNumVertices; ++v) {
+        mesh.uvs[v] = glm::vec2(am->mTextureCoords[0][v].x, am->mTextureCoords[0][v].y);
+      }
+    }
+    for (unsigned f = 0; f < am->mNumFaces; ++f) {
+      const aiFace& face = am->mFaces[f];
+      for (unsigned k = 0; k < face.mNumIndices; ++k) {
+        if (face.mIndices[k] >= am->mNumVertices) {
+          return inputError(path, fmt::format("face {}", faces_seen + f),
+                            fmt::format("vertex index {} is out of range ({} vertices)",
+                                        face.mIndices[k], am->mNumVertices));
+        }
+      }
+      for (unsigned k = 2; k < face.mNumIndices; ++k) {
+        mesh.triangles.emplace_back(face.mIndices[0], face.mIndices[k - 1], face.mIndices[k]);
+        mesh.material_ids.push_back(0);
+      }
+    }
+    faces_seen += am->mNumFaces;
+    if (!mesh.triangles.empty()) scene.meshes.push_back(std::move(mesh));
+  }
+  if (scan.points_and_lines > 0) {
+    scene.warnings.push_back(
+        fmt::format("{}: {} point or line face(s) are skipped", path, scan.points_and_lines));
+  }
+  if (scene.triangleCount() != scan.triangles) {
+    return inputError(path, "",
+                      fmt::format("Assimp read {} triangles where the file has {}; the file "
+                                  "cannot be loaded in file order",
+                                  scene.triangleCount(), scan.triangles));
+  }
+
+  PENUMBRA_TRY(validateScene(scene));
+  return scene;
+}
+
+}  // namespace penumbra

@@ -1,0 +1,639 @@
+// Penumbra's JSON scene format (docs/scene-format.md) and the loaders' front door.
+//
+// The reader is strict: an unknown key, a value of the wrong type or an array of the wrong
+// length is an error naming its key path ("meshes[2].transform.scale"), so that a typo never
+// silently changes a scene. Mesh files are loaded by their own loaders (which name the mesh file
+// in their errors), transformed to world space and merged.
+#include "penumbra/core/file_util.h"
+#include "penumbra/io/scene_io.h"
+#include "penumbra/scene/builtin.h"
+
+#include <glm/geometric.hpp>
+#include <glm/mat3x3.hpp>
+#include <glm/mat4x4.hpp>
+#include <glm/matrix.hpp>
+#include <glm/trigonometric.hpp>
+
+#include <fmt/format.h>
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <map>
+#include <optional>
+#include <string>
+#include <type_traits>
+#include <utility>
+#include <variant>
+#include <vector>
+
+namespace penumbra {
+
+namespace {
+
+using nlohmann::json;
+
+const char* jsonTypeName(const json& j) {
+  switch (j.type()) {
+    case json::value_t::null:
+      return "null";
+    case json::value_t::boolean:
+      return "a boolean";
+    case json::value_t::string:
+      return "a string";
+    case json::value_t::array:
+      return "an array";
+    case json::value_t::object:
+      return "an object";
+    case json::value_t::discarded:
+      return "nothing";
+    default:
+      return "a number";
+  }
+}
+
+std::string keyPath(const std::string& parent, const std::string& key) {
+  return parent.empty() ? key : parent + "." + key;
+}
+
+// The world_from_object transform of a mesh file, and what it does to vectors.
+struct Placement {
+  glm::dmat4 world_from_object{1.0};
+
+  glm::vec3 point(const glm::vec3& p) const {
+    return glm::vec3(world_from_object * glm::dvec4(glm::dvec3(p), 1.0));
+  }
+  glm::vec3 direction(const glm::vec3& d) const {
+    const glm::dvec3 v = glm::dmat3(world_from_object) * glm::dvec3(d);
+    const double len = glm::length(v);
+    return len > 0.0 ? glm::vec3(v / len) : glm::vec3(d);
+  }
+};
+
+class SceneJsonReader {
+ public:
+  explicit SceneJsonReader(const std::string& path) : path_(path) {}
+
+  Expected<Scene> read(const json& root);
+
+ private:
+  Error error(const std::string& place, std::string message) const {
+    return inputError(path_, place, std::move(message));
+  }
+
+  // Every key of `obj` must be in `allowed`; keys in `reserved` are named as not supported yet.
+  Status checkKeys(const json& obj, const std::string& place,
+                   std::initializer_list<const char*> allowed,
+                   std::initializer_list<std::pair<const char*, const char*>> reserved = {}) const;
+  Expected<const json*> object(const json& parent, const char* key, const std::string& place,
+                               bool required) const;
+  Expected<double> number(const json& j, const std::string& place) const;
+  Expected<glm::dvec3> vec3(const json& j, const std::string& place) const;
+  Expected<std::string> string(const json& j, const std::string& place) const;
+  // A 3-vector that is a non-negative colour (reflectance in [0, 1] when `at_most_one`).
+  Expected<glm::vec3> colour(const json& j, const std::string& place, bool at_most_one) const;
+  Expected<glm::vec3> unitDirection(const json& j, const std::string& place) const;
+
+  Status readMaterials(const json& root, Scene& scene);
+  Status readMesh(const json& entry, const std::string& place, Scene& scene);
+  Expected<Placement> readTransform(const json& t, const std::string& place) const;
+  Status readLight(const json& entry, const std::string& place, Scene& scene) const;
+  Status readCamera(const json& cam, const std::string& place, Scene& scene) const;
+
+  const std::string& path_;
+  std::map<std::string, uint32_t> material_index_;
+};
+
+Status SceneJsonReader::checkKeys(
+    const json& obj, const std::string& place, std::initializer_list<const char*> allowed,
+    std::initializer_list<std::pair<const char*, const char*>> reserved) const {
+  for (auto it = obj.begin(); it != obj.end(); ++it) {
+    const std::string& key = it.key();
+    bool known = false;
+    for (const char* a : allowed) known = known || key == a;
+    if (known) continue;
+    for (const auto& [name, what] : reserved) {
+      if (key == name)
+        return error(keyPath(place, key), fmt::format("{} is not supported yet", what));
+    }
+    std::string expected;
+    for (const char* a : allowed) expected += (expected.empty() ? "" : ", ") + std::string(a);
+    return error(keyPath(place, key), fmt::format("unknown key (known keys: {})", expected));
+  }
+  return {};
+}
+
+Expected<const json*> SceneJsonReader::object(const json& parent, const char* key,
+                                              const std::string& place, bool required) const {
+  auto it = parent.find(key);
+  if (it == parent.end()) {
+    if (required) return error(keyPath(place, key), "missing");
+    return static_cast<const json*>(nullptr);
+  }
+  if (!it->is_object()) {
+    return error(keyPath(place, key), fmt::format("must be an object, not {}", jsonTypeName(*it)));
+  }
+  return &*it;
+}
+
+Expected<double> SceneJsonReader::number(const json& j, const std::string& place) const {
+  if (!j.is_number()) return error(place, fmt::format("must be a number, not {}", jsonTypeName(j)));
+  const double v = j.get<double>();
+  if (!std::isfinite(v)) return error(place, "must be a finite number");
+  return v;
+}
+
+Expected<glm::dvec3> SceneJsonReader::vec3(const json& j, const std::string& place) const {
+  if (!j.is_array()) {
+    return error(place, fmt::format("must be an array of 3 numbers, not {}", jsonTypeName(j)));
+  }
+  if (j.size() != 3) {
+    return error(place, fmt::format("must be an array of 3 numbers, not {}", j.size()));
+  }
+  glm::dvec3 v(0.0);
+  for (int i = 0; i < 3; ++i) {
+    Expected<double> x = number(j[static_cast<size_t>(i)], fmt::format("{}[{}]", place, i));
+    if (!x.ok()) return x.error();
+    v[i] = *x;
+  }
+  return v;
+}
+
+Expected<std::string> SceneJsonReader::string(const json& j, const std::string& place) const {
+  if (!j.is_string()) return error(place, fmt::format("must be a string, not {}", jsonTypeName(j)));
+  return j.get<std::string>();
+}
+
+Expected<glm::vec3> SceneJsonReader::colour(const json& j, const std::string& place,
+                                            bool at_most_one) const {
+  Expected<glm::dvec3> v = vec3(j, place);
+  if (!v.ok()) return v.error();
+  for (int i = 0; i < 3; ++i) {
+    if ((*v)[i] < 0.0 || (at_most_one && (*v)[i] > 1.0)) {
+      return error(fmt::format("{}[{}]", place, i),
+                   fmt::format("{} is outside {}", (*v)[i], at_most_one ? "[0, 1]" : "[0, inf)"));
+    }
+  }
+  return glm::vec3(*v);
+}
+
+Expected<glm::vec3> SceneJsonReader::unitDirection(const json& j, const std::string& place) const {
+  Expected<glm::dvec3> v = vec3(j, place);
+  if (!v.ok()) return v.error();
+  if (!(glm::length(*v) > 0.0)) return error(place, "a direction must not be zero");
+  return glm::vec3(glm::normalize(*v));
+}
+
+Status SceneJsonReader::readMaterials(const json& root, Scene& scene) {
+  Expected<const json*> materials = object(root, "materials", "", false);
+  if (!materials.ok()) return materials.error();
+  if (!*materials) return {};
+  for (auto it = (*materials)->begin(); it != (*materials)->end(); ++it) {
+    const std::string place = "materials." + it.key();
+    if (!it->is_object()) {
+      return error(place, fmt::format("must be an object, not {}", jsonTypeName(*it)));
+    }
+    PENUMBRA_TRY(
+        checkKeys(*it, place, {"reflectance", "emission"},
+                  {{"normal_map", "normal mapping"}, {"subsurface", "subsurface scattering"}}));
+    Material m;
+    m.name = it.key();
+    if (it->contains("reflectance")) {
+      Expected<glm::vec3> r = colour(it->at("reflectance"), place + ".reflectance", true);
+      if (!r.ok()) return r.error();
+      m.reflectance = *r;
+    }
+    if (it->contains("emission")) {
+      Expected<glm::vec3> e = colour(it->at("emission"), place + ".emission", false);
+      if (!e.ok()) return e.error();
+      m.emission = *e;
+    }
+    material_index_[m.name] = static_cast<uint32_t>(scene.materials.size());
+    scene.materials.push_back(std::move(m));
+  }
+  return {};
+}
+
+Expected<Placement> SceneJsonReader::readTransform(const json& t, const std::string& place) const {
+  if (!t.is_object()) {
+    return error(place, fmt::format("must be an object, not {}", jsonTypeName(t)));
+  }
+  PENUMBRA_TRY(checkKeys(t, place, {"scale", "rotate_deg", "translate", "matrix"}));
+  Placement out;
+  if (t.contains("matrix")) {
+    if (t.size() != 1) {
+      return error(place, "'matrix' cannot be combined with 'scale', 'rotate_deg' or 'translate'");
+    }
+    const json& m = t.at("matrix");
+    const std::string mplace = place + ".matrix";
+    if (!m.is_array() || m.size() != 16) {
+      return error(mplace, fmt::format("must be an array of 16 numbers (row-major), not {}",
+                                       m.is_array() ? std::to_string(m.size()) : jsonTypeName(m)));
+    }
+    glm::dmat4 w(1.0);
+    for (int r = 0; r < 4; ++r) {
+      for (int c = 0; c < 4; ++c) {
+        Expected<double> x =
+            number(m[static_cast<size_t>(4 * r + c)], fmt::format("{}[{}]", mplace, 4 * r + c));
+        if (!x.ok()) return x.error();
+        w[c][r] = *x;  // glm is column-major
+      }
+    }
+    if (w[0][3] != 0.0 || w[1][3] != 0.0 || w[2][3] != 0.0 || w[3][3] != 1.0) {
+      return error(mplace, "the last row must be [0, 0, 0, 1] (an affine transform)");
+    }
+    out.world_from_object = w;
+  } else {
+    glm::dvec3 scale(1.0), rotate(0.0), translate(0.0);
+    if (t.contains("scale")) {
+      const json& s = t.at("scale");
+      if (s.is_number()) {
+        Expected<double> x = number(s, place + ".scale");
+        if (!x.ok()) return x.error();
+        scale = glm::dvec3(*x);
+      } else {
+        Expected<glm::dvec3> v = vec3(s, place + ".scale");
+        if (!v.ok()) {
+          return error(
+              place + ".scale",
+              fmt::format("must be a number or an array of 3 numbers, not {}",
+                          s.is_array() ? std::to_string(s.size()) + " numbers" : jsonTypeName(s)));
+        }
+        scale = *v;
+      }
+    }
+    if (t.contains("rotate_deg")) {
+      Expected<glm::dvec3> v = vec3(t.at("rotate_deg"), place + ".rotate_deg");
+      if (!v.ok()) return v.error();
+      rotate = glm::radians(*v);
+    }
+    if (t.contains("translate")) {
+      Expected<glm::dvec3> v = vec3(t.at("translate"), place + ".translate");
+      if (!v.ok()) return v.error();
+      translate = *v;
+    }
+    auto rotation = [](double angle, int axis) {
+      const double c = std::cos(angle), s = std::sin(angle);
+      const int a = (axis + 1) % 3, b = (axis + 2) % 3;
+      glm::dmat4 r(1.0);
+      r[a][a] = c;
+      r[a][b] = s;
+      r[b][a] = -s;
+      r[b][b] = c;
+      return r;  // right-handed rotation about `axis`
+    };
+    glm::dmat4 s(1.0), tr(1.0);
+    s[0][0] = scale.x;
+    s[1][1] = scale.y;
+    s[2][2] = scale.z;
+    tr[3] = glm::dvec4(translate, 1.0);
+    // Scale, then rotate about X, then Y, then Z, then translate.
+    out.world_from_object =
+        tr * rotation(rotate.z, 2) * rotation(rotate.y, 1) * rotation(rotate.x, 0) * s;
+  }
+  const double det = glm::determinant(glm::dmat3(out.world_from_object));
+  if (!(std::abs(det) > 0.0) || !std::isfinite(det)) {
+    return error(place, "the transform is singular (a zero scale?)");
+  }
+  return out;
+}
+
+Status SceneJsonReader::readMesh(const json& entry, const std::string& place, Scene& scene) {
+  if (!entry.is_object()) {
+    return error(place, fmt::format("must be an object, not {}", jsonTypeName(entry)));
+  }
+  PENUMBRA_TRY(checkKeys(entry, place, {"file", "material", "transform", "name"}));
+  if (!entry.contains("file")) return error(place + ".file", "missing");
+  Expected<std::string> file = string(entry.at("file"), place + ".file");
+  if (!file.ok()) return file.error();
+  const std::string resolved = resolveRelativeTo(path_, *file);
+  const std::string ext = extensionOf(resolved);
+  if (ext != ".obj" && ext != ".gltf" && ext != ".glb" && ext != ".ply") {
+    return error(place + ".file",
+                 fmt::format("'{}': a mesh file must be .obj, .gltf, .glb or .ply", *file));
+  }
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(resolved, ec)) {
+    return error(place + ".file",
+                 fmt::format("'{}' does not exist (looked for {})", *file, resolved));
+  }
+  std::optional<uint32_t> material;
+  if (entry.contains("material")) {
+    Expected<std::string> name = string(entry.at("material"), place + ".material");
+    if (!name.ok()) return name.error();
+    auto it = material_index_.find(*name);
+    if (it == material_index_.end()) {
+      return error(place + ".material",
+                   fmt::format("material '{}' is not defined in \"materials\"", *name));
+    }
+    material = it->second;
+  }
+  Placement placement;
+  if (entry.contains("transform")) {
+    Expected<Placement> p = readTransform(entry.at("transform"), place + ".transform");
+    if (!p.ok()) return p.error();
+    placement = *p;
+  }
+  std::string name;
+  if (entry.contains("name")) {
+    Expected<std::string> n = string(entry.at("name"), place + ".name");
+    if (!n.ok()) return n.error();
+    name = *n;
+  }
+
+  Expected<Scene> loaded = loadSceneFile(resolved);
+  if (!loaded.ok()) return loaded.error();  // names the mesh file and the place in it
+  Scene& sub = *loaded;
+
+  // To world space. A mirroring transform flips the winding so that front faces stay front.
+  const glm::dmat3 linear(placement.world_from_object);
+  const glm::dmat3 normal_from_object = glm::transpose(glm::inverse(linear));
+  const bool mirrored = glm::determinant(linear) < 0.0;
+  const uint32_t material_base = static_cast<uint32_t>(scene.materials.size());
+  const std::string stem = std::filesystem::path(resolved).stem().string();
+  for (size_t k = 0; k < sub.meshes.size(); ++k) {
+    Mesh& mesh = sub.meshes[k];
+    for (glm::vec3& p : mesh.positions) p = placement.point(p);
+    for (glm::vec3& n : mesh.normals) {
+      const glm::dvec3 w = normal_from_object * glm::dvec3(n);
+      const double len = glm::length(w);
+      n = len > 0.0 ? glm::vec3(w / len) : glm::vec3(0.0f);
+    }
+    if (mirrored) {
+      for (glm::uvec3& t : mesh.triangles) std::swap(t.y, t.z);
+    }
+    for (uint32_t& id : mesh.material_ids) id = material ? *material : id + material_base;
+    if (!name.empty()) {
+      mesh.name = sub.meshes.size() == 1 ? name : name + "/" + mesh.name;
+    } else if (mesh.name.empty()) {
+      mesh.name = stem;
+    }
+    scene.meshes.push_back(std::move(mesh));
+  }
+  if (!material) {
+    for (Material& m : sub.materials) scene.materials.push_back(std::move(m));
+  }
+  for (Light& light : sub.lights) {
+    std::visit(
+        [&](auto& l) {
+          using T = std::decay_t<decltype(l)>;
+          if constexpr (std::is_same_v<T, PointLight>) {
+            l.position = placement.point(l.position);
+          } else if constexpr (std::is_same_v<T, SpotLight>) {
+            l.position = placement.point(l.position);
+            l.direction = placement.direction(l.direction);
+          } else {
+            l.direction = placement.direction(l.direction);
+          }
+        },
+        light);
+    scene.lights.push_back(light);
+  }
+  if (sub.camera && !scene.camera) {
+    Camera cam = *sub.camera;
+    cam.position = placement.point(cam.position);
+    cam.look_at = placement.point(cam.look_at);
+    cam.up = placement.direction(cam.up);
+    scene.camera = cam;
+  }
+  for (std::string& w : sub.warnings) {
+    scene.warnings.push_back(w.starts_with(resolved) ? std::move(w) : resolved + ": " + w);
+  }
+  return {};
+}
+
+Status SceneJsonReader::readLight(const json& entry, const std::string& place, Scene& scene) const {
+  if (!entry.is_object()) {
+    return error(place, fmt::format("must be an object, not {}", jsonTypeName(entry)));
+  }
+  if (!entry.contains("type")) return error(place + ".type", "missing");
+  Expected<std::string> type = string(entry.at("type"), place + ".type");
+  if (!type.ok()) return type.error();
+  auto required = [&](const char* key) -> Expected<const json*> {
+    auto it = entry.find(key);
+    if (it == entry.end()) return error(keyPath(place, key), "missing");
+    return &*it;
+  };
+  auto point3 = [&](const char* key) -> Expected<glm::vec3> {
+    Expected<const json*> j = required(key);
+    if (!j.ok()) return j.error();
+    Expected<glm::dvec3> v = vec3(**j, keyPath(place, key));
+    if (!v.ok()) return v.error();
+    return glm::vec3(*v);
+  };
+  auto colour3 = [&](const char* key) -> Expected<glm::vec3> {
+    Expected<const json*> j = required(key);
+    if (!j.ok()) return j.error();
+    return colour(**j, keyPath(place, key), false);
+  };
+  auto direction3 = [&](const char* key) -> Expected<glm::vec3> {
+    Expected<const json*> j = required(key);
+    if (!j.ok()) return j.error();
+    return unitDirection(**j, keyPath(place, key));
+  };
+
+  if (*type == "point") {
+    PENUMBRA_TRY(checkKeys(entry, place, {"type", "position", "intensity"}));
+    PointLight l;
+    Expected<glm::vec3> p = point3("position");
+    if (!p.ok()) return p.error();
+    Expected<glm::vec3> i = colour3("intensity");
+    if (!i.ok()) return i.error();
+    l.position = *p;
+    l.intensity = *i;
+    scene.lights.push_back(l);
+  } else if (*type == "spot") {
+    PENUMBRA_TRY(checkKeys(
+        entry, place,
+        {"type", "position", "direction", "intensity", "inner_angle_deg", "outer_angle_deg"}));
+    SpotLight l;
+    Expected<glm::vec3> p = point3("position");
+    if (!p.ok()) return p.error();
+    Expected<glm::vec3> d = direction3("direction");
+    if (!d.ok()) return d.error();
+    Expected<glm::vec3> i = colour3("intensity");
+    if (!i.ok()) return i.error();
+    l.position = *p;
+    l.direction = *d;
+    l.intensity = *i;
+    double inner = glm::degrees(static_cast<double>(l.inner_angle));
+    double outer = glm::degrees(static_cast<double>(l.outer_angle));
+    if (entry.contains("inner_angle_deg")) {
+      Expected<double> x = number(entry.at("inner_angle_deg"), place + ".inner_angle_deg");
+      if (!x.ok()) return x.error();
+      inner = *x;
+    }
+    if (entry.contains("outer_angle_deg")) {
+      Expected<double> x = number(entry.at("outer_angle_deg"), place + ".outer_angle_deg");
+      if (!x.ok()) return x.error();
+      outer = *x;
+    }
+    if (!(inner >= 0.0 && inner < outer && outer <= 90.0)) {
+      return error(place, fmt::format("spot angles need 0 <= inner_angle_deg < outer_angle_deg "
+                                      "<= 90 (got {} and {})",
+                                      inner, outer));
+    }
+    l.inner_angle = static_cast<float>(glm::radians(inner));
+    l.outer_angle = static_cast<float>(glm::radians(outer));
+    scene.lights.push_back(l);
+  } else if (*type == "directional") {
+    PENUMBRA_TRY(checkKeys(entry, place, {"type", "direction", "irradiance"}));
+    DirectionalLight l;
+    Expected<glm::vec3> d = direction3("direction");
+    if (!d.ok()) return d.error();
+    Expected<glm::vec3> e = colour3("irradiance");
+    if (!e.ok()) return e.error();
+    l.direction = *d;
+    l.irradiance = *e;
+    scene.lights.push_back(l);
+  } else if (*type == "luminaire") {
+    return error(place + ".type", "luminaire lights (LDT, IES files) are not supported yet");
+  } else {
+    return error(place + ".type", fmt::format("unknown light type '{}' (known: point, spot, "
+                                              "directional)",
+                                              *type));
+  }
+  return {};
+}
+
+Status SceneJsonReader::readCamera(const json& cam, const std::string& place, Scene& scene) const {
+  PENUMBRA_TRY(checkKeys(cam, place, {"position", "look_at", "up", "fov_deg"}));
+  Camera c;
+  for (const char* key : {"position", "look_at"}) {
+    if (!cam.contains(key)) return error(keyPath(place, key), "missing");
+  }
+  Expected<glm::dvec3> position = vec3(cam.at("position"), place + ".position");
+  if (!position.ok()) return position.error();
+  Expected<glm::dvec3> look_at = vec3(cam.at("look_at"), place + ".look_at");
+  if (!look_at.ok()) return look_at.error();
+  glm::dvec3 up(0.0, 1.0, 0.0);
+  if (cam.contains("up")) {
+    Expected<glm::dvec3> u = vec3(cam.at("up"), place + ".up");
+    if (!u.ok()) return u.error();
+    up = *u;
+  }
+  const glm::dvec3 forward = *look_at - *position;
+  if (!(glm::length(forward) > 0.0)) return error(place, "position and look_at are the same point");
+  if (!(glm::length(glm::cross(forward, up)) > 1e-9 * glm::length(forward) * glm::length(up))) {
+    return error(keyPath(place, "up"), "must not be zero or parallel to the view direction");
+  }
+  c.position = glm::vec3(*position);
+  c.look_at = glm::vec3(*look_at);
+  c.up = glm::vec3(glm::normalize(up));
+  if (cam.contains("fov_deg")) {
+    Expected<double> fov = number(cam.at("fov_deg"), place + ".fov_deg");
+    if (!fov.ok()) return fov.error();
+    if (!(*fov > 0.0 && *fov < 180.0)) {
+      return error(place + ".fov_deg", fmt::format("{} is outside (0, 180)", *fov));
+    }
+    c.vertical_fov = static_cast<float>(glm::radians(*fov));
+  }
+  scene.camera = c;
+  return {};
+}
+
+Expected<Scene> SceneJsonReader::read(const json& root) {
+  if (!root.is_object()) {
+    return error("", fmt::format("the top level must be an object, not {}", jsonTypeName(root)));
+  }
+  PENUMBRA_TRY(checkKeys(root, "", {"materials", "meshes", "lights", "camera", "settings"}));
+  Scene scene;
+  scene.source = path_;
+  PENUMBRA_TRY(readMaterials(root, scene));
+
+  if (root.contains("meshes")) {
+    const json& meshes = root.at("meshes");
+    if (!meshes.is_array()) {
+      return error("meshes", fmt::format("must be an array, not {}", jsonTypeName(meshes)));
+    }
+    for (size_t i = 0; i < meshes.size(); ++i) {
+      PENUMBRA_TRY(readMesh(meshes[i], fmt::format("meshes[{}]", i), scene));
+    }
+  }
+  if (root.contains("lights")) {
+    const json& lights = root.at("lights");
+    if (!lights.is_array()) {
+      return error("lights", fmt::format("must be an array, not {}", jsonTypeName(lights)));
+    }
+    for (size_t i = 0; i < lights.size(); ++i) {
+      PENUMBRA_TRY(readLight(lights[i], fmt::format("lights[{}]", i), scene));
+    }
+  }
+  Expected<const json*> camera = object(root, "camera", "", false);
+  if (!camera.ok()) return camera.error();
+  if (*camera) PENUMBRA_TRY(readCamera(**camera, "camera", scene));
+  Expected<const json*> settings = object(root, "settings", "", false);
+  if (!settings.ok()) return settings.error();
+  if (*settings) scene.settings = **settings;
+
+  // The mesh files were validated by their loaders, whose warnings (degenerate triangles) name
+  // the mesh file; the merged scene's validation would repeat them, so its warnings are dropped.
+  const size_t warnings_before = scene.warnings.size();
+  PENUMBRA_TRY(validateScene(scene));
+  scene.warnings.resize(warnings_before);
+  return scene;
+}
+
+// "line L, column C" of the byte at 0-based `offset`.
+std::string lineAndColumn(const std::string& text, size_t offset) {
+  offset = std::min(offset, text.size());
+  size_t line = 1, line_start = 0;
+  for (size_t i = 0; i < offset; ++i) {
+    if (text[i] == '\n') {
+      ++line;
+      line_start = i + 1;
+    }
+  }
+  return fmt::format("line {}, column {}", line, offset - line_start + 1);
+}
+
+}  // namespace
+
+Expected<Scene> loadSceneJson(const std::string& path) {
+  Expected<std::string> text = readFile(path);
+  if (!text.ok()) return text.error();
+  json root;
+  try {
+    root = json::parse(*text, nullptr, /*allow_exceptions=*/true, /*ignore_comments=*/true);
+  } catch (const json::parse_error& e) {
+    // e.byte counts the characters read, the offending one included.
+    const size_t offset = e.byte > 0 ? e.byte - 1 : 0;
+    std::string message = e.what();
+    const size_t k = message.find("parse error");
+    const size_t colon = k == std::string::npos ? std::string::npos : message.find(": ", k);
+    if (colon != std::string::npos) message = message.substr(colon + 2);
+    return inputError(path, lineAndColumn(*text, offset), "JSON " + message);
+  } catch (const std::exception& e) {
+    return inputError(path, "", fmt::format("JSON error: {}", e.what()));
+  }
+  try {
+    SceneJsonReader reader(path);
+    return reader.read(root);
+  } catch (const std::exception& e) {
+    // Every access above is checked; this is a safety net so no exception leaves the loader.
+    return inputError(path, "", fmt::format("unexpected JSON error: {}", e.what()));
+  }
+}
+
+Expected<Scene> loadSceneFile(const std::string& path) {
+  const std::string ext = extensionOf(path);
+  if (ext == ".json") return loadSceneJson(path);
+  if (ext == ".obj") return loadObj(path);
+  if (ext == ".gltf" || ext == ".glb") return loadGltf(path);
+  if (ext == ".ply") return loadPly(path);
+  return inputError(path, "",
+                    ext.empty() ? std::string("no file extension: expected .json, .obj, .gltf, "
+                                              ".glb or .ply")
+                                : fmt::format("unknown scene file type '{}' (expected .json, .obj, "
+                                              ".gltf, .glb or .ply)",
+                                              ext));
+}
+
+Expected<Scene> loadScene(const std::string& name_or_path) {
+  std::error_code ec;
+  const bool is_file =
+      std::filesystem::exists(name_or_path, ec) && !std::filesystem::is_directory(name_or_path, ec);
+  if (!is_file && extensionOf(name_or_path).empty()) return builtinScene(name_or_path);
+  return loadSceneFile(name_or_path);
+}
+
+}  // namespace penumbra

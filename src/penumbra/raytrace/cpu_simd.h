@@ -1,0 +1,174 @@
+// The CPU back end's inner loops: one ray against the eight child boxes of a wide node, and one
+// ray against a block of up to eight triangles, with AVX2 (a portable loop without it). Both
+// give bit-for-bit the answers of the scalar formulas: the box test of BoxTester::test and the
+// watertight test of kernels/ray_triangle.h, evaluated in the same order of operations.
+#pragma once
+
+#include "penumbra/accel/wide_bvh.h"
+#include "penumbra/kernels/ray_triangle.h"
+
+#include <glm/vec3.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#if defined(__AVX2__)
+#include <immintrin.h>
+#endif
+
+namespace penumbra {
+
+// 1 / d with zero components replaced by +-1e-30, so slab distances stay finite (no 0 * inf NaN).
+// A tiny component only makes a box test more conservative, never culls a box the ray enters.
+inline float safeReciprocal(float d) {
+  return 1.0f / (std::fabs(d) < 1e-30f ? std::copysign(1e-30f, d) : d);
+}
+
+// Rounding margin for the far slab distance, 1 + 2 gamma(3), so rounding never culls a box the
+// ray touches (Ize, "Robust BVH Ray Traversal", JCGT 2(2), 2013).
+inline constexpr float kFarScale = 1.0000004f;
+
+// Slab tests of one ray against the eight child boxes of a node.
+struct BoxTester {
+  glm::vec3 org, inv;
+  bool neg_x, neg_y, neg_z;
+
+  BoxTester(const glm::vec3& o, const glm::vec3& d)
+      : org(o),
+        inv(safeReciprocal(d.x), safeReciprocal(d.y), safeReciprocal(d.z)),
+        neg_x(inv.x < 0.0f),
+        neg_y(inv.y < 0.0f),
+        neg_z(inv.z < 0.0f) {}
+
+  // Bit i is set when child i is entered within [tmin, tmax]; t_near gets the entry distances.
+  uint32_t test(const Bvh8Node& n, float tmin, float tmax, float* t_near) const {
+    // Near and far planes per axis follow the direction's sign, so no min/max is needed and an
+    // empty slot's inverted box (lo = +inf, hi = -inf) always fails.
+    const float* nx = neg_x ? n.hi_x : n.lo_x;
+    const float* fx = neg_x ? n.lo_x : n.hi_x;
+    const float* ny = neg_y ? n.hi_y : n.lo_y;
+    const float* fy = neg_y ? n.lo_y : n.hi_y;
+    const float* nz = neg_z ? n.hi_z : n.lo_z;
+    const float* fz = neg_z ? n.lo_z : n.hi_z;
+#if defined(__AVX2__)
+    const __m256 ox = _mm256_set1_ps(org.x), oy = _mm256_set1_ps(org.y);
+    const __m256 oz = _mm256_set1_ps(org.z);
+    const __m256 ix = _mm256_set1_ps(inv.x), iy = _mm256_set1_ps(inv.y);
+    const __m256 iz = _mm256_set1_ps(inv.z);
+    const __m256 tnx = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(nx), ox), ix);
+    const __m256 tny = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(ny), oy), iy);
+    const __m256 tnz = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(nz), oz), iz);
+    const __m256 tfx = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(fx), ox), ix);
+    const __m256 tfy = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(fy), oy), iy);
+    const __m256 tfz = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(fz), oz), iz);
+    const __m256 tn =
+        _mm256_max_ps(_mm256_max_ps(tnx, tny), _mm256_max_ps(tnz, _mm256_set1_ps(tmin)));
+    const __m256 tf = _mm256_mul_ps(
+        _mm256_min_ps(_mm256_min_ps(tfx, tfy), _mm256_min_ps(tfz, _mm256_set1_ps(tmax))),
+        _mm256_set1_ps(kFarScale));
+    _mm256_store_ps(t_near, tn);
+    return uint32_t(_mm256_movemask_ps(_mm256_cmp_ps(tn, tf, _CMP_LE_OQ)));
+#else
+    uint32_t mask = 0;
+    for (int i = 0; i < 8; ++i) {
+      const float tn = std::max(std::max((nx[i] - org.x) * inv.x, (ny[i] - org.y) * inv.y),
+                                std::max((nz[i] - org.z) * inv.z, tmin));
+      const float tf = std::min(std::min((fx[i] - org.x) * inv.x, (fy[i] - org.y) * inv.y),
+                                std::min((fz[i] - org.z) * inv.z, tmax)) *
+                       kFarScale;
+      t_near[i] = tn;
+      mask |= uint32_t(tn <= tf) << i;
+    }
+    return mask;
+#endif
+  }
+};
+
+// A leaf's triangles as structures of arrays, 320 bytes: v[k][axis][lane] is vertex k of
+// triangle `lane`. Unused lanes have id -1 and zero vertices.
+struct alignas(64) TriangleBlock8 {
+  float v[3][3][8];
+  int32_t id[8];
+};
+static_assert(sizeof(TriangleBlock8) == 320);
+
+// The watertight test (Woop et al. 2013, as in kernels/ray_triangle.h) of one ray against the
+// `count` triangles of a block. Returns a mask of lanes hit within [tmin, tmax] and their t, u,
+// v. Lanes where an edge function is exactly zero are redone with the scalar test, which
+// re-evaluates them in double precision.
+inline uint32_t intersectBlock(const WatertightRay& r, const TriangleBlock8& b, uint32_t count,
+                               float tmin, float tmax, float* t_out, float* u_out, float* v_out) {
+  const uint32_t valid = (1u << count) - 1u;
+#if defined(__AVX2__)
+  const __m256 ox = _mm256_set1_ps(r.org[r.kx]), oy = _mm256_set1_ps(r.org[r.ky]);
+  const __m256 oz = _mm256_set1_ps(r.org[r.kz]);
+  const __m256 sx = _mm256_set1_ps(r.sx), sy = _mm256_set1_ps(r.sy), sz = _mm256_set1_ps(r.sz);
+  __m256 px[3], py[3], pz[3];
+  for (int k = 0; k < 3; ++k) {
+    // Vertex relative to the origin, sheared into the ray's frame.
+    const __m256 rx = _mm256_sub_ps(_mm256_load_ps(b.v[k][r.kx]), ox);
+    const __m256 ry = _mm256_sub_ps(_mm256_load_ps(b.v[k][r.ky]), oy);
+    const __m256 rz = _mm256_sub_ps(_mm256_load_ps(b.v[k][r.kz]), oz);
+    px[k] = _mm256_sub_ps(rx, _mm256_mul_ps(sx, rz));
+    py[k] = _mm256_sub_ps(ry, _mm256_mul_ps(sy, rz));
+    pz[k] = rz;
+  }
+  // Edge functions u (edge b-c), v (c-a), w (a-b).
+  const __m256 u = _mm256_sub_ps(_mm256_mul_ps(px[2], py[1]), _mm256_mul_ps(py[2], px[1]));
+  const __m256 v = _mm256_sub_ps(_mm256_mul_ps(px[0], py[2]), _mm256_mul_ps(py[0], px[2]));
+  const __m256 w = _mm256_sub_ps(_mm256_mul_ps(px[1], py[0]), _mm256_mul_ps(py[1], px[0]));
+  const __m256 zero = _mm256_setzero_ps();
+  const uint32_t on_edge =
+      uint32_t(_mm256_movemask_ps(_mm256_or_ps(
+          _mm256_or_ps(_mm256_cmp_ps(u, zero, _CMP_EQ_OQ), _mm256_cmp_ps(v, zero, _CMP_EQ_OQ)),
+          _mm256_cmp_ps(w, zero, _CMP_EQ_OQ)))) &
+      valid;
+  const __m256 any_neg = _mm256_or_ps(
+      _mm256_or_ps(_mm256_cmp_ps(u, zero, _CMP_LT_OQ), _mm256_cmp_ps(v, zero, _CMP_LT_OQ)),
+      _mm256_cmp_ps(w, zero, _CMP_LT_OQ));
+  const __m256 any_pos = _mm256_or_ps(
+      _mm256_or_ps(_mm256_cmp_ps(u, zero, _CMP_GT_OQ), _mm256_cmp_ps(v, zero, _CMP_GT_OQ)),
+      _mm256_cmp_ps(w, zero, _CMP_GT_OQ));
+  const __m256 det = _mm256_add_ps(_mm256_add_ps(u, v), w);
+  const __m256 az = _mm256_mul_ps(sz, pz[0]), bz = _mm256_mul_ps(sz, pz[1]);
+  const __m256 cz = _mm256_mul_ps(sz, pz[2]);
+  const __m256 t_scaled = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(u, az), _mm256_mul_ps(v, bz)),
+                                        _mm256_mul_ps(w, cz));
+  const __m256 lo = _mm256_mul_ps(_mm256_set1_ps(tmin), det);
+  const __m256 hi = _mm256_mul_ps(_mm256_set1_ps(tmax), det);
+  const __m256 pos_det = _mm256_cmp_ps(det, zero, _CMP_GT_OQ);
+  // det > 0: lo <= t_scaled <= hi; det < 0: hi <= t_scaled <= lo.
+  const __m256 in_range = _mm256_blendv_ps(
+      _mm256_and_ps(_mm256_cmp_ps(t_scaled, lo, _CMP_LE_OQ), _mm256_cmp_ps(t_scaled, hi, _CMP_GE_OQ)),
+      _mm256_and_ps(_mm256_cmp_ps(t_scaled, lo, _CMP_GE_OQ), _mm256_cmp_ps(t_scaled, hi, _CMP_LE_OQ)),
+      pos_det);
+  const __m256 inv_det = _mm256_div_ps(_mm256_set1_ps(1.0f), det);
+  const __m256 t = _mm256_mul_ps(t_scaled, inv_det);
+  const __m256 t_ok = _mm256_and_ps(_mm256_cmp_ps(t, _mm256_set1_ps(tmin), _CMP_GE_OQ),
+                                    _mm256_cmp_ps(t, _mm256_set1_ps(tmax), _CMP_LE_OQ));
+  const __m256 ok = _mm256_and_ps(
+      _mm256_andnot_ps(_mm256_and_ps(any_neg, any_pos), _mm256_cmp_ps(det, zero, _CMP_NEQ_OQ)),
+      _mm256_and_ps(in_range, t_ok));
+  uint32_t mask = uint32_t(_mm256_movemask_ps(ok)) & valid & ~on_edge;
+  _mm256_storeu_ps(t_out, t);
+  _mm256_storeu_ps(u_out, _mm256_mul_ps(v, inv_det));
+  _mm256_storeu_ps(v_out, _mm256_mul_ps(w, inv_det));
+  uint32_t redo = on_edge;
+#else
+  uint32_t mask = 0;
+  uint32_t redo = valid;
+#endif
+  while (redo) {
+    const int i = __builtin_ctz(redo);
+    redo &= redo - 1;
+    const glm::vec3 p0(b.v[0][0][i], b.v[0][1][i], b.v[0][2][i]);
+    const glm::vec3 p1(b.v[1][0][i], b.v[1][1][i], b.v[1][2][i]);
+    const glm::vec3 p2(b.v[2][0][i], b.v[2][1][i], b.v[2][2][i]);
+    if (intersectTriangle(r, p0, p1, p2, tmin, tmax, t_out[i], u_out[i], v_out[i])) {
+      mask |= 1u << i;
+    }
+  }
+  return mask;
+}
+
+}  // namespace penumbra

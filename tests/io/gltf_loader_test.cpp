@@ -1,0 +1,339 @@
+// glTF loading: a small file written here, as .gltf with a base64 data-URI buffer and as .glb,
+// with a node hierarchy (translation, rotation, scale), an emissive material with
+// KHR_materials_emissive_strength, KHR_lights_punctual point and spot lights and a camera; and
+// malformed files whose errors name the file and the accessor, vertex or extension.
+#include "penumbra/io/scene_io.h"
+#include "support/test_util.h"
+
+#include <gtest/gtest.h>
+#include <glm/geometric.hpp>
+#include <nlohmann/json.hpp>
+
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <limits>
+#include <string>
+#include <vector>
+
+namespace penumbra {
+namespace {
+
+using nlohmann::json;
+using test::TempDir;
+
+std::string base64(const std::string& in) {
+  static const char* const kChars =
+      "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  std::string out;
+  size_t i = 0;
+  for (; i + 2 < in.size(); i += 3) {
+    const uint32_t v = (uint8_t(in[i]) << 16) | (uint8_t(in[i + 1]) << 8) | uint8_t(in[i + 2]);
+    for (int k = 3; k >= 0; --k) out += kChars[(v >> (6 * k)) & 63];
+  }
+  if (i + 1 == in.size()) {
+    const uint32_t v = uint8_t(in[i]) << 16;
+    out += kChars[(v >> 18) & 63];
+    out += kChars[(v >> 12) & 63];
+    out += "==";
+  } else if (i + 2 == in.size()) {
+    const uint32_t v = (uint8_t(in[i]) << 16) | (uint8_t(in[i + 1]) << 8);
+    out += kChars[(v >> 18) & 63];
+    out += kChars[(v >> 12) & 63];
+    out += kChars[(v >> 6) & 63];
+    out += "=";
+  }
+  return out;
+}
+
+template <typename T>
+void append(std::string& buf, std::initializer_list<T> values) {
+  for (T v : values) buf.append(reinterpret_cast<const char*>(&v), sizeof(T));
+}
+
+// A unit quad in the XY plane facing +z: positions (48 bytes), normals (48), ushort indices (12).
+struct TestGltf {
+  json doc;
+  std::string bin;
+};
+
+TestGltf makeTestGltf() {
+  TestGltf g;
+  append<float>(g.bin, {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0});
+  append<float>(g.bin, {0, 0, 1, 0, 0, 1, 0, 0, 1, 0, 0, 1});
+  append<uint16_t>(g.bin, {0, 1, 2, 0, 2, 3});
+  const double s = std::sqrt(0.5);
+  g.doc = json::parse(R"({
+    "asset": {"version": "2.0"},
+    "extensionsUsed": ["KHR_lights_punctual", "KHR_materials_emissive_strength"],
+    "scene": 0,
+    "scenes": [{"nodes": [0]}],
+    "nodes": [
+      {"name": "root", "translation": [1, 2, 3], "children": [1, 2, 3, 4]},
+      {"name": "quad", "mesh": 0, "scale": [2, 2, 2]},
+      {"translation": [0, 5, 0], "extensions": {"KHR_lights_punctual": {"light": 0}}},
+      {"translation": [0, 3, 0], "extensions": {"KHR_lights_punctual": {"light": 1}}},
+      {"translation": [0, 0, 10], "camera": 0}
+    ],
+    "meshes": [{"name": "quadmesh", "primitives": [
+      {"attributes": {"POSITION": 0, "NORMAL": 1}, "indices": 2, "material": 0}]}],
+    "materials": [{"name": "lamp",
+      "pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.25, 0.125, 1]},
+      "emissiveFactor": [1, 0.5, 0.25],
+      "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 4}}}],
+    "extensions": {"KHR_lights_punctual": {"lights": [
+      {"type": "point", "color": [1, 0.5, 0.25], "intensity": 683},
+      {"type": "spot", "intensity": 1366, "spot": {"innerConeAngle": 0.2, "outerConeAngle": 0.5}}
+    ]}},
+    "cameras": [{"type": "perspective", "perspective": {"yfov": 0.8, "znear": 0.01}}],
+    "buffers": [{"byteLength": 108}],
+    "bufferViews": [
+      {"buffer": 0, "byteOffset": 0, "byteLength": 48},
+      {"buffer": 0, "byteOffset": 48, "byteLength": 48},
+      {"buffer": 0, "byteOffset": 96, "byteLength": 12}
+    ],
+    "accessors": [
+      {"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3",
+       "min": [0, 0, 0], "max": [1, 1, 0]},
+      {"bufferView": 1, "componentType": 5126, "count": 4, "type": "VEC3"},
+      {"bufferView": 2, "componentType": 5123, "count": 6, "type": "SCALAR"}
+    ]
+  })");
+  // The quad node turns 90 degrees about +y: local +x goes to world -z, local +z to world +x.
+  g.doc["nodes"][1]["rotation"] = {0.0, s, 0.0, s};
+  // The spot node turns -90 degrees about +x, so its local -z points down (world -y).
+  g.doc["nodes"][3]["rotation"] = {-s, 0.0, 0.0, s};
+  return g;
+}
+
+std::string writeGltf(const TempDir& dir, const std::string& name, TestGltf g) {
+  g.doc["buffers"][0]["uri"] = "data:application/octet-stream;base64," + base64(g.bin);
+  return dir.write(name, g.doc.dump(2));
+}
+
+std::string writeGlb(const TempDir& dir, const std::string& name, const TestGltf& g) {
+  std::string json_chunk = g.doc.dump();
+  while (json_chunk.size() % 4 != 0) json_chunk += ' ';
+  std::string bin_chunk = g.bin;
+  while (bin_chunk.size() % 4 != 0) bin_chunk += '\0';
+  std::string out = "glTF";
+  const uint32_t total = static_cast<uint32_t>(12 + 8 + json_chunk.size() + 8 + bin_chunk.size());
+  append<uint32_t>(out, {2u, total, static_cast<uint32_t>(json_chunk.size()), 0x4E4F534Au});
+  out += json_chunk;
+  append<uint32_t>(out, {static_cast<uint32_t>(bin_chunk.size()), 0x004E4942u});
+  out += bin_chunk;
+  return dir.write(name, out);
+}
+
+void expectNear(const glm::vec3& a, const glm::vec3& b, float tol = 1e-5f) {
+  EXPECT_NEAR(a.x, b.x, tol);
+  EXPECT_NEAR(a.y, b.y, tol);
+  EXPECT_NEAR(a.z, b.z, tol);
+}
+
+void checkTestScene(const Scene& s) {
+  ASSERT_EQ(s.meshes.size(), 1u);
+  const Mesh& m = s.meshes[0];
+  EXPECT_EQ(m.name, "quad");
+  ASSERT_EQ(m.positions.size(), 4u);
+  ASSERT_EQ(m.triangles.size(), 2u);
+  EXPECT_EQ(m.triangles[0], glm::uvec3(0, 1, 2));
+  EXPECT_EQ(m.triangles[1], glm::uvec3(0, 2, 3));
+  // world = T(1,2,3) R_y(90) S(2): (1,0,0) -> (1,2,1); (0,1,0) -> (1,4,3); (1,1,0) -> (1,4,1).
+  expectNear(m.positions[0], {1, 2, 3});
+  expectNear(m.positions[1], {1, 2, 1});
+  expectNear(m.positions[2], {1, 4, 1});
+  expectNear(m.positions[3], {1, 4, 3});
+  ASSERT_EQ(m.normals.size(), 4u);
+  expectNear(m.normals[0], {1, 0, 0});
+  // The geometric normal of the counter-clockwise triangle agrees with the shading normal.
+  const glm::vec3 g =
+      glm::normalize(glm::cross(m.positions[1] - m.positions[0], m.positions[2] - m.positions[0]));
+  expectNear(g, {1, 0, 0});
+
+  ASSERT_EQ(s.materials.size(), 1u);
+  const Material& mat = s.materials[m.material_ids[0]];
+  EXPECT_EQ(mat.name, "lamp");
+  expectNear(mat.reflectance, {0.5f, 0.25f, 0.125f});
+  expectNear(mat.emission, {4.0f, 2.0f, 1.0f});  // emissiveFactor x emissiveStrength 4
+
+  ASSERT_EQ(s.lights.size(), 2u);
+  const PointLight* point = std::get_if<PointLight>(&s.lights[0]);
+  ASSERT_NE(point, nullptr);
+  expectNear(point->position, {1, 7, 3});
+  expectNear(point->intensity, {1.0f, 0.5f, 0.25f});  // 683 cd / 683 lm/W x colour
+  const SpotLight* spot = std::get_if<SpotLight>(&s.lights[1]);
+  ASSERT_NE(spot, nullptr);
+  expectNear(spot->position, {1, 5, 3});
+  expectNear(spot->direction, {0, -1, 0});
+  expectNear(spot->intensity, {2, 2, 2});  // 1366 cd / 683
+  EXPECT_FLOAT_EQ(spot->inner_angle, 0.2f);
+  EXPECT_FLOAT_EQ(spot->outer_angle, 0.5f);
+
+  ASSERT_TRUE(s.camera.has_value());
+  expectNear(s.camera->position, {1, 2, 13});
+  expectNear(s.camera->look_at, {1, 2, 12});
+  expectNear(s.camera->up, {0, 1, 0});
+  EXPECT_FLOAT_EQ(s.camera->vertical_fov, 0.8f);
+}
+
+TEST(GltfLoad, EmbeddedBufferGltf) {
+  TempDir dir;
+  const std::string path = writeGltf(dir, "quad.gltf", makeTestGltf());
+  Expected<Scene> s = loadGltf(path);
+  ASSERT_TRUE(s.ok()) << s.error().describe();
+  checkTestScene(*s);
+  EXPECT_TRUE(s->warnings.empty()) << s->warnings[0];
+}
+
+TEST(GltfLoad, BinaryGlb) {
+  TempDir dir;
+  const std::string path = writeGlb(dir, "quad.glb", makeTestGltf());
+  Expected<Scene> s = loadGltf(path);
+  ASSERT_TRUE(s.ok()) << s.error().describe();
+  checkTestScene(*s);
+  // Through the dispatcher too.
+  Expected<Scene> d = loadSceneFile(path);
+  ASSERT_TRUE(d.ok()) << d.error().describe();
+  EXPECT_EQ(d->triangleCount(), 2u);
+}
+
+TEST(GltfLoad, MirroringNodeKeepsFrontFaces) {
+  TempDir dir;
+  TestGltf g = makeTestGltf();
+  g.doc["nodes"][1].erase("rotation");
+  g.doc["nodes"][1]["scale"] = {-1, 1, 1};
+  Expected<Scene> s = loadGltf(writeGltf(dir, "mirror.gltf", g));
+  ASSERT_TRUE(s.ok()) << s.error().describe();
+  const Mesh& m = s->meshes[0];
+  for (const glm::uvec3& t : m.triangles) {
+    const glm::vec3 n =
+        glm::cross(m.positions[t.y] - m.positions[t.x], m.positions[t.z] - m.positions[t.x]);
+    EXPECT_GT(n.z, 0.0f);  // still facing +z, like the normals
+  }
+  EXPECT_FLOAT_EQ(m.normals[0].z, 1.0f);
+}
+
+TEST(GltfLoad, StripsFansAndNonIndexed) {
+  TempDir dir;
+  TestGltf g = makeTestGltf();
+  json& prim = g.doc["meshes"][0]["primitives"][0];
+  // Strip over the corners 0 1 3 2: triangles (v0 v1 v2) = (0 1 3) and, the second reversed as
+  // the spec orders it, (v1 v3 v2) = (1 2 3); both counter-clockwise.
+  g.bin.resize(96);
+  append<uint16_t>(g.bin, {0, 1, 3, 2});
+  g.doc["bufferViews"][2]["byteLength"] = 8;
+  g.doc["buffers"][0]["byteLength"] = 104;
+  g.doc["accessors"][2]["count"] = 4;
+  prim["mode"] = 5;
+  Expected<Scene> strip = loadGltf(writeGltf(dir, "strip.gltf", g));
+  ASSERT_TRUE(strip.ok()) << strip.error().describe();
+  ASSERT_EQ(strip->triangleCount(), 2u);
+  EXPECT_EQ(strip->meshes[0].triangles[0], glm::uvec3(0, 1, 3));
+  EXPECT_EQ(strip->meshes[0].triangles[1], glm::uvec3(1, 2, 3));
+  // Non-indexed fan over 0 1 2 3: (0 1 2) (0 2 3).
+  prim.erase("indices");
+  prim["mode"] = 6;
+  Expected<Scene> fan = loadGltf(writeGltf(dir, "fan.gltf", g));
+  ASSERT_TRUE(fan.ok()) << fan.error().describe();
+  ASSERT_EQ(fan->triangleCount(), 2u);
+  EXPECT_EQ(fan->meshes[0].triangles[1], glm::uvec3(0, 2, 3));
+}
+
+::testing::AssertionResult errorNames(const Expected<Scene>& s, const std::string& file,
+                                      const std::string& place) {
+  if (s.ok()) return ::testing::AssertionFailure() << "loaded, but an error was expected";
+  const std::string d = s.error().describe();
+  if (d.find(file) == std::string::npos || d.find(place) == std::string::npos) {
+    return ::testing::AssertionFailure()
+           << "'" << d << "' does not name '" << file << "' and '" << place << "'";
+  }
+  return ::testing::AssertionSuccess() << d;
+}
+
+TEST(GltfLoad, ErrorsNameFileAndPlace) {
+  TempDir dir;
+  {
+    TestGltf g = makeTestGltf();
+    const uint16_t nine = 9;
+    std::memcpy(g.bin.data() + 96 + 2 * 5, &nine, 2);  // index element 5 -> 9 (4 vertices)
+    const std::string p = writeGltf(dir, "badindex.gltf", g);
+    EXPECT_TRUE(errorNames(loadGltf(p), p, "accessor 2 (mesh 0 primitive 0 indices), element 5"));
+    const std::string b = writeGlb(dir, "badindex.glb", g);
+    EXPECT_TRUE(errorNames(loadGltf(b), b, "element 5"));
+  }
+  {
+    TestGltf g = makeTestGltf();
+    const float nan = std::numeric_limits<float>::quiet_NaN();
+    std::memcpy(g.bin.data() + 2 * 12 + 4, &nan, 4);  // vertex 2's y
+    const std::string p = writeGltf(dir, "nan.gltf", g);
+    EXPECT_TRUE(errorNames(loadGltf(p), p, "accessor 0 (mesh 0 primitive 0 POSITION), vertex 2"));
+  }
+  {
+    TestGltf g = makeTestGltf();
+    g.doc["accessors"][1]["count"] = 5;  // runs past bufferView 1
+    const std::string p = writeGltf(dir, "bounds.gltf", g);
+    EXPECT_TRUE(errorNames(loadGltf(p), p, "accessor 1"));
+  }
+  {
+    TestGltf g = makeTestGltf();
+    g.doc["bufferViews"][2]["byteOffset"] = 100;  // 100 + 12 > 108
+    const std::string p = writeGltf(dir, "view.gltf", g);
+    EXPECT_TRUE(errorNames(loadGltf(p), p, "accessor 2"));
+  }
+  {
+    TestGltf g = makeTestGltf();
+    g.doc["accessors"][0]["componentType"] = 5123;  // positions as unsigned shorts
+    const std::string p = writeGltf(dir, "type.gltf", g);
+    EXPECT_TRUE(errorNames(loadGltf(p), p, "accessor 0"));
+  }
+  {
+    TestGltf g = makeTestGltf();
+    g.doc["extensionsUsed"].push_back("KHR_draco_mesh_compression");
+    g.doc["extensionsRequired"] = {"KHR_draco_mesh_compression"};
+    const std::string p = writeGltf(dir, "draco.gltf", g);
+    EXPECT_TRUE(errorNames(loadGltf(p), p, "KHR_draco_mesh_compression"));
+  }
+  {
+    TestGltf g = makeTestGltf();
+    g.doc["nodes"][1]["children"] = {0};  // a cycle
+    const std::string p = writeGltf(dir, "cycle.gltf", g);
+    EXPECT_TRUE(errorNames(loadGltf(p), p, "cycle"));
+  }
+  {
+    TestGltf g = makeTestGltf();
+    g.doc["meshes"][0]["primitives"][0]["material"] = 3;
+    const std::string p = writeGltf(dir, "material.gltf", g);
+    EXPECT_TRUE(errorNames(loadGltf(p), p, "material 3"));
+  }
+  const std::string broken = dir.write("broken.gltf", "{\"asset\": {\"version\": \"2.0\"}, ");
+  EXPECT_TRUE(errorNames(loadGltf(broken), broken, "line 1, column 31: not a valid glTF"));
+  {
+    TestGltf g = makeTestGltf();
+    std::string bytes = g.doc.dump();
+    const std::string p = dir.write("truncated.glb", std::string("glTF") + bytes.substr(0, 10));
+    EXPECT_TRUE(errorNames(loadGltf(p), p, "glTF"));
+  }
+  const std::string missing = dir.file("missing.glb");
+  EXPECT_TRUE(errorNames(loadGltf(missing), missing, "no such file"));
+  const std::string empty = dir.write("empty.gltf", "");
+  EXPECT_TRUE(errorNames(loadGltf(empty), empty, "empty"));
+}
+
+TEST(GltfLoad, TexturesAndUnsupportedThingsWarn) {
+  TempDir dir;
+  TestGltf g = makeTestGltf();
+  g.doc["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"] = {{"index", 0}};
+  g.doc["textures"] = json::array({{{"source", 0}}});
+  g.doc["images"] = json::array({{{"uri", "nowhere.png"}}});
+  Expected<Scene> s = loadGltf(writeGltf(dir, "tex.gltf", g));
+  ASSERT_TRUE(s.ok()) << s.error().describe();
+  bool warned = false;
+  for (const std::string& w : s->warnings) {
+    warned = warned || w.find("baseColorTexture") != std::string::npos;
+  }
+  EXPECT_TRUE(warned);
+}
+
+}  // namespace
+}  // namespace penumbra

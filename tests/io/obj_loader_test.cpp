@@ -1,0 +1,189 @@
+// OBJ loading: the Cornell box parts (real data), fan triangulation in file order, MTL
+// materials, per-corner normals, and errors that name the file and the line.
+#include "penumbra/io/scene_io.h"
+#include "support/test_util.h"
+
+#include <gtest/gtest.h>
+
+#include <string>
+
+namespace penumbra {
+namespace {
+
+using test::dataPath;
+using test::TempDir;
+
+::testing::AssertionResult errorNames(const Expected<Scene>& s, const std::string& file,
+                                      const std::string& place) {
+  if (s.ok()) return ::testing::AssertionFailure() << "loaded, but an error was expected";
+  const std::string d = s.error().describe();
+  if (d.find(file) == std::string::npos || d.find(place) == std::string::npos) {
+    return ::testing::AssertionFailure()
+           << "'" << d << "' does not name '" << file << "' and '" << place << "'";
+  }
+  return ::testing::AssertionSuccess() << d;
+}
+
+TEST(ObjLoad, CornellPartsCountsAndValues) {
+  struct Part {
+    const char* name;
+    size_t triangles;
+    size_t vertices;
+  };
+  // Quads become two triangles; the boxes are already triangles, with one normal per side.
+  const Part parts[] = {{"floor", 2, 4},      {"ceiling", 4, 8},  {"back", 2, 4},
+                        {"greenwall", 2, 4},  {"redwall", 2, 4},  {"smallbox", 12, 24},
+                        {"largebox", 12, 24}, {"luminaire", 2, 4}};
+  for (const Part& p : parts) {
+    SCOPED_TRACE(p.name);
+    Expected<Scene> s = loadObj(dataPath(std::string("cornell-box/") + p.name + ".obj"));
+    ASSERT_TRUE(s.ok()) << s.error().describe();
+    EXPECT_EQ(s->triangleCount(), p.triangles);
+    EXPECT_EQ(s->vertexCount(), p.vertices);
+    ASSERT_EQ(s->materials.size(), 1u);  // no MTL: the default material
+    EXPECT_EQ(s->materials[0].name, "default");
+    EXPECT_FLOAT_EQ(s->materials[0].reflectance.y, 0.8f);
+  }
+  Expected<Scene> floor = loadObj(dataPath("cornell-box/floor.obj"));
+  ASSERT_TRUE(floor.ok());
+  const Mesh& m = floor->meshes[0];
+  EXPECT_FLOAT_EQ(m.positions[0].x, 552.79999f);  // "v 552.79999 0 0"
+  EXPECT_FLOAT_EQ(m.positions[0].y, 0.0f);
+  EXPECT_EQ(m.triangles[0], glm::uvec3(0, 1, 2));  // f 1 2 3 4 -> (1 2 3), (1 3 4)
+  EXPECT_EQ(m.triangles[1], glm::uvec3(0, 2, 3));
+  EXPECT_FLOAT_EQ(m.positions[3].z, 559.20001f);
+  EXPECT_TRUE(m.normals.empty());
+}
+
+TEST(ObjLoad, LargeBoxHasNormals) {
+  Expected<Scene> s = loadObj(dataPath("cornell-box/largebox.obj"));
+  ASSERT_TRUE(s.ok()) << s.error().describe();
+  const Mesh& m = s->meshes[0];
+  ASSERT_EQ(m.normals.size(), m.positions.size());
+  EXPECT_EQ(m.positions.size(), 24u);
+  // First face "f 1//1 2//1 3//1": the top, normal +y, at y = 330.
+  EXPECT_FLOAT_EQ(m.normals[0].y, 1.0f);
+  EXPECT_FLOAT_EQ(m.positions[0].y, 330.0f);
+  // Second side's normal (0.955649 0 -0.294508) on its vertices.
+  const glm::uvec3 t = m.triangles[2];
+  EXPECT_NEAR(m.normals[t.x].x, 0.955649f, 1e-5f);
+  EXPECT_NEAR(m.normals[t.x].z, -0.294508f, 1e-5f);
+}
+
+TEST(ObjLoad, FanTriangulationMaterialsAndCorners) {
+  TempDir dir;
+  dir.write("m.mtl",
+            "newmtl red\nKd 0.6 0.1 0.1\n"
+            "newmtl lamp\nKd 0.5 0.5 0.5\nKe 10 8 6\n");
+  const std::string path = dir.write("poly.obj",
+                                     "mtllib m.mtl\n"
+                                     "v 0 0 0\nv 1 0 0\nv 2 1 0\nv 1 2 0\nv 0 1 0\n"
+                                     "vn 0 0 1\nvn 0 0 -1\n"
+                                     "f 1 2 3 4 5   # a pentagon, no material\n"
+                                     "usemtl lamp\n"
+                                     "f -5//1 -4//1 -3//1\n"
+                                     "usemtl red\n"
+                                     "f 1//2 2//2 3//2\n");
+  Expected<Scene> s = loadObj(path);
+  ASSERT_TRUE(s.ok()) << s.error().describe();
+  ASSERT_EQ(s->triangleCount(), 5u);
+  const Mesh& m = s->meshes[0];
+  // The pentagon: (v0 v1 v2) (v0 v2 v3) (v0 v3 v4), in file order.
+  EXPECT_EQ(m.triangles[0], glm::uvec3(0, 1, 2));
+  EXPECT_EQ(m.triangles[1], glm::uvec3(0, 2, 3));
+  EXPECT_EQ(m.triangles[2], glm::uvec3(0, 3, 4));
+  // Some faces lack normals: normals dropped (with a warning), vertices shared by position.
+  EXPECT_TRUE(m.normals.empty());
+  EXPECT_EQ(m.positions.size(), 5u);
+  EXPECT_FALSE(s->warnings.empty());
+  // Materials: red, lamp from the MTL, then the default for the pentagon.
+  ASSERT_EQ(s->materials.size(), 3u);
+  const Material& pent = s->materials[m.material_ids[0]];
+  EXPECT_EQ(pent.name, "default");
+  const Material& lamp = s->materials[m.material_ids[3]];
+  EXPECT_EQ(lamp.name, "lamp");
+  EXPECT_FLOAT_EQ(lamp.emission.x, 10.0f);
+  EXPECT_FLOAT_EQ(lamp.emission.z, 6.0f);
+  EXPECT_FLOAT_EQ(lamp.reflectance.y, 0.5f);
+  const Material& red = s->materials[m.material_ids[4]];
+  EXPECT_FLOAT_EQ(red.reflectance.x, 0.6f);
+  EXPECT_FALSE(red.isEmissive());
+}
+
+TEST(ObjLoad, VerticesAreSplitPerNormal) {
+  TempDir dir;
+  // Two triangles share positions 1 and 3 but not their normals.
+  const std::string path = dir.write("split.obj",
+                                     "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\n"
+                                     "vn 0 0 1\nvn 0 0.6 0.8\nvt 0 0\nvt 1 1\n"
+                                     "f 1/1/1 2/1/1 3/2/1\nf 2/1/2 4/2/2 3/2/2\n");
+  Expected<Scene> s = loadObj(path);
+  ASSERT_TRUE(s.ok()) << s.error().describe();
+  const Mesh& m = s->meshes[0];
+  EXPECT_EQ(m.positions.size(), 6u);
+  ASSERT_EQ(m.normals.size(), 6u);
+  ASSERT_EQ(m.uvs.size(), 6u);
+  EXPECT_FLOAT_EQ(m.normals[m.triangles[1].x].y, 0.6f);
+  EXPECT_FLOAT_EQ(m.uvs[m.triangles[1].y].x, 1.0f);
+  EXPECT_EQ(m.positions[m.triangles[1].x], glm::vec3(1, 0, 0));
+}
+
+TEST(ObjLoad, MissingMaterialLibraryIsAWarning) {
+  TempDir dir;
+  const std::string path =
+      dir.write("nomtl.obj", "mtllib gone.mtl\nusemtl x\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+  Expected<Scene> s = loadObj(path);
+  ASSERT_TRUE(s.ok()) << s.error().describe();
+  ASSERT_EQ(s->warnings.size(), 1u);
+  EXPECT_NE(s->warnings[0].find("gone.mtl"), std::string::npos) << s->warnings[0];
+  EXPECT_EQ(s->materials[s->meshes[0].material_ids[0]].name, "default");
+}
+
+TEST(ObjLoad, ErrorsNameFileAndLine) {
+  TempDir dir;
+  const std::string tri = "v 0 0 0\nv 1 0 0\nv 0 1 0\n";
+  struct Case {
+    const char* name;
+    std::string text;
+    const char* place;
+  };
+  const Case cases[] = {
+      {"garbage.obj", tri + "this is not obj\nf 1 2 3\n", "line 4"},
+      {"badnum.obj", "v 0 0 0\nv 1 zero 0\nv 0 1 0\nf 1 2 3\n", "line 2"},
+      {"nan.obj", "v 0 0 0\nv 1 0 0\nv nan 1 0\nf 1 2 3\n", "line 3, vertex 3"},
+      {"inf.obj", "v 0 0 0\nv 1 0 1e99\nv 0 1 0\nf 1 2 3\n", "line 2, vertex 2"},
+      {"range.obj", tri + "f 1 2 3\nf 1 2 9\n", "line 5"},
+      {"relative.obj", tri + "f -1 -2 -4\n", "line 4"},
+      {"zero.obj", tri + "f 0 1 2\n", "line 4"},
+      {"normal.obj", tri + "vn 0 0 1\nf 1//1 2//2 3//1\n", "line 5"},
+      {"twocorners.obj", tri + "f 1 2\n", "line 4"},
+      {"badcorner.obj", tri + "f 1/2/3/4 2 3\n", "line 4"},
+      {"empty.obj", "", "no faces"},
+      {"nofaces.obj", tri, "no faces"},
+      {"degenerate.obj", "v 0 0 0\nv 0 0 0\nv 0 0 0\nf 1 2 3\n", "degenerate"},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.name);
+    const std::string path = dir.write(c.name, c.text);
+    EXPECT_TRUE(errorNames(loadObj(path), path, c.place));
+  }
+  // A missing file, and a binary PLY given as OBJ.
+  const std::string missing = dir.file("missing.obj");
+  EXPECT_TRUE(errorNames(loadObj(missing), missing, "no such file"));
+  EXPECT_TRUE(errorNames(loadObj(dataPath("bunny.ply")), dataPath("bunny.ply"), "line 1"));
+}
+
+TEST(ObjLoad, IgnoredStatementsWarn) {
+  TempDir dir;
+  const std::string path =
+      dir.write("lines.obj", "o thing\nv 0 0 0\nv 1 0 0\nv 0 1 0\ns off\nl 1 2\nf 1 2 3\n");
+  Expected<Scene> s = loadObj(path);
+  ASSERT_TRUE(s.ok()) << s.error().describe();
+  EXPECT_EQ(s->triangleCount(), 1u);
+  EXPECT_EQ(s->meshes[0].name, "thing");
+  ASSERT_EQ(s->warnings.size(), 1u);
+  EXPECT_NE(s->warnings[0].find("line 6"), std::string::npos) << s->warnings[0];
+}
+
+}  // namespace
+}  // namespace penumbra

@@ -1,0 +1,306 @@
+// The JSON scene format: the repository's scenes/cornell.json against the built-in Cornell box,
+// transforms (order, normals, mirroring), materials, lights, camera, settings, the example in
+// docs/scene-format.md, strictness (unknown keys, types, lengths) and parse errors with line and
+// column; and the loadScene / loadSceneFile dispatchers.
+#include "penumbra/io/scene_io.h"
+#include "penumbra/scene/builtin.h"
+#include "support/test_util.h"
+
+#include <gtest/gtest.h>
+#include <glm/geometric.hpp>
+#include <nlohmann/json.hpp>
+
+#include <cmath>
+#include <fstream>
+#include <numbers>
+#include <sstream>
+#include <string>
+
+namespace penumbra {
+namespace {
+
+using test::dataPath;
+using test::TempDir;
+
+const std::string kRepo = std::string(PENUMBRA_TEST_DATA) + "/../..";
+
+std::string readAll(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+void bounds(const Scene& s, glm::vec3* lo, glm::vec3* hi) {
+  *lo = glm::vec3(INFINITY);
+  *hi = glm::vec3(-INFINITY);
+  for (const Mesh& m : s.meshes) {
+    for (const glm::vec3& p : m.positions) {
+      *lo = glm::min(*lo, p);
+      *hi = glm::max(*hi, p);
+    }
+  }
+}
+
+void expectNear(const glm::vec3& a, const glm::vec3& b, float tol = 1e-5f) {
+  EXPECT_NEAR(a.x, b.x, tol);
+  EXPECT_NEAR(a.y, b.y, tol);
+  EXPECT_NEAR(a.z, b.z, tol);
+}
+
+// Emitted power per material, sum of area x radiance: compares emitters independently of how
+// each scene splits its meshes.
+glm::vec3 emittedRadianceArea(const Scene& s) {
+  glm::vec3 sum(0.0f);
+  for (const Mesh& m : s.meshes) {
+    for (size_t t = 0; t < m.triangles.size(); ++t) {
+      const glm::uvec3 tri = m.triangles[t];
+      const glm::vec3 c = glm::cross(m.positions[tri.y] - m.positions[tri.x],
+                                     m.positions[tri.z] - m.positions[tri.x]);
+      sum += 0.5f * glm::length(c) * s.materials[m.material_ids[t]].emission;
+    }
+  }
+  return sum;
+}
+
+TEST(SceneJsonLoad, CornellMatchesBuiltin) {
+  Expected<Scene> json_scene = loadSceneJson(kRepo + "/scenes/cornell.json");
+  ASSERT_TRUE(json_scene.ok()) << json_scene.error().describe();
+  Expected<Scene> builtin = builtinScene("cornell");
+  ASSERT_TRUE(builtin.ok()) << builtin.error().describe();
+  EXPECT_EQ(json_scene->triangleCount(), builtin->triangleCount());
+  EXPECT_TRUE(json_scene->warnings.empty()) << json_scene->warnings[0];
+  glm::vec3 lo_j, hi_j, lo_b, hi_b;
+  bounds(*json_scene, &lo_j, &hi_j);
+  bounds(*builtin, &lo_b, &hi_b);
+  expectNear(lo_j, lo_b, 1e-6f);
+  expectNear(hi_j, hi_b, 1e-6f);
+  expectNear(hi_j, {0.556f, 0.5488f, 0.5592f}, 1e-6f);
+  // The same light: 0.130 m x 0.105 m emitting (17, 12, 4), facing down.
+  expectNear(emittedRadianceArea(*json_scene), emittedRadianceArea(*builtin), 1e-4f);
+  expectNear(emittedRadianceArea(*json_scene), 0.130f * 0.105f * glm::vec3(17, 12, 4), 1e-4f);
+  for (const Mesh& m : json_scene->meshes) {
+    if (m.name != "luminaire") continue;
+    const glm::uvec3 t = m.triangles[0];
+    const glm::vec3 n =
+        glm::cross(m.positions[t.y] - m.positions[t.x], m.positions[t.z] - m.positions[t.x]);
+    EXPECT_LT(n.y, 0.0f);
+    EXPECT_FLOAT_EQ(m.positions[0].y, 0.548f);
+  }
+  ASSERT_TRUE(json_scene->camera.has_value());
+  expectNear(json_scene->camera->position, builtin->camera->position);
+  expectNear(json_scene->camera->look_at, builtin->camera->look_at);
+  EXPECT_NEAR(json_scene->camera->vertical_fov, builtin->camera->vertical_fov, 1e-5f);
+  // Through the dispatchers.
+  Expected<Scene> via = loadScene(kRepo + "/scenes/cornell.json");
+  ASSERT_TRUE(via.ok()) << via.error().describe();
+  EXPECT_EQ(via->triangleCount(), builtin->triangleCount());
+}
+
+TEST(SceneJsonLoad, DocumentedExampleIsTheRepositoryScene) {
+  // docs/scene-format.md shows scenes/cornell.json in its first json block.
+  const std::string doc = readAll(kRepo + "/docs/scene-format.md");
+  const size_t start = doc.find("```json\n");
+  ASSERT_NE(start, std::string::npos);
+  const size_t end = doc.find("```", start + 8);
+  const nlohmann::json shown =
+      nlohmann::json::parse(doc.substr(start + 8, end - start - 8), nullptr, true, true);
+  const nlohmann::json file =
+      nlohmann::json::parse(readAll(kRepo + "/scenes/cornell.json"), nullptr, true, true);
+  EXPECT_EQ(shown, file);
+}
+
+const char* const kTriangleObj =
+    "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0.70710678 0.70710678 0\nf 1//1 2//1 3//1\n";
+
+TEST(SceneJsonLoad, TransformsLightsCameraSettings) {
+  TempDir dir;
+  dir.write("tri.obj", kTriangleObj);
+  dir.write("m.mtl", "newmtl glow\nKd 0.2 0.2 0.2\nKe 1 2 3\n");
+  dir.write("lit.obj", "mtllib m.mtl\nusemtl glow\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+  const std::string path = dir.write("scene.json", R"({
+    // comments are allowed
+    "materials": {"grey": {"reflectance": [0.5, 0.5, 0.5]}},
+    "meshes": [
+      {"file": "tri.obj", "material": "grey",
+       "transform": {"scale": [2, 1, 1], "rotate_deg": [0, 0, 90], "translate": [10, 0, 0]}},
+      {"file": "tri.obj", "transform": {"rotate_deg": [90, 90, 0]}},
+      {"file": "tri.obj", "transform": {"scale": [-1, 1, 1]}, "name": "mirror"},
+      {"file": "tri.obj", "transform": {"matrix": [1,0,0,5, 0,1,0,0, 0,0,1,0, 0,0,0,1]}},
+      {"file": "tri.obj", "transform": {"scale": [2, 1, 1]}},
+      {"file": "lit.obj"},
+      {"file": "lit.obj", "material": "grey"}
+    ],
+    "lights": [
+      {"type": "point", "position": [0, 1, 0], "intensity": [1, 2, 3]},
+      {"type": "spot", "position": [0, 2, 0], "direction": [0, -2, 0], "intensity": [4, 4, 4],
+       "inner_angle_deg": 10, "outer_angle_deg": 30},
+      {"type": "directional", "direction": [0, 0, -1], "irradiance": [5, 6, 7]}
+    ],
+    "camera": {"position": [0, 0, 5], "look_at": [0, 0, 0], "fov_deg": 45},
+    "settings": {"pathtrace": {"spp": 64}, "matrix": {"solver": "gauss-seidel"}}
+  })");
+  Expected<Scene> s = loadSceneJson(path);
+  ASSERT_TRUE(s.ok()) << s.error().describe();
+  ASSERT_EQ(s->meshes.size(), 7u);
+  // Scale, then rotate, then translate: (1,0,0) -> (2,0,0) -> (0,2,0) -> (10,2,0).
+  const Mesh& a = s->meshes[0];
+  expectNear(a.positions[1], {10, 2, 0});
+  expectNear(a.positions[2], {9, 0, 0});
+  EXPECT_EQ(s->materials[a.material_ids[0]].name, "grey");
+  // Rotations apply X, then Y: (0,1,0) -> (0,0,1) -> (1,0,0).
+  expectNear(s->meshes[1].positions[2], {1, 0, 0});
+  // Mirroring flips the winding: the triangle still faces +z.
+  const Mesh& m = s->meshes[2];
+  EXPECT_EQ(m.name, "mirror");
+  const glm::uvec3 t = m.triangles[0];
+  EXPECT_GT(glm::cross(m.positions[t.y] - m.positions[t.x], m.positions[t.z] - m.positions[t.x]).z,
+            0.0f);
+  expectNear(m.normals[0], {-0.70710678f, 0.70710678f, 0});
+  // Row-major matrix with the translation in the last column.
+  expectNear(s->meshes[3].positions[1], {6, 0, 0});
+  // Normals by the inverse transpose: scale x by 2 turns (1,1,0) into (1,2,0) / sqrt(5).
+  expectNear(s->meshes[4].normals[0], glm::vec3(1, 2, 0) / std::sqrt(5.0f));
+  // Without "material" the file's own materials are used; with it they are replaced.
+  const Material& glow = s->materials[s->meshes[5].material_ids[0]];
+  EXPECT_EQ(glow.name, "glow");
+  expectNear(glow.emission, {1, 2, 3});
+  EXPECT_EQ(s->materials[s->meshes[6].material_ids[0]].name, "grey");
+
+  ASSERT_EQ(s->lights.size(), 3u);
+  const PointLight& p = std::get<PointLight>(s->lights[0]);
+  expectNear(p.intensity, {1, 2, 3});
+  const SpotLight& spot = std::get<SpotLight>(s->lights[1]);
+  expectNear(spot.direction, {0, -1, 0});
+  EXPECT_NEAR(spot.inner_angle, 10.0 * std::numbers::pi / 180.0, 1e-6);
+  EXPECT_NEAR(spot.outer_angle, 30.0 * std::numbers::pi / 180.0, 1e-6);
+  const DirectionalLight& d = std::get<DirectionalLight>(s->lights[2]);
+  expectNear(d.irradiance, {5, 6, 7});
+  ASSERT_TRUE(s->camera.has_value());
+  EXPECT_NEAR(s->camera->vertical_fov, std::numbers::pi / 4.0, 1e-6);
+  expectNear(s->camera->up, {0, 1, 0});
+  EXPECT_EQ(s->settings["pathtrace"]["spp"], 64);
+  EXPECT_EQ(s->settings["matrix"]["solver"], "gauss-seidel");
+}
+
+::testing::AssertionResult errorNames(const Expected<Scene>& s, const std::string& file,
+                                      const std::string& place) {
+  if (s.ok()) return ::testing::AssertionFailure() << "loaded, but an error was expected";
+  const std::string d = s.error().describe();
+  if (d.find(file) == std::string::npos || d.find(place) == std::string::npos) {
+    return ::testing::AssertionFailure()
+           << "'" << d << "' does not name '" << file << "' and '" << place << "'";
+  }
+  return ::testing::AssertionSuccess() << d;
+}
+
+TEST(SceneJsonLoad, StrictErrorsNameTheKeyPath) {
+  TempDir dir;
+  dir.write("tri.obj", kTriangleObj);
+  const std::string mesh = R"({"file": "tri.obj"})";
+  struct Case {
+    const char* name;
+    std::string text;
+    const char* place;
+  };
+  const Case cases[] = {
+      {"typo.json",
+       R"({"meshes": [)" + mesh + "," + mesh + R"(, {"file": "tri.obj", "transfrom": {}}]})",
+       "meshes[2].transfrom: unknown key"},
+      {"top.json", R"({"mesh": []})", "mesh: unknown key"},
+      {"type.json", R"({"meshes": [{"file": 3}]})", "meshes[0].file: must be a string"},
+      {"length.json",
+       R"({"meshes": [)" + mesh + R"(], "camera": {"position": [0, 1], "look_at": [0, 0, 0]}})",
+       "camera.position: must be an array of 3 numbers"},
+      {"scale.json", R"({"meshes": [{"file": "tri.obj", "transform": {"scale": [1, 2]}}]})",
+       "meshes[0].transform.scale"},
+      {"matrix.json", R"({"meshes": [{"file": "tri.obj", "transform": {"matrix": [1, 0, 0]}}]})",
+       "meshes[0].transform.matrix"},
+      {"singular.json", R"({"meshes": [{"file": "tri.obj", "transform": {"scale": 0}}]})",
+       "meshes[0].transform: the transform is singular"},
+      {"undefined.json", R"({"meshes": [{"file": "tri.obj", "material": "gold"}]})",
+       "meshes[0].material: material 'gold' is not defined"},
+      {"refl.json",
+       R"({"materials": {"w": {"reflectance": [0.5, 1.5, 0.5]}}, "meshes": [)" + mesh + "]}",
+       "materials.w.reflectance[1]"},
+      {"subsurface.json", R"({"materials": {"skin": {"subsurface": {"preset": "Skin1"}}}})",
+       "materials.skin.subsurface: subsurface scattering is not supported yet"},
+      {"normalmap.json", R"({"materials": {"w": {"normal_map": "n.png"}}})",
+       "materials.w.normal_map: normal mapping is not supported yet"},
+      {"luminaire.json", R"({"lights": [{"type": "luminaire", "file": "a.ldt"}]})",
+       "lights[0].type: luminaire lights (LDT, IES files) are not supported yet"},
+      {"lightkey.json",
+       R"({"lights": [{"type": "point", "position": [0, 0, 0], "intensity": [1, 1, 1], "power": 3}]})",
+       "lights[0].power: unknown key"},
+      {"spot.json",
+       R"({"lights": [{"type": "spot", "position": [0, 0, 0], "direction": [0, 0, 0],
+           "intensity": [1, 1, 1]}]})",
+       "lights[0].direction"},
+      {"settings.json", R"({"settings": [1, 2]})", "settings: must be an object"},
+      {"nomesh.json", R"({"meshes": [{"file": "gone.obj"}]})", "meshes[0].file: 'gone.obj'"},
+      {"ext.json", R"({"meshes": [{"file": "x.stl"}]})", "meshes[0].file"},
+      {"empty-scene.json", R"({})", "no triangles"},
+      {"array.json", R"([1, 2])", "top level must be an object"},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.name);
+    const std::string path = dir.write(c.name, c.text);
+    EXPECT_TRUE(errorNames(loadSceneJson(path), path, c.place));
+  }
+}
+
+TEST(SceneJsonLoad, ParseErrorsGiveLineAndColumn) {
+  TempDir dir;
+  // Line 3 lacks the comma after its value; the parser stops at the end of the next key, the
+  // unexpected token: line 4, column 10.
+  const std::string path =
+      dir.write("broken.json", "{\n  \"materials\": {},\n  \"meshes\": []\n  \"lights\": []\n}\n");
+  Expected<Scene> s = loadSceneJson(path);
+  ASSERT_FALSE(s.ok());
+  EXPECT_EQ(s.error().file, path);
+  EXPECT_EQ(s.error().place, "line 4, column 10") << s.error().describe();
+  EXPECT_EQ(s.error().message.find("[json.exception"), std::string::npos);
+  // Truncated: the end of the input.
+  const std::string cut = dir.write("cut.json", "{\n  \"meshes\": [\n");
+  Expected<Scene> c = loadSceneJson(cut);
+  ASSERT_FALSE(c.ok());
+  EXPECT_TRUE(errorNames(c, cut, "line 3, column 1"));
+  const std::string empty = dir.write("empty.json", "");
+  EXPECT_TRUE(errorNames(loadSceneJson(empty), empty, "line 1, column 1"));
+}
+
+TEST(SceneJsonLoad, MeshFileErrorsNameTheMeshFile) {
+  TempDir dir;
+  const std::string obj = dir.write("bad.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 7\n");
+  const std::string path = dir.write("scene.json", R"({"meshes": [{"file": "bad.obj"}]})");
+  Expected<Scene> s = loadSceneJson(path);
+  EXPECT_TRUE(errorNames(s, obj, "line 4"));
+}
+
+TEST(SceneJsonLoad, DispatchersChooseBuiltinOrFile) {
+  Expected<Scene> cornell = loadScene("cornell");
+  ASSERT_TRUE(cornell.ok()) << cornell.error().describe();
+  EXPECT_EQ(cornell->source, "builtin:cornell");
+  Expected<Scene> furnace = loadScene("furnace");
+  ASSERT_TRUE(furnace.ok()) << furnace.error().describe();
+  Expected<Scene> unknown = loadScene("no-such-scene");
+  ASSERT_FALSE(unknown.ok());
+  EXPECT_NE(unknown.error().describe().find("no-such-scene"), std::string::npos);
+  EXPECT_EQ(unknown.error().describe(), builtinScene("no-such-scene").error().describe());
+  Expected<Scene> missing = loadScene("missing.obj");
+  ASSERT_FALSE(missing.ok());
+  EXPECT_NE(missing.error().describe().find("missing.obj"), std::string::npos);
+  TempDir dir;
+  const std::string stl = dir.write("a.stl", "solid a\n");
+  Expected<Scene> other = loadSceneFile(stl);
+  ASSERT_FALSE(other.ok());
+  EXPECT_NE(other.error().describe().find(".stl"), std::string::npos);
+  Expected<Scene> ply = loadScene(dataPath("teapot.ply"));
+  ASSERT_TRUE(ply.ok()) << ply.error().describe();
+  EXPECT_EQ(ply->triangleCount(), 2256u);
+  Expected<Scene> obj = loadSceneFile(dataPath("cornell-box/floor.obj"));
+  ASSERT_TRUE(obj.ok()) << obj.error().describe();
+}
+
+}  // namespace
+}  // namespace penumbra
