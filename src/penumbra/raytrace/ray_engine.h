@@ -26,7 +26,18 @@ class RayEngine {
   // triangle index reported in hits is the position in `triangles`.
   static RayEngine build(std::span<const glm::vec3> positions,
                          std::span<const glm::uvec3> triangles,
-                         const BvhBuildOptions& options = {});
+                         const BvhBuildOptions& options = cpuBuildOptions());
+
+  // The build settings tuned for this back end (docs/performance.md): leaves of up to eight
+  // triangles, priced by the SAH as one 8-wide block test, twice a node visit.
+  static BvhBuildOptions cpuBuildOptions() {
+    BvhBuildOptions o;
+    o.max_leaf_size = 8;
+    o.leaf_block = 8;
+    o.traversal_cost = 1.0f;
+    o.intersection_cost = 2.0f;
+    return o;
+  }
 
   // Single-ray conveniences.
   Hit intersect(const Ray& ray) const;
