@@ -45,13 +45,11 @@ Workload& workload() {
     wl.scene = rtcNewScene(wl.device);
     rtcSetSceneBuildQuality(wl.scene, RTC_BUILD_QUALITY_HIGH);
     RTCGeometry g = rtcNewGeometry(wl.device, RTC_GEOMETRY_TYPE_TRIANGLE);
-    auto* v = static_cast<float*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0,
-                                                          RTC_FORMAT_FLOAT3, 12,
-                                                          wl.mesh.positions.size()));
+    auto* v = static_cast<float*>(rtcSetNewGeometryBuffer(
+        g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 12, wl.mesh.positions.size()));
     std::memcpy(v, wl.mesh.positions.data(), wl.mesh.positions.size() * 12);
-    auto* idx = static_cast<unsigned*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0,
-                                                               RTC_FORMAT_UINT3, 12,
-                                                               wl.mesh.triangles.size()));
+    auto* idx = static_cast<unsigned*>(rtcSetNewGeometryBuffer(
+        g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 12, wl.mesh.triangles.size()));
     std::memcpy(idx, wl.mesh.triangles.data(), wl.mesh.triangles.size() * 12);
     rtcCommitGeometry(g);
     rtcAttachGeometry(wl.scene, g);
@@ -110,23 +108,22 @@ void embreeTrace1(benchmark::State& state) {
   RTCScene scene = workload().scene;
   std::vector<int32_t> prim(rays.size());
   for (auto _ : state) {
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, rays.size(), 256),
-                      [&](const tbb::blocked_range<size_t>& r) {
-                        RTCIntersectContext ctx;
-                        rtcInitIntersectContext(&ctx);
-                        for (size_t i = r.begin(); i < r.end(); ++i) {
-                          RTCRayHit rh;
-                          rh.ray.org_x = rays.ox[i], rh.ray.org_y = rays.oy[i];
-                          rh.ray.org_z = rays.oz[i], rh.ray.tnear = rays.tmin[i];
-                          rh.ray.dir_x = rays.dx[i], rh.ray.dir_y = rays.dy[i];
-                          rh.ray.dir_z = rays.dz[i], rh.ray.tfar = rays.tmax[i];
-                          rh.ray.mask = ~0u, rh.ray.flags = 0, rh.ray.time = 0.0f;
-                          rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
-                          rtcIntersect1(scene, &ctx, &rh);
-                          prim[i] = rh.hit.geomID == RTC_INVALID_GEOMETRY_ID ? -1
-                                                                             : int32_t(rh.hit.primID);
-                        }
-                      });
+    tbb::parallel_for(
+        tbb::blocked_range<size_t>(0, rays.size(), 256), [&](const tbb::blocked_range<size_t>& r) {
+          RTCIntersectContext ctx;
+          rtcInitIntersectContext(&ctx);
+          for (size_t i = r.begin(); i < r.end(); ++i) {
+            RTCRayHit rh;
+            rh.ray.org_x = rays.ox[i], rh.ray.org_y = rays.oy[i];
+            rh.ray.org_z = rays.oz[i], rh.ray.tnear = rays.tmin[i];
+            rh.ray.dir_x = rays.dx[i], rh.ray.dir_y = rays.dy[i];
+            rh.ray.dir_z = rays.dz[i], rh.ray.tfar = rays.tmax[i];
+            rh.ray.mask = ~0u, rh.ray.flags = 0, rh.ray.time = 0.0f;
+            rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+            rtcIntersect1(scene, &ctx, &rh);
+            prim[i] = rh.hit.geomID == RTC_INVALID_GEOMETRY_ID ? -1 : int32_t(rh.hit.primID);
+          }
+        });
     benchmark::DoNotOptimize(prim.data());
   }
   state.SetItemsProcessed(int64_t(state.iterations()) * int64_t(rays.size()));
@@ -166,9 +163,27 @@ void embreeTrace8(benchmark::State& state) {
   state.SetItemsProcessed(int64_t(state.iterations()) * int64_t(rays.size()));
 }
 
-BENCHMARK(penumbraTrace)->Arg(0)->Arg(1)->ArgName("diffuse")->UseRealTime()->Unit(benchmark::kMillisecond)->MinTime(2.0);
-BENCHMARK(embreeTrace1)->Arg(0)->Arg(1)->ArgName("diffuse")->UseRealTime()->Unit(benchmark::kMillisecond)->MinTime(2.0);
-BENCHMARK(embreeTrace8)->Arg(0)->Arg(1)->ArgName("diffuse")->UseRealTime()->Unit(benchmark::kMillisecond)->MinTime(2.0);
+BENCHMARK(penumbraTrace)
+    ->Arg(0)
+    ->Arg(1)
+    ->ArgName("diffuse")
+    ->UseRealTime()
+    ->Unit(benchmark::kMillisecond)
+    ->MinTime(2.0);
+BENCHMARK(embreeTrace1)
+    ->Arg(0)
+    ->Arg(1)
+    ->ArgName("diffuse")
+    ->UseRealTime()
+    ->Unit(benchmark::kMillisecond)
+    ->MinTime(2.0);
+BENCHMARK(embreeTrace8)
+    ->Arg(0)
+    ->Arg(1)
+    ->ArgName("diffuse")
+    ->UseRealTime()
+    ->Unit(benchmark::kMillisecond)
+    ->MinTime(2.0);
 
 // Collects rays/s per benchmark so the ratios can be printed after the run.
 class RatioReporter : public benchmark::ConsoleReporter {
@@ -204,10 +219,11 @@ int main(int argc, char** argv) {
     const double e8 = rate("embreeTrace8" + suffix);
     const double best = std::max(e1, e8);
     if (ours > 0 && best > 0) {
-      std::printf("%s rays: penumbra %.2f Mrays/s, embree rtcIntersect1 %.2f, rtcIntersect8 %.2f; "
-                  "ratio to Embree's best %.2fx\n",
-                  std::string(name) == "diffuse:0" ? "coherent primary" : "incoherent diffuse",
-                  ours * 1e-6, e1 * 1e-6, e8 * 1e-6, ours / best);
+      std::printf(
+          "%s rays: penumbra %.2f Mrays/s, embree rtcIntersect1 %.2f, rtcIntersect8 %.2f; "
+          "ratio to Embree's best %.2fx\n",
+          std::string(name) == "diffuse:0" ? "coherent primary" : "incoherent diffuse", ours * 1e-6,
+          e1 * 1e-6, e8 * 1e-6, ours / best);
     }
   }
   benchmark::Shutdown();

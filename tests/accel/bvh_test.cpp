@@ -7,8 +7,8 @@
 #include "support/embree_oracle.h"
 #include "support/test_util.h"
 
-#include <glm/geometric.hpp>
 #include <gtest/gtest.h>
+#include <glm/geometric.hpp>
 
 #include <cmath>
 #include <functional>
@@ -165,7 +165,8 @@ TEST(RayEngine, NoRayEscapesAClosedMesh) {
     for (int j = 0; j < n_phi; ++j) {
       const float th = 3.14159265f * float(i) / float(n_theta);
       const float ph = 6.2831853f * float(j) / float(n_phi);
-      s.positions.emplace_back(std::sin(th) * std::cos(ph), std::cos(th), std::sin(th) * std::sin(ph));
+      s.positions.emplace_back(std::sin(th) * std::cos(ph), std::cos(th),
+                               std::sin(th) * std::sin(ph));
     }
   }
   for (int i = 0; i < n_theta; ++i) {
@@ -202,8 +203,8 @@ TEST(RayEngine, AgreesWithEmbreeOnTheBunny) {
   for (int i = 0; i < 100000; ++i) {
     // Origins around the bunny, aimed at random points inside its box, plus fully random rays.
     Ray ray;
-    const glm::vec3 target = box.lo + box.extent() * glm::vec3(rng.uniform(), rng.uniform(),
-                                                               rng.uniform());
+    const glm::vec3 target =
+        box.lo + box.extent() * glm::vec3(rng.uniform(), rng.uniform(), rng.uniform());
     ray.origin = box.center() + 1.5f * glm::length(box.extent()) * randomDirection(rng);
     ray.dir = i % 4 == 0 ? randomDirection(rng) : glm::normalize(target - ray.origin);
     const Hit a = engine.intersect(ray);
@@ -216,10 +217,10 @@ TEST(RayEngine, AgreesWithEmbreeOnTheBunny) {
       // A true tie: Embree's triangle is hit at the same distance by our test too.
       const glm::uvec3 t = mesh.triangles[size_t(b.triangle)];
       float tt, u, v;
-      const bool tie = intersectTriangle(makeWatertightRay(ray.origin, ray.dir),
-                                         mesh.positions[t.x], mesh.positions[t.y],
-                                         mesh.positions[t.z], 0.0f, kInf, tt, u, v) &&
-                       std::fabs(tt - a.t) <= 1e-5f * a.t;
+      const bool tie =
+          intersectTriangle(makeWatertightRay(ray.origin, ray.dir), mesh.positions[t.x],
+                            mesh.positions[t.y], mesh.positions[t.z], 0.0f, kInf, tt, u, v) &&
+          std::fabs(tt - a.t) <= 1e-5f * a.t;
       ASSERT_TRUE(tie) << "ray " << i << ": " << a.triangle << " vs Embree " << b.triangle;
       ++ties;
     }

@@ -1,8 +1,8 @@
 // The watertight ray-triangle test (Woop et al. 2013) on its edge cases.
 #include "penumbra/kernels/ray_triangle.h"
 
-#include <glm/geometric.hpp>
 #include <gtest/gtest.h>
+#include <glm/geometric.hpp>
 
 #include <cmath>
 #include <limits>
@@ -48,8 +48,8 @@ TEST(RayTriangle, DistanceScalesWithDirectionLength) {
 TEST(RayTriangle, EdgesAndVerticesAreHit) {
   // Exactly through the middle of each edge and through each vertex.
   const glm::vec3 d(0.0f, 0.0f, -1.0f);
-  for (const glm::vec3 target : {glm::vec3(0.5f, 0, 0), glm::vec3(0, 0.5f, 0),
-                                 glm::vec3(0.5f, 0.5f, 0), kP0, kP1, kP2}) {
+  for (const glm::vec3 target :
+       {glm::vec3(0.5f, 0, 0), glm::vec3(0, 0.5f, 0), glm::vec3(0.5f, 0.5f, 0), kP0, kP1, kP2}) {
     const glm::vec3 o = target - 3.0f * d;
     const Result r = hitTriangle(o, d, kP0, kP1, kP2);
     EXPECT_TRUE(r.hit) << "target " << target.x << " " << target.y;

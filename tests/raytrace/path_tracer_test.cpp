@@ -5,9 +5,9 @@
 #include "penumbra/kernels/sampling.h"
 #include "penumbra/scene/builtin.h"
 
+#include <gtest/gtest.h>
 #include <glm/geometric.hpp>
 #include <glm/trigonometric.hpp>
-#include <gtest/gtest.h>
 
 #include <cmath>
 
@@ -48,8 +48,8 @@ TEST(PathTracer, PointLightFollowsTheInverseSquareCosineLaw) {
   s.lights.push_back(PointLight{light_pos, glm::vec3(10.0f, 5.0f, 1.0f)});
   ASSERT_TRUE(validateScene(s).ok());
   const PathTracer pt(s);
-  for (const glm::vec3 x : {glm::vec3(0, 0, 0), glm::vec3(1, 0, 0.5f), glm::vec3(3, 0, 0),
-                            glm::vec3(-6, 0, 2)}) {
+  for (const glm::vec3 x :
+       {glm::vec3(0, 0, 0), glm::vec3(1, 0, 0.5f), glm::vec3(3, 0, 0), glm::vec3(-6, 0, 2)}) {
     const glm::vec3 d = light_pos - x;
     const float r2 = glm::dot(d, d);
     const float cos_theta = d.y / std::sqrt(r2);
@@ -75,9 +75,10 @@ TEST(PathTracer, SpotLightFallsOffBetweenItsCones) {
     const glm::vec3 x(std::tan(a), 0.0f, 0.0f);
     float falloff = 1.0f;
     if (angle_deg > 20.0f) {
-      const float f = std::clamp((std::cos(a) - std::cos(glm::radians(40.0f))) /
-                                     (std::cos(glm::radians(20.0f)) - std::cos(glm::radians(40.0f))),
-                                 0.0f, 1.0f);
+      const float f =
+          std::clamp((std::cos(a) - std::cos(glm::radians(40.0f))) /
+                         (std::cos(glm::radians(20.0f)) - std::cos(glm::radians(40.0f))),
+                     0.0f, 1.0f);
       falloff = f * f;
     }
     const float r2 = 1.0f + x.x * x.x;
@@ -89,7 +90,8 @@ TEST(PathTracer, SpotLightFallsOffBetweenItsCones) {
 
 TEST(PathTracer, DirectionalLightGivesRhoOverPiTimesIrradianceCosine) {
   Scene s = floorScene(0.6f);
-  s.lights.push_back(DirectionalLight{glm::normalize(glm::vec3(1.0f, -1.0f, 0.0f)), glm::vec3(3.0f)});
+  s.lights.push_back(
+      DirectionalLight{glm::normalize(glm::vec3(1.0f, -1.0f, 0.0f)), glm::vec3(3.0f)});
   ASSERT_TRUE(validateScene(s).ok());
   const PathTracer pt(s);
   const glm::vec3 got = meanRadiance(pt, glm::vec3(0.0f, 1.0f, 1.0f), glm::vec3(0.0f), 4);
@@ -115,7 +117,8 @@ TEST(PathTracer, AreaLightMatchesThePointToPolygonFormFactor) {
   s.materials.push_back({"emitter", glm::vec3(0.0f), glm::vec3(2.0f)});
   Mesh e;
   e.name = "emitter";
-  const std::vector<glm::dvec3> quad = {{-0.5, 1, -0.5}, {0.5, 1, -0.5}, {0.5, 1, 0.5}, {-0.5, 1, 0.5}};
+  const std::vector<glm::dvec3> quad = {
+      {-0.5, 1, -0.5}, {0.5, 1, -0.5}, {0.5, 1, 0.5}, {-0.5, 1, 0.5}};
   for (const auto& q : quad) e.positions.emplace_back(q);
   e.triangles = {{0, 1, 2}, {0, 2, 3}};  // counter-clockwise from below: faces down
   e.material_ids = {1, 1};
@@ -145,8 +148,8 @@ TEST(PathTracer, FurnaceGivesRadianceTwo) {
     worst = std::max(worst, std::fabs(p.x - 2.0f));
   }
   const double mean = sum / double(img.pixels.size());
-  EXPECT_NEAR(mean, 2.0, 0.02);    // 1% over the image
-  EXPECT_LT(worst, 0.2f);          // and no pixel far off
+  EXPECT_NEAR(mean, 2.0, 0.02);  // 1% over the image
+  EXPECT_LT(worst, 0.2f);        // and no pixel far off
 }
 
 TEST(PathTracer, ImageDoesNotDependOnTheThreadCount) {

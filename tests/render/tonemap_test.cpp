@@ -93,14 +93,23 @@ TEST(ToneMapTest, OneStopEqualsDoublingTheInput) {
   const Image b = toneMap(doubled, exposure(0.0f));
   for (size_t i = 0; i < a.pixels.size(); ++i) EXPECT_EQ(a.pixels[i], b.pixels[i]) << i;
 
-  // The photographic operator too (its log-average normalisation makes it scale-invariant).
-  for (const ToneMapSettings& s : {reinhard(), reinhard(0.3f, 2.0f)}) {
+  // The photographic operator is scale-invariant (it divides by the log-average), so there
+  // exposure scales the key instead: +1 stop is the doubled key, and brighter than 0 stops.
+  for (const ToneMapSettings& s : {reinhard(0.3f, 2.0f), reinhard(0.1f, 1e30f)}) {
     ToneMapSettings plus_one = s;
     plus_one.exposure_stops = 1.0f;
+    ToneMapSettings doubled_key = s;
+    doubled_key.key = 2.0f * s.key;
     const Image c = toneMap(img, plus_one);
-    const Image d = toneMap(doubled, s);
+    const Image d = toneMap(img, doubled_key);
+    const Image e = toneMap(doubled, s);  // input scale alone changes nothing
+    const Image f = toneMap(img, s);
     for (size_t i = 0; i < c.pixels.size(); ++i) {
-      for (int k = 0; k < 3; ++k) EXPECT_NEAR(c.pixels[i][k], d.pixels[i][k], 1e-6) << i;
+      for (int k = 0; k < 3; ++k) {
+        EXPECT_NEAR(c.pixels[i][k], d.pixels[i][k], 1e-6) << i;
+        EXPECT_NEAR(e.pixels[i][k], f.pixels[i][k], 1e-6) << i;
+        EXPECT_GE(c.pixels[i][k], f.pixels[i][k]) << i;
+      }
     }
   }
 }

@@ -1,10 +1,10 @@
 #include "support/test_util.h"
 
+#include <sys/wait.h>
 #include <array>
 #include <cstdio>
 #include <fstream>
 #include <random>
-#include <sys/wait.h>
 
 namespace penumbra::test {
 

@@ -30,8 +30,8 @@ static_assert(sizeof(BvhNode) == 32);
 inline constexpr int kMaxBvhDepth = 96;
 
 struct BvhBuildOptions {
-  int bins = 32;              // SAH bins per axis
-  int max_leaf_size = 8;      // a leaf never holds more triangles than this
+  int bins = 32;                   // SAH bins per axis
+  int max_leaf_size = 8;           // a leaf never holds more triangles than this
   float traversal_cost = 1.0f;     // SAH cost of visiting a node ...
   float intersection_cost = 1.0f;  // ... relative to one test of a block of triangles
   int leaf_block = 1;              // triangles tested together (the CPU tests 8 at once)

@@ -21,7 +21,7 @@ struct BuildRef {
 };
 
 constexpr int kMaxBins = 64;
-constexpr int kMaxSahDepth = 64;  // below this depth only median splits (see build())
+constexpr int kMaxSahDepth = 64;             // below this depth only median splits (see build())
 constexpr size_t kParallelThreshold = 4096;  // subtrees larger than this build as tasks
 
 class Builder {
@@ -166,7 +166,9 @@ int depthOf(const std::vector<BvhNode>& nodes, uint32_t i) {
 
 }  // namespace
 
-int Bvh::depth() const { return nodes.empty() ? 0 : depthOf(nodes, 0); }
+int Bvh::depth() const {
+  return nodes.empty() ? 0 : depthOf(nodes, 0);
+}
 
 float Bvh::sahCost(const BvhBuildOptions& options) const {
   if (nodes.empty()) return 0.0f;
@@ -176,8 +178,9 @@ float Bvh::sahCost(const BvhBuildOptions& options) const {
   for (const BvhNode& n : nodes) {
     const double rel = Bounds3{n.lo, n.hi}.area() / root_area;
     const int block = std::max(options.leaf_block, 1);
-    cost += n.isLeaf() ? rel * options.intersection_cost * double((int(n.count) + block - 1) / block)
-                       : rel * options.traversal_cost;
+    cost += n.isLeaf()
+                ? rel * options.intersection_cost * double((int(n.count) + block - 1) / block)
+                : rel * options.traversal_cost;
   }
   return float(cost);
 }

@@ -24,17 +24,23 @@ struct alignas(64) Bvh8Node {
 };
 static_assert(sizeof(Bvh8Node) == 256);
 
-inline bool bvh8IsLeaf(int32_t child) { return child < 0; }
-inline uint32_t bvh8LeafIndex(int32_t child) { return uint32_t(~child) >> 4; }
-inline uint32_t bvh8LeafCount(int32_t child) { return uint32_t(~child) & 15u; }
+inline bool bvh8IsLeaf(int32_t child) {
+  return child < 0;
+}
+inline uint32_t bvh8LeafIndex(int32_t child) {
+  return uint32_t(~child) >> 4;
+}
+inline uint32_t bvh8LeafCount(int32_t child) {
+  return uint32_t(~child) & 15u;
+}
 
 struct Bvh8 {
   struct Leaf {
     uint32_t first;  // into Bvh::refs
     uint32_t count;
   };
-  std::vector<Bvh8Node> nodes;  // nodes[0] is the root (when the tree is not a single leaf)
-  std::vector<Leaf> leaves;     // in depth-first order
+  std::vector<Bvh8Node> nodes;      // nodes[0] is the root (when the tree is not a single leaf)
+  std::vector<Leaf> leaves;         // in depth-first order
   int32_t root = Bvh8Node::kEmpty;  // the root reference: an inner node or a leaf
 };
 

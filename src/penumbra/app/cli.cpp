@@ -33,12 +33,12 @@ int parseAndRun(int argc, char** argv) {
   RenderOptions render;
   std::string tonemap = "reinhard";
   CLI::App* render_cmd = app.add_subcommand("render", "render a scene to an image");
-  render_cmd->add_option("scene", render.scene,
-                         "built-in scene name (cornell, furnace) or a .json/.obj/.gltf/.glb/.ply "
-                         "file")
+  render_cmd
+      ->add_option("scene", render.scene,
+                   "built-in scene name (cornell, furnace) or a .json/.obj/.gltf/.glb/.ply "
+                   "file")
       ->capture_default_str();
-  render_cmd->add_option("--method", render.method, "pathtrace")
-      ->capture_default_str();
+  render_cmd->add_option("--method", render.method, "pathtrace")->capture_default_str();
   render_cmd->add_option("--device", render.device, "cpu, gpu or auto")->capture_default_str();
   render_cmd->add_option("-o,--output", render.outputs,
                          "output image (.exr .hdr .pfm linear, .png tone mapped); may repeat");
@@ -75,6 +75,20 @@ int parseAndRun(int argc, char** argv) {
   info_cmd->add_option("scene", info.scene, "built-in scene name or file")->capture_default_str();
   addCommon(info_cmd, common);
 
+  const std::string first = argc > 1 ? argv[1] : "";
+  if (first == "bake" || first == "view") {
+    std::fprintf(stderr,
+                 "penumbra: error: '%s' is not available in this version (commands: "
+                 "render, trace, info)\n",
+                 first.c_str());
+    return 2;
+  }
+  if (!first.empty() && first[0] != '-' && first != "render" && first != "trace" &&
+      first != "info") {
+    std::fprintf(stderr, "penumbra: error: unknown command '%s' (commands: render, trace, info)\n",
+                 first.c_str());
+    return 2;
+  }
   try {
     app.parse(argc, argv);
   } catch (const CLI::Success& e) {
@@ -84,7 +98,8 @@ int parseAndRun(int argc, char** argv) {
     return 2;
   }
 
-  render.tonemap.op = tonemap == "exposure" ? ToneMapOperator::kExposure : ToneMapOperator::kReinhard;
+  render.tonemap.op =
+      tonemap == "exposure" ? ToneMapOperator::kExposure : ToneMapOperator::kReinhard;
   initLogging(common.quiet);
   auto thread_limit = limitThreads(common.threads);
   if (render_cmd->parsed()) return runRender(render, common);

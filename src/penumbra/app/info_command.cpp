@@ -1,12 +1,12 @@
 // `penumbra info`: what a scene holds.
-#include "penumbra/app/commands.h"
 #include "penumbra/accel/bounds.h"
+#include "penumbra/app/commands.h"
 #include "penumbra/io/scene_io.h"
 
 #include <glm/trigonometric.hpp>
 
-#include <cstdio>
 #include <fmt/format.h>
+#include <cstdio>
 #include <variant>
 
 namespace penumbra {
@@ -46,23 +46,25 @@ int runInfo(const InfoOptions& options, const CommonOptions&) {
                  p->position.x, p->position.y, p->position.z, p->intensity.x, p->intensity.y,
                  p->intensity.z);
     } else if (const auto* sp = std::get_if<SpotLight>(&l)) {
-      fmt::print("  spot at ({:.4g}, {:.4g}, {:.4g}), intensity ({:.4g}, {:.4g}, {:.4g}) W/sr, "
-                 "cone {:.1f}-{:.1f} deg\n",
-                 sp->position.x, sp->position.y, sp->position.z, sp->intensity.x, sp->intensity.y,
-                 sp->intensity.z, glm::degrees(sp->inner_angle), glm::degrees(sp->outer_angle));
+      fmt::print(
+          "  spot at ({:.4g}, {:.4g}, {:.4g}), intensity ({:.4g}, {:.4g}, {:.4g}) W/sr, "
+          "cone {:.1f}-{:.1f} deg\n",
+          sp->position.x, sp->position.y, sp->position.z, sp->intensity.x, sp->intensity.y,
+          sp->intensity.z, glm::degrees(sp->inner_angle), glm::degrees(sp->outer_angle));
     } else if (const auto* d = std::get_if<DirectionalLight>(&l)) {
-      fmt::print("  directional towards ({:.3g}, {:.3g}, {:.3g}), irradiance ({:.4g}, {:.4g}, "
-                 "{:.4g}) W/m^2\n",
-                 d->direction.x, d->direction.y, d->direction.z, d->irradiance.x, d->irradiance.y,
-                 d->irradiance.z);
+      fmt::print(
+          "  directional towards ({:.3g}, {:.3g}, {:.3g}), irradiance ({:.4g}, {:.4g}, "
+          "{:.4g}) W/m^2\n",
+          d->direction.x, d->direction.y, d->direction.z, d->irradiance.x, d->irradiance.y,
+          d->irradiance.z);
     }
   }
   if (s.camera) {
-    fmt::print("camera     at ({:.4g}, {:.4g}, {:.4g}) looking at ({:.4g}, {:.4g}, {:.4g}), "
-               "vertical fov {:.2f} deg\n",
-               s.camera->position.x, s.camera->position.y, s.camera->position.z,
-               s.camera->look_at.x, s.camera->look_at.y, s.camera->look_at.z,
-               glm::degrees(s.camera->vertical_fov));
+    fmt::print(
+        "camera     at ({:.4g}, {:.4g}, {:.4g}) looking at ({:.4g}, {:.4g}, {:.4g}), "
+        "vertical fov {:.2f} deg\n",
+        s.camera->position.x, s.camera->position.y, s.camera->position.z, s.camera->look_at.x,
+        s.camera->look_at.y, s.camera->look_at.z, glm::degrees(s.camera->vertical_fov));
   } else {
     fmt::print("camera     none (render frames the bounding box)\n");
   }

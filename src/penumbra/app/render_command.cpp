@@ -10,9 +10,9 @@
 #include "penumbra/io/scene_io.h"
 #include "penumbra/raytrace/path_tracer.h"
 
-#include <filesystem>
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
+#include <filesystem>
 
 namespace penumbra {
 
@@ -51,9 +51,10 @@ Status renderPathTrace(const RenderOptions& options, const CommonOptions& common
   if (outputs.empty()) outputs.push_back(sceneStem(options.scene) + ".png");
   for (const std::string& out : outputs) {
     if (!isSupportedImageExtension(out)) {
-      return inputError(out, "", fmt::format("unsupported image format '{}' (use .exr, .hdr, "
-                                             ".pfm or .png)",
-                                             extensionOf(out)));
+      return inputError(out, "",
+                        fmt::format("unsupported image format '{}' (use .exr, .hdr, "
+                                    ".pfm or .png)",
+                                    extensionOf(out)));
     }
     PENUMBRA_TRY(checkOutputPath(out));
   }
@@ -132,20 +133,21 @@ Status renderPathTrace(const RenderOptions& options, const CommonOptions& common
 
 int runRender(const RenderOptions& options, const CommonOptions& common) {
   if (options.device != "cpu" && options.device != "gpu" && options.device != "auto") {
-    return reportError(inputError("", "", fmt::format("--device '{}': use cpu, gpu or auto",
-                                                      options.device)));
+    return reportError(
+        inputError("", "", fmt::format("--device '{}': use cpu, gpu or auto", options.device)));
   }
   Status s;
   if (options.method == "pathtrace") {
     s = renderPathTrace(options, common);
   } else if (options.method == "matrix" || options.method == "progressive" ||
              options.method == "stochastic" || options.method == "sss" || options.method == "lpv") {
-    s = inputError("", "", fmt::format("--method {} is not available in this version (available: "
-                                       "pathtrace)",
-                                       options.method));
+    s = inputError("", "",
+                   fmt::format("--method {} is not available in this version (available: "
+                               "pathtrace)",
+                               options.method));
   } else {
-    s = inputError("", "", fmt::format("unknown --method '{}' (available: pathtrace)",
-                                       options.method));
+    s = inputError("", "",
+                   fmt::format("unknown --method '{}' (available: pathtrace)", options.method));
   }
   return s.ok() ? 0 : reportError(s.error());
 }

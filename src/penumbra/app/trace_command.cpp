@@ -8,9 +8,9 @@
 #include "penumbra/io/scene_io.h"
 #include "penumbra/raytrace/ray_engine.h"
 
-#include <filesystem>
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
+#include <filesystem>
 
 namespace penumbra {
 
@@ -29,8 +29,8 @@ Status trace(const TraceOptions& options) {
   const auto ray_bytes = std::filesystem::file_size(options.rays, ec);
   if (!ec) {
     // Rays in SoA (32 B), hits (16 B), the file bytes and the output buffer (16 B).
-    PENUMBRA_TRY(checkMemory(uint64_t(ray_bytes) / 32 * 96, fmt::format("tracing {} rays",
-                                                                        ray_bytes / 32)));
+    PENUMBRA_TRY(
+        checkMemory(uint64_t(ray_bytes) / 32 * 96, fmt::format("tracing {} rays", ray_bytes / 32)));
   }
 
   Expected<Scene> scene = loadScene(options.mesh);
@@ -59,9 +59,10 @@ Status trace(const TraceOptions& options) {
   size_t hit_count = 0;
   for (int32_t t : hits.triangle) hit_count += t >= 0;
   const double mrays = trace_seconds > 0.0 ? double(rays->size()) / trace_seconds * 1e-6 : 0.0;
-  spdlog::info("{} rays against {} triangles: {} hits; build {:.3f} s, trace {:.3f} s "
-               "({:.2f} Mrays/s)",
-               rays->size(), triangles.size(), hit_count, build_seconds, trace_seconds, mrays);
+  spdlog::info(
+      "{} rays against {} triangles: {} hits; build {:.3f} s, trace {:.3f} s "
+      "({:.2f} Mrays/s)",
+      rays->size(), triangles.size(), hit_count, build_seconds, trace_seconds, mrays);
   if (!options.stats.empty()) {
     nlohmann::json j = {{"method", "trace"},
                         {"device", "cpu"},

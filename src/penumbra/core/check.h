@@ -18,14 +18,14 @@ namespace penumbra::detail {
 }
 }  // namespace penumbra::detail
 
-#define PENUMBRA_CHECK(cond)                                                   \
-  do {                                                                         \
+#define PENUMBRA_CHECK(cond)                                                     \
+  do {                                                                           \
     if (!(cond)) ::penumbra::detail::checkFailed(#cond, __FILE__, __LINE__, ""); \
   } while (false)
 
 // PENUMBRA_CHECK_MSG(cond, "fmt {}", values...) adds the values to the report.
-#define PENUMBRA_CHECK_MSG(cond, ...)                                                       \
-  do {                                                                                      \
-    if (!(cond))                                                                            \
+#define PENUMBRA_CHECK_MSG(cond, ...)                                                         \
+  do {                                                                                        \
+    if (!(cond))                                                                              \
       ::penumbra::detail::checkFailed(#cond, __FILE__, __LINE__, ::fmt::format(__VA_ARGS__)); \
   } while (false)

@@ -80,8 +80,8 @@ class [[nodiscard]] Status {
 }  // namespace penumbra
 
 // Propagate an error from an expression returning Status or Expected<T>.
-#define PENUMBRA_TRY(expr)                        \
-  do {                                            \
-    auto&& penumbra_try_ = (expr);                \
+#define PENUMBRA_TRY(expr)                                 \
+  do {                                                     \
+    auto&& penumbra_try_ = (expr);                         \
     if (!penumbra_try_.ok()) return penumbra_try_.error(); \
   } while (false)

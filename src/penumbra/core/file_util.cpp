@@ -1,12 +1,12 @@
 #include "penumbra/core/file_util.h"
 
+#include <unistd.h>
 #include <algorithm>
 #include <cctype>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <system_error>
-#include <unistd.h>
 
 namespace penumbra {
 
@@ -21,8 +21,8 @@ Status writeAtomically(const std::string& path,
     return runtimeError(path, "the directory '" + dir.string() + "' does not exist");
   }
   // Keep the extension so that writers which dispatch on it see the right one.
-  fs::path tmp = dir / (".penumbra-tmp-" + std::to_string(::getpid()) + "-" +
-                        target.filename().string());
+  fs::path tmp =
+      dir / (".penumbra-tmp-" + std::to_string(::getpid()) + "-" + target.filename().string());
   Status s = write(tmp.string());
   if (!s.ok()) {
     fs::remove(tmp, ec);

@@ -10,7 +10,8 @@
 namespace penumbra {
 
 // Calls write(tmp_path); on success renames tmp_path to `path`, otherwise removes it.
-Status writeAtomically(const std::string& path, const std::function<Status(const std::string&)>& write);
+Status writeAtomically(const std::string& path,
+                       const std::function<Status(const std::string&)>& write);
 
 // Reads a whole file into a string (binary).
 Expected<std::string> readFile(const std::string& path);

@@ -1,8 +1,8 @@
 #include "penumbra/core/progress.h"
 
+#include <unistd.h>
 #include <chrono>
 #include <cstdio>
-#include <unistd.h>
 
 namespace penumbra {
 
@@ -17,9 +17,13 @@ Progress::Progress(std::string label, uint64_t total, bool enabled)
   if (enabled_) draw(0, false);
 }
 
-Progress::~Progress() { finish(); }
+Progress::~Progress() {
+  finish();
+}
 
-bool Progress::stderrIsTerminal() { return ::isatty(STDERR_FILENO) == 1; }
+bool Progress::stderrIsTerminal() {
+  return ::isatty(STDERR_FILENO) == 1;
+}
 
 void Progress::add(uint64_t units) {
   const uint64_t done = done_.fetch_add(units) + units;

@@ -138,10 +138,11 @@ inline uint32_t intersectBlock(const WatertightRay& r, const TriangleBlock8& b, 
   const __m256 hi = _mm256_mul_ps(_mm256_set1_ps(tmax), det);
   const __m256 pos_det = _mm256_cmp_ps(det, zero, _CMP_GT_OQ);
   // det > 0: lo <= t_scaled <= hi; det < 0: hi <= t_scaled <= lo.
-  const __m256 in_range = _mm256_blendv_ps(
-      _mm256_and_ps(_mm256_cmp_ps(t_scaled, lo, _CMP_LE_OQ), _mm256_cmp_ps(t_scaled, hi, _CMP_GE_OQ)),
-      _mm256_and_ps(_mm256_cmp_ps(t_scaled, lo, _CMP_GE_OQ), _mm256_cmp_ps(t_scaled, hi, _CMP_LE_OQ)),
-      pos_det);
+  const __m256 in_range = _mm256_blendv_ps(_mm256_and_ps(_mm256_cmp_ps(t_scaled, lo, _CMP_LE_OQ),
+                                                         _mm256_cmp_ps(t_scaled, hi, _CMP_GE_OQ)),
+                                           _mm256_and_ps(_mm256_cmp_ps(t_scaled, lo, _CMP_GE_OQ),
+                                                         _mm256_cmp_ps(t_scaled, hi, _CMP_LE_OQ)),
+                                           pos_det);
   const __m256 inv_det = _mm256_div_ps(_mm256_set1_ps(1.0f), det);
   const __m256 t = _mm256_mul_ps(t_scaled, inv_det);
   const __m256 t_ok = _mm256_and_ps(_mm256_cmp_ps(t, _mm256_set1_ps(tmin), _CMP_GE_OQ),

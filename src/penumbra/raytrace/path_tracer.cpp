@@ -174,7 +174,8 @@ glm::vec3 PathTracer::radiance(const Ray& primary, Rng& rng, const PathTracerSet
 }
 
 Image PathTracer::render(const Camera& camera, const PathTracerSettings& settings,
-                         PathTracerStats* stats, const std::function<void(int)>& on_progress) const {
+                         PathTracerStats* stats,
+                         const std::function<void(int)>& on_progress) const {
   Timer timer;
   Image image(settings.width, settings.height);
   const CameraRays cam(camera, settings.width, settings.height);

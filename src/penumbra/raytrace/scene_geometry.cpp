@@ -28,8 +28,8 @@ SceneGeometry SceneGeometry::build(const Scene& scene) {
   g.areas.resize(nt);
   for (size_t i = 0; i < nt; ++i) {
     const glm::uvec3 t = g.triangles[i];
-    const glm::vec3 c = glm::cross(g.positions[t.y] - g.positions[t.x],
-                                   g.positions[t.z] - g.positions[t.x]);
+    const glm::vec3 c =
+        glm::cross(g.positions[t.y] - g.positions[t.x], g.positions[t.z] - g.positions[t.x]);
     const float len = glm::length(c);
     g.areas[i] = 0.5f * len;
     g.normals[i] = len > 0.0f ? c / len : glm::vec3(0.0f);
@@ -44,8 +44,8 @@ SceneGeometry SceneGeometry::build(const Scene& scene) {
     const double p = double(luminance(m.emission)) * g.areas[i];
     if (m.isEmissive() && g.areas[i] > 0.0f) {
       // A coloured emitter with zero luminance still needs to be sampled.
-      const double w = p > 0.0 ? p : double(std::max({m.emission.x, m.emission.y, m.emission.z})) *
-                                         g.areas[i];
+      const double w =
+          p > 0.0 ? p : double(std::max({m.emission.x, m.emission.y, m.emission.z})) * g.areas[i];
       g.emitters.push_back(uint32_t(i));
       power.push_back(w);
       total += w;

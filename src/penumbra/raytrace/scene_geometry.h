@@ -27,9 +27,9 @@ struct SceneGeometry {
   // Emissive triangles, picked with probability proportional to emitted power (luminance of
   // emission times area; a Lambertian emitter's power is pi * L * A).
   std::vector<uint32_t> emitters;
-  std::vector<float> emitter_cdf;          // inclusive prefix sums, last = 1
-  std::vector<float> emitter_pick_pdf;     // per triangle: probability of picking it (0 if not)
-  float total_emitted_power = 0.0f;        // W, luminance-weighted
+  std::vector<float> emitter_cdf;       // inclusive prefix sums, last = 1
+  std::vector<float> emitter_pick_pdf;  // per triangle: probability of picking it (0 if not)
+  float total_emitted_power = 0.0f;     // W, luminance-weighted
 
   static SceneGeometry build(const Scene& scene);
 
@@ -49,7 +49,8 @@ struct SceneGeometry {
     const glm::vec3 &p0 = positions[t.x], &p1 = positions[t.y], &p2 = positions[t.z];
     const float b0 = 1.0f - b1 - b2;
     constexpr float kGamma7 = 7.0f * 0x1p-24f / (1.0f - 7.0f * 0x1p-24f);
-    const glm::vec3 err = 2.0f * kGamma7 * (glm::abs(b0 * p0) + glm::abs(b1 * p1) + glm::abs(b2 * p2));
+    const glm::vec3 err =
+        2.0f * kGamma7 * (glm::abs(b0 * p0) + glm::abs(b1 * p1) + glm::abs(b2 * p2));
     const glm::vec3 m = glm::max(glm::max(glm::abs(p0), glm::abs(p1)), glm::abs(p2));
     const float magnitude = std::max(std::max(m.x, m.y), std::max(m.z, 1e-6f));
     return glm::dot(glm::abs(normals[triangle]), err) + 64.0f * 0x1p-24f * magnitude;

@@ -134,7 +134,9 @@ Image reinhardOperator(const Image& linear, const ToneMapSettings& settings, dou
                            ? double(settings.white)
                            : whiteFromStats(stats);
   const double inv_white2 = 1.0 / (white * white);  // 0 for an infinite white point
-  const double key_over_average = key / stats.log_average;
+  // The operator divides by the log-average, which cancels any scale of the input; exposure
+  // therefore scales the key, so that +1 stop brightens under either operator.
+  const double key_over_average = key * scale / stats.log_average;
 
   parallelRange(linear.pixels.size(), kPixelGrain, [&](size_t begin, size_t end) {
     for (size_t i = begin; i < end; ++i) {

@@ -17,8 +17,8 @@ enum class ToneMapOperator {
 
 struct ToneMapSettings {
   ToneMapOperator op = ToneMapOperator::kReinhard;
-  // Multiplies radiance by 2^stops before either operator. kReinhard divides by the
-  // log-average luminance, so there the stops cancel out: brighten or darken with `key`.
+  // kExposure: multiplies radiance by 2^stops. kReinhard: multiplies the key by 2^stops (the
+  // operator divides by the log-average luminance, so scaling radiance would cancel out).
   float exposure_stops = 0.0f;
   float key = -1.0f;    // Reinhard key value a; < 0 (or NaN) selects the automatic estimate
   float white = -1.0f;  // Reinhard L_white, in units of the scaled luminance a L_w / L_av;

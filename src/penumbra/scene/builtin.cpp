@@ -3,8 +3,8 @@
 #include <glm/geometric.hpp>
 #include <glm/trigonometric.hpp>
 
-#include <array>
 #include <fmt/format.h>
+#include <array>
 #include <initializer_list>
 #include <utility>
 
@@ -21,7 +21,8 @@ void addPolygons(Scene& scene, const std::string& name, uint32_t material,
   mesh.name = name;
   for (const auto& poly : polygons) {
     const uint32_t first = static_cast<uint32_t>(mesh.positions.size());
-    for (const auto& v : poly) mesh.positions.emplace_back(v[0] * scale, v[1] * scale, v[2] * scale);
+    for (const auto& v : poly)
+      mesh.positions.emplace_back(v[0] * scale, v[1] * scale, v[2] * scale);
     for (uint32_t i = 2; i < poly.size(); ++i) {
       mesh.triangles.emplace_back(first, first + i - 1, first + i);
       mesh.material_ids.push_back(material);
@@ -49,8 +50,8 @@ Scene cornell() {
   addPolygons(s, "back", 0,
               {{{549.6f, 0, 559.2f}, {0, 0, 559.2f}, {0, 548.8f, 559.2f}, {556, 548.8f, 559.2f}}},
               mm);
-  addPolygons(s, "greenwall", 2,
-              {{{0, 0, 559.2f}, {0, 0, 0}, {0, 548.8f, 0}, {0, 548.8f, 559.2f}}}, mm);
+  addPolygons(s, "greenwall", 2, {{{0, 0, 559.2f}, {0, 0, 0}, {0, 548.8f, 0}, {0, 548.8f, 559.2f}}},
+              mm);
   addPolygons(s, "redwall", 1,
               {{{552.8f, 0, 0}, {549.6f, 0, 559.2f}, {556, 548.8f, 559.2f}, {556, 548.8f, 0}}}, mm);
   addPolygons(s, "smallbox", 0,
@@ -109,7 +110,9 @@ Scene furnace() {
 
 }  // namespace
 
-std::vector<std::string> builtinSceneNames() { return {"cornell", "furnace"}; }
+std::vector<std::string> builtinSceneNames() {
+  return {"cornell", "furnace"};
+}
 
 Expected<Scene> builtinScene(const std::string& name) {
   Scene s;
@@ -118,9 +121,10 @@ Expected<Scene> builtinScene(const std::string& name) {
   } else if (name == "furnace") {
     s = furnace();
   } else {
-    return inputError("", "", fmt::format("unknown scene '{}' (built-in scenes: cornell, furnace; "
-                                          "or give a .json, .obj, .gltf, .glb or .ply file)",
-                                          name));
+    return inputError("", "",
+                      fmt::format("unknown scene '{}' (built-in scenes: cornell, furnace; "
+                                  "or give a .json, .obj, .gltf, .glb or .ply file)",
+                                  name));
   }
   Status st = validateScene(s);
   if (!st.ok()) return st.error();

@@ -13,10 +13,10 @@ namespace penumbra {
 
 struct Mesh {
   std::string name;
-  std::vector<glm::vec3> positions;   // metres
-  std::vector<glm::vec3> normals;     // empty, or one unit shading normal per position
-  std::vector<glm::vec2> uvs;         // empty, or one per position
-  std::vector<glm::uvec3> triangles;  // indices into positions; front face counter-clockwise
+  std::vector<glm::vec3> positions;    // metres
+  std::vector<glm::vec3> normals;      // empty, or one unit shading normal per position
+  std::vector<glm::vec2> uvs;          // empty, or one per position
+  std::vector<glm::uvec3> triangles;   // indices into positions; front face counter-clockwise
   std::vector<uint32_t> material_ids;  // one per triangle, index into Scene::materials
 
   size_t triangleCount() const { return triangles.size(); }

@@ -2,8 +2,8 @@
 
 #include <glm/geometric.hpp>
 
-#include <cmath>
 #include <fmt/format.h>
+#include <cmath>
 
 namespace penumbra {
 

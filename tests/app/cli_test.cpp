@@ -1,0 +1,204 @@
+// The command-line contract (design doc sec. 4): outputs, stats, the trace file formats, and bad
+// input answered by one error line, exit code 2 and no output file.
+#include "penumbra/io/image_io.h"
+#include "penumbra/io/ray_file.h"
+#include "support/test_util.h"
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+
+namespace penumbra {
+namespace {
+
+namespace fs = std::filesystem;
+using test::runCli;
+using test::TempDir;
+
+size_t lineCount(const std::string& s) {
+  return size_t(std::count(s.begin(), s.end(), '\n')) + (!s.empty() && s.back() != '\n');
+}
+
+nlohmann::json readJson(const std::string& path) {
+  std::ifstream in(path);
+  return nlohmann::json::parse(in);
+}
+
+TEST(Cli, RenderFurnaceWritesImagesAndStatsWithTheExactRadiance) {
+  TempDir dir;
+  const auto r = runCli("render furnace --width 16 --height 16 --spp 128 --quiet -o " +
+                        dir.file("f.exr") + " -o " + dir.file("f.pfm") + " -o " +
+                        dir.file("f.png") + " --stats " + dir.file("s.json"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_TRUE(r.output.empty()) << r.output;  // --quiet
+  Expected<Image> exr = readImage(dir.file("f.exr"));
+  ASSERT_TRUE(exr.ok()) << exr.error().describe();
+  ASSERT_EQ(exr->width, 16);
+  double sum = 0.0;
+  for (const glm::vec3& p : exr->pixels) sum += p.x + p.y + p.z;
+  EXPECT_NEAR(sum / (3.0 * double(exr->pixels.size())), 2.0, 0.03);
+  Expected<Image> pfm = readImage(dir.file("f.pfm"));
+  ASSERT_TRUE(pfm.ok());
+  EXPECT_EQ(pfm->pixels, exr->pixels);  // one render, several files
+  EXPECT_TRUE(fs::exists(dir.file("f.png")));
+  const nlohmann::json stats = readJson(dir.file("s.json"));
+  EXPECT_EQ(stats["method"], "pathtrace");
+  EXPECT_EQ(stats["device"], "cpu");
+  EXPECT_EQ(stats["spp"], 128);
+  EXPECT_GT(stats["rays"].get<double>(), 16.0 * 16.0 * 128.0);
+  EXPECT_GT(stats["seconds"].get<double>(), 0.0);
+  EXPECT_GT(stats["mrays_per_s"].get<double>(), 0.0);
+}
+
+TEST(Cli, SceneSettingsApplyAndCommandLineWins) {
+  TempDir dir;
+  const std::string cornell = std::string(PENUMBRA_TEST_DATA) + "/../../scenes/cornell.json";
+  std::ifstream in(cornell);
+  nlohmann::json scene = nlohmann::json::parse(in, nullptr, true, true);
+  scene["settings"] = {{"pathtrace", {{"width", 8}, {"height", 6}, {"spp", 2}}}};
+  // Paths in the scene are relative to it: keep the copy beside the original's meshes.
+  for (auto& m : scene["meshes"]) {
+    m["file"] = (fs::path(cornell).parent_path() / m["file"].get<std::string>()).string();
+  }
+  const std::string path = dir.write("scene.json", scene.dump());
+  const auto r = runCli(path + " --quiet -o " + dir.file("a.pfm") + " --height 4");
+  // `render` is required; the scene alone is not a command.
+  EXPECT_EQ(r.exit_code, 2);
+  const auto ok = runCli("render " + path + " --quiet -o " + dir.file("a.pfm") + " --height 4");
+  ASSERT_EQ(ok.exit_code, 0) << ok.output;
+  Expected<Image> img = readImage(dir.file("a.pfm"));
+  ASSERT_TRUE(img.ok());
+  EXPECT_EQ(img->width, 8);
+  EXPECT_EQ(img->height, 4);
+}
+
+struct BadCase {
+  std::string args;
+  std::string expect;  // a fragment the error line must contain
+};
+
+TEST(Cli, BadInputGivesOneErrorLineExitTwoAndNoOutput) {
+  TempDir dir;
+  const std::string out = dir.file("out.png");
+  dir.write("broken.json", "{\n  \"meshes\": [\n    {\"file\": \"x.obj\",}\n  ]\n}\n");
+  dir.write("unknown_key.json", "{\"meshs\": []}");
+  dir.write("nan.obj", "v 0 0 0\nv 1 0 nan\nv 0 1 0\nf 1 2 3\n");
+  dir.write("badindex.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 7\n");
+  const std::vector<BadCase> cases = {
+      {"render nosuchscene -o " + out, "unknown scene 'nosuchscene'"},
+      {"render " + dir.file("missing.obj") + " -o " + out, "missing.obj"},
+      {"render " + dir.file("broken.json") + " -o " + out, "broken.json: line 3"},
+      {"render " + dir.file("unknown_key.json") + " -o " + out, "meshs"},
+      {"render " + dir.file("nan.obj") + " -o " + out, "nan.obj: line 2"},
+      {"render " + dir.file("badindex.obj") + " -o " + out, "badindex.obj: line 4"},
+      {"render cornell --width 0 -o " + out, "--width 0"},
+      {"render cornell --width 60000 --height 60000 -o " + out, "needs"},
+      {"render cornell --spp many -o " + out, "spp"},
+      {"render cornell --method matrix -o " + out, "--method matrix"},
+      {"render cornell --method nonsense -o " + out, "unknown --method"},
+      {"render cornell --device tpu -o " + out, "--device"},
+      {"render cornell --frobnicate -o " + out, "frobnicate"},
+      {"render cornell -o " + dir.file("out.bmp"), "unsupported image format '.bmp'"},
+      {"render cornell -o " + dir.file("nodir/out.png"), "does not exist"},
+      {"render cornell --tonemap sepia -o " + out, "tonemap"},
+      {"info nosuchscene", "unknown scene"},
+      {"trace cornell --rays " + dir.file("none.bin") + " -o " + dir.file("hits.bin"), "none.bin"},
+      {"frobnicate", "unknown command 'frobnicate'"},
+  };
+  for (const BadCase& c : cases) {
+    const auto r = runCli(c.args);
+    EXPECT_EQ(r.exit_code, 2) << c.args << "\n" << r.output;
+    EXPECT_EQ(lineCount(r.output), 1u) << c.args << "\n" << r.output;
+    EXPECT_NE(r.output.find("error"), std::string::npos) << c.args << "\n" << r.output;
+    EXPECT_NE(r.output.find(c.expect), std::string::npos) << c.args << "\n" << r.output;
+  }
+  // Nothing was written: only the inputs are in the directory.
+  std::vector<std::string> names;
+  for (const auto& e : fs::directory_iterator(dir.path())) names.push_back(e.path().filename());
+  std::sort(names.begin(), names.end());
+  EXPECT_EQ(names, (std::vector<std::string>{"badindex.obj", "broken.json", "nan.obj",
+                                             "unknown_key.json"}));
+}
+
+// A unit square in z = 0 as two triangles: (0,0) (1,0) (1,1) and (0,0) (1,1) (0,1).
+std::string writeSquare(const TempDir& dir) {
+  return dir.write("square.obj", "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n");
+}
+
+TEST(Cli, TraceFollowsTheFileContract) {
+  TempDir dir;
+  const std::string mesh = writeSquare(dir);
+  RayBatch rays;
+  rays.resize(4);
+  const float inf = std::numeric_limits<float>::infinity();
+  rays.set(0, Ray{{0.75f, 0.25f, 2.0f}, 0.0f, {0.0f, 0.0f, -1.0f}, inf});  // triangle 0
+  rays.set(1, Ray{{0.25f, 0.75f, -1.0f}, 0.0f, {0.0f, 0.0f, 2.0f}, inf});  // triangle 1, t=0.5
+  rays.set(2, Ray{{2.0f, 2.0f, 1.0f}, 0.0f, {0.0f, 0.0f, -1.0f}, inf});    // miss
+  rays.set(3, Ray{{0.75f, 0.25f, 2.0f}, 0.0f, {0.0f, 0.0f, -1.0f}, 1.5f});  // beyond tmax
+  ASSERT_TRUE(writeRayFile(dir.file("rays.bin"), rays).ok());
+  const auto r = runCli("trace " + mesh + " --rays " + dir.file("rays.bin") + " -o " +
+                        dir.file("hits.bin") + " --stats " + dir.file("t.json") + " --quiet");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  ASSERT_EQ(fs::file_size(dir.file("hits.bin")), 4u * 16u);
+  Expected<HitBatch> hits = readHitFile(dir.file("hits.bin"));
+  ASSERT_TRUE(hits.ok());
+  EXPECT_EQ(hits->triangle[0], 0);
+  EXPECT_FLOAT_EQ(hits->t[0], 2.0f);
+  // Barycentrics of vertices 1 and 2 of triangle 0: p = (1-u-v)(0,0) + u(1,0) + v(1,1).
+  EXPECT_FLOAT_EQ(hits->u[0], 0.5f);
+  EXPECT_FLOAT_EQ(hits->v[0], 0.25f);
+  EXPECT_EQ(hits->triangle[1], 1);
+  EXPECT_FLOAT_EQ(hits->t[1], 0.5f);
+  EXPECT_EQ(hits->triangle[2], -1);
+  EXPECT_TRUE(std::isinf(hits->t[2]));
+  EXPECT_EQ(hits->triangle[3], -1);
+  const nlohmann::json stats = readJson(dir.file("t.json"));
+  for (const char* key : {"build_seconds", "trace_seconds", "mrays_per_s", "seconds"}) {
+    EXPECT_TRUE(stats.contains(key)) << key;
+  }
+  EXPECT_EQ(stats["rays"], 4);
+  EXPECT_EQ(stats["hits"], 2);
+  EXPECT_EQ(stats["triangles"], 2);
+}
+
+TEST(Cli, TraceRejectsMalformedRayFiles) {
+  TempDir dir;
+  const std::string mesh = writeSquare(dir);
+  const std::string hits = dir.file("hits.bin");
+  dir.write("short.bin", std::string(40, '\0'));
+  RayBatch rays;
+  rays.resize(2);
+  rays.set(0, Ray{{0, 0, 1}, 0.0f, {0, 0, -1}, 10.0f});
+  rays.set(1, Ray{{0, std::nanf(""), 1}, 0.0f, {0, 0, -1}, 10.0f});
+  ASSERT_TRUE(writeRayFile(dir.file("nan.bin"), rays).ok());
+  rays.set(1, Ray{{0, 0, 1}, 0.0f, {0, 0, 0}, 10.0f});
+  ASSERT_TRUE(writeRayFile(dir.file("zero.bin"), rays).ok());
+  const std::vector<BadCase> cases = {
+      {"short.bin", "not a multiple of 32"},
+      {"nan.bin", "nan.bin: ray 1: origin is not finite"},
+      {"zero.bin", "zero.bin: ray 1: direction is zero"},
+  };
+  for (const BadCase& c : cases) {
+    const auto r = runCli("trace " + mesh + " --rays " + dir.file(c.args) + " -o " + hits);
+    EXPECT_EQ(r.exit_code, 2) << r.output;
+    EXPECT_EQ(lineCount(r.output), 1u) << r.output;
+    EXPECT_NE(r.output.find(c.expect), std::string::npos) << r.output;
+    EXPECT_FALSE(fs::exists(hits));
+  }
+}
+
+TEST(Cli, InfoDescribesTheBuiltInCornellBox) {
+  const auto r = runCli("info cornell");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("triangles  36"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("emission (17, 12, 4)"), std::string::npos) << r.output;
+}
+
+}  // namespace
+}  // namespace penumbra
