@@ -163,35 +163,24 @@ void embreeTrace8(benchmark::State& state) {
   state.SetItemsProcessed(int64_t(state.iterations()) * int64_t(rays.size()));
 }
 
-BENCHMARK(penumbraTrace)
-    ->Arg(0)
-    ->Arg(1)
-    ->ArgName("diffuse")
-    ->UseRealTime()
-    ->Unit(benchmark::kMillisecond)
-    ->MinTime(2.0);
-BENCHMARK(embreeTrace1)
-    ->Arg(0)
-    ->Arg(1)
-    ->ArgName("diffuse")
-    ->UseRealTime()
-    ->Unit(benchmark::kMillisecond)
-    ->MinTime(2.0);
-BENCHMARK(embreeTrace8)
-    ->Arg(0)
-    ->Arg(1)
-    ->ArgName("diffuse")
-    ->UseRealTime()
-    ->Unit(benchmark::kMillisecond)
-    ->MinTime(2.0);
+// Repetitions in random interleaved order, and ratios of medians: this machine's speed drifts
+// by tens of percent over seconds, which would bias a ratio of runs taken one after another.
+void rayArgs(benchmark::internal::Benchmark* b) {
+  b->Arg(0)->Arg(1)->ArgName("diffuse")->UseRealTime()->Unit(benchmark::kMillisecond);
+  b->MinTime(0.5)->Repetitions(7)->ReportAggregatesOnly(true);
+}
+BENCHMARK(penumbraTrace)->Apply(rayArgs);
+BENCHMARK(embreeTrace1)->Apply(rayArgs);
+BENCHMARK(embreeTrace8)->Apply(rayArgs);
 
 // Collects rays/s per benchmark so the ratios can be printed after the run.
 class RatioReporter : public benchmark::ConsoleReporter {
  public:
   void ReportRuns(const std::vector<Run>& runs) override {
     for (const Run& r : runs) {
+      if (r.run_type != Run::RT_Aggregate || r.aggregate_name != "median") continue;
       auto it = r.counters.find("items_per_second");
-      if (it != r.counters.end()) rates[r.benchmark_name()] = it->second.value;
+      if (it != r.counters.end()) rates[r.run_name.str()] = it->second.value;
     }
     ConsoleReporter::ReportRuns(runs);
   }
@@ -201,6 +190,14 @@ class RatioReporter : public benchmark::ConsoleReporter {
 }  // namespace
 
 int main(int argc, char** argv) {
+  // Interleave repetitions unless the caller chose otherwise.
+  std::vector<char*> args(argv, argv + argc);
+  char interleave[] = "--benchmark_enable_random_interleaving=true";
+  bool has_interleave = false;
+  for (char* a : args) has_interleave |= std::strstr(a, "random_interleaving") != nullptr;
+  if (!has_interleave) args.insert(args.begin() + 1, interleave);
+  argc = int(args.size());
+  argv = args.data();
   benchmark::Initialize(&argc, argv);
   if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
   workload();  // build outside the timings

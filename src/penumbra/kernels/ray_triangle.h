@@ -39,9 +39,10 @@ inline WatertightRay makeWatertightRay(const glm::vec3& org, const glm::vec3& di
     r.kx = r.ky;
     r.ky = tmp;
   }
-  r.sx = dir[r.kx] / dir[r.kz];
-  r.sy = dir[r.ky] / dir[r.kz];
+  // One division; the shear need only be the same for every triangle the ray meets.
   r.sz = 1.0f / dir[r.kz];
+  r.sx = dir[r.kx] * r.sz;
+  r.sy = dir[r.ky] * r.sz;
   return r;
 }
 

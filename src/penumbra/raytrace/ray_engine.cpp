@@ -56,11 +56,27 @@ constexpr int kStackSize = 7 * kMaxBvhDepth + 1;
 
 }  // namespace
 
+void RayEngine::prefetchChild(int32_t ref) const {
+  const char* p;
+  int lines;
+  if (bvh8IsLeaf(ref)) {
+    if (ref == Bvh8Node::kEmpty) return;
+    p = reinterpret_cast<const char*>(&blocks_[bvh8LeafIndex(ref)]);
+    lines = sizeof(TriangleBlock8) / 64;
+  } else {
+    p = reinterpret_cast<const char*>(&bvh8_.nodes[size_t(ref)]);
+    lines = sizeof(Bvh8Node) / 64;
+  }
+  for (int i = 0; i < lines; ++i) __builtin_prefetch(p + 64 * i, 0, 3);
+}
+
 template <bool kAnyHit>
 bool RayEngine::traverse(const Ray& ray, Hit& hit) const {
   if (bvh8_.root == Bvh8Node::kEmpty || !(ray.tmin <= ray.tmax)) return false;
-  const WatertightRay wr = makeWatertightRay(ray.origin, ray.dir);
   const BoxTester boxes(ray.origin, ray.dir);
+  // Built at the first leaf: most rays of a camera that frames a model never reach one.
+  WatertightRay wr;
+  bool have_wr = false;
   float tmax = ray.tmax;
   bool found = false;
 
@@ -76,6 +92,10 @@ bool RayEngine::traverse(const Ray& ray, Hit& hit) const {
       if (bvh8IsLeaf(ref)) {
         if (ref == Bvh8Node::kEmpty) break;
         const TriangleBlock8& block = blocks_[bvh8LeafIndex(ref)];
+        if (!have_wr) {
+          wr = makeWatertightRay(ray.origin, ray.dir);
+          have_wr = true;
+        }
         alignas(32) float t[8], u[8], v[8];
         uint32_t mask = intersectBlock(wr, block, bvh8LeafCount(ref), ray.tmin, tmax, t, u, v);
         if constexpr (kAnyHit) {
@@ -97,6 +117,9 @@ bool RayEngine::traverse(const Ray& ray, Hit& hit) const {
       const Bvh8Node& node = bvh8_.nodes[size_t(ref)];
       uint32_t mask = boxes.test(node, ray.tmin, tmax, t_near);
       if (mask == 0) break;
+      // Start fetching every child entered: their lines arrive while this node is sorted and
+      // the nearest child visited.
+      for (uint32_t m = mask; m; m &= m - 1) prefetchChild(node.child[__builtin_ctz(m)]);
       int first = __builtin_ctz(mask);
       mask &= mask - 1;
       if (mask == 0) {

@@ -58,6 +58,7 @@ class RayEngine {
  private:
   template <bool kAnyHit>
   bool traverse(const Ray& ray, Hit& hit) const;
+  void prefetchChild(int32_t ref) const;
 
   Bvh bvh_;    // canonical binary tree (kept for statistics and other layouts)
   Bvh8 bvh8_;  // what the CPU traverses
