@@ -198,8 +198,16 @@ void embreeBuild(benchmark::State& state) {
   }
   state.SetItemsProcessed(int64_t(state.iterations()) * int64_t(mesh.triangles.size()));
 }
-BENCHMARK(penumbraBuild)->UseRealTime()->Unit(benchmark::kMillisecond)->Repetitions(5)->ReportAggregatesOnly(true);
-BENCHMARK(embreeBuild)->UseRealTime()->Unit(benchmark::kMillisecond)->Repetitions(5)->ReportAggregatesOnly(true);
+BENCHMARK(penumbraBuild)
+    ->UseRealTime()
+    ->Unit(benchmark::kMillisecond)
+    ->Repetitions(5)
+    ->ReportAggregatesOnly(true);
+BENCHMARK(embreeBuild)
+    ->UseRealTime()
+    ->Unit(benchmark::kMillisecond)
+    ->Repetitions(5)
+    ->ReportAggregatesOnly(true);
 
 // Repetitions in random interleaved order, and ratios of medians: this machine's speed drifts
 // by tens of percent over seconds, which would bias a ratio of runs taken one after another.
@@ -263,9 +271,10 @@ int main(int argc, char** argv) {
   }
   const double build_ours = rate("penumbraBuild"), build_embree = rate("embreeBuild");
   if (build_ours > 0 && build_embree > 0) {
-    std::printf("BVH build (bunny): penumbra %.2f Mtriangles/s, embree (high quality) %.2f; "
-                "ratio %.2fx\n",
-                build_ours * 1e-6, build_embree * 1e-6, build_ours / build_embree);
+    std::printf(
+        "BVH build (bunny): penumbra %.2f Mtriangles/s, embree (high quality) %.2f; "
+        "ratio %.2fx\n",
+        build_ours * 1e-6, build_embree * 1e-6, build_ours / build_embree);
   }
   benchmark::Shutdown();
   return 0;

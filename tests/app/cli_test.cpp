@@ -76,6 +76,13 @@ TEST(Cli, SceneSettingsApplyAndCommandLineWins) {
   ASSERT_TRUE(img.ok());
   EXPECT_EQ(img->width, 8);
   EXPECT_EQ(img->height, 4);
+
+  scene["settings"]["pathtrace"]["sppp"] = 3;  // a misspelt setting is an error
+  const std::string bad = dir.write("bad.json", scene.dump());
+  const auto err = runCli("render " + bad + " --quiet -o " + dir.file("b.pfm"));
+  EXPECT_EQ(err.exit_code, 2);
+  EXPECT_NE(err.output.find("settings.pathtrace.sppp"), std::string::npos) << err.output;
+  EXPECT_FALSE(fs::exists(dir.file("b.pfm")));
 }
 
 struct BadCase {
@@ -137,9 +144,9 @@ TEST(Cli, TraceFollowsTheFileContract) {
   RayBatch rays;
   rays.resize(4);
   const float inf = std::numeric_limits<float>::infinity();
-  rays.set(0, Ray{{0.75f, 0.25f, 2.0f}, 0.0f, {0.0f, 0.0f, -1.0f}, inf});  // triangle 0
-  rays.set(1, Ray{{0.25f, 0.75f, -1.0f}, 0.0f, {0.0f, 0.0f, 2.0f}, inf});  // triangle 1, t=0.5
-  rays.set(2, Ray{{2.0f, 2.0f, 1.0f}, 0.0f, {0.0f, 0.0f, -1.0f}, inf});    // miss
+  rays.set(0, Ray{{0.75f, 0.25f, 2.0f}, 0.0f, {0.0f, 0.0f, -1.0f}, inf});   // triangle 0
+  rays.set(1, Ray{{0.25f, 0.75f, -1.0f}, 0.0f, {0.0f, 0.0f, 2.0f}, inf});   // triangle 1, t=0.5
+  rays.set(2, Ray{{2.0f, 2.0f, 1.0f}, 0.0f, {0.0f, 0.0f, -1.0f}, inf});     // miss
   rays.set(3, Ray{{0.75f, 0.25f, 2.0f}, 0.0f, {0.0f, 0.0f, -1.0f}, 1.5f});  // beyond tmax
   ASSERT_TRUE(writeRayFile(dir.file("rays.bin"), rays).ok());
   const auto r = runCli("trace " + mesh + " --rays " + dir.file("rays.bin") + " -o " +

@@ -240,16 +240,7 @@ TEST(GltfLoad, StripsFansAndNonIndexed) {
   EXPECT_EQ(fan->meshes[0].triangles[1], glm::uvec3(0, 2, 3));
 }
 
-::testing::AssertionResult errorNames(const Expected<Scene>& s, const std::string& file,
-                                      const std::string& place) {
-  if (s.ok()) return ::testing::AssertionFailure() << "loaded, but an error was expected";
-  const std::string d = s.error().describe();
-  if (d.find(file) == std::string::npos || d.find(place) == std::string::npos) {
-    return ::testing::AssertionFailure()
-           << "'" << d << "' does not name '" << file << "' and '" << place << "'";
-  }
-  return ::testing::AssertionSuccess() << d;
-}
+using test::errorNames;
 
 TEST(GltfLoad, ErrorsNameFileAndPlace) {
   TempDir dir;

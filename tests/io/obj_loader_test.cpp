@@ -13,16 +13,7 @@ namespace {
 using test::dataPath;
 using test::TempDir;
 
-::testing::AssertionResult errorNames(const Expected<Scene>& s, const std::string& file,
-                                      const std::string& place) {
-  if (s.ok()) return ::testing::AssertionFailure() << "loaded, but an error was expected";
-  const std::string d = s.error().describe();
-  if (d.find(file) == std::string::npos || d.find(place) == std::string::npos) {
-    return ::testing::AssertionFailure()
-           << "'" << d << "' does not name '" << file << "' and '" << place << "'";
-  }
-  return ::testing::AssertionSuccess() << d;
-}
+using test::errorNames;
 
 TEST(ObjLoad, CornellPartsCountsAndValues) {
   struct Part {

@@ -26,16 +26,7 @@ std::string readAll(const std::string& path) {
   return ss.str();
 }
 
-::testing::AssertionResult errorNames(const Expected<Scene>& s, const std::string& file,
-                                      const std::string& place) {
-  if (s.ok()) return ::testing::AssertionFailure() << "loaded, but an error was expected";
-  const std::string d = s.error().describe();
-  if (d.find(file) == std::string::npos || d.find(place) == std::string::npos) {
-    return ::testing::AssertionFailure()
-           << "'" << d << "' does not name '" << file << "' and '" << place << "'";
-  }
-  return ::testing::AssertionSuccess() << d;
-}
+using test::errorNames;
 
 // The bunny's layout, read independently of the loader: a binary little-endian header with
 // "element vertex N" of float x y z and "element face M" of "list uchar int vertex_indices".

@@ -183,16 +183,7 @@ TEST(SceneJsonLoad, TransformsLightsCameraSettings) {
   EXPECT_EQ(s->settings["matrix"]["solver"], "gauss-seidel");
 }
 
-::testing::AssertionResult errorNames(const Expected<Scene>& s, const std::string& file,
-                                      const std::string& place) {
-  if (s.ok()) return ::testing::AssertionFailure() << "loaded, but an error was expected";
-  const std::string d = s.error().describe();
-  if (d.find(file) == std::string::npos || d.find(place) == std::string::npos) {
-    return ::testing::AssertionFailure()
-           << "'" << d << "' does not name '" << file << "' and '" << place << "'";
-  }
-  return ::testing::AssertionSuccess() << d;
-}
+using test::errorNames;
 
 TEST(SceneJsonLoad, StrictErrorsNameTheKeyPath) {
   TempDir dir;

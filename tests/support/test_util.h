@@ -1,6 +1,10 @@
 // Helpers shared by the tests.
 #pragma once
 
+#include "penumbra/core/expected.h"
+
+#include <gtest/gtest.h>
+
 #include <filesystem>
 #include <string>
 
@@ -26,6 +30,19 @@ class TempDir {
 // Path of a file under tests/data.
 inline std::string dataPath(const std::string& relative) {
   return std::string(PENUMBRA_TEST_DATA) + "/" + relative;
+}
+
+// Succeeds when `result` is an error whose description names `file` and `place`.
+template <typename T>
+::testing::AssertionResult errorNames(const Expected<T>& result, const std::string& file,
+                                      const std::string& place) {
+  if (result.ok()) return ::testing::AssertionFailure() << "loaded, but an error was expected";
+  const std::string d = result.error().describe();
+  if (d.find(file) == std::string::npos || d.find(place) == std::string::npos) {
+    return ::testing::AssertionFailure()
+           << "'" << d << "' does not name '" << file << "' and '" << place << "'";
+  }
+  return ::testing::AssertionSuccess() << d;
 }
 
 // Result of running the penumbra executable.

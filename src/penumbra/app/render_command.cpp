@@ -65,6 +65,19 @@ Status renderPathTrace(const RenderOptions& options, const CommonOptions& common
   if (!scene) return scene.error();
   for (const std::string& w : scene->warnings) spdlog::warn("{}", w);
 
+  // Settings a scene file gives the path tracer: unknown keys are errors, not silently ignored.
+  if (scene->settings.contains("pathtrace")) {
+    const nlohmann::json& pt = scene->settings["pathtrace"];
+    if (!pt.is_object()) {
+      return inputError(scene->source, "settings.pathtrace", "must be an object");
+    }
+    for (const auto& [key, value] : pt.items()) {
+      if (key != "width" && key != "height" && key != "spp" && key != "max_depth") {
+        return inputError(scene->source, "settings.pathtrace." + key,
+                          "unknown setting (width, height, spp, max_depth)");
+      }
+    }
+  }
   PathTracerSettings settings;
   auto setting = [&](const std::optional<int>& cli, const char* key, int& dst) -> Status {
     if (cli) {
