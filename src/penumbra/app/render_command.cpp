@@ -47,6 +47,7 @@ Status renderPathTrace(const RenderOptions& options, const CommonOptions& common
   if (options.device == "gpu") {
     return inputError("", "", "--device gpu: the path tracer has no GPU back end yet; use cpu");
   }
+  if (options.device == "auto") spdlog::info("device: cpu (the path tracer runs on the CPU)");
   std::vector<std::string> outputs = options.outputs;
   if (outputs.empty()) outputs.push_back(sceneStem(options.scene) + ".png");
   for (const std::string& out : outputs) {
