@@ -200,6 +200,80 @@ TEST(Cli, TraceRejectsMalformedRayFiles) {
   }
 }
 
+// EGL with no vendor library: no context can be made.
+const char* kNoGl = "__EGL_VENDOR_LIBRARY_FILENAMES=/nonexistent.json";
+
+TEST(Cli, TraceOnTheGpuGivesTheCpuAnswers) {
+  PENUMBRA_GL_OR_SKIP();
+  TempDir dir;
+  RayBatch rays;
+  rays.resize(2000);
+  for (size_t i = 0; i < rays.size(); ++i) {
+    const float a = 0.001f * float(i);
+    rays.set(i, Ray{{-0.02f + 0.05f * std::cos(a * 7.0f), 0.11f + 0.05f * std::sin(a * 5.0f), 0.5f},
+                    0.0f,
+                    {0.1f * std::sin(a), 0.05f * std::cos(a * 3.0f), -1.0f},
+                    10.0f});
+  }
+  ASSERT_TRUE(writeRayFile(dir.file("rays.bin"), rays).ok());
+  const std::string bunny = test::dataPath("bunny.ply");
+  const auto cpu = runCli("trace " + bunny + " --rays " + dir.file("rays.bin") + " -o " +
+                          dir.file("cpu.bin") + " --device cpu --quiet");
+  const auto gpu = runCli("trace " + bunny + " --rays " + dir.file("rays.bin") + " -o " +
+                          dir.file("gpu.bin") + " --device gpu --stats " + dir.file("g.json"));
+  ASSERT_EQ(cpu.exit_code, 0) << cpu.output;
+  ASSERT_EQ(gpu.exit_code, 0) << gpu.output;
+  EXPECT_NE(gpu.output.find("device: gpu"), std::string::npos) << gpu.output;
+  Expected<HitBatch> a = readHitFile(dir.file("cpu.bin"));
+  Expected<HitBatch> b = readHitFile(dir.file("gpu.bin"));
+  ASSERT_TRUE(a.ok() && b.ok());
+  size_t hits = 0, same = 0;
+  for (size_t i = 0; i < rays.size(); ++i) {
+    ASSERT_EQ(a->triangle[i] >= 0, b->triangle[i] >= 0) << i;
+    if (a->triangle[i] < 0) continue;
+    ++hits;
+    same += a->triangle[i] == b->triangle[i];
+    EXPECT_NEAR(b->t[i], a->t[i], 1e-5f * a->t[i]) << i;
+  }
+  EXPECT_GT(hits, 500u);
+  EXPECT_GE(same, hits - 2);  // only true ties may differ
+  EXPECT_EQ(readJson(dir.file("g.json"))["device"], "gpu");
+}
+
+TEST(Cli, DeviceGpuWithoutAContextIsAClearErrorAndAutoFallsBack) {
+  TempDir dir;
+  const std::string mesh = dir.write("tri.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+  RayBatch rays;
+  rays.resize(1);
+  rays.set(0, Ray{{0.2f, 0.2f, 1.0f}, 0.0f, {0, 0, -1}, 10.0f});
+  ASSERT_TRUE(writeRayFile(dir.file("rays.bin"), rays).ok());
+  const std::string args =
+      "trace " + mesh + " --rays " + dir.file("rays.bin") + " -o " + dir.file("hits.bin");
+  const auto gpu = runCli(args + " --device gpu", kNoGl);
+  EXPECT_EQ(gpu.exit_code, 2) << gpu.output;
+  EXPECT_EQ(lineCount(gpu.output), 1u) << gpu.output;
+  EXPECT_NE(gpu.output.find("--device gpu: no OpenGL 4.5 context could be made"), std::string::npos)
+      << gpu.output;
+  EXPECT_FALSE(fs::exists(dir.file("hits.bin")));
+  const auto autod = runCli(args + " --device auto", kNoGl);
+  EXPECT_EQ(autod.exit_code, 0) << autod.output;
+  EXPECT_NE(autod.output.find("device: cpu (no GPU"), std::string::npos) << autod.output;
+  Expected<HitBatch> hits = readHitFile(dir.file("hits.bin"));
+  ASSERT_TRUE(hits.ok());
+  EXPECT_EQ(hits->triangle[0], 0);
+}
+
+TEST(Cli, InfoDevicesListsContextsAndTheirLimits) {
+  const auto none = runCli("info --devices", kNoGl);
+  EXPECT_EQ(none.exit_code, 0);
+  EXPECT_NE(none.output.find("gpu        none"), std::string::npos) << none.output;
+  PENUMBRA_GL_OR_SKIP();
+  const auto r = runCli("info --devices");
+  EXPECT_EQ(r.exit_code, 0);
+  EXPECT_NE(r.output.find("4.5"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("max shader storage block"), std::string::npos) << r.output;
+}
+
 TEST(Cli, InfoDescribesTheBuiltInCornellBox) {
   const auto r = runCli("info cornell");
   ASSERT_EQ(r.exit_code, 0) << r.output;

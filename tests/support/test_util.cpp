@@ -1,5 +1,7 @@
 #include "support/test_util.h"
 
+#include "penumbra/gpu/context.h"
+
 #include <sys/wait.h>
 #include <array>
 #include <cstdio>
@@ -29,9 +31,25 @@ std::string TempDir::write(const std::string& name, const std::string& contents)
   return p;
 }
 
-CliResult runCli(const std::string& args) {
+GlContext* glContext(std::string& why) {
+  static std::string failure;
+  static std::unique_ptr<GlContext> context = [] {
+    Expected<std::unique_ptr<GlContext>> c = GlContext::createHeadless();
+    if (!c) {
+      failure = c.error().describe();
+      return std::unique_ptr<GlContext>();
+    }
+    return std::move(*c);
+  }();
+  why = failure;
+  if (context) context->makeCurrent();
+  return context.get();
+}
+
+CliResult runCli(const std::string& args, const std::string& env) {
   CliResult result;
-  const std::string cmd = std::string(PENUMBRA_CLI) + " " + args + " 2>&1";
+  const std::string cmd =
+      (env.empty() ? "" : "env " + env + " ") + std::string(PENUMBRA_CLI) + " " + args + " 2>&1";
   FILE* pipe = ::popen(cmd.c_str(), "r");
   if (!pipe) return result;
   std::array<char, 4096> buf;

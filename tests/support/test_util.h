@@ -8,6 +8,10 @@
 #include <filesystem>
 #include <string>
 
+namespace penumbra {
+class GlContext;
+}
+
 namespace penumbra::test {
 
 // A fresh directory under the system temp dir, removed with its contents on destruction.
@@ -45,13 +49,34 @@ template <typename T>
   return ::testing::AssertionSuccess() << d;
 }
 
+// A headless OpenGL context for this test process, made once; nullptr (with `why`) when none
+// can be made.
+GlContext* glContext(std::string& why);
+
 // Result of running the penumbra executable.
 struct CliResult {
   int exit_code = -1;
   std::string output;  // stdout and stderr together
 };
 
-// Runs build/bin/penumbra with `args` (a shell-quoted argument string).
-CliResult runCli(const std::string& args);
+// Runs build/bin/penumbra with `args` (a shell-quoted argument string), with `env` ("NAME=value
+// ...") added to its environment.
+CliResult runCli(const std::string& args, const std::string& env = "");
 
 }  // namespace penumbra::test
+
+namespace penumbra {
+class GlContext;
+bool glRequired();
+}  // namespace penumbra
+
+// Makes the test's OpenGL context current, or skips the test when none can be made; under
+// PENUMBRA_REQUIRE_GL=1 (CI) a missing context fails it instead.
+#define PENUMBRA_GL_OR_SKIP()                                     \
+  do {                                                            \
+    std::string penumbra_why_;                                    \
+    if (!::penumbra::test::glContext(penumbra_why_)) {            \
+      if (::penumbra::glRequired()) FAIL() << penumbra_why_;      \
+      GTEST_SKIP() << "no OpenGL 4.5 context: " << penumbra_why_; \
+    }                                                             \
+  } while (false)

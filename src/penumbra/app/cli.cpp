@@ -73,6 +73,8 @@ int parseAndRun(int argc, char** argv) {
   InfoOptions info;
   CLI::App* info_cmd = app.add_subcommand("info", "what a scene holds: sizes, lights, warnings");
   info_cmd->add_option("scene", info.scene, "built-in scene name or file")->capture_default_str();
+  info_cmd->add_flag("--devices", info.devices,
+                     "list the OpenGL 4.5 contexts that can be made, with their limits");
   addCommon(info_cmd, common);
 
   const std::string first = argc > 1 ? argv[1] : "";

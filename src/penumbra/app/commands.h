@@ -37,6 +37,7 @@ struct TraceOptions {
 
 struct InfoOptions {
   std::string scene = "cornell";
+  bool devices = false;  // list the OpenGL contexts that can be made instead
 };
 
 int runRender(const RenderOptions& options, const CommonOptions& common);

@@ -1,6 +1,9 @@
 // `penumbra info`: what a scene holds.
 #include "penumbra/accel/bounds.h"
 #include "penumbra/app/commands.h"
+#include "penumbra/core/memory.h"
+#include "penumbra/core/parallel.h"
+#include "penumbra/gpu/context.h"
 #include "penumbra/io/scene_io.h"
 
 #include <glm/trigonometric.hpp>
@@ -11,7 +14,33 @@
 
 namespace penumbra {
 
+namespace {
+
+int printDevices() {
+  fmt::print("cpu        {} threads\n", threadCount());
+  const GlProbe probe = probeGlDevices();
+  for (const GlDeviceInfo& d : probe.devices) {
+    fmt::print("gpu        {}: {} | {} | {}{}\n", d.platform, d.vendor, d.renderer, d.version,
+               d.software ? " (software renderer: correctness runs, never timings)" : "");
+    fmt::print("  max shader storage block   {}\n", formatBytes(uint64_t(d.max_ssbo_bytes)));
+    fmt::print("  max 2D texture size        {}\n", d.max_texture_size);
+    fmt::print(
+        "  compute work group         {} invocations, size {} x {} x {}, count {} x {} x "
+        "{}, {} shared\n",
+        d.max_compute_invocations, d.max_compute_group_size[0], d.max_compute_group_size[1],
+        d.max_compute_group_size[2], d.max_compute_group_count[0], d.max_compute_group_count[1],
+        d.max_compute_group_count[2], formatBytes(uint64_t(d.max_compute_shared_bytes)));
+  }
+  for (const std::string& f : probe.failures) fmt::print("no context {}\n", f);
+  if (probe.devices.empty())
+    fmt::print("gpu        none: --device gpu will fail, auto uses the cpu\n");
+  return 0;
+}
+
+}  // namespace
+
 int runInfo(const InfoOptions& options, const CommonOptions&) {
+  if (options.devices) return printDevices();
   Expected<Scene> loaded = loadScene(options.scene);
   if (!loaded) return reportError(loaded.error());
   const Scene& s = *loaded;

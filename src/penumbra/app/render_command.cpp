@@ -47,7 +47,6 @@ Status renderPathTrace(const RenderOptions& options, const CommonOptions& common
   if (options.device == "gpu") {
     return inputError("", "", "--device gpu: the path tracer has no GPU back end yet; use cpu");
   }
-  if (options.device == "auto") spdlog::info("device: cpu (the path tracer runs on the CPU)");
   std::vector<std::string> outputs = options.outputs;
   if (outputs.empty()) outputs.push_back(sceneStem(options.scene) + ".png");
   for (const std::string& out : outputs) {
@@ -108,6 +107,7 @@ Status renderPathTrace(const RenderOptions& options, const CommonOptions& common
   Timer build_timer;
   const PathTracer tracer(*scene);
   const double build_seconds = build_timer.seconds();
+  if (options.device == "auto") spdlog::info("device: cpu (the path tracer runs on the CPU)");
   spdlog::info("{}: {} triangles, {} emissive, {} lights; {}x{} at {} spp on {} threads",
                scene->source, tracer.geometry().triangles.size(), tracer.geometry().emitters.size(),
                scene->lights.size(), settings.width, settings.height, settings.spp, threadCount());
