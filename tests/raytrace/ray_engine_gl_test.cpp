@@ -61,6 +61,38 @@ RayBatch testRays(const Scene& s, const Bounds3& box, int n_random) {
   return rays;
 }
 
+// Same triangle as the CPU except at true ties (checked by intersecting the other triangle),
+// t within 1e-5 relative. For hits a hair from the origin, t is computed from differences of
+// coordinates and carries an absolute rounding error of a few ulps of the scene's size; the
+// tolerance never goes below 1e-6 of the scene's extent (in units of the direction's length).
+void expectSameHits(const std::string& what, const Flat& f, const RayBatch& rays, const HitBatch& a,
+                    const HitBatch& b) {
+  Bounds3 box;
+  for (const glm::vec3& p : f.positions) box.extend(p);
+  const float extent = glm::length(box.extent());
+  size_t hits = 0, ties = 0;
+  for (size_t i = 0; i < rays.size(); ++i) {
+    ASSERT_EQ(a.triangle[i] >= 0, b.triangle[i] >= 0) << what << " ray " << i;
+    if (a.triangle[i] < 0) continue;
+    ++hits;
+    const float floor = 1e-6f * extent / glm::length(rays.get(i).dir);
+    ASSERT_NEAR(b.t[i], a.t[i], std::max(1e-5f * a.t[i], floor)) << what << " ray " << i;
+    if (a.triangle[i] != b.triangle[i]) {
+      // A true tie: the GPU's triangle is hit at the same distance.
+      const Ray r = rays.get(i);
+      const glm::uvec3 t = f.triangles[size_t(b.triangle[i])];
+      float tt, u, v;
+      ASSERT_TRUE(intersectTriangle(makeWatertightRay(r.origin, r.dir), f.positions[t.x],
+                                    f.positions[t.y], f.positions[t.z], r.tmin, r.tmax, tt, u, v) &&
+                  std::fabs(tt - a.t[i]) <= std::max(1e-5f * a.t[i], floor))
+          << what << " ray " << i;
+      ++ties;
+    }
+  }
+  EXPECT_GT(hits, rays.size() / 8) << what;
+  EXPECT_LT(ties, rays.size() / 1000 + 5) << what;
+}
+
 void expectSameAsCpu(const std::string& what, const Scene& scene) {
   const Flat f = flatten(scene);
   const RayEngine cpu = RayEngine::build(f.positions, f.triangles);
@@ -70,30 +102,11 @@ void expectSameAsCpu(const std::string& what, const Scene& scene) {
   HitBatch a, b;
   cpu.intersect(rays, a);
   ASSERT_TRUE(gpu->intersect(rays, b).ok());
+  expectSameHits(what, f, rays, a, b);
   std::vector<uint8_t> occ_cpu, occ_gpu;
   cpu.occluded(rays, occ_cpu);
   ASSERT_TRUE(gpu->occluded(rays, occ_gpu).ok());
-  size_t hits = 0, ties = 0;
-  for (size_t i = 0; i < rays.size(); ++i) {
-    ASSERT_EQ(occ_cpu[i], occ_gpu[i]) << what << " ray " << i;
-    ASSERT_EQ(a.triangle[i] >= 0, b.triangle[i] >= 0) << what << " ray " << i;
-    if (a.triangle[i] < 0) continue;
-    ++hits;
-    ASSERT_NEAR(b.t[i], a.t[i], 1e-5f * a.t[i]) << what << " ray " << i;
-    if (a.triangle[i] != b.triangle[i]) {
-      // A true tie: the GPU's triangle is hit at the same distance.
-      const Ray r = rays.get(i);
-      const glm::uvec3 t = f.triangles[size_t(b.triangle[i])];
-      float tt, u, v;
-      ASSERT_TRUE(intersectTriangle(makeWatertightRay(r.origin, r.dir), f.positions[t.x],
-                                    f.positions[t.y], f.positions[t.z], r.tmin, r.tmax, tt, u, v) &&
-                  std::fabs(tt - a.t[i]) <= 1e-5f * a.t[i])
-          << what << " ray " << i;
-      ++ties;
-    }
-  }
-  EXPECT_GT(hits, rays.size() / 8) << what;
-  EXPECT_LT(ties, rays.size() / 1000 + 5) << what;
+  EXPECT_EQ(occ_cpu, occ_gpu) << what;
 }
 
 TEST(GlRayEngine, AgreesWithCpuOnBunnyTeapotAndCornell) {
@@ -106,6 +119,71 @@ TEST(GlRayEngine, AgreesWithCpuOnBunnyTeapotAndCornell) {
   Expected<Scene> cornell = builtinScene("cornell");
   ASSERT_TRUE(cornell.ok());
   expectSameAsCpu("cornell", *cornell);
+}
+
+// The paper's kernel (rays per pixel, triangles as quads, eq. 1-8, depth test as t-buffer).
+void expectRasterKernelSameAsCpu(const std::string& what, const Scene& scene, int random_rays,
+                                 int tile) {
+  const Flat f = flatten(scene);
+  const RayEngine cpu = RayEngine::build(f.positions, f.triangles);
+  Expected<GlRasterKernel> kernel = GlRasterKernel::create(f.positions, f.triangles, tile);
+  ASSERT_TRUE(kernel.ok()) << kernel.error().describe();
+  RayBatch rays = testRays(scene, cpu.bounds(), random_rays);
+  HitBatch a, b;
+  cpu.intersect(rays, a);
+  ASSERT_TRUE(kernel->intersect(rays, b).ok());
+  expectSameHits(what, f, rays, a, b);
+  // Barycentrics from eq. 6-8 reproduce the hit point.
+  for (size_t i = 0; i < rays.size(); ++i) {
+    if (b.triangle[i] < 0) continue;
+    const glm::uvec3 t = f.triangles[size_t(b.triangle[i])];
+    const glm::vec3 p = (1.0f - b.u[i] - b.v[i]) * f.positions[t.x] + b.u[i] * f.positions[t.y] +
+                        b.v[i] * f.positions[t.z];
+    const Ray r = rays.get(i);
+    ASSERT_LT(glm::length(p - (r.origin + b.t[i] * r.dir)),
+              1e-4f * glm::length(cpu.bounds().extent()))
+        << what << " ray " << i;
+  }
+}
+
+TEST(GlRasterKernel, AgreesWithCpuOnBunnyTeapotAndCornell) {
+  PENUMBRA_GL_OR_SKIP();
+  Expected<Scene> cornell = builtinScene("cornell");
+  ASSERT_TRUE(cornell.ok());
+  expectRasterKernelSameAsCpu("cornell", *cornell, 6000, 64);
+  Expected<Scene> teapot = loadScene(test::dataPath("teapot.ply"));
+  ASSERT_TRUE(teapot.ok());
+  expectRasterKernelSameAsCpu("teapot", *teapot, 4000, 64);
+  Expected<Scene> bunny = loadScene(test::dataPath("bunny.ply"));
+  ASSERT_TRUE(bunny.ok());
+  expectRasterKernelSameAsCpu("bunny", *bunny, 0, 16);  // 4096 camera rays, 16x16 per pass
+}
+
+TEST(GlRasterKernel, TriangleSubsetsAndTies) {
+  PENUMBRA_GL_OR_SKIP();
+  // Two coincident triangles (ids 0 and 1) and one behind them (id 2).
+  const std::vector<glm::vec3> p = {{0, 0, 0},  {1, 0, 0},  {0, 1, 0},
+                                    {0, 0, -1}, {1, 0, -1}, {0, 1, -1}};
+  const std::vector<glm::uvec3> t = {{0, 1, 2}, {0, 1, 2}, {3, 4, 5}};
+  Expected<GlRasterKernel> kernel = GlRasterKernel::create(p, t, 4);
+  ASSERT_TRUE(kernel.ok()) << kernel.error().describe();
+  RayBatch rays;
+  rays.resize(1);
+  rays.set(0, Ray{{0.2f, 0.3f, 1.0f}, 0.0f, {0, 0, -1}, 10.0f});
+  HitBatch hits;
+  ASSERT_TRUE(kernel->intersect(rays, hits).ok());
+  EXPECT_EQ(hits.triangle[0], 0);  // exact tie: the lower id
+  EXPECT_FLOAT_EQ(hits.t[0], 1.0f);
+  EXPECT_FLOAT_EQ(hits.u[0], 0.2f);
+  EXPECT_FLOAT_EQ(hits.v[0], 0.3f);
+  ASSERT_TRUE(kernel->intersect(rays, hits, 1, 2).ok());
+  EXPECT_EQ(hits.triangle[0], 1);
+  ASSERT_TRUE(kernel->intersect(rays, hits, 2, 1).ok());
+  EXPECT_EQ(hits.triangle[0], 2);
+  EXPECT_FLOAT_EQ(hits.t[0], 2.0f);
+  rays.set(0, Ray{{0.2f, 0.3f, 1.0f}, 0.0f, {0, 0, -1}, 1.5f});  // tmax before the far one
+  ASSERT_TRUE(kernel->intersect(rays, hits, 2, 1).ok());
+  EXPECT_EQ(hits.triangle[0], -1);
 }
 
 TEST(GlRayEngine, HonoursTminTmaxAndEmptyBatches) {

@@ -4,7 +4,12 @@
 #include "penumbra/gpu/program.h"
 #include "penumbra/raytrace/gpu_layout.h"
 
+#include <glm/common.hpp>
+#include <glm/vec4.hpp>
+
 #include <fmt/format.h>
+#include <algorithm>
+#include <cmath>
 
 namespace penumbra {
 
@@ -104,6 +109,155 @@ Status GlRayEngine::occluded(const RayBatch& rays, std::vector<uint8_t>& occlude
   PENUMBRA_TRY(run(rays, true, out));
   occluded_out.resize(out.size());
   for (size_t i = 0; i < out.size(); ++i) occluded_out[i] = out[i].triangle >= 0 ? 1 : 0;
+  return {};
+}
+
+}  // namespace penumbra
+
+namespace penumbra {
+
+Expected<GlRasterKernel> GlRasterKernel::create(std::span<const glm::vec3> positions,
+                                                std::span<const glm::uvec3> triangles, int tile) {
+  GlRasterKernel k;
+  Expected<gl::Program> program =
+      gl::renderProgram("raytrace/raster_intersect.vert", "raytrace/raster_intersect.frag");
+  if (!program) return program.error();
+  k.program_ = std::move(*program);
+  k.tile_ = tile;
+  k.triangle_count_ = uint32_t(triangles.size());
+  std::vector<GpuTriangle> tris(triangles.size());
+  glm::vec3 lo(INFINITY), hi(-INFINITY);
+  for (size_t i = 0; i < triangles.size(); ++i) {
+    const glm::vec3 p[3] = {positions[triangles[i].x], positions[triangles[i].y],
+                            positions[triangles[i].z]};
+    for (int a = 0; a < 3; ++a) {
+      tris[i].p0[a] = p[0][a];
+      tris[i].p1[a] = p[1][a];
+      tris[i].p2[a] = p[2][a];
+    }
+    for (const glm::vec3& q : p) {
+      lo = glm::min(lo, q);
+      hi = glm::max(hi, q);
+    }
+    tris[i].id = int32_t(i);
+    tris[i].pad1 = tris[i].pad2 = 0.0f;
+  }
+  k.box_lo_ = lo;
+  k.box_hi_ = hi;
+  k.triangles_ = gl::Buffer(std::max<size_t>(tris.size(), 1) * sizeof(GpuTriangle),
+                            tris.empty() ? nullptr : tris.data(), 0);
+  auto texture = [tile](GLenum format) {
+    gl::Texture t = gl::createTexture(GL_TEXTURE_2D);
+    glTextureStorage2D(t.id(), 1, format, tile, tile);
+    glTextureParameteri(t.id(), GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+    glTextureParameteri(t.id(), GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+    return t;
+  };
+  k.origins_ = texture(GL_RGBA32F);
+  k.directions_ = texture(GL_RGBA32F);
+  k.id_target_ = texture(GL_R32I);
+  k.tuv_target_ = texture(GL_RGBA32F);
+  k.depth_ = gl::createRenderbuffer();
+  glNamedRenderbufferStorage(k.depth_.id(), GL_DEPTH_COMPONENT32F, tile, tile);
+  k.framebuffer_ = gl::createFramebuffer();
+  glNamedFramebufferTexture(k.framebuffer_.id(), GL_COLOR_ATTACHMENT0, k.id_target_.id(), 0);
+  glNamedFramebufferTexture(k.framebuffer_.id(), GL_COLOR_ATTACHMENT1, k.tuv_target_.id(), 0);
+  glNamedFramebufferRenderbuffer(k.framebuffer_.id(), GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER,
+                                 k.depth_.id());
+  const GLenum buffers[] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1};
+  glNamedFramebufferDrawBuffers(k.framebuffer_.id(), 2, buffers);
+  if (glCheckNamedFramebufferStatus(k.framebuffer_.id(), GL_FRAMEBUFFER) !=
+      GL_FRAMEBUFFER_COMPLETE) {
+    return runtimeError("", "the ray engine's t-buffer framebuffer is incomplete on this device");
+  }
+  k.vao_ = gl::createVertexArray();
+  return k;
+}
+
+namespace {
+
+// Where the ray leaves the box, or -1 when it misses it within [tmin, tmax]; in double, widened
+// slightly, so the bound never cuts off a hit on the box's surface.
+float farBound(const Ray& r, const glm::vec3& lo, const glm::vec3& hi) {
+  double t0 = r.tmin, t1 = r.tmax;
+  for (int a = 0; a < 3; ++a) {
+    const double o = r.origin[a], d = r.dir[a];
+    if (d == 0.0) {
+      if (o < lo[a] || o > hi[a]) return -1.0f;
+      continue;
+    }
+    double ta = (double(lo[a]) - o) / d, tb = (double(hi[a]) - o) / d;
+    if (ta > tb) std::swap(ta, tb);
+    t0 = std::max(t0, ta);
+    t1 = std::min(t1, tb * (1.0 + 1e-6) + 1e-30);
+  }
+  if (t0 > t1) return -1.0f;
+  return float(std::min(t1, double(r.tmax)));
+}
+
+}  // namespace
+
+Status GlRasterKernel::intersect(const RayBatch& rays, HitBatch& hits, uint32_t first,
+                                 uint32_t count) const {
+  const size_t n = rays.size();
+  hits.resize(n);
+  for (size_t i = 0; i < n; ++i) hits.set(i, Hit{});
+  if (first >= triangle_count_ || n == 0) return {};
+  count = std::min(count, triangle_count_ - first);
+  const size_t per_pass = size_t(tile_) * size_t(tile_);
+  std::vector<glm::vec4> origins(per_pass), directions(per_pass), tuv(per_pass);
+  std::vector<int32_t> ids(per_pass);
+
+  glBindFramebuffer(GL_FRAMEBUFFER, framebuffer_.id());
+  glViewport(0, 0, tile_, tile_);
+  glEnable(GL_DEPTH_TEST);
+  glDepthFunc(GL_LESS);
+  glDepthMask(GL_TRUE);
+  glDisable(GL_BLEND);
+  glDisable(GL_CULL_FACE);
+  glUseProgram(program_.id());
+  glUniform1ui(glGetUniformLocation(program_.id(), "first_triangle"), first);
+  triangles_.bindBase(GL_SHADER_STORAGE_BUFFER, 1);
+  glBindTextureUnit(0, origins_.id());
+  glBindTextureUnit(1, directions_.id());
+  glBindVertexArray(vao_.id());
+  for (size_t begin = 0; begin < n; begin += per_pass) {
+    const size_t m = std::min(per_pass, n - begin);
+    for (size_t i = 0; i < per_pass; ++i) {
+      if (i < m) {
+        const Ray r = rays.get(begin + i);
+        origins[i] = glm::vec4(r.origin, r.tmin);
+        directions[i] = glm::vec4(r.dir, farBound(r, box_lo_, box_hi_));
+      } else {
+        origins[i] = glm::vec4(0.0f);
+        directions[i] = glm::vec4(0.0f, 0.0f, 1.0f, -1.0f);  // no hit possible
+      }
+    }
+    glTextureSubImage2D(origins_.id(), 0, 0, 0, tile_, tile_, GL_RGBA, GL_FLOAT, origins.data());
+    glTextureSubImage2D(directions_.id(), 0, 0, 0, tile_, tile_, GL_RGBA, GL_FLOAT,
+                        directions.data());
+    const GLint no_hit = -1;
+    const GLfloat zero[4] = {0, 0, 0, 0};
+    glClearNamedFramebufferiv(framebuffer_.id(), GL_COLOR, 0, &no_hit);
+    glClearNamedFramebufferfv(framebuffer_.id(), GL_COLOR, 1, zero);
+    const GLfloat far_depth = 1.0f;
+    glClearNamedFramebufferfv(framebuffer_.id(), GL_DEPTH, 0, &far_depth);
+    // Triangles in id order: on equal depth the first drawn (lower id) stays.
+    glDrawArraysInstanced(GL_TRIANGLE_STRIP, 0, 4, GLsizei(count));
+    glGetTextureImage(id_target_.id(), 0, GL_RED_INTEGER, GL_INT, GLsizei(per_pass * 4),
+                      ids.data());
+    glGetTextureImage(tuv_target_.id(), 0, GL_RGBA, GL_FLOAT, GLsizei(per_pass * 16), tuv.data());
+    for (size_t i = 0; i < m; ++i) {
+      if (ids[i] >= 0) hits.set(begin + i, Hit{ids[i], tuv[i].x, tuv[i].y, tuv[i].z});
+    }
+  }
+  glBindVertexArray(0);
+  glUseProgram(0);
+  glBindFramebuffer(GL_FRAMEBUFFER, 0);
+  const GLenum err = glGetError();
+  if (err != GL_NO_ERROR) {
+    return runtimeError("", fmt::format("OpenGL error 0x{:x} in the ray engine kernel", err));
+  }
   return {};
 }
 

@@ -42,4 +42,33 @@ class GlRayEngine {
   int64_t max_ssbo_bytes_ = 0;
 };
 
+// The Ray Engine paper's own GPU kernel (Carr et al. 2002, sec. 3.3-4.3): rays held per pixel in
+// a ray-origins and a ray-directions texture, every triangle broadcast as a screen-filling quad,
+// eq. 1-8 in the fragment shader, the nearest hit kept by the depth test (the t-buffer) and the
+// triangle id in a colour target (shaders/raytrace/raster_intersect.*). It tests every ray of a
+// tile against every triangle it is given: the kernel for a coherent bucket of rays against
+// the small set of triangles of a GPU cell (sec. 5.3, 6.2), not for whole scenes.
+class GlRasterKernel {
+ public:
+  // Uploads the triangles (triangle i keeps id i). `tile` x `tile` rays are traced per pass.
+  static Expected<GlRasterKernel> create(std::span<const glm::vec3> positions,
+                                         std::span<const glm::uvec3> triangles, int tile = 64);
+
+  // Closest hits of `rays` among triangles [first, first + count) in input order (all by
+  // default). Exact ties go to the lower triangle id (drawn first; the depth test is GL_LESS).
+  Status intersect(const RayBatch& rays, HitBatch& hits, uint32_t first = 0,
+                   uint32_t count = ~0u) const;
+
+ private:
+  gl::Program program_;
+  gl::Buffer triangles_;
+  gl::Texture origins_, directions_, id_target_, tuv_target_;
+  gl::Renderbuffer depth_;
+  gl::Framebuffer framebuffer_;
+  gl::VertexArray vao_;
+  uint32_t triangle_count_ = 0;
+  int tile_ = 64;
+  glm::vec3 box_lo_{0.0f}, box_hi_{0.0f};
+};
+
 }  // namespace penumbra

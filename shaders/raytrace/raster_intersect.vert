@@ -1,0 +1,32 @@
+#version 450
+// The Ray Engine's GPU kernel (Carr, Hall, Hart 2002, sec. 3.3-4.2): each triangle is broadcast
+// to every ray as the attributes of a screen-filling quad. One instance per triangle, in triangle
+// order; the quad's four corners come from gl_VertexID (triangle strip). The ray-independent
+// vectors of eq. 1-8 (n, ab, ac, bc) are computed here, once per triangle, as the paper does in
+// its vertex stage.
+#include "raytrace/layout.glsl"
+
+layout(std430, binding = 1) readonly buffer Triangles { GpuTriangle triangles[]; };
+
+uniform uint first_triangle;
+
+flat out vec3 v_a;
+flat out vec3 v_b;
+flat out vec3 v_n;
+flat out vec3 v_ab;
+flat out vec3 v_ac;
+flat out vec3 v_bc;
+flat out int v_id;
+
+void main() {
+  GpuTriangle tri = triangles[first_triangle + uint(gl_InstanceID)];
+  v_a = tri.p0;
+  v_b = tri.p1;
+  v_ab = tri.p1 - tri.p0;
+  v_ac = tri.p2 - tri.p0;
+  v_bc = tri.p2 - tri.p1;
+  v_n = cross(v_ab, v_ac);
+  v_id = tri.id;
+  vec2 corner = vec2(float(gl_VertexID & 1), float(gl_VertexID >> 1));
+  gl_Position = vec4(corner * 2.0 - 1.0, 0.0, 1.0);
+}
