@@ -2,6 +2,7 @@
 
 #include "penumbra/core/parallel.h"
 #include "penumbra/kernels/ray_triangle.h"
+#include "penumbra/raytrace/cpu_packet.h"
 #include "penumbra/raytrace/cpu_simd.h"
 
 #include <algorithm>
@@ -17,6 +18,8 @@ RayEngine RayEngine::build(std::span<const glm::vec3> positions,
   engine.bvh8_ = collapseToBvh8(engine.bvh_);
   const std::vector<Bvh8::Leaf>& leaves = engine.bvh8_.leaves;
   engine.blocks_.resize(leaves.size());
+  engine.block_of_first_.assign(engine.bvh_.refs.size(), 0);
+  for (size_t i = 0; i < leaves.size(); ++i) engine.block_of_first_[leaves[i].first] = uint32_t(i);
   parallelRange(leaves.size(), 1024, [&](size_t begin, size_t end) {
     for (size_t i = begin; i < end; ++i) {
       TriangleBlock8& block = engine.blocks_[i];
@@ -162,8 +165,21 @@ bool RayEngine::occluded(const Ray& ray) const {
 
 void RayEngine::intersect(const RayBatch& rays, HitBatch& hits) const {
   hits.resize(rays.size());
-  parallelRange(rays.size(), 256, [&](size_t begin, size_t end) {
-    for (size_t i = begin; i < end; ++i) hits.set(i, intersect(rays.get(i)));
+  const bool packets = packetTracingAvailable();
+  // Chunks of 256 rays, aligned to packets; within a chunk, every eight consecutive rays that
+  // go the same way travel as a packet (cpu_packet.h), the others one by one.
+  parallelRange((rays.size() + 255) / 256, 1, [&](size_t chunk_begin, size_t chunk_end) {
+    const size_t end = std::min(rays.size(), chunk_end * 256);
+    size_t i = chunk_begin * 256;
+    while (i < end) {
+      if (packets && i + kPacketSize <= end && packetEligible(rays, i)) {
+        tracePacket(*this, rays, i, hits);
+        i += kPacketSize;
+      } else {
+        hits.set(i, intersect(rays.get(i)));
+        ++i;
+      }
+    }
   });
 }
 

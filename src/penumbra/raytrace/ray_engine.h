@@ -50,6 +50,9 @@ class RayEngine {
   size_t triangleCount() const { return bvh_.refs.size(); }
   const Bvh& bvh() const { return bvh_; }
   const Bvh8& bvh8() const { return bvh8_; }
+  const std::vector<TriangleBlock8>& blocks() const { return blocks_; }
+  // The leaf block holding the triangles of canonical leaf `node` (bvh().nodes[node]).
+  uint32_t blockOfLeaf(const BvhNode& node) const { return block_of_first_[node.index]; }
   size_t memoryBytes() const {
     return bvh8_.nodes.size() * sizeof(Bvh8Node) + blocks_.size() * sizeof(TriangleBlock8);
   }
@@ -62,7 +65,8 @@ class RayEngine {
 
   Bvh bvh_;    // canonical binary tree (kept for statistics and other layouts)
   Bvh8 bvh8_;  // what the CPU traverses
-  std::vector<TriangleBlock8> blocks_;  // one per leaf of bvh8_, vertices copied in
+  std::vector<TriangleBlock8> blocks_;    // one per leaf of bvh8_, vertices copied in
+  std::vector<uint32_t> block_of_first_;  // block index by a leaf's first ref
 };
 
 }  // namespace penumbra

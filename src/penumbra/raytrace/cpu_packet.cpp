@@ -1,0 +1,270 @@
+#include "penumbra/raytrace/cpu_packet.h"
+
+#include "penumbra/accel/bvh.h"
+#include "penumbra/kernels/ray_triangle.h"
+#include "penumbra/raytrace/cpu_simd.h"
+#include "penumbra/raytrace/ray_engine.h"
+
+#include <cmath>
+#include <cstring>
+
+#if defined(__AVX2__)
+#include <immintrin.h>
+#endif
+
+namespace penumbra {
+
+bool packetTracingAvailable() {
+#if defined(__AVX2__)
+  return true;
+#else
+  return false;
+#endif
+}
+
+bool packetEligible(const RayBatch& rays, size_t first) {
+  if (first + kPacketSize > rays.size()) return false;
+  const Ray r0 = rays.get(first);
+  const WatertightRay w0 = makeWatertightRay(r0.origin, r0.dir);
+  const glm::vec3 d0 =
+      r0.dir / std::sqrt(r0.dir.x * r0.dir.x + r0.dir.y * r0.dir.y + r0.dir.z * r0.dir.z);
+  for (int k = 0; k < kPacketSize; ++k) {
+    const Ray r = rays.get(first + size_t(k));
+    if (!(r.tmin <= r.tmax)) return false;
+    if (std::signbit(r.dir.x) != std::signbit(r0.dir.x) ||
+        std::signbit(r.dir.y) != std::signbit(r0.dir.y) ||
+        std::signbit(r.dir.z) != std::signbit(r0.dir.z)) {
+      return false;
+    }
+    const WatertightRay w = makeWatertightRay(r.origin, r.dir);
+    if (w.kx != w0.kx || w.ky != w0.ky || w.kz != w0.kz) return false;
+    const float len = std::sqrt(r.dir.x * r.dir.x + r.dir.y * r.dir.y + r.dir.z * r.dir.z);
+    if ((r.dir.x * d0.x + r.dir.y * d0.y + r.dir.z * d0.z) < 0.9f * len) return false;
+  }
+  return true;
+}
+
+#if defined(__AVX2__)
+
+namespace {
+
+struct Packet {
+  __m256 o[3];    // origins by axis
+  __m256 inv[3];  // safe reciprocal directions
+  __m256 tmin, tmax;
+  bool neg[3];  // the common direction signs
+  // Watertight constants: common axis permutation, per-ray shear.
+  int kx, ky, kz;
+  __m256 sx, sy, sz;
+};
+
+struct PacketHits {
+  __m256i id;
+  __m256 t, u, v;
+};
+
+inline __m256 loadLanes(const std::vector<float>& v, size_t first) {
+  return _mm256_loadu_ps(v.data() + first);
+}
+
+// Slab test of eight rays against one box: lanes entered within [tmin, tmax], and the
+// entry distances.
+inline __m256 boxPacket(const BvhNode& n, const Packet& p, __m256 tmax, __m256& t_entry) {
+  const float lo[3] = {n.lo.x, n.lo.y, n.lo.z}, hi[3] = {n.hi.x, n.hi.y, n.hi.z};
+  __m256 tn = p.tmin, tf = tmax;
+  for (int a = 0; a < 3; ++a) {
+    const __m256 near_plane = _mm256_set1_ps(p.neg[a] ? hi[a] : lo[a]);
+    const __m256 far_plane = _mm256_set1_ps(p.neg[a] ? lo[a] : hi[a]);
+    tn = _mm256_max_ps(tn, _mm256_mul_ps(_mm256_sub_ps(near_plane, p.o[a]), p.inv[a]));
+    tf = _mm256_min_ps(tf, _mm256_mul_ps(_mm256_sub_ps(far_plane, p.o[a]), p.inv[a]));
+  }
+  tf = _mm256_mul_ps(tf, _mm256_set1_ps(kFarScale));
+  t_entry = tn;
+  return _mm256_cmp_ps(tn, tf, _CMP_LE_OQ);
+}
+
+// One triangle against the packet, the watertight test of kernels/ray_triangle.h across rays.
+inline void trianglePacket(const Packet& p, const TriangleBlock8& b, int lane, __m256 active,
+                           PacketHits& h, __m256& tmax, const RayBatch& rays, size_t first) {
+  const float* pv[3][3];
+  for (int k = 0; k < 3; ++k) {
+    for (int a = 0; a < 3; ++a) pv[k][a] = &b.v[k][a][lane];
+  }
+  __m256 px[3], py[3], pz[3];
+  for (int k = 0; k < 3; ++k) {
+    const __m256 rx = _mm256_sub_ps(_mm256_set1_ps(*pv[k][p.kx]), p.o[p.kx]);
+    const __m256 ry = _mm256_sub_ps(_mm256_set1_ps(*pv[k][p.ky]), p.o[p.ky]);
+    const __m256 rz = _mm256_sub_ps(_mm256_set1_ps(*pv[k][p.kz]), p.o[p.kz]);
+    px[k] = _mm256_sub_ps(rx, _mm256_mul_ps(p.sx, rz));
+    py[k] = _mm256_sub_ps(ry, _mm256_mul_ps(p.sy, rz));
+    pz[k] = rz;
+  }
+  const __m256 u = _mm256_sub_ps(_mm256_mul_ps(px[2], py[1]), _mm256_mul_ps(py[2], px[1]));
+  const __m256 v = _mm256_sub_ps(_mm256_mul_ps(px[0], py[2]), _mm256_mul_ps(py[0], px[2]));
+  const __m256 w = _mm256_sub_ps(_mm256_mul_ps(px[1], py[0]), _mm256_mul_ps(py[1], px[0]));
+  const __m256 zero = _mm256_setzero_ps();
+  const int active_bits = _mm256_movemask_ps(active);
+  const int on_edge =
+      _mm256_movemask_ps(_mm256_or_ps(
+          _mm256_or_ps(_mm256_cmp_ps(u, zero, _CMP_EQ_OQ), _mm256_cmp_ps(v, zero, _CMP_EQ_OQ)),
+          _mm256_cmp_ps(w, zero, _CMP_EQ_OQ))) &
+      active_bits;
+  const __m256 any_neg = _mm256_or_ps(
+      _mm256_or_ps(_mm256_cmp_ps(u, zero, _CMP_LT_OQ), _mm256_cmp_ps(v, zero, _CMP_LT_OQ)),
+      _mm256_cmp_ps(w, zero, _CMP_LT_OQ));
+  const __m256 any_pos = _mm256_or_ps(
+      _mm256_or_ps(_mm256_cmp_ps(u, zero, _CMP_GT_OQ), _mm256_cmp_ps(v, zero, _CMP_GT_OQ)),
+      _mm256_cmp_ps(w, zero, _CMP_GT_OQ));
+  const __m256 det = _mm256_add_ps(_mm256_add_ps(u, v), w);
+  const __m256 az = _mm256_mul_ps(p.sz, pz[0]), bz = _mm256_mul_ps(p.sz, pz[1]);
+  const __m256 cz = _mm256_mul_ps(p.sz, pz[2]);
+  const __m256 t_scaled = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(u, az), _mm256_mul_ps(v, bz)),
+                                        _mm256_mul_ps(w, cz));
+  const __m256 lo = _mm256_mul_ps(p.tmin, det);
+  const __m256 hi = _mm256_mul_ps(tmax, det);
+  const __m256 pos_det = _mm256_cmp_ps(det, zero, _CMP_GT_OQ);
+  const __m256 in_range = _mm256_blendv_ps(_mm256_and_ps(_mm256_cmp_ps(t_scaled, lo, _CMP_LE_OQ),
+                                                         _mm256_cmp_ps(t_scaled, hi, _CMP_GE_OQ)),
+                                           _mm256_and_ps(_mm256_cmp_ps(t_scaled, lo, _CMP_GE_OQ),
+                                                         _mm256_cmp_ps(t_scaled, hi, _CMP_LE_OQ)),
+                                           pos_det);
+  const __m256 inv_det = _mm256_div_ps(_mm256_set1_ps(1.0f), det);
+  __m256 t = _mm256_mul_ps(t_scaled, inv_det);
+  __m256 uu = _mm256_mul_ps(v, inv_det), vv = _mm256_mul_ps(w, inv_det);
+  const __m256 t_ok =
+      _mm256_and_ps(_mm256_cmp_ps(t, p.tmin, _CMP_GE_OQ), _mm256_cmp_ps(t, tmax, _CMP_LE_OQ));
+  __m256 ok = _mm256_and_ps(
+      _mm256_andnot_ps(_mm256_and_ps(any_neg, any_pos), _mm256_cmp_ps(det, zero, _CMP_NEQ_OQ)),
+      _mm256_and_ps(in_range, t_ok));
+  ok = _mm256_and_ps(ok, active);
+  if (on_edge) {
+    // Exactly on an edge: the scalar test, which re-evaluates in double.
+    alignas(32) float tl[8], ul[8], vl[8], okl[8], tmaxl[8];
+    _mm256_store_ps(tl, t);
+    _mm256_store_ps(ul, uu);
+    _mm256_store_ps(vl, vv);
+    _mm256_store_ps(okl, ok);
+    _mm256_store_ps(tmaxl, tmax);
+    const glm::vec3 p0(b.v[0][0][lane], b.v[0][1][lane], b.v[0][2][lane]);
+    const glm::vec3 p1(b.v[1][0][lane], b.v[1][1][lane], b.v[1][2][lane]);
+    const glm::vec3 p2(b.v[2][0][lane], b.v[2][1][lane], b.v[2][2][lane]);
+    for (int k = 0; k < 8; ++k) {
+      if (!(on_edge >> k & 1)) continue;
+      const Ray r = rays.get(first + size_t(k));
+      const WatertightRay wr = makeWatertightRay(r.origin, r.dir);
+      float ts, us, vs;
+      const bool hit = intersectTriangle(wr, p0, p1, p2, r.tmin, tmaxl[k], ts, us, vs);
+      uint32_t bits = hit ? 0xFFFFFFFFu : 0u;
+      std::memcpy(&okl[k], &bits, 4);
+      if (hit) tl[k] = ts, ul[k] = us, vl[k] = vs;
+    }
+    t = _mm256_load_ps(tl);
+    uu = _mm256_load_ps(ul);
+    vv = _mm256_load_ps(vl);
+    ok = _mm256_load_ps(okl);
+  }
+  if (_mm256_movemask_ps(ok) == 0) return;
+  // Closest hit; exact ties to the lower triangle id.
+  const __m256i id = _mm256_set1_epi32(b.id[lane]);
+  const __m256i none = _mm256_cmpgt_epi32(_mm256_setzero_si256(), h.id);  // id < 0
+  const __m256i lower = _mm256_cmpgt_epi32(h.id, id);
+  const __m256 tie = _mm256_and_ps(_mm256_cmp_ps(t, tmax, _CMP_EQ_OQ),
+                                   _mm256_castsi256_ps(_mm256_or_si256(none, lower)));
+  const __m256 take = _mm256_and_ps(ok, _mm256_or_ps(_mm256_cmp_ps(t, tmax, _CMP_LT_OQ), tie));
+  h.t = _mm256_blendv_ps(h.t, t, take);
+  h.u = _mm256_blendv_ps(h.u, uu, take);
+  h.v = _mm256_blendv_ps(h.v, vv, take);
+  h.id = _mm256_castps_si256(
+      _mm256_blendv_ps(_mm256_castsi256_ps(h.id), _mm256_castsi256_ps(id), take));
+  tmax = _mm256_blendv_ps(tmax, t, take);
+}
+
+}  // namespace
+
+void tracePacket(const RayEngine& engine, const RayBatch& rays, size_t first, HitBatch& hits) {
+  const Bvh& bvh = engine.bvh();
+  Packet p;
+  p.o[0] = loadLanes(rays.ox, first);
+  p.o[1] = loadLanes(rays.oy, first);
+  p.o[2] = loadLanes(rays.oz, first);
+  alignas(32) float inv[3][8], sx[8], sy[8], sz[8];
+  WatertightRay w0{};
+  for (int k = 0; k < 8; ++k) {
+    const Ray r = rays.get(first + size_t(k));
+    for (int a = 0; a < 3; ++a) inv[a][k] = safeReciprocal(r.dir[a]);
+    const WatertightRay w = makeWatertightRay(r.origin, r.dir);
+    sx[k] = w.sx, sy[k] = w.sy, sz[k] = w.sz;
+    if (k == 0) w0 = w;
+  }
+  for (int a = 0; a < 3; ++a) {
+    p.inv[a] = _mm256_load_ps(inv[a]);
+    p.neg[a] = inv[a][0] < 0.0f;
+  }
+  p.kx = w0.kx, p.ky = w0.ky, p.kz = w0.kz;
+  p.sx = _mm256_load_ps(sx);
+  p.sy = _mm256_load_ps(sy);
+  p.sz = _mm256_load_ps(sz);
+  p.tmin = loadLanes(rays.tmin, first);
+  __m256 tmax = loadLanes(rays.tmax, first);
+
+  PacketHits h{_mm256_set1_epi32(-1), _mm256_setzero_ps(), _mm256_setzero_ps(),
+               _mm256_setzero_ps()};
+  uint32_t stack[kMaxBvhDepth];
+  int sp = 0;
+  uint32_t node = 0;
+  __m256 t_entry;
+  bool alive =
+      !bvh.nodes.empty() && _mm256_movemask_ps(boxPacket(bvh.nodes[0], p, tmax, t_entry)) != 0;
+  while (alive) {
+    const BvhNode& n = bvh.nodes[node];
+    if (n.isLeaf()) {
+      const TriangleBlock8& block = engine.blocks()[engine.blockOfLeaf(n)];
+      // Rays whose interval still reaches this leaf.
+      __m256 te;
+      const __m256 active = boxPacket(n, p, tmax, te);
+      if (_mm256_movemask_ps(active)) {
+        for (uint32_t lane = 0; lane < n.count; ++lane) {
+          trianglePacket(p, block, int(lane), active, h, tmax, rays, first);
+        }
+      }
+    } else {
+      __m256 ta, tb;
+      const int ma = _mm256_movemask_ps(boxPacket(bvh.nodes[n.index], p, tmax, ta));
+      const int mb = _mm256_movemask_ps(boxPacket(bvh.nodes[n.index + 1], p, tmax, tb));
+      if (ma && mb) {
+        // Nearer child first, judged by the first ray that enters both.
+        alignas(32) float la[8], lb[8];
+        _mm256_store_ps(la, ta);
+        _mm256_store_ps(lb, tb);
+        const int k = __builtin_ctz(unsigned(ma & mb) | 0x100u) & 7;
+        const bool a_first = la[k] <= lb[k];
+        node = a_first ? n.index : n.index + 1;
+        stack[sp++] = a_first ? n.index + 1 : n.index;
+        continue;
+      }
+      if (ma || mb) {
+        node = ma ? n.index : n.index + 1;
+        continue;
+      }
+    }
+    if (sp == 0) break;
+    node = stack[--sp];
+  }
+  alignas(32) int32_t id[8];
+  alignas(32) float t[8], u[8], v[8];
+  _mm256_store_si256(reinterpret_cast<__m256i*>(id), h.id);
+  _mm256_store_ps(t, h.t);
+  _mm256_store_ps(u, h.u);
+  _mm256_store_ps(v, h.v);
+  for (int k = 0; k < 8; ++k) {
+    hits.set(first + size_t(k), id[k] >= 0 ? Hit{id[k], t[k], u[k], v[k]} : Hit{});
+  }
+}
+
+#else
+
+void tracePacket(const RayEngine&, const RayBatch&, size_t, HitBatch&) {}
+
+#endif
+
+}  // namespace penumbra
