@@ -238,6 +238,25 @@ TEST(Cli, TraceOnTheGpuGivesTheCpuAnswers) {
   EXPECT_GT(hits, 500u);
   EXPECT_GE(same, hits - 2);  // only true ties may differ
   EXPECT_EQ(readJson(dir.file("g.json"))["device"], "gpu");
+
+  // The CPU/GPU split gives the same answers too.
+  const auto hybrid =
+      runCli("trace " + bunny + " --rays " + dir.file("rays.bin") + " -o " +
+             dir.file("hybrid.bin") + " --device hybrid --quiet --stats " + dir.file("h.json"));
+  ASSERT_EQ(hybrid.exit_code, 0) << hybrid.output;
+  Expected<HitBatch> c = readHitFile(dir.file("hybrid.bin"));
+  ASSERT_TRUE(c.ok());
+  size_t same_hybrid = 0;
+  for (size_t i = 0; i < rays.size(); ++i) {
+    ASSERT_EQ(a->triangle[i] >= 0, c->triangle[i] >= 0) << i;
+    if (a->triangle[i] < 0) continue;
+    same_hybrid += a->triangle[i] == c->triangle[i];
+    EXPECT_NEAR(c->t[i], a->t[i], std::max(1e-5f * a->t[i], 1e-7f)) << i;
+  }
+  EXPECT_GE(same_hybrid, hits - 2);
+  const nlohmann::json hs = readJson(dir.file("h.json"));
+  EXPECT_EQ(hs["device"], "hybrid");
+  EXPECT_GT(hs["hybrid"]["gpu_cells"].get<int>(), 0);
 }
 
 TEST(Cli, DeviceGpuWithoutAContextIsAClearErrorAndAutoFallsBack) {

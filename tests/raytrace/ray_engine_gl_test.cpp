@@ -1,6 +1,8 @@
 // The GPU back end of the Ray Engine against the CPU back end, on llvmpipe in CI.
 #include "penumbra/raytrace/ray_engine_gl.h"
 
+#include "penumbra/raytrace/hybrid.h"
+
 #include "penumbra/core/rng.h"
 #include "penumbra/io/scene_io.h"
 #include "penumbra/kernels/ray_triangle.h"
@@ -184,6 +186,34 @@ TEST(GlRasterKernel, TriangleSubsetsAndTies) {
   rays.set(0, Ray{{0.2f, 0.3f, 1.0f}, 0.0f, {0, 0, -1}, 1.5f});  // tmax before the far one
   ASSERT_TRUE(kernel->intersect(rays, hits, 2, 1).ok());
   EXPECT_EQ(hits.triangle[0], -1);
+}
+
+// The CPU/GPU split (sec. 6.2): the CPU back end's answers, with work actually sent to the GPU
+// and short caches forced to the CPU.
+TEST(HybridRayEngine, AgreesWithCpuAndUsesBothDevices) {
+  PENUMBRA_GL_OR_SKIP();
+  for (const std::string file : {"bunny.ply", "teapot.ply"}) {
+    Expected<Scene> s = loadScene(test::dataPath(file));
+    ASSERT_TRUE(s.ok());
+    const Flat f = flatten(*s);
+    HybridOptions options;
+    options.t_min = 32;
+    options.t_max = 256;
+    options.r_min = 16;  // 4x4 tiles: the random rays spread over many cells
+    Expected<HybridRayEngine> hybrid = HybridRayEngine::build(f.positions, f.triangles, options);
+    ASSERT_TRUE(hybrid.ok()) << hybrid.error().describe();
+    EXPECT_GT(hybrid->cellCount(), 4u) << file;
+    const RayEngine cpu = RayEngine::build(f.positions, f.triangles);
+    const RayBatch rays = testRays(*s, cpu.bounds(), 4000);
+    HitBatch a, b;
+    cpu.intersect(rays, a);
+    HybridStats stats;
+    ASSERT_TRUE(hybrid->intersect(rays, b, &stats).ok());
+    expectSameHits(file, f, rays, a, b);
+    EXPECT_GT(stats.gpu_batches, 0u) << file;
+    EXPECT_GT(stats.gpu_ray_cells, 0u) << file;
+    EXPECT_GT(stats.forced_ray_cells, 0u) << file;
+  }
 }
 
 TEST(GlRayEngine, HonoursTminTmaxAndEmptyBatches) {

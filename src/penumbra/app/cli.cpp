@@ -67,7 +67,10 @@ int parseAndRun(int argc, char** argv) {
   trace_cmd->add_option("-o,--output", trace.output, "hits: int32 triangle, float32 t u v")
       ->required();
   trace_cmd->add_option("--stats", trace.stats, "write statistics to this JSON file");
-  trace_cmd->add_option("--device", trace.device, "cpu, gpu or auto")->capture_default_str();
+  trace_cmd
+      ->add_option("--device", trace.device,
+                   "cpu, gpu, hybrid (CPU/GPU split of the Ray Engine paper) or auto")
+      ->capture_default_str();
   addCommon(trace_cmd, common);
 
   InfoOptions info;

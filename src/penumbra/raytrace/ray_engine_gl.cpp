@@ -1,5 +1,6 @@
 #include "penumbra/raytrace/ray_engine_gl.h"
 
+#include "penumbra/core/check.h"
 #include "penumbra/core/memory.h"
 #include "penumbra/gpu/program.h"
 #include "penumbra/raytrace/gpu_layout.h"
@@ -117,7 +118,8 @@ Status GlRayEngine::occluded(const RayBatch& rays, std::vector<uint8_t>& occlude
 namespace penumbra {
 
 Expected<GlRasterKernel> GlRasterKernel::create(std::span<const glm::vec3> positions,
-                                                std::span<const glm::uvec3> triangles, int tile) {
+                                                std::span<const glm::uvec3> triangles, int tile,
+                                                std::span<const uint32_t> order) {
   GlRasterKernel k;
   Expected<gl::Program> program =
       gl::renderProgram("raytrace/raster_intersect.vert", "raytrace/raster_intersect.frag");
@@ -128,8 +130,9 @@ Expected<GlRasterKernel> GlRasterKernel::create(std::span<const glm::vec3> posit
   std::vector<GpuTriangle> tris(triangles.size());
   glm::vec3 lo(INFINITY), hi(-INFINITY);
   for (size_t i = 0; i < triangles.size(); ++i) {
-    const glm::vec3 p[3] = {positions[triangles[i].x], positions[triangles[i].y],
-                            positions[triangles[i].z]};
+    const uint32_t src = order.empty() ? uint32_t(i) : order[i];
+    const glm::vec3 p[3] = {positions[triangles[src].x], positions[triangles[src].y],
+                            positions[triangles[src].z]};
     for (int a = 0; a < 3; ++a) {
       tris[i].p0[a] = p[0][a];
       tris[i].p1[a] = p[1][a];
@@ -139,7 +142,7 @@ Expected<GlRasterKernel> GlRasterKernel::create(std::span<const glm::vec3> posit
       lo = glm::min(lo, q);
       hi = glm::max(hi, q);
     }
-    tris[i].id = int32_t(i);
+    tris[i].id = int32_t(src);
     tris[i].pad1 = tris[i].pad2 = 0.0f;
   }
   k.box_lo_ = lo;
@@ -197,17 +200,27 @@ float farBound(const Ray& r, const glm::vec3& lo, const glm::vec3& hi) {
 
 }  // namespace
 
-Status GlRasterKernel::intersect(const RayBatch& rays, HitBatch& hits, uint32_t first,
-                                 uint32_t count) const {
-  const size_t n = rays.size();
-  hits.resize(n);
-  for (size_t i = 0; i < n; ++i) hits.set(i, Hit{});
-  if (first >= triangle_count_ || n == 0) return {};
-  count = std::min(count, triangle_count_ - first);
+Expected<GlRasterKernel::Job> GlRasterKernel::submit(const RayBatch& rays,
+                                                     std::span<const uint32_t> ray_indices,
+                                                     uint32_t first, uint32_t count) const {
   const size_t per_pass = size_t(tile_) * size_t(tile_);
-  std::vector<glm::vec4> origins(per_pass), directions(per_pass), tuv(per_pass);
-  std::vector<int32_t> ids(per_pass);
-
+  const size_t m = ray_indices.size();
+  PENUMBRA_CHECK_MSG(m <= per_pass, "{} rays for a {}x{} tile", m, tile_, tile_);
+  count = first < triangle_count_ ? std::min(count, triangle_count_ - first) : 0;
+  std::vector<glm::vec4> origins(per_pass), directions(per_pass);
+  for (size_t i = 0; i < per_pass; ++i) {
+    if (i < m) {
+      const Ray r = rays.get(ray_indices[i]);
+      origins[i] = glm::vec4(r.origin, r.tmin);
+      directions[i] = glm::vec4(r.dir, farBound(r, box_lo_, box_hi_));
+    } else {
+      origins[i] = glm::vec4(0.0f);
+      directions[i] = glm::vec4(0.0f, 0.0f, 1.0f, -1.0f);  // no hit possible
+    }
+  }
+  glTextureSubImage2D(origins_.id(), 0, 0, 0, tile_, tile_, GL_RGBA, GL_FLOAT, origins.data());
+  glTextureSubImage2D(directions_.id(), 0, 0, 0, tile_, tile_, GL_RGBA, GL_FLOAT,
+                      directions.data());
   glBindFramebuffer(GL_FRAMEBUFFER, framebuffer_.id());
   glViewport(0, 0, tile_, tile_);
   glEnable(GL_DEPTH_TEST);
@@ -215,48 +228,71 @@ Status GlRasterKernel::intersect(const RayBatch& rays, HitBatch& hits, uint32_t 
   glDepthMask(GL_TRUE);
   glDisable(GL_BLEND);
   glDisable(GL_CULL_FACE);
-  glUseProgram(program_.id());
-  glUniform1ui(glGetUniformLocation(program_.id(), "first_triangle"), first);
-  triangles_.bindBase(GL_SHADER_STORAGE_BUFFER, 1);
-  glBindTextureUnit(0, origins_.id());
-  glBindTextureUnit(1, directions_.id());
-  glBindVertexArray(vao_.id());
-  for (size_t begin = 0; begin < n; begin += per_pass) {
-    const size_t m = std::min(per_pass, n - begin);
-    for (size_t i = 0; i < per_pass; ++i) {
-      if (i < m) {
-        const Ray r = rays.get(begin + i);
-        origins[i] = glm::vec4(r.origin, r.tmin);
-        directions[i] = glm::vec4(r.dir, farBound(r, box_lo_, box_hi_));
-      } else {
-        origins[i] = glm::vec4(0.0f);
-        directions[i] = glm::vec4(0.0f, 0.0f, 1.0f, -1.0f);  // no hit possible
-      }
-    }
-    glTextureSubImage2D(origins_.id(), 0, 0, 0, tile_, tile_, GL_RGBA, GL_FLOAT, origins.data());
-    glTextureSubImage2D(directions_.id(), 0, 0, 0, tile_, tile_, GL_RGBA, GL_FLOAT,
-                        directions.data());
-    const GLint no_hit = -1;
-    const GLfloat zero[4] = {0, 0, 0, 0};
-    glClearNamedFramebufferiv(framebuffer_.id(), GL_COLOR, 0, &no_hit);
-    glClearNamedFramebufferfv(framebuffer_.id(), GL_COLOR, 1, zero);
-    const GLfloat far_depth = 1.0f;
-    glClearNamedFramebufferfv(framebuffer_.id(), GL_DEPTH, 0, &far_depth);
-    // Triangles in id order: on equal depth the first drawn (lower id) stays.
+  const GLint no_hit = -1;
+  const GLfloat zero[4] = {0, 0, 0, 0};
+  const GLfloat far_depth = 1.0f;
+  glClearNamedFramebufferiv(framebuffer_.id(), GL_COLOR, 0, &no_hit);
+  glClearNamedFramebufferfv(framebuffer_.id(), GL_COLOR, 1, zero);
+  glClearNamedFramebufferfv(framebuffer_.id(), GL_DEPTH, 0, &far_depth);
+  if (count > 0) {
+    glUseProgram(program_.id());
+    glUniform1ui(glGetUniformLocation(program_.id(), "first_triangle"), first);
+    triangles_.bindBase(GL_SHADER_STORAGE_BUFFER, 1);
+    glBindTextureUnit(0, origins_.id());
+    glBindTextureUnit(1, directions_.id());
+    glBindVertexArray(vao_.id());
+    // Triangles in slot order: on equal depth the first drawn (lower slot) stays.
     glDrawArraysInstanced(GL_TRIANGLE_STRIP, 0, 4, GLsizei(count));
-    glGetTextureImage(id_target_.id(), 0, GL_RED_INTEGER, GL_INT, GLsizei(per_pass * 4),
-                      ids.data());
-    glGetTextureImage(tuv_target_.id(), 0, GL_RGBA, GL_FLOAT, GLsizei(per_pass * 16), tuv.data());
-    for (size_t i = 0; i < m; ++i) {
-      if (ids[i] >= 0) hits.set(begin + i, Hit{ids[i], tuv[i].x, tuv[i].y, tuv[i].z});
-    }
+    glBindVertexArray(0);
+    glUseProgram(0);
   }
-  glBindVertexArray(0);
-  glUseProgram(0);
+  // Results go to pack buffers; the copy runs on the GPU timeline, behind the fence.
+  Job job;
+  job.rays = m;
+  job.ids = gl::Buffer(per_pass * 4, nullptr, GL_MAP_READ_BIT);
+  job.tuv = gl::Buffer(per_pass * 16, nullptr, GL_MAP_READ_BIT);
+  glBindBuffer(GL_PIXEL_PACK_BUFFER, job.ids.id());
+  glGetTextureImage(id_target_.id(), 0, GL_RED_INTEGER, GL_INT, GLsizei(per_pass * 4), nullptr);
+  glBindBuffer(GL_PIXEL_PACK_BUFFER, job.tuv.id());
+  glGetTextureImage(tuv_target_.id(), 0, GL_RGBA, GL_FLOAT, GLsizei(per_pass * 16), nullptr);
+  glBindBuffer(GL_PIXEL_PACK_BUFFER, 0);
   glBindFramebuffer(GL_FRAMEBUFFER, 0);
+  job.fence = gl::Fence::insert();
+  glFlush();
   const GLenum err = glGetError();
   if (err != GL_NO_ERROR) {
     return runtimeError("", fmt::format("OpenGL error 0x{:x} in the ray engine kernel", err));
+  }
+  return job;
+}
+
+void GlRasterKernel::collect(Job& job, Hit* out) const {
+  job.fence.wait();
+  const auto* ids = static_cast<const int32_t*>(
+      glMapNamedBufferRange(job.ids.id(), 0, GLsizeiptr(job.rays * 4), GL_MAP_READ_BIT));
+  const auto* tuv = static_cast<const glm::vec4*>(
+      glMapNamedBufferRange(job.tuv.id(), 0, GLsizeiptr(job.rays * 16), GL_MAP_READ_BIT));
+  for (size_t k = 0; k < job.rays; ++k) {
+    out[k] = ids[k] >= 0 ? Hit{ids[k], tuv[k].x, tuv[k].y, tuv[k].z} : Hit{};
+  }
+  glUnmapNamedBuffer(job.ids.id());
+  glUnmapNamedBuffer(job.tuv.id());
+}
+
+Status GlRasterKernel::intersect(const RayBatch& rays, HitBatch& hits, uint32_t first,
+                                 uint32_t count) const {
+  const size_t n = rays.size();
+  hits.resize(n);
+  const size_t per_pass = size_t(tile_) * size_t(tile_);
+  std::vector<uint32_t> indices(per_pass);
+  std::vector<Hit> out(per_pass);
+  for (size_t begin = 0; begin < n; begin += per_pass) {
+    const size_t m = std::min(per_pass, n - begin);
+    for (size_t i = 0; i < m; ++i) indices[i] = uint32_t(begin + i);
+    Expected<Job> job = submit(rays, std::span(indices.data(), m), first, count);
+    if (!job) return job.error();
+    collect(*job, out.data());
+    for (size_t i = 0; i < m; ++i) hits.set(begin + i, out[i]);
   }
   return {};
 }

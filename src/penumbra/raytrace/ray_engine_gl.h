@@ -50,14 +50,34 @@ class GlRayEngine {
 // the small set of triangles of a GPU cell (sec. 5.3, 6.2), not for whole scenes.
 class GlRasterKernel {
  public:
-  // Uploads the triangles (triangle i keeps id i). `tile` x `tile` rays are traced per pass.
+  // Uploads the triangles. Slot i holds triangle order[i] (id order[i]), or triangle i when
+  // `order` is empty; a BVH's leaf order makes every subtree a contiguous range of slots.
+  // `tile` x `tile` rays are traced per pass.
   static Expected<GlRasterKernel> create(std::span<const glm::vec3> positions,
-                                         std::span<const glm::uvec3> triangles, int tile = 64);
+                                         std::span<const glm::uvec3> triangles, int tile = 64,
+                                         std::span<const uint32_t> order = {});
 
-  // Closest hits of `rays` among triangles [first, first + count) in input order (all by
-  // default). Exact ties go to the lower triangle id (drawn first; the depth test is GL_LESS).
+  // Closest hits of `rays` among slots [first, first + count) in input order (all by default).
+  // Exact ties go to the lower slot (drawn first; the depth test is GL_LESS).
   Status intersect(const RayBatch& rays, HitBatch& hits, uint32_t first = 0,
                    uint32_t count = ~0u) const;
+
+  // Asynchronous use (sec. 5.1: the CPU keeps working while the GPU intersects): submit() sends
+  // up to tile x tile rays (rays[ray_indices[k]]) against slots [first, first + count) and
+  // starts reading the results back into buffers behind a fence; collect() waits for the fence
+  // if needed and writes the k-th ray's hit to out[k].
+  struct Job {
+    gl::Buffer ids, tuv;
+    gl::Fence fence;
+    size_t rays = 0;
+  };
+  Expected<Job> submit(const RayBatch& rays, std::span<const uint32_t> ray_indices, uint32_t first,
+                       uint32_t count) const;
+  static bool ready(const Job& job) { return job.fence.ready(); }
+  void collect(Job& job, Hit* out) const;
+
+  int tile() const { return tile_; }
+  uint32_t slotCount() const { return triangle_count_; }
 
  private:
   gl::Program program_;
