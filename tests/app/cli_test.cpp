@@ -242,7 +242,8 @@ TEST(Cli, TraceOnTheGpuGivesTheCpuAnswers) {
   // The CPU/GPU split gives the same answers too.
   const auto hybrid =
       runCli("trace " + bunny + " --rays " + dir.file("rays.bin") + " -o " +
-             dir.file("hybrid.bin") + " --device hybrid --quiet --stats " + dir.file("h.json"));
+             dir.file("hybrid.bin") + " --device hybrid --t-min 32 --t-max 256 --r-min 16 " +
+             "--quiet --stats " + dir.file("h.json"));
   ASSERT_EQ(hybrid.exit_code, 0) << hybrid.output;
   Expected<HitBatch> c = readHitFile(dir.file("hybrid.bin"));
   ASSERT_TRUE(c.ok());
@@ -257,6 +258,8 @@ TEST(Cli, TraceOnTheGpuGivesTheCpuAnswers) {
   const nlohmann::json hs = readJson(dir.file("h.json"));
   EXPECT_EQ(hs["device"], "hybrid");
   EXPECT_GT(hs["hybrid"]["gpu_cells"].get<int>(), 0);
+  EXPECT_EQ(hs["hybrid"]["r_min"], 16);
+  EXPECT_GT(hs["hybrid"]["gpu_batches"].get<int>(), 0);
 }
 
 TEST(Cli, DeviceGpuWithoutAContextIsAClearErrorAndAutoFallsBack) {

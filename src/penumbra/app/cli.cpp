@@ -71,6 +71,15 @@ int parseAndRun(int argc, char** argv) {
       ->add_option("--device", trace.device,
                    "cpu, gpu, hybrid (CPU/GPU split of the Ray Engine paper) or auto")
       ->capture_default_str();
+  trace_cmd->add_option("--t-min", trace.t_min, "hybrid: fewest triangles in a GPU cell")
+      ->check(CLI::Range(1u, 1u << 24))
+      ->capture_default_str();
+  trace_cmd->add_option("--t-max", trace.t_max, "hybrid: most triangles in a GPU cell")
+      ->check(CLI::Range(1u, 1u << 24))
+      ->capture_default_str();
+  trace_cmd->add_option("--r-min", trace.r_min, "hybrid: rays a cell collects per GPU pass")
+      ->check(CLI::Range(1u, 65536u))
+      ->capture_default_str();
   addCommon(trace_cmd, common);
 
   InfoOptions info;

@@ -29,6 +29,8 @@ struct RenderOptions {
 
 struct TraceOptions {
   std::string mesh;
+  // --device hybrid: GPU cells hold t_min..t_max triangles; r_min rays per GPU pass (sec. 6.2).
+  uint32_t t_min = 64, t_max = 1024, r_min = 256;
   std::string rays;
   std::string output;
   std::string stats;

@@ -25,6 +25,10 @@ Status trace(const TraceOptions& options) {
     return inputError("", "",
                       fmt::format("--device '{}': use cpu, gpu, hybrid or auto", options.device));
   }
+  if (options.t_min > options.t_max) {
+    return inputError(
+        "", "", fmt::format("--t-min {} is larger than --t-max {}", options.t_min, options.t_max));
+  }
   PENUMBRA_TRY(checkOutputPath(options.output));
   if (!options.stats.empty()) PENUMBRA_TRY(checkOutputPath(options.stats));
   std::error_code ec;
@@ -60,7 +64,11 @@ Status trace(const TraceOptions& options) {
   nlohmann::json hybrid_stats;
   if (hybrid) {
     Timer build_timer;
-    Expected<HybridRayEngine> engine = HybridRayEngine::build(positions, triangles);
+    HybridOptions split;
+    split.t_min = options.t_min;
+    split.t_max = options.t_max;
+    split.r_min = options.r_min;
+    Expected<HybridRayEngine> engine = HybridRayEngine::build(positions, triangles, split);
     if (!engine) return engine.error();
     glFinish();
     build_seconds = build_timer.seconds();
@@ -71,7 +79,10 @@ Status trace(const TraceOptions& options) {
     const GlDeviceInfo& info = device->context->info();
     gpu_info = {
         {"renderer", info.renderer}, {"version", info.version}, {"software", info.software}};
-    hybrid_stats = {{"gpu_cells", hs.gpu_cells},
+    hybrid_stats = {{"t_min", options.t_min},
+                    {"t_max", options.t_max},
+                    {"r_min", options.r_min},
+                    {"gpu_cells", hs.gpu_cells},
                     {"gpu_batches", hs.gpu_batches},
                     {"gpu_ray_cells", hs.gpu_ray_cells},
                     {"forced_ray_cells", hs.forced_ray_cells}};
