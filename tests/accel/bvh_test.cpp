@@ -19,24 +19,15 @@
 namespace penumbra {
 namespace {
 
+using test::randomDirection;
+using test::randomInBox;
+
 constexpr float kInf = std::numeric_limits<float>::infinity();
 
 struct Soup {
   std::vector<glm::vec3> positions;
   std::vector<glm::uvec3> triangles;
 };
-
-glm::vec3 randomInBox(Rng& rng, float lo, float hi) {
-  return glm::vec3(lo + (hi - lo) * rng.uniform(), lo + (hi - lo) * rng.uniform(),
-                   lo + (hi - lo) * rng.uniform());
-}
-
-glm::vec3 randomDirection(Rng& rng) {
-  const float z = 1.0f - 2.0f * rng.uniform();
-  const float r = std::sqrt(std::max(0.0f, 1.0f - z * z));
-  const float phi = 6.2831853f * rng.uniform();
-  return glm::vec3(r * std::cos(phi), r * std::sin(phi), z);
-}
 
 Soup randomSoup(uint64_t seed, int n, float size) {
   Rng rng(seed, 1);

@@ -21,19 +21,10 @@
 namespace penumbra {
 namespace {
 
+using test::randomDirection;
+using test::randomInBox;
+
 constexpr uint32_t kBucketSizes[] = {1, 2, 7, 64, 256, 1000, 1024};
-
-glm::vec3 randomInBox(Rng& rng, float lo, float hi) {
-  return glm::vec3(lo + (hi - lo) * rng.uniform(), lo + (hi - lo) * rng.uniform(),
-                   lo + (hi - lo) * rng.uniform());
-}
-
-glm::vec3 randomDirection(Rng& rng) {
-  const float z = 1.0f - 2.0f * rng.uniform();
-  const float r = std::sqrt(std::max(0.0f, 1.0f - z * z));
-  const float phi = 6.2831853f * rng.uniform();
-  return glm::vec3(r * std::cos(phi), r * std::sin(phi), z);
-}
 
 enum class Kind { kFan, kRandom, kClusters, kIdentical, kMixed, kDegenerate };
 

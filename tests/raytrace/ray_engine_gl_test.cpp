@@ -20,6 +20,9 @@
 namespace penumbra {
 namespace {
 
+using test::randomDirection;
+using test::randomInBox;
+
 struct Flat {
   std::vector<glm::vec3> positions;
   std::vector<glm::uvec3> triangles;
@@ -33,13 +36,6 @@ Flat flatten(const Scene& s) {
     for (const glm::uvec3& t : m.triangles) f.triangles.push_back(t + glm::uvec3(base));
   }
   return f;
-}
-
-glm::vec3 randomDirection(Rng& rng) {
-  const float z = 1.0f - 2.0f * rng.uniform();
-  const float r = std::sqrt(std::max(0.0f, 1.0f - z * z));
-  const float phi = 6.2831853f * rng.uniform();
-  return glm::vec3(r * std::cos(phi), r * std::sin(phi), z);
 }
 
 // Camera rays plus random rays from around and inside the model's box.

@@ -2,9 +2,14 @@
 #pragma once
 
 #include "penumbra/core/expected.h"
+#include "penumbra/core/rng.h"
+
+#include <glm/vec3.hpp>
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <string>
 
@@ -30,6 +35,20 @@ class TempDir {
  private:
   std::filesystem::path path_;
 };
+
+// Uniform point in the cube [lo, hi]^3.
+inline glm::vec3 randomInBox(Rng& rng, float lo, float hi) {
+  return glm::vec3(lo + (hi - lo) * rng.uniform(), lo + (hi - lo) * rng.uniform(),
+                   lo + (hi - lo) * rng.uniform());
+}
+
+// Uniform direction on the unit sphere.
+inline glm::vec3 randomDirection(Rng& rng) {
+  const float z = 1.0f - 2.0f * rng.uniform();
+  const float r = std::sqrt(std::max(0.0f, 1.0f - z * z));
+  const float phi = 6.2831853f * rng.uniform();
+  return glm::vec3(r * std::cos(phi), r * std::sin(phi), z);
+}
 
 // Path of a file under tests/data.
 inline std::string dataPath(const std::string& relative) {

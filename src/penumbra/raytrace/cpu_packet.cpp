@@ -99,44 +99,10 @@ inline void trianglePacket(const Packet& p, const TriangleBlock8& b, int lane, _
     py[k] = _mm256_sub_ps(ry, _mm256_mul_ps(p.sy, rz));
     pz[k] = rz;
   }
-  const __m256 u = _mm256_sub_ps(_mm256_mul_ps(px[2], py[1]), _mm256_mul_ps(py[2], px[1]));
-  const __m256 v = _mm256_sub_ps(_mm256_mul_ps(px[0], py[2]), _mm256_mul_ps(py[0], px[2]));
-  const __m256 w = _mm256_sub_ps(_mm256_mul_ps(px[1], py[0]), _mm256_mul_ps(py[1], px[0]));
-  const __m256 zero = _mm256_setzero_ps();
-  const int active_bits = _mm256_movemask_ps(active);
-  const int on_edge =
-      _mm256_movemask_ps(_mm256_or_ps(
-          _mm256_or_ps(_mm256_cmp_ps(u, zero, _CMP_EQ_OQ), _mm256_cmp_ps(v, zero, _CMP_EQ_OQ)),
-          _mm256_cmp_ps(w, zero, _CMP_EQ_OQ))) &
-      active_bits;
-  const __m256 any_neg = _mm256_or_ps(
-      _mm256_or_ps(_mm256_cmp_ps(u, zero, _CMP_LT_OQ), _mm256_cmp_ps(v, zero, _CMP_LT_OQ)),
-      _mm256_cmp_ps(w, zero, _CMP_LT_OQ));
-  const __m256 any_pos = _mm256_or_ps(
-      _mm256_or_ps(_mm256_cmp_ps(u, zero, _CMP_GT_OQ), _mm256_cmp_ps(v, zero, _CMP_GT_OQ)),
-      _mm256_cmp_ps(w, zero, _CMP_GT_OQ));
-  const __m256 det = _mm256_add_ps(_mm256_add_ps(u, v), w);
-  const __m256 az = _mm256_mul_ps(p.sz, pz[0]), bz = _mm256_mul_ps(p.sz, pz[1]);
-  const __m256 cz = _mm256_mul_ps(p.sz, pz[2]);
-  const __m256 t_scaled = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(u, az), _mm256_mul_ps(v, bz)),
-                                        _mm256_mul_ps(w, cz));
-  const __m256 lo = _mm256_mul_ps(p.tmin, det);
-  const __m256 hi = _mm256_mul_ps(tmax, det);
-  const __m256 pos_det = _mm256_cmp_ps(det, zero, _CMP_GT_OQ);
-  const __m256 in_range = _mm256_blendv_ps(_mm256_and_ps(_mm256_cmp_ps(t_scaled, lo, _CMP_LE_OQ),
-                                                         _mm256_cmp_ps(t_scaled, hi, _CMP_GE_OQ)),
-                                           _mm256_and_ps(_mm256_cmp_ps(t_scaled, lo, _CMP_GE_OQ),
-                                                         _mm256_cmp_ps(t_scaled, hi, _CMP_LE_OQ)),
-                                           pos_det);
-  const __m256 inv_det = _mm256_div_ps(_mm256_set1_ps(1.0f), det);
-  __m256 t = _mm256_mul_ps(t_scaled, inv_det);
-  __m256 uu = _mm256_mul_ps(v, inv_det), vv = _mm256_mul_ps(w, inv_det);
-  const __m256 t_ok =
-      _mm256_and_ps(_mm256_cmp_ps(t, p.tmin, _CMP_GE_OQ), _mm256_cmp_ps(t, tmax, _CMP_LE_OQ));
-  __m256 ok = _mm256_and_ps(
-      _mm256_andnot_ps(_mm256_and_ps(any_neg, any_pos), _mm256_cmp_ps(det, zero, _CMP_NEQ_OQ)),
-      _mm256_and_ps(in_range, t_ok));
-  ok = _mm256_and_ps(ok, active);
+  const WatertightLanes lanes = watertightLanes(px, py, pz, p.sz, p.tmin, tmax);
+  const int on_edge = int(lanes.on_edge) & _mm256_movemask_ps(active);
+  __m256 t = lanes.t, uu = lanes.u, vv = lanes.v;
+  __m256 ok = _mm256_and_ps(lanes.ok, active);
   if (on_edge) {
     // Exactly on an edge: the scalar test, which re-evaluates in double.
     alignas(32) float tl[8], ul[8], vl[8], okl[8], tmaxl[8];

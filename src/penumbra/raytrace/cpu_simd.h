@@ -84,6 +84,62 @@ struct BoxTester {
   }
 };
 
+#if defined(__AVX2__)
+// The second half of the watertight test (Woop et al. 2013, sec. 3) on eight lanes, each a
+// (ray, triangle) pair whose three vertices are already translated to the ray origin and
+// sheared (px, py: the sheared x and y; pz: the unsheared z, scaled here by sz). Same operations
+// in the same order as intersectTriangle(), so each lane's t, u, v are bit-identical to it.
+// `ok` marks lanes hit within [tmin, tmax]; `on_edge` marks lanes where an edge function is
+// exactly zero, which the caller redoes with intersectTriangle() (it re-evaluates in double).
+struct WatertightLanes {
+  __m256 t, u, v, ok;
+  uint32_t on_edge;
+};
+
+inline WatertightLanes watertightLanes(const __m256 px[3], const __m256 py[3], const __m256 pz[3],
+                                       __m256 sz, __m256 tmin, __m256 tmax) {
+  // Edge functions u (edge b-c), v (c-a), w (a-b).
+  const __m256 u = _mm256_sub_ps(_mm256_mul_ps(px[2], py[1]), _mm256_mul_ps(py[2], px[1]));
+  const __m256 v = _mm256_sub_ps(_mm256_mul_ps(px[0], py[2]), _mm256_mul_ps(py[0], px[2]));
+  const __m256 w = _mm256_sub_ps(_mm256_mul_ps(px[1], py[0]), _mm256_mul_ps(py[1], px[0]));
+  const __m256 zero = _mm256_setzero_ps();
+  WatertightLanes out;
+  out.on_edge = uint32_t(_mm256_movemask_ps(_mm256_or_ps(
+      _mm256_or_ps(_mm256_cmp_ps(u, zero, _CMP_EQ_OQ), _mm256_cmp_ps(v, zero, _CMP_EQ_OQ)),
+      _mm256_cmp_ps(w, zero, _CMP_EQ_OQ))));
+  const __m256 any_neg = _mm256_or_ps(
+      _mm256_or_ps(_mm256_cmp_ps(u, zero, _CMP_LT_OQ), _mm256_cmp_ps(v, zero, _CMP_LT_OQ)),
+      _mm256_cmp_ps(w, zero, _CMP_LT_OQ));
+  const __m256 any_pos = _mm256_or_ps(
+      _mm256_or_ps(_mm256_cmp_ps(u, zero, _CMP_GT_OQ), _mm256_cmp_ps(v, zero, _CMP_GT_OQ)),
+      _mm256_cmp_ps(w, zero, _CMP_GT_OQ));
+  const __m256 det = _mm256_add_ps(_mm256_add_ps(u, v), w);
+  const __m256 az = _mm256_mul_ps(sz, pz[0]), bz = _mm256_mul_ps(sz, pz[1]);
+  const __m256 cz = _mm256_mul_ps(sz, pz[2]);
+  const __m256 t_scaled = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(u, az), _mm256_mul_ps(v, bz)),
+                                        _mm256_mul_ps(w, cz));
+  const __m256 lo = _mm256_mul_ps(tmin, det);
+  const __m256 hi = _mm256_mul_ps(tmax, det);
+  const __m256 pos_det = _mm256_cmp_ps(det, zero, _CMP_GT_OQ);
+  // det > 0: lo <= t_scaled <= hi; det < 0: hi <= t_scaled <= lo.
+  const __m256 in_range = _mm256_blendv_ps(_mm256_and_ps(_mm256_cmp_ps(t_scaled, lo, _CMP_LE_OQ),
+                                                         _mm256_cmp_ps(t_scaled, hi, _CMP_GE_OQ)),
+                                           _mm256_and_ps(_mm256_cmp_ps(t_scaled, lo, _CMP_GE_OQ),
+                                                         _mm256_cmp_ps(t_scaled, hi, _CMP_LE_OQ)),
+                                           pos_det);
+  const __m256 inv_det = _mm256_div_ps(_mm256_set1_ps(1.0f), det);
+  out.t = _mm256_mul_ps(t_scaled, inv_det);
+  out.u = _mm256_mul_ps(v, inv_det);
+  out.v = _mm256_mul_ps(w, inv_det);
+  const __m256 t_ok =
+      _mm256_and_ps(_mm256_cmp_ps(out.t, tmin, _CMP_GE_OQ), _mm256_cmp_ps(out.t, tmax, _CMP_LE_OQ));
+  out.ok = _mm256_and_ps(
+      _mm256_andnot_ps(_mm256_and_ps(any_neg, any_pos), _mm256_cmp_ps(det, zero, _CMP_NEQ_OQ)),
+      _mm256_and_ps(in_range, t_ok));
+  return out;
+}
+#endif
+
 // A leaf's triangles as structures of arrays, 320 bytes: v[k][axis][lane] is vertex k of
 // triangle `lane`. Unused lanes have id -1 and zero vertices.
 struct alignas(64) TriangleBlock8 {
@@ -113,47 +169,13 @@ inline uint32_t intersectBlock(const WatertightRay& r, const TriangleBlock8& b, 
     py[k] = _mm256_sub_ps(ry, _mm256_mul_ps(sy, rz));
     pz[k] = rz;
   }
-  // Edge functions u (edge b-c), v (c-a), w (a-b).
-  const __m256 u = _mm256_sub_ps(_mm256_mul_ps(px[2], py[1]), _mm256_mul_ps(py[2], px[1]));
-  const __m256 v = _mm256_sub_ps(_mm256_mul_ps(px[0], py[2]), _mm256_mul_ps(py[0], px[2]));
-  const __m256 w = _mm256_sub_ps(_mm256_mul_ps(px[1], py[0]), _mm256_mul_ps(py[1], px[0]));
-  const __m256 zero = _mm256_setzero_ps();
-  const uint32_t on_edge =
-      uint32_t(_mm256_movemask_ps(_mm256_or_ps(
-          _mm256_or_ps(_mm256_cmp_ps(u, zero, _CMP_EQ_OQ), _mm256_cmp_ps(v, zero, _CMP_EQ_OQ)),
-          _mm256_cmp_ps(w, zero, _CMP_EQ_OQ)))) &
-      valid;
-  const __m256 any_neg = _mm256_or_ps(
-      _mm256_or_ps(_mm256_cmp_ps(u, zero, _CMP_LT_OQ), _mm256_cmp_ps(v, zero, _CMP_LT_OQ)),
-      _mm256_cmp_ps(w, zero, _CMP_LT_OQ));
-  const __m256 any_pos = _mm256_or_ps(
-      _mm256_or_ps(_mm256_cmp_ps(u, zero, _CMP_GT_OQ), _mm256_cmp_ps(v, zero, _CMP_GT_OQ)),
-      _mm256_cmp_ps(w, zero, _CMP_GT_OQ));
-  const __m256 det = _mm256_add_ps(_mm256_add_ps(u, v), w);
-  const __m256 az = _mm256_mul_ps(sz, pz[0]), bz = _mm256_mul_ps(sz, pz[1]);
-  const __m256 cz = _mm256_mul_ps(sz, pz[2]);
-  const __m256 t_scaled = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(u, az), _mm256_mul_ps(v, bz)),
-                                        _mm256_mul_ps(w, cz));
-  const __m256 lo = _mm256_mul_ps(_mm256_set1_ps(tmin), det);
-  const __m256 hi = _mm256_mul_ps(_mm256_set1_ps(tmax), det);
-  const __m256 pos_det = _mm256_cmp_ps(det, zero, _CMP_GT_OQ);
-  // det > 0: lo <= t_scaled <= hi; det < 0: hi <= t_scaled <= lo.
-  const __m256 in_range = _mm256_blendv_ps(_mm256_and_ps(_mm256_cmp_ps(t_scaled, lo, _CMP_LE_OQ),
-                                                         _mm256_cmp_ps(t_scaled, hi, _CMP_GE_OQ)),
-                                           _mm256_and_ps(_mm256_cmp_ps(t_scaled, lo, _CMP_GE_OQ),
-                                                         _mm256_cmp_ps(t_scaled, hi, _CMP_LE_OQ)),
-                                           pos_det);
-  const __m256 inv_det = _mm256_div_ps(_mm256_set1_ps(1.0f), det);
-  const __m256 t = _mm256_mul_ps(t_scaled, inv_det);
-  const __m256 t_ok = _mm256_and_ps(_mm256_cmp_ps(t, _mm256_set1_ps(tmin), _CMP_GE_OQ),
-                                    _mm256_cmp_ps(t, _mm256_set1_ps(tmax), _CMP_LE_OQ));
-  const __m256 ok = _mm256_and_ps(
-      _mm256_andnot_ps(_mm256_and_ps(any_neg, any_pos), _mm256_cmp_ps(det, zero, _CMP_NEQ_OQ)),
-      _mm256_and_ps(in_range, t_ok));
-  uint32_t mask = uint32_t(_mm256_movemask_ps(ok)) & valid & ~on_edge;
-  _mm256_storeu_ps(t_out, t);
-  _mm256_storeu_ps(u_out, _mm256_mul_ps(v, inv_det));
-  _mm256_storeu_ps(v_out, _mm256_mul_ps(w, inv_det));
+  const WatertightLanes lanes =
+      watertightLanes(px, py, pz, sz, _mm256_set1_ps(tmin), _mm256_set1_ps(tmax));
+  const uint32_t on_edge = lanes.on_edge & valid;
+  uint32_t mask = uint32_t(_mm256_movemask_ps(lanes.ok)) & valid & ~on_edge;
+  _mm256_storeu_ps(t_out, lanes.t);
+  _mm256_storeu_ps(u_out, lanes.u);
+  _mm256_storeu_ps(v_out, lanes.v);
   uint32_t redo = on_edge;
 #else
   uint32_t mask = 0;
