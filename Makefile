@@ -24,6 +24,7 @@ test: build
 bench: build
 	mkdir -p bench-out
 	$(BUILD)/bin/ray_bench --benchmark_out=bench-out/ray_bench.json --benchmark_out_format=json
+	$(BUILD)/bin/hybrid_bench --benchmark_out=bench-out/hybrid_bench.json --benchmark_out_format=json
 
 format:
 	clang-format -i $$(git ls-files '*.cpp' '*.h' '*.hpp')
