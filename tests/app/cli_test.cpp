@@ -5,6 +5,7 @@
 #include "support/test_util.h"
 
 #include <gtest/gtest.h>
+#include <glm/geometric.hpp>
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
@@ -260,6 +261,31 @@ TEST(Cli, TraceOnTheGpuGivesTheCpuAnswers) {
   EXPECT_GT(hs["hybrid"]["gpu_cells"].get<int>(), 0);
   EXPECT_EQ(hs["hybrid"]["r_min"], 16);
   EXPECT_GT(hs["hybrid"]["gpu_batches"].get<int>(), 0);
+}
+
+TEST(Cli, RenderOnTheGpuAndHybridGivesTheCpuImage) {
+  PENUMBRA_GL_OR_SKIP();
+  TempDir dir;
+  const std::string common = "render cornell --width 16 --height 12 --spp 4 --seed 3 --quiet ";
+  for (const std::string device : {"cpu", "gpu", "hybrid"}) {
+    const auto r = runCli(common + "--device " + device + " -o " + dir.file(device + ".pfm") +
+                          " --stats " + dir.file(device + ".json"));
+    ASSERT_EQ(r.exit_code, 0) << device << ": " << r.output;
+    EXPECT_EQ(readJson(dir.file(device + ".json"))["device"], device);
+  }
+  Expected<Image> cpu = readImage(dir.file("cpu.pfm"));
+  ASSERT_TRUE(cpu.ok());
+  for (const std::string device : {"gpu", "hybrid"}) {
+    Expected<Image> other = readImage(dir.file(device + ".pfm"));
+    ASSERT_TRUE(other.ok());
+    double err = 0.0, norm = 0.0;
+    for (size_t i = 0; i < cpu->pixels.size(); ++i) {
+      const glm::vec3 d = other->pixels[i] - cpu->pixels[i];
+      err += double(glm::dot(d, d));
+      norm += double(glm::dot(cpu->pixels[i], cpu->pixels[i]));
+    }
+    EXPECT_LT(std::sqrt(err / norm), 1e-4) << device;
+  }
 }
 
 TEST(Cli, DeviceGpuWithoutAContextIsAClearErrorAndAutoFallsBack) {

@@ -39,7 +39,10 @@ int parseAndRun(int argc, char** argv) {
                    "file")
       ->capture_default_str();
   render_cmd->add_option("--method", render.method, "pathtrace")->capture_default_str();
-  render_cmd->add_option("--device", render.device, "cpu, gpu or auto")->capture_default_str();
+  render_cmd
+      ->add_option("--device", render.device,
+                   "cpu, gpu, hybrid (the Ray Engine's CPU/GPU split) or auto")
+      ->capture_default_str();
   render_cmd->add_option("-o,--output", render.outputs,
                          "output image (.exr .hdr .pfm linear, .png tone mapped); may repeat");
   render_cmd->add_option("--stats", render.stats, "write statistics to this JSON file");

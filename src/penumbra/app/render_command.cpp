@@ -1,5 +1,6 @@
 // `penumbra render`: loads a scene, runs the chosen method, writes images and stats.
 #include "penumbra/app/commands.h"
+#include "penumbra/app/device.h"
 #include "penumbra/app/stats_file.h"
 #include "penumbra/core/file_util.h"
 #include "penumbra/core/memory.h"
@@ -9,10 +10,13 @@
 #include "penumbra/io/image_io.h"
 #include "penumbra/io/scene_io.h"
 #include "penumbra/raytrace/path_tracer.h"
+#include "penumbra/raytrace/ray_queries.h"
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 #include <filesystem>
+#include <memory>
+#include <optional>
 
 namespace penumbra {
 
@@ -44,9 +48,6 @@ std::string sceneStem(const std::string& scene) {
 }
 
 Status renderPathTrace(const RenderOptions& options, const CommonOptions& common) {
-  if (options.device == "gpu") {
-    return inputError("", "", "--device gpu: the path tracer has no GPU back end yet; use cpu");
-  }
   std::vector<std::string> outputs = options.outputs;
   if (outputs.empty()) outputs.push_back(sceneStem(options.scene) + ".png");
   for (const std::string& out : outputs) {
@@ -107,15 +108,49 @@ Status renderPathTrace(const RenderOptions& options, const CommonOptions& common
   Timer build_timer;
   const PathTracer tracer(*scene);
   const double build_seconds = build_timer.seconds();
-  if (options.device == "auto") spdlog::info("device: cpu (the path tracer runs on the CPU)");
+  // Devices: the CPU traces paths one by one; gpu and hybrid advance them as a wavefront whose
+  // batches go to the Ray Engine's GPU kernel or its CPU/GPU split (same image).
+  const bool hybrid = options.device == "hybrid";
+  Expected<DeviceChoice> device = chooseDevice(hybrid ? "gpu" : options.device);
+  if (!device) return device.error();
+  const std::string device_name = hybrid ? std::string("hybrid") : device->name();
   spdlog::info("{}: {} triangles, {} emissive, {} lights; {}x{} at {} spp on {} threads",
                scene->source, tracer.geometry().triangles.size(), tracer.geometry().emitters.size(),
                scene->lights.size(), settings.width, settings.height, settings.spp, threadCount());
 
   Progress progress("rendering", uint64_t(settings.height),
                     !common.quiet && Progress::stderrIsTerminal());
+  int rows_reported = 0;
+  const auto on_rows = [&](int rows) {
+    // render() reports one row at a time, renderWavefront() every row done so far.
+    const int done = device->device == Device::kCpu ? rows_reported + 1 : rows;
+    progress.add(uint64_t(std::max(0, done - rows_reported)));
+    rows_reported = std::max(rows_reported, done);
+  };
   PathTracerStats stats;
-  const Image image = tracer.render(camera, settings, &stats, [&](int) { progress.add(1); });
+  Image image;
+  if (device->device == Device::kCpu) {
+    image = tracer.render(camera, settings, &stats, on_rows);
+  } else {
+    const SceneGeometry& g = tracer.geometry();
+    std::unique_ptr<RayQueries> queries;
+    std::optional<GlRayEngine> gl_engine;
+    std::optional<HybridRayEngine> hybrid_engine;
+    if (hybrid) {
+      Expected<HybridRayEngine> e = HybridRayEngine::build(g.positions, g.triangles);
+      if (!e) return e.error();
+      hybrid_engine.emplace(std::move(*e));
+      queries = std::make_unique<HybridRayQueries>(*hybrid_engine);
+    } else {
+      Expected<GlRayEngine> e = GlRayEngine::build(g.positions, g.triangles);
+      if (!e) return e.error();
+      gl_engine.emplace(std::move(*e));
+      queries = std::make_unique<GpuRayQueries>(*gl_engine);
+    }
+    Expected<Image> img = tracer.renderWavefront(camera, settings, *queries, &stats, on_rows);
+    if (!img) return img.error();
+    image = std::move(*img);
+  }
   progress.finish();
 
   for (const std::string& out : outputs) PENUMBRA_TRY(writeImage(out, image, options.tonemap));
@@ -124,7 +159,7 @@ Status renderPathTrace(const RenderOptions& options, const CommonOptions& common
                fmt::join(outputs, ", "));
   if (!options.stats.empty()) {
     nlohmann::json j = {{"method", "pathtrace"},
-                        {"device", "cpu"},
+                        {"device", device_name},
                         {"scene", scene->source},
                         {"seconds", stats.seconds},
                         {"load_seconds", load_seconds},
@@ -146,9 +181,10 @@ Status renderPathTrace(const RenderOptions& options, const CommonOptions& common
 }  // namespace
 
 int runRender(const RenderOptions& options, const CommonOptions& common) {
-  if (options.device != "cpu" && options.device != "gpu" && options.device != "auto") {
-    return reportError(
-        inputError("", "", fmt::format("--device '{}': use cpu, gpu or auto", options.device)));
+  if (options.device != "cpu" && options.device != "gpu" && options.device != "auto" &&
+      options.device != "hybrid") {
+    return reportError(inputError(
+        "", "", fmt::format("--device '{}': use cpu, gpu, hybrid or auto", options.device)));
   }
   Status s;
   if (options.method == "pathtrace") {

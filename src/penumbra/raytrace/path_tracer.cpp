@@ -43,20 +43,25 @@ inline float spotFalloff(const SpotLight& s, const glm::vec3& to_point) {
 PathTracer::PathTracer(const Scene& scene)
     : geometry_(SceneGeometry::build(scene)), lights_(scene.lights) {}
 
-bool PathTracer::visible(const glm::vec3& p, float p_offset, const glm::vec3& n,
-                         const glm::vec3& target, uint64_t& rays) const {
+namespace {
+
+// A shadow ray from surface point p (lifted off its surface by p_offset along n) to `target`,
+// or none (always visible) when the target is at p.
+inline ShadowQuery shadowTo(const glm::vec3& p, float p_offset, const glm::vec3& n,
+                            const glm::vec3& target, const glm::vec3& value) {
   const glm::vec3 origin = offsetOrigin(p, p_offset, n, target - p);
   const glm::vec3 d = target - origin;
   const float dist = glm::length(d);
-  if (!(dist > 0.0f)) return true;
-  ++rays;
-  return !geometry_.engine.occluded(Ray{origin, 0.0f, d / dist, dist * kShadowShorten});
+  if (!(dist > 0.0f)) return ShadowQuery{Ray{}, value, false};
+  return ShadowQuery{Ray{origin, 0.0f, d / dist, dist * kShadowShorten}, value, true};
 }
 
-glm::vec3 PathTracer::directLight(const glm::vec3& p, float p_offset, const glm::vec3& n,
-                                  const glm::vec3& rho, Rng& rng, uint64_t& rays) const {
+}  // namespace
+
+int PathTracer::directQueries(const glm::vec3& p, float p_offset, const glm::vec3& n,
+                              const glm::vec3& rho, Rng& rng, ShadowQuery* out) const {
   const glm::vec3 f = rho * kInvPi;  // Lambertian BRDF
-  glm::vec3 sum(0.0f);
+  int count = 0;
   // Delta lights: one shadow ray each. Geometric terms are taken at the surface point p; the
   // shadow ray starts from p lifted off the surface.
   for (const Light& light : lights_) {
@@ -64,9 +69,8 @@ glm::vec3 PathTracer::directLight(const glm::vec3& p, float p_offset, const glm:
       const glm::vec3 wi = -dl->direction;
       const float cos_s = glm::dot(n, wi);
       if (cos_s <= 0.0f) continue;
-      ++rays;
-      const Ray shadow{offsetOrigin(p, p_offset, n, wi), 0.0f, wi, kInfinity};
-      if (!geometry_.engine.occluded(shadow)) sum += f * dl->irradiance * cos_s;
+      out[count++] = ShadowQuery{Ray{offsetOrigin(p, p_offset, n, wi), 0.0f, wi, kInfinity},
+                                 f * dl->irradiance * cos_s, true};
       continue;
     }
     const glm::vec3 pos = std::holds_alternative<PointLight>(light)
@@ -84,7 +88,7 @@ glm::vec3 PathTracer::directLight(const glm::vec3& p, float p_offset, const glm:
       intensity = std::get<PointLight>(light).intensity;
     }
     if (intensity == glm::vec3(0.0f)) continue;
-    if (visible(p, p_offset, n, pos, rays)) sum += f * intensity * cos_s / d2;
+    out[count++] = shadowTo(p, p_offset, n, pos, f * intensity * cos_s / d2);
   }
   // One sample of the emissive triangles, MIS-weighted against cosine sampling.
   if (!geometry_.emitters.empty()) {
@@ -94,83 +98,108 @@ glm::vec3 PathTracer::directLight(const glm::vec3& p, float p_offset, const glm:
     const glm::vec3 q = geometry_.point(tri, b.x, b.y);
     const glm::vec3 d = q - p;
     const float d2 = glm::dot(d, d);
-    if (!(d2 > 0.0f)) return sum;
+    if (!(d2 > 0.0f)) return count;
     const glm::vec3 wi = d / std::sqrt(d2);
     const float cos_s = glm::dot(n, wi);
     const glm::vec3& nl = geometry_.normals[tri];
     const float cos_l = -glm::dot(nl, wi);  // emits from the front only
-    if (cos_s <= 0.0f || cos_l <= 0.0f) return sum;
+    if (cos_s <= 0.0f || cos_l <= 0.0f) return count;
+    const float pdf_area = geometry_.emitter_pick_pdf[tri] / geometry_.areas[tri];
+    const float pdf_light = pdf_area * d2 / cos_l;  // solid-angle measure
+    const float pdf_bsdf = cos_s * kInvPi;
+    const glm::vec3& le = geometry_.materials[geometry_.material_ids[tri]].emission;
     // Aim at q lifted off the light towards p, so the shadow ray cannot hit the light itself.
     const glm::vec3 target = offsetOrigin(q, geometry_.surfaceOffset(tri, b.x, b.y), nl, -d);
-    if (visible(p, p_offset, n, target, rays)) {
-      const float pdf_area = geometry_.emitter_pick_pdf[tri] / geometry_.areas[tri];
-      const float pdf_light = pdf_area * d2 / cos_l;  // solid-angle measure
-      const float pdf_bsdf = cos_s * kInvPi;
-      const glm::vec3& le = geometry_.materials[geometry_.material_ids[tri]].emission;
-      sum += f * le * cos_s * powerHeuristic(pdf_light, pdf_bsdf) / pdf_light;
-    }
+    out[count++] = shadowTo(p, p_offset, n, target,
+                            f * le * cos_s * powerHeuristic(pdf_light, pdf_bsdf) / pdf_light);
   }
-  return sum;
+  return count;
+}
+
+int PathTracer::shade(PathState& s, const Hit& hit, const PathTracerSettings& settings,
+                      ShadowQuery* queries) const {
+  s.alive = false;
+  if (!hit.hit()) return 0;
+  const uint32_t tri = uint32_t(hit.triangle);
+  const Material& mat = geometry_.materials[geometry_.material_ids[tri]];
+  const glm::vec3 ng = geometry_.normals[tri];
+  const float cos_front = -glm::dot(ng, s.ray.dir) / glm::length(s.ray.dir);
+  const glm::vec3 p = geometry_.point(tri, hit.u, hit.v);
+  const float p_offset = geometry_.surfaceOffset(tri, hit.u, hit.v);
+
+  // Emission reached by BSDF sampling (or seen directly), MIS-weighted against the emitter
+  // sample taken at the previous vertex.
+  if (mat.isEmissive() && cos_front > 0.0f) {
+    float w = 1.0f;
+    if (s.prev_pdf > 0.0f && geometry_.emitter_pick_pdf[tri] > 0.0f) {
+      const glm::vec3 d = p - s.prev_point;
+      const float pdf_light =
+          geometry_.emitter_pick_pdf[tri] / geometry_.areas[tri] * glm::dot(d, d) / cos_front;
+      w = powerHeuristic(s.prev_pdf, pdf_light);
+    }
+    s.result += s.beta * mat.emission * w;
+  }
+  if (settings.max_depth > 0 && s.depth >= settings.max_depth) return 0;
+  if (mat.reflectance == glm::vec3(0.0f)) return 0;
+
+  // Surfaces reflect on both sides: shade with the normal facing the incoming ray.
+  const glm::vec3 n = cos_front > 0.0f ? ng : -ng;
+  s.vertex_beta = s.beta;
+  const int count = directQueries(p, p_offset, n, mat.reflectance, s.rng, queries);
+
+  // Cosine-weighted bounce: f cos / pdf = rho.
+  const glm::vec3 local = sampleCosineHemisphere(s.rng.uniform(), s.rng.uniform());
+  const glm::vec3 wi = Frame::fromNormal(n).toWorld(local);
+  const float cos_s = glm::dot(n, wi);
+  if (cos_s <= 0.0f) return count;
+  s.beta *= mat.reflectance;
+  s.prev_pdf = cos_s * kInvPi;
+  s.prev_point = p;
+
+  // Russian roulette (unbiased): survive with probability min(max(beta), 0.99), so that even
+  // reflectance 1 ends.
+  if (s.depth + 1 >= settings.rr_start_depth) {
+    const float survive = std::min(std::max({s.beta.x, s.beta.y, s.beta.z}), 0.99f);
+    if (s.rng.uniform() >= survive) return count;
+    s.beta /= survive;
+  }
+  s.ray = Ray{offsetOrigin(p, p_offset, n, wi), 0.0f, wi, kInfinity};
+  ++s.depth;
+  s.alive = true;
+  return count;
+}
+
+void PathTracer::addDirect(PathState& s, const ShadowQuery* queries, const uint8_t* occluded,
+                           int count) {
+  glm::vec3 direct(0.0f);
+  for (int i = 0; i < count; ++i) {
+    if (!occluded[i]) direct += queries[i].value;
+  }
+  s.result += s.vertex_beta * direct;
 }
 
 glm::vec3 PathTracer::radiance(const Ray& primary, Rng& rng, const PathTracerSettings& settings,
                                uint64_t& rays) const {
-  glm::vec3 result(0.0f), beta(1.0f);
-  Ray ray = primary;
-  float prev_bsdf_pdf = 0.0f;  // solid-angle pdf of the last bounce; 0 for the camera ray
-  glm::vec3 prev_point(0.0f);
-  for (int depth = 0;; ++depth) {
+  PathState s;
+  s.ray = primary;
+  s.rng = rng;
+  std::vector<ShadowQuery> queries(lights_.size() + 1);
+  std::vector<uint8_t> occluded(lights_.size() + 1);
+  for (;;) {
     ++rays;
-    const Hit hit = geometry_.engine.intersect(ray);
-    if (!hit.hit()) break;
-    const uint32_t tri = uint32_t(hit.triangle);
-    const Material& mat = geometry_.materials[geometry_.material_ids[tri]];
-    const glm::vec3 ng = geometry_.normals[tri];
-    const float cos_front = -glm::dot(ng, ray.dir) / glm::length(ray.dir);
-    const glm::vec3 p = geometry_.point(tri, hit.u, hit.v);
-    const float p_offset = geometry_.surfaceOffset(tri, hit.u, hit.v);
-
-    // Emission reached by BSDF sampling (or seen directly), MIS-weighted against the emitter
-    // sample taken at the previous vertex.
-    if (mat.isEmissive() && cos_front > 0.0f) {
-      float w = 1.0f;
-      if (prev_bsdf_pdf > 0.0f && geometry_.emitter_pick_pdf[tri] > 0.0f) {
-        const glm::vec3 d = p - prev_point;
-        const float pdf_light =
-            geometry_.emitter_pick_pdf[tri] / geometry_.areas[tri] * glm::dot(d, d) / cos_front;
-        w = powerHeuristic(prev_bsdf_pdf, pdf_light);
-      }
-      result += beta * mat.emission * w;
+    const Hit hit = geometry_.engine.intersect(s.ray);
+    const int count = shade(s, hit, settings, queries.data());
+    for (int i = 0; i < count; ++i) {
+      occluded[size_t(i)] = 0;
+      if (!queries[size_t(i)].trace) continue;
+      ++rays;
+      occluded[size_t(i)] = geometry_.engine.occluded(queries[size_t(i)].ray) ? 1 : 0;
     }
-    if (settings.max_depth > 0 && depth >= settings.max_depth) break;
-    if (mat.reflectance == glm::vec3(0.0f)) break;
-
-    // Surfaces reflect on both sides: shade with the normal facing the incoming ray.
-    const glm::vec3 n = cos_front > 0.0f ? ng : -ng;
-    result += beta * directLight(p, p_offset, n, mat.reflectance, rng, rays);
-
-    // Cosine-weighted bounce: f cos / pdf = rho.
-    const glm::vec3 local = sampleCosineHemisphere(rng.uniform(), rng.uniform());
-    const glm::vec3 wi = Frame::fromNormal(n).toWorld(local);
-    const float cos_s = glm::dot(n, wi);
-    if (cos_s <= 0.0f) break;
-    beta *= mat.reflectance;
-    prev_bsdf_pdf = cos_s * kInvPi;
-    prev_point = p;
-
-    // Russian roulette (unbiased): survive with probability min(max(beta), 0.99), so that
-    // even reflectance 1 ends.
-    if (depth + 1 >= settings.rr_start_depth) {
-      const float survive = std::min(std::max({beta.x, beta.y, beta.z}), 0.99f);
-      if (rng.uniform() >= survive) break;
-      beta /= survive;
-    }
-    ray.origin = offsetOrigin(p, p_offset, n, wi);
-    ray.dir = wi;
-    ray.tmin = 0.0f;
-    ray.tmax = kInfinity;
+    if (count > 0) addDirect(s, queries.data(), occluded.data(), count);
+    if (!s.alive) break;
   }
-  return result;
+  rng = s.rng;
+  return s.result;
 }
 
 Image PathTracer::render(const Camera& camera, const PathTracerSettings& settings,
@@ -186,9 +215,9 @@ Image PathTracer::render(const Camera& camera, const PathTracerSettings& setting
     for (size_t y = y0; y < y1; ++y) {
       for (int x = 0; x < settings.width; ++x) {
         const uint64_t pixel = uint64_t(y) * uint64_t(settings.width) + uint64_t(x);
-        Rng rng(mixBits(settings.seed), pixel);
         glm::dvec3 sum(0.0);
         for (int s = 0; s < settings.spp; ++s) {
+          Rng rng = sampleRng(settings.seed, pixel, uint64_t(s), settings.spp);
           const float jx = rng.uniform(), jy = rng.uniform();
           const Ray r = cam.ray(float(x) + jx, float(y) + jy);
           sum += glm::dvec3(radiance(r, rng, settings, rays));
@@ -202,6 +231,112 @@ Image PathTracer::render(const Camera& camera, const PathTracerSettings& setting
   });
   if (stats) {
     stats->rays = total_rays.load();
+    stats->seconds = timer.seconds();
+  }
+  return image;
+}
+
+}  // namespace penumbra
+
+namespace penumbra {
+
+Expected<Image> PathTracer::renderWavefront(const Camera& camera,
+                                            const PathTracerSettings& settings, RayQueries& queries,
+                                            PathTracerStats* stats,
+                                            const std::function<void(int)>& on_progress) const {
+  Timer timer;
+  Image image(settings.width, settings.height);
+  const CameraRays cam(camera, settings.width, settings.height);
+  const size_t spp = size_t(settings.spp);
+  const size_t cap = lightQueryCapacity();
+  // Whole rows per wave, about 2^20 paths.
+  const size_t rows_per_wave =
+      std::max<size_t>(1, (size_t(1) << 20) / (size_t(settings.width) * spp));
+  uint64_t rays = 0;
+  std::vector<PathState> paths;
+  std::vector<ShadowQuery> shadow;
+  std::vector<int> shadow_count;
+  std::vector<uint32_t> alive;
+  RayBatch batch;
+  HitBatch hits;
+  std::vector<uint8_t> occluded;
+  std::vector<size_t> shadow_slot;
+  for (size_t y0 = 0; y0 < size_t(settings.height); y0 += rows_per_wave) {
+    const size_t y1 = std::min(size_t(settings.height), y0 + rows_per_wave);
+    const size_t n = (y1 - y0) * size_t(settings.width) * spp;
+    paths.assign(n, PathState{});
+    parallelRange(n, 1024, [&](size_t b, size_t e) {
+      for (size_t i = b; i < e; ++i) {
+        const size_t local_pixel = i / spp, s = i % spp;
+        const size_t x = local_pixel % size_t(settings.width);
+        const size_t y = y0 + local_pixel / size_t(settings.width);
+        const uint64_t pixel = uint64_t(y) * uint64_t(settings.width) + uint64_t(x);
+        PathState& p = paths[i];
+        p.rng = sampleRng(settings.seed, pixel, s, settings.spp);
+        const float jx = p.rng.uniform(), jy = p.rng.uniform();
+        p.ray = cam.ray(float(x) + jx, float(y) + jy);
+      }
+    });
+    alive.resize(n);
+    for (size_t i = 0; i < n; ++i) alive[i] = uint32_t(i);
+    shadow.resize(n * cap);
+    shadow_count.assign(n, 0);
+    while (!alive.empty()) {
+      // 1. This bounce's rays, as one batch.
+      batch.resize(alive.size());
+      for (size_t k = 0; k < alive.size(); ++k) batch.set(k, paths[alive[k]].ray);
+      PENUMBRA_TRY(queries.intersect(batch, hits));
+      rays += alive.size();
+      // 2. Shade every path: emission, shadow queries, continuation.
+      parallelRange(alive.size(), 256, [&](size_t b, size_t e) {
+        for (size_t k = b; k < e; ++k) {
+          const uint32_t i = alive[k];
+          shadow_count[i] = shade(paths[i], hits.get(k), settings, &shadow[size_t(i) * cap]);
+        }
+      });
+      // 3. The shadow rays, as one batch.
+      shadow_slot.clear();
+      for (uint32_t i : alive) {
+        for (int q = 0; q < shadow_count[i]; ++q) {
+          if (shadow[size_t(i) * cap + size_t(q)].trace) {
+            shadow_slot.push_back(size_t(i) * cap + size_t(q));
+          }
+        }
+      }
+      batch.resize(shadow_slot.size());
+      for (size_t k = 0; k < shadow_slot.size(); ++k) batch.set(k, shadow[shadow_slot[k]].ray);
+      PENUMBRA_TRY(queries.occluded(batch, occluded));
+      rays += shadow_slot.size();
+      std::vector<uint8_t> blocked(n * cap, 0);
+      for (size_t k = 0; k < shadow_slot.size(); ++k) blocked[shadow_slot[k]] = occluded[k];
+      parallelRange(alive.size(), 256, [&](size_t b, size_t e) {
+        for (size_t k = b; k < e; ++k) {
+          const uint32_t i = alive[k];
+          if (shadow_count[i] > 0) {
+            addDirect(paths[i], &shadow[size_t(i) * cap], &blocked[size_t(i) * cap],
+                      shadow_count[i]);
+          }
+        }
+      });
+      // 4. Paths that go on.
+      size_t kept = 0;
+      for (uint32_t i : alive) {
+        if (paths[i].alive) alive[kept++] = i;
+      }
+      alive.resize(kept);
+    }
+    // Pixels: samples summed in order, as render() does.
+    for (size_t local_pixel = 0; local_pixel < n / spp; ++local_pixel) {
+      glm::dvec3 sum(0.0);
+      for (size_t s = 0; s < spp; ++s) sum += glm::dvec3(paths[local_pixel * spp + s].result);
+      const size_t x = local_pixel % size_t(settings.width);
+      const size_t y = y0 + local_pixel / size_t(settings.width);
+      image.at(int(x), int(y)) = glm::vec3(sum / double(settings.spp));
+    }
+    if (on_progress) on_progress(int(y1));
+  }
+  if (stats) {
+    stats->rays = rays;
     stats->seconds = timer.seconds();
   }
   return image;

@@ -5,8 +5,8 @@
 // judged against it, so it favours being right over being fast: shading uses geometric
 // normals (interpolated normals are not physical), and nothing is clamped.
 //
-// Determinism: pixel p's samples come from PCG stream p of the seed, so any thread count gives
-// the same image.
+// Determinism: sample s of pixel p draws from its own PCG stream (sampleRng), so any thread count
+// and either way of advancing the paths (render, renderWavefront) gives the same image.
 #pragma once
 
 #include "penumbra/core/image.h"
@@ -29,6 +29,38 @@ struct PathTracerSettings {
   uint64_t seed = 0;
 };
 
+// A shadow ray and what it contributes (before the path throughput) when unoccluded; `trace`
+// is false when the light point coincides with the surface point (always visible).
+struct ShadowQuery {
+  Ray ray;
+  glm::vec3 value{0.0f};
+  bool trace = true;
+};
+
+// One path in flight: the ray to trace next and what the path has gathered. The path tracer's
+// step (PathTracer::shade) is the same whether paths are traced one at a time or as a
+// wavefront of batches, so both give the same image bit for bit.
+struct PathState {
+  Ray ray;
+  glm::vec3 result{0.0f};       // radiance gathered so far
+  glm::vec3 beta{1.0f};         // throughput of the current ray
+  glm::vec3 vertex_beta{0.0f};  // throughput at the vertex the pending shadow queries left
+  glm::vec3 prev_point{0.0f};
+  float prev_pdf = 0.0f;  // solid-angle pdf of the last bounce; 0 for the camera ray
+  int depth = 0;
+  bool alive = true;
+  Rng rng;
+};
+
+// Batched ray queries for the wavefront path tracer: the CPU Ray Engine, the GPU kernel or the
+// CPU/GPU split. Errors (a GPU failure) are returned as values.
+class RayQueries {
+ public:
+  virtual ~RayQueries() = default;
+  virtual Status intersect(const RayBatch& rays, HitBatch& hits) = 0;
+  virtual Status occluded(const RayBatch& rays, std::vector<uint8_t>& occluded) = 0;
+};
+
 struct PathTracerStats {
   uint64_t rays = 0;  // primary, bounce and shadow rays
   double seconds = 0.0;
@@ -49,18 +81,37 @@ class PathTracer {
                PathTracerStats* stats = nullptr,
                const std::function<void(int)>& on_progress = {}) const;
 
+  // The same image as render(), with paths advanced as a wavefront: each bounce's rays, then
+  // each bounce's shadow rays, go to `queries` as one batch (so any back end of the Ray Engine
+  // can trace them). `on_progress(rows_done)` as in render().
+  Expected<Image> renderWavefront(const Camera& camera, const PathTracerSettings& settings,
+                                  RayQueries& queries, PathTracerStats* stats = nullptr,
+                                  const std::function<void(int)>& on_progress = {}) const;
+
+  // One step of a path: processes the hit of s.ray (emission with its MIS weight), writes the
+  // direct-light shadow queries of this vertex to `queries` (at most lightQueryCapacity(); the
+  // count is returned; resolve them with addDirect) and samples the continuation (s.alive is
+  // false when the path ends).
+  int shade(PathState& s, const Hit& hit, const PathTracerSettings& settings,
+            ShadowQuery* queries) const;
+  static void addDirect(PathState& s, const ShadowQuery* queries, const uint8_t* occluded,
+                        int count);
+  size_t lightQueryCapacity() const { return lights_.size() + 1; }
+
+  // The generator of sample `sample` of pixel `pixel`: its own PCG stream, so that samples can
+  // run in any order.
+  static Rng sampleRng(uint64_t seed, uint64_t pixel, uint64_t sample, int spp) {
+    return Rng(mixBits(seed), pixel * uint64_t(spp) + sample);
+  }
+
   const SceneGeometry& geometry() const { return geometry_; }
 
  private:
-  // Radiance from the delta lights and one emitter sample at surface point p (ray offset
-  // p_offset) with normal n (facing the outgoing side), reflectance rho; the emitter sample is
-  // MIS-weighted against BSDF sampling.
-  glm::vec3 directLight(const glm::vec3& p, float p_offset, const glm::vec3& n,
-                        const glm::vec3& rho, Rng& rng, uint64_t& rays) const;
-
-  // Whether `target` is seen from surface point p (lifted off its surface by p_offset along n).
-  bool visible(const glm::vec3& p, float p_offset, const glm::vec3& n, const glm::vec3& target,
-               uint64_t& rays) const;
+  // Direct-light queries at surface point p (ray offset p_offset, normal n facing the outgoing
+  // side, reflectance rho): one per delta light and one emitter sample, MIS-weighted against
+  // BSDF sampling. Each query's value is added when its shadow ray is unoccluded.
+  int directQueries(const glm::vec3& p, float p_offset, const glm::vec3& n, const glm::vec3& rho,
+                    Rng& rng, ShadowQuery* out) const;
 
   SceneGeometry geometry_;
   std::vector<Light> lights_;
