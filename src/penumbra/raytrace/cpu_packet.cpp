@@ -24,22 +24,25 @@ bool packetTracingAvailable() {
 
 bool packetEligible(const RayBatch& rays, size_t first) {
   if (first + kPacketSize > rays.size()) return false;
-  const Ray r0 = rays.get(first);
-  const WatertightRay w0 = makeWatertightRay(r0.origin, r0.dir);
-  const glm::vec3 d0 =
-      r0.dir / std::sqrt(r0.dir.x * r0.dir.x + r0.dir.y * r0.dir.y + r0.dir.z * r0.dir.z);
+  // Same octant (sign bits) and same dominant axis give the same axis permutation in the
+  // watertight test; directions within acos(0.9) of the first: dot^2 >= 0.81 |d|^2 |d0|^2.
+  const float x0 = rays.dx[first], y0 = rays.dy[first], z0 = rays.dz[first];
+  const auto major = [](float x, float y, float z) {
+    const float ax = std::fabs(x), ay = std::fabs(y), az = std::fabs(z);
+    return (ax > ay) ? (ax > az ? 0 : 2) : (ay > az ? 1 : 2);
+  };
+  const int axis0 = major(x0, y0, z0);
+  const float len0 = x0 * x0 + y0 * y0 + z0 * z0;
   for (int k = 0; k < kPacketSize; ++k) {
-    const Ray r = rays.get(first + size_t(k));
-    if (!(r.tmin <= r.tmax)) return false;
-    if (std::signbit(r.dir.x) != std::signbit(r0.dir.x) ||
-        std::signbit(r.dir.y) != std::signbit(r0.dir.y) ||
-        std::signbit(r.dir.z) != std::signbit(r0.dir.z)) {
+    const size_t i = first + size_t(k);
+    const float x = rays.dx[i], y = rays.dy[i], z = rays.dz[i];
+    if (!(rays.tmin[i] <= rays.tmax[i])) return false;
+    if (std::signbit(x) != std::signbit(x0) || std::signbit(y) != std::signbit(y0) ||
+        std::signbit(z) != std::signbit(z0) || major(x, y, z) != axis0) {
       return false;
     }
-    const WatertightRay w = makeWatertightRay(r.origin, r.dir);
-    if (w.kx != w0.kx || w.ky != w0.ky || w.kz != w0.kz) return false;
-    const float len = std::sqrt(r.dir.x * r.dir.x + r.dir.y * r.dir.y + r.dir.z * r.dir.z);
-    if ((r.dir.x * d0.x + r.dir.y * d0.y + r.dir.z * d0.z) < 0.9f * len) return false;
+    const float dot = x * x0 + y * y0 + z * z0;
+    if (!(dot > 0.0f) || dot * dot < 0.81f * (x * x + y * y + z * z) * len0) return false;
   }
   return true;
 }
@@ -175,28 +178,30 @@ void tracePacket(const RayEngine& engine, const RayBatch& rays, size_t first, Hi
 
   PacketHits h{_mm256_set1_epi32(-1), _mm256_setzero_ps(), _mm256_setzero_ps(),
                _mm256_setzero_ps()};
-  uint32_t stack[kMaxBvhDepth];
+  // Each node is visited with the lanes that entered its box when it was tested from its
+  // parent; a leaf needs no second box test.
+  struct Entry {
+    uint32_t node;
+    __m256 mask;
+  };
+  Entry stack[kMaxBvhDepth];
   int sp = 0;
   uint32_t node = 0;
   __m256 t_entry;
-  bool alive =
-      !bvh.nodes.empty() && _mm256_movemask_ps(boxPacket(bvh.nodes[0], p, tmax, t_entry)) != 0;
+  __m256 mask = bvh.nodes.empty() ? _mm256_setzero_ps() : boxPacket(bvh.nodes[0], p, tmax, t_entry);
+  bool alive = _mm256_movemask_ps(mask) != 0;
   while (alive) {
     const BvhNode& n = bvh.nodes[node];
     if (n.isLeaf()) {
       const TriangleBlock8& block = engine.blocks()[engine.blockOfLeaf(n)];
-      // Rays whose interval still reaches this leaf.
-      __m256 te;
-      const __m256 active = boxPacket(n, p, tmax, te);
-      if (_mm256_movemask_ps(active)) {
-        for (uint32_t lane = 0; lane < n.count; ++lane) {
-          trianglePacket(p, block, int(lane), active, h, tmax, rays, first);
-        }
+      for (uint32_t lane = 0; lane < n.count; ++lane) {
+        trianglePacket(p, block, int(lane), mask, h, tmax, rays, first);
       }
     } else {
       __m256 ta, tb;
-      const int ma = _mm256_movemask_ps(boxPacket(bvh.nodes[n.index], p, tmax, ta));
-      const int mb = _mm256_movemask_ps(boxPacket(bvh.nodes[n.index + 1], p, tmax, tb));
+      const __m256 mask_a = boxPacket(bvh.nodes[n.index], p, tmax, ta);
+      const __m256 mask_b = boxPacket(bvh.nodes[n.index + 1], p, tmax, tb);
+      const int ma = _mm256_movemask_ps(mask_a), mb = _mm256_movemask_ps(mask_b);
       if (ma && mb) {
         // Nearer child first, judged by the first ray that enters both.
         alignas(32) float la[8], lb[8];
@@ -205,16 +210,20 @@ void tracePacket(const RayEngine& engine, const RayBatch& rays, size_t first, Hi
         const int k = __builtin_ctz(unsigned(ma & mb) | 0x100u) & 7;
         const bool a_first = la[k] <= lb[k];
         node = a_first ? n.index : n.index + 1;
-        stack[sp++] = a_first ? n.index + 1 : n.index;
+        mask = a_first ? mask_a : mask_b;
+        stack[sp++] = a_first ? Entry{n.index + 1, mask_b} : Entry{n.index, mask_a};
         continue;
       }
       if (ma || mb) {
         node = ma ? n.index : n.index + 1;
+        mask = ma ? mask_a : mask_b;
         continue;
       }
     }
     if (sp == 0) break;
-    node = stack[--sp];
+    --sp;
+    node = stack[sp].node;
+    mask = stack[sp].mask;
   }
   alignas(32) int32_t id[8];
   alignas(32) float t[8], u[8], v[8];

@@ -19,7 +19,7 @@ inline constexpr int kPacketSize = 8;
 
 // Whether rays [first, first + 8) can travel as one packet: the same direction octant and the
 // same dominant axis (so they share the watertight test's axis permutation), valid intervals,
-// and directions within about 25 degrees of each other (else single rays are faster).
+// and directions within about 25 degrees of the first (else single rays are faster).
 bool packetEligible(const RayBatch& rays, size_t first);
 
 // Traces rays [first, first + 8) of `rays` as a packet; writes their hits. Requires
