@@ -209,6 +209,46 @@ TEST(RayEngine, PacketsGiveTheSingleRayAnswers) {
   }
 }
 
+// The portable scalar kernels and the AVX2 kernels (boxes, leaf blocks, packets) give the same
+// answers bit for bit, so the run-time choice between them never changes a result.
+TEST(RayEngine, ScalarAndAvx2KernelsAgree) {
+  if (!cpuHasAvx2()) GTEST_SKIP() << "this CPU has no AVX2: only the scalar kernels exist here";
+  const Soup s = randomSoup(21, 4000, 0.06f);
+  RayEngine simd = RayEngine::build(s.positions, s.triangles);
+  ASSERT_EQ(simd.isa(), CpuIsa::kAvx2);
+  RayEngine scalar = RayEngine::build(s.positions, s.triangles);
+  scalar.useIsa(CpuIsa::kScalar);
+  ASSERT_EQ(scalar.isa(), CpuIsa::kScalar);
+  Rng rng(4, 4);
+  RayBatch rays;
+  rays.resize(20000);
+  for (size_t i = 0; i < rays.size(); ++i) {
+    // Half random, half in coherent runs of eight (packets on the AVX2 side).
+    const glm::vec3 o = i % 16 < 8 ? randomInBox(rng, -1.5f, 1.5f) : glm::vec3(0.0f, 0.0f, 2.0f);
+    const glm::vec3 d = i % 16 < 8
+                            ? randomDirection(rng)
+                            : glm::normalize(glm::vec3(0.001f * float(i % 97) - 0.05f,
+                                                       0.001f * float(i % 89) - 0.04f, -1.0f));
+    rays.set(i, Ray{o, 0.0f, d, i % 5 == 0 ? 1.7f : kInf});
+  }
+  HitBatch a, b;
+  simd.intersect(rays, a);
+  scalar.intersect(rays, b);
+  std::vector<uint8_t> oa, ob;
+  simd.occluded(rays, oa);
+  scalar.occluded(rays, ob);
+  size_t hits = 0;
+  for (size_t i = 0; i < rays.size(); ++i) {
+    ASSERT_EQ(a.triangle[i], b.triangle[i]) << i;
+    ASSERT_EQ(a.t[i], b.t[i]) << i;
+    ASSERT_EQ(a.u[i], b.u[i]) << i;
+    ASSERT_EQ(a.v[i], b.v[i]) << i;
+    ASSERT_EQ(oa[i], ob[i]) << i;
+    hits += a.triangle[i] >= 0;
+  }
+  EXPECT_GT(hits, rays.size() / 10);
+}
+
 // A closed, finely tessellated sphere: rays from inside must all hit (watertightness of the
 // test and conservativeness of the box test together).
 TEST(RayEngine, NoRayEscapesAClosedMesh) {

@@ -8,18 +8,10 @@
 #include <cmath>
 #include <cstring>
 
-#if defined(__AVX2__)
-#include <immintrin.h>
-#endif
-
 namespace penumbra {
 
 bool packetTracingAvailable() {
-#if defined(__AVX2__)
-  return true;
-#else
-  return false;
-#endif
+  return cpuHasAvx2();
 }
 
 bool packetEligible(const RayBatch& rays, size_t first) {
@@ -47,7 +39,7 @@ bool packetEligible(const RayBatch& rays, size_t first) {
   return true;
 }
 
-#if defined(__AVX2__)
+#if PENUMBRA_HAVE_AVX2_KERNELS
 
 namespace {
 
@@ -66,13 +58,14 @@ struct PacketHits {
   __m256 t, u, v;
 };
 
-inline __m256 loadLanes(const std::vector<float>& v, size_t first) {
+PENUMBRA_AVX2_TARGET inline __m256 loadLanes(const std::vector<float>& v, size_t first) {
   return _mm256_loadu_ps(v.data() + first);
 }
 
 // Slab test of eight rays against one box: lanes entered within [tmin, tmax], and the
 // entry distances.
-inline __m256 boxPacket(const BvhNode& n, const Packet& p, __m256 tmax, __m256& t_entry) {
+PENUMBRA_AVX2_TARGET inline __m256 boxPacket(const BvhNode& n, const Packet& p, __m256 tmax,
+                                             __m256& t_entry) {
   const float lo[3] = {n.lo.x, n.lo.y, n.lo.z}, hi[3] = {n.hi.x, n.hi.y, n.hi.z};
   __m256 tn = p.tmin, tf = tmax;
   for (int a = 0; a < 3; ++a) {
@@ -87,8 +80,9 @@ inline __m256 boxPacket(const BvhNode& n, const Packet& p, __m256 tmax, __m256& 
 }
 
 // One triangle against the packet, the watertight test of kernels/ray_triangle.h across rays.
-inline void trianglePacket(const Packet& p, const TriangleBlock8& b, int lane, __m256 active,
-                           PacketHits& h, __m256& tmax, const RayBatch& rays, size_t first) {
+PENUMBRA_AVX2_TARGET inline void trianglePacket(const Packet& p, const TriangleBlock8& b, int lane,
+                                                __m256 active, PacketHits& h, __m256& tmax,
+                                                const RayBatch& rays, size_t first) {
   const float* pv[3][3];
   for (int k = 0; k < 3; ++k) {
     for (int a = 0; a < 3; ++a) pv[k][a] = &b.v[k][a][lane];
@@ -150,7 +144,8 @@ inline void trianglePacket(const Packet& p, const TriangleBlock8& b, int lane, _
 
 }  // namespace
 
-void tracePacket(const RayEngine& engine, const RayBatch& rays, size_t first, HitBatch& hits) {
+PENUMBRA_AVX2_TARGET void tracePacket(const RayEngine& engine, const RayBatch& rays, size_t first,
+                                      HitBatch& hits) {
   const Bvh& bvh = engine.bvh();
   Packet p;
   p.o[0] = loadLanes(rays.ox, first);

@@ -1,7 +1,9 @@
 // The CPU back end's inner loops: one ray against the eight child boxes of a wide node, and one
-// ray against a block of up to eight triangles, with AVX2 (a portable loop without it). Both
-// give bit-for-bit the answers of the scalar formulas: the box test of BoxTester::test and the
-// watertight test of kernels/ray_triangle.h, evaluated in the same order of operations.
+// ray against a block of up to eight triangles. Each comes twice: with AVX2 (compiled for AVX2
+// whatever the build's target, through PENUMBRA_AVX2_TARGET, and used only when the CPU has it:
+// see cpuHasAvx2) and as a portable scalar loop. Both give bit-for-bit the same answers: the
+// slab test, and the watertight test of kernels/ray_triangle.h, in the same order of
+// operations.
 #pragma once
 
 #include "penumbra/accel/wide_bvh.h"
@@ -12,11 +14,28 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#if defined(__AVX2__)
+#if defined(__x86_64__) || defined(__i386__)
 #include <immintrin.h>
+#define PENUMBRA_HAVE_AVX2_KERNELS 1
+// Functions that use AVX2 and FMA intrinsics, whatever -march the build uses.
+#define PENUMBRA_AVX2_TARGET __attribute__((target("avx2,fma,bmi,bmi2,popcnt,lzcnt")))
+#else
+#define PENUMBRA_HAVE_AVX2_KERNELS 0
+#define PENUMBRA_AVX2_TARGET
 #endif
 
 namespace penumbra {
+
+// Whether this CPU runs the AVX2 kernels (checked once, at run time).
+inline bool cpuHasAvx2() {
+#if PENUMBRA_HAVE_AVX2_KERNELS
+  static const bool has = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma") &&
+                          __builtin_cpu_supports("bmi2") && __builtin_cpu_supports("popcnt");
+  return has;
+#else
+  return false;
+#endif
+}
 
 // 1 / d with zero components replaced by +-1e-30, so slab distances stay finite (no 0 * inf NaN).
 // A tiny component only makes a box test more conservative, never culls a box the ray enters.
@@ -41,16 +60,17 @@ struct BoxTester {
         neg_z(inv.z < 0.0f) {}
 
   // Bit i is set when child i is entered within [tmin, tmax]; t_near gets the entry distances.
-  uint32_t test(const Bvh8Node& n, float tmin, float tmax, float* t_near) const {
-    // Near and far planes per axis follow the direction's sign, so no min/max is needed and an
-    // empty slot's inverted box (lo = +inf, hi = -inf) always fails.
+  // Near and far planes per axis follow the direction's sign, so no min/max is needed and an
+  // empty slot's inverted box (lo = +inf, hi = -inf) always fails.
+#if PENUMBRA_HAVE_AVX2_KERNELS
+  PENUMBRA_AVX2_TARGET uint32_t testAvx2(const Bvh8Node& n, float tmin, float tmax,
+                                         float* t_near) const {
     const float* nx = neg_x ? n.hi_x : n.lo_x;
     const float* fx = neg_x ? n.lo_x : n.hi_x;
     const float* ny = neg_y ? n.hi_y : n.lo_y;
     const float* fy = neg_y ? n.lo_y : n.hi_y;
     const float* nz = neg_z ? n.hi_z : n.lo_z;
     const float* fz = neg_z ? n.lo_z : n.hi_z;
-#if defined(__AVX2__)
     const __m256 ox = _mm256_set1_ps(org.x), oy = _mm256_set1_ps(org.y);
     const __m256 oz = _mm256_set1_ps(org.z);
     const __m256 ix = _mm256_set1_ps(inv.x), iy = _mm256_set1_ps(inv.y);
@@ -68,9 +88,19 @@ struct BoxTester {
         _mm256_set1_ps(kFarScale));
     _mm256_store_ps(t_near, tn);
     return uint32_t(_mm256_movemask_ps(_mm256_cmp_ps(tn, tf, _CMP_LE_OQ)));
-#else
+  }
+#endif
+
+  uint32_t testScalar(const Bvh8Node& n, float tmin, float tmax, float* t_near) const {
+    const float* nx = neg_x ? n.hi_x : n.lo_x;
+    const float* fx = neg_x ? n.lo_x : n.hi_x;
+    const float* ny = neg_y ? n.hi_y : n.lo_y;
+    const float* fy = neg_y ? n.lo_y : n.hi_y;
+    const float* nz = neg_z ? n.hi_z : n.lo_z;
+    const float* fz = neg_z ? n.lo_z : n.hi_z;
     uint32_t mask = 0;
     for (int i = 0; i < 8; ++i) {
+      // The order of max/min matches the AVX2 version (max(max(x, y), max(z, tmin))).
       const float tn = std::max(std::max((nx[i] - org.x) * inv.x, (ny[i] - org.y) * inv.y),
                                 std::max((nz[i] - org.z) * inv.z, tmin));
       const float tf = std::min(std::min((fx[i] - org.x) * inv.x, (fy[i] - org.y) * inv.y),
@@ -80,11 +110,10 @@ struct BoxTester {
       mask |= uint32_t(tn <= tf) << i;
     }
     return mask;
-#endif
   }
 };
 
-#if defined(__AVX2__)
+#if PENUMBRA_HAVE_AVX2_KERNELS
 // The second half of the watertight test (Woop et al. 2013, sec. 3) on eight lanes, each a
 // (ray, triangle) pair whose three vertices are already translated to the ray origin and
 // sheared (px, py: the sheared x and y; pz: the unsheared z, scaled here by sz). Same operations
@@ -96,8 +125,9 @@ struct WatertightLanes {
   uint32_t on_edge;
 };
 
-inline WatertightLanes watertightLanes(const __m256 px[3], const __m256 py[3], const __m256 pz[3],
-                                       __m256 sz, __m256 tmin, __m256 tmax) {
+PENUMBRA_AVX2_TARGET inline WatertightLanes watertightLanes(const __m256 px[3], const __m256 py[3],
+                                                            const __m256 pz[3], __m256 sz,
+                                                            __m256 tmin, __m256 tmax) {
   // Edge functions u (edge b-c), v (c-a), w (a-b).
   const __m256 u = _mm256_sub_ps(_mm256_mul_ps(px[2], py[1]), _mm256_mul_ps(py[2], px[1]));
   const __m256 v = _mm256_sub_ps(_mm256_mul_ps(px[0], py[2]), _mm256_mul_ps(py[0], px[2]));
@@ -148,14 +178,35 @@ struct alignas(64) TriangleBlock8 {
 };
 static_assert(sizeof(TriangleBlock8) == 320);
 
+// Lanes of a block where the scalar test decides: those on an edge (the AVX2 path) or all
+// (the scalar path). Each is tested with intersectTriangle(), which re-evaluates in double.
+inline uint32_t intersectBlockLanes(const WatertightRay& r, const TriangleBlock8& b, uint32_t redo,
+                                    float tmin, float tmax, float* t_out, float* u_out,
+                                    float* v_out) {
+  uint32_t mask = 0;
+  while (redo) {
+    const int i = __builtin_ctz(redo);
+    redo &= redo - 1;
+    const glm::vec3 p0(b.v[0][0][i], b.v[0][1][i], b.v[0][2][i]);
+    const glm::vec3 p1(b.v[1][0][i], b.v[1][1][i], b.v[1][2][i]);
+    const glm::vec3 p2(b.v[2][0][i], b.v[2][1][i], b.v[2][2][i]);
+    if (intersectTriangle(r, p0, p1, p2, tmin, tmax, t_out[i], u_out[i], v_out[i])) {
+      mask |= 1u << i;
+    }
+  }
+  return mask;
+}
+
 // The watertight test (Woop et al. 2013, as in kernels/ray_triangle.h) of one ray against the
-// `count` triangles of a block. Returns a mask of lanes hit within [tmin, tmax] and their t, u,
-// v. Lanes where an edge function is exactly zero are redone with the scalar test, which
-// re-evaluates them in double precision.
-inline uint32_t intersectBlock(const WatertightRay& r, const TriangleBlock8& b, uint32_t count,
-                               float tmin, float tmax, float* t_out, float* u_out, float* v_out) {
+// `count` triangles of a block, eight lanes at once. Returns a mask of lanes hit within [tmin,
+// tmax] and their t, u, v. Lanes where an edge function is exactly zero are redone with the
+// scalar test, which re-evaluates them in double precision.
+#if PENUMBRA_HAVE_AVX2_KERNELS
+PENUMBRA_AVX2_TARGET inline uint32_t intersectBlockAvx2(const WatertightRay& r,
+                                                        const TriangleBlock8& b, uint32_t count,
+                                                        float tmin, float tmax, float* t_out,
+                                                        float* u_out, float* v_out) {
   const uint32_t valid = (1u << count) - 1u;
-#if defined(__AVX2__)
   const __m256 ox = _mm256_set1_ps(r.org[r.kx]), oy = _mm256_set1_ps(r.org[r.ky]);
   const __m256 oz = _mm256_set1_ps(r.org[r.kz]);
   const __m256 sx = _mm256_set1_ps(r.sx), sy = _mm256_set1_ps(r.sy), sz = _mm256_set1_ps(r.sz);
@@ -172,26 +223,19 @@ inline uint32_t intersectBlock(const WatertightRay& r, const TriangleBlock8& b, 
   const WatertightLanes lanes =
       watertightLanes(px, py, pz, sz, _mm256_set1_ps(tmin), _mm256_set1_ps(tmax));
   const uint32_t on_edge = lanes.on_edge & valid;
-  uint32_t mask = uint32_t(_mm256_movemask_ps(lanes.ok)) & valid & ~on_edge;
+  const uint32_t mask = uint32_t(_mm256_movemask_ps(lanes.ok)) & valid & ~on_edge;
   _mm256_storeu_ps(t_out, lanes.t);
   _mm256_storeu_ps(u_out, lanes.u);
   _mm256_storeu_ps(v_out, lanes.v);
-  uint32_t redo = on_edge;
-#else
-  uint32_t mask = 0;
-  uint32_t redo = valid;
+  return mask | intersectBlockLanes(r, b, on_edge, tmin, tmax, t_out, u_out, v_out);
+}
 #endif
-  while (redo) {
-    const int i = __builtin_ctz(redo);
-    redo &= redo - 1;
-    const glm::vec3 p0(b.v[0][0][i], b.v[0][1][i], b.v[0][2][i]);
-    const glm::vec3 p1(b.v[1][0][i], b.v[1][1][i], b.v[1][2][i]);
-    const glm::vec3 p2(b.v[2][0][i], b.v[2][1][i], b.v[2][2][i]);
-    if (intersectTriangle(r, p0, p1, p2, tmin, tmax, t_out[i], u_out[i], v_out[i])) {
-      mask |= 1u << i;
-    }
-  }
-  return mask;
+
+// The same answers lane by lane, for CPUs without AVX2.
+inline uint32_t intersectBlockScalar(const WatertightRay& r, const TriangleBlock8& b,
+                                     uint32_t count, float tmin, float tmax, float* t_out,
+                                     float* u_out, float* v_out) {
+  return intersectBlockLanes(r, b, (1u << count) - 1u, tmin, tmax, t_out, u_out, v_out);
 }
 
 }  // namespace penumbra

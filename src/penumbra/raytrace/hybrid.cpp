@@ -104,7 +104,15 @@ void HybridRayEngine::traverse(uint32_t start, const Ray& ray, Hit& hit,
     } else if (n.isLeaf()) {
       alignas(32) float t[8], u[8], v[8];
       const TriangleBlock8& block = cpu_.blocks()[cpu_.blockOfLeaf(n)];
-      uint32_t mask = intersectBlock(wr, block, n.count, ray.tmin, tmax, t, u, v);
+      uint32_t mask;
+#if PENUMBRA_HAVE_AVX2_KERNELS
+      if (cpu_.isa() == CpuIsa::kAvx2) {
+        mask = intersectBlockAvx2(wr, block, n.count, ray.tmin, tmax, t, u, v);
+      } else
+#endif
+      {
+        mask = intersectBlockScalar(wr, block, n.count, ray.tmin, tmax, t, u, v);
+      }
       while (mask) {
         const int i = __builtin_ctz(mask);
         mask &= mask - 1;

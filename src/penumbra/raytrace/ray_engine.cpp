@@ -16,6 +16,7 @@ RayEngine RayEngine::build(std::span<const glm::vec3> positions,
   RayEngine engine;
   engine.bvh_ = buildBvh(positions, triangles, options);
   engine.bvh8_ = collapseToBvh8(engine.bvh_);
+  engine.useIsa(CpuIsa::kAvx2);
   const std::vector<Bvh8::Leaf>& leaves = engine.bvh8_.leaves;
   engine.blocks_.resize(leaves.size());
   engine.block_of_first_.assign(engine.bvh_.refs.size(), 0);
@@ -73,8 +74,8 @@ void RayEngine::prefetchChild(int32_t ref) const {
   for (int i = 0; i < lines; ++i) __builtin_prefetch(p + 64 * i, 0, 3);
 }
 
-template <bool kAnyHit>
-bool RayEngine::traverse(const Ray& ray, Hit& hit) const {
+template <bool kAnyHit, bool kAvx2>
+[[gnu::always_inline]] inline bool RayEngine::traverseBody(const Ray& ray, Hit& hit) const {
   if (bvh8_.root == Bvh8Node::kEmpty || !(ray.tmin <= ray.tmax)) return false;
   const BoxTester boxes(ray.origin, ray.dir);
   // Built at the first leaf: most rays of a camera that frames a model never reach one.
@@ -100,7 +101,15 @@ bool RayEngine::traverse(const Ray& ray, Hit& hit) const {
           have_wr = true;
         }
         alignas(32) float t[8], u[8], v[8];
-        uint32_t mask = intersectBlock(wr, block, bvh8LeafCount(ref), ray.tmin, tmax, t, u, v);
+        uint32_t mask;
+#if PENUMBRA_HAVE_AVX2_KERNELS
+        if constexpr (kAvx2) {
+          mask = intersectBlockAvx2(wr, block, bvh8LeafCount(ref), ray.tmin, tmax, t, u, v);
+        } else
+#endif
+        {
+          mask = intersectBlockScalar(wr, block, bvh8LeafCount(ref), ray.tmin, tmax, t, u, v);
+        }
         if constexpr (kAnyHit) {
           if (mask) return true;
         }
@@ -118,7 +127,15 @@ bool RayEngine::traverse(const Ray& ray, Hit& hit) const {
         break;
       }
       const Bvh8Node& node = bvh8_.nodes[size_t(ref)];
-      uint32_t mask = boxes.test(node, ray.tmin, tmax, t_near);
+      uint32_t mask;
+#if PENUMBRA_HAVE_AVX2_KERNELS
+      if constexpr (kAvx2) {
+        mask = boxes.testAvx2(node, ray.tmin, tmax, t_near);
+      } else
+#endif
+      {
+        mask = boxes.testScalar(node, ray.tmin, tmax, t_near);
+      }
       if (mask == 0) break;
       // Start fetching every child entered: their lines arrive while this node is sorted and
       // the nearest child visited.
@@ -152,6 +169,32 @@ bool RayEngine::traverse(const Ray& ray, Hit& hit) const {
   return found;
 }
 
+// The two instruction sets' traversals: the same body, compiled once for AVX2 and once for the
+// build's target; which one runs is decided per engine at build time (cpuHasAvx2).
+#if PENUMBRA_HAVE_AVX2_KERNELS
+template <bool kAnyHit>
+PENUMBRA_AVX2_TARGET bool RayEngine::traverseAvx2(const Ray& ray, Hit& hit) const {
+  return traverseBody<kAnyHit, true>(ray, hit);
+}
+#endif
+
+template <bool kAnyHit>
+bool RayEngine::traverseScalar(const Ray& ray, Hit& hit) const {
+  return traverseBody<kAnyHit, false>(ray, hit);
+}
+
+template <bool kAnyHit>
+bool RayEngine::traverse(const Ray& ray, Hit& hit) const {
+#if PENUMBRA_HAVE_AVX2_KERNELS
+  if (isa_ == CpuIsa::kAvx2) return traverseAvx2<kAnyHit>(ray, hit);
+#endif
+  return traverseScalar<kAnyHit>(ray, hit);
+}
+
+void RayEngine::useIsa(CpuIsa isa) {
+  isa_ = isa == CpuIsa::kAvx2 && cpuHasAvx2() ? CpuIsa::kAvx2 : CpuIsa::kScalar;
+}
+
 Hit RayEngine::intersect(const Ray& ray) const {
   Hit hit;
   if (!traverse<false>(ray, hit)) hit = Hit{};
@@ -165,7 +208,7 @@ bool RayEngine::occluded(const Ray& ray) const {
 
 void RayEngine::intersect(const RayBatch& rays, HitBatch& hits) const {
   hits.resize(rays.size());
-  const bool packets = packetTracingAvailable();
+  const bool packets = isa_ == CpuIsa::kAvx2;
   // Chunks of 256 rays, aligned to packets; within a chunk, every eight consecutive rays that
   // go the same way travel as a packet (cpu_packet.h), the others one by one.
   parallelRange((rays.size() + 255) / 256, 1, [&](size_t chunk_begin, size_t chunk_end) {

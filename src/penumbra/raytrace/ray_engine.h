@@ -18,6 +18,9 @@
 
 namespace penumbra {
 
+// The instruction sets the CPU back end has kernels for.
+enum class CpuIsa { kScalar, kAvx2 };
+
 class RayEngine {
  public:
   RayEngine() = default;
@@ -50,6 +53,12 @@ class RayEngine {
   size_t triangleCount() const { return bvh_.refs.size(); }
   const Bvh& bvh() const { return bvh_; }
   const Bvh8& bvh8() const { return bvh8_; }
+
+  // The kernels in use: AVX2 (8-wide boxes and triangles, packets of 8 rays) when the CPU has
+  // it, chosen at run time, else portable scalar loops; both give identical answers. useIsa()
+  // asks for one (AVX2 only where the CPU has it), for tests and comparisons.
+  CpuIsa isa() const { return isa_; }
+  void useIsa(CpuIsa isa);
   const std::vector<TriangleBlock8>& blocks() const { return blocks_; }
   // The leaf block holding the triangles of canonical leaf `node` (bvh().nodes[node]).
   uint32_t blockOfLeaf(const BvhNode& node) const { return block_of_first_[node.index]; }
@@ -61,10 +70,17 @@ class RayEngine {
  private:
   template <bool kAnyHit>
   bool traverse(const Ray& ray, Hit& hit) const;
+  template <bool kAnyHit>
+  bool traverseAvx2(const Ray& ray, Hit& hit) const;
+  template <bool kAnyHit>
+  bool traverseScalar(const Ray& ray, Hit& hit) const;
+  template <bool kAnyHit, bool kAvx2>
+  bool traverseBody(const Ray& ray, Hit& hit) const;
   void prefetchChild(int32_t ref) const;
 
   Bvh bvh_;    // canonical binary tree (kept for statistics and other layouts)
   Bvh8 bvh8_;  // what the CPU traverses
+  CpuIsa isa_ = CpuIsa::kScalar;
   std::vector<TriangleBlock8> blocks_;    // one per leaf of bvh8_, vertices copied in
   std::vector<uint32_t> block_of_first_;  // block index by a leaf's first ref
 };
