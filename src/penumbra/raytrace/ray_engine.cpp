@@ -60,7 +60,7 @@ constexpr int kStackSize = 7 * kMaxBvhDepth + 1;
 
 }  // namespace
 
-void RayEngine::prefetchChild(int32_t ref) const {
+[[gnu::always_inline]] inline void RayEngine::prefetchChild(int32_t ref) const {
   const char* p;
   int lines;
   if (bvh8IsLeaf(ref)) {
