@@ -26,19 +26,9 @@ namespace {
 using test::randomDirection;
 using test::randomInBox;
 
-struct Flat {
-  std::vector<glm::vec3> positions;
-  std::vector<glm::uvec3> triangles;
-};
-
+using Flat = FlatTriangles;
 Flat flatten(const Scene& s) {
-  Flat f;
-  for (const Mesh& m : s.meshes) {
-    const uint32_t base = uint32_t(f.positions.size());
-    f.positions.insert(f.positions.end(), m.positions.begin(), m.positions.end());
-    for (const glm::uvec3& t : m.triangles) f.triangles.push_back(t + glm::uvec3(base));
-  }
-  return f;
+  return flattenScene(s);
 }
 
 // Camera rays plus random rays from around and inside the model's box.

@@ -120,13 +120,8 @@ Status renderPathTrace(const RenderOptions& options, const CommonOptions& common
 
   Progress progress("rendering", uint64_t(settings.height),
                     !common.quiet && Progress::stderrIsTerminal());
-  int rows_reported = 0;
-  const auto on_rows = [&](int rows) {
-    // render() reports one row at a time, renderWavefront() every row done so far.
-    const int done = device->device == Device::kCpu ? rows_reported + 1 : rows;
-    progress.add(uint64_t(std::max(0, done - rows_reported)));
-    rows_reported = std::max(rows_reported, done);
-  };
+  // Both renderers report the number of rows finished so far (from any thread).
+  const auto on_rows = [&](int rows) { progress.reach(uint64_t(rows)); };
   PathTracerStats stats;
   Image image;
   if (device->device == Device::kCpu) {

@@ -45,13 +45,9 @@ Status trace(const TraceOptions& options) {
   Expected<RayBatch> rays = readRayFile(options.rays);
   if (!rays) return rays.error();
 
-  std::vector<glm::vec3> positions;
-  std::vector<glm::uvec3> triangles;
-  for (const Mesh& m : scene->meshes) {
-    const uint32_t base = uint32_t(positions.size());
-    positions.insert(positions.end(), m.positions.begin(), m.positions.end());
-    for (const glm::uvec3& t : m.triangles) triangles.push_back(t + glm::uvec3(base));
-  }
+  const FlatTriangles flat = flattenScene(*scene);
+  const std::vector<glm::vec3>& positions = flat.positions;
+  const std::vector<glm::uvec3>& triangles = flat.triangles;
   // hybrid: the CPU/GPU split of the Ray Engine paper (sec. 6.2); it needs a GPU context.
   const bool hybrid = options.device == "hybrid";
   Expected<DeviceChoice> device = chooseDevice(hybrid ? "gpu" : options.device);

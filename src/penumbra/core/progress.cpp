@@ -1,6 +1,7 @@
 #include "penumbra/core/progress.h"
 
 #include <unistd.h>
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 
@@ -26,7 +27,17 @@ bool Progress::stderrIsTerminal() {
 }
 
 void Progress::add(uint64_t units) {
-  const uint64_t done = done_.fetch_add(units) + units;
+  redraw(done_.fetch_add(units) + units);
+}
+
+void Progress::reach(uint64_t done) {
+  uint64_t seen = done_.load();
+  while (seen < done && !done_.compare_exchange_weak(seen, done)) {
+  }
+  redraw(std::max(seen, done));
+}
+
+void Progress::redraw(uint64_t done) {
   if (!enabled_) return;
   std::unique_lock lock(mutex_, std::try_to_lock);
   if (!lock.owns_lock() || finished_) return;

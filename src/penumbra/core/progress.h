@@ -16,12 +16,15 @@ class Progress {
 
   // Thread-safe; redraws at most a few times per second.
   void add(uint64_t units);
+  // Thread-safe: `done` units are finished (calls may arrive out of order; the largest wins).
+  void reach(uint64_t done);
   void finish();
 
   // Whether stderr is a terminal.
   static bool stderrIsTerminal();
 
  private:
+  void redraw(uint64_t done);
   void draw(uint64_t done, bool final);
 
   std::string label_;

@@ -23,9 +23,7 @@ inline constexpr int kPacketSize = 8;
 bool packetEligible(const RayBatch& rays, size_t first);
 
 // Traces rays [first, first + 8) of `rays` as a packet; writes their hits. Requires
-// packetEligible(rays, first) and AVX2 (packetTracingAvailable()).
+// packetEligible(rays, first) and an AVX2 CPU (cpuHasAvx2()).
 void tracePacket(const RayEngine& engine, const RayBatch& rays, size_t first, HitBatch& hits);
-
-bool packetTracingAvailable();
 
 }  // namespace penumbra

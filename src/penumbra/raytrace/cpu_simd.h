@@ -59,28 +59,31 @@ struct BoxTester {
         neg_y(inv.y < 0.0f),
         neg_z(inv.z < 0.0f) {}
 
-  // Bit i is set when child i is entered within [tmin, tmax]; t_near gets the entry distances.
   // Near and far planes per axis follow the direction's sign, so no min/max is needed and an
   // empty slot's inverted box (lo = +inf, hi = -inf) always fails.
+  struct Planes {
+    const float *nx, *fx, *ny, *fy, *nz, *fz;
+  };
+  Planes planes(const Bvh8Node& n) const {
+    return {neg_x ? n.hi_x : n.lo_x, neg_x ? n.lo_x : n.hi_x, neg_y ? n.hi_y : n.lo_y,
+            neg_y ? n.lo_y : n.hi_y, neg_z ? n.hi_z : n.lo_z, neg_z ? n.lo_z : n.hi_z};
+  }
+
+  // Bit i is set when child i is entered within [tmin, tmax]; t_near gets the entry distances.
 #if PENUMBRA_HAVE_AVX2_KERNELS
   PENUMBRA_AVX2_TARGET uint32_t testAvx2(const Bvh8Node& n, float tmin, float tmax,
                                          float* t_near) const {
-    const float* nx = neg_x ? n.hi_x : n.lo_x;
-    const float* fx = neg_x ? n.lo_x : n.hi_x;
-    const float* ny = neg_y ? n.hi_y : n.lo_y;
-    const float* fy = neg_y ? n.lo_y : n.hi_y;
-    const float* nz = neg_z ? n.hi_z : n.lo_z;
-    const float* fz = neg_z ? n.lo_z : n.hi_z;
+    const Planes pl = planes(n);
     const __m256 ox = _mm256_set1_ps(org.x), oy = _mm256_set1_ps(org.y);
     const __m256 oz = _mm256_set1_ps(org.z);
     const __m256 ix = _mm256_set1_ps(inv.x), iy = _mm256_set1_ps(inv.y);
     const __m256 iz = _mm256_set1_ps(inv.z);
-    const __m256 tnx = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(nx), ox), ix);
-    const __m256 tny = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(ny), oy), iy);
-    const __m256 tnz = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(nz), oz), iz);
-    const __m256 tfx = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(fx), ox), ix);
-    const __m256 tfy = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(fy), oy), iy);
-    const __m256 tfz = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(fz), oz), iz);
+    const __m256 tnx = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(pl.nx), ox), ix);
+    const __m256 tny = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(pl.ny), oy), iy);
+    const __m256 tnz = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(pl.nz), oz), iz);
+    const __m256 tfx = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(pl.fx), ox), ix);
+    const __m256 tfy = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(pl.fy), oy), iy);
+    const __m256 tfz = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(pl.fz), oz), iz);
     const __m256 tn =
         _mm256_max_ps(_mm256_max_ps(tnx, tny), _mm256_max_ps(tnz, _mm256_set1_ps(tmin)));
     const __m256 tf = _mm256_mul_ps(
@@ -92,19 +95,14 @@ struct BoxTester {
 #endif
 
   uint32_t testScalar(const Bvh8Node& n, float tmin, float tmax, float* t_near) const {
-    const float* nx = neg_x ? n.hi_x : n.lo_x;
-    const float* fx = neg_x ? n.lo_x : n.hi_x;
-    const float* ny = neg_y ? n.hi_y : n.lo_y;
-    const float* fy = neg_y ? n.lo_y : n.hi_y;
-    const float* nz = neg_z ? n.hi_z : n.lo_z;
-    const float* fz = neg_z ? n.lo_z : n.hi_z;
+    const Planes pl = planes(n);
     uint32_t mask = 0;
     for (int i = 0; i < 8; ++i) {
       // The order of max/min matches the AVX2 version (max(max(x, y), max(z, tmin))).
-      const float tn = std::max(std::max((nx[i] - org.x) * inv.x, (ny[i] - org.y) * inv.y),
-                                std::max((nz[i] - org.z) * inv.z, tmin));
-      const float tf = std::min(std::min((fx[i] - org.x) * inv.x, (fy[i] - org.y) * inv.y),
-                                std::min((fz[i] - org.z) * inv.z, tmax)) *
+      const float tn = std::max(std::max((pl.nx[i] - org.x) * inv.x, (pl.ny[i] - org.y) * inv.y),
+                                std::max((pl.nz[i] - org.z) * inv.z, tmin));
+      const float tf = std::min(std::min((pl.fx[i] - org.x) * inv.x, (pl.fy[i] - org.y) * inv.y),
+                                std::min((pl.fz[i] - org.z) * inv.z, tmax)) *
                        kFarScale;
       t_near[i] = tn;
       mask |= uint32_t(tn <= tf) << i;

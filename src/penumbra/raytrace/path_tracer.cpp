@@ -261,6 +261,7 @@ Expected<Image> PathTracer::renderWavefront(const Camera& camera,
   HitBatch hits;
   std::vector<uint8_t> occluded;
   std::vector<size_t> shadow_slot;
+  std::vector<uint8_t> blocked;  // per query slot: its shadow ray was occluded
   for (size_t y0 = 0; y0 < size_t(settings.height); y0 += rows_per_wave) {
     const size_t y1 = std::min(size_t(settings.height), y0 + rows_per_wave);
     const size_t n = (y1 - y0) * size_t(settings.width) * spp;
@@ -281,6 +282,7 @@ Expected<Image> PathTracer::renderWavefront(const Camera& camera,
     for (size_t i = 0; i < n; ++i) alive[i] = uint32_t(i);
     shadow.resize(n * cap);
     shadow_count.assign(n, 0);
+    blocked.assign(n * cap, 0);
     while (!alive.empty()) {
       // 1. This bounce's rays, as one batch.
       batch.resize(alive.size());
@@ -307,7 +309,6 @@ Expected<Image> PathTracer::renderWavefront(const Camera& camera,
       for (size_t k = 0; k < shadow_slot.size(); ++k) batch.set(k, shadow[shadow_slot[k]].ray);
       PENUMBRA_TRY(queries.occluded(batch, occluded));
       rays += shadow_slot.size();
-      std::vector<uint8_t> blocked(n * cap, 0);
       for (size_t k = 0; k < shadow_slot.size(); ++k) blocked[shadow_slot[k]] = occluded[k];
       parallelRange(alive.size(), 256, [&](size_t b, size_t e) {
         for (size_t k = b; k < e; ++k) {
@@ -318,6 +319,7 @@ Expected<Image> PathTracer::renderWavefront(const Camera& camera,
           }
         }
       });
+      for (size_t slot : shadow_slot) blocked[slot] = 0;  // clean for the next bounce
       // 4. Paths that go on.
       size_t kept = 0;
       for (uint32_t i : alive) {

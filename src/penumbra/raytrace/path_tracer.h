@@ -76,7 +76,8 @@ class PathTracer {
   glm::vec3 radiance(const Ray& ray, Rng& rng, const PathTracerSettings& settings,
                      uint64_t& rays) const;
 
-  // Renders the camera's view; `on_progress(rows_done)` is called as rows complete.
+  // Renders the camera's view; `on_progress(rows_done)` is called, possibly from worker
+  // threads and out of order, with the number of rows finished so far.
   Image render(const Camera& camera, const PathTracerSettings& settings,
                PathTracerStats* stats = nullptr,
                const std::function<void(int)>& on_progress = {}) const;

@@ -12,18 +12,11 @@ namespace penumbra {
 SceneGeometry SceneGeometry::build(const Scene& scene) {
   SceneGeometry g;
   g.materials = scene.materials;
-  const size_t nt = scene.triangleCount();
-  g.positions.reserve(scene.vertexCount());
-  g.triangles.reserve(nt);
-  g.material_ids.reserve(nt);
-  for (const Mesh& mesh : scene.meshes) {
-    const uint32_t base = uint32_t(g.positions.size());
-    g.positions.insert(g.positions.end(), mesh.positions.begin(), mesh.positions.end());
-    for (size_t i = 0; i < mesh.triangles.size(); ++i) {
-      g.triangles.push_back(mesh.triangles[i] + glm::uvec3(base));
-      g.material_ids.push_back(mesh.material_ids[i]);
-    }
-  }
+  FlatTriangles flat = flattenScene(scene);
+  g.positions = std::move(flat.positions);
+  g.triangles = std::move(flat.triangles);
+  g.material_ids = std::move(flat.material_ids);
+  const size_t nt = g.triangles.size();
   g.normals.resize(nt);
   g.areas.resize(nt);
   for (size_t i = 0; i < nt; ++i) {

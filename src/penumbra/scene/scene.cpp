@@ -31,6 +31,20 @@ void Scene::append(Scene other) {
   if (!camera && other.camera) camera = other.camera;
 }
 
+FlatTriangles flattenScene(const Scene& scene) {
+  FlatTriangles f;
+  f.positions.reserve(scene.vertexCount());
+  f.triangles.reserve(scene.triangleCount());
+  f.material_ids.reserve(scene.triangleCount());
+  for (const Mesh& mesh : scene.meshes) {
+    const uint32_t base = uint32_t(f.positions.size());
+    f.positions.insert(f.positions.end(), mesh.positions.begin(), mesh.positions.end());
+    for (const glm::uvec3& t : mesh.triangles) f.triangles.push_back(t + glm::uvec3(base));
+    f.material_ids.insert(f.material_ids.end(), mesh.material_ids.begin(), mesh.material_ids.end());
+  }
+  return f;
+}
+
 namespace {
 
 bool finite3(const glm::vec3& v) {

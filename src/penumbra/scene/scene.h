@@ -34,6 +34,15 @@ struct Scene {
   void append(Scene other);
 };
 
+// All meshes as one triangle list, in scene order: triangle i of the result is the i-th
+// triangle of the scene (the numbering `penumbra trace` reports).
+struct FlatTriangles {
+  std::vector<glm::vec3> positions;
+  std::vector<glm::uvec3> triangles;
+  std::vector<uint32_t> material_ids;
+};
+FlatTriangles flattenScene(const Scene& scene);
+
 // Checks what every consumer relies on: finite positions, normals and UVs, indices in range,
 // material ids in range, reflectance in [0, 1], non-negative finite emission. Degenerate
 // (zero-area) triangles are kept, so that triangle indices still follow the file, but are
