@@ -15,6 +15,7 @@
 #include <tbb/parallel_for.h>
 
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <map>
 #include <string>
@@ -34,7 +35,9 @@ struct Workload {
 Workload& workload() {
   static Workload w = [] {
     Workload wl;
-    Expected<Scene> s = loadScene(std::string(PENUMBRA_BENCH_DATA) + "/bunny.ply");
+    const char* mesh_env = std::getenv("PENUMBRA_BENCH_MESH");
+    Expected<Scene> s = loadScene(mesh_env ? std::string(mesh_env)
+                                           : std::string(PENUMBRA_BENCH_DATA) + "/bunny.ply");
     if (!s) {
       std::fprintf(stderr, "%s\n", s.error().describe().c_str());
       std::exit(2);

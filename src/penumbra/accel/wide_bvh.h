@@ -1,9 +1,10 @@
 // The CPU layout of the BVH: 8-wide nodes with their children's boxes stored as structures of
 // arrays, so one AVX2 instruction sequence tests a ray against all eight (the layout of
-// Embree's BVH8, Wald et al. 2014). Converted from the canonical binary BVH by collapsing:
-// each wide node adopts the binary subtree below it, always opening the child with the largest
-// surface area, until it has eight children or only leaves (tinybvh's ConvertFrom does the
-// same).
+// Embree's BVH8, Wald et al. 2014). Converted from the canonical binary BVH by the optimal
+// collapse of Ylitie, Karras and Laine (HPG 2017, sec. 3.1): a dynamic programme over the binary
+// tree that chooses which binary nodes become wide nodes so that their total surface area, the
+// part of the SAH cost the grouping controls, is least (wide_bvh.cpp). Leaves stay those of the
+// canonical tree.
 #pragma once
 
 #include "penumbra/accel/bvh.h"

@@ -123,48 +123,67 @@ struct WatertightLanes {
   uint32_t on_edge;
 };
 
+// The part of the test before the division: edge functions, their signs, det and the scaled
+// distance. `candidate` marks lanes that pass every test that does not need t itself; only
+// those can be hits, so a block without any skips the division (most blocks a ray visits).
+struct WatertightPrep {
+  __m256 u, v, w, det, t_scaled, candidate;
+  uint32_t on_edge;
+};
+
+PENUMBRA_AVX2_TARGET inline WatertightPrep watertightPrep(const __m256 px[3], const __m256 py[3],
+                                                          const __m256 pz[3], __m256 sz,
+                                                          __m256 tmin, __m256 tmax) {
+  WatertightPrep p;
+  // Edge functions u (edge b-c), v (c-a), w (a-b).
+  p.u = _mm256_sub_ps(_mm256_mul_ps(px[2], py[1]), _mm256_mul_ps(py[2], px[1]));
+  p.v = _mm256_sub_ps(_mm256_mul_ps(px[0], py[2]), _mm256_mul_ps(py[0], px[2]));
+  p.w = _mm256_sub_ps(_mm256_mul_ps(px[1], py[0]), _mm256_mul_ps(py[1], px[0]));
+  const __m256 zero = _mm256_setzero_ps();
+  p.on_edge = uint32_t(_mm256_movemask_ps(_mm256_or_ps(
+      _mm256_or_ps(_mm256_cmp_ps(p.u, zero, _CMP_EQ_OQ), _mm256_cmp_ps(p.v, zero, _CMP_EQ_OQ)),
+      _mm256_cmp_ps(p.w, zero, _CMP_EQ_OQ))));
+  // Off the edges (the lanes that matter here: edge lanes are redone by the scalar test), u, v
+  // and w are non-zero, and the point is inside exactly when their signs agree; then det = u +
+  // v + w cannot be zero either. NaN lanes fail the range test below.
+  const __m256i differ = _mm256_srai_epi32(
+      _mm256_castps_si256(_mm256_or_ps(_mm256_xor_ps(p.u, p.v), _mm256_xor_ps(p.u, p.w))), 31);
+  p.det = _mm256_add_ps(_mm256_add_ps(p.u, p.v), p.w);
+  const __m256 az = _mm256_mul_ps(sz, pz[0]), bz = _mm256_mul_ps(sz, pz[1]);
+  const __m256 cz = _mm256_mul_ps(sz, pz[2]);
+  p.t_scaled = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(p.u, az), _mm256_mul_ps(p.v, bz)),
+                             _mm256_mul_ps(p.w, cz));
+  // tmin det <= t_scaled <= tmax det for det > 0, the reverse for det < 0: both as
+  // tmin |det| <= t_scaled sign(det) <= tmax |det| (negation is exact, so this is the same test).
+  const __m256 sign = _mm256_and_ps(p.det, _mm256_set1_ps(-0.0f));
+  const __m256 abs_det = _mm256_xor_ps(p.det, sign);
+  const __m256 ts = _mm256_xor_ps(p.t_scaled, sign);
+  const __m256 in_range =
+      _mm256_and_ps(_mm256_cmp_ps(ts, _mm256_mul_ps(tmin, abs_det), _CMP_GE_OQ),
+                    _mm256_cmp_ps(ts, _mm256_mul_ps(tmax, abs_det), _CMP_LE_OQ));
+  p.candidate = _mm256_andnot_ps(_mm256_castsi256_ps(differ), in_range);
+  return p;
+}
+
+// The division and the final range test on t, u, v.
+PENUMBRA_AVX2_TARGET inline WatertightLanes watertightFinish(const WatertightPrep& p, __m256 tmin,
+                                                             __m256 tmax) {
+  WatertightLanes out;
+  out.on_edge = p.on_edge;
+  const __m256 inv_det = _mm256_div_ps(_mm256_set1_ps(1.0f), p.det);
+  out.t = _mm256_mul_ps(p.t_scaled, inv_det);
+  out.u = _mm256_mul_ps(p.v, inv_det);
+  out.v = _mm256_mul_ps(p.w, inv_det);
+  const __m256 t_ok =
+      _mm256_and_ps(_mm256_cmp_ps(out.t, tmin, _CMP_GE_OQ), _mm256_cmp_ps(out.t, tmax, _CMP_LE_OQ));
+  out.ok = _mm256_and_ps(p.candidate, t_ok);
+  return out;
+}
+
 PENUMBRA_AVX2_TARGET inline WatertightLanes watertightLanes(const __m256 px[3], const __m256 py[3],
                                                             const __m256 pz[3], __m256 sz,
                                                             __m256 tmin, __m256 tmax) {
-  // Edge functions u (edge b-c), v (c-a), w (a-b).
-  const __m256 u = _mm256_sub_ps(_mm256_mul_ps(px[2], py[1]), _mm256_mul_ps(py[2], px[1]));
-  const __m256 v = _mm256_sub_ps(_mm256_mul_ps(px[0], py[2]), _mm256_mul_ps(py[0], px[2]));
-  const __m256 w = _mm256_sub_ps(_mm256_mul_ps(px[1], py[0]), _mm256_mul_ps(py[1], px[0]));
-  const __m256 zero = _mm256_setzero_ps();
-  WatertightLanes out;
-  out.on_edge = uint32_t(_mm256_movemask_ps(_mm256_or_ps(
-      _mm256_or_ps(_mm256_cmp_ps(u, zero, _CMP_EQ_OQ), _mm256_cmp_ps(v, zero, _CMP_EQ_OQ)),
-      _mm256_cmp_ps(w, zero, _CMP_EQ_OQ))));
-  const __m256 any_neg = _mm256_or_ps(
-      _mm256_or_ps(_mm256_cmp_ps(u, zero, _CMP_LT_OQ), _mm256_cmp_ps(v, zero, _CMP_LT_OQ)),
-      _mm256_cmp_ps(w, zero, _CMP_LT_OQ));
-  const __m256 any_pos = _mm256_or_ps(
-      _mm256_or_ps(_mm256_cmp_ps(u, zero, _CMP_GT_OQ), _mm256_cmp_ps(v, zero, _CMP_GT_OQ)),
-      _mm256_cmp_ps(w, zero, _CMP_GT_OQ));
-  const __m256 det = _mm256_add_ps(_mm256_add_ps(u, v), w);
-  const __m256 az = _mm256_mul_ps(sz, pz[0]), bz = _mm256_mul_ps(sz, pz[1]);
-  const __m256 cz = _mm256_mul_ps(sz, pz[2]);
-  const __m256 t_scaled = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(u, az), _mm256_mul_ps(v, bz)),
-                                        _mm256_mul_ps(w, cz));
-  const __m256 lo = _mm256_mul_ps(tmin, det);
-  const __m256 hi = _mm256_mul_ps(tmax, det);
-  const __m256 pos_det = _mm256_cmp_ps(det, zero, _CMP_GT_OQ);
-  // det > 0: lo <= t_scaled <= hi; det < 0: hi <= t_scaled <= lo.
-  const __m256 in_range = _mm256_blendv_ps(_mm256_and_ps(_mm256_cmp_ps(t_scaled, lo, _CMP_LE_OQ),
-                                                         _mm256_cmp_ps(t_scaled, hi, _CMP_GE_OQ)),
-                                           _mm256_and_ps(_mm256_cmp_ps(t_scaled, lo, _CMP_GE_OQ),
-                                                         _mm256_cmp_ps(t_scaled, hi, _CMP_LE_OQ)),
-                                           pos_det);
-  const __m256 inv_det = _mm256_div_ps(_mm256_set1_ps(1.0f), det);
-  out.t = _mm256_mul_ps(t_scaled, inv_det);
-  out.u = _mm256_mul_ps(v, inv_det);
-  out.v = _mm256_mul_ps(w, inv_det);
-  const __m256 t_ok =
-      _mm256_and_ps(_mm256_cmp_ps(out.t, tmin, _CMP_GE_OQ), _mm256_cmp_ps(out.t, tmax, _CMP_LE_OQ));
-  out.ok = _mm256_and_ps(
-      _mm256_andnot_ps(_mm256_and_ps(any_neg, any_pos), _mm256_cmp_ps(det, zero, _CMP_NEQ_OQ)),
-      _mm256_and_ps(in_range, t_ok));
-  return out;
+  return watertightFinish(watertightPrep(px, py, pz, sz, tmin, tmax), tmin, tmax);
 }
 #endif
 
@@ -218,9 +237,13 @@ PENUMBRA_AVX2_TARGET inline uint32_t intersectBlockAvx2(const WatertightRay& r,
     py[k] = _mm256_sub_ps(ry, _mm256_mul_ps(sy, rz));
     pz[k] = rz;
   }
-  const WatertightLanes lanes =
-      watertightLanes(px, py, pz, sz, _mm256_set1_ps(tmin), _mm256_set1_ps(tmax));
-  const uint32_t on_edge = lanes.on_edge & valid;
+  const __m256 vtmin = _mm256_set1_ps(tmin), vtmax = _mm256_set1_ps(tmax);
+  const WatertightPrep prep = watertightPrep(px, py, pz, sz, vtmin, vtmax);
+  const uint32_t on_edge = prep.on_edge & valid;
+  if ((uint32_t(_mm256_movemask_ps(prep.candidate)) & valid & ~on_edge) == 0) {
+    return on_edge ? intersectBlockLanes(r, b, on_edge, tmin, tmax, t_out, u_out, v_out) : 0u;
+  }
+  const WatertightLanes lanes = watertightFinish(prep, vtmin, vtmax);
   const uint32_t mask = uint32_t(_mm256_movemask_ps(lanes.ok)) & valid & ~on_edge;
   _mm256_storeu_ps(t_out, lanes.t);
   _mm256_storeu_ps(u_out, lanes.u);

@@ -146,11 +146,22 @@ template <bool kAnyHit, bool kAvx2>
         ref = node.child[first];  // one child entered: descend without the stack
         continue;
       }
-      // Several: sort by entry distance, farthest first (insertion sort, at most eight), push
+      const int second = __builtin_ctz(mask);
+      mask &= mask - 1;
+      if (mask == 0) {
+        // Two (the most common case after one): push the farther, continue with the nearer.
+        const bool first_near = t_near[first] <= t_near[second];
+        const int near = first_near ? first : second, far = first_near ? second : first;
+        stack[sp++] = {node.child[far], t_near[far]};
+        ref = node.child[near];
+        continue;
+      }
+      // More: sort by entry distance, farthest first (insertion sort, at most eight), push
       // all but the nearest and continue with it.
       StackEntry hits[8];
       int n = 0;
       hits[n++] = {node.child[first], t_near[first]};
+      mask |= 1u << second;
       while (mask) {
         const int i = __builtin_ctz(mask);
         mask &= mask - 1;
@@ -209,19 +220,18 @@ bool RayEngine::occluded(const Ray& ray) const {
 void RayEngine::intersect(const RayBatch& rays, HitBatch& hits) const {
   hits.resize(rays.size());
   const bool packets = isa_ == CpuIsa::kAvx2;
-  // Chunks of 256 rays, aligned to packets; within a chunk, every eight consecutive rays that
-  // go the same way travel as a packet (cpu_packet.h), the others one by one.
+  // Chunks of 256 rays; within a chunk, each aligned group of eight rays that go the same way
+  // travels as a packet (cpu_packet.h), the others one by one. Groups are tested once, not at
+  // every ray: incoherent rays then pay one failed test per eight rays.
   parallelRange((rays.size() + 255) / 256, 1, [&](size_t chunk_begin, size_t chunk_end) {
     const size_t end = std::min(rays.size(), chunk_end * 256);
-    size_t i = chunk_begin * 256;
-    while (i < end) {
-      if (packets && i + kPacketSize <= end && packetEligible(rays, i)) {
+    for (size_t i = chunk_begin * 256; i < end; i += kPacketSize) {
+      const size_t group_end = std::min(end, i + kPacketSize);
+      if (packets && group_end - i == kPacketSize && packetEligible(rays, i)) {
         tracePacket(*this, rays, i, hits);
-        i += kPacketSize;
-      } else {
-        hits.set(i, intersect(rays.get(i)));
-        ++i;
+        continue;
       }
+      for (size_t k = i; k < group_end; ++k) hits.set(k, intersect(rays.get(k)));
     }
   });
 }
