@@ -4,11 +4,21 @@
 // order; the quad's four corners come from gl_VertexID (triangle strip). The ray-independent
 // vectors of eq. 1-8 (n, ab, ac, bc) are computed here, once per triangle, as the paper does in
 // its vertex stage.
+//
+// Culling (sec. 5.3: the vertex shader culls "triangles outside the ray bucket ... it can
+// transform the screen-filling quad containing the triangle data to an offscreen location which
+// causes it to be clipped"): a triangle whose bounding box no ray of this pass can reach
+// (bucketMayReach, the conservative bound of kernels/bucket_cull.h) gets its quad moved to
+// x in [3, 5], outside the clip volume, so no fragment runs for it.
+#include "common/bucket_cull.glsl"
 #include "raytrace/layout.glsl"
 
-layout(std430, binding = 1) readonly buffer Triangles { GpuTriangle triangles[]; };
+layout(std430, binding = 1) readonly buffer Triangles {
+  GpuTriangle triangles[];
+};
 
 uniform uint first_triangle;
+uniform RayBucketBound bucket;  // this pass's rays
 
 flat out vec3 v_a;
 flat out vec3 v_b;
@@ -28,5 +38,7 @@ void main() {
   v_n = cross(v_ab, v_ac);
   v_id = tri.id;
   vec2 corner = vec2(float(gl_VertexID & 1), float(gl_VertexID >> 1));
-  gl_Position = vec4(corner * 2.0 - 1.0, 0.0, 1.0);
+  vec3 lo = min(min(tri.p0, tri.p1), tri.p2), hi = max(max(tri.p0, tri.p1), tri.p2);
+  float offscreen = bucketMayReach(bucket, lo, hi) ? 0.0 : 4.0;
+  gl_Position = vec4(corner * 2.0 - 1.0 + vec2(offscreen, 0.0), 0.0, 1.0);
 }

@@ -117,6 +117,15 @@ TEST(Cli, BadInputGivesOneErrorLineExitTwoAndNoOutput) {
       {"render cornell --tonemap sepia -o " + out, "tonemap"},
       {"info nosuchscene", "unknown scene"},
       {"trace cornell --rays " + dir.file("none.bin") + " -o " + dir.file("hits.bin"), "none.bin"},
+      {"trace cornell --rays " + dir.file("none.bin") + " -o " + dir.file("hits.bin") +
+           " --device hybrid --r-min 64 --cache-rays 32",
+       "--cache-rays 32 is smaller than --r-min 64"},
+      {"trace cornell --rays " + dir.file("none.bin") + " -o " + dir.file("hits.bin") +
+           " --cache-rays 0",
+       "--cache-rays"},
+      {"trace cornell --rays " + dir.file("none.bin") + " -o " + dir.file("hits.bin") +
+           " --cache-rays lots",
+       "--cache-rays"},
       {"frobnicate", "unknown command 'frobnicate'"},
   };
   for (const BadCase& c : cases) {
@@ -244,7 +253,7 @@ TEST(Cli, TraceOnTheGpuGivesTheCpuAnswers) {
   const auto hybrid =
       runCli("trace " + bunny + " --rays " + dir.file("rays.bin") + " -o " +
              dir.file("hybrid.bin") + " --device hybrid --t-min 32 --t-max 256 --r-min 16 " +
-             "--quiet --stats " + dir.file("h.json"));
+             "--cache-rays 128 --quiet --stats " + dir.file("h.json"));
   ASSERT_EQ(hybrid.exit_code, 0) << hybrid.output;
   Expected<HitBatch> c = readHitFile(dir.file("hybrid.bin"));
   ASSERT_TRUE(c.ok());
@@ -260,7 +269,12 @@ TEST(Cli, TraceOnTheGpuGivesTheCpuAnswers) {
   EXPECT_EQ(hs["device"], "hybrid");
   EXPECT_GT(hs["hybrid"]["gpu_cells"].get<int>(), 0);
   EXPECT_EQ(hs["hybrid"]["r_min"], 16);
+  EXPECT_EQ(hs["hybrid"]["cache_rays"], 128);
   EXPECT_GT(hs["hybrid"]["gpu_batches"].get<int>(), 0);
+  EXPECT_GT(hs["hybrid"]["gpu_triangles"].get<int>(), 0);
+  EXPECT_GT(hs["hybrid"]["gpu_triangles_culled"].get<int>(), 0);
+  EXPECT_LT(hs["hybrid"]["gpu_triangles_culled"].get<int>(),
+            hs["hybrid"]["gpu_triangles"].get<int>());
 }
 
 TEST(Cli, RenderOnTheGpuAndHybridGivesTheCpuImage) {

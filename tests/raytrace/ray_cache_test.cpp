@@ -360,6 +360,45 @@ TEST(RayCache, DeterministicForAGivenSeed) {
   EXPECT_NE(buckets(1), buckets(2));
 }
 
+// insert(rays, subset) (the CPU/GPU split's per-cell caches) is insert() of a batch holding
+// rays[subset[k]] at position k: the same ids, tree and buckets, without copying the rays.
+TEST(RayCache, SubsetInsertIsInsertOfTheGatheredRays) {
+  const RayBatch rays = makeRays(Kind::kMixed, 6000, 9);
+  Rng rng(5, 5);
+  std::vector<uint32_t> subset;
+  for (uint32_t i = 0; i < rays.size(); ++i) {
+    if (rng.uniform() < 0.4f) subset.push_back(i);
+  }
+  for (size_t i = subset.size(); i > 1; --i)
+    std::swap(subset[i - 1], subset[rng.uniformInt(uint32_t(i))]);
+  const size_t half = subset.size() / 2;
+  RayBatch gathered;
+  gathered.resize(subset.size());
+  for (size_t k = 0; k < subset.size(); ++k) gathered.set(k, rays.get(subset[k]));
+  for (const uint32_t bucket_size : {1u, 16u, 256u}) {
+    RayCache by_subset(RayCacheOptions{bucket_size, 3}), by_copy(RayCacheOptions{bucket_size, 3});
+    // Two batches each, with buckets taken in between.
+    ASSERT_EQ(by_subset.insert(rays, std::span(subset.data(), half)), 0u);
+    RayBatch first_half;
+    first_half.resize(half);
+    for (size_t k = 0; k < half; ++k) first_half.set(k, gathered.get(k));
+    ASSERT_EQ(by_copy.insert(first_half), 0u);
+    for (int i = 0; i < 5; ++i) ASSERT_EQ(by_subset.nextBucket(), by_copy.nextBucket());
+    RayBatch second_half;
+    second_half.resize(subset.size() - half);
+    for (size_t k = half; k < subset.size(); ++k) second_half.set(k - half, gathered.get(k));
+    ASSERT_EQ(by_subset.insert(rays, std::span(subset.data() + half, subset.size() - half)),
+              uint32_t(half));
+    ASSERT_EQ(by_copy.insert(second_half), uint32_t(half));
+    ASSERT_EQ(by_subset.checkInvariants(), "");
+    while (!by_copy.empty()) ASSERT_EQ(by_subset.nextBucket(), by_copy.nextBucket());
+    EXPECT_TRUE(by_subset.empty());
+    // An empty subset inserts nothing and keeps the numbering.
+    EXPECT_EQ(by_subset.insert(rays, std::span<const uint32_t>()), uint32_t(subset.size()));
+    EXPECT_TRUE(by_subset.empty());
+  }
+}
+
 TEST(RayCache, GreedySearchTakesTheLargerClusterFirstAndStealsNearby) {
   // Two clusters far apart in origin and direction: 3 buckets' worth and half a bucket. The
   // root split separates them; the greedy search goes to the larger side, and stealing fills
@@ -607,6 +646,14 @@ TEST(RayCache, TraceThroughCacheMatchesTheEngineOnATriangleSoup) {
 TEST(RayCacheDeathTest, ZeroBucketSizeIsAContractViolation) {
   GTEST_FLAG_SET(death_test_style, "threadsafe");
   EXPECT_DEATH({ RayCache cache(RayCacheOptions{0, 0}); }, "bucket_size");
+}
+
+TEST(RayCacheDeathTest, SubsetIndexOutOfRangeIsAContractViolation) {
+  GTEST_FLAG_SET(death_test_style, "threadsafe");
+  const RayBatch rays = makeRays(Kind::kRandom, 10, 1);
+  RayCache cache;
+  const std::vector<uint32_t> subset = {3, 10};
+  EXPECT_DEATH(cache.insert(rays, subset), "subset\\[1\\] = 10 of 10 rays");
 }
 
 }  // namespace

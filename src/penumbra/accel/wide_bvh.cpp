@@ -35,15 +35,34 @@ class Collapser {
     solve(0);
   }
 
-  // Builds the wide node for binary inner node `b`, recursively; returns its index.
+  // Builds the wide node for binary inner node `b` and, recursively, those below it; returns
+  // its index. A node's leaf blocks are numbered consecutively and its inner children are
+  // stored next to each other, so the children a ray enters tend to share cache lines and
+  // pages, and the hardware prefetchers see runs.
   int32_t emit(uint32_t b) {
+    const int32_t index = int32_t(out_.nodes.size());
+    out_.nodes.emplace_back();
+    fill(b, index);
+    return index;
+  }
+
+ private:
+  void fill(uint32_t b, int32_t index) {
     uint32_t kids[8];
     int n = 0;
     gather(b, 8, kids, n, true);
-    const int32_t index = int32_t(out_.nodes.size());
-    out_.nodes.emplace_back();
+    int32_t refs[8];
+    for (int i = 0; i < n; ++i) {
+      const BvhNode& c = bvh_.nodes[kids[i]];
+      if (c.isLeaf()) refs[i] = leafRef(c, out_);
+    }
+    for (int i = 0; i < n; ++i) {
+      if (bvh_.nodes[kids[i]].isLeaf()) continue;
+      refs[i] = int32_t(out_.nodes.size());
+      out_.nodes.emplace_back();
+    }
+    Bvh8Node& node = out_.nodes[size_t(index)];
     for (int i = 0; i < 8; ++i) {
-      Bvh8Node& node = out_.nodes[size_t(index)];
       if (i >= n) {
         // Empty slot: an inverted box (lo = +inf, hi = -inf) fails every slab test.
         node.lo_x[i] = node.lo_y[i] = node.lo_z[i] = std::numeric_limits<float>::infinity();
@@ -54,17 +73,13 @@ class Collapser {
       const BvhNode& c = bvh_.nodes[kids[i]];
       node.lo_x[i] = c.lo.x, node.lo_y[i] = c.lo.y, node.lo_z[i] = c.lo.z;
       node.hi_x[i] = c.hi.x, node.hi_y[i] = c.hi.y, node.hi_z[i] = c.hi.z;
-      if (c.isLeaf()) {
-        node.child[i] = leafRef(c, out_);
-      } else {
-        const int32_t child = emit(kids[i]);  // may reallocate out_.nodes
-        out_.nodes[size_t(index)].child[i] = child;
-      }
+      node.child[i] = refs[i];
     }
-    return index;
+    for (int i = 0; i < n; ++i) {
+      if (!bvh_.nodes[kids[i]].isLeaf()) fill(kids[i], refs[i]);  // may reallocate out_.nodes
+    }
   }
 
- private:
   // cost_[n][i - 1] = cost(n, i); split_k_[n][i - 1] = the k of split(n, i), or 0 when
   // cost(n, i) is reached with fewer slots or as one slot.
   void solve(uint32_t n) {

@@ -83,6 +83,11 @@ int parseAndRun(int argc, char** argv) {
   trace_cmd->add_option("--r-min", trace.r_min, "hybrid: rays a cell collects per GPU pass")
       ->check(CLI::Range(1u, 65536u))
       ->capture_default_str();
+  trace_cmd
+      ->add_option("--cache-rays", trace.cache_rays,
+                   "hybrid: rays a cell's ray cache holds before it sends its most coherent "
+                   "bucket (default 4 x --r-min)")
+      ->check(CLI::Range(1u, 1u << 24));
   addCommon(trace_cmd, common);
 
   InfoOptions info;

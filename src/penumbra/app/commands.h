@@ -29,8 +29,10 @@ struct RenderOptions {
 
 struct TraceOptions {
   std::string mesh;
-  // --device hybrid: GPU cells hold t_min..t_max triangles; r_min rays per GPU pass (sec. 6.2).
+  // --device hybrid: GPU cells hold t_min..t_max triangles; r_min rays per GPU pass (sec. 6.2);
+  // each cell's ray cache holds cache_rays rays (sec. 5.3; unset: 4 r_min).
   uint32_t t_min = 64, t_max = 1024, r_min = 256;
+  std::optional<uint32_t> cache_rays;
   std::string rays;
   std::string output;
   std::string stats;

@@ -29,6 +29,12 @@ Status trace(const TraceOptions& options) {
     return inputError(
         "", "", fmt::format("--t-min {} is larger than --t-max {}", options.t_min, options.t_max));
   }
+  if (options.cache_rays && *options.cache_rays < options.r_min) {
+    return inputError("", "",
+                      fmt::format("--cache-rays {} is smaller than --r-min {}: the cache must hold "
+                                  "a bucket",
+                                  *options.cache_rays, options.r_min));
+  }
   PENUMBRA_TRY(checkOutputPath(options.output));
   if (!options.stats.empty()) PENUMBRA_TRY(checkOutputPath(options.stats));
   std::error_code ec;
@@ -64,6 +70,7 @@ Status trace(const TraceOptions& options) {
     split.t_min = options.t_min;
     split.t_max = options.t_max;
     split.r_min = options.r_min;
+    split.cache_rays = options.cache_rays.value_or(0);  // 0: the default, 4 r_min
     Expected<HybridRayEngine> engine = HybridRayEngine::build(positions, triangles, split);
     if (!engine) return engine.error();
     glFinish();
@@ -78,10 +85,13 @@ Status trace(const TraceOptions& options) {
     hybrid_stats = {{"t_min", options.t_min},
                     {"t_max", options.t_max},
                     {"r_min", options.r_min},
+                    {"cache_rays", engine->options().cache_rays},
                     {"gpu_cells", hs.gpu_cells},
                     {"gpu_batches", hs.gpu_batches},
                     {"gpu_ray_cells", hs.gpu_ray_cells},
-                    {"forced_ray_cells", hs.forced_ray_cells}};
+                    {"forced_ray_cells", hs.forced_ray_cells},
+                    {"gpu_triangles", hs.gpu_triangles},
+                    {"gpu_triangles_culled", hs.gpu_triangles_culled}};
   } else if (device->device == Device::kGpu) {
     Timer build_timer;
     Expected<GlRayEngine> engine = GlRayEngine::build(positions, triangles);

@@ -25,6 +25,7 @@ struct WatertightRay {
   glm::vec3 org;
   int kx, ky, kz;
   float sx, sy, sz;
+  float okx, oky, okz;  // org[kx], org[ky], org[kz], for vector kernels
 };
 
 inline WatertightRay makeWatertightRay(const glm::vec3& org, const glm::vec3& dir) {
@@ -43,6 +44,9 @@ inline WatertightRay makeWatertightRay(const glm::vec3& org, const glm::vec3& di
   r.sz = 1.0f / dir[r.kz];
   r.sx = dir[r.kx] * r.sz;
   r.sy = dir[r.ky] * r.sz;
+  r.okx = org[r.kx];
+  r.oky = org[r.ky];
+  r.okz = org[r.kz];
   return r;
 }
 

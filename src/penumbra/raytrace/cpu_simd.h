@@ -224,8 +224,8 @@ PENUMBRA_AVX2_TARGET inline uint32_t intersectBlockAvx2(const WatertightRay& r,
                                                         float tmin, float tmax, float* t_out,
                                                         float* u_out, float* v_out) {
   const uint32_t valid = (1u << count) - 1u;
-  const __m256 ox = _mm256_set1_ps(r.org[r.kx]), oy = _mm256_set1_ps(r.org[r.ky]);
-  const __m256 oz = _mm256_set1_ps(r.org[r.kz]);
+  const __m256 ox = _mm256_set1_ps(r.okx), oy = _mm256_set1_ps(r.oky);
+  const __m256 oz = _mm256_set1_ps(r.okz);
   const __m256 sx = _mm256_set1_ps(r.sx), sy = _mm256_set1_ps(r.sy), sz = _mm256_set1_ps(r.sz);
   __m256 px[3], py[3], pz[3];
   for (int k = 0; k < 3; ++k) {

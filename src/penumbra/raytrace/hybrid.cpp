@@ -4,6 +4,7 @@
 #include "penumbra/core/parallel.h"
 #include "penumbra/kernels/ray_triangle.h"
 #include "penumbra/raytrace/cpu_simd.h"
+#include "penumbra/raytrace/ray_cache.h"
 
 #include <tbb/combinable.h>
 
@@ -41,9 +42,15 @@ uint32_t countBelow(const Bvh& bvh, uint32_t node, std::vector<uint32_t>& count,
 Expected<HybridRayEngine> HybridRayEngine::build(std::span<const glm::vec3> positions,
                                                  std::span<const glm::uvec3> triangles,
                                                  const HybridOptions& options) {
-  PENUMBRA_CHECK(options.t_min >= 1 && options.t_min <= options.t_max && options.r_min >= 1);
+  PENUMBRA_CHECK_MSG(options.t_min >= 1 && options.t_min <= options.t_max && options.r_min >= 1,
+                     "t_min {} t_max {} r_min {}", options.t_min, options.t_max, options.r_min);
+  PENUMBRA_CHECK_MSG(options.cache_rays == 0 || options.cache_rays >= options.r_min,
+                     "cache_rays {} r_min {}", options.cache_rays, options.r_min);
   HybridRayEngine e;
   e.options_ = options;
+  if (e.options_.cache_rays == 0) {
+    e.options_.cache_rays = uint32_t(std::min<uint64_t>(4ull * options.r_min, 0xffffffffull));
+  }
   e.cpu_ = RayEngine::build(positions, triangles);
   const Bvh& bvh = e.cpu_.bvh();
   const int tile = int(std::ceil(std::sqrt(double(options.r_min))));
@@ -141,6 +148,7 @@ void HybridRayEngine::traverse(uint32_t start, const Ray& ray, Hit& hit,
 
 Status HybridRayEngine::intersect(const RayBatch& rays, HitBatch& hits, HybridStats* stats) const {
   const size_t n = rays.size();
+  const uint32_t r_min = options_.r_min, capacity = options_.cache_rays;
   std::vector<Hit> best(n);
   HybridStats local;
   local.gpu_cells = cells_.size();
@@ -150,10 +158,12 @@ Status HybridRayEngine::intersect(const RayBatch& rays, HitBatch& hits, HybridSt
     std::vector<uint32_t> rays;
   };
   std::deque<Pending> pending;
+  std::vector<std::vector<uint32_t>> spare;  // ray lists of collected jobs, for reuse
   std::vector<Hit> out(size_t(gpu_.tile()) * size_t(gpu_.tile()));
   auto collectOne = [&](Pending& p) {
     gpu_.collect(p.job, out.data());
     for (size_t k = 0; k < p.rays.size(); ++k) keepNearest(best[p.rays[k]], out[k]);
+    spare.push_back(std::move(p.rays));
   };
   // Collect what the GPU has finished, without waiting.
   auto collectReady = [&] {
@@ -163,9 +173,46 @@ Status HybridRayEngine::intersect(const RayBatch& rays, HitBatch& hits, HybridSt
     }
   };
 
-  std::vector<std::vector<uint32_t>> caches(cells_.size());  // per cell: ray indices
+  // The ray cache of each GPU cell that rays entered (sec. 5.3, 6.2), made on the first ray:
+  // cells without rays cost nothing. Cache ids number the rays a cell received; ray_of maps
+  // them back to ray indices.
+  struct CellCache {
+    uint32_t cell;
+    RayCache cache;
+    std::vector<uint32_t> ray_of;   // cache id -> ray index
+    std::vector<uint32_t> arrived;  // rays of the current chunk, in order, not yet inserted
+  };
+  std::vector<CellCache> active;
+  std::vector<int32_t> active_of(cells_.size(), -1);  // cell -> index in `active`
+  std::vector<uint32_t> bucket;
+
+  // Takes the cache's fullest bucket (exactly R_min rays) to the GPU with the cell's triangles.
+  auto submitBucket = [&](CellCache& cc) -> Status {
+    cc.cache.nextBucket(bucket);
+    PENUMBRA_CHECK(bucket.size() == r_min);
+    std::vector<uint32_t> ray_indices;
+    if (!spare.empty()) {
+      ray_indices = std::move(spare.back());
+      spare.pop_back();
+    }
+    ray_indices.clear();
+    for (uint32_t id : bucket) ray_indices.push_back(cc.ray_of[id]);
+    const Cell& cell = cells_[cc.cell];
+    Expected<GlRasterKernel::Job> job = gpu_.submit(rays, ray_indices, cell.first, cell.count);
+    if (!job) return job.error();
+    if (stats) {
+      local.gpu_triangles += cell.count;
+      local.gpu_triangles_culled += gpu_.culledTriangles(job->bound, cell.first, cell.count);
+    }
+    pending.push_back({std::move(*job), std::move(ray_indices)});
+    ++local.gpu_batches;
+    local.gpu_ray_cells += r_min;
+    return {};
+  };
+
   constexpr size_t kChunk = 4096;
   std::vector<std::vector<uint32_t>> cells_of(kChunk);
+  std::vector<uint32_t> touched;  // indices in `active` with arrivals in this chunk
   for (size_t begin = 0; begin < n; begin += kChunk) {
     const size_t m = std::min(kChunk, n - begin);
     // CPU: traverse, intersecting non-cell leaves, noting the cells each ray enters.
@@ -177,27 +224,42 @@ Status HybridRayEngine::intersect(const RayBatch& rays, HitBatch& hits, HybridSt
         best[begin + i] = h;
       }
     });
+    touched.clear();
     for (size_t i = 0; i < m; ++i) {
       for (uint32_t c : cells_of[i]) {
-        std::vector<uint32_t>& cache = caches[c];
-        cache.push_back(uint32_t(begin + i));
-        if (cache.size() < options_.r_min) continue;
-        // A full cache goes to the GPU with the cell's triangles.
-        Expected<GlRasterKernel::Job> job =
-            gpu_.submit(rays, cache, cells_[c].first, cells_[c].count);
-        if (!job) return job.error();
-        pending.push_back({std::move(*job), std::move(cache)});
-        cache.clear();
-        ++local.gpu_batches;
-        local.gpu_ray_cells += options_.r_min;
+        if (active_of[c] < 0) {
+          active_of[c] = int32_t(active.size());
+          active.push_back({c, RayCache(RayCacheOptions{r_min, c}), {}, {}});
+        }
+        CellCache& cc = active[size_t(active_of[c])];
+        if (cc.arrived.empty()) touched.push_back(uint32_t(active_of[c]));
+        cc.arrived.push_back(uint32_t(begin + i));
       }
+    }
+    // "As rays are generated, they are added to the cache" (sec. 5.3), each chunk's arrivals in
+    // a random order; whenever the cache is full its fullest bucket goes to the GPU.
+    for (uint32_t a : touched) {
+      CellCache& cc = active[a];
+      for (size_t k = 0; k < cc.arrived.size();) {
+        const size_t take = std::min(cc.arrived.size() - k, size_t(capacity) - cc.cache.size());
+        const std::span<const uint32_t> part(cc.arrived.data() + k, take);
+        cc.cache.insert(rays, part);
+        cc.ray_of.insert(cc.ray_of.end(), part.begin(), part.end());
+        k += take;
+        while (cc.cache.size() >= capacity) PENUMBRA_TRY(submitBucket(cc));
+      }
+      cc.arrived.clear();
     }
     collectReady();
   }
-  // Short caches are forced to the CPU (sec. 6.2) while the GPU finishes.
+  // The ray tracer needs a result: full buckets go to the GPU, the short remainder of each
+  // cache is forced to the CPU (sec. 6.2) while the GPU finishes.
   std::vector<std::pair<uint32_t, uint32_t>> forced;  // (ray, cell)
-  for (size_t c = 0; c < caches.size(); ++c) {
-    for (uint32_t r : caches[c]) forced.emplace_back(r, uint32_t(c));
+  for (CellCache& cc : active) {
+    while (cc.cache.size() >= r_min) PENUMBRA_TRY(submitBucket(cc));
+    cc.cache.nextBucket(bucket);
+    for (uint32_t id : bucket) forced.emplace_back(cc.ray_of[id], cc.cell);
+    collectReady();
   }
   local.forced_ray_cells = forced.size();
   std::vector<Hit> forced_hits(forced.size());

@@ -139,8 +139,16 @@ void RayCache::gatherLeaf(uint32_t leaf, std::vector<Entry>& out) {
 // them into buckets of rays with coherent origins and directions.")
 
 uint32_t RayCache::insert(const RayBatch& rays) {
+  return insertRays(rays, nullptr, rays.size());
+}
+
+uint32_t RayCache::insert(const RayBatch& rays, std::span<const uint32_t> subset) {
+  return insertRays(rays, subset.data(), subset.size());
+}
+
+// Inserts rays[subset[i]] (rays[i] when `subset` is null) for i < n.
+uint32_t RayCache::insertRays(const RayBatch& rays, const uint32_t* subset, size_t n) {
   const Timer timer;
-  const size_t n = rays.size();
   PENUMBRA_CHECK_MSG(next_id_ + n <= 0xffffffffull, "{} rays already inserted, {} more", next_id_,
                      n);
   const uint32_t first = uint32_t(next_id_);
@@ -160,11 +168,13 @@ uint32_t RayCache::insert(const RayBatch& rays) {
   batch_.resize(n);
   bool first_box = stats_.rays == 0;  // the box starts at the first ray ever inserted
   for (size_t i = 0; i < n; ++i) {
+    const size_t j = subset ? size_t(subset[i]) : i;
+    PENUMBRA_CHECK_MSG(j < rays.size(), "subset[{}] = {} of {} rays", i, j, rays.size());
     Entry& e = batch_[i];
-    e.c[0] = finiteOrZero(rays.ox[i]);
-    e.c[1] = finiteOrZero(rays.oy[i]);
-    e.c[2] = finiteOrZero(rays.oz[i]);
-    octahedralDirection(rays.dx[i], rays.dy[i], rays.dz[i], e.c[3], e.c[4]);
+    e.c[0] = finiteOrZero(rays.ox[j]);
+    e.c[1] = finiteOrZero(rays.oy[j]);
+    e.c[2] = finiteOrZero(rays.oz[j]);
+    octahedralDirection(rays.dx[j], rays.dy[j], rays.dz[j], e.c[3], e.c[4]);
     e.id = first + uint32_t(i);
     if (first_box) {
       for (int d = 0; d < 5; ++d) lo_[d] = hi_[d] = e.c[d];

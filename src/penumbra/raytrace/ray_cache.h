@@ -50,6 +50,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -90,6 +91,10 @@ class RayCache {
   // directions are accepted (they only affect grouping: such coordinates count as 0).
   // Contract: fewer than 2^32 rays in total over the cache's life.
   uint32_t insert(const RayBatch& rays);
+  // Adds rays[subset[k]] for every k, numbered like insert(): subset[k] gets id first + k. For
+  // callers that collect a few rays of a larger batch (the CPU/GPU split's per-cell caches,
+  // hybrid.h) without copying them out. Contract: every subset[k] < rays.size().
+  uint32_t insert(const RayBatch& rays, std::span<const uint32_t> subset);
 
   bool empty() const { return size() == 0; }
   size_t size() const;  // rays inserted and not yet returned
@@ -134,6 +139,7 @@ class RayCache {
   void pushEntry(uint32_t leaf, const Entry& e);
   Entry popEntry(uint32_t leaf);
   void gatherLeaf(uint32_t leaf, std::vector<Entry>& out);
+  uint32_t insertRays(const RayBatch& rays, const uint32_t* subset, size_t n);
   void insertOne(const Entry& e);
   void splitLeaf(uint32_t leaf);
   void freeChunks(uint32_t head);

@@ -128,6 +128,8 @@ Expected<GlRasterKernel> GlRasterKernel::create(std::span<const glm::vec3> posit
   k.tile_ = tile;
   k.triangle_count_ = uint32_t(triangles.size());
   std::vector<GpuTriangle> tris(triangles.size());
+  k.slot_lo_.resize(triangles.size());
+  k.slot_hi_.resize(triangles.size());
   glm::vec3 lo(INFINITY), hi(-INFINITY);
   for (size_t i = 0; i < triangles.size(); ++i) {
     const uint32_t src = order.empty() ? uint32_t(i) : order[i];
@@ -138,10 +140,10 @@ Expected<GlRasterKernel> GlRasterKernel::create(std::span<const glm::vec3> posit
       tris[i].p1[a] = p[1][a];
       tris[i].p2[a] = p[2][a];
     }
-    for (const glm::vec3& q : p) {
-      lo = glm::min(lo, q);
-      hi = glm::max(hi, q);
-    }
+    k.slot_lo_[i] = glm::min(glm::min(p[0], p[1]), p[2]);
+    k.slot_hi_[i] = glm::max(glm::max(p[0], p[1]), p[2]);
+    lo = glm::min(lo, k.slot_lo_[i]);
+    hi = glm::max(hi, k.slot_hi_[i]);
     tris[i].id = int32_t(src);
     tris[i].pad1 = tris[i].pad2 = 0.0f;
   }
@@ -234,9 +236,19 @@ Expected<GlRasterKernel::Job> GlRasterKernel::submit(const RayBatch& rays,
   glClearNamedFramebufferiv(framebuffer_.id(), GL_COLOR, 0, &no_hit);
   glClearNamedFramebufferfv(framebuffer_.id(), GL_COLOR, 1, zero);
   glClearNamedFramebufferfv(framebuffer_.id(), GL_DEPTH, 0, &far_depth);
+  // The bound of where these rays can meet the pass's triangles, for the vertex stage's
+  // culling (sec. 5.3), from exactly the values the fragment stage will see.
+  glm::vec3 clip_lo(INFINITY), clip_hi(-INFINITY);
+  for (uint32_t i = first; i < first + count; ++i) {
+    clip_lo = glm::min(clip_lo, slot_lo_[i]);
+    clip_hi = glm::max(clip_hi, slot_hi_[i]);
+  }
+  const RayBucketBound bound = boundRayBucket(std::span(origins.data(), m),
+                                              std::span(directions.data(), m), clip_lo, clip_hi);
   if (count > 0) {
     glUseProgram(program_.id());
     glUniform1ui(glGetUniformLocation(program_.id(), "first_triangle"), first);
+    setBucketBoundUniforms(program_.id(), bound);
     triangles_.bindBase(GL_SHADER_STORAGE_BUFFER, 1);
     glBindTextureUnit(0, origins_.id());
     glBindTextureUnit(1, directions_.id());
@@ -249,6 +261,7 @@ Expected<GlRasterKernel::Job> GlRasterKernel::submit(const RayBatch& rays,
   // Results go to pack buffers; the copy runs on the GPU timeline, behind the fence.
   Job job;
   job.rays = m;
+  job.bound = bound;
   job.ids = gl::Buffer(per_pass * 4, nullptr, GL_MAP_READ_BIT);
   job.tuv = gl::Buffer(per_pass * 16, nullptr, GL_MAP_READ_BIT);
   glBindBuffer(GL_PIXEL_PACK_BUFFER, job.ids.id());
@@ -264,6 +277,31 @@ Expected<GlRasterKernel::Job> GlRasterKernel::submit(const RayBatch& rays,
     return runtimeError("", fmt::format("OpenGL error 0x{:x} in the ray engine kernel", err));
   }
   return job;
+}
+
+size_t GlRasterKernel::culledTriangles(const RayBucketBound& bound, uint32_t first,
+                                       uint32_t count) const {
+  count = first < triangle_count_ ? std::min(count, triangle_count_ - first) : 0;
+  size_t culled = 0;
+  for (uint32_t i = first; i < first + count; ++i) {
+    culled += !bucketMayReach(bound, slot_lo_[i], slot_hi_[i]);
+  }
+  return culled;
+}
+
+void setBucketBoundUniforms(GLuint program, const RayBucketBound& b) {
+  auto vec3 = [program](const char* name, const glm::vec3& v) {
+    glUniform3f(glGetUniformLocation(program, name), v.x, v.y, v.z);
+  };
+  vec3("bucket.reach_lo", b.reach_lo);
+  vec3("bucket.reach_hi", b.reach_hi);
+  vec3("bucket.q0_lo", b.q0_lo);
+  vec3("bucket.q0_hi", b.q0_hi);
+  vec3("bucket.q1_lo", b.q1_lo);
+  vec3("bucket.q1_hi", b.q1_hi);
+  glUniform1i(glGetUniformLocation(program, "bucket.mode"), GLint(b.mode));
+  glUniform1i(glGetUniformLocation(program, "bucket.axis"), b.axis);
+  glUniform1f(glGetUniformLocation(program, "bucket.inv_length"), b.inv_length);
 }
 
 void GlRasterKernel::collect(Job& job, Hit* out) const {

@@ -9,6 +9,7 @@
 #include "penumbra/accel/bvh.h"
 #include "penumbra/core/expected.h"
 #include "penumbra/gpu/objects.h"
+#include "penumbra/kernels/bucket_cull.h"
 #include "penumbra/raytrace/ray.h"
 
 #include <glm/vec3.hpp>
@@ -47,7 +48,9 @@ class GlRayEngine {
 // eq. 1-8 in the fragment shader, the nearest hit kept by the depth test (the t-buffer) and the
 // triangle id in a colour target (shaders/raytrace/raster_intersect.*). It tests every ray of a
 // tile against every triangle it is given: the kernel for a coherent bucket of rays against
-// the small set of triangles of a GPU cell (sec. 5.3, 6.2), not for whole scenes.
+// the small set of triangles of a GPU cell (sec. 5.3, 6.2), not for whole scenes. The vertex
+// stage culls the triangles that no ray of the pass can reach (sec. 5.3, kernels/bucket_cull.h):
+// the quad is moved off screen and clipped; answers are the same as without culling.
 class GlRasterKernel {
  public:
   // Uploads the triangles. Slot i holds triangle order[i] (id order[i]), or triangle i when
@@ -65,11 +68,13 @@ class GlRasterKernel {
   // Asynchronous use (sec. 5.1: the CPU keeps working while the GPU intersects): submit() sends
   // up to tile x tile rays (rays[ray_indices[k]]) against slots [first, first + count) and
   // starts reading the results back into buffers behind a fence; collect() waits for the fence
-  // if needed and writes the k-th ray's hit to out[k].
+  // if needed and writes the k-th ray's hit to out[k]. `bound` is the bucket's culling bound,
+  // computed from the rays as uploaded.
   struct Job {
     gl::Buffer ids, tuv;
     gl::Fence fence;
     size_t rays = 0;
+    RayBucketBound bound;
   };
   Expected<Job> submit(const RayBatch& rays, std::span<const uint32_t> ray_indices, uint32_t first,
                        uint32_t count) const;
@@ -78,6 +83,10 @@ class GlRasterKernel {
 
   int tile() const { return tile_; }
   uint32_t slotCount() const { return triangle_count_; }
+
+  // How many of slots [first, first + count) the vertex stage culls for a pass with `bound`:
+  // the C++ twin of the shader's test on the same triangle boxes (for statistics; O(count)).
+  size_t culledTriangles(const RayBucketBound& bound, uint32_t first, uint32_t count) const;
 
  private:
   gl::Program program_;
@@ -89,6 +98,10 @@ class GlRasterKernel {
   uint32_t triangle_count_ = 0;
   int tile_ = 64;
   glm::vec3 box_lo_{0.0f}, box_hi_{0.0f};
+  std::vector<glm::vec3> slot_lo_, slot_hi_;  // each slot's triangle's bounding box
 };
+
+// Sets the uniform struct `bucket` (shaders/common/bucket_cull.glsl) of the current program.
+void setBucketBoundUniforms(GLuint program, const RayBucketBound& bound);
 
 }  // namespace penumbra

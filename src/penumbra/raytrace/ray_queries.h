@@ -65,6 +65,8 @@ class HybridRayQueries : public RayQueries {
     stats_.gpu_batches += s.gpu_batches;
     stats_.gpu_ray_cells += s.gpu_ray_cells;
     stats_.forced_ray_cells += s.forced_ray_cells;
+    stats_.gpu_triangles += s.gpu_triangles;
+    stats_.gpu_triangles_culled += s.gpu_triangles_culled;
   }
   const HybridRayEngine& engine_;
   HitBatch scratch_;
