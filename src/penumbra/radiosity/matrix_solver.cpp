@@ -1,0 +1,297 @@
+#include "penumbra/radiosity/matrix_solver.h"
+
+#include "penumbra/core/check.h"
+#include "penumbra/core/parallel.h"
+#include "penumbra/core/timer.h"
+
+#include <glm/geometric.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+
+#if defined(__x86_64__) || defined(__i386__)
+#include <immintrin.h>
+#define PENUMBRA_MATRIX_SIMD 1
+#define PENUMBRA_MATRIX_TARGET __attribute__((target("avx2,fma,f16c")))
+#else
+#define PENUMBRA_MATRIX_SIMD 0
+#define PENUMBRA_MATRIX_TARGET
+#endif
+
+namespace penumbra {
+
+const char* matrixSolverName(MatrixSolver solver) {
+  return solver == MatrixSolver::kJacobi ? "jacobi" : "gauss-seidel";
+}
+const char* matrixPrecisionName(MatrixPrecision precision) {
+  return precision == MatrixPrecision::kFp32 ? "fp32" : "fp16";
+}
+
+uint16_t floatToHalf(float value) {
+  uint32_t x;
+  std::memcpy(&x, &value, 4);
+  const uint32_t sign = (x >> 16) & 0x8000u;
+  const uint32_t abs = x & 0x7fffffffu;
+  if (abs >= 0x7f800000u) {  // inf or NaN
+    return uint16_t(sign | 0x7c00u | (abs > 0x7f800000u ? 0x200u | ((abs >> 13) & 0x3ffu) : 0u));
+  }
+  if (abs >= 0x477ff000u) return uint16_t(sign | 0x7c00u);  // rounds to >= 65520: infinity
+  if (abs < 0x38800000u) {
+    // Subnormal half (or zero): value = mantissa * 2^-24, rounded to nearest even.
+    if (abs < 0x33000000u) return uint16_t(sign);  // below half the smallest subnormal
+    const uint32_t e = abs >> 23;
+    const uint32_t mant = (abs & 0x7fffffu) | 0x800000u;
+    const uint32_t shift = 126u - e;  // 14 + (112 - e) + 1 - 1
+    uint32_t h = mant >> shift;
+    const uint32_t rem = mant & ((1u << shift) - 1u), half = 1u << (shift - 1u);
+    if (rem > half || (rem == half && (h & 1u))) ++h;
+    return uint16_t(sign | h);
+  }
+  // Normal: rebias the exponent, round the mantissa to 10 bits (nearest even).
+  uint32_t h = ((abs - 0x38000000u) >> 13);
+  const uint32_t rem = abs & 0x1fffu;
+  if (rem > 0x1000u || (rem == 0x1000u && (h & 1u))) ++h;
+  return uint16_t(sign | h);
+}
+
+float halfToFloat(uint16_t half) {
+  const uint32_t sign = uint32_t(half & 0x8000u) << 16;
+  const uint32_t e = (half >> 10) & 0x1fu, mant = half & 0x3ffu;
+  uint32_t x;
+  if (e == 0) {
+    if (mant == 0) {
+      x = sign;
+    } else {  // subnormal: normalise
+      const float v = float(mant) * 0x1p-24f;
+      std::memcpy(&x, &v, 4);
+      x |= sign;
+    }
+  } else if (e == 31) {
+    x = sign | 0x7f800000u | (mant << 13);
+  } else {
+    x = sign | ((e + 112u) << 23) | (mant << 13);
+  }
+  float out;
+  std::memcpy(&out, &x, 4);
+  return out;
+}
+
+RadiositySystem::RadiositySystem(FormFactorMatrix form_factors, MatrixPrecision precision)
+    : reflectance(form_factors.n, glm::vec3(0.0f)),
+      emission(form_factors.n, glm::vec3(0.0f)),
+      n_(form_factors.n),
+      precision_(precision) {
+  PENUMBRA_CHECK(form_factors.f.size() == size_t(n_) * n_);
+  if (precision == MatrixPrecision::kFp32) {
+    f32_ = std::move(form_factors.f);
+  } else {
+    f16_.resize(form_factors.f.size());
+    parallelRange(f16_.size(), 1 << 16, [&](size_t b, size_t e) {
+      for (size_t i = b; i < e; ++i) f16_[i] = floatToHalf(form_factors.f[i]);
+    });
+  }
+}
+
+float RadiositySystem::formFactor(uint32_t i, uint32_t j) const {
+  const size_t k = size_t(i) * n_ + j;
+  return precision_ == MatrixPrecision::kFp32 ? f32_[k] : halfToFloat(f16_[k]);
+}
+
+uint64_t RadiositySystem::matrixBytes() const {
+  return precision_ == MatrixPrecision::kFp32 ? f32_.size() * 4 : f16_.size() * 2;
+}
+
+namespace {
+
+// The right-hand vectors as structures of arrays, padded with zeros to a multiple of 8.
+struct Channels {
+  std::vector<float> c[3];
+  void load(std::span<const glm::vec3> v, size_t padded) {
+    for (int k = 0; k < 3; ++k) {
+      c[k].assign(padded, 0.0f);
+      for (size_t i = 0; i < v.size(); ++i) c[k][i] = v[i][k];
+    }
+  }
+};
+
+size_t padded(size_t n) {
+  return (n + 7) / 8 * 8;
+}
+
+bool haveSimd() {
+#if PENUMBRA_MATRIX_SIMD
+  static const bool has = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma") &&
+                          __builtin_cpu_supports("f16c");
+  return has;
+#else
+  return false;
+#endif
+}
+
+// Row dot products: out[k] += sum_j F_ij x_k[j] for K right-hand vectors (K = 3: one matrix
+// read serves three channels; K = 6: the Gauss-Seidel sweep's old values and updates).
+template <int K>
+void rowDotScalar(const float* f, const uint16_t* h, const float* const* x, size_t n,
+                  double* out) {
+  float acc[K] = {};
+  for (size_t j = 0; j < n; ++j) {
+    const float fij = f ? f[j] : halfToFloat(h[j]);
+    for (int k = 0; k < K; ++k) acc[k] += fij * x[k][j];
+  }
+  for (int k = 0; k < K; ++k) out[k] = double(acc[k]);
+}
+
+#if PENUMBRA_MATRIX_SIMD
+template <int K>
+PENUMBRA_MATRIX_TARGET void rowDotAvx2(const float* f, const uint16_t* h, const float* const* x,
+                                       size_t n, double* out) {
+  // Two independent accumulators per vector to hide the FMA latency.
+  __m256 acc0[K], acc1[K];
+  for (int k = 0; k < K; ++k) acc0[k] = acc1[k] = _mm256_setzero_ps();
+  size_t j = 0;
+  const size_t n16 = n / 16 * 16;
+  for (; j < n16; j += 16) {
+    __m256 f0, f1;
+    if (f) {
+      f0 = _mm256_loadu_ps(f + j);
+      f1 = _mm256_loadu_ps(f + j + 8);
+    } else {
+      f0 = _mm256_cvtph_ps(_mm_loadu_si128(reinterpret_cast<const __m128i*>(h + j)));
+      f1 = _mm256_cvtph_ps(_mm_loadu_si128(reinterpret_cast<const __m128i*>(h + j + 8)));
+    }
+    for (int k = 0; k < K; ++k) {
+      acc0[k] = _mm256_fmadd_ps(f0, _mm256_loadu_ps(x[k] + j), acc0[k]);
+      acc1[k] = _mm256_fmadd_ps(f1, _mm256_loadu_ps(x[k] + j + 8), acc1[k]);
+    }
+  }
+  for (; j < n; j += 8) {  // n is padded to a multiple of 8 in x, not in f: mask the tail
+    alignas(32) float tail[8] = {};
+    const size_t m = std::min<size_t>(8, n - j);
+    for (size_t q = 0; q < m; ++q) tail[q] = f ? f[j + q] : halfToFloat(h[j + q]);
+    const __m256 f0 = _mm256_load_ps(tail);
+    for (int k = 0; k < K; ++k) acc0[k] = _mm256_fmadd_ps(f0, _mm256_loadu_ps(x[k] + j), acc0[k]);
+  }
+  for (int k = 0; k < K; ++k) {
+    alignas(32) float lanes[8];
+    _mm256_store_ps(lanes, _mm256_add_ps(acc0[k], acc1[k]));
+    double s = 0.0;
+    for (float v : lanes) s += double(v);
+    out[k] = s;
+  }
+}
+#endif
+
+template <int K>
+void rowDot(const RadiositySystem& sys, uint32_t i, const float* const* x, double* out) {
+  const size_t n = sys.size(), off = size_t(i) * n;
+  const float* f = sys.precision() == MatrixPrecision::kFp32 ? sys.f32().data() + off : nullptr;
+  const uint16_t* h = f ? nullptr : sys.f16().data() + off;
+#if PENUMBRA_MATRIX_SIMD
+  if (haveSimd()) return rowDotAvx2<K>(f, h, x, n, out);
+#endif
+  rowDotScalar<K>(f, h, x, n, out);
+}
+
+double meanSquaredEmission(const RadiositySystem& sys) {
+  double s = 0.0;
+  for (const glm::vec3& e : sys.emission) s += double(glm::dot(e, e));
+  s /= 3.0 * double(std::max<size_t>(1, sys.emission.size()));
+  return s > 0.0 ? s : 1.0;
+}
+
+}  // namespace
+
+double relativeResidual(const RadiositySystem& sys, std::span<const glm::vec3> b) {
+  std::vector<glm::vec3> next(b.size());
+  return jacobiStep(sys, b, next);
+}
+
+double jacobiStep(const RadiositySystem& sys, std::span<const glm::vec3> b,
+                  std::span<glm::vec3> next) {
+  const uint32_t n = sys.size();
+  PENUMBRA_CHECK(b.size() == n && next.size() == n && sys.reflectance.size() == n &&
+                 sys.emission.size() == n);
+  Channels x;
+  x.load(b, padded(n));
+  const float* xs[3] = {x.c[0].data(), x.c[1].data(), x.c[2].data()};
+  std::vector<double> row_residual(n);
+  parallelRange(n, 16, [&](size_t begin, size_t end) {
+    for (size_t i = begin; i < end; ++i) {
+      double g[3];
+      rowDot<3>(sys, uint32_t(i), xs, g);  // (F B)_i
+      const double fii = double(sys.formFactor(uint32_t(i), uint32_t(i)));
+      double r2 = 0.0;
+      for (int c = 0; c < 3; ++c) {
+        const double rho = sys.reflectance[i][c];
+        // (M B - E)_i = B_i - rho_i (F B)_i - E_i; diag(M)_ii = 1 - rho_i F_ii (eq. 4).
+        const double r = double(b[i][c]) - rho * g[c] - double(sys.emission[i][c]);
+        next[i][c] = float(double(b[i][c]) - r / (1.0 - rho * fii));
+        r2 += r * r;
+      }
+      row_residual[i] = r2;
+    }
+  });
+  double sum = 0.0;
+  for (double r : row_residual) sum += r;
+  return sum / (3.0 * double(std::max<uint32_t>(1, n))) / meanSquaredEmission(sys);
+}
+
+double gaussSeidelSweep(const RadiositySystem& sys, std::span<glm::vec3> b) {
+  const uint32_t n = sys.size();
+  PENUMBRA_CHECK(b.size() == n && sys.reflectance.size() == n && sys.emission.size() == n);
+  // x[0..2]: B at the start of the sweep; x[3..5]: the updates made so far (zero for rows not
+  // yet visited). Row i's sum with the current B is their sum; with the old B alone it gives
+  // the residual of the iterate the sweep started from.
+  Channels old_b, delta;
+  old_b.load(b, padded(n));
+  for (int k = 0; k < 3; ++k) delta.c[k].assign(padded(n), 0.0f);
+  const float* xs[6] = {old_b.c[0].data(), old_b.c[1].data(), old_b.c[2].data(),
+                        delta.c[0].data(), delta.c[1].data(), delta.c[2].data()};
+  double r2 = 0.0;
+  for (uint32_t i = 0; i < n; ++i) {
+    double g[6];
+    rowDot<6>(sys, i, xs, g);
+    const double fii = double(sys.formFactor(i, i));
+    for (int c = 0; c < 3; ++c) {
+      const double rho = sys.reflectance[i][c], e = sys.emission[i][c];
+      const double old = old_b.c[c][i];
+      const double r = old - rho * g[c] - e;
+      r2 += r * r;
+      // B_i = (E_i + rho_i sum_{j != i} F_ij B_j) / (1 - rho_i F_ii), with the current B.
+      const double updated = (e + rho * (g[c] + g[3 + c] - fii * old)) / (1.0 - rho * fii);
+      b[i][c] = float(updated);
+      delta.c[c][i] = float(double(b[i][c]) - old);
+    }
+  }
+  return r2 / (3.0 * double(std::max<uint32_t>(1, n))) / meanSquaredEmission(sys);
+}
+
+SolveStats solveRadiosity(const RadiositySystem& sys, std::vector<glm::vec3>& b,
+                          const SolveOptions& options,
+                          const std::function<void(int, double)>& after_iteration) {
+  const Timer timer;
+  SolveStats stats;
+  PENUMBRA_CHECK(b.size() == sys.size());
+  std::vector<glm::vec3> next(b.size());
+  for (int k = 0; k < options.max_iterations; ++k) {
+    double r;
+    if (options.solver == MatrixSolver::kJacobi) {
+      r = jacobiStep(sys, b, next);
+      b.swap(next);
+    } else {
+      r = gaussSeidelSweep(sys, b);
+    }
+    stats.history.push_back(r);  // residual of iterate k
+    ++stats.iterations;
+    if (after_iteration) after_iteration(k, r);
+    if (r <= options.tolerance) break;
+  }
+  stats.residual = relativeResidual(sys, b);
+  stats.history.push_back(stats.residual);
+  stats.converged = stats.residual <= options.tolerance;
+  stats.seconds = timer.seconds();
+  return stats;
+}
+
+}  // namespace penumbra

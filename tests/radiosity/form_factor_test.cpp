@@ -1,0 +1,124 @@
+// Form factors against closed forms (design doc sec. 6): Lambert's point-to-polygon formula
+// integrated over a receiver, and the matrix of a closed scene (rows sum to 1, reciprocity).
+#include "penumbra/kernels/form_factor.h"
+#include "penumbra/radiosity/elements.h"
+#include "penumbra/radiosity/form_factors.h"
+#include "penumbra/scene/builtin.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+
+namespace penumbra {
+namespace {
+
+// Area-averaged form factor from the unit square [0,1]^2 x {0} (normal +z) to `poly`, by the
+// midpoint rule on a g x g grid (the integrand is smooth in the interior).
+double squareToPolygon(const glm::dvec3* poly, int count, int g) {
+  double sum = 0.0;
+  for (int y = 0; y < g; ++y) {
+    for (int x = 0; x < g; ++x) {
+      const glm::dvec3 p((x + 0.5) / g, (y + 0.5) / g, 0.0);
+      sum += pointToPolygonFormFactor(p, glm::dvec3(0, 0, 1), poly, count);
+    }
+  }
+  return sum / double(g * g);
+}
+
+TEST(FormFactor, ParallelOpposedUnitSquaresOneApart) {
+  const glm::dvec3 top[4] = {{0, 0, 1}, {1, 0, 1}, {1, 1, 1}, {0, 1, 1}};
+  // Closed form (Howell's catalogue, C-11): 0.19982.
+  EXPECT_NEAR(squareToPolygon(top, 4, 64), 0.19982, 0.19982 * 0.005);
+}
+
+TEST(FormFactor, PerpendicularUnitSquaresSharingAnEdge) {
+  const glm::dvec3 wall[4] = {{0, 0, 0}, {0, 1, 0}, {0, 1, 1}, {0, 0, 1}};
+  // Closed form (Howell's catalogue, C-14): 0.20004.
+  EXPECT_NEAR(squareToPolygon(wall, 4, 256), 0.20004, 0.20004 * 0.005);
+}
+
+TEST(FormFactor, DifferentialAreaToCoaxialDisc) {
+  // The disc as a fan of thin triangles: form factors add over the pieces of a surface.
+  for (const auto& [r, h] : {std::pair{1.0, 1.0}, {0.5, 2.0}, {3.0, 0.25}}) {
+    const int m = 720;
+    double sum = 0.0;
+    for (int k = 0; k < m; ++k) {
+      const double a0 = 2.0 * std::numbers::pi * k / m, a1 = 2.0 * std::numbers::pi * (k + 1) / m;
+      // Circumscribed so that the polygon's area equals the disc's to second order.
+      const double rr = r * std::sqrt((2.0 * std::numbers::pi / m) / std::sin(2.0 * std::numbers::pi / m));
+      sum += pointToTriangleFormFactor(glm::dvec3(0), glm::dvec3(0, 0, 1), {0, 0, h},
+                                       {rr * std::cos(a0), rr * std::sin(a0), h},
+                                       {rr * std::cos(a1), rr * std::sin(a1), h});
+    }
+    const double exact = r * r / (h * h + r * r);
+    EXPECT_NEAR(sum, exact, exact * 1e-4) << "r " << r << " h " << h;
+  }
+}
+
+TEST(FormFactor, HorizonClipsWhatIsBelowTheTangentPlane) {
+  // A square standing on the receiver's plane through the point, and the same square extended
+  // below the plane: the part below must not count.
+  const glm::dvec3 x(0.0), n(0, 0, 1);
+  const glm::dvec3 above[4] = {{1, -1, 0}, {1, 1, 0}, {1, 1, 1}, {1, -1, 1}};
+  const glm::dvec3 straddling[4] = {{1, -1, -1}, {1, 1, -1}, {1, 1, 1}, {1, -1, 1}};
+  const double fa = pointToPolygonFormFactor(x, n, above, 4);
+  EXPECT_GT(fa, 0.01);
+  EXPECT_NEAR(pointToPolygonFormFactor(x, n, straddling, 4), fa, 1e-12);
+  // Winding does not matter.
+  const glm::dvec3 reversed[4] = {above[3], above[2], above[1], above[0]};
+  EXPECT_NEAR(pointToPolygonFormFactor(x, n, reversed, 4), fa, 1e-12);
+  // Wholly below: nothing.
+  const glm::dvec3 below[3] = {{0, 0, -1}, {1, 0, -1}, {0, 1, -1}};
+  EXPECT_EQ(pointToPolygonFormFactor(x, n, below, 3), 0.0);
+}
+
+TEST(FormFactor, ClosedCubeRowsSumToOneAndReciprocityHolds) {
+  Expected<Scene> furnace = builtinScene("furnace");
+  ASSERT_TRUE(furnace.ok());
+  MeshingOptions mo;
+  mo.target_elements = 400;
+  Expected<Elements> el = meshElements(*furnace, mo);
+  ASSERT_TRUE(el.ok());
+  struct Case {
+    FormFactorEstimator estimator;
+    int samples;
+  };
+  double asymmetry[3], worst_rows[3];
+  const Case cases[3] = {{FormFactorEstimator::kPointPolygon, 16},
+                         {FormFactorEstimator::kPointPolygon, 64},
+                         {FormFactorEstimator::kMonteCarlo, 16}};
+  for (int c = 0; c < 3; ++c) {
+    FormFactorOptions fo;
+    fo.estimator = cases[c].estimator;
+    fo.samples = cases[c].samples;
+    FormFactorStats stats;
+    Expected<FormFactorMatrix> f = computeFormFactors(*el, fo, &stats);
+    ASSERT_TRUE(f.ok());
+    EXPECT_GT(stats.rays, 0u);
+    double worst_row = 0.0, asym = 0.0, total = 0.0;
+    for (uint32_t i = 0; i < f->n; ++i) {
+      worst_row = std::max(worst_row, std::fabs(f->rowSum(i) - 1.0));
+      for (uint32_t j = 0; j < f->n; ++j) {
+        asym += std::fabs(el->area[i] * (*f)(i, j) - el->area[j] * (*f)(j, i));
+        total += el->area[i] * (*f)(i, j);
+      }
+    }
+    asymmetry[c] = asym / total;
+    worst_rows[c] = worst_row;
+  }
+  // Point-to-polygon: the inner integral is exact and nothing occludes inside a cube, so rows
+  // sum to 1; reciprocity A_i F_ij = A_j F_ji holds up to the outer integral's error (largest
+  // between elements that meet at the cube's edges), which falls with more sample points.
+  EXPECT_LT(worst_rows[0], 2e-3);
+  EXPECT_LT(worst_rows[1], 2e-3);
+  EXPECT_LT(asymmetry[0], 0.03);
+  EXPECT_LT(asymmetry[1], 0.6 * asymmetry[0]);
+  // Area-to-area Monte Carlo: unbiased, but its 1/r^2 kernel makes rows of elements that meet
+  // their neighbours at an edge very noisy: the reason it is not the default.
+  EXPECT_GT(worst_rows[2], 10.0 * worst_rows[0]);
+  EXPECT_LT(asymmetry[2], 0.5);
+}
+
+}  // namespace
+}  // namespace penumbra
