@@ -3,7 +3,7 @@ BUILD ?= build
 JOBS ?= $(shell nproc)
 CMAKE_FLAGS ?= -DCMAKE_BUILD_TYPE=Release
 
-.PHONY: deps configure build demo test bench format clean
+.PHONY: deps configure build demo test bench plots format clean
 
 deps:
 	bash scripts/install-deps.sh
@@ -25,6 +25,10 @@ bench: build
 	mkdir -p bench-out
 	$(BUILD)/bin/ray_bench --benchmark_out=bench-out/ray_bench.json --benchmark_out_format=json
 	$(BUILD)/bin/hybrid_bench --benchmark_out=bench-out/hybrid_bench.json --benchmark_out_format=json
+	$(BUILD)/bin/radiosity_bench --benchmark_out=bench-out/radiosity_bench.json --benchmark_out_format=json
+
+plots:
+	/usr/bin/python3 scripts/plot_matrix_bench.py bench-out/radiosity_bench.json docs/images/matrix_fig4.png
 
 format:
 	clang-format -i $$(git ls-files '*.cpp' '*.h' '*.hpp')

@@ -14,6 +14,8 @@ packages=(
   libepoxy-dev libegl-dev libgl-dev libegl-mesa0 libgl1-mesa-dri libglfw3-dev libimgui-dev
   # tests, benchmarks, and the ray-intersection peer
   libgtest-dev libgmock-dev libbenchmark-dev libembree-dev
+  # plots of benchmark results for the docs (make plots)
+  python3-matplotlib
 )
 
 missing=()

@@ -46,7 +46,8 @@ TEST(FormFactor, DifferentialAreaToCoaxialDisc) {
     for (int k = 0; k < m; ++k) {
       const double a0 = 2.0 * std::numbers::pi * k / m, a1 = 2.0 * std::numbers::pi * (k + 1) / m;
       // Circumscribed so that the polygon's area equals the disc's to second order.
-      const double rr = r * std::sqrt((2.0 * std::numbers::pi / m) / std::sin(2.0 * std::numbers::pi / m));
+      const double rr =
+          r * std::sqrt((2.0 * std::numbers::pi / m) / std::sin(2.0 * std::numbers::pi / m));
       sum += pointToTriangleFormFactor(glm::dvec3(0), glm::dvec3(0, 0, 1), {0, 0, h},
                                        {rr * std::cos(a0), rr * std::sin(a0), h},
                                        {rr * std::cos(a1), rr * std::sin(a1), h});

@@ -21,10 +21,20 @@ TEST(Half, ConversionsMatchIeeeRoundToNearestEven) {
     ASSERT_EQ(floatToHalf(f), uint16_t(h)) << h;
   }
   // Ties and neighbours, against the hardware where there is F16C.
-  const float cases[] = {0.0f,         1.0f,      1.0f + 0x1p-11f, 1.0f + 0x1p-11f + 0x1p-20f,
-                         65504.0f,     65520.0f,  0x1p-24f,        0x1p-25f,
-                         0x1.8p-25f,   0x1p-14f,  0.1f,            0.199823f,
-                         1e-7f,        3e-5f};
+  const float cases[] = {0.0f,
+                         1.0f,
+                         1.0f + 0x1p-11f,
+                         1.0f + 0x1p-11f + 0x1p-20f,
+                         65504.0f,
+                         65520.0f,
+                         0x1p-24f,
+                         0x1p-25f,
+                         0x1.8p-25f,
+                         0x1p-14f,
+                         0.1f,
+                         0.199823f,
+                         1e-7f,
+                         3e-5f};
   for (float c : cases) {
 #if defined(__x86_64__) && defined(__F16C__)
     EXPECT_EQ(floatToHalf(c), _cvtss_sh(c, 0)) << c;
@@ -102,7 +112,43 @@ TEST(MatrixRadiosity, JacobiAndGaussSeidelReachTheSameSolutionAndResidualsFall) 
     }
   }
   // The reported residual is that of the returned solution.
-  EXPECT_NEAR(relativeResidual(*mr->system, mr->radiosity), gs.residual, 1e-15 + gs.residual * 1e-6);
+  EXPECT_NEAR(meanSquaredResidual(*mr->system, mr->radiosity), gs.residual,
+              1e-15 + gs.residual * 1e-6);
+}
+
+// Dynamic relighting: new emissions and reflectances re-solved from the previous solution with
+// the same form factors give the cold solution of the new system, in fewer iterations when the
+// change is small.
+TEST(MatrixRadiosity, RelightingFromThePreviousSolutionMatchesAColdSolve) {
+  Expected<Scene> cornell = builtinScene("cornell");
+  ASSERT_TRUE(cornell.ok());
+  MatrixRadiosityOptions o;
+  o.meshing.target_elements = 400;
+  Expected<MatrixRadiosity> mr = buildMatrixRadiosity(*cornell, o);
+  ASSERT_TRUE(mr.ok());
+  SolveOptions so;
+  so.tolerance = 1e-10;
+  ASSERT_TRUE(mr->solve(so).converged);
+  const std::vector<float> before = mr->system->f32();
+  // Dim the light by 10% and make the red wall a little redder.
+  std::vector<Material> materials = cornell->materials;
+  for (Material& m : materials) {
+    if (m.isEmissive()) m.emission *= 0.9f;
+    if (m.name == "red") m.reflectance.x = 0.7f;
+  }
+  mr->applyMaterials(materials);
+  const SolveStats warm = mr->solve(so);
+  const std::vector<glm::vec3> relit = mr->radiosity;
+  mr->radiosity.assign(relit.size(), glm::vec3(0.0f));
+  const SolveStats cold = mr->solve(so);
+  ASSERT_TRUE(warm.converged && cold.converged);
+  EXPECT_LT(warm.iterations, cold.iterations);
+  EXPECT_EQ(mr->system->f32(), before);  // the form factors were not touched
+  for (size_t e = 0; e < relit.size(); ++e) {
+    for (int c = 0; c < 3; ++c) {
+      EXPECT_NEAR(relit[e][c], mr->radiosity[e][c], 1e-4 * (1.0 + std::fabs(relit[e][c])));
+    }
+  }
 }
 
 }  // namespace

@@ -59,6 +59,45 @@ int parseAndRun(int argc, char** argv) {
                          "exposure in stops before tone mapping");
   render_cmd->add_option("--key", render.tonemap.key,
                          "Reinhard key value (default: estimated from the image)");
+  render_cmd
+      ->add_option("--solver", render.solver,
+                   "matrix: jacobi or gauss-seidel (default: gauss-seidel on the CPU, jacobi "
+                   "on the GPU)")
+      ->check(CLI::IsMember({"jacobi", "gauss-seidel"}));
+  render_cmd->add_option("--elements", render.elements, "matrix: about this many elements")
+      ->check(CLI::Range(1u, 1u << 20))
+      ->capture_default_str();
+  render_cmd->add_option("--iterations", render.iterations, "matrix: iteration cap")
+      ->check(CLI::Range(1, 1 << 20))
+      ->capture_default_str();
+  render_cmd
+      ->add_option("--tolerance", render.tolerance,
+                   "matrix: stop when the mean squared residual of MB - E, relative to the mean "
+                   "squared emission, is below this")
+      ->check(CLI::Range(0.0, 1.0))
+      ->capture_default_str();
+  render_cmd
+      ->add_option("--precision", render.precision,
+                   "matrix: form-factor storage, fp32 or fp16 (as the paper stores them)")
+      ->check(CLI::IsMember({"fp32", "fp16"}))
+      ->capture_default_str();
+  render_cmd
+      ->add_option("--ff-samples", render.ff_samples,
+                   "matrix: sample points per element pair for the form factors")
+      ->check(CLI::Range(1, 1024))
+      ->capture_default_str();
+  render_cmd
+      ->add_option("--relight-frames", render.relight_frames,
+                   "matrix: render this many frames with the emitters' colour changing, "
+                   "re-solving from the previous frame without new form factors "
+                   "(-o out.png writes out_0000.png ...)")
+      ->check(CLI::Range(0, 10000));
+  render_cmd
+      ->add_option("--shading", render.shading,
+                   "matrix: smooth (corner-interpolated radiosity) or flat (one value per "
+                   "element)")
+      ->check(CLI::IsMember({"smooth", "flat"}))
+      ->capture_default_str();
   addCommon(render_cmd, common);
 
   TraceOptions trace;
@@ -97,17 +136,53 @@ int parseAndRun(int argc, char** argv) {
                      "list the OpenGL 4.5 contexts that can be made, with their limits");
   addCommon(info_cmd, common);
 
+  BakeOptions bake;
+  CLI::App* bake_cmd = app.add_subcommand(
+      "bake", "solve radiosity and write a glTF with lightmaps (EXR, PNG) into a directory");
+  bake_cmd->add_option("scene", bake.scene, "built-in scene name or file")->required();
+  bake_cmd->add_option("--method", bake.method, "matrix")->capture_default_str();
+  bake_cmd->add_option("-o,--output", bake.output, "output directory (created if missing)")
+      ->capture_default_str();
+  bake_cmd->add_option("--stats", bake.stats, "write statistics to this JSON file");
+  bake_cmd->add_option("--elements", bake.elements, "about this many radiosity elements")
+      ->check(CLI::Range(1u, 1u << 20))
+      ->capture_default_str();
+  bake_cmd->add_option("--iterations", bake.iterations, "iteration cap")
+      ->check(CLI::Range(1, 1 << 20))
+      ->capture_default_str();
+  bake_cmd
+      ->add_option("--tolerance", bake.tolerance,
+                   "stop when the mean squared residual of MB - E, relative to the mean squared "
+                   "emission, is below this")
+      ->check(CLI::Range(0.0, 1.0))
+      ->capture_default_str();
+  bake_cmd->add_option("--solver", bake.solver, "jacobi or gauss-seidel")
+      ->check(CLI::IsMember({"jacobi", "gauss-seidel"}))
+      ->capture_default_str();
+  bake_cmd->add_option("--ff-samples", bake.ff_samples, "form-factor sample points per pair")
+      ->check(CLI::Range(1, 1024))
+      ->capture_default_str();
+  bake_cmd->add_option("--texel-density", bake.texel_density,
+                       "lightmap texels per metre (default: the most that fit --lightmap-size)");
+  bake_cmd
+      ->add_option("--lightmap-size", bake.lightmap_size,
+                   "lightmap width and height when --texel-density is not given")
+      ->check(CLI::Range(8, 16384))
+      ->capture_default_str();
+  addCommon(bake_cmd, common);
+
   const std::string first = argc > 1 ? argv[1] : "";
-  if (first == "bake" || first == "view") {
+  if (first == "view") {
     std::fprintf(stderr,
                  "penumbra: error: '%s' is not available in this version (commands: "
-                 "render, trace, info)\n",
+                 "render, bake, trace, info)\n",
                  first.c_str());
     return 2;
   }
-  if (!first.empty() && first[0] != '-' && first != "render" && first != "trace" &&
-      first != "info") {
-    std::fprintf(stderr, "penumbra: error: unknown command '%s' (commands: render, trace, info)\n",
+  if (!first.empty() && first[0] != '-' && first != "render" && first != "bake" &&
+      first != "trace" && first != "info") {
+    std::fprintf(stderr,
+                 "penumbra: error: unknown command '%s' (commands: render, bake, trace, info)\n",
                  first.c_str());
     return 2;
   }
@@ -125,6 +200,7 @@ int parseAndRun(int argc, char** argv) {
   initLogging(common.quiet);
   auto thread_limit = limitThreads(common.threads);
   if (render_cmd->parsed()) return runRender(render, common);
+  if (bake_cmd->parsed()) return runBake(bake, common);
   if (trace_cmd->parsed()) return runTrace(trace, common);
   if (info_cmd->parsed()) return runInfo(info, common);
   return 2;

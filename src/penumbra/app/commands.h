@@ -25,6 +25,15 @@ struct RenderOptions {
   std::optional<int> width, height, spp, max_depth;
   std::optional<uint64_t> seed;
   ToneMapSettings tonemap;
+  // --method matrix (Carr, Hall, Hart 2003, sec. 3).
+  std::optional<std::string> solver;  // jacobi or gauss-seidel (default: the device's own)
+  uint32_t elements = 2000;
+  int iterations = 500;     // iteration cap
+  double tolerance = 1e-6;  // mean squared residual of MB - E, (W m^-2)^2
+  std::string precision = "fp32";
+  int ff_samples = 16;     // form-factor sample points per element pair
+  int relight_frames = 0;  // > 1: a sequence of relit frames from one set of form factors
+  std::string shading = "smooth";
 };
 
 struct TraceOptions {
@@ -44,7 +53,25 @@ struct InfoOptions {
   bool devices = false;  // list the OpenGL contexts that can be made instead
 };
 
+// `penumbra bake`: a radiosity solution as files (bake_command.cpp).
+struct BakeOptions {
+  std::string scene;
+  std::string method = "matrix";
+  std::string output = ".";  // -o DIR, created if missing
+  std::string stats;
+  uint32_t elements = 2000;
+  int iterations = 500;     // iteration cap
+  double tolerance = 1e-6;  // mean squared residual of MB - E, (W m^-2)^2
+  std::string solver = "gauss-seidel";
+  int ff_samples = 16;                  // form-factor sample points per element pair
+  std::optional<double> texel_density;  // lightmap texels per metre (default: from the size)
+  int lightmap_size = 1024;             // lightmap width and height without --texel-density
+};
+
 int runRender(const RenderOptions& options, const CommonOptions& common);
+int runBake(const BakeOptions& options, const CommonOptions& common);
+// The methods behind `render` (render_*.cpp).
+Status renderMatrix(const RenderOptions& options, const CommonOptions& common);
 int runTrace(const TraceOptions& options, const CommonOptions& common);
 int runInfo(const InfoOptions& options, const CommonOptions& common);
 

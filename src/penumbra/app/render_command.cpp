@@ -184,15 +184,18 @@ int runRender(const RenderOptions& options, const CommonOptions& common) {
   Status s;
   if (options.method == "pathtrace") {
     s = renderPathTrace(options, common);
-  } else if (options.method == "matrix" || options.method == "progressive" ||
-             options.method == "stochastic" || options.method == "sss" || options.method == "lpv") {
+  } else if (options.method == "matrix") {
+    s = renderMatrix(options, common);
+  } else if (options.method == "progressive" || options.method == "stochastic" ||
+             options.method == "sss" || options.method == "lpv") {
     s = inputError("", "",
                    fmt::format("--method {} is not available in this version (available: "
-                               "pathtrace)",
+                               "pathtrace, matrix)",
                                options.method));
   } else {
-    s = inputError("", "",
-                   fmt::format("unknown --method '{}' (available: pathtrace)", options.method));
+    s = inputError(
+        "", "",
+        fmt::format("unknown --method '{}' (available: pathtrace, matrix)", options.method));
   }
   return s.ok() ? 0 : reportError(s.error());
 }

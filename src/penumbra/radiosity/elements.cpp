@@ -81,8 +81,9 @@ Expected<Elements> meshElements(const Scene& scene, const MeshingOptions& option
   uint64_t count = 0;
   for (size_t t = 0; t < n_tri; ++t) {
     if (!(area[t] > total * 1e-12)) continue;  // degenerate: no element
+    // The level whose element area is nearest the target in ratio (4^k within a factor 2).
     const double ratio = area[t] / target_area;
-    int k = ratio <= 1.0 ? 0 : int(std::ceil(std::log(ratio) / std::log(4.0) - 1e-9));
+    int k = ratio <= 1.0 ? 0 : int(std::lround(std::log(ratio) / std::log(4.0)));
     k = std::clamp(k, 0, options.max_level);
     level[t] = k;
     count += uint64_t(1) << (2 * k);

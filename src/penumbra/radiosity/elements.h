@@ -2,8 +2,9 @@
 // (Carr, Hall, Hart 2003, sec. 3: "constant elements, as are typically used").
 //
 // Each scene triangle is refined regularly, 1 to 4 (edge midpoints) k times, into 4^k elements
-// of equal area; k is chosen per triangle from its area, so elements come out near a target
-// area everywhere (the target is given directly or as a total element count). Points on a
+// of equal area; k is chosen per triangle from its area, so elements come out within a factor
+// of 2 of a target area everywhere (the target is given directly or as a total element count,
+// which is therefore met only approximately). Points on a
 // shared edge are computed from the edge's two end points in a fixed order, so neighbouring
 // triangles refined to the same level share their vertices exactly (vertices are welded by exact
 // position).
@@ -27,7 +28,7 @@ namespace penumbra {
 
 struct MeshingOptions {
   uint32_t target_elements = 1000;  // about this many elements in all (used when max_area <= 0)
-  float max_area = 0.0f;            // or: no element larger than this (m^2)
+  float max_area = 0.0f;            // or: elements of about this area (m^2)
   int max_level = 10;               // refinement levels per scene triangle (4^10 elements)
 };
 

@@ -30,7 +30,10 @@ enum class FormFactorEstimator { kPointPolygon, kMonteCarlo };
 
 struct FormFactorOptions {
   FormFactorEstimator estimator = FormFactorEstimator::kPointPolygon;
-  int samples = 16;        // points per element pair (rounded up to a square for stratification)
+  // Points of element i per pair (rounded up to a square for stratification). Visibility takes
+  // one ray per point for pairs closer than 4 times their sizes, one per 2 x 2 block of points
+  // for farther pairs.
+  int samples = 16;
   bool visibility = true;  // false: no rays, every pair treated as unoccluded
   uint64_t seed = 0;
 };

@@ -44,14 +44,13 @@ Expected<MatrixRadiosity> buildMatrixRadiosity(const Scene& scene,
   if (!elements) return elements.error();
   mr.elements = std::move(*elements);
   const uint64_t n = mr.elements.size();
-  PENUMBRA_TRY(checkMemory(
-      matrixRadiosityBytes(n, options.precision),
-      fmt::format("matrix radiosity with {} elements ({} form factors)", n, n * n)));
-  Expected<FormFactorMatrix> f = computeFormFactors(
-      mr.elements, options.form_factors, &mr.form_factor_stats,
-      [&](size_t done) {
-        if (on_row) on_row(done, size_t(n));
-      });
+  PENUMBRA_TRY(
+      checkMemory(matrixRadiosityBytes(n, options.precision),
+                  fmt::format("matrix radiosity with {} elements ({} form factors)", n, n * n)));
+  Expected<FormFactorMatrix> f = computeFormFactors(mr.elements, options.form_factors,
+                                                    &mr.form_factor_stats, [&](size_t done) {
+                                                      if (on_row) on_row(done, size_t(n));
+                                                    });
   if (!f) return f.error();
   mr.system.emplace(std::move(*f), options.precision);
   mr.applyMaterials(scene.materials);

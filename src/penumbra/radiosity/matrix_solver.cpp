@@ -132,8 +132,7 @@ bool haveSimd() {
 // Row dot products: out[k] += sum_j F_ij x_k[j] for K right-hand vectors (K = 3: one matrix
 // read serves three channels; K = 6: the Gauss-Seidel sweep's old values and updates).
 template <int K>
-void rowDotScalar(const float* f, const uint16_t* h, const float* const* x, size_t n,
-                  double* out) {
+void rowDotScalar(const float* f, const uint16_t* h, const float* const* x, size_t n, double* out) {
   float acc[K] = {};
   for (size_t j = 0; j < n; ++j) {
     const float fij = f ? f[j] : halfToFloat(h[j]);
@@ -193,16 +192,64 @@ void rowDot(const RadiositySystem& sys, uint32_t i, const float* const* x, doubl
   rowDotScalar<K>(f, h, x, n, out);
 }
 
-double meanSquaredEmission(const RadiositySystem& sys) {
-  double s = 0.0;
-  for (const glm::vec3& e : sys.emission) s += double(glm::dot(e, e));
-  s /= 3.0 * double(std::max<size_t>(1, sys.emission.size()));
-  return s > 0.0 ? s : 1.0;
+// Four rows at once, three right-hand vectors (Jacobi): each load of B serves four rows, so the
+// kernel reads little besides the matrix itself (the rows of F stream from memory; B stays in
+// cache). out[r * 3 + k] = sum_j F_{i+r, j} x_k[j].
+void rowsDot4x3Scalar(const RadiositySystem& sys, uint32_t i, const float* const* x, double* out) {
+  for (int r = 0; r < 4; ++r) rowDot<3>(sys, i + uint32_t(r), x, out + 3 * r);
+}
+
+#if PENUMBRA_MATRIX_SIMD
+PENUMBRA_MATRIX_TARGET void rowsDot4x3Avx2(const float* f, const uint16_t* h, size_t stride,
+                                           const float* const* x, size_t n, double* out) {
+  __m256 acc[4][3];
+  for (auto& row : acc) {
+    for (__m256& a : row) a = _mm256_setzero_ps();
+  }
+  const size_t n8 = n / 8 * 8;
+  for (size_t j = 0; j < n8; j += 8) {
+    const __m256 b0 = _mm256_loadu_ps(x[0] + j), b1 = _mm256_loadu_ps(x[1] + j);
+    const __m256 b2 = _mm256_loadu_ps(x[2] + j);
+    for (int r = 0; r < 4; ++r) {
+      const __m256 fr = f ? _mm256_loadu_ps(f + size_t(r) * stride + j)
+                          : _mm256_cvtph_ps(_mm_loadu_si128(
+                                reinterpret_cast<const __m128i*>(h + size_t(r) * stride + j)));
+      acc[r][0] = _mm256_fmadd_ps(fr, b0, acc[r][0]);
+      acc[r][1] = _mm256_fmadd_ps(fr, b1, acc[r][1]);
+      acc[r][2] = _mm256_fmadd_ps(fr, b2, acc[r][2]);
+    }
+  }
+  for (int r = 0; r < 4; ++r) {
+    for (int k = 0; k < 3; ++k) {
+      alignas(32) float lanes[8];
+      _mm256_store_ps(lanes, acc[r][k]);
+      double sum = 0.0;
+      for (float v : lanes) sum += double(v);
+      for (size_t j = n8; j < n; ++j) {
+        const float fij = f ? f[size_t(r) * stride + j] : halfToFloat(h[size_t(r) * stride + j]);
+        sum += double(fij * x[k][j]);
+      }
+      out[r * 3 + k] = sum;
+    }
+  }
+}
+#endif
+
+void rowsDot4x3(const RadiositySystem& sys, uint32_t i, const float* const* x, double* out) {
+#if PENUMBRA_MATRIX_SIMD
+  if (haveSimd()) {
+    const size_t n = sys.size(), off = size_t(i) * n;
+    const float* f = sys.precision() == MatrixPrecision::kFp32 ? sys.f32().data() + off : nullptr;
+    const uint16_t* h = f ? nullptr : sys.f16().data() + off;
+    return rowsDot4x3Avx2(f, h, n, x, n, out);
+  }
+#endif
+  rowsDot4x3Scalar(sys, i, x, out);
 }
 
 }  // namespace
 
-double relativeResidual(const RadiositySystem& sys, std::span<const glm::vec3> b) {
+double meanSquaredResidual(const RadiositySystem& sys, std::span<const glm::vec3> b) {
   std::vector<glm::vec3> next(b.size());
   return jacobiStep(sys, b, next);
 }
@@ -216,25 +263,34 @@ double jacobiStep(const RadiositySystem& sys, std::span<const glm::vec3> b,
   x.load(b, padded(n));
   const float* xs[3] = {x.c[0].data(), x.c[1].data(), x.c[2].data()};
   std::vector<double> row_residual(n);
-  parallelRange(n, 16, [&](size_t begin, size_t end) {
-    for (size_t i = begin; i < end; ++i) {
-      double g[3];
-      rowDot<3>(sys, uint32_t(i), xs, g);  // (F B)_i
-      const double fii = double(sys.formFactor(uint32_t(i), uint32_t(i)));
-      double r2 = 0.0;
-      for (int c = 0; c < 3; ++c) {
-        const double rho = sys.reflectance[i][c];
-        // (M B - E)_i = B_i - rho_i (F B)_i - E_i; diag(M)_ii = 1 - rho_i F_ii (eq. 4).
-        const double r = double(b[i][c]) - rho * g[c] - double(sys.emission[i][c]);
-        next[i][c] = float(double(b[i][c]) - r / (1.0 - rho * fii));
-        r2 += r * r;
+  // Blocks of four rows (the last block may be shorter).
+  parallelRange((n + 3) / 4, 4, [&](size_t block_begin, size_t block_end) {
+    for (size_t blk = block_begin; blk < block_end; ++blk) {
+      double g4[12];
+      const size_t first = blk * 4, rows = std::min<size_t>(4, n - first);
+      if (rows == 4) {
+        rowsDot4x3(sys, uint32_t(first), xs, g4);
+      } else {
+        for (size_t r = 0; r < rows; ++r) rowDot<3>(sys, uint32_t(first + r), xs, g4 + 3 * r);
       }
-      row_residual[i] = r2;
+      for (size_t i = first; i < first + rows; ++i) {
+        const double* g = g4 + 3 * (i - first);  // (F B)_i
+        const double fii = double(sys.formFactor(uint32_t(i), uint32_t(i)));
+        double r2 = 0.0;
+        for (int c = 0; c < 3; ++c) {
+          const double rho = sys.reflectance[i][c];
+          // (M B - E)_i = B_i - rho_i (F B)_i - E_i; diag(M)_ii = 1 - rho_i F_ii (eq. 4).
+          const double r = double(b[i][c]) - rho * g[c] - double(sys.emission[i][c]);
+          next[i][c] = float(double(b[i][c]) - r / (1.0 - rho * fii));
+          r2 += r * r;
+        }
+        row_residual[i] = r2;
+      }
     }
   });
   double sum = 0.0;
   for (double r : row_residual) sum += r;
-  return sum / (3.0 * double(std::max<uint32_t>(1, n))) / meanSquaredEmission(sys);
+  return sum / (3.0 * double(std::max<uint32_t>(1, n)));
 }
 
 double gaussSeidelSweep(const RadiositySystem& sys, std::span<glm::vec3> b) {
@@ -264,7 +320,7 @@ double gaussSeidelSweep(const RadiositySystem& sys, std::span<glm::vec3> b) {
       delta.c[c][i] = float(double(b[i][c]) - old);
     }
   }
-  return r2 / (3.0 * double(std::max<uint32_t>(1, n))) / meanSquaredEmission(sys);
+  return r2 / (3.0 * double(std::max<uint32_t>(1, n)));
 }
 
 SolveStats solveRadiosity(const RadiositySystem& sys, std::vector<glm::vec3>& b,
@@ -287,7 +343,7 @@ SolveStats solveRadiosity(const RadiositySystem& sys, std::vector<glm::vec3>& b,
     if (after_iteration) after_iteration(k, r);
     if (r <= options.tolerance) break;
   }
-  stats.residual = relativeResidual(sys, b);
+  stats.residual = meanSquaredResidual(sys, b);
   stats.history.push_back(stats.residual);
   stats.converged = stats.residual <= options.tolerance;
   stats.seconds = timer.seconds();

@@ -10,9 +10,8 @@
 //  - Gauss-Seidel: B_i = (E_i + rho_i sum_{j != i} F_ij B_j) / (1 - rho_i F_ii), in place, row
 //    after row (inherently sequential: one core, vectorised rows).
 //
-// Convergence is measured as in the paper's Fig. 3, by the mean squared residual of M B - E;
-// here divided by the mean squared emission, so that the tolerance does not depend on the
-// scene's units: residual = mean_{i,c} (M B - E)_{i,c}^2 / mean_{i,c} E_{i,c}^2. Both solvers
+// Convergence is measured as in the paper's Fig. 3, by the mean squared residual of M B - E over
+// elements and channels, in (W m^-2)^2: residual = mean_{i,c} (M B - E)_{i,c}^2. Both solvers
 // get it without an extra pass: Jacobi's matrix-vector product is M B itself, and the
 // Gauss-Seidel sweep accumulates, from the same reads of F, the row sums with the old B as well
 // as with the updates made so far in the sweep.
@@ -68,20 +67,19 @@ class RadiositySystem {
 struct SolveOptions {
   MatrixSolver solver = MatrixSolver::kGaussSeidel;
   int max_iterations = 500;
-  double tolerance = 1e-6;  // stop when the relative mean squared residual is below this
+  double tolerance = 1e-6;  // stop when the mean squared residual ((W m^-2)^2) is below this
 };
 
 struct SolveStats {
   int iterations = 0;
-  double residual = 0.0;         // of the returned B
-  bool converged = false;        // residual <= tolerance
-  std::vector<double> history;   // history[k]: residual of the k-th iterate (history[0]: start)
+  double residual = 0.0;        // of the returned B
+  bool converged = false;       // residual <= tolerance
+  std::vector<double> history;  // history[k]: residual of the k-th iterate (history[0]: start)
   double seconds = 0.0;
 };
 
-// Mean squared residual of M B - E relative to the mean squared emission (1 when E = 0 and
-// B != 0 is not meaningful: then it is the plain mean squared residual).
-double relativeResidual(const RadiositySystem& system, std::span<const glm::vec3> b);
+// Mean squared residual of M B - E over elements and channels ((W m^-2)^2).
+double meanSquaredResidual(const RadiositySystem& system, std::span<const glm::vec3> b);
 
 // One Jacobi iteration (eq. 4): writes B' to `next` and returns the residual of `b`.
 double jacobiStep(const RadiositySystem& system, std::span<const glm::vec3> b,

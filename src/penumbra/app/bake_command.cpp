@@ -1,0 +1,302 @@
+// `penumbra bake SCENE --method matrix -o DIR`: solves matrix radiosity (Carr, Hall, Hart 2003,
+// sec. 3) and writes the solution as files other tools read: the element mesh with per-corner
+// radiance as glTF, and a lightmap atlas resampled from the elements (sec. 3.1) as EXR (exact,
+// linear) and PNG (tone mapped, referenced by the glTF). Conventions: docs/algorithms.md,
+// "Baked output".
+//
+// All outputs are staged in a hidden directory inside DIR and renamed into place only once every
+// file is complete, so a failed run leaves no output (and removes DIR if it created it).
+#include "penumbra/app/commands.h"
+#include "penumbra/app/stats_file.h"
+#include "penumbra/core/file_util.h"
+#include "penumbra/core/parallel.h"
+#include "penumbra/core/progress.h"
+#include "penumbra/core/timer.h"
+#include "penumbra/geometry/lightmap_atlas.h"
+#include "penumbra/io/gltf_writer.h"
+#include "penumbra/io/image_io.h"
+#include "penumbra/io/scene_io.h"
+#include "penumbra/radiosity/matrix_radiosity.h"
+#include "penumbra/render/element_lightmap.h"
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <mutex>
+#include <optional>
+
+namespace penumbra {
+
+namespace {
+
+namespace fs = std::filesystem;
+
+// "cornell" for a built-in name, "room" for "scenes/room.json".
+std::string sceneStem(const std::string& scene) {
+  const fs::path p(scene);
+  return p.has_extension() ? p.stem().string() : p.filename().string();
+}
+
+fs::path normalDirectory(const std::string& dir) {
+  fs::path p = fs::path(dir).lexically_normal();
+  if (p.filename().empty() && p.has_parent_path()) p = p.parent_path();  // "out/" -> "out"
+  return p.empty() ? fs::path(".") : p;
+}
+
+// The directories `dir` needs created, outermost first (empty when it exists); an input error
+// when it exists as something else or cannot be created or written.
+Expected<std::vector<fs::path>> checkOutputDirectory(const std::string& dir) {
+  std::error_code ec;
+  fs::path p = normalDirectory(dir);
+  std::vector<fs::path> missing;
+  while (!fs::exists(p, ec)) {
+    missing.insert(missing.begin(), p);
+    if (!p.has_parent_path() || p.parent_path() == p) {
+      p = ".";
+      break;
+    }
+    p = p.parent_path();
+  }
+  if (!fs::is_directory(p, ec)) {
+    return inputError(dir, "",
+                      missing.empty() ? std::string("exists and is not a directory")
+                                      : fmt::format("cannot create the output directory: '{}' is "
+                                                    "not a directory",
+                                                    p.string()));
+  }
+  if (::access(p.c_str(), W_OK | X_OK) != 0) {
+    return inputError(
+        dir, "",
+        missing.empty()
+            ? std::string("the output directory is not writable")
+            : fmt::format("cannot create the output directory: '{}' is not writable", p.string()));
+  }
+  return missing;
+}
+
+// Undoes a partial bake: the staging directory, files already moved into place, directories this
+// run created (only if empty).
+struct Cleanup {
+  fs::path staging;
+  std::vector<fs::path> placed;
+  std::vector<fs::path> created;  // outermost first
+  bool done = false;
+  ~Cleanup() {
+    std::error_code ec;
+    if (!staging.empty()) fs::remove_all(staging, ec);
+    if (done) return;
+    for (const fs::path& f : placed) fs::remove(f, ec);
+    for (auto it = created.rbegin(); it != created.rend(); ++it) fs::remove(*it, ec);
+  }
+};
+
+// COLOR_0 = min(1, scale * radiance): 1 at the 99th percentile of the brightest channel of the
+// non-emissive elements' radiance (emitters, a few hot spots and the light's neighbourhood clip).
+float colorScale(const MatrixRadiosity& mr, std::span<const Material> materials) {
+  std::vector<float> peaks;
+  for (int pass = 0; pass < 2 && peaks.empty(); ++pass) {
+    for (size_t e = 0; e < mr.elements.size(); ++e) {
+      if (pass == 0 && materials[mr.elements.material[e]].isEmissive()) continue;
+      const glm::vec3 l = mr.radiosity[e] / 3.14159265358979f;
+      const float peak = std::max({l.x, l.y, l.z});
+      if (peak > 0.0f && std::isfinite(peak)) peaks.push_back(peak);
+    }
+  }
+  if (peaks.empty()) return 1.0f;
+  const size_t k = std::min(peaks.size() - 1, size_t(0.99 * double(peaks.size())));
+  std::nth_element(peaks.begin(), peaks.begin() + std::ptrdiff_t(k), peaks.end());
+  return 1.0f / peaks[k];
+}
+
+Status bakeMatrix(const BakeOptions& options, const CommonOptions& common) {
+  // Everything is checked before any work or output.
+  if (options.texel_density &&
+      !(*options.texel_density > 0.0 && std::isfinite(*options.texel_density))) {
+    return inputError("", "--texel-density", "must be a positive number of texels per metre");
+  }
+  Expected<std::vector<fs::path>> missing = checkOutputDirectory(options.output);
+  if (!missing) return missing.error();
+  const fs::path out_dir = normalDirectory(options.output);
+  if (!options.stats.empty()) {
+    const fs::path stats_dir = fs::path(options.stats).parent_path();
+    const bool into_new_dir = !missing->empty() && !stats_dir.empty() &&
+                              stats_dir.lexically_normal() == out_dir.lexically_normal();
+    if (!into_new_dir) PENUMBRA_TRY(checkOutputPath(options.stats));
+  }
+  // The staging directory is made now, as the test that DIR can be created and written (access()
+  // says yes to root everywhere, even on read-only file systems); a failed run removes it, and
+  // DIR if this run created it.
+  Cleanup cleanup;
+  cleanup.created = *missing;
+  std::error_code ec;
+  fs::create_directories(out_dir, ec);
+  if (ec) return inputError(options.output, "", "cannot create the directory: " + ec.message());
+  cleanup.staging = out_dir / fmt::format(".penumbra-bake-{}", ::getpid());
+  fs::create_directory(cleanup.staging, ec);
+  if (ec) return inputError(options.output, "", "cannot write into the directory: " + ec.message());
+
+  const Timer total_timer;
+  Expected<Scene> scene = loadScene(options.scene);
+  if (!scene) return scene.error();
+  for (const std::string& w : scene->warnings) spdlog::warn("{}", w);
+  if (!scene->lights.empty()) {
+    spdlog::warn(
+        "{}: {} point/spot/directional light(s) ignored: matrix radiosity is lit by emissive "
+        "surfaces only",
+        scene->source, scene->lights.size());
+  }
+  bool any_emitter = false;
+  for (const Material& m : scene->materials) any_emitter |= m.isEmissive();
+  if (!any_emitter) spdlog::warn("{}: no emissive material: the solution is black", scene->source);
+  const std::string stem = sceneStem(options.scene);
+
+  // The atlas first: it is cheap, and its options can still be wrong.
+  const Timer atlas_timer;
+  const FlatTriangles flat = flattenScene(*scene);
+  AtlasOptions ao;
+  ao.texel_density = options.texel_density.value_or(0.0);
+  ao.resolution = options.lightmap_size;
+  Expected<LightmapAtlas> atlas = buildLightmapAtlas(flat.positions, flat.triangles, ao);
+  if (!atlas) return atlas.error();
+  double atlas_seconds = atlas_timer.seconds();
+
+  MatrixRadiosityOptions mo;
+  mo.meshing.target_elements = options.elements;
+  mo.form_factors.samples = options.ff_samples;
+  std::optional<Progress> ff_progress;
+  std::once_flag ff_progress_once;
+  Expected<MatrixRadiosity> built = buildMatrixRadiosity(*scene, mo, [&](size_t done, size_t rows) {
+    std::call_once(ff_progress_once, [&] {
+      ff_progress.emplace("form factors", uint64_t(rows),
+                          !common.quiet && Progress::stderrIsTerminal());
+    });
+    ff_progress->reach(done);
+  });
+  if (ff_progress) ff_progress->finish();
+  if (!built) return built.error();
+  MatrixRadiosity& mr = *built;
+  const size_t n = mr.elements.size();
+  spdlog::info("{}: {} elements, form factors in {:.2f} s ({} rays)", scene->source, n,
+               mr.form_factor_stats.seconds, mr.form_factor_stats.rays);
+
+  SolveOptions so;
+  so.solver = options.solver == "jacobi" ? MatrixSolver::kJacobi : MatrixSolver::kGaussSeidel;
+  so.max_iterations = options.iterations;
+  so.tolerance = options.tolerance;
+  Progress progress("solving", uint64_t(so.max_iterations),
+                    !common.quiet && Progress::stderrIsTerminal());
+  const SolveStats solved = mr.solve(so, [&](int k, double) { progress.reach(uint64_t(k + 1)); });
+  progress.finish();
+  if (!solved.converged) {
+    spdlog::warn("not converged: residual {:.3g} after {} iterations (tolerance {:.3g})",
+                 solved.residual, solved.iterations, so.tolerance);
+  }
+  spdlog::info("{} iterations ({}), residual {:.3g}, {:.3f} s", solved.iterations,
+               matrixSolverName(so.solver), solved.residual, solved.seconds);
+
+  // The display path of sec. 3.1: smooth corner radiance, resampled into the atlas.
+  const Timer resample_timer;
+  const std::vector<glm::vec3> corners = mr.cornerRadiance();
+  const Image lightmap = rasterizeElementLightmap(*atlas, mr.elements, corners);
+  const BakedMesh mesh = buildBakedMesh(*scene, mr.elements, *atlas, corners);
+  const float color_scale = colorScale(mr, scene->materials);
+  const double resample_seconds = resample_timer.seconds();
+  atlas_seconds += resample_seconds;
+  const double seconds = total_timer.seconds();
+
+  // Output: staged, then moved into place.
+  const std::string gltf_name = stem + ".gltf", bin_name = stem + ".bin",
+                    exr_name = stem + "_lightmap.exr", png_name = stem + "_lightmap.png";
+  PENUMBRA_TRY(writeImage((cleanup.staging / exr_name).string(), lightmap));
+  PENUMBRA_TRY(writeImage((cleanup.staging / png_name).string(), lightmap, ToneMapSettings{}));
+  BakedGltfInfo info;
+  info.name = stem;
+  info.bin_uri = bin_name;
+  info.lightmap_uri = png_name;
+  info.color_0_scale = color_scale;
+  info.extras = {
+      {"method", "matrix"},
+      {"scene", scene->source},
+      {"units", {{"length", "m"}, {"radiance", "W m^-2 sr^-1"}}},
+      {"radiance_attribute", "_RADIANCE"},
+      {"color_0", "min(1, color_0_scale * _RADIANCE) per channel, linear"},
+      {"lightmap",
+       {{"texcoord", 1},
+        {"width", atlas->width},
+        {"height", atlas->height},
+        {"texel_density", atlas->texel_density},
+        {"exr", exr_name},
+        {"png", png_name},
+        {"exr_content", "outgoing radiance B/pi, W m^-2 sr^-1, linear Rec. 709 RGB"},
+        {"png_content",
+         "the EXR tone mapped (Reinhard 2002, automatic key), sRGB encoded; for display"}}},
+      {"elements", n},
+      {"iterations", solved.iterations},
+      {"residual", solved.residual}};
+  PENUMBRA_TRY(
+      writeBakedGltf((cleanup.staging / gltf_name).string(), mesh, scene->materials, info));
+
+  if (!options.stats.empty()) {
+    nlohmann::json j = {{"method", "matrix"},
+                        {"device", "cpu"},
+                        {"scene", scene->source},
+                        {"seconds", seconds},
+                        {"solver", matrixSolverName(so.solver)},
+                        {"elements", n},
+                        {"form_factor_seconds", mr.form_factor_stats.seconds},
+                        {"form_factor_rays", mr.form_factor_stats.rays},
+                        {"rays", mr.form_factor_stats.rays},
+                        {"solve_seconds", solved.seconds},
+                        {"atlas_seconds", atlas_seconds},
+                        {"iterations", solved.iterations},
+                        {"residual", solved.residual},
+                        {"converged", solved.converged},
+                        {"tolerance", so.tolerance},
+                        {"history", solved.history},
+                        {"threads", threadCount()},
+                        {"atlas",
+                         {{"width", atlas->width},
+                          {"height", atlas->height},
+                          {"texel_density", atlas->texel_density},
+                          {"triangles", atlas->charts.size()}}},
+                        {"color_0_scale", color_scale},
+                        {"outputs",
+                         {(out_dir / gltf_name).string(), (out_dir / bin_name).string(),
+                          (out_dir / exr_name).string(), (out_dir / png_name).string()}}};
+    PENUMBRA_TRY(writeStatsFile(options.stats, j));
+    cleanup.placed.push_back(options.stats);
+  }
+  // The glTF last: what it references is in place before it is.
+  for (const std::string& name : {bin_name, exr_name, png_name, gltf_name}) {
+    fs::rename(cleanup.staging / name, out_dir / name, ec);
+    if (ec) return runtimeError((out_dir / name).string(), "cannot write: " + ec.message());
+    cleanup.placed.push_back(out_dir / name);
+  }
+  cleanup.done = true;
+  spdlog::info("baked in {:.2f} s: {} ({}x{} lightmap, {:.0f} texels/m)", total_timer.seconds(),
+               (out_dir / gltf_name).string(), atlas->width, atlas->height, atlas->texel_density);
+  return {};
+}
+
+}  // namespace
+
+int runBake(const BakeOptions& options, const CommonOptions& common) {
+  Status s;
+  if (options.method == "matrix") {
+    s = bakeMatrix(options, common);
+  } else if (options.method == "progressive" || options.method == "stochastic") {
+    s = inputError(
+        "", "--method",
+        fmt::format("{} is not available in this version (available: matrix)", options.method));
+  } else {
+    s = inputError("", "--method",
+                   fmt::format("unknown method '{}' (available: matrix)", options.method));
+  }
+  return s.ok() ? 0 : reportError(s.error());
+}
+
+}  // namespace penumbra

@@ -1,0 +1,240 @@
+// `penumbra render --method matrix`: matrix radiosity (Carr, Hall, Hart 2003, sec. 3) on the
+// scene's elements, viewed from the camera with smooth interpolation, optionally as a sequence
+// of relit frames (dynamic relighting: the form factors are computed once).
+#include "penumbra/app/commands.h"
+#include "penumbra/app/device.h"
+#include "penumbra/app/stats_file.h"
+#include "penumbra/core/file_util.h"
+#include "penumbra/core/memory.h"
+#include "penumbra/core/parallel.h"
+#include "penumbra/core/progress.h"
+#include "penumbra/core/timer.h"
+#include "penumbra/io/image_io.h"
+#include "penumbra/io/scene_io.h"
+#include "penumbra/radiosity/jacobi_gl.h"
+#include "penumbra/radiosity/matrix_radiosity.h"
+#include "penumbra/render/element_view.h"
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include <cmath>
+#include <filesystem>
+#include <mutex>
+#include <optional>
+
+namespace penumbra {
+
+namespace {
+
+// out.png -> out_0007.png
+std::string frameName(const std::string& path, int frame) {
+  const std::filesystem::path p(path);
+  std::filesystem::path out = p.parent_path();
+  out /= fmt::format("{}_{:04d}{}", p.stem().string(), frame, p.extension().string());
+  return out.string();
+}
+
+// The emitters' colour in frame f of n: a tint that goes once around the hue circle, with the
+// same mean over the sequence as the scene's own emission.
+glm::vec3 relightTint(int f, int n) {
+  const float a = 2.0f * 3.14159265f * float(f) / float(n);
+  return glm::vec3(1.0f + 0.8f * std::cos(a), 1.0f + 0.8f * std::cos(a - 2.0943951f),
+                   1.0f + 0.8f * std::cos(a + 2.0943951f));
+}
+
+}  // namespace
+
+Status renderMatrix(const RenderOptions& options, const CommonOptions& common) {
+  std::vector<std::string> outputs = options.outputs;
+  if (outputs.empty()) {
+    const std::filesystem::path p(options.scene);
+    outputs.push_back((p.has_extension() ? p.stem().string() : options.scene) + ".png");
+  }
+  const int frames = options.relight_frames > 1 ? options.relight_frames : 1;
+  for (const std::string& out : outputs) {
+    if (!isSupportedImageExtension(out)) {
+      return inputError(out, "",
+                        fmt::format("unsupported image format '{}' (use .exr, .hdr, .pfm or .png)",
+                                    extensionOf(out)));
+    }
+    PENUMBRA_TRY(checkOutputPath(frames > 1 ? frameName(out, 0) : out));
+  }
+  if (!options.stats.empty()) PENUMBRA_TRY(checkOutputPath(options.stats));
+  if (options.max_depth) {
+    return inputError("", "--max-depth", "applies to --method pathtrace only");
+  }
+  const int width = options.width.value_or(512), height = options.height.value_or(512);
+  const int spp = options.spp.value_or(4);
+  if (width < 1 || width > (1 << 16) || height < 1 || height > (1 << 16)) {
+    return inputError("", "--width/--height", "must be in [1, 65536]");
+  }
+  if (spp < 1 || spp > 4096) return inputError("", "--spp", "must be in [1, 4096]");
+  PENUMBRA_TRY(checkMemory(uint64_t(width) * uint64_t(height) * 40,
+                           fmt::format("a {}x{} image", width, height)));
+
+  const Timer total_timer;
+  Expected<Scene> scene = loadScene(options.scene);
+  if (!scene) return scene.error();
+  for (const std::string& w : scene->warnings) spdlog::warn("{}", w);
+  if (!scene->lights.empty()) {
+    spdlog::warn(
+        "{}: {} point/spot/directional light(s) ignored: matrix radiosity is lit by "
+        "emissive surfaces only",
+        scene->source, scene->lights.size());
+  }
+  bool any_emitter = false;
+  for (const Material& m : scene->materials) any_emitter |= m.isEmissive();
+  if (!any_emitter) spdlog::warn("{}: no emissive material: the solution is black", scene->source);
+
+  MatrixRadiosityOptions mo;
+  mo.meshing.target_elements = options.elements;
+  mo.form_factors.samples = options.ff_samples;
+  mo.form_factors.seed = options.seed.value_or(0);
+  mo.precision = options.precision == "fp16" ? MatrixPrecision::kFp16 : MatrixPrecision::kFp32;
+  {
+    // Refuse an N^2 system that will not fit before anything else (meshing alone is cheap).
+    Expected<Elements> elements = meshElements(*scene, mo.meshing);
+    if (!elements) return elements.error();
+    const uint64_t n = elements->size();
+    PENUMBRA_TRY(
+        checkMemory(matrixRadiosityBytes(n, mo.precision),
+                    fmt::format("matrix radiosity with {} elements ({} form factors)", n, n * n)));
+  }
+
+  Expected<DeviceChoice> device = chooseDevice(options.device);
+  if (!device) return device.error();
+  const bool gpu = device->device == Device::kGpu;
+  const MatrixSolver solver =
+      options.solver
+          ? (*options.solver == "jacobi" ? MatrixSolver::kJacobi : MatrixSolver::kGaussSeidel)
+          : (gpu ? MatrixSolver::kJacobi : MatrixSolver::kGaussSeidel);
+  if (gpu && solver != MatrixSolver::kJacobi) {
+    return inputError("", "--solver",
+                      "gauss-seidel is sequential and runs on the CPU only (use --device cpu, "
+                      "or --solver jacobi on the GPU)");
+  }
+
+  // Elements first (cheap), so that the N^2 memory check names the real element count.
+  const Timer build_timer;
+  std::optional<Progress> ff_progress;
+  std::once_flag ff_progress_once;
+  Expected<MatrixRadiosity> built = buildMatrixRadiosity(*scene, mo, [&](size_t done, size_t rows) {
+    std::call_once(ff_progress_once, [&] {
+      ff_progress.emplace("form factors", uint64_t(rows),
+                          !common.quiet && Progress::stderrIsTerminal());
+    });
+    ff_progress->reach(done);
+  });
+  if (ff_progress) ff_progress->finish();
+  if (!built) return built.error();
+  MatrixRadiosity& mr = *built;
+  const double build_seconds = build_timer.seconds();
+  const size_t n = mr.elements.size();
+  spdlog::info("{}: {} elements, {:.3g} M form factors in {:.2f} s ({:.1f} M pairs/s, {} rays)",
+               scene->source, n, double(n) * double(n) * 1e-6, mr.form_factor_stats.seconds,
+               double(mr.form_factor_stats.pairs) / mr.form_factor_stats.seconds * 1e-6,
+               mr.form_factor_stats.rays);
+
+  std::optional<GlJacobi> gl;
+  if (gpu) {
+    Expected<GlJacobi> g = GlJacobi::create(*mr.system);
+    if (!g) return g.error();
+    gl.emplace(std::move(*g));
+  }
+
+  const Camera camera = scene->camera ? *scene->camera : defaultCamera(*scene);
+  ElementViewSettings view;
+  view.width = width;
+  view.height = height;
+  view.spp = spp;
+  view.seed = options.seed.value_or(0);
+  std::vector<Material> materials = scene->materials;
+  nlohmann::json frame_stats = nlohmann::json::array();
+  SolveStats last;
+  double solve_seconds = 0.0, view_seconds = 0.0;
+  for (int f = 0; f < frames; ++f) {
+    if (frames > 1) {
+      const glm::vec3 tint = relightTint(f, frames);
+      for (size_t m = 0; m < materials.size(); ++m) {
+        materials[m].emission = scene->materials[m].emission * tint;
+      }
+      mr.applyMaterials(materials);
+      if (gl) PENUMBRA_TRY(gl->setMaterials(mr.system->reflectance, mr.system->emission));
+    }
+    SolveOptions so;
+    so.solver = solver;
+    so.max_iterations = options.iterations;
+    so.tolerance = options.tolerance;
+    Progress progress(frames > 1 ? fmt::format("solving frame {}", f) : std::string("solving"),
+                      uint64_t(so.max_iterations), !common.quiet && Progress::stderrIsTerminal());
+    auto on_iteration = [&](int k, double) { progress.reach(uint64_t(k + 1)); };
+    if (gl) {
+      Expected<SolveStats> s = gl->solve(mr.radiosity, so, on_iteration);
+      if (!s) return s.error();
+      last = std::move(*s);
+    } else {
+      last = mr.solve(so, on_iteration);
+    }
+    progress.finish();
+    solve_seconds += last.seconds;
+    if (!last.converged) {
+      spdlog::warn("not converged: residual {:.3g} after {} iterations (tolerance {:.3g})",
+                   last.residual, last.iterations, so.tolerance);
+    }
+    const Timer view_timer;
+    std::vector<glm::vec3> corners;
+    if (options.shading == "smooth") {
+      corners = mr.cornerRadiance();
+    } else {
+      corners.resize(3 * n);
+      for (size_t e = 0; e < n; ++e) {
+        corners[3 * e] = corners[3 * e + 1] = corners[3 * e + 2] = mr.radiosity[e] / 3.14159265f;
+      }
+    }
+    const Image image = renderElementView(mr.elements, corners, camera, view);
+    view_seconds += view_timer.seconds();
+    for (const std::string& out : outputs) {
+      PENUMBRA_TRY(writeImage(frames > 1 ? frameName(out, f) : out, image, options.tonemap));
+    }
+    spdlog::info("{}{} iterations ({}), residual {:.3g}, {:.3f} s",
+                 frames > 1 ? fmt::format("frame {}: ", f) : "", last.iterations,
+                 matrixSolverName(solver), last.residual, last.seconds);
+    frame_stats.push_back({{"iterations", last.iterations},
+                           {"residual", last.residual},
+                           {"converged", last.converged},
+                           {"seconds", last.seconds}});
+  }
+
+  if (!options.stats.empty()) {
+    nlohmann::json j = {{"method", "matrix"},
+                        {"device", device->name()},
+                        {"scene", scene->source},
+                        {"seconds", total_timer.seconds()},
+                        {"solver", matrixSolverName(solver)},
+                        {"precision", matrixPrecisionName(mo.precision)},
+                        {"elements", n},
+                        {"matrix_bytes", mr.system->matrixBytes()},
+                        {"form_factor_seconds", mr.form_factor_stats.seconds},
+                        {"form_factor_pairs", mr.form_factor_stats.pairs},
+                        {"form_factor_rays", mr.form_factor_stats.rays},
+                        {"rays", mr.form_factor_stats.rays},
+                        {"build_seconds", build_seconds},
+                        {"solve_seconds", solve_seconds},
+                        {"view_seconds", view_seconds},
+                        {"iterations", last.iterations},
+                        {"residual", last.residual},
+                        {"converged", last.converged},
+                        {"tolerance", options.tolerance},
+                        {"history", last.history},
+                        {"threads", threadCount()},
+                        {"width", width},
+                        {"height", height},
+                        {"spp", spp}};
+    if (frames > 1) j["frames"] = frame_stats;
+    PENUMBRA_TRY(writeStatsFile(options.stats, j));
+  }
+  return {};
+}
+
+}  // namespace penumbra
