@@ -150,7 +150,9 @@ class Reporter : public benchmark::ConsoleReporter {
  public:
   void ReportRuns(const std::vector<Run>& runs) override {
     for (const Run& r : runs) {
+      // Medians of repeated benchmarks, single runs of the others.
       if (r.run_type == Run::RT_Aggregate && r.aggregate_name != "median") continue;
+      if (r.run_type != Run::RT_Aggregate && r.repetitions > 1) continue;
       Entry& e = entries[r.run_name.str()];
       auto bytes = r.counters.find("bytes_per_second");
       auto items = r.counters.find("items_per_second");

@@ -20,6 +20,8 @@ def medians(report):
     for b in report["benchmarks"]:
         if b.get("run_type") == "aggregate" and b.get("aggregate_name") != "median":
             continue
+        if b.get("run_type") == "iteration" and b.get("repetitions", 1) > 1:
+            continue
         name = b.get("run_name", b["name"])
         if "items_per_second" in b:
             out[name] = b["items_per_second"]
@@ -38,9 +40,9 @@ def series(rates, pattern):
 def main():
     report = json.load(open(sys.argv[1]))
     rates = medians(report)
-    jacobi = series(rates, r"jacobi/n:(\d+)/fp16:0/real_time")
-    jacobi16 = series(rates, r"jacobi/n:(\d+)/fp16:1/real_time")
-    gs = series(rates, r"gaussSeidel/n:(\d+)/real_time")
+    jacobi = series(rates, r"jacobi/n:(\d+)/fp16:0(?:/repeats:\d+)?/real_time")
+    jacobi16 = series(rates, r"jacobi/n:(\d+)/fp16:1(?:/repeats:\d+)?/real_time")
+    gs = series(rates, r"gaussSeidel/n:(\d+)(?:/repeats:\d+)?/real_time")
     fig, ax = plt.subplots(figsize=(6.4, 4.2), dpi=120)
     for pts, label, style in ((jacobi, "Jacobi, fp32, 2 threads", "o-"),
                               (jacobi16, "Jacobi, fp16, 2 threads", "s--"),

@@ -57,6 +57,43 @@ TEST(Cli, RenderFurnaceWritesImagesAndStatsWithTheExactRadiance) {
   EXPECT_GT(stats["mrays_per_s"].get<double>(), 0.0);
 }
 
+// Matrix radiosity end to end: the furnace's radiance is E / (1 - rho) / pi = 2 in every pixel,
+// the stats carry the solver's history, and a relit sequence writes one file per frame.
+TEST(Cli, MatrixRadiosityRendersTheFurnaceAndRelitFrames) {
+  TempDir dir;
+  const auto r = runCli(
+      "render furnace --method matrix --elements 200 --width 16 --height 16 "
+      "--quiet -o " +
+      dir.file("m.pfm") + " --stats " + dir.file("s.json"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  Expected<Image> img = readImage(dir.file("m.pfm"));
+  ASSERT_TRUE(img.ok());
+  for (const glm::vec3& p : img->pixels) {
+    for (int c = 0; c < 3; ++c) EXPECT_NEAR(p[c], 2.0f, 0.01f);
+  }
+  const nlohmann::json stats = readJson(dir.file("s.json"));
+  EXPECT_EQ(stats["method"], "matrix");
+  EXPECT_EQ(stats["solver"], "gauss-seidel");
+  EXPECT_EQ(stats["precision"], "fp32");
+  EXPECT_TRUE(stats["converged"].get<bool>());
+  EXPECT_LE(stats["residual"].get<double>(), 1e-6);
+  const auto history = stats["history"].get<std::vector<double>>();
+  ASSERT_EQ(history.size(), size_t(stats["iterations"].get<int>()) + 1);
+  EXPECT_GT(history.front(), history.back());
+  EXPECT_EQ(stats["matrix_bytes"].get<uint64_t>(),
+            stats["elements"].get<uint64_t>() * stats["elements"].get<uint64_t>() * 4);
+
+  const auto seq = runCli(
+      "render cornell --method matrix --elements 100 --width 8 --height 8 "
+      "--relight-frames 3 --quiet -o " +
+      dir.file("f.png") + " --stats " + dir.file("r.json"));
+  ASSERT_EQ(seq.exit_code, 0) << seq.output;
+  for (int f = 0; f < 3; ++f)
+    EXPECT_TRUE(fs::exists(dir.file("f_000" + std::to_string(f) + ".png")));
+  EXPECT_FALSE(fs::exists(dir.file("f.png")));
+  EXPECT_EQ(readJson(dir.file("r.json"))["frames"].size(), 3u);
+}
+
 TEST(Cli, SceneSettingsApplyAndCommandLineWins) {
   TempDir dir;
   const std::string cornell = std::string(PENUMBRA_TEST_DATA) + "/../../scenes/cornell.json";
