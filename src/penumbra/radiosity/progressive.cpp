@@ -1,0 +1,414 @@
+#include "penumbra/radiosity/progressive.h"
+
+#include "penumbra/core/check.h"
+#include "penumbra/core/parallel.h"
+#include "penumbra/core/timer.h"
+
+#include <glm/geometric.hpp>
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <map>
+#include <utility>
+
+namespace penumbra {
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+// A shooter point: an element, or a block of elements at a coarser mip level (substructuring,
+// Wallner sec. 3: the block's mean position, summed area and area-weighted mean dB).
+struct ShooterPoint {
+  glm::dvec3 position{0.0};
+  double area = 0.0;
+  glm::dvec3 residual{0.0};
+};
+
+// Wallner eq. 2 with one disc (m = 1): the form factor from a receiver point to a shooter
+// element of area `shooter_area` at squared distance d2, given both cosines.
+inline double discFormFactor(double shooter_area, double cos_shooter, double cos_receiver,
+                             double d2) {
+  return shooter_area * cos_shooter * cos_receiver / (kPi * d2 + shooter_area);
+}
+
+// Whether every corner of the triangle lies on or behind the plane (point c, normal n).
+bool behindPlane(const glm::dvec3 (&v)[3], const glm::dvec3& c, const glm::dvec3& n) {
+  for (const glm::dvec3& p : v) {
+    if (glm::dot(n, p - c) > 0.0) return false;
+  }
+  return true;
+}
+
+// Exact coverage of a texel by its chart (lightmap_atlas.h: lattice point (i, j) of a chart with
+// legs `leg`): the texel square [i-1/2, i+1/2] x [j-1/2, j+1/2] clipped to the chart triangle
+// i, j >= 0, i + j <= leg (Sutherland-Hodgman). Returns the area (lattice units) and centroid.
+// The clipped squares of a chart's kInside texels tile the chart exactly.
+double texelCoverage(int i, int j, int leg, glm::dvec2& centroid) {
+  std::vector<glm::dvec2> poly = {
+      {i - 0.5, j - 0.5}, {i + 0.5, j - 0.5}, {i + 0.5, j + 0.5}, {i - 0.5, j + 0.5}};
+  // Half-planes a . p <= b.
+  const glm::dvec2 normals[3] = {{-1.0, 0.0}, {0.0, -1.0}, {1.0, 1.0}};
+  const double offsets[3] = {0.0, 0.0, double(leg)};
+  for (int h = 0; h < 3; ++h) {
+    std::vector<glm::dvec2> out;
+    for (size_t k = 0; k < poly.size(); ++k) {
+      const glm::dvec2 a = poly[k], b = poly[(k + 1) % poly.size()];
+      const double da = glm::dot(normals[h], a) - offsets[h];
+      const double db = glm::dot(normals[h], b) - offsets[h];
+      if (da <= 0.0) out.push_back(a);
+      if ((da < 0.0 && db > 0.0) || (da > 0.0 && db < 0.0))
+        out.push_back(a + (b - a) * (da / (da - db)));
+    }
+    poly = std::move(out);
+    if (poly.empty()) break;
+  }
+  double area2 = 0.0;
+  glm::dvec2 c(0.0);
+  for (size_t k = 0; k < poly.size(); ++k) {
+    const glm::dvec2 a = poly[k], b = poly[(k + 1) % poly.size()];
+    const double cr = a.x * b.y - b.x * a.y;
+    area2 += cr;
+    c += (a + b) * cr;
+  }
+  if (area2 <= 0.0) {
+    centroid = glm::dvec2(i, j);
+    return 0.0;
+  }
+  centroid = c / (3.0 * area2);
+  return 0.5 * area2;
+}
+
+}  // namespace
+
+Expected<ProgressiveRadiosity> ProgressiveRadiosity::build(const Scene& scene,
+                                                           const ProgressiveOptions& options) {
+  if (options.max_iterations < 0) {
+    return inputError("", "progressive radiosity", "max_iterations must not be negative");
+  }
+  if (!(options.convergence >= 0.0)) {
+    return inputError("", "progressive radiosity", "convergence must be a fraction >= 0");
+  }
+  if (options.shooter_level < 0 || options.shooter_level > 16) {
+    return inputError("", "progressive radiosity", "shooter_level must be in [0, 16]");
+  }
+  ProgressiveRadiosity pr;
+  pr.options_ = options;
+  pr.flat_ = flattenScene(scene);
+  Expected<LightmapAtlas> atlas =
+      buildLightmapAtlas(pr.flat_.positions, pr.flat_.triangles, options.atlas);
+  if (!atlas.ok()) return atlas.error();
+  pr.atlas_ = std::move(*atlas);
+  pr.engine_ = RayEngine::build(pr.flat_.positions, pr.flat_.triangles);
+  const Bounds3 box = pr.engine_.bounds();
+  pr.lift_ = 1e-5 * double(glm::length(box.hi - box.lo));  // as radiosity/form_factors.cpp
+
+  // Elements: kInside texels, grouped by triangle (counting sort over the atlas).
+  const size_t nt = pr.flat_.triangles.size();
+  const LightmapAtlas& a = pr.atlas_;
+  std::vector<uint32_t> count(nt + 1, 0);
+  for (size_t i = 0; i < a.texel_kind.size(); ++i) {
+    if (a.texel_kind[i] == AtlasTexelKind::kInside) ++count[size_t(a.texel_triangle[i]) + 1];
+  }
+  pr.tri_first_.assign(nt + 1, 0);
+  for (size_t t = 0; t < nt; ++t) pr.tri_first_[t + 1] = pr.tri_first_[t] + count[t + 1];
+  const size_t n = pr.tri_first_[nt];
+  pr.texel_.resize(n);
+  pr.tri_of_.resize(n);
+  {
+    std::vector<uint32_t> next(pr.tri_first_.begin(), pr.tri_first_.end() - 1);
+    for (size_t i = 0; i < a.texel_kind.size(); ++i) {
+      if (a.texel_kind[i] != AtlasTexelKind::kInside) continue;
+      const uint32_t t = uint32_t(a.texel_triangle[i]);
+      pr.texel_[next[t]] = uint32_t(i);
+      pr.tri_of_[next[t]++] = t;
+    }
+  }
+  pr.tri_area_.resize(nt);
+  pr.tri_normal_.resize(nt);
+  for (size_t t = 0; t < nt; ++t) {
+    const glm::uvec3 tri = pr.flat_.triangles[t];
+    const glm::dvec3 p0 = pr.flat_.positions[tri.x], p1 = pr.flat_.positions[tri.y],
+                     p2 = pr.flat_.positions[tri.z];
+    const glm::dvec3 c = glm::cross(p1 - p0, p2 - p0);
+    const double len = glm::length(c);
+    pr.tri_area_[t] = 0.5 * len;
+    pr.tri_normal_[t] = len > 0.0 ? c / len : glm::dvec3(0.0);
+  }
+  pr.area_.resize(n);
+  pr.position_.resize(n);
+  pr.rho_.resize(n);
+  pr.e_.resize(n);
+  glm::dvec3 rho_area(0.0);
+  for (size_t e = 0; e < n; ++e) {
+    const uint32_t t = pr.tri_of_[e];
+    const glm::uvec3 tri = pr.flat_.triangles[t];
+    const glm::dvec3 p0 = pr.flat_.positions[tri.x], p1 = pr.flat_.positions[tri.y],
+                     p2 = pr.flat_.positions[tri.z];
+    // Exact coverage (the CPU variant of the paper's occlusion-query count): the
+    // element is the part of the triangle its texel square covers; its point is that part's
+    // centroid. (Texel centres themselves sit on the triangle's edges along the chart's
+    // boundary, where a point sees the neighbouring faces edge-on.)
+    const AtlasChart& chart = a.charts[t];
+    const glm::vec2 bw = a.texel_barycentric[pr.texel_[e]];
+    const double w[3] = {1.0 - double(bw.x) - double(bw.y), double(bw.x), double(bw.y)};
+    const glm::dvec3 p[3] = {p0, p1, p2};
+    const uint32_t r0 = chart.right, r1 = (chart.right + 1) % 3, r2 = (chart.right + 2) % 3;
+    const int i = int(std::lround(w[r1] * chart.leg)), j = int(std::lround(w[r2] * chart.leg));
+    glm::dvec2 c;
+    const double cover = texelCoverage(i, j, chart.leg, c);
+    pr.position_[e] =
+        p[r0] + (c.x / chart.leg) * (p[r1] - p[r0]) + (c.y / chart.leg) * (p[r2] - p[r0]);
+    pr.area_[e] = pr.tri_area_[t] * cover / (0.5 * double(chart.leg) * double(chart.leg));
+    const Material& m = scene.materials[pr.flat_.material_ids[t]];
+    pr.rho_[e] = glm::dvec3(m.reflectance);
+    pr.e_[e] = pr.tri_area_[t] > 0.0 ? kPi * glm::dvec3(m.emission) : glm::dvec3(0.0);
+    pr.total_area_ += pr.area_[e];
+    rho_area += pr.rho_[e] * pr.area_[e];
+    pr.balance_.emitted += pr.e_[e] * pr.area_[e];
+  }
+  if (residualLuminance(pr.balance_.emitted) <= 0.0) {
+    return inputError(scene.source, "progressive radiosity", "the scene emits no light");
+  }
+  // Eq. 6, per channel.
+  pr.ambient_factor_ = 1.0 / (1.0 - rho_area / pr.total_area_);
+  pr.b_ = pr.e_;
+  pr.db_ = pr.e_;
+  pr.balance_.unshot = pr.balance_.emitted;
+  return pr;
+}
+
+double ProgressiveRadiosity::residualPower(uint32_t triangle) const {
+  PENUMBRA_CHECK(triangle < triangleCount());
+  const uint32_t first = tri_first_[triangle], last = tri_first_[triangle + 1];
+  if (first == last) return 0.0;
+  // The CPU twin of the paper's reduction over occupied texels only: the paper averages the
+  // texels with equal weights and multiplies by the triangle's area; with exact coverage the
+  // texels' areas differ along the chart's edges, so each is weighted by its own area.
+  double sum = 0.0;
+  for (uint32_t e = first; e < last; ++e) sum += residualLuminance(db_[e]) * area_[e];
+  return sum;
+}
+
+uint32_t ProgressiveRadiosity::selectShooter() const {
+  uint32_t best = kNoShooter;
+  double best_power = 0.0;
+  for (uint32_t t = 0; t < triangleCount(); ++t) {
+    const double p = residualPower(t);
+    if (p > best_power) {
+      best_power = p;
+      best = t;
+    }
+  }
+  return best;
+}
+
+ProgressiveIteration ProgressiveRadiosity::shoot(uint32_t shooter) {
+  PENUMBRA_CHECK(shooter < triangleCount());
+  const Timer timer;
+  ProgressiveIteration it;
+  it.iteration = ++iterations_;
+  it.shooter = shooter;
+  const uint32_t first = tri_first_[shooter], last = tri_first_[shooter + 1];
+  const glm::dvec3 ns = tri_normal_[shooter];
+
+  // Shooter points: the elements, or blocks of 2^level x 2^level atlas texels (sec. 3).
+  std::vector<ShooterPoint> points;
+  glm::dvec3 shot(0.0);
+  {
+    const int level = options_.shooter_level;
+    std::map<std::pair<int, int>, size_t> block_of;
+    for (uint32_t e = first; e < last; ++e) {
+      shot += db_[e] * area_[e];
+      const int x = int(texel_[e] % uint32_t(atlas_.width)),
+                y = int(texel_[e] / uint32_t(atlas_.width));
+      const auto key = std::make_pair(x >> level, y >> level);
+      auto [pos, inserted] = block_of.try_emplace(key, points.size());
+      if (inserted) points.emplace_back();
+      ShooterPoint& p = points[pos->second];
+      p.position += position_[e] * area_[e];
+      p.residual += db_[e] * area_[e];
+      p.area += area_[e];
+    }
+    for (ShooterPoint& p : points) {
+      p.position /= p.area;
+      p.residual /= p.area;
+    }
+    points.erase(
+        std::remove_if(points.begin(), points.end(),
+                       [](const ShooterPoint& p) { return p.residual == glm::dvec3(0.0); }),
+        points.end());
+  }
+  it.shooter_points = uint32_t(points.size());
+
+  // Receiver triangles: not wholly behind the shooter's plane, and facing it (the shooter not
+  // wholly behind theirs). Coplanar triangles drop out here or through a zero cosine.
+  std::vector<uint8_t> receives(triangleCount(), 0);
+  if (tri_area_[shooter] > 0.0) {
+    const glm::uvec3 st = flat_.triangles[shooter];
+    const glm::dvec3 sv[3] = {glm::dvec3(flat_.positions[st.x]), glm::dvec3(flat_.positions[st.y]),
+                              glm::dvec3(flat_.positions[st.z])};
+    for (uint32_t t = 0; t < triangleCount(); ++t) {
+      if (t == shooter || tri_area_[t] <= 0.0) continue;
+      const glm::uvec3 rt = flat_.triangles[t];
+      const glm::dvec3 rv[3] = {glm::dvec3(flat_.positions[rt.x]),
+                                glm::dvec3(flat_.positions[rt.y]),
+                                glm::dvec3(flat_.positions[rt.z])};
+      if (behindPlane(rv, sv[0], ns) || behindPlane(sv, rv[0], tri_normal_[t])) continue;
+      receives[t] = 1;
+    }
+  }
+
+  // Gather at every receiver element the irradiance sum_s dB_s F_rs (W m^-2); in parallel over
+  // receivers, each writing only its own entry.
+  const size_t n = elementCount();
+  std::vector<glm::dvec3> incident(n, glm::dvec3(0.0));
+  std::atomic<uint64_t> rays{0};
+  parallelRange(n, 64, [&](size_t begin, size_t end) {
+    uint64_t local_rays = 0;
+    for (size_t r = begin; r < end; ++r) {
+      const uint32_t t = tri_of_[r];
+      if (!receives[t]) continue;
+      const glm::dvec3 nr = tri_normal_[t], pr = position_[r];
+      glm::dvec3 sum(0.0);
+      for (const ShooterPoint& s : points) {
+        const glm::dvec3 d = s.position - pr;
+        const double d2 = glm::dot(d, d);
+        if (d2 <= 0.0) continue;
+        const double inv = 1.0 / std::sqrt(d2);
+        const double cos_r = glm::dot(nr, d) * inv, cos_s = -glm::dot(ns, d) * inv;
+        if (cos_r <= 0.0 || cos_s <= 0.0) continue;  // culled by either plane (one-sided)
+        const double f = discFormFactor(s.area, cos_s, cos_r, d2);
+        if (options_.visibility) {
+          ++local_rays;
+          const glm::dvec3 from = pr + nr * lift_, to = s.position + ns * lift_;
+          if (engine_.occluded(Ray{glm::vec3(from), 1e-4f, glm::vec3(to - from), 1.0f - 1e-4f})) {
+            continue;
+          }
+        }
+        sum += s.residual * f;
+      }
+      incident[r] = sum;
+    }
+    rays += local_rays;
+  });
+
+  // Update (progressive eq. 1) and book the energy serially, in element order (deterministic).
+  glm::dvec3 arrived(0.0);
+  for (size_t r = 0; r < n; ++r) {
+    if (incident[r] == glm::dvec3(0.0)) continue;
+    const glm::dvec3 gain = rho_[r] * incident[r];
+    b_[r] += gain;
+    db_[r] += gain;
+    arrived += incident[r] * area_[r];
+    balance_.absorbed += (glm::dvec3(1.0) - rho_[r]) * incident[r] * area_[r];
+    balance_.unshot += gain * area_[r];
+  }
+  for (uint32_t e = first; e < last; ++e) db_[e] = glm::dvec3(0.0);
+  balance_.unshot -= shot;
+  balance_.escaped += shot - arrived;
+
+  it.shot_power = residualLuminance(shot);
+  it.unshot_fraction = unshotFraction();
+  it.rays = rays.load();
+  it.seconds = timer.seconds();
+  return it;
+}
+
+ProgressiveIteration ProgressiveRadiosity::step() {
+  const uint32_t s = selectShooter();
+  if (s == kNoShooter) return ProgressiveIteration{};
+  return shoot(s);
+}
+
+ProgressiveStats ProgressiveRadiosity::solve(
+    const std::function<void(const ProgressiveIteration&)>& after_iteration) {
+  const Timer timer;
+  ProgressiveStats st;
+  st.unshot_fraction = unshotFraction();
+  while (st.unshot_fraction > options_.convergence && st.iterations < options_.max_iterations) {
+    const ProgressiveIteration it = step();
+    if (it.iteration == 0) break;  // nothing left to shoot
+    ++st.iterations;
+    st.rays += it.rays;
+    st.unshot_fraction = it.unshot_fraction;
+    if (after_iteration) after_iteration(it);
+  }
+  st.converged = st.unshot_fraction <= options_.convergence || selectShooter() == kNoShooter;
+  st.seconds = timer.seconds();
+  return st;
+}
+
+glm::dvec3 ProgressiveRadiosity::unshotPower() const {
+  glm::dvec3 sum(0.0);
+  for (size_t e = 0; e < elementCount(); ++e) sum += db_[e] * area_[e];
+  return sum;
+}
+
+double ProgressiveRadiosity::unshotFraction() const {
+  return residualLuminance(balance_.unshot) / residualLuminance(balance_.emitted);
+}
+
+glm::dvec3 ProgressiveRadiosity::ambient() const {
+  // Eq. 4 with F'_ij = A_j / sum_k A_k (eq. 5) and R of eq. 6.
+  return ambient_factor_ * unshotPower() / total_area_;
+}
+
+glm::dvec3 ProgressiveRadiosity::displayRadiosity(size_t element) const {
+  return b_[element] + rho_[element] * ambient();
+}
+
+Image ProgressiveRadiosity::radianceImage(bool with_ambient) const {
+  const LightmapAtlas& a = atlas_;
+  Image img(a.width, a.height);
+  std::vector<uint8_t> known(a.texel_kind.size(), 0);
+  const glm::dvec3 amb = with_ambient ? ambient() : glm::dvec3(0.0);
+  for (size_t e = 0; e < elementCount(); ++e) {
+    img.pixels[texel_[e]] = glm::vec3((b_[e] + rho_[e] * amb) / kPi);
+    known[texel_[e]] = 1;
+  }
+  // Border and dilated texels: rounds of the mean of known 8-neighbours of the same triangle.
+  for (int round = 0; round <= a.gutter + 1; ++round) {
+    std::vector<size_t> filled;
+    for (int y = 0; y < a.height; ++y) {
+      for (int x = 0; x < a.width; ++x) {
+        const size_t i = a.texelIndex(x, y);
+        if (known[i] || a.texel_kind[i] == AtlasTexelKind::kEmpty) continue;
+        glm::vec3 sum(0.0f);
+        int k = 0;
+        for (int dy = -1; dy <= 1; ++dy) {
+          for (int dx = -1; dx <= 1; ++dx) {
+            const int xx = x + dx, yy = y + dy;
+            if (xx < 0 || yy < 0 || xx >= a.width || yy >= a.height) continue;
+            const size_t j = a.texelIndex(xx, yy);
+            if (!known[j] || a.texel_triangle[j] != a.texel_triangle[i]) continue;
+            sum += img.pixels[j];
+            ++k;
+          }
+        }
+        if (k == 0) continue;
+        img.pixels[i] = sum / float(k);
+        filled.push_back(i);
+      }
+    }
+    if (filled.empty()) break;
+    for (size_t i : filled) known[i] = 1;
+  }
+  return img;
+}
+
+std::vector<glm::dvec3> ProgressiveRadiosity::triangleRadiosity() const {
+  std::vector<glm::dvec3> out(triangleCount(), glm::dvec3(0.0));
+  for (uint32_t t = 0; t < triangleCount(); ++t) {
+    double area = 0.0;
+    for (uint32_t e = tri_first_[t]; e < tri_first_[t + 1]; ++e) {
+      out[t] += b_[e] * area_[e];
+      area += area_[e];
+    }
+    if (area > 0.0) out[t] /= area;
+  }
+  return out;
+}
+
+}  // namespace penumbra

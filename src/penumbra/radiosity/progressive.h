@@ -1,0 +1,170 @@
+// Progressive refinement radiosity on triangle meshes with lightmaps (Wallner, sec. 2-3), the CPU
+// version: every triangle's radiosity and residual (unshot) radiosity live in per-triangle
+// textures packed in one atlas (geometry/lightmap_atlas.h), and each occupied texel is an element.
+//
+//  - Elements: the `kInside` texels of the atlas (the paper's alpha = 1 texels). An element is
+//    the part of its triangle that its texel square covers (exact coverage, the CPU variant of
+//    the paper's area / occlusion-query count of sec. 3: the clipped squares tile the triangle);
+//    its point is that part's centroid. Not the texel centre: along a chart's edges the centres
+//    lie on the triangle's edges, where a point sees the neighbouring faces of a closed room
+//    edge-on; with centres and equal areas the furnace loses a third of every shot. Elements are
+//    one-sided like the matrix method's (radiosity/elements.h): they emit and reflect from the
+//    counter-clockwise front face, with E = pi * emitted radiance and the material's reflectance.
+//  - Units: B and dB (unshot radiosity) in W m^-2 per RGB channel; the power of an element is
+//    B * area (W). Everything is kept in double so that the energy bookkeeping is exact.
+//  - Shooter selection (sec. 3): the triangle with the highest residual power, the sum over its
+//    occupied texels of the luminance of dB (I = 0.3 R + 0.59 G + 0.11 B, the paper's weights)
+//    times the texel's area. This is the CPU twin of the paper's mipmap reduction that averages
+//    only occupied texels (then multiplies by the triangle's area), computed exactly in one pass
+//    and weighted by each texel's coverage rather than by 2 x 2 ping-pong passes.
+//  - Shooting (eq. 1-2): every shooter element (or, with substructuring, every block of
+//    2^level x 2^level atlas texels of the shooter, the paper's coarser mip level) shoots its
+//    unshot radiosity dB_s to every receiver element r in front of the shooter's plane that
+//    faces it; with Wallner's disc approximation of the form factor from r to the shooter element
+//      F_rs = A_s cos(phi_s) cos(phi_r) / (pi d^2 + A_s)                      (eq. 2, m = 1)
+//    and visibility by a Ray Engine shadow ray, r gains  dB_r += rho_r dB_s F_rs  and
+//    B_r += the same (the progressive form of eq. 1); then dB_s = 0.
+//  - Energy bookkeeping (W, per channel): the power shot, P = sum_s dB_s A_s, either arrives at
+//    receivers, Q = sum_r (sum_s dB_s F_rs) A_r, of which rho Q is reflected (joins the unshot
+//    power) and (1 - rho) Q is absorbed, or does not arrive: P - Q is counted as escaped. In an
+//    open scene (the Cornell box) that is the light leaving through the opening; in a closed one
+//    it is the disc approximation's departure from reciprocity and eq. 3 (negative when the form
+//    factors overestimate). So, after every iteration,
+//      emitted = absorbed + unshot + escaped
+//    holds exactly up to rounding.
+//  - Ambient term (eq. 4-6, Cohen et al. 1988): A = R sum_j dB_j A_j / sum_k A_k with the
+//    interreflection factor R = 1 / (1 - sum_k rho_k A_k / sum_k A_k); displayed radiosity
+//    B + rho A during early iterations. It is exposed for display only, never added to B.
+#pragma once
+
+#include "penumbra/core/expected.h"
+#include "penumbra/core/image.h"
+#include "penumbra/geometry/lightmap_atlas.h"
+#include "penumbra/raytrace/ray_engine.h"
+#include "penumbra/scene/scene.h"
+
+#include <glm/vec3.hpp>
+
+#include <cstdint>
+#include <functional>
+#include <limits>
+#include <vector>
+
+namespace penumbra {
+
+struct ProgressiveOptions {
+  AtlasOptions atlas;         // the texel density (or atlas resolution) sets the element size
+  int max_iterations = 1000;  // shooters (one iteration = one shooter triangle)
+  double convergence = 1e-3;  // stop when unshot power / emitted power (luminance) <= this
+  int shooter_level = 0;      // substructuring: shoot from 2^level x 2^level texel blocks
+  bool visibility = true;     // false: no shadow rays (every pair in front is unoccluded)
+};
+
+// Power totals in W per RGB channel.
+struct EnergyBalance {
+  glm::dvec3 emitted{0.0};   // sum E A at the start
+  glm::dvec3 absorbed{0.0};  // (1 - rho) of the power that arrived at receivers
+  glm::dvec3 unshot{0.0};    // running sum: emitted - shot + reflected
+  glm::dvec3 escaped{0.0};   // shot but not arrived (see the file comment)
+};
+
+struct ProgressiveIteration {
+  int iteration = 0;             // 1 for the first shooter
+  uint32_t shooter = 0;          // the shooter triangle (flattenScene order)
+  uint32_t shooter_points = 0;   // elements or blocks that shot
+  double shot_power = 0.0;       // luminance of the power shot (W)
+  double unshot_fraction = 0.0;  // unshot / emitted power (luminance) after the iteration
+  uint64_t rays = 0;
+  double seconds = 0.0;
+};
+
+struct ProgressiveStats {
+  int iterations = 0;
+  double unshot_fraction = 0.0;
+  bool converged = false;  // unshot_fraction <= options.convergence (or nothing left to shoot)
+  uint64_t rays = 0;
+  double seconds = 0.0;
+};
+
+// Luminance weights of Wallner sec. 3 (I = 0.3 R + 0.59 G + 0.11 B).
+inline double residualLuminance(const glm::dvec3& c) {
+  return 0.3 * c.x + 0.59 * c.y + 0.11 * c.z;
+}
+
+class ProgressiveRadiosity {
+ public:
+  static constexpr uint32_t kNoShooter = std::numeric_limits<uint32_t>::max();
+
+  // Builds the atlas over the scene's flattened triangles (the scene must have passed
+  // validateScene) and sets B = dB = E. Fails when the atlas cannot be built, the options are
+  // out of range, or the scene emits nothing.
+  static Expected<ProgressiveRadiosity> build(const Scene& scene,
+                                              const ProgressiveOptions& options);
+
+  // The triangle with the highest residual power (luminance), kNoShooter when none is left.
+  uint32_t selectShooter() const;
+  // Residual power of triangle t: sum of luminance(dB) * area over its elements (W).
+  double residualPower(uint32_t triangle) const;
+  // One iteration with triangle `shooter` as the shooter.
+  ProgressiveIteration shoot(uint32_t shooter);
+  // Selects the shooter and shoots; returns iteration 0 (nothing done) when nothing is left.
+  ProgressiveIteration step();
+  // Iterates until the convergence fraction or the iteration cap; `after_iteration` is called
+  // after every iteration.
+  ProgressiveStats solve(
+      const std::function<void(const ProgressiveIteration&)>& after_iteration = {});
+
+  // Energy totals as booked, and the unshot power recomputed from the elements' dB (W).
+  const EnergyBalance& balance() const { return balance_; }
+  glm::dvec3 unshotPower() const;
+  double unshotFraction() const;  // unshot / emitted power, luminance
+  // Eq. 4-6: the ambient radiosity (W m^-2) for display; B_display = B + rho * ambient().
+  glm::dvec3 ambient() const;
+  glm::dvec3 displayRadiosity(size_t element) const;
+
+  // Elements (kInside texels), grouped by triangle: elements of triangle t are
+  // [triangleFirst(t), triangleFirst(t + 1)).
+  size_t elementCount() const { return texel_.size(); }
+  size_t triangleCount() const { return tri_first_.size() - 1; }
+  uint32_t triangleFirst(uint32_t t) const { return tri_first_[t]; }
+  uint32_t elementTriangle(size_t e) const { return tri_of_[e]; }
+  uint32_t elementTexel(size_t e) const { return texel_[e]; }  // atlas texel index
+  double elementArea(size_t e) const { return area_[e]; }
+  const glm::dvec3& elementPosition(size_t e) const { return position_[e]; }
+  const glm::dvec3& radiosity(size_t e) const { return b_[e]; }
+  const glm::dvec3& residual(size_t e) const { return db_[e]; }
+  const glm::dvec3& reflectance(size_t e) const { return rho_[e]; }
+  const glm::dvec3& emission(size_t e) const { return e_[e]; }
+  double triangleArea(uint32_t t) const { return tri_area_[t]; }
+  const LightmapAtlas& atlas() const { return atlas_; }
+  const FlatTriangles& triangles() const { return flat_; }
+
+  // Outgoing radiance B / pi (W m^-2 sr^-1) per atlas texel, the size of the atlas: kInside
+  // texels hold their element's value (plus rho * ambient when `with_ambient`), kBorder and
+  // kDilated texels the mean of adjacent filled texels of the same triangle (constant extension
+  // for bilinear lookups), kEmpty texels zero.
+  Image radianceImage(bool with_ambient = false) const;
+  // Area-weighted mean B per triangle (W m^-2), flattenScene order.
+  std::vector<glm::dvec3> triangleRadiosity() const;
+
+ private:
+  ProgressiveOptions options_;
+  LightmapAtlas atlas_;
+  FlatTriangles flat_;
+  RayEngine engine_;
+  double lift_ = 0.0;  // shadow-ray end points are lifted off their surfaces by this (m)
+  // Per triangle.
+  std::vector<uint32_t> tri_first_;  // size triangles + 1
+  std::vector<double> tri_area_;
+  std::vector<glm::dvec3> tri_normal_;  // unit front normal (zero for degenerate triangles)
+  // Per element.
+  std::vector<uint32_t> texel_, tri_of_;
+  std::vector<double> area_;
+  std::vector<glm::dvec3> position_, rho_, e_, b_, db_;
+  EnergyBalance balance_;
+  glm::dvec3 ambient_factor_{1.0};  // R of eq. 6, per channel
+  double total_area_ = 0.0;
+  int iterations_ = 0;
+};
+
+}  // namespace penumbra
