@@ -1,5 +1,7 @@
 #include "penumbra/radiosity/progressive.h"
 
+#include "penumbra/kernels/form_factor.h"
+
 #include "penumbra/core/check.h"
 #include "penumbra/core/parallel.h"
 #include "penumbra/core/timer.h"
@@ -7,6 +9,7 @@
 #include <glm/geometric.hpp>
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <cmath>
 #include <map>
@@ -24,6 +27,7 @@ struct ShooterPoint {
   glm::dvec3 position{0.0};
   double area = 0.0;
   glm::dvec3 residual{0.0};
+  std::vector<uint32_t> members;  // its elements
 };
 
 // Wallner eq. 2 with one disc (m = 1): the form factor from a receiver point to a shooter
@@ -45,7 +49,8 @@ bool behindPlane(const glm::dvec3 (&v)[3], const glm::dvec3& c, const glm::dvec3
 // legs `leg`): the texel square [i-1/2, i+1/2] x [j-1/2, j+1/2] clipped to the chart triangle
 // i, j >= 0, i + j <= leg (Sutherland-Hodgman). Returns the area (lattice units) and centroid.
 // The clipped squares of a chart's kInside texels tile the chart exactly.
-double texelCoverage(int i, int j, int leg, glm::dvec2& centroid) {
+double texelCoverage(int i, int j, int leg, glm::dvec2& centroid,
+                     std::vector<glm::dvec2>* polygon = nullptr) {
   std::vector<glm::dvec2> poly = {
       {i - 0.5, j - 0.5}, {i + 0.5, j - 0.5}, {i + 0.5, j + 0.5}, {i - 0.5, j + 0.5}};
   // Half-planes a . p <= b.
@@ -64,6 +69,7 @@ double texelCoverage(int i, int j, int leg, glm::dvec2& centroid) {
     poly = std::move(out);
     if (poly.empty()) break;
   }
+  if (polygon) *polygon = poly;
   double area2 = 0.0;
   glm::dvec2 c(0.0);
   for (size_t k = 0; k < poly.size(); ++k) {
@@ -81,6 +87,28 @@ double texelCoverage(int i, int j, int leg, glm::dvec2& centroid) {
 }
 
 }  // namespace
+
+// Pairs closer than this many element sizes (sqrt of the shooter point's area) use the exact
+// form factor.
+constexpr double kNear = 3.0;
+
+int ProgressiveRadiosity::elementPolygon(uint32_t e, std::array<glm::dvec3, 8>& out) const {
+  const uint32_t t = tri_of_[e];
+  const glm::uvec3 tri = flat_.triangles[t];
+  const glm::dvec3 p[3] = {glm::dvec3(flat_.positions[tri.x]), glm::dvec3(flat_.positions[tri.y]),
+                           glm::dvec3(flat_.positions[tri.z])};
+  const AtlasChart& chart = atlas_.charts[t];
+  const uint32_t r0 = chart.right, r1 = (chart.right + 1) % 3, r2 = (chart.right + 2) % 3;
+  glm::dvec2 c;
+  std::vector<glm::dvec2> poly;
+  texelCoverage(lattice_[e].x, lattice_[e].y, chart.leg, c, &poly);
+  const int count = int(std::min<size_t>(poly.size(), out.size()));
+  for (int k = 0; k < count; ++k) {
+    out[size_t(k)] = p[r0] + (poly[size_t(k)].x / chart.leg) * (p[r1] - p[r0]) +
+                     (poly[size_t(k)].y / chart.leg) * (p[r2] - p[r0]);
+  }
+  return count;
+}
 
 Expected<ProgressiveRadiosity> ProgressiveRadiosity::build(const Scene& scene,
                                                            const ProgressiveOptions& options) {
@@ -138,6 +166,7 @@ Expected<ProgressiveRadiosity> ProgressiveRadiosity::build(const Scene& scene,
   }
   pr.area_.resize(n);
   pr.position_.resize(n);
+  pr.lattice_.resize(n);
   pr.rho_.resize(n);
   pr.e_.resize(n);
   glm::dvec3 rho_area(0.0);
@@ -158,6 +187,7 @@ Expected<ProgressiveRadiosity> ProgressiveRadiosity::build(const Scene& scene,
     const int i = int(std::lround(w[r1] * chart.leg)), j = int(std::lround(w[r2] * chart.leg));
     glm::dvec2 c;
     const double cover = texelCoverage(i, j, chart.leg, c);
+    pr.lattice_[e] = glm::ivec2(i, j);
     pr.position_[e] =
         p[r0] + (c.x / chart.leg) * (p[r1] - p[r0]) + (c.y / chart.leg) * (p[r2] - p[r0]);
     pr.area_[e] = pr.tri_area_[t] * cover / (0.5 * double(chart.leg) * double(chart.leg));
@@ -230,6 +260,7 @@ ProgressiveIteration ProgressiveRadiosity::shoot(uint32_t shooter) {
       p.position += position_[e] * area_[e];
       p.residual += db_[e] * area_[e];
       p.area += area_[e];
+      p.members.push_back(e);
     }
     for (ShooterPoint& p : points) {
       p.position /= p.area;
@@ -279,7 +310,6 @@ ProgressiveIteration ProgressiveRadiosity::shoot(uint32_t shooter) {
         const double inv = 1.0 / std::sqrt(d2);
         const double cos_r = glm::dot(nr, d) * inv, cos_s = -glm::dot(ns, d) * inv;
         if (cos_r <= 0.0 || cos_s <= 0.0) continue;  // culled by either plane (one-sided)
-        const double f = discFormFactor(s.area, cos_s, cos_r, d2);
         if (options_.visibility) {
           ++local_rays;
           const glm::dvec3 from = pr + nr * lift_, to = s.position + ns * lift_;
@@ -287,7 +317,19 @@ ProgressiveIteration ProgressiveRadiosity::shoot(uint32_t shooter) {
             continue;
           }
         }
-        sum += s.residual * f;
+        if (d2 < kNear * kNear * s.area) {
+          // Near pairs (across an edge, in a corner): eq. 2's disc is a poor stand-in for a
+          // neighbour seen edge-on, so each of the point's elements contributes Lambert's exact
+          // point-to-polygon form factor (kernels/form_factor.h) to its own polygon.
+          for (uint32_t m : s.members) {
+            std::array<glm::dvec3, 8> poly;
+            const int count = elementPolygon(m, poly);
+            if (count < 3) continue;
+            sum += db_[m] * pointToPolygonFormFactor(pr, nr, poly.data(), count);
+          }
+          continue;
+        }
+        sum += s.residual * discFormFactor(s.area, cos_s, cos_r, d2);
       }
       incident[r] = sum;
     }

@@ -22,14 +22,16 @@
 //    unshot radiosity dB_s to every receiver element r in front of the shooter's plane that
 //    faces it; with Wallner's disc approximation of the form factor from r to the shooter element
 //      F_rs = A_s cos(phi_s) cos(phi_r) / (pi d^2 + A_s)                      (eq. 2, m = 1)
-//    and visibility by a Ray Engine shadow ray, r gains  dB_r += rho_r dB_s F_rs  and
+//    (for pairs closer than three element sizes, where a disc is a poor stand-in for a neighbour
+//    seen edge-on, Lambert's exact point-to-polygon form factor to each shooter element's polygon
+//    instead) and visibility by a Ray Engine shadow ray, r gains  dB_r += rho_r dB_s F_rs  and
 //    B_r += the same (the progressive form of eq. 1); then dB_s = 0.
 //  - Energy bookkeeping (W, per channel): the power shot, P = sum_s dB_s A_s, either arrives at
 //    receivers, Q = sum_r (sum_s dB_s F_rs) A_r, of which rho Q is reflected (joins the unshot
 //    power) and (1 - rho) Q is absorbed, or does not arrive: P - Q is counted as escaped. In an
 //    open scene (the Cornell box) that is the light leaving through the opening; in a closed one
-//    it is the disc approximation's departure from reciprocity and eq. 3 (negative when the form
-//    factors overestimate). So, after every iteration,
+//    it is the form factors' departure from reciprocity and eq. 3 (negative when they
+//    overestimate). So, after every iteration,
 //      emitted = absorbed + unshot + escaped
 //    holds exactly up to rounding.
 //  - Ambient term (eq. 4-6, Cohen et al. 1988): A = R sum_j dB_j A_j / sum_k A_k with the
@@ -43,8 +45,10 @@
 #include "penumbra/raytrace/ray_engine.h"
 #include "penumbra/scene/scene.h"
 
+#include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
 
+#include <array>
 #include <cstdint>
 #include <functional>
 #include <limits>
@@ -159,6 +163,9 @@ class ProgressiveRadiosity {
   std::vector<glm::dvec3> tri_normal_;  // unit front normal (zero for degenerate triangles)
   // Per element.
   std::vector<uint32_t> texel_, tri_of_;
+  std::vector<glm::ivec2> lattice_;  // per element: its texel's lattice point (i, j) in the chart
+  // The element's polygon in world space (its texel square clipped to the triangle): the count.
+  int elementPolygon(uint32_t e, std::array<glm::dvec3, 8>& out) const;
   std::vector<double> area_;
   std::vector<glm::dvec3> position_, rho_, e_, b_, db_;
   EnergyBalance balance_;
