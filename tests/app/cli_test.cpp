@@ -94,6 +94,34 @@ TEST(Cli, MatrixRadiosityRendersTheFurnaceAndRelitFrames) {
   EXPECT_EQ(readJson(dir.file("r.json"))["frames"].size(), 3u);
 }
 
+// Progressive radiosity end to end: the furnace's radiance is 2 in every pixel (Wallner's bar,
+// every element within 1%), and the stats carry the energy books.
+TEST(Cli, ProgressiveRadiosityRendersTheFurnace) {
+  TempDir dir;
+  const auto r = runCli(
+      "render furnace --method progressive --elements 1000 --width 16 "
+      "--height 16 --quiet -o " +
+      dir.file("p.pfm") + " --stats " + dir.file("s.json"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  Expected<Image> img = readImage(dir.file("p.pfm"));
+  ASSERT_TRUE(img.ok());
+  for (const glm::vec3& p : img->pixels) {
+    for (int c = 0; c < 3; ++c) EXPECT_NEAR(p[c], 2.0f, 0.02f);
+  }
+  const nlohmann::json stats = readJson(dir.file("s.json"));
+  EXPECT_EQ(stats["method"], "progressive");
+  EXPECT_TRUE(stats["converged"].get<bool>());
+  EXPECT_LE(stats["unshot_fraction"].get<double>(), 1e-3);
+  const auto emitted = stats["emitted_w"].get<std::vector<double>>();
+  const auto absorbed = stats["absorbed_w"].get<std::vector<double>>();
+  const auto unshot = stats["unshot_w"].get<std::vector<double>>();
+  const auto escaped = stats["escaped_w"].get<std::vector<double>>();
+  for (int c = 0; c < 3; ++c) {
+    EXPECT_NEAR(absorbed[size_t(c)] + unshot[size_t(c)] + escaped[size_t(c)], emitted[size_t(c)],
+                1e-9 * emitted[size_t(c)]);
+  }
+}
+
 TEST(Cli, SceneSettingsApplyAndCommandLineWins) {
   TempDir dir;
   const std::string cornell = std::string(PENUMBRA_TEST_DATA) + "/../../scenes/cornell.json";
@@ -145,7 +173,9 @@ TEST(Cli, BadInputGivesOneErrorLineExitTwoAndNoOutput) {
       {"render cornell --width 0 -o " + out, "--width 0"},
       {"render cornell --width 60000 --height 60000 -o " + out, "needs"},
       {"render cornell --spp many -o " + out, "spp"},
-      {"render cornell --method progressive -o " + out, "--method progressive"},
+      {"render cornell --method stochastic -o " + out, "--method stochastic"},
+      {"render cornell --method progressive --device gpu -o " + out, "--device"},
+      {"render cornell --method progressive --tolerance 2 -o " + out, "--tolerance"},
       {"render cornell --method matrix --elements 0 -o " + out, "--elements"},
       {"render cornell --method matrix --solver sor -o " + out, "--solver"},
       {"render cornell --method matrix --precision fp8 -o " + out, "--precision"},

@@ -64,7 +64,10 @@ int parseAndRun(int argc, char** argv) {
                    "matrix: jacobi or gauss-seidel (default: gauss-seidel on the CPU, jacobi "
                    "on the GPU)")
       ->check(CLI::IsMember({"jacobi", "gauss-seidel"}));
-  render_cmd->add_option("--elements", render.elements, "matrix: about this many elements")
+  render_cmd
+      ->add_option("--elements", render.elements,
+                   "matrix: about this many elements; progressive: about this many lightmap "
+                   "texels")
       ->check(CLI::Range(1u, 1u << 20))
       ->capture_default_str();
   render_cmd->add_option("--iterations", render.iterations, "matrix: iteration cap")
@@ -72,10 +75,10 @@ int parseAndRun(int argc, char** argv) {
       ->capture_default_str();
   render_cmd
       ->add_option("--tolerance", render.tolerance,
-                   "matrix: stop when the mean squared residual of MB - E, relative to the mean "
-                   "squared emission, is below this")
-      ->check(CLI::Range(0.0, 1.0))
-      ->capture_default_str();
+                   "matrix: stop when the mean squared residual of MB - E ((W m^-2)^2) is at "
+                   "most this (default 1e-6); progressive: when the unshot fraction of the "
+                   "emitted power is (default 1e-3)")
+      ->check(CLI::Range(0.0, 1e30));
   render_cmd
       ->add_option("--precision", render.precision,
                    "matrix: form-factor storage, fp32 or fp16 (as the paper stores them)")
@@ -152,9 +155,8 @@ int parseAndRun(int argc, char** argv) {
       ->capture_default_str();
   bake_cmd
       ->add_option("--tolerance", bake.tolerance,
-                   "stop when the mean squared residual of MB - E, relative to the mean squared "
-                   "emission, is below this")
-      ->check(CLI::Range(0.0, 1.0))
+                   "stop when the mean squared residual of MB - E ((W m^-2)^2) is at most this")
+      ->check(CLI::Range(0.0, 1e30))
       ->capture_default_str();
   bake_cmd->add_option("--solver", bake.solver, "jacobi or gauss-seidel")
       ->check(CLI::IsMember({"jacobi", "gauss-seidel"}))

@@ -27,9 +27,11 @@ struct RenderOptions {
   ToneMapSettings tonemap;
   // --method matrix (Carr, Hall, Hart 2003, sec. 3).
   std::optional<std::string> solver;  // jacobi or gauss-seidel (default: the device's own)
-  uint32_t elements = 2000;
-  int iterations = 500;     // iteration cap
-  double tolerance = 1e-6;  // mean squared residual of MB - E, (W m^-2)^2
+  uint32_t elements = 2000;           // matrix: elements; progressive: lightmap texels (about)
+  int iterations = 500;               // iteration cap (progressive: shooters)
+  // matrix: mean squared residual of MB - E, (W m^-2)^2 (default 1e-6); progressive: unshot
+  // fraction of the emitted power (default 1e-3).
+  std::optional<double> tolerance;
   std::string precision = "fp32";
   int ff_samples = 16;     // form-factor sample points per element pair
   int relight_frames = 0;  // > 1: a sequence of relit frames from one set of form factors
@@ -72,6 +74,7 @@ int runRender(const RenderOptions& options, const CommonOptions& common);
 int runBake(const BakeOptions& options, const CommonOptions& common);
 // The methods behind `render` (render_*.cpp).
 Status renderMatrix(const RenderOptions& options, const CommonOptions& common);
+Status renderProgressive(const RenderOptions& options, const CommonOptions& common);
 int runTrace(const TraceOptions& options, const CommonOptions& common);
 int runInfo(const InfoOptions& options, const CommonOptions& common);
 

@@ -186,16 +186,17 @@ int runRender(const RenderOptions& options, const CommonOptions& common) {
     s = renderPathTrace(options, common);
   } else if (options.method == "matrix") {
     s = renderMatrix(options, common);
-  } else if (options.method == "progressive" || options.method == "stochastic" ||
-             options.method == "sss" || options.method == "lpv") {
+  } else if (options.method == "progressive") {
+    s = renderProgressive(options, common);
+  } else if (options.method == "stochastic" || options.method == "sss" || options.method == "lpv") {
     s = inputError("", "",
                    fmt::format("--method {} is not available in this version (available: "
-                               "pathtrace, matrix)",
+                               "pathtrace, matrix, progressive)",
                                options.method));
   } else {
-    s = inputError(
-        "", "",
-        fmt::format("unknown --method '{}' (available: pathtrace, matrix)", options.method));
+    s = inputError("", "",
+                   fmt::format("unknown --method '{}' (available: pathtrace, matrix, progressive)",
+                               options.method));
   }
   return s.ok() ? 0 : reportError(s.error());
 }

@@ -165,7 +165,7 @@ Status renderMatrix(const RenderOptions& options, const CommonOptions& common) {
     SolveOptions so;
     so.solver = solver;
     so.max_iterations = options.iterations;
-    so.tolerance = options.tolerance;
+    so.tolerance = options.tolerance.value_or(1e-6);
     Progress progress(frames > 1 ? fmt::format("solving frame {}", f) : std::string("solving"),
                       uint64_t(so.max_iterations), !common.quiet && Progress::stderrIsTerminal());
     auto on_iteration = [&](int k, double) { progress.reach(uint64_t(k + 1)); };
@@ -225,7 +225,7 @@ Status renderMatrix(const RenderOptions& options, const CommonOptions& common) {
                         {"iterations", last.iterations},
                         {"residual", last.residual},
                         {"converged", last.converged},
-                        {"tolerance", options.tolerance},
+                        {"tolerance", options.tolerance.value_or(1e-6)},
                         {"history", last.history},
                         {"threads", threadCount()},
                         {"width", width},

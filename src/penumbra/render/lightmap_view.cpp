@@ -1,0 +1,67 @@
+#include "penumbra/render/lightmap_view.h"
+
+#include "penumbra/core/check.h"
+#include "penumbra/core/parallel.h"
+#include "penumbra/core/rng.h"
+#include "penumbra/raytrace/camera_rays.h"
+#include "penumbra/raytrace/ray_engine.h"
+
+#include <glm/common.hpp>
+#include <glm/geometric.hpp>
+
+#include <cmath>
+
+namespace penumbra {
+
+glm::vec3 sampleBilinear(const Image& lightmap, glm::vec2 uv) {
+  // Texel (x, y) has its centre at ((x + 0.5) / width, (y + 0.5) / height).
+  const float fx = uv.x * float(lightmap.width) - 0.5f, fy = uv.y * float(lightmap.height) - 0.5f;
+  const float x0f = std::floor(fx), y0f = std::floor(fy);
+  const float tx = fx - x0f, ty = fy - y0f;
+  auto at = [&](int x, int y) {
+    x = glm::clamp(x, 0, lightmap.width - 1);
+    y = glm::clamp(y, 0, lightmap.height - 1);
+    return lightmap.at(x, y);
+  };
+  const int x0 = int(x0f), y0 = int(y0f);
+  return (1.0f - ty) * ((1.0f - tx) * at(x0, y0) + tx * at(x0 + 1, y0)) +
+         ty * ((1.0f - tx) * at(x0, y0 + 1) + tx * at(x0 + 1, y0 + 1));
+}
+
+Image renderLightmapView(std::span<const glm::vec3> positions,
+                         std::span<const glm::uvec3> triangles, const LightmapAtlas& atlas,
+                         const Image& lightmap, const Camera& camera,
+                         const LightmapViewSettings& settings) {
+  PENUMBRA_CHECK(atlas.uvs.size() == 3 * triangles.size());
+  PENUMBRA_CHECK(lightmap.width == atlas.width && lightmap.height == atlas.height);
+  const RayEngine engine = RayEngine::build(positions, triangles);
+  const CameraRays rays(camera, settings.width, settings.height);
+  Image image(settings.width, settings.height);
+  parallelRange(size_t(settings.height), 1, [&](size_t y0, size_t y1) {
+    for (size_t y = y0; y < y1; ++y) {
+      for (int x = 0; x < settings.width; ++x) {
+        Rng rng(mixBits(settings.seed), y * uint64_t(settings.width) + uint64_t(x));
+        glm::vec3 sum(0.0f);
+        for (int s = 0; s < settings.spp; ++s) {
+          const float jx = settings.spp == 1 ? 0.5f : rng.uniform();
+          const float jy = settings.spp == 1 ? 0.5f : rng.uniform();
+          const Ray ray = rays.ray(float(x) + jx, float(y) + jy);
+          const Hit hit = engine.intersect(ray);
+          if (!hit.hit()) continue;
+          const size_t t = size_t(hit.triangle);
+          const glm::uvec3 tri = triangles[t];
+          const glm::vec3 n =
+              glm::cross(positions[tri.y] - positions[tri.x], positions[tri.z] - positions[tri.x]);
+          if (glm::dot(ray.dir, n) >= 0.0f) continue;  // the unlit back
+          const glm::vec2 uv = (1.0f - hit.u - hit.v) * atlas.uvs[3 * t] +
+                               hit.u * atlas.uvs[3 * t + 1] + hit.v * atlas.uvs[3 * t + 2];
+          sum += sampleBilinear(lightmap, uv);
+        }
+        image.at(x, int(y)) = sum / float(settings.spp);
+      }
+    }
+  });
+  return image;
+}
+
+}  // namespace penumbra

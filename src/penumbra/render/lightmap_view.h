@@ -1,0 +1,35 @@
+// A camera's view of a solution stored in a lightmap atlas (progressive radiosity, Wallner
+// sec. 3): primary rays against the scene's triangles, each hit shaded by a bilinear lookup in
+// the lightmap at the hit's lightmap UV, as a GPU renders a lightmapped scene.
+#pragma once
+
+#include "penumbra/core/image.h"
+#include "penumbra/geometry/lightmap_atlas.h"
+#include "penumbra/scene/camera.h"
+
+#include <glm/vec3.hpp>
+
+#include <cstdint>
+#include <span>
+
+namespace penumbra {
+
+struct LightmapViewSettings {
+  int width = 512;
+  int height = 512;
+  int spp = 4;  // jittered primary rays per pixel (antialiasing)
+  uint64_t seed = 0;
+};
+
+// Bilinear lookup of `lightmap` (the atlas' size) at UV (0, 0 = the top-left corner of the
+// image, as LightmapAtlas::uvs), clamped to the image.
+glm::vec3 sampleBilinear(const Image& lightmap, glm::vec2 uv);
+
+// `triangles` over `positions` are the atlas' triangles (in its order); back faces (elements
+// are one-sided) and misses are black. Pixels are independent of the thread count.
+Image renderLightmapView(std::span<const glm::vec3> positions,
+                         std::span<const glm::uvec3> triangles, const LightmapAtlas& atlas,
+                         const Image& lightmap, const Camera& camera,
+                         const LightmapViewSettings& settings);
+
+}  // namespace penumbra
