@@ -3,6 +3,7 @@
 // files.
 #include "penumbra/io/image_io.h"
 #include "penumbra/radiosity/matrix_radiosity.h"
+#include "penumbra/radiosity/progressive.h"
 #include "penumbra/scene/builtin.h"
 #include "support/test_util.h"
 
@@ -224,6 +225,91 @@ TEST(Bake, CornellWritesAGltfAndLightmapsHoldingTheSolution) {
   EXPECT_LT(flat_error[flat_error.size() / 2], 0.15) << "median relative difference";
 }
 
+// Progressive radiosity's bake: the EXR is the solver's own lightmap (its texels are the
+// elements, Wallner sec. 3), bit for bit what the same solve in this process gives; the glTF
+// holds the scene's triangles with the atlas's UVs on TEXCOORD_1 and, per corner, the lightmap's
+// value there.
+TEST(Bake, ProgressiveWritesTheSolversOwnLightmap) {
+  TempDir dir;
+  const fs::path out = dir.path() / "baked";
+  const auto r = runCli("bake cornell --method progressive --texel-density 40 --quiet -o " +
+                        out.string() + " --stats " + (out / "stats.json").string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_EQ(listDirectory(out),
+            (std::set<std::string>{"cornell.gltf", "cornell.bin", "cornell_lightmap.exr",
+                                   "cornell_lightmap.png", "stats.json"}));
+  Expected<Scene> scene = builtinScene("cornell");
+  ASSERT_TRUE(scene.ok());
+  ProgressiveOptions po;
+  po.atlas.texel_density = 40.0;
+  po.max_iterations = 500;
+  po.convergence = 1e-3;
+  Expected<ProgressiveRadiosity> pr = ProgressiveRadiosity::build(*scene, po);
+  ASSERT_TRUE(pr.ok()) << pr.error().describe();
+  const ProgressiveStats st = pr->solve();
+  ASSERT_TRUE(st.converged);
+  const Image lightmap = pr->radianceImage();
+
+  std::ifstream stats_file(out / "stats.json");
+  const nlohmann::json stats = nlohmann::json::parse(stats_file);
+  EXPECT_EQ(stats["method"], "progressive");
+  EXPECT_EQ(stats["elements"].get<size_t>(), pr->elementCount());
+  EXPECT_EQ(stats["iterations"].get<int>(), st.total_iterations);
+  EXPECT_LE(stats["unshot_fraction"].get<double>(), 1e-3);
+
+  Expected<Image> exr = readImage((out / "cornell_lightmap.exr").string());
+  ASSERT_TRUE(exr.ok()) << exr.error().describe();
+  ASSERT_EQ(exr->width, lightmap.width);
+  ASSERT_EQ(exr->height, lightmap.height);
+  size_t differ = 0;
+  for (size_t i = 0; i < lightmap.pixels.size(); ++i)
+    differ += !same(exr->pixels[i], lightmap.pixels[i]);
+  EXPECT_EQ(differ, 0u);
+
+  tinygltf::TinyGLTF loader;
+  loader.SetImageLoader([](tinygltf::Image*, const int, std::string*, std::string*, int, int,
+                           const unsigned char*, int, void*) { return true; },
+                        nullptr);
+  tinygltf::Model model;
+  std::string err, warn;
+  ASSERT_TRUE(loader.LoadASCIIFromFile(&model, &err, &warn, (out / "cornell.gltf").string()))
+      << err;
+  for (const tinygltf::Material& m : model.materials) EXPECT_EQ(m.emissiveTexture.texCoord, 1);
+  const LightmapAtlas& atlas = pr->atlas();
+  const FlatTriangles& flat = pr->triangles();
+  std::vector<bool> seen(flat.triangles.size(), false);
+  for (const tinygltf::Primitive& p : model.meshes.at(0).primitives) {
+    const auto positions = readFloats<3>(model, p.attributes.at("POSITION"));
+    const auto radiance = readFloats<3>(model, p.attributes.at("_RADIANCE"));
+    const auto uv1 = readFloats<2>(model, p.attributes.at("TEXCOORD_1"));
+    const std::vector<uint32_t> indices = readIndices(model, p.indices);
+    for (size_t t = 0; t < indices.size() / 3; ++t) {
+      // The scene triangle with these corners.
+      size_t found = flat.triangles.size();
+      for (size_t k = 0; k < flat.triangles.size(); ++k) {
+        const glm::uvec3 tri = flat.triangles[k];
+        if (same(flat.positions[tri.x], positions[indices[3 * t]]) &&
+            same(flat.positions[tri.y], positions[indices[3 * t + 1]]) &&
+            same(flat.positions[tri.z], positions[indices[3 * t + 2]])) {
+          found = k;
+        }
+      }
+      ASSERT_LT(found, flat.triangles.size());
+      EXPECT_FALSE(seen[found]);
+      seen[found] = true;
+      for (int k = 0; k < 3; ++k) {
+        const uint32_t v = indices[3 * t + size_t(k)];
+        EXPECT_EQ(uv1[v], atlas.uvs[3 * found + size_t(k)]);
+        // A corner sits on a texel centre of its chart: the lightmap's value there is the
+        // corner element's radiance.
+        const glm::vec3 expect = bilinear(lightmap, uv1[v]);
+        for (int c = 0; c < 3; ++c) EXPECT_NEAR(radiance[v][c], expect[c], 1e-5f * (1 + expect[c]));
+      }
+    }
+  }
+  EXPECT_EQ(size_t(std::count(seen.begin(), seen.end(), true)), flat.triangles.size());
+}
+
 TEST(Bake, BadInputGivesOneErrorLineExitCode2AndNoFiles) {
   TempDir dir;
   const std::string file = dir.write("file.txt", "not a directory\n");
@@ -239,7 +325,12 @@ TEST(Bake, BadInputGivesOneErrorLineExitCode2AndNoFiles) {
       {"bake cornell -o /proc/penumbra-bake-test", "cannot create the directory"},
       {"bake cornell --elements 0 -o " + out, "--elements"},
       {"bake cornell --method nonsense -o " + out, "unknown method 'nonsense'"},
-      {"bake cornell --method progressive -o " + out, "not available"},
+      {"bake cornell --method stochastic -o " + out, "not available"},
+      {"bake cornell --method progressive --tolerance 2 -o " + out, "--tolerance"},
+      {"bake cornell --method progressive --resume " + dir.file("none.checkpoint") + " -o " + out,
+       "none.checkpoint"},
+      {"bake cornell --method progressive --resume " + file + " -o " + out, "not a Penumbra"},
+      {"bake cornell --method matrix --resume " + file + " -o " + out, "--resume"},
       {"bake cornell --solver sor -o " + out, "--solver"},
       {"bake cornell --texel-density -5 -o " + out, "--texel-density"},
       {"bake cornell --texel-density 1e9 --elements 10 -o " + out, "--texel-density"},

@@ -1,19 +1,26 @@
 // The command-line contract (design doc sec. 4): outputs, stats, the trace file formats, and bad
 // input answered by one error line, exit code 2 and no output file.
+#include "penumbra/core/file_util.h"
 #include "penumbra/io/image_io.h"
 #include "penumbra/io/ray_file.h"
 #include "support/test_util.h"
 
+#include <fcntl.h>
 #include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
 #include <glm/geometric.hpp>
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
+#include <csignal>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <thread>
 
 namespace penumbra {
 namespace {
@@ -122,6 +129,86 @@ TEST(Cli, ProgressiveRadiosityRendersTheFurnace) {
   }
 }
 
+// Runs the executable with `args` (split on spaces), sends it SIGINT after `delay_s` seconds, and
+// returns its exit code (-1 when it did not exit normally). Output goes to /dev/null.
+int runCliInterrupted(const std::string& args, double delay_s) {
+  std::vector<std::string> words = {PENUMBRA_CLI};
+  for (size_t at = 0; at < args.size();) {
+    const size_t end = std::min(args.find(' ', at), args.size());
+    if (end > at) words.push_back(args.substr(at, end - at));
+    at = end + 1;
+  }
+  std::vector<char*> argv;
+  for (std::string& w : words) argv.push_back(w.data());
+  argv.push_back(nullptr);
+  const pid_t pid = ::fork();
+  if (pid == 0) {
+    const int null = ::open("/dev/null", O_WRONLY);
+    ::dup2(null, 1);
+    ::dup2(null, 2);
+    ::execv(argv[0], argv.data());
+    ::_exit(127);
+  }
+  if (pid < 0) return -1;
+  std::this_thread::sleep_for(std::chrono::duration<double>(delay_s));
+  ::kill(pid, SIGINT);
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+// Ctrl-C stops progressive radiosity between two iterations: it writes the image of the current
+// solution and a checkpoint, exits with 130, and --resume continues to exactly the solution of an
+// uninterrupted run (the state is saved in full precision; the shooter order is deterministic).
+TEST(Cli, ProgressiveInterruptWritesACheckpointThatResumesExactly) {
+  TempDir dir;
+  const std::string common =
+      "render cornell --method progressive --texel-density 110 --tolerance 1e-9 "
+      "--iterations 40 --width 32 --height 32 --spp 1 ";
+  const auto full = runCli(common + "--quiet -o " + dir.file("full.pfm"));
+  ASSERT_EQ(full.exit_code, 0) << full.output;
+
+  const int code = runCliInterrupted(
+      common + "-o " + dir.file("cut.pfm") + " --stats " + dir.file("cut.json"), 1.5);
+  ASSERT_EQ(code, 130) << "the run should have been interrupted before its 40 iterations";
+  const nlohmann::json cut = readJson(dir.file("cut.json"));
+  EXPECT_TRUE(cut["interrupted"].get<bool>());
+  const int done = cut["iterations"].get<int>();
+  EXPECT_LT(done, 40);
+  ASSERT_TRUE(std::filesystem::exists(dir.file("cut.pfm")));
+  ASSERT_TRUE(std::filesystem::exists(dir.file("cut.checkpoint")));
+
+  const auto resumed = runCli(common + "--quiet --resume " + dir.file("cut.checkpoint") + " -o " +
+                              dir.file("resumed.pfm") + " --stats " + dir.file("resumed.json"));
+  ASSERT_EQ(resumed.exit_code, 0) << resumed.output;
+  const nlohmann::json rs = readJson(dir.file("resumed.json"));
+  EXPECT_EQ(rs["resumed_iterations"].get<int>(), done);
+  EXPECT_EQ(rs["iterations"].get<int>(), 40);
+  Expected<Image> a = readImage(dir.file("full.pfm"));
+  Expected<Image> b = readImage(dir.file("resumed.pfm"));
+  ASSERT_TRUE(a.ok() && b.ok());
+  EXPECT_EQ(std::memcmp(a->pixels.data(), b->pixels.data(), a->pixels.size() * sizeof(glm::vec3)),
+            0);
+
+  // A checkpoint of another scene, or a damaged one, is refused with the file named.
+  const auto other = runCli("render furnace --method progressive --resume " +
+                            dir.file("cut.checkpoint") + " -o " + dir.file("x.pfm"));
+  EXPECT_EQ(other.exit_code, 2);
+  EXPECT_NE(other.output.find("another scene"), std::string::npos) << other.output;
+  {
+    std::string bytes = *readFile(dir.file("cut.checkpoint"));
+    bytes[bytes.size() / 2] ^= 0x40;
+    dir.write("bad.checkpoint", bytes);
+  }
+  const auto bad =
+      runCli(common + "--resume " + dir.file("bad.checkpoint") + " -o " + dir.file("y.pfm"));
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_NE(bad.output.find("bad.checkpoint"), std::string::npos) << bad.output;
+  EXPECT_NE(bad.output.find("corrupt"), std::string::npos) << bad.output;
+  EXPECT_FALSE(std::filesystem::exists(dir.file("x.pfm")));
+  EXPECT_FALSE(std::filesystem::exists(dir.file("y.pfm")));
+}
+
 TEST(Cli, SceneSettingsApplyAndCommandLineWins) {
   TempDir dir;
   const std::string cornell = std::string(PENUMBRA_TEST_DATA) + "/../../scenes/cornell.json";
@@ -174,8 +261,10 @@ TEST(Cli, BadInputGivesOneErrorLineExitTwoAndNoOutput) {
       {"render cornell --width 60000 --height 60000 -o " + out, "needs"},
       {"render cornell --spp many -o " + out, "spp"},
       {"render cornell --method stochastic -o " + out, "--method stochastic"},
-      {"render cornell --method progressive --device gpu -o " + out, "--device"},
       {"render cornell --method progressive --tolerance 2 -o " + out, "--tolerance"},
+      {"render cornell --method matrix --texel-density 10 -o " + out, "--texel-density"},
+      {"render cornell --method progressive --texel-density -1 -o " + out, "--texel-density"},
+      {"render cornell --method progressive --resume " + out + ".nope -o " + out, ".nope"},
       {"render cornell --method matrix --elements 0 -o " + out, "--elements"},
       {"render cornell --method matrix --solver sor -o " + out, "--solver"},
       {"render cornell --method matrix --precision fp8 -o " + out, "--precision"},

@@ -3,6 +3,7 @@
 // the matrix method on the Cornell box.
 #include "penumbra/radiosity/progressive.h"
 #include "penumbra/radiosity/matrix_radiosity.h"
+#include "penumbra/render/lightmap_view.h"
 #include "penumbra/scene/builtin.h"
 
 #include <gtest/gtest.h>
@@ -212,6 +213,67 @@ TEST(ProgressiveRadiosity, CornellWallsAgreeWithTheMatrixMethod) {
     // against 1,032 matrix elements); 3.2-5.8% before near pairs got the exact form factor.
     EXPECT_LE(worst, 0.035) << wall;
   }
+}
+
+// Sec. 3.1: bilinear lookups must never read unlit texels. In the furnace every element's
+// radiance is B / pi = 2, so any texel a lookup can touch that was left unfilled (0) or filled
+// from another triangle's chart shows up. The lookup points cover each triangle densely,
+// including its edges and corners, where the footprint reaches past the chart's own texels.
+TEST(ProgressiveRadiosity, BilinearLookupsReadOnlyFilledTexelsOfTheirOwnTriangle) {
+  Expected<Scene> furnace = builtinScene("furnace");
+  ASSERT_TRUE(furnace.ok());
+  ProgressiveOptions o;
+  o.atlas.texel_density = 5.0;
+  o.convergence = 1e-4;
+  Expected<ProgressiveRadiosity> pr = ProgressiveRadiosity::build(*furnace, o);
+  ASSERT_TRUE(pr.ok()) << pr.error().describe();
+  ASSERT_TRUE(pr->solve().converged);
+  const Image lightmap = pr->radianceImage();
+  const LightmapAtlas& a = pr->atlas();
+  const double exact = 2.0;
+  constexpr int kSteps = 40;
+  size_t lookups = 0, touched_border = 0, wrong_triangle = 0, unlit = 0;
+  double worst = 0.0;
+  for (uint32_t t = 0; t < pr->triangleCount(); ++t) {
+    for (int i = 0; i <= kSteps; ++i) {
+      for (int j = 0; i + j <= kSteps; ++j) {
+        const glm::vec2 bary(float(i) / kSteps, float(j) / kSteps);
+        const glm::vec2 uv = a.uv(t, bary);
+        // The texels bilinear filtering reads (GL_LINEAR): the 2 x 2 block around the sample
+        // point in texel-centre coordinates, with their weights.
+        const double px = double(uv.x) * a.width - 0.5, py = double(uv.y) * a.height - 0.5;
+        const int x0 = int(std::floor(px)), y0 = int(std::floor(py));
+        const double fx = px - x0, fy = py - y0;
+        for (int dy = 0; dy <= 1; ++dy) {
+          for (int dx = 0; dx <= 1; ++dx) {
+            const double w = (dx ? fx : 1.0 - fx) * (dy ? fy : 1.0 - fy);
+            // GPUs resolve the weights to 8 fractional bits: a texel weighted below 1/512
+            // (float rounding of a UV on a chart's leg) contributes nothing.
+            if (w < 1.0 / 512.0) continue;
+            const int x = std::clamp(x0 + dx, 0, a.width - 1),
+                      y = std::clamp(y0 + dy, 0, a.height - 1);
+            const size_t k = a.texelIndex(x, y);
+            if (a.texel_triangle[k] != int32_t(t)) ++wrong_triangle;
+            if (a.texel_kind[k] != AtlasTexelKind::kInside) ++touched_border;
+            const glm::vec3 v = lightmap.pixels[k];
+            if (!(v.x > 0.0f && v.y > 0.0f && v.z > 0.0f)) ++unlit;
+            worst = std::max(worst, std::abs(double(v.x) - exact) / exact);
+          }
+        }
+        ++lookups;
+        const glm::vec3 v = sampleBilinear(lightmap, uv);
+        worst = std::max(worst, std::abs(double(v.x) - exact) / exact);
+      }
+    }
+  }
+  std::printf(
+      "furnace lightmap %dx%d: %zu lookups, %zu texel reads outside the charts' elements, "
+      "%zu of another triangle, %zu unlit; worst radiance error %.4f\n",
+      a.width, a.height, lookups, touched_border, wrong_triangle, unlit, worst);
+  EXPECT_GT(touched_border, 0u);  // the lookups do reach the border rows
+  EXPECT_EQ(wrong_triangle, 0u);
+  EXPECT_EQ(unlit, 0u);
+  EXPECT_LE(worst, 0.01);
 }
 
 }  // namespace

@@ -1,14 +1,19 @@
-// `penumbra bake SCENE --method matrix -o DIR`: solves matrix radiosity (Carr, Hall, Hart 2003,
-// sec. 3) and writes the solution as files other tools read: the element mesh with per-corner
-// radiance as glTF, and a lightmap atlas resampled from the elements (sec. 3.1) as EXR (exact,
-// linear) and PNG (tone mapped, referenced by the glTF). Conventions: docs/algorithms.md,
-// "Baked output".
+// `penumbra bake SCENE --method matrix|progressive -o DIR`: solves radiosity and writes the
+// solution as files other tools read: a glTF mesh with per-corner radiance, and a lightmap atlas
+// as EXR (exact, linear) and PNG (tone mapped, referenced by the glTF on the second UV set).
+//  - matrix (Carr, Hall, Hart 2003, sec. 3): the element mesh, and the lightmap resampled from
+//    the elements (sec. 3.1).
+//  - progressive (Wallner sec. 2-3): the scene's triangles, and the solver's own lightmap (its
+//    texels are the elements), border texels filled for bilinear lookups (sec. 3.1).
+// Conventions: docs/algorithms.md, "Baked output".
 //
 // All outputs are staged in a hidden directory inside DIR and renamed into place only once every
 // file is complete, so a failed run leaves no output (and removes DIR if it created it).
 #include "penumbra/app/commands.h"
+#include "penumbra/app/progressive_run.h"
 #include "penumbra/app/stats_file.h"
 #include "penumbra/core/file_util.h"
+#include "penumbra/core/interrupt.h"
 #include "penumbra/core/parallel.h"
 #include "penumbra/core/progress.h"
 #include "penumbra/core/timer.h"
@@ -18,6 +23,7 @@
 #include "penumbra/io/scene_io.h"
 #include "penumbra/radiosity/matrix_radiosity.h"
 #include "penumbra/render/element_lightmap.h"
+#include "penumbra/render/lightmap_mesh.h"
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
@@ -96,12 +102,12 @@ struct Cleanup {
 
 // COLOR_0 = min(1, scale * radiance): 1 at the 99th percentile of the brightest channel of the
 // non-emissive elements' radiance (emitters, a few hot spots and the light's neighbourhood clip).
-float colorScale(const MatrixRadiosity& mr, std::span<const Material> materials) {
+float colorScale(std::span<const glm::vec3> radiance, std::span<const uint8_t> emissive) {
   std::vector<float> peaks;
   for (int pass = 0; pass < 2 && peaks.empty(); ++pass) {
-    for (size_t e = 0; e < mr.elements.size(); ++e) {
-      if (pass == 0 && materials[mr.elements.material[e]].isEmissive()) continue;
-      const glm::vec3 l = mr.radiosity[e] / 3.14159265358979f;
+    for (size_t e = 0; e < radiance.size(); ++e) {
+      if (pass == 0 && emissive[e]) continue;
+      const glm::vec3 l = radiance[e];
       const float peak = std::max({l.x, l.y, l.z});
       if (peak > 0.0f && std::isfinite(peak)) peaks.push_back(peak);
     }
@@ -112,15 +118,173 @@ float colorScale(const MatrixRadiosity& mr, std::span<const Material> materials)
   return 1.0f / peaks[k];
 }
 
-Status bakeMatrix(const BakeOptions& options, const CommonOptions& common) {
+// What a solver hands to the writer.
+struct BakeProduct {
+  BakedMesh mesh;
+  Image lightmap;  // outgoing radiance B / pi per texel
+  int atlas_width = 0, atlas_height = 0;
+  double texel_density = 0.0;
+  size_t triangles = 0;
+  float color_scale = 1.0f;
+  nlohmann::json extras;  // method-specific asset.extras.penumbra entries
+  nlohmann::json stats;   // method-specific --stats entries
+  bool interrupted = false;
+};
+
+Expected<BakeProduct> solveMatrix(const BakeOptions& options, const CommonOptions& common,
+                                  const Scene& scene) {
+  if (!scene.lights.empty()) {
+    spdlog::warn(
+        "{}: {} point/spot/directional light(s) ignored: matrix radiosity is lit by emissive "
+        "surfaces only",
+        scene.source, scene.lights.size());
+  }
+  // The atlas first: it is cheap, and its options can still be wrong.
+  const Timer atlas_timer;
+  const FlatTriangles flat = flattenScene(scene);
+  AtlasOptions ao;
+  ao.texel_density = options.texel_density.value_or(0.0);
+  ao.resolution = options.lightmap_size.value_or(1024);
+  Expected<LightmapAtlas> atlas = buildLightmapAtlas(flat.positions, flat.triangles, ao);
+  if (!atlas) return atlas.error();
+  double atlas_seconds = atlas_timer.seconds();
+
+  MatrixRadiosityOptions mo;
+  mo.meshing.target_elements = options.elements;
+  mo.form_factors.samples = options.ff_samples;
+  std::optional<Progress> ff_progress;
+  std::once_flag ff_progress_once;
+  Expected<MatrixRadiosity> built = buildMatrixRadiosity(scene, mo, [&](size_t done, size_t rows) {
+    std::call_once(ff_progress_once, [&] {
+      ff_progress.emplace("form factors", uint64_t(rows),
+                          !common.quiet && Progress::stderrIsTerminal());
+    });
+    ff_progress->reach(done);
+  });
+  if (ff_progress) ff_progress->finish();
+  if (!built) return built.error();
+  MatrixRadiosity& mr = *built;
+  const size_t n = mr.elements.size();
+  spdlog::info("{}: {} elements, form factors in {:.2f} s ({} rays)", scene.source, n,
+               mr.form_factor_stats.seconds, mr.form_factor_stats.rays);
+
+  SolveOptions so;
+  so.solver = options.solver == "jacobi" ? MatrixSolver::kJacobi : MatrixSolver::kGaussSeidel;
+  so.max_iterations = options.iterations;
+  so.tolerance = options.tolerance.value_or(1e-6);
+  Progress progress("solving", uint64_t(so.max_iterations),
+                    !common.quiet && Progress::stderrIsTerminal());
+  const SolveStats solved = mr.solve(so, [&](int k, double) { progress.reach(uint64_t(k + 1)); });
+  progress.finish();
+  if (!solved.converged) {
+    spdlog::warn("not converged: residual {:.3g} after {} iterations (tolerance {:.3g})",
+                 solved.residual, solved.iterations, so.tolerance);
+  }
+  spdlog::info("{} iterations ({}), residual {:.3g}, {:.3f} s", solved.iterations,
+               matrixSolverName(so.solver), solved.residual, solved.seconds);
+
+  // The display path of sec. 3.1: smooth corner radiance, resampled into the atlas.
+  const Timer resample_timer;
+  BakeProduct out;
+  const std::vector<glm::vec3> corners = mr.cornerRadiance();
+  out.lightmap = rasterizeElementLightmap(*atlas, mr.elements, corners);
+  out.mesh = buildBakedMesh(scene, mr.elements, *atlas, corners);
+  std::vector<glm::vec3> radiance(n);
+  std::vector<uint8_t> emissive(n);
+  for (size_t e = 0; e < n; ++e) {
+    radiance[e] = mr.radiosity[e] / 3.14159265358979f;
+    emissive[e] = scene.materials[mr.elements.material[e]].isEmissive() ? 1 : 0;
+  }
+  out.color_scale = colorScale(radiance, emissive);
+  atlas_seconds += resample_timer.seconds();
+  out.atlas_width = atlas->width;
+  out.atlas_height = atlas->height;
+  out.texel_density = atlas->texel_density;
+  out.triangles = atlas->charts.size();
+  out.extras = {{"elements", n}, {"iterations", solved.iterations}, {"residual", solved.residual}};
+  out.stats = {{"solver", matrixSolverName(so.solver)},
+               {"elements", n},
+               {"form_factor_seconds", mr.form_factor_stats.seconds},
+               {"form_factor_rays", mr.form_factor_stats.rays},
+               {"rays", mr.form_factor_stats.rays},
+               {"solve_seconds", solved.seconds},
+               {"atlas_seconds", atlas_seconds},
+               {"iterations", solved.iterations},
+               {"residual", solved.residual},
+               {"converged", solved.converged},
+               {"tolerance", so.tolerance},
+               {"history", solved.history}};
+  return out;
+}
+
+// Progressive radiosity (Wallner sec. 2-3): the lightmap is the solution itself, its occupied
+// texels the elements; border texels are filled for bilinear lookups (sec. 3.1).
+Expected<BakeProduct> solveProgressive(const CommonOptions& common, const Scene& scene,
+                                       const ProgressiveRunOptions& ro) {
+  if (!scene.lights.empty()) {
+    spdlog::warn(
+        "{}: {} point/spot/directional light(s) ignored: progressive radiosity is lit by "
+        "emissive surfaces only in this version",
+        scene.source, scene.lights.size());
+  }
+  Expected<ProgressiveRun> run = runProgressive(scene, ro, common);
+  if (!run) return run.error();
+  const ProgressiveRadiosity& pr = *run->solver;
+  BakeProduct out;
+  out.interrupted = run->interrupted;
+  out.lightmap = pr.radianceImage(false);
+  out.mesh = buildLightmapMesh(scene, pr.atlas(), out.lightmap);
+  std::vector<glm::vec3> radiance(pr.elementCount());
+  std::vector<uint8_t> emissive(pr.elementCount());
+  for (size_t e = 0; e < pr.elementCount(); ++e) {
+    radiance[e] = glm::vec3(pr.radiosity(e) / 3.14159265358979323846);
+    emissive[e] = pr.emission(e) != glm::dvec3(0.0) ? 1 : 0;
+  }
+  out.color_scale = colorScale(radiance, emissive);
+  out.atlas_width = pr.atlas().width;
+  out.atlas_height = pr.atlas().height;
+  out.texel_density = pr.atlas().texel_density;
+  out.triangles = pr.atlas().charts.size();
+  out.extras = {{"elements", pr.elementCount()},
+                {"iterations", run->stats.total_iterations},
+                {"unshot_fraction", run->stats.unshot_fraction}};
+  out.stats = progressiveStatsJson(*run, ro.tolerance);
+  return out;
+}
+
+Status bake(const BakeOptions& options, const CommonOptions& common, bool* interrupted) {
   // Everything is checked before any work or output.
+  const bool progressive = options.method == "progressive";
   if (options.texel_density &&
       !(*options.texel_density > 0.0 && std::isfinite(*options.texel_density))) {
     return inputError("", "--texel-density", "must be a positive number of texels per metre");
   }
+  if (!progressive) {
+    if (!options.resume.empty())
+      return inputError("", "--resume", "applies to --method progressive only");
+    if (!options.checkpoint.empty()) {
+      return inputError("", "--checkpoint", "applies to --method progressive only");
+    }
+  }
   Expected<std::vector<fs::path>> missing = checkOutputDirectory(options.output);
   if (!missing) return missing.error();
   const fs::path out_dir = normalDirectory(options.output);
+  const std::string stem = sceneStem(options.scene);
+  ProgressiveRunOptions ro;
+  if (progressive) {
+    ro.elements = options.elements;
+    ro.texel_density = options.texel_density;
+    ro.lightmap_size = options.lightmap_size;
+    ro.iterations = options.iterations;
+    ro.tolerance = options.tolerance.value_or(1e-3);
+    ro.resume = options.resume;
+    ro.checkpoint = options.checkpoint.empty() ? (out_dir / (stem + ".checkpoint")).string()
+                                               : options.checkpoint;
+    const std::string checkpoint = ro.checkpoint;
+    if (!missing->empty()) ro.checkpoint.clear();  // the directory is checked above
+    PENUMBRA_TRY(checkProgressiveRunOptions(ro));
+    ro.checkpoint = checkpoint;
+  }
   if (!options.stats.empty()) {
     const fs::path stats_dir = fs::path(options.stats).parent_path();
     const bool into_new_dir = !missing->empty() && !stats_dir.empty() &&
@@ -143,130 +307,68 @@ Status bakeMatrix(const BakeOptions& options, const CommonOptions& common) {
   Expected<Scene> scene = loadScene(options.scene);
   if (!scene) return scene.error();
   for (const std::string& w : scene->warnings) spdlog::warn("{}", w);
-  if (!scene->lights.empty()) {
-    spdlog::warn(
-        "{}: {} point/spot/directional light(s) ignored: matrix radiosity is lit by emissive "
-        "surfaces only",
-        scene->source, scene->lights.size());
-  }
   bool any_emitter = false;
   for (const Material& m : scene->materials) any_emitter |= m.isEmissive();
-  if (!any_emitter) spdlog::warn("{}: no emissive material: the solution is black", scene->source);
-  const std::string stem = sceneStem(options.scene);
-
-  // The atlas first: it is cheap, and its options can still be wrong.
-  const Timer atlas_timer;
-  const FlatTriangles flat = flattenScene(*scene);
-  AtlasOptions ao;
-  ao.texel_density = options.texel_density.value_or(0.0);
-  ao.resolution = options.lightmap_size;
-  Expected<LightmapAtlas> atlas = buildLightmapAtlas(flat.positions, flat.triangles, ao);
-  if (!atlas) return atlas.error();
-  double atlas_seconds = atlas_timer.seconds();
-
-  MatrixRadiosityOptions mo;
-  mo.meshing.target_elements = options.elements;
-  mo.form_factors.samples = options.ff_samples;
-  std::optional<Progress> ff_progress;
-  std::once_flag ff_progress_once;
-  Expected<MatrixRadiosity> built = buildMatrixRadiosity(*scene, mo, [&](size_t done, size_t rows) {
-    std::call_once(ff_progress_once, [&] {
-      ff_progress.emplace("form factors", uint64_t(rows),
-                          !common.quiet && Progress::stderrIsTerminal());
-    });
-    ff_progress->reach(done);
-  });
-  if (ff_progress) ff_progress->finish();
-  if (!built) return built.error();
-  MatrixRadiosity& mr = *built;
-  const size_t n = mr.elements.size();
-  spdlog::info("{}: {} elements, form factors in {:.2f} s ({} rays)", scene->source, n,
-               mr.form_factor_stats.seconds, mr.form_factor_stats.rays);
-
-  SolveOptions so;
-  so.solver = options.solver == "jacobi" ? MatrixSolver::kJacobi : MatrixSolver::kGaussSeidel;
-  so.max_iterations = options.iterations;
-  so.tolerance = options.tolerance;
-  Progress progress("solving", uint64_t(so.max_iterations),
-                    !common.quiet && Progress::stderrIsTerminal());
-  const SolveStats solved = mr.solve(so, [&](int k, double) { progress.reach(uint64_t(k + 1)); });
-  progress.finish();
-  if (!solved.converged) {
-    spdlog::warn("not converged: residual {:.3g} after {} iterations (tolerance {:.3g})",
-                 solved.residual, solved.iterations, so.tolerance);
+  if (!any_emitter && !progressive) {
+    spdlog::warn("{}: no emissive material: the solution is black", scene->source);
   }
-  spdlog::info("{} iterations ({}), residual {:.3g}, {:.3f} s", solved.iterations,
-               matrixSolverName(so.solver), solved.residual, solved.seconds);
-
-  // The display path of sec. 3.1: smooth corner radiance, resampled into the atlas.
-  const Timer resample_timer;
-  const std::vector<glm::vec3> corners = mr.cornerRadiance();
-  const Image lightmap = rasterizeElementLightmap(*atlas, mr.elements, corners);
-  const BakedMesh mesh = buildBakedMesh(*scene, mr.elements, *atlas, corners);
-  const float color_scale = colorScale(mr, scene->materials);
-  const double resample_seconds = resample_timer.seconds();
-  atlas_seconds += resample_seconds;
+  Expected<BakeProduct> product =
+      progressive ? solveProgressive(common, *scene, ro) : solveMatrix(options, common, *scene);
+  if (!product) return product.error();
+  if (product->interrupted) {
+    *interrupted = true;
+    // The checkpoint is part of what this run leaves, also if the outputs fail.
+    cleanup.created.clear();
+  }
   const double seconds = total_timer.seconds();
 
   // Output: staged, then moved into place.
   const std::string gltf_name = stem + ".gltf", bin_name = stem + ".bin",
                     exr_name = stem + "_lightmap.exr", png_name = stem + "_lightmap.png";
-  PENUMBRA_TRY(writeImage((cleanup.staging / exr_name).string(), lightmap));
-  PENUMBRA_TRY(writeImage((cleanup.staging / png_name).string(), lightmap, ToneMapSettings{}));
+  PENUMBRA_TRY(writeImage((cleanup.staging / exr_name).string(), product->lightmap));
+  PENUMBRA_TRY(
+      writeImage((cleanup.staging / png_name).string(), product->lightmap, ToneMapSettings{}));
   BakedGltfInfo info;
   info.name = stem;
   info.bin_uri = bin_name;
   info.lightmap_uri = png_name;
-  info.color_0_scale = color_scale;
+  info.color_0_scale = product->color_scale;
   info.extras = {
-      {"method", "matrix"},
+      {"method", options.method},
       {"scene", scene->source},
       {"units", {{"length", "m"}, {"radiance", "W m^-2 sr^-1"}}},
       {"radiance_attribute", "_RADIANCE"},
       {"color_0", "min(1, color_0_scale * _RADIANCE) per channel, linear"},
       {"lightmap",
        {{"texcoord", 1},
-        {"width", atlas->width},
-        {"height", atlas->height},
-        {"texel_density", atlas->texel_density},
+        {"width", product->atlas_width},
+        {"height", product->atlas_height},
+        {"texel_density", product->texel_density},
         {"exr", exr_name},
         {"png", png_name},
         {"exr_content", "outgoing radiance B/pi, W m^-2 sr^-1, linear Rec. 709 RGB"},
         {"png_content",
-         "the EXR tone mapped (Reinhard 2002, automatic key), sRGB encoded; for display"}}},
-      {"elements", n},
-      {"iterations", solved.iterations},
-      {"residual", solved.residual}};
-  PENUMBRA_TRY(
-      writeBakedGltf((cleanup.staging / gltf_name).string(), mesh, scene->materials, info));
+         "the EXR tone mapped (Reinhard 2002, automatic key), sRGB encoded; for display"}}}};
+  info.extras.update(product->extras);
+  PENUMBRA_TRY(writeBakedGltf((cleanup.staging / gltf_name).string(), product->mesh,
+                              scene->materials, info));
 
   if (!options.stats.empty()) {
-    nlohmann::json j = {{"method", "matrix"},
+    nlohmann::json j = {{"method", options.method},
                         {"device", "cpu"},
                         {"scene", scene->source},
                         {"seconds", seconds},
-                        {"solver", matrixSolverName(so.solver)},
-                        {"elements", n},
-                        {"form_factor_seconds", mr.form_factor_stats.seconds},
-                        {"form_factor_rays", mr.form_factor_stats.rays},
-                        {"rays", mr.form_factor_stats.rays},
-                        {"solve_seconds", solved.seconds},
-                        {"atlas_seconds", atlas_seconds},
-                        {"iterations", solved.iterations},
-                        {"residual", solved.residual},
-                        {"converged", solved.converged},
-                        {"tolerance", so.tolerance},
-                        {"history", solved.history},
                         {"threads", threadCount()},
                         {"atlas",
-                         {{"width", atlas->width},
-                          {"height", atlas->height},
-                          {"texel_density", atlas->texel_density},
-                          {"triangles", atlas->charts.size()}}},
-                        {"color_0_scale", color_scale},
+                         {{"width", product->atlas_width},
+                          {"height", product->atlas_height},
+                          {"texel_density", product->texel_density},
+                          {"triangles", product->triangles}}},
+                        {"color_0_scale", product->color_scale},
                         {"outputs",
                          {(out_dir / gltf_name).string(), (out_dir / bin_name).string(),
                           (out_dir / exr_name).string(), (out_dir / png_name).string()}}};
+    j.update(product->stats);
     PENUMBRA_TRY(writeStatsFile(options.stats, j));
     cleanup.placed.push_back(options.stats);
   }
@@ -278,25 +380,24 @@ Status bakeMatrix(const BakeOptions& options, const CommonOptions& common) {
   }
   cleanup.done = true;
   spdlog::info("baked in {:.2f} s: {} ({}x{} lightmap, {:.0f} texels/m)", total_timer.seconds(),
-               (out_dir / gltf_name).string(), atlas->width, atlas->height, atlas->texel_density);
+               (out_dir / gltf_name).string(), product->atlas_width, product->atlas_height,
+               product->texel_density);
   return {};
 }
 
 }  // namespace
 
 int runBake(const BakeOptions& options, const CommonOptions& common) {
-  Status s;
-  if (options.method == "matrix") {
-    s = bakeMatrix(options, common);
-  } else if (options.method == "progressive" || options.method == "stochastic") {
-    s = inputError(
-        "", "--method",
-        fmt::format("{} is not available in this version (available: matrix)", options.method));
-  } else {
-    s = inputError("", "--method",
-                   fmt::format("unknown method '{}' (available: matrix)", options.method));
+  if (options.method != "matrix" && options.method != "progressive") {
+    const std::string why = options.method == "stochastic"
+                                ? "stochastic is not available in this version"
+                                : fmt::format("unknown method '{}'", options.method);
+    return reportError(inputError("", "--method", why + " (available: matrix, progressive)"));
   }
-  return s.ok() ? 0 : reportError(s.error());
+  bool interrupted = false;
+  const Status s = bake(options, common, &interrupted);
+  if (!s.ok()) return reportError(s.error());
+  return interrupted ? kInterruptedExitCode : 0;
 }
 
 }  // namespace penumbra

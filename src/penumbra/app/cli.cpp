@@ -68,9 +68,11 @@ int parseAndRun(int argc, char** argv) {
       ->add_option("--elements", render.elements,
                    "matrix: about this many elements; progressive: about this many lightmap "
                    "texels")
-      ->check(CLI::Range(1u, 1u << 20))
+      ->check(CLI::Range(1u, 1u << 28))
       ->capture_default_str();
-  render_cmd->add_option("--iterations", render.iterations, "matrix: iteration cap")
+  render_cmd
+      ->add_option("--iterations", render.iterations,
+                   "iteration cap (progressive: shooters, counted over resumed runs)")
       ->check(CLI::Range(1, 1 << 20))
       ->capture_default_str();
   render_cmd
@@ -101,6 +103,13 @@ int parseAndRun(int argc, char** argv) {
                    "element)")
       ->check(CLI::IsMember({"smooth", "flat"}))
       ->capture_default_str();
+  render_cmd->add_option("--texel-density", render.texel_density,
+                         "progressive: lightmap texels per metre (instead of --elements)");
+  render_cmd->add_option("--resume", render.resume,
+                         "progressive: continue from this checkpoint (written on Ctrl-C)");
+  render_cmd->add_option("--checkpoint", render.checkpoint,
+                         "progressive: where Ctrl-C writes the checkpoint (default: the first "
+                         "output with the extension .checkpoint)");
   addCommon(render_cmd, common);
 
   TraceOptions trace;
@@ -143,21 +152,24 @@ int parseAndRun(int argc, char** argv) {
   CLI::App* bake_cmd = app.add_subcommand(
       "bake", "solve radiosity and write a glTF with lightmaps (EXR, PNG) into a directory");
   bake_cmd->add_option("scene", bake.scene, "built-in scene name or file")->required();
-  bake_cmd->add_option("--method", bake.method, "matrix")->capture_default_str();
+  bake_cmd->add_option("--method", bake.method, "matrix or progressive")->capture_default_str();
   bake_cmd->add_option("-o,--output", bake.output, "output directory (created if missing)")
       ->capture_default_str();
   bake_cmd->add_option("--stats", bake.stats, "write statistics to this JSON file");
-  bake_cmd->add_option("--elements", bake.elements, "about this many radiosity elements")
-      ->check(CLI::Range(1u, 1u << 20))
+  bake_cmd
+      ->add_option("--elements", bake.elements,
+                   "about this many radiosity elements (progressive: lightmap texels)")
+      ->check(CLI::Range(1u, 1u << 28))
       ->capture_default_str();
   bake_cmd->add_option("--iterations", bake.iterations, "iteration cap")
       ->check(CLI::Range(1, 1 << 20))
       ->capture_default_str();
   bake_cmd
       ->add_option("--tolerance", bake.tolerance,
-                   "stop when the mean squared residual of MB - E ((W m^-2)^2) is at most this")
-      ->check(CLI::Range(0.0, 1e30))
-      ->capture_default_str();
+                   "matrix: stop when the mean squared residual of MB - E ((W m^-2)^2) is at "
+                   "most this (default 1e-6); progressive: when the unshot fraction of the "
+                   "emitted power is (default 1e-3)")
+      ->check(CLI::Range(0.0, 1e30));
   bake_cmd->add_option("--solver", bake.solver, "jacobi or gauss-seidel")
       ->check(CLI::IsMember({"jacobi", "gauss-seidel"}))
       ->capture_default_str();
@@ -168,9 +180,14 @@ int parseAndRun(int argc, char** argv) {
                        "lightmap texels per metre (default: the most that fit --lightmap-size)");
   bake_cmd
       ->add_option("--lightmap-size", bake.lightmap_size,
-                   "lightmap width and height when --texel-density is not given")
-      ->check(CLI::Range(8, 16384))
-      ->capture_default_str();
+                   "lightmap width and height when --texel-density is not given (matrix: "
+                   "default 1024; progressive: default from --elements)")
+      ->check(CLI::Range(8, 16384));
+  bake_cmd->add_option("--resume", bake.resume,
+                       "progressive: continue from this checkpoint (written on Ctrl-C)");
+  bake_cmd->add_option("--checkpoint", bake.checkpoint,
+                       "progressive: where Ctrl-C writes the checkpoint (default: "
+                       "DIR/SCENE.checkpoint)");
   addCommon(bake_cmd, common);
 
   const std::string first = argc > 1 ? argv[1] : "";

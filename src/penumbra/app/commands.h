@@ -36,6 +36,12 @@ struct RenderOptions {
   int ff_samples = 16;     // form-factor sample points per element pair
   int relight_frames = 0;  // > 1: a sequence of relit frames from one set of form factors
   std::string shading = "smooth";
+  // --method progressive (Wallner): lightmap texels per metre (overrides --elements), the
+  // checkpoint to continue from, and where Ctrl-C writes one (default: the first output with
+  // the extension .checkpoint).
+  std::optional<double> texel_density;
+  std::string resume;
+  std::string checkpoint;
 };
 
 struct TraceOptions {
@@ -62,19 +68,25 @@ struct BakeOptions {
   std::string output = ".";  // -o DIR, created if missing
   std::string stats;
   uint32_t elements = 2000;
-  int iterations = 500;     // iteration cap
-  double tolerance = 1e-6;  // mean squared residual of MB - E, (W m^-2)^2
+  int iterations = 500;  // iteration cap
+  // matrix: mean squared residual of MB - E, (W m^-2)^2 (default 1e-6); progressive: unshot
+  // fraction of the emitted power (default 1e-3).
+  std::optional<double> tolerance;
   std::string solver = "gauss-seidel";
   int ff_samples = 16;                  // form-factor sample points per element pair
   std::optional<double> texel_density;  // lightmap texels per metre (default: from the size)
-  int lightmap_size = 1024;             // lightmap width and height without --texel-density
+  std::optional<int> lightmap_size;     // lightmap width and height (default 1024 for matrix)
+  std::string resume;                   // progressive: checkpoint to continue from
+  std::string checkpoint;  // progressive: where Ctrl-C writes one (DIR/STEM.checkpoint)
 };
 
 int runRender(const RenderOptions& options, const CommonOptions& common);
 int runBake(const BakeOptions& options, const CommonOptions& common);
 // The methods behind `render` (render_*.cpp).
 Status renderMatrix(const RenderOptions& options, const CommonOptions& common);
-Status renderProgressive(const RenderOptions& options, const CommonOptions& common);
+// Sets *interrupted when Ctrl-C stopped the solver (the outputs and a checkpoint were written).
+Status renderProgressive(const RenderOptions& options, const CommonOptions& common,
+                         bool* interrupted);
 int runTrace(const TraceOptions& options, const CommonOptions& common);
 int runInfo(const InfoOptions& options, const CommonOptions& common);
 

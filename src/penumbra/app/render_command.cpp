@@ -3,6 +3,7 @@
 #include "penumbra/app/device.h"
 #include "penumbra/app/stats_file.h"
 #include "penumbra/core/file_util.h"
+#include "penumbra/core/interrupt.h"
 #include "penumbra/core/memory.h"
 #include "penumbra/core/parallel.h"
 #include "penumbra/core/progress.h"
@@ -181,13 +182,23 @@ int runRender(const RenderOptions& options, const CommonOptions& common) {
     return reportError(inputError(
         "", "", fmt::format("--device '{}': use cpu, gpu, hybrid or auto", options.device)));
   }
+  if (options.method != "progressive") {
+    const char* only = options.texel_density         ? "--texel-density"
+                       : !options.resume.empty()     ? "--resume"
+                       : !options.checkpoint.empty() ? "--checkpoint"
+                                                     : nullptr;
+    if (only) {
+      return reportError(inputError("", only, "applies to --method progressive only"));
+    }
+  }
   Status s;
+  bool interrupted = false;
   if (options.method == "pathtrace") {
     s = renderPathTrace(options, common);
   } else if (options.method == "matrix") {
     s = renderMatrix(options, common);
   } else if (options.method == "progressive") {
-    s = renderProgressive(options, common);
+    s = renderProgressive(options, common, &interrupted);
   } else if (options.method == "stochastic" || options.method == "sss" || options.method == "lpv") {
     s = inputError("", "",
                    fmt::format("--method {} is not available in this version (available: "
@@ -198,7 +209,8 @@ int runRender(const RenderOptions& options, const CommonOptions& common) {
                    fmt::format("unknown --method '{}' (available: pathtrace, matrix, progressive)",
                                options.method));
   }
-  return s.ok() ? 0 : reportError(s.error());
+  if (!s.ok()) return reportError(s.error());
+  return interrupted ? kInterruptedExitCode : 0;
 }
 
 }  // namespace penumbra

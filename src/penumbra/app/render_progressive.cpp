@@ -3,6 +3,7 @@
 // filtering, as a lightmapped scene is displayed.
 #include "penumbra/app/commands.h"
 #include "penumbra/app/device.h"
+#include "penumbra/app/progressive_run.h"
 #include "penumbra/app/stats_file.h"
 #include "penumbra/core/file_util.h"
 #include "penumbra/core/memory.h"
@@ -23,7 +24,8 @@
 
 namespace penumbra {
 
-Status renderProgressive(const RenderOptions& options, const CommonOptions& common) {
+Status renderProgressive(const RenderOptions& options, const CommonOptions& common,
+                         bool* interrupted) {
   std::vector<std::string> outputs = options.outputs;
   if (outputs.empty()) {
     const std::filesystem::path p(options.scene);
@@ -48,8 +50,18 @@ Status renderProgressive(const RenderOptions& options, const CommonOptions& comm
         "", "--device",
         fmt::format("'{}': progressive radiosity runs on the CPU in this version", options.device));
   }
-  const double tolerance = options.tolerance.value_or(1e-3);
-  if (tolerance > 1.0) return inputError("", "--tolerance", "is a fraction, at most 1");
+  ProgressiveRunOptions ro;
+  ro.elements = options.elements;
+  ro.texel_density = options.texel_density;
+  ro.iterations = options.iterations;
+  ro.tolerance = options.tolerance.value_or(1e-3);
+  ro.resume = options.resume;
+  ro.checkpoint = options.checkpoint;
+  if (ro.checkpoint.empty()) {
+    ro.checkpoint =
+        std::filesystem::path(outputs.front()).replace_extension(".checkpoint").string();
+  }
+  PENUMBRA_TRY(checkProgressiveRunOptions(ro));
   const int width = options.width.value_or(512), height = options.height.value_or(512);
   const int spp = options.spp.value_or(4);
   if (width < 1 || width > (1 << 16) || height < 1 || height > (1 << 16)) {
@@ -69,50 +81,11 @@ Status renderProgressive(const RenderOptions& options, const CommonOptions& comm
         "emissive surfaces only in this version",
         scene->source, scene->lights.size());
   }
-
-  // The texel density that gives about --elements occupied texels: texels per metre, so that
-  // density^2 * total area = elements.
-  const FlatTriangles flat = flattenScene(*scene);
-  double total_area = 0.0;
-  for (const glm::uvec3& t : flat.triangles) {
-    total_area += 0.5 * double(glm::length(glm::cross(flat.positions[t.y] - flat.positions[t.x],
-                                                      flat.positions[t.z] - flat.positions[t.x])));
-  }
-  if (!(total_area > 0.0)) return inputError(scene->source, "", "the scene has no surface area");
-  ProgressiveOptions po;
-  po.atlas.texel_density = std::sqrt(double(options.elements) / total_area);
-  po.max_iterations = options.iterations;
-  po.convergence = tolerance;
-  // Per element: radiosity, residual, reflectance, emission, position, area, ids (~150 bytes),
-  // plus the atlas (~32 bytes per texel, about twice the elements with gutters).
-  PENUMBRA_TRY(checkMemory(uint64_t(options.elements) * 220,
-                           fmt::format("progressive radiosity with {} texels", options.elements)));
-
-  const Timer build_timer;
-  Expected<ProgressiveRadiosity> built = ProgressiveRadiosity::build(*scene, po);
-  if (!built) return built.error();
-  ProgressiveRadiosity& pr = *built;
-  const double build_seconds = build_timer.seconds();
-  spdlog::info("{}: {} lightmap texels in a {}x{} atlas ({:.1f} texels/m)", scene->source,
-               pr.elementCount(), pr.atlas().width, pr.atlas().height, pr.atlas().texel_density);
-
-  // Progress: the fraction of the emitted power shot so far, on a log scale down to the
-  // tolerance (the iteration count is not known in advance).
-  Progress progress("shooting", 1000, !common.quiet && Progress::stderrIsTerminal());
-  const double log_goal = std::log(std::max(tolerance, 1e-12));
-  nlohmann::json history = nlohmann::json::array();
-  const ProgressiveStats st = pr.solve([&](const ProgressiveIteration& it) {
-    history.push_back(it.unshot_fraction);
-    const double f = it.unshot_fraction > 0.0 ? std::log(it.unshot_fraction) / log_goal : 1.0;
-    progress.reach(uint64_t(std::clamp(f, 0.0, 1.0) * 1000.0));
-  });
-  progress.finish();
-  if (!st.converged) {
-    spdlog::warn(
-        "not converged: {:.3g} of the emitted power unshot after {} iterations "
-        "(tolerance {:.3g})",
-        st.unshot_fraction, st.iterations, tolerance);
-  }
+  Expected<ProgressiveRun> run = runProgressive(*scene, ro, common);
+  if (!run) return run.error();
+  const ProgressiveRadiosity& pr = *run->solver;
+  const ProgressiveStats& st = run->stats;
+  if (run->interrupted) *interrupted = true;
 
   const Timer view_timer;
   const Camera camera = scene->camera ? *scene->camera : defaultCamera(*scene);
@@ -122,40 +95,24 @@ Status renderProgressive(const RenderOptions& options, const CommonOptions& comm
   view.spp = spp;
   view.seed = options.seed.value_or(0);
   const Image lightmap = pr.radianceImage(false);
-  const Image image =
-      renderLightmapView(flat.positions, flat.triangles, pr.atlas(), lightmap, camera, view);
+  const Image image = renderLightmapView(pr.triangles().positions, pr.triangles().triangles,
+                                         pr.atlas(), lightmap, camera, view);
   const double view_seconds = view_timer.seconds();
   for (const std::string& out : outputs) PENUMBRA_TRY(writeImage(out, image, options.tonemap));
   spdlog::info("{} iterations, {:.3g} of the emitted power unshot, {:.2f} s; wrote {}",
-               st.iterations, st.unshot_fraction, st.seconds, fmt::join(outputs, ", "));
+               st.total_iterations, st.unshot_fraction, st.seconds, fmt::join(outputs, ", "));
 
   if (!options.stats.empty()) {
-    const EnergyBalance& b = pr.balance();
     nlohmann::json j = {{"method", "progressive"},
                         {"device", "cpu"},
                         {"scene", scene->source},
                         {"seconds", total_timer.seconds()},
-                        {"build_seconds", build_seconds},
-                        {"solve_seconds", st.seconds},
                         {"view_seconds", view_seconds},
-                        {"elements", pr.elementCount()},
-                        {"atlas_width", pr.atlas().width},
-                        {"atlas_height", pr.atlas().height},
-                        {"texel_density", pr.atlas().texel_density},
-                        {"iterations", st.iterations},
-                        {"unshot_fraction", st.unshot_fraction},
-                        {"converged", st.converged},
-                        {"tolerance", tolerance},
-                        {"history", history},
-                        {"rays", st.rays},
-                        {"emitted_w", {b.emitted.x, b.emitted.y, b.emitted.z}},
-                        {"absorbed_w", {b.absorbed.x, b.absorbed.y, b.absorbed.z}},
-                        {"unshot_w", {b.unshot.x, b.unshot.y, b.unshot.z}},
-                        {"escaped_w", {b.escaped.x, b.escaped.y, b.escaped.z}},
                         {"threads", threadCount()},
                         {"width", width},
                         {"height", height},
                         {"spp", spp}};
+    j.update(progressiveStatsJson(*run, ro.tolerance));
     PENUMBRA_TRY(writeStatsFile(options.stats, j));
   }
   return {};

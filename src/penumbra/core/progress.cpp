@@ -55,14 +55,23 @@ void Progress::finish() {
   draw(done_.load(), true);
 }
 
+void Progress::setNote(std::string note) {
+  if (!enabled_) return;
+  std::lock_guard lock(mutex_);
+  note_ = std::move(note);
+}
+
 void Progress::draw(uint64_t done, bool final) {
   constexpr int kWidth = 40;
   const double frac = total_ ? double(done < total_ ? done : total_) / double(total_) : 1.0;
   const int filled = int(frac * kWidth);
   std::string bar(size_t(filled), '#');
   bar.append(size_t(kWidth - filled), '.');
-  std::fprintf(stderr, "\r%s [%s] %5.1f%%%s", label_.c_str(), bar.c_str(), frac * 100.0,
-               final ? "\n" : "");
+  // The note is padded so that a shorter one overwrites a longer one drawn before.
+  std::string note = note_.empty() ? std::string() : "  " + note_;
+  if (note.size() < 40) note.append(40 - note.size(), ' ');
+  std::fprintf(stderr, "\r%s [%s] %5.1f%%%s%s", label_.c_str(), bar.c_str(), frac * 100.0,
+               note.c_str(), final ? "\n" : "");
   std::fflush(stderr);
 }
 

@@ -19,6 +19,8 @@ class Progress {
   // Thread-safe: `done` units are finished (calls may arrive out of order; the largest wins).
   void reach(uint64_t done);
   void finish();
+  // Thread-safe: a short text shown after the bar (e.g. "iteration 37, 0.012 unshot").
+  void setNote(std::string note);
 
   // Whether stderr is a terminal.
   static bool stderrIsTerminal();
@@ -28,6 +30,7 @@ class Progress {
   void draw(uint64_t done, bool final);
 
   std::string label_;
+  std::string note_;  // guarded by mutex_
   uint64_t total_;
   bool enabled_;
   std::atomic<uint64_t> done_{0};

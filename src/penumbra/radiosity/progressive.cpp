@@ -6,6 +6,7 @@
 #include "penumbra/core/parallel.h"
 #include "penumbra/core/timer.h"
 
+#include <fmt/format.h>
 #include <glm/geometric.hpp>
 
 #include <algorithm>
@@ -22,12 +23,15 @@ namespace {
 constexpr double kPi = 3.14159265358979323846;
 
 // A shooter point: an element, or a block of elements at a coarser mip level (substructuring,
-// Wallner sec. 3: the block's mean position, summed area and area-weighted mean dB).
+// Wallner sec. 3: the block's mean position, summed area and area-weighted mean dB). In the
+// hierarchical mode a block also knows its four (or fewer) sub-blocks one level finer.
 struct ShooterPoint {
   glm::dvec3 position{0.0};
   double area = 0.0;
   glm::dvec3 residual{0.0};
-  std::vector<uint32_t> members;  // its elements
+  std::vector<uint32_t> members;   // its elements
+  std::vector<uint32_t> children;  // hierarchical mode: indices of its sub-blocks
+  glm::ivec2 texel{0};             // atlas texel of one member (for grouping into blocks)
 };
 
 // Wallner eq. 2 with one disc (m = 1): the form factor from a receiver point to a shooter
@@ -91,6 +95,11 @@ double texelCoverage(int i, int j, int leg, glm::dvec2& centroid,
 // Pairs closer than this many element sizes (sqrt of the shooter point's area) use the exact
 // form factor.
 constexpr double kNear = 3.0;
+// Hierarchical mode: a block of elements is taken as one disc only when farther than this many
+// of its sizes. The disc's error falls with the square of size / distance; measured on the
+// furnace (1,092 elements), the worst element's error is 1.4% at 3 sizes, 0.88% at 5 and 0.81%
+// at 8, which is the flat scheme's (at 60-80% of its rays); beyond 8 nothing improves.
+constexpr double kFar = 8.0;
 
 int ProgressiveRadiosity::elementPolygon(uint32_t e, std::array<glm::dvec3, 8>& out) const {
   const uint32_t t = tri_of_[e];
@@ -120,6 +129,9 @@ Expected<ProgressiveRadiosity> ProgressiveRadiosity::build(const Scene& scene,
   }
   if (options.shooter_level < 0 || options.shooter_level > 16) {
     return inputError("", "progressive radiosity", "shooter_level must be in [0, 16]");
+  }
+  if (options.shooter_top_points < 0) {
+    return inputError("", "progressive radiosity", "shooter_top_points must not be negative");
   }
   ProgressiveRadiosity pr;
   pr.options_ = options;
@@ -243,35 +255,75 @@ ProgressiveIteration ProgressiveRadiosity::shoot(uint32_t shooter) {
   const uint32_t first = tri_first_[shooter], last = tri_first_[shooter + 1];
   const glm::dvec3 ns = tri_normal_[shooter];
 
-  // Shooter points: the elements, or blocks of 2^level x 2^level atlas texels (sec. 3).
+  // Shooter points (sec. 3). Flat mode (shooter_top_points = 0, the paper's): blocks of
+  // 2^level x 2^level atlas texels. Hierarchical mode: every level from the elements up to the
+  // first with at most shooter_top_points blocks; receivers start from that level's blocks and
+  // descend where a block is near (below).
   std::vector<ShooterPoint> points;
+  std::vector<uint32_t> top;  // the points every receiver starts from
   glm::dvec3 shot(0.0);
   {
-    const int level = options_.shooter_level;
-    std::map<std::pair<int, int>, size_t> block_of;
+    // Groups `from` (point indices) into blocks of the level `level`.
+    auto group = [&](const std::vector<uint32_t>& from, int level) {
+      std::map<std::pair<int, int>, uint32_t> block_of;
+      std::vector<uint32_t> out;
+      for (uint32_t c : from) {
+        const glm::ivec2 texel = points[c].texel;
+        const auto key = std::make_pair(texel.x >> level, texel.y >> level);
+        auto [pos, inserted] = block_of.try_emplace(key, uint32_t(points.size()));
+        if (inserted) {
+          out.push_back(uint32_t(points.size()));
+          points.emplace_back();
+          points.back().texel = texel;
+        }
+        ShooterPoint& p = points[pos->second];
+        const ShooterPoint& q = points[c];
+        p.position += q.position * q.area;
+        p.residual += q.residual * q.area;
+        p.area += q.area;
+        p.children.push_back(c);
+      }
+      for (uint32_t b : out) {
+        points[b].position /= points[b].area;
+        points[b].residual /= points[b].area;
+      }
+      return out;
+    };
+    std::vector<uint32_t> level0;
     for (uint32_t e = first; e < last; ++e) {
       shot += db_[e] * area_[e];
-      const int x = int(texel_[e] % uint32_t(atlas_.width)),
-                y = int(texel_[e] / uint32_t(atlas_.width));
-      const auto key = std::make_pair(x >> level, y >> level);
-      auto [pos, inserted] = block_of.try_emplace(key, points.size());
-      if (inserted) points.emplace_back();
-      ShooterPoint& p = points[pos->second];
-      p.position += position_[e] * area_[e];
-      p.residual += db_[e] * area_[e];
-      p.area += area_[e];
-      p.members.push_back(e);
+      if (!(area_[e] > 0.0)) continue;
+      ShooterPoint p;
+      p.position = position_[e];
+      p.area = area_[e];
+      p.residual = db_[e];
+      p.members = {e};
+      p.texel = glm::ivec2(int(texel_[e] % uint32_t(atlas_.width)),
+                           int(texel_[e] / uint32_t(atlas_.width)));
+      level0.push_back(uint32_t(points.size()));
+      points.push_back(std::move(p));
     }
-    for (ShooterPoint& p : points) {
-      p.position /= p.area;
-      p.residual /= p.area;
+    if (options_.shooter_top_points > 0) {
+      top = level0;
+      for (int level = 1; top.size() > size_t(options_.shooter_top_points) && level <= 16;
+           ++level) {
+        top = group(top, level);
+      }
+    } else {
+      top = options_.shooter_level > 0 ? group(level0, options_.shooter_level) : level0;
+      // Flat mode: a block is a point with members and no sub-blocks.
+      for (uint32_t b : top) {
+        ShooterPoint& p = points[b];
+        if (p.children.empty()) continue;
+        for (uint32_t c : p.children) p.members.push_back(points[c].members.front());
+        p.children.clear();
+      }
     }
-    points.erase(
-        std::remove_if(points.begin(), points.end(),
-                       [](const ShooterPoint& p) { return p.residual == glm::dvec3(0.0); }),
-        points.end());
+    top.erase(std::remove_if(top.begin(), top.end(),
+                             [&](uint32_t p) { return points[p].residual == glm::dvec3(0.0); }),
+              top.end());
   }
-  it.shooter_points = uint32_t(points.size());
+  it.shooter_points = uint32_t(top.size());
 
   // Receiver triangles: not wholly behind the shooter's plane, and facing it (the shooter not
   // wholly behind theirs). Coplanar triangles drop out here or through a zero cosine.
@@ -292,48 +344,84 @@ ProgressiveIteration ProgressiveRadiosity::shoot(uint32_t shooter) {
   }
 
   // Gather at every receiver element the irradiance sum_s dB_s F_rs (W m^-2); in parallel over
-  // receivers, each writing only its own entry.
+  // chunks of receivers, each writing only its own entries. A receiver's pairs come from the top
+  // points: a point farther than kNear of its sizes is one pair (eq. 2's disc); a nearer one
+  // descends to its sub-blocks (hierarchical mode) or, at the elements or in flat mode, is a
+  // near pair whose members each contribute Lambert's exact point-to-polygon form factor. Each
+  // pair has one shadow ray; a chunk's rays are traced together, so the rays from one receiver
+  // to the points of one shooter (or from neighbouring texels to one point) travel as packets of
+  // eight (raytrace/cpu_packet.h). Each receiver sums its pairs in a fixed order, so the result
+  // does not depend on the chunking.
+  struct Pair {
+    uint32_t receiver;
+    uint32_t point;
+    bool near;
+  };
   const size_t n = elementCount();
   std::vector<glm::dvec3> incident(n, glm::dvec3(0.0));
   std::atomic<uint64_t> rays{0};
-  parallelRange(n, 64, [&](size_t begin, size_t end) {
-    uint64_t local_rays = 0;
+  parallelRange(n, 256, [&](size_t begin, size_t end) {
+    std::vector<Pair> pairs;
+    std::vector<uint32_t> stack;
+    RayBatch batch;
+    HitBatch hits;
     for (size_t r = begin; r < end; ++r) {
       const uint32_t t = tri_of_[r];
       if (!receives[t]) continue;
       const glm::dvec3 nr = tri_normal_[t], pr = position_[r];
-      glm::dvec3 sum(0.0);
-      for (const ShooterPoint& s : points) {
+      stack.assign(top.rbegin(), top.rend());
+      while (!stack.empty()) {
+        const uint32_t k = stack.back();
+        stack.pop_back();
+        const ShooterPoint& s = points[k];
         const glm::dvec3 d = s.position - pr;
         const double d2 = glm::dot(d, d);
-        if (d2 <= 0.0) continue;
-        const double inv = 1.0 / std::sqrt(d2);
-        const double cos_r = glm::dot(nr, d) * inv, cos_s = -glm::dot(ns, d) * inv;
-        if (cos_r <= 0.0 || cos_s <= 0.0) continue;  // culled by either plane (one-sided)
-        if (options_.visibility) {
-          ++local_rays;
-          const glm::dvec3 from = pr + nr * lift_, to = s.position + ns * lift_;
-          if (engine_.occluded(Ray{glm::vec3(from), 1e-4f, glm::vec3(to - from), 1.0f - 1e-4f})) {
-            continue;
-          }
-        }
-        if (d2 < kNear * kNear * s.area) {
-          // Near pairs (across an edge, in a corner): eq. 2's disc is a poor stand-in for a
-          // neighbour seen edge-on, so each of the point's elements contributes Lambert's exact
-          // point-to-polygon form factor (kernels/form_factor.h) to its own polygon.
-          for (uint32_t m : s.members) {
-            std::array<glm::dvec3, 8> poly;
-            const int count = elementPolygon(m, poly);
-            if (count < 3) continue;
-            sum += db_[m] * pointToPolygonFormFactor(pr, nr, poly.data(), count);
+        const bool near = d2 < kNear * kNear * s.area;
+        if (!s.children.empty() && d2 < kFar * kFar * s.area) {
+          for (auto c = s.children.rbegin(); c != s.children.rend(); ++c) {
+            if (points[*c].residual != glm::dvec3(0.0)) stack.push_back(*c);
           }
           continue;
         }
-        sum += s.residual * discFormFactor(s.area, cos_s, cos_r, d2);
+        if (d2 <= 0.0) continue;
+        if (glm::dot(nr, d) <= 0.0 || glm::dot(ns, d) >= 0.0) continue;  // culled by either plane
+        pairs.push_back(Pair{uint32_t(r), k, near});
       }
-      incident[r] = sum;
     }
-    rays += local_rays;
+    if (options_.visibility && !pairs.empty()) {
+      batch.resize(pairs.size());
+      for (size_t k = 0; k < pairs.size(); ++k) {
+        const glm::dvec3 from = position_[pairs[k].receiver] +
+                                tri_normal_[tri_of_[pairs[k].receiver]] * lift_,
+                         to = points[pairs[k].point].position + ns * lift_;
+        batch.set(k, Ray{glm::vec3(from), 1e-4f, glm::vec3(to - from), 1.0f - 1e-4f});
+      }
+      engine_.intersectSerial(batch, hits);
+      rays += pairs.size();
+    }
+    for (size_t k = 0; k < pairs.size(); ++k) {
+      if (options_.visibility && hits.triangle[k] >= 0) continue;  // occluded
+      const size_t r = pairs[k].receiver;
+      const ShooterPoint& s = points[pairs[k].point];
+      const glm::dvec3 nr = tri_normal_[tri_of_[r]], pr = position_[r];
+      if (pairs[k].near) {
+        // Near pairs (across an edge, in a corner): eq. 2's disc is a poor stand-in for a
+        // neighbour seen edge-on, so each of the point's elements contributes Lambert's exact
+        // point-to-polygon form factor (kernels/form_factor.h) to its own polygon.
+        for (uint32_t m : s.members) {
+          std::array<glm::dvec3, 8> poly;
+          const int count = elementPolygon(m, poly);
+          if (count < 3) continue;
+          incident[r] += db_[m] * pointToPolygonFormFactor(pr, nr, poly.data(), count);
+        }
+        continue;
+      }
+      const glm::dvec3 d = s.position - pr;
+      const double d2 = glm::dot(d, d);
+      const double inv = 1.0 / std::sqrt(d2);
+      const double cos_r = glm::dot(nr, d) * inv, cos_s = -glm::dot(ns, d) * inv;
+      incident[r] += s.residual * discFormFactor(s.area, cos_s, cos_r, d2);
+    }
   });
 
   // Update (progressive eq. 1) and book the energy serially, in element order (deterministic).
@@ -365,11 +453,16 @@ ProgressiveIteration ProgressiveRadiosity::step() {
 }
 
 ProgressiveStats ProgressiveRadiosity::solve(
-    const std::function<void(const ProgressiveIteration&)>& after_iteration) {
+    const std::function<void(const ProgressiveIteration&)>& after_iteration,
+    const std::function<bool()>& stop) {
   const Timer timer;
   ProgressiveStats st;
   st.unshot_fraction = unshotFraction();
-  while (st.unshot_fraction > options_.convergence && st.iterations < options_.max_iterations) {
+  while (st.unshot_fraction > options_.convergence && iterations_ < options_.max_iterations) {
+    if (stop && stop()) {
+      st.interrupted = true;
+      break;
+    }
     const ProgressiveIteration it = step();
     if (it.iteration == 0) break;  // nothing left to shoot
     ++st.iterations;
@@ -377,9 +470,38 @@ ProgressiveStats ProgressiveRadiosity::solve(
     st.unshot_fraction = it.unshot_fraction;
     if (after_iteration) after_iteration(it);
   }
+  st.total_iterations = iterations_;
   st.converged = st.unshot_fraction <= options_.convergence || selectShooter() == kNoShooter;
+  if (st.converged) st.interrupted = false;
   st.seconds = timer.seconds();
   return st;
+}
+
+ProgressiveState ProgressiveRadiosity::state() const {
+  return ProgressiveState{b_, db_, balance_, iterations_};
+}
+
+Status ProgressiveRadiosity::setState(ProgressiveState state) {
+  if (state.radiosity.size() != elementCount() || state.residual.size() != elementCount()) {
+    return inputError("", "progressive radiosity",
+                      fmt::format("the state has {} elements, the solver {}",
+                                  state.radiosity.size(), elementCount()));
+  }
+  if (state.iterations < 0) return inputError("", "progressive radiosity", "negative iterations");
+  for (size_t e = 0; e < elementCount(); ++e) {
+    const glm::dvec3 &b = state.radiosity[e], &db = state.residual[e];
+    for (int c = 0; c < 3; ++c) {
+      if (!std::isfinite(b[c]) || !std::isfinite(db[c]) || b[c] < 0.0 || db[c] < 0.0) {
+        return inputError("", "progressive radiosity",
+                          fmt::format("element {}: radiosity must be finite and >= 0", e));
+      }
+    }
+  }
+  b_ = std::move(state.radiosity);
+  db_ = std::move(state.residual);
+  balance_ = state.balance;
+  iterations_ = state.iterations;
+  return {};
 }
 
 glm::dvec3 ProgressiveRadiosity::unshotPower() const {

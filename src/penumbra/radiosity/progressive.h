@@ -60,8 +60,15 @@ struct ProgressiveOptions {
   AtlasOptions atlas;         // the texel density (or atlas resolution) sets the element size
   int max_iterations = 1000;  // shooters (one iteration = one shooter triangle)
   double convergence = 1e-3;  // stop when unshot power / emitted power (luminance) <= this
-  int shooter_level = 0;      // substructuring: shoot from 2^level x 2^level texel blocks
-  bool visibility = true;     // false: no shadow rays (every pair in front is unoccluded)
+  // Substructuring (sec. 3). shooter_top_points > 0 (the default): hierarchical, each shooter's
+  // elements grouped into blocks of 2x2, 4x4, ... texels up to the first level with at most this
+  // many blocks; a receiver takes a block as one point when it is farther than 3 block sizes,
+  // else its sub-blocks, down to the elements. 0: the paper's flat scheme, every element of the
+  // shooter's mip level `shooter_level` (blocks of 2^level x 2^level texels) shoots to every
+  // receiver (what the GPU path does).
+  int shooter_top_points = 16;
+  int shooter_level = 0;
+  bool visibility = true;  // false: no shadow rays (every pair in front is unoccluded)
 };
 
 // Power totals in W per RGB channel.
@@ -75,17 +82,28 @@ struct EnergyBalance {
 struct ProgressiveIteration {
   int iteration = 0;             // 1 for the first shooter
   uint32_t shooter = 0;          // the shooter triangle (flattenScene order)
-  uint32_t shooter_points = 0;   // elements or blocks that shot
+  uint32_t shooter_points = 0;   // top-level elements or blocks that shot
   double shot_power = 0.0;       // luminance of the power shot (W)
   double unshot_fraction = 0.0;  // unshot / emitted power (luminance) after the iteration
   uint64_t rays = 0;
   double seconds = 0.0;
 };
 
-struct ProgressiveStats {
+// The solver's state between iterations: what a checkpoint holds and what another device hands
+// back. Element order is ProgressiveRadiosity's.
+struct ProgressiveState {
+  std::vector<glm::dvec3> radiosity;  // B per element (W m^-2)
+  std::vector<glm::dvec3> residual;   // dB per element
+  EnergyBalance balance;
   int iterations = 0;
+};
+
+struct ProgressiveStats {
+  int iterations = 0;        // in this call to solve()
+  int total_iterations = 0;  // including those before it (a resumed checkpoint's)
   double unshot_fraction = 0.0;
-  bool converged = false;  // unshot_fraction <= options.convergence (or nothing left to shoot)
+  bool converged = false;    // unshot_fraction <= options.convergence (or nothing left to shoot)
+  bool interrupted = false;  // `stop` asked to stop before convergence or the cap
   uint64_t rays = 0;
   double seconds = 0.0;
 };
@@ -113,11 +131,19 @@ class ProgressiveRadiosity {
   ProgressiveIteration shoot(uint32_t shooter);
   // Selects the shooter and shoots; returns iteration 0 (nothing done) when nothing is left.
   ProgressiveIteration step();
-  // Iterates until the convergence fraction or the iteration cap; `after_iteration` is called
-  // after every iteration.
+  // Iterates until the convergence fraction or the iteration cap (counted over the solver's
+  // whole life, so a resumed checkpoint's iterations count); `after_iteration` is called after
+  // every iteration, `stop` before each (true: return now, between two iterations).
   ProgressiveStats solve(
-      const std::function<void(const ProgressiveIteration&)>& after_iteration = {});
+      const std::function<void(const ProgressiveIteration&)>& after_iteration = {},
+      const std::function<bool()>& stop = {});
 
+  // The state, and restoring one taken from a solver on the same scene and options (checked by
+  // element count; the caller checks that the scene is the same).
+  ProgressiveState state() const;
+  Status setState(ProgressiveState state);
+  int iterations() const { return iterations_; }
+  const ProgressiveOptions& options() const { return options_; }
   // Energy totals as booked, and the unshot power recomputed from the elements' dB (W).
   const EnergyBalance& balance() const { return balance_; }
   glm::dvec3 unshotPower() const;

@@ -217,23 +217,33 @@ bool RayEngine::occluded(const Ray& ray) const {
   return traverse<true>(ray, hit);
 }
 
+// Within [begin, end), each aligned group of eight rays that go the same way travels as a packet
+// (cpu_packet.h), the others one by one. Groups are tested once, not at every ray: incoherent
+// rays then pay one failed test per eight rays.
+void RayEngine::intersectRange(const RayBatch& rays, size_t begin, size_t end,
+                               HitBatch& hits) const {
+  const bool packets = isa_ == CpuIsa::kAvx2;
+  for (size_t i = begin; i < end; i += kPacketSize) {
+    const size_t group_end = std::min(end, i + kPacketSize);
+    if (packets && group_end - i == kPacketSize && packetEligible(rays, i)) {
+      tracePacket(*this, rays, i, hits);
+      continue;
+    }
+    for (size_t k = i; k < group_end; ++k) hits.set(k, intersect(rays.get(k)));
+  }
+}
+
 void RayEngine::intersect(const RayBatch& rays, HitBatch& hits) const {
   hits.resize(rays.size());
-  const bool packets = isa_ == CpuIsa::kAvx2;
-  // Chunks of 256 rays; within a chunk, each aligned group of eight rays that go the same way
-  // travels as a packet (cpu_packet.h), the others one by one. Groups are tested once, not at
-  // every ray: incoherent rays then pay one failed test per eight rays.
+  // Chunks of 256 rays (aligned, so packets never straddle two chunks).
   parallelRange((rays.size() + 255) / 256, 1, [&](size_t chunk_begin, size_t chunk_end) {
-    const size_t end = std::min(rays.size(), chunk_end * 256);
-    for (size_t i = chunk_begin * 256; i < end; i += kPacketSize) {
-      const size_t group_end = std::min(end, i + kPacketSize);
-      if (packets && group_end - i == kPacketSize && packetEligible(rays, i)) {
-        tracePacket(*this, rays, i, hits);
-        continue;
-      }
-      for (size_t k = i; k < group_end; ++k) hits.set(k, intersect(rays.get(k)));
-    }
+    intersectRange(rays, chunk_begin * 256, std::min(rays.size(), chunk_end * 256), hits);
   });
+}
+
+void RayEngine::intersectSerial(const RayBatch& rays, HitBatch& hits) const {
+  hits.resize(rays.size());
+  intersectRange(rays, 0, rays.size(), hits);
 }
 
 void RayEngine::occluded(const RayBatch& rays, std::vector<uint8_t>& occluded_out) const {

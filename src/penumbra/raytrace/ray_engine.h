@@ -49,6 +49,9 @@ class RayEngine {
   // Batches, traced in parallel; results in input order. `hits` / `occluded` are resized.
   void intersect(const RayBatch& rays, HitBatch& hits) const;
   void occluded(const RayBatch& rays, std::vector<uint8_t>& occluded) const;
+  // The same as intersect(rays, hits) on the calling thread (packets of coherent rays included),
+  // for callers that run their own parallel loops over small batches.
+  void intersectSerial(const RayBatch& rays, HitBatch& hits) const;
 
   size_t triangleCount() const { return bvh_.refs.size(); }
   const Bvh& bvh() const { return bvh_; }
@@ -70,6 +73,7 @@ class RayEngine {
  private:
   template <bool kAnyHit>
   bool traverse(const Ray& ray, Hit& hit) const;
+  void intersectRange(const RayBatch& rays, size_t begin, size_t end, HitBatch& hits) const;
   template <bool kAnyHit>
   bool traverseAvx2(const Ray& ray, Hit& hit) const;
   template <bool kAnyHit>

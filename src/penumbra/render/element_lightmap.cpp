@@ -101,23 +101,10 @@ BakedMesh buildBakedMesh(const Scene& scene, const Elements& elements, const Lig
   PENUMBRA_CHECK(corner_values.size() == 3 * elements.size());
   const ElementLocator locator(elements);
 
-  // The scene's UVs per flattened triangle corner (flattenScene order: meshes one after another).
   BakedMesh out;
-  std::vector<glm::vec2> scene_uv(3 * n_tri, glm::vec2(0.0f));
-  {
-    size_t t = 0;
-    for (const Mesh& mesh : scene.meshes) {
-      const bool has = !mesh.uvs.empty();
-      out.has_scene_uvs = out.has_scene_uvs || has;
-      for (const glm::uvec3& tri : mesh.triangles) {
-        if (has) {
-          for (int k = 0; k < 3; ++k) scene_uv[3 * t + size_t(k)] = mesh.uvs[tri[k]];
-        }
-        ++t;
-      }
-    }
-    PENUMBRA_CHECK_MSG(t == n_tri, "scene has {} triangles, its elements {}", t, n_tri);
-  }
+  const std::vector<glm::vec2> scene_uv = flattenSceneUvs(scene, out.has_scene_uvs);
+  PENUMBRA_CHECK_MSG(scene_uv.size() == 3 * n_tri, "scene has {} triangles, its elements {}",
+                     scene_uv.size() / 3, n_tri);
 
   uint32_t n_materials = 0;
   for (uint32_t m : flat.material_ids) n_materials = std::max(n_materials, m + 1);

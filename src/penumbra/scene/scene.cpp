@@ -45,6 +45,20 @@ FlatTriangles flattenScene(const Scene& scene) {
   return f;
 }
 
+std::vector<glm::vec2> flattenSceneUvs(const Scene& scene, bool& any) {
+  std::vector<glm::vec2> uvs;
+  uvs.reserve(3 * scene.triangleCount());
+  any = false;
+  for (const Mesh& mesh : scene.meshes) {
+    const bool has = !mesh.uvs.empty();
+    any = any || has;
+    for (const glm::uvec3& tri : mesh.triangles) {
+      for (int k = 0; k < 3; ++k) uvs.push_back(has ? mesh.uvs[tri[k]] : glm::vec2(0.0f));
+    }
+  }
+  return uvs;
+}
+
 namespace {
 
 bool finite3(const glm::vec3& v) {

@@ -42,6 +42,9 @@ struct FlatTriangles {
   std::vector<uint32_t> material_ids;
 };
 FlatTriangles flattenScene(const Scene& scene);
+// The scene's UVs per flattened triangle corner (corner k of triangle t at 3 t + k, flattenScene
+// order), zeros for meshes without UVs; `any` says whether some mesh had them.
+std::vector<glm::vec2> flattenSceneUvs(const Scene& scene, bool& any);
 
 // Checks what every consumer relies on: finite positions, normals and UVs, indices in range,
 // material ids in range, reflectance in [0, 1], non-negative finite emission. Degenerate

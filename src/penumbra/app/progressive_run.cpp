@@ -1,0 +1,159 @@
+#include "penumbra/app/progressive_run.h"
+
+#include "penumbra/app/stats_file.h"
+#include "penumbra/core/interrupt.h"
+#include "penumbra/core/memory.h"
+#include "penumbra/core/progress.h"
+#include "penumbra/core/timer.h"
+#include "penumbra/radiosity/progressive_checkpoint.h"
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+#include <glm/geometric.hpp>
+
+#include <algorithm>
+#include <cmath>
+
+namespace penumbra {
+
+namespace {
+
+// Bytes per element of the CPU solver: per element B, dB, reflectance, emission, position (5 x 24),
+// area, texel, triangle, lattice point (24) and the incident irradiance of an iteration (24);
+// the atlas adds 13 bytes per texel, about 2.5 texels per element with borders and gutters.
+constexpr uint64_t kBytesPerElement = 5 * 24 + 24 + 24 + 33;
+
+}  // namespace
+
+Status checkProgressiveRunOptions(const ProgressiveRunOptions& o) {
+  if (o.texel_density && !(*o.texel_density > 0.0 && std::isfinite(*o.texel_density))) {
+    return inputError("", "--texel-density", "must be a positive number of texels per metre");
+  }
+  if (!(o.tolerance >= 0.0 && o.tolerance <= 1.0)) {
+    return inputError("", "--tolerance", "is the unshot fraction of the emitted power: in [0, 1]");
+  }
+  if (!o.resume.empty() && o.lightmap_size) {
+    return inputError("", "--resume",
+                      "the checkpoint fixes the lightmap: leave out --lightmap-size");
+  }
+  if (!o.checkpoint.empty()) PENUMBRA_TRY(checkOutputPath(o.checkpoint));
+  return {};
+}
+
+Expected<ProgressiveRun> runProgressive(const Scene& scene, const ProgressiveRunOptions& options,
+                                        const CommonOptions& common) {
+  ProgressiveRun run;
+  ProgressiveOptions po;
+  po.max_iterations = options.iterations;
+  po.convergence = options.tolerance;
+  std::optional<ProgressiveCheckpointInfo> info;
+  if (!options.resume.empty()) {
+    Expected<ProgressiveCheckpointInfo> i = readProgressiveCheckpointInfo(options.resume);
+    if (!i) return i.error();
+    info = *i;
+    po.atlas.texel_density = info->texel_density;
+    po.shooter_level = info->shooter_level;
+    po.shooter_top_points = info->shooter_top_points;
+    if (options.texel_density &&
+        std::abs(*options.texel_density / info->texel_density - 1.0) > 1e-9) {
+      return inputError(options.resume, "",
+                        fmt::format("was written with --texel-density {}, not {}",
+                                    info->texel_density, *options.texel_density));
+    }
+  } else if (options.texel_density) {
+    po.atlas.texel_density = *options.texel_density;
+  } else if (options.lightmap_size) {
+    po.atlas.texel_density = 0.0;
+    po.atlas.resolution = *options.lightmap_size;
+  } else {
+    // The density that gives about `elements` occupied texels: density^2 * total area.
+    const FlatTriangles flat = flattenScene(scene);
+    double total_area = 0.0;
+    for (const glm::uvec3& t : flat.triangles) {
+      total_area +=
+          0.5 * double(glm::length(glm::cross(flat.positions[t.y] - flat.positions[t.x],
+                                              flat.positions[t.z] - flat.positions[t.x])));
+    }
+    if (!(total_area > 0.0)) return inputError(scene.source, "", "the scene has no surface area");
+    po.atlas.texel_density = std::sqrt(double(options.elements) / total_area);
+  }
+  const uint64_t expected_elements =
+      info ? info->elements
+           : (options.lightmap_size
+                  ? uint64_t(*options.lightmap_size) * uint64_t(*options.lightmap_size) / 2
+                  : uint64_t(options.elements));
+  PENUMBRA_TRY(
+      checkMemory(expected_elements * kBytesPerElement,
+                  fmt::format("progressive radiosity with {} lightmap texels", expected_elements)));
+
+  const Timer build_timer;
+  Expected<ProgressiveRadiosity> built = ProgressiveRadiosity::build(scene, po);
+  if (!built) return built.error();
+  run.solver.emplace(std::move(*built));
+  ProgressiveRadiosity& pr = *run.solver;
+  if (info) {
+    PENUMBRA_TRY(resumeProgressiveCheckpoint(options.resume, scene, pr));
+    run.resumed_iterations = pr.iterations();
+    spdlog::info("{}: resumed after {} iterations, {:.3g} of the emitted power unshot",
+                 options.resume, pr.iterations(), pr.unshotFraction());
+  }
+  run.build_seconds = build_timer.seconds();
+  spdlog::info("{}: {} lightmap texels in a {}x{} atlas ({:.1f} texels/m)", scene.source,
+               pr.elementCount(), pr.atlas().width, pr.atlas().height, pr.atlas().texel_density);
+
+  // Progress: the fraction of the emitted power shot so far on a log scale down to the tolerance
+  // (the iteration count is not known in advance), with the iteration and the unshot fraction.
+  const InterruptScope interrupt;
+  Progress progress("shooting", 1000, !common.quiet && Progress::stderrIsTerminal());
+  const double log_goal = std::log(std::max(options.tolerance, 1e-12));
+  run.stats = pr.solve(
+      [&](const ProgressiveIteration& it) {
+        run.history.push_back(it.unshot_fraction);
+        const double f = it.unshot_fraction > 0.0 ? std::log(it.unshot_fraction) / log_goal : 1.0;
+        progress.setNote(
+            fmt::format("iteration {}, {:.3g} unshot", it.iteration, it.unshot_fraction));
+        progress.reach(uint64_t(std::clamp(f, 0.0, 1.0) * 1000.0));
+      },
+      [] { return InterruptScope::requested(); });
+  progress.finish();
+  if (run.stats.interrupted) {
+    run.interrupted = true;
+    PENUMBRA_TRY(writeProgressiveCheckpoint(options.checkpoint, scene, pr));
+    spdlog::warn(
+        "interrupted after {} iterations ({:.3g} of the emitted power unshot): checkpoint "
+        "written to {}; continue with --resume {}",
+        run.stats.total_iterations, run.stats.unshot_fraction, options.checkpoint,
+        options.checkpoint);
+  } else if (!run.stats.converged) {
+    spdlog::warn(
+        "not converged: {:.3g} of the emitted power unshot after {} iterations "
+        "(tolerance {:.3g})",
+        run.stats.unshot_fraction, run.stats.total_iterations, options.tolerance);
+  }
+  return run;
+}
+
+nlohmann::json progressiveStatsJson(const ProgressiveRun& run, double tolerance) {
+  const ProgressiveRadiosity& pr = *run.solver;
+  const EnergyBalance& b = pr.balance();
+  return {{"build_seconds", run.build_seconds},
+          {"solve_seconds", run.stats.seconds},
+          {"elements", pr.elementCount()},
+          {"atlas_width", pr.atlas().width},
+          {"atlas_height", pr.atlas().height},
+          {"texel_density", pr.atlas().texel_density},
+          {"iterations", run.stats.total_iterations},
+          {"resumed_iterations", run.resumed_iterations},
+          {"unshot_fraction", run.stats.unshot_fraction},
+          {"converged", run.stats.converged},
+          {"interrupted", run.interrupted},
+          {"tolerance", tolerance},
+          {"history", run.history},
+          {"rays", run.stats.rays},
+          {"emitted_w", {b.emitted.x, b.emitted.y, b.emitted.z}},
+          {"absorbed_w", {b.absorbed.x, b.absorbed.y, b.absorbed.z}},
+          {"unshot_w", {b.unshot.x, b.unshot.y, b.unshot.z}},
+          {"escaped_w", {b.escaped.x, b.escaped.y, b.escaped.z}}};
+}
+
+}  // namespace penumbra

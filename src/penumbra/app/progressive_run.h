@@ -1,0 +1,49 @@
+// What `render --method progressive` and `bake --method progressive` share: choosing the
+// lightmap's texel density, building the solver (or resuming a checkpoint), solving with
+// progress on the terminal, and on Ctrl-C stopping between two iterations and writing a
+// checkpoint (radiosity/progressive_checkpoint.h).
+#pragma once
+
+#include "penumbra/app/commands.h"
+#include "penumbra/core/expected.h"
+#include "penumbra/radiosity/progressive.h"
+#include "penumbra/scene/scene.h"
+
+#include <nlohmann/json.hpp>
+
+#include <optional>
+#include <string>
+
+namespace penumbra {
+
+struct ProgressiveRunOptions {
+  uint32_t elements = 2000;             // about this many lightmap texels (elements)
+  std::optional<double> texel_density;  // texels per metre (overrides elements)
+  std::optional<int> lightmap_size;     // an N x N atlas at the largest density that fits
+  int iterations = 500;                 // cap on iterations, counted over resumed runs
+  double tolerance = 1e-3;              // unshot fraction
+  std::string resume;                   // checkpoint to continue from
+  std::string checkpoint;               // where Ctrl-C writes the checkpoint
+};
+
+struct ProgressiveRun {
+  std::optional<ProgressiveRadiosity> solver;
+  ProgressiveStats stats;
+  nlohmann::json history = nlohmann::json::array();  // unshot fraction after each iteration
+  double build_seconds = 0.0;
+  int resumed_iterations = 0;  // iterations the checkpoint had done
+  bool interrupted = false;    // stopped by Ctrl-C; the checkpoint was written
+};
+
+// Checks the options that do not need the scene (call before any work).
+Status checkProgressiveRunOptions(const ProgressiveRunOptions& options);
+
+// Builds and solves; on Ctrl-C writes the checkpoint and returns with `interrupted`. The scene
+// must have passed validateScene.
+Expected<ProgressiveRun> runProgressive(const Scene& scene, const ProgressiveRunOptions& options,
+                                        const CommonOptions& common);
+
+// The stats every progressive command reports.
+nlohmann::json progressiveStatsJson(const ProgressiveRun& run, double tolerance);
+
+}  // namespace penumbra

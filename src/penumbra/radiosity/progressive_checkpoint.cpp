@@ -1,0 +1,188 @@
+#include "penumbra/radiosity/progressive_checkpoint.h"
+
+#include "penumbra/core/file_util.h"
+
+#include <fmt/format.h>
+
+#include <bit>
+#include <cstdio>
+#include <cstring>
+#include <memory>
+
+namespace penumbra {
+
+namespace {
+
+static_assert(std::endian::native == std::endian::little, "checkpoints are little-endian");
+
+constexpr char kMagic[16] = {'P', 'E', 'N', 'U', 'M', 'B', 'R', 'A',
+                             '-', 'P', 'R', 'G', 'R', 'S', 'V', '1'};
+constexpr size_t kHeaderBytes = 16 + 8 + 8 + 5 * 4 + 8 + 12 * 8;
+
+struct Fnv1a {
+  uint64_t h = 0xcbf29ce484222325ull;
+  void add(const void* data, size_t n) {
+    const auto* p = static_cast<const unsigned char*>(data);
+    for (size_t i = 0; i < n; ++i) {
+      h ^= p[i];
+      h *= 0x100000001b3ull;
+    }
+  }
+  template <typename T>
+  void addValue(const T& v) {
+    add(&v, sizeof(v));
+  }
+};
+
+// Appends raw bytes of trivially copyable values.
+struct Writer {
+  std::string bytes;
+  template <typename T>
+  void put(const T& v) {
+    bytes.append(reinterpret_cast<const char*>(&v), sizeof(v));
+  }
+};
+
+struct Reader {
+  const std::string& bytes;
+  size_t at = 0;
+  template <typename T>
+  bool get(T& v) {
+    if (bytes.size() - at < sizeof(v)) return false;
+    std::memcpy(&v, bytes.data() + at, sizeof(v));
+    at += sizeof(v);
+    return true;
+  }
+};
+
+Expected<ProgressiveCheckpointInfo> parseHeader(const std::string& path, const std::string& bytes,
+                                                EnergyBalance* balance) {
+  if (bytes.size() < kHeaderBytes + 8 || std::memcmp(bytes.data(), kMagic, 16) != 0) {
+    return inputError(path, "", "not a Penumbra progressive radiosity checkpoint");
+  }
+  Reader r{bytes, 16};
+  ProgressiveCheckpointInfo info;
+  EnergyBalance b;
+  bool ok = r.get(info.fingerprint) && r.get(info.texel_density) && r.get(info.atlas_width) &&
+            r.get(info.atlas_height) && r.get(info.shooter_level) &&
+            r.get(info.shooter_top_points) && r.get(info.iterations) && r.get(info.elements);
+  for (glm::dvec3* v : {&b.emitted, &b.absorbed, &b.unshot, &b.escaped}) {
+    for (int c = 0; c < 3; ++c) ok = ok && r.get((*v)[c]);
+  }
+  if (!ok) return inputError(path, "header", "truncated");
+  if (!(info.texel_density > 0.0) || info.atlas_width <= 0 || info.atlas_height <= 0 ||
+      info.shooter_level < 0 || info.shooter_top_points < 0 || info.iterations < 0 ||
+      info.elements == 0) {
+    return inputError(path, "header", "values out of range");
+  }
+  if (balance) *balance = b;
+  return info;
+}
+
+}  // namespace
+
+uint64_t progressiveFingerprint(const Scene& scene, const ProgressiveRadiosity& solver) {
+  Fnv1a h;
+  const FlatTriangles& flat = solver.triangles();
+  h.add(flat.positions.data(), flat.positions.size() * sizeof(glm::vec3));
+  h.add(flat.triangles.data(), flat.triangles.size() * sizeof(glm::uvec3));
+  h.add(flat.material_ids.data(), flat.material_ids.size() * sizeof(uint32_t));
+  for (const Material& m : scene.materials) {
+    h.addValue(m.reflectance);
+    h.addValue(m.emission);
+  }
+  h.addValue(solver.atlas().width);
+  h.addValue(solver.atlas().height);
+  h.addValue(uint64_t(solver.elementCount()));
+  return h.h;
+}
+
+Status writeProgressiveCheckpoint(const std::string& path, const Scene& scene,
+                                  const ProgressiveRadiosity& solver) {
+  const ProgressiveState state = solver.state();
+  Writer w;
+  w.bytes.reserve(kHeaderBytes + 48 * solver.elementCount() + 8);
+  w.bytes.append(kMagic, 16);
+  w.put(progressiveFingerprint(scene, solver));
+  w.put(solver.atlas().texel_density);
+  w.put(int32_t(solver.atlas().width));
+  w.put(int32_t(solver.atlas().height));
+  w.put(int32_t(solver.options().shooter_level));
+  w.put(int32_t(solver.options().shooter_top_points));
+  w.put(int32_t(state.iterations));
+  w.put(uint64_t(solver.elementCount()));
+  for (const glm::dvec3* v : {&state.balance.emitted, &state.balance.absorbed,
+                              &state.balance.unshot, &state.balance.escaped}) {
+    for (int c = 0; c < 3; ++c) w.put((*v)[c]);
+  }
+  for (size_t e = 0; e < solver.elementCount(); ++e) {
+    for (int c = 0; c < 3; ++c) w.put(state.radiosity[e][c]);
+    for (int c = 0; c < 3; ++c) w.put(state.residual[e][c]);
+  }
+  Fnv1a h;
+  h.add(w.bytes.data(), w.bytes.size());
+  w.put(h.h);
+  return writeAtomically(path, [&](const std::string& tmp) -> Status {
+    std::unique_ptr<FILE, int (*)(FILE*)> f(std::fopen(tmp.c_str(), "wb"), &std::fclose);
+    if (!f) return runtimeError(path, "cannot write the checkpoint");
+    if (std::fwrite(w.bytes.data(), 1, w.bytes.size(), f.get()) != w.bytes.size() ||
+        std::fflush(f.get()) != 0) {
+      return runtimeError(path, "cannot write the checkpoint (disk full?)");
+    }
+    return {};
+  });
+}
+
+Expected<ProgressiveCheckpointInfo> readProgressiveCheckpointInfo(const std::string& path) {
+  // The header is all that is needed; the file is read whole for simplicity only when resuming.
+  std::unique_ptr<FILE, int (*)(FILE*)> f(std::fopen(path.c_str(), "rb"), &std::fclose);
+  if (!f) return inputError(path, "", "cannot open the checkpoint");
+  std::string bytes(kHeaderBytes + 8, '\0');
+  bytes.resize(std::fread(bytes.data(), 1, bytes.size(), f.get()));
+  return parseHeader(path, bytes, nullptr);
+}
+
+Status resumeProgressiveCheckpoint(const std::string& path, const Scene& scene,
+                                   ProgressiveRadiosity& solver) {
+  Expected<std::string> bytes = readFile(path);
+  if (!bytes) return bytes.error();
+  EnergyBalance balance;
+  Expected<ProgressiveCheckpointInfo> info = parseHeader(path, *bytes, &balance);
+  if (!info) return info.error();
+  const uint64_t n = info->elements;
+  if (n > (bytes->size() - kHeaderBytes) / 48 || bytes->size() != kHeaderBytes + 48 * n + 8) {
+    return inputError(
+        path, "", fmt::format("truncated or padded: {} bytes for {} elements", bytes->size(), n));
+  }
+  Fnv1a h;
+  h.add(bytes->data(), bytes->size() - 8);
+  uint64_t stored = 0;
+  std::memcpy(&stored, bytes->data() + bytes->size() - 8, 8);
+  if (stored != h.h) return inputError(path, "", "corrupt (checksum mismatch)");
+  if (info->fingerprint != progressiveFingerprint(scene, solver) || n != solver.elementCount()) {
+    return inputError(path, "",
+                      fmt::format("was written for another scene or lightmap ({} elements in a "
+                                  "{}x{} atlas; this run has {} in {}x{})",
+                                  n, info->atlas_width, info->atlas_height, solver.elementCount(),
+                                  solver.atlas().width, solver.atlas().height));
+  }
+  if (info->shooter_level != solver.options().shooter_level ||
+      info->shooter_top_points != solver.options().shooter_top_points) {
+    return inputError(path, "", "was written with other substructuring options");
+  }
+  ProgressiveState state;
+  state.balance = balance;
+  state.iterations = info->iterations;
+  state.radiosity.resize(n);
+  state.residual.resize(n);
+  Reader r{*bytes, kHeaderBytes};
+  for (uint64_t e = 0; e < n; ++e) {
+    for (int c = 0; c < 3; ++c) (void)r.get(state.radiosity[e][c]);
+    for (int c = 0; c < 3; ++c) (void)r.get(state.residual[e][c]);
+  }
+  Status s = solver.setState(std::move(state));
+  if (!s.ok()) return inputError(path, "", s.error().message);
+  return {};
+}
+
+}  // namespace penumbra
