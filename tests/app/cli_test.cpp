@@ -163,7 +163,7 @@ int runCliInterrupted(const std::string& args, double delay_s) {
 TEST(Cli, ProgressiveInterruptWritesACheckpointThatResumesExactly) {
   TempDir dir;
   const std::string common =
-      "render cornell --method progressive --texel-density 110 --tolerance 1e-9 "
+      "render cornell --method progressive --texel-density 200 --tolerance 1e-9 "
       "--iterations 40 --width 32 --height 32 --spp 1 ";
   const auto full = runCli(common + "--quiet -o " + dir.file("full.pfm"));
   ASSERT_EQ(full.exit_code, 0) << full.output;

@@ -78,7 +78,7 @@ TEST(ProgressiveRadiosity, CornellImageAgreesWithThePathTracer) {
       "progressive vs path tracer %.4f (path tracer's own noise %.4f)\n",
       kSize, kSize, pr->elementCount(), st.iterations, st.seconds, lit_count, error, noise);
   EXPECT_GT(lit_count, size_t(kSize * kSize * 9 / 10));
-  // Issue 5's bar. Measured 2.9%, of which the path tracer's own noise is 1.9%.
+  // Issue 5's bar. Measured 2.9-3.5%, of which the path tracer's own noise is 1.9%.
   EXPECT_LE(error, 0.05);
 }
 

@@ -32,6 +32,8 @@ struct ShooterPoint {
   std::vector<uint32_t> members;   // its elements
   std::vector<uint32_t> children;  // hierarchical mode: indices of its sub-blocks
   glm::ivec2 texel{0};             // atlas texel of one member (for grouping into blocks)
+  glm::ivec2 lo{0}, hi{0};         // the lattice points of its chart it covers (inclusive)
+  int32_t polygon = -1;            // hierarchical blocks: index of its polygon
 };
 
 // Wallner eq. 2 with one disc (m = 1): the form factor from a receiver point to a shooter
@@ -53,10 +55,13 @@ bool behindPlane(const glm::dvec3 (&v)[3], const glm::dvec3& c, const glm::dvec3
 // legs `leg`): the texel square [i-1/2, i+1/2] x [j-1/2, j+1/2] clipped to the chart triangle
 // i, j >= 0, i + j <= leg (Sutherland-Hodgman). Returns the area (lattice units) and centroid.
 // The clipped squares of a chart's kInside texels tile the chart exactly.
-double texelCoverage(int i, int j, int leg, glm::dvec2& centroid,
+// More generally, the texels of lattice points [lo, hi] (a block of texels, inclusive) together.
+double blockCoverage(glm::ivec2 lo, glm::ivec2 hi, int leg, glm::dvec2& centroid,
                      std::vector<glm::dvec2>* polygon = nullptr) {
-  std::vector<glm::dvec2> poly = {
-      {i - 0.5, j - 0.5}, {i + 0.5, j - 0.5}, {i + 0.5, j + 0.5}, {i - 0.5, j + 0.5}};
+  std::vector<glm::dvec2> poly = {{lo.x - 0.5, lo.y - 0.5},
+                                  {hi.x + 0.5, lo.y - 0.5},
+                                  {hi.x + 0.5, hi.y + 0.5},
+                                  {lo.x - 0.5, hi.y + 0.5}};
   // Half-planes a . p <= b.
   const glm::dvec2 normals[3] = {{-1.0, 0.0}, {0.0, -1.0}, {1.0, 1.0}};
   const double offsets[3] = {0.0, 0.0, double(leg)};
@@ -83,11 +88,16 @@ double texelCoverage(int i, int j, int leg, glm::dvec2& centroid,
     c += (a + b) * cr;
   }
   if (area2 <= 0.0) {
-    centroid = glm::dvec2(i, j);
+    centroid = 0.5 * glm::dvec2(lo + hi);
     return 0.0;
   }
   centroid = c / (3.0 * area2);
   return 0.5 * area2;
+}
+
+double texelCoverage(int i, int j, int leg, glm::dvec2& centroid,
+                     std::vector<glm::dvec2>* polygon = nullptr) {
+  return blockCoverage(glm::ivec2(i, j), glm::ivec2(i, j), leg, centroid, polygon);
 }
 
 }  // namespace
@@ -95,14 +105,21 @@ double texelCoverage(int i, int j, int leg, glm::dvec2& centroid,
 // Pairs closer than this many element sizes (sqrt of the shooter point's area) use the exact
 // form factor.
 constexpr double kNear = 3.0;
-// Hierarchical mode: a block of elements is taken as one disc only when farther than this many
-// of its sizes. The disc's error falls with the square of size / distance; measured on the
-// furnace (1,092 elements), the worst element's error is 1.4% at 3 sizes, 0.88% at 5 and 0.81%
-// at 8, which is the flat scheme's (at 60-80% of its rays); beyond 8 nothing improves.
+// Hierarchical mode: eq. 2's disc only for points farther than this many of their sizes, and
+// Lambert's exact point-to-polygon form factor to the block's polygon nearer (from kNear on; a
+// block nearer than kNear sizes is refined). The disc's error falls with the square of
+// size / distance: with discs from 3 sizes on, the furnace's worst element was 1.4% off, from 8
+// sizes on 0.81% (the flat scheme's), but discs alone needed refining blocks down to 8 sizes,
+// which at millions of elements costs hundreds of pairs per receiver; the polygon keeps a
+// receiver's pairs near the top level's count.
 constexpr double kFar = 8.0;
 
 int ProgressiveRadiosity::elementPolygon(uint32_t e, std::array<glm::dvec3, 8>& out) const {
-  const uint32_t t = tri_of_[e];
+  return blockPolygon(tri_of_[e], lattice_[e], lattice_[e], out);
+}
+
+int ProgressiveRadiosity::blockPolygon(uint32_t t, glm::ivec2 lo, glm::ivec2 hi,
+                                       std::array<glm::dvec3, 8>& out) const {
   const glm::uvec3 tri = flat_.triangles[t];
   const glm::dvec3 p[3] = {glm::dvec3(flat_.positions[tri.x]), glm::dvec3(flat_.positions[tri.y]),
                            glm::dvec3(flat_.positions[tri.z])};
@@ -110,7 +127,7 @@ int ProgressiveRadiosity::elementPolygon(uint32_t e, std::array<glm::dvec3, 8>& 
   const uint32_t r0 = chart.right, r1 = (chart.right + 1) % 3, r2 = (chart.right + 2) % 3;
   glm::dvec2 c;
   std::vector<glm::dvec2> poly;
-  texelCoverage(lattice_[e].x, lattice_[e].y, chart.leg, c, &poly);
+  blockCoverage(lo, hi, chart.leg, c, &poly);
   const int count = int(std::min<size_t>(poly.size(), out.size()));
   for (int k = 0; k < count; ++k) {
     out[size_t(k)] = p[r0] + (poly[size_t(k)].x / chart.leg) * (p[r1] - p[r0]) +
@@ -261,6 +278,8 @@ ProgressiveIteration ProgressiveRadiosity::shoot(uint32_t shooter) {
   // descend where a block is near (below).
   std::vector<ShooterPoint> points;
   std::vector<uint32_t> top;  // the points every receiver starts from
+  std::vector<std::pair<std::array<glm::dvec3, 8>, int>> polygons;
+  const bool hierarchical = options_.shooter_top_points > 0;
   glm::dvec3 shot(0.0);
   {
     // Groups `from` (point indices) into blocks of the level `level`.
@@ -275,9 +294,13 @@ ProgressiveIteration ProgressiveRadiosity::shoot(uint32_t shooter) {
           out.push_back(uint32_t(points.size()));
           points.emplace_back();
           points.back().texel = texel;
+          points.back().lo = points[c].lo;
+          points.back().hi = points[c].hi;
         }
         ShooterPoint& p = points[pos->second];
         const ShooterPoint& q = points[c];
+        p.lo = glm::min(p.lo, q.lo);
+        p.hi = glm::max(p.hi, q.hi);
         p.position += q.position * q.area;
         p.residual += q.residual * q.area;
         p.area += q.area;
@@ -298,6 +321,7 @@ ProgressiveIteration ProgressiveRadiosity::shoot(uint32_t shooter) {
       p.area = area_[e];
       p.residual = db_[e];
       p.members = {e};
+      p.lo = p.hi = lattice_[e];
       p.texel = glm::ivec2(int(texel_[e] % uint32_t(atlas_.width)),
                            int(texel_[e] / uint32_t(atlas_.width)));
       level0.push_back(uint32_t(points.size()));
@@ -308,6 +332,13 @@ ProgressiveIteration ProgressiveRadiosity::shoot(uint32_t shooter) {
       for (int level = 1; top.size() > size_t(options_.shooter_top_points) && level <= 16;
            ++level) {
         top = group(top, level);
+      }
+      // The blocks' polygons: the chart's part their texels cover together.
+      for (ShooterPoint& p : points) {
+        if (p.children.empty()) continue;
+        p.polygon = int32_t(polygons.size());
+        polygons.emplace_back();
+        polygons.back().second = blockPolygon(shooter, p.lo, p.hi, polygons.back().first);
       }
     } else {
       top = options_.shooter_level > 0 ? group(level0, options_.shooter_level) : level0;
@@ -345,24 +376,30 @@ ProgressiveIteration ProgressiveRadiosity::shoot(uint32_t shooter) {
 
   // Gather at every receiver element the irradiance sum_s dB_s F_rs (W m^-2); in parallel over
   // chunks of receivers, each writing only its own entries. A receiver's pairs come from the top
-  // points: a point farther than kNear of its sizes is one pair (eq. 2's disc); a nearer one
-  // descends to its sub-blocks (hierarchical mode) or, at the elements or in flat mode, is a
-  // near pair whose members each contribute Lambert's exact point-to-polygon form factor. Each
+  // points: a point farther than kNear of its sizes is one pair; a nearer one descends to its
+  // sub-blocks (hierarchical mode) or, at the elements or in flat mode, is a near pair whose
+  // members each contribute Lambert's exact point-to-polygon form factor. Each
   // pair has one shadow ray; a chunk's rays are traced together, so the rays from one receiver
   // to the points of one shooter (or from neighbouring texels to one point) travel as packets of
   // eight (raytrace/cpu_packet.h). Each receiver sums its pairs in a fixed order, so the result
   // does not depend on the chunking.
+  enum class Kernel : uint8_t {
+    kDisc,     // eq. 2 with the point's area, position and mean residual
+    kPolygon,  // Lambert's point-to-polygon form factor to a block's polygon, mean residual
+    kMembers,  // the same to each member element's own polygon, with its own residual
+  };
   struct Pair {
     uint32_t receiver;
     uint32_t point;
-    bool near;
+    Kernel kernel;
   };
   const size_t n = elementCount();
   std::vector<glm::dvec3> incident(n, glm::dvec3(0.0));
   std::atomic<uint64_t> rays{0};
   parallelRange(n, 256, [&](size_t begin, size_t end) {
     std::vector<Pair> pairs;
-    std::vector<uint32_t> stack;
+    std::vector<uint32_t> stack, order;
+    std::vector<uint8_t> occluded;
     RayBatch batch;
     HitBatch hits;
     for (size_t r = begin; r < end; ++r) {
@@ -377,7 +414,7 @@ ProgressiveIteration ProgressiveRadiosity::shoot(uint32_t shooter) {
         const glm::dvec3 d = s.position - pr;
         const double d2 = glm::dot(d, d);
         const bool near = d2 < kNear * kNear * s.area;
-        if (!s.children.empty() && d2 < kFar * kFar * s.area) {
+        if (near && !s.children.empty()) {
           for (auto c = s.children.rbegin(); c != s.children.rend(); ++c) {
             if (points[*c].residual != glm::dvec3(0.0)) stack.push_back(*c);
           }
@@ -385,26 +422,45 @@ ProgressiveIteration ProgressiveRadiosity::shoot(uint32_t shooter) {
         }
         if (d2 <= 0.0) continue;
         if (glm::dot(nr, d) <= 0.0 || glm::dot(ns, d) >= 0.0) continue;  // culled by either plane
-        pairs.push_back(Pair{uint32_t(r), k, near});
+        Kernel kernel = near ? Kernel::kMembers : Kernel::kDisc;
+        if (hierarchical && d2 < kFar * kFar * s.area) {
+          kernel = s.children.empty() ? Kernel::kMembers : Kernel::kPolygon;
+        }
+        pairs.push_back(Pair{uint32_t(r), k, kernel});
       }
     }
     if (options_.visibility && !pairs.empty()) {
+      // Rays in shooter-point order (stable: receivers in texel order within a point), so that
+      // each aligned group of eight goes from neighbouring texels to one point: a packet.
+      order.resize(pairs.size());
+      for (size_t k = 0; k < pairs.size(); ++k) order[k] = uint32_t(k);
+      std::stable_sort(order.begin(), order.end(),
+                       [&](uint32_t a, uint32_t b) { return pairs[a].point < pairs[b].point; });
       batch.resize(pairs.size());
       for (size_t k = 0; k < pairs.size(); ++k) {
-        const glm::dvec3 from = position_[pairs[k].receiver] +
-                                tri_normal_[tri_of_[pairs[k].receiver]] * lift_,
-                         to = points[pairs[k].point].position + ns * lift_;
+        const Pair& pair = pairs[order[k]];
+        const glm::dvec3 from =
+                             position_[pair.receiver] + tri_normal_[tri_of_[pair.receiver]] * lift_,
+                         to = points[pair.point].position + ns * lift_;
         batch.set(k, Ray{glm::vec3(from), 1e-4f, glm::vec3(to - from), 1.0f - 1e-4f});
       }
       engine_.intersectSerial(batch, hits);
+      occluded.assign(pairs.size(), 0);
+      for (size_t k = 0; k < pairs.size(); ++k) occluded[order[k]] = hits.triangle[k] >= 0;
       rays += pairs.size();
     }
     for (size_t k = 0; k < pairs.size(); ++k) {
-      if (options_.visibility && hits.triangle[k] >= 0) continue;  // occluded
+      if (options_.visibility && occluded[k]) continue;
       const size_t r = pairs[k].receiver;
       const ShooterPoint& s = points[pairs[k].point];
       const glm::dvec3 nr = tri_normal_[tri_of_[r]], pr = position_[r];
-      if (pairs[k].near) {
+      if (pairs[k].kernel == Kernel::kPolygon) {
+        const auto& [poly, count] = polygons[size_t(s.polygon)];
+        if (count >= 3)
+          incident[r] += s.residual * pointToPolygonFormFactor(pr, nr, poly.data(), count);
+        continue;
+      }
+      if (pairs[k].kernel == Kernel::kMembers) {
         // Near pairs (across an edge, in a corner): eq. 2's disc is a poor stand-in for a
         // neighbour seen edge-on, so each of the point's elements contributes Lambert's exact
         // point-to-polygon form factor (kernels/form_factor.h) to its own polygon.

@@ -192,6 +192,8 @@ class ProgressiveRadiosity {
   std::vector<glm::ivec2> lattice_;  // per element: its texel's lattice point (i, j) in the chart
   // The element's polygon in world space (its texel square clipped to the triangle): the count.
   int elementPolygon(uint32_t e, std::array<glm::dvec3, 8>& out) const;
+  // The same for the lattice points [lo, hi] of triangle t's chart together (a block of texels).
+  int blockPolygon(uint32_t t, glm::ivec2 lo, glm::ivec2 hi, std::array<glm::dvec3, 8>& out) const;
   std::vector<double> area_;
   std::vector<glm::dvec3> position_, rho_, e_, b_, db_;
   EnergyBalance balance_;
