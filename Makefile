@@ -26,6 +26,7 @@ bench: build
 	$(BUILD)/bin/ray_bench --benchmark_out=bench-out/ray_bench.json --benchmark_out_format=json
 	$(BUILD)/bin/hybrid_bench --benchmark_out=bench-out/hybrid_bench.json --benchmark_out_format=json
 	$(BUILD)/bin/radiosity_bench --benchmark_out=bench-out/radiosity_bench.json --benchmark_out_format=json
+	$(BUILD)/bin/progressive_bench --benchmark_out=bench-out/progressive_bench.json --benchmark_out_format=json
 
 plots:
 	/usr/bin/python3 scripts/plot_matrix_bench.py bench-out/radiosity_bench.json docs/images/matrix_fig4.png

@@ -13,7 +13,7 @@
 #include <array>
 #include <atomic>
 #include <cmath>
-#include <map>
+#include <limits>
 #include <utility>
 
 namespace penumbra {
@@ -234,6 +234,7 @@ Expected<ProgressiveRadiosity> ProgressiveRadiosity::build(const Scene& scene,
   pr.ambient_factor_ = 1.0 / (1.0 - rho_area / pr.total_area_);
   pr.b_ = pr.e_;
   pr.db_ = pr.e_;
+  pr.refreshTrianglePowers();
   pr.balance_.unshot = pr.balance_.emitted;
   return pr;
 }
@@ -250,11 +251,18 @@ double ProgressiveRadiosity::residualPower(uint32_t triangle) const {
   return sum;
 }
 
+void ProgressiveRadiosity::refreshTrianglePowers() {
+  tri_power_.resize(triangleCount());
+  parallelRange(triangleCount(), 256, [&](size_t b, size_t e) {
+    for (size_t t = b; t < e; ++t) tri_power_[t] = residualPower(uint32_t(t));
+  });
+}
+
 uint32_t ProgressiveRadiosity::selectShooter() const {
   uint32_t best = kNoShooter;
   double best_power = 0.0;
   for (uint32_t t = 0; t < triangleCount(); ++t) {
-    const double p = residualPower(t);
+    const double p = tri_power_[t];  // residualPower(t), kept up to date by shoot()
     if (p > best_power) {
       best_power = p;
       best = t;
@@ -282,22 +290,30 @@ ProgressiveIteration ProgressiveRadiosity::shoot(uint32_t shooter) {
   const bool hierarchical = options_.shooter_top_points > 0;
   glm::dvec3 shot(0.0);
   {
-    // Groups `from` (point indices) into blocks of the level `level`.
+    // Groups `from` (point indices) into blocks of the level `level`, in order of first
+    // appearance, through a dense grid over the blocks' range.
+    std::vector<int32_t> grid;
     auto group = [&](const std::vector<uint32_t>& from, int level) {
-      std::map<std::pair<int, int>, uint32_t> block_of;
+      glm::ivec2 lo(std::numeric_limits<int>::max()), hi(std::numeric_limits<int>::min());
+      for (uint32_t c : from) {
+        lo = glm::min(lo, points[c].texel >> level);
+        hi = glm::max(hi, points[c].texel >> level);
+      }
+      const size_t w = size_t(hi.x - lo.x + 1);
+      grid.assign(w * size_t(hi.y - lo.y + 1), -1);
       std::vector<uint32_t> out;
       for (uint32_t c : from) {
-        const glm::ivec2 texel = points[c].texel;
-        const auto key = std::make_pair(texel.x >> level, texel.y >> level);
-        auto [pos, inserted] = block_of.try_emplace(key, uint32_t(points.size()));
-        if (inserted) {
+        const glm::ivec2 texel = points[c].texel, key = (texel >> level) - lo;
+        int32_t& slot = grid[size_t(key.y) * w + size_t(key.x)];
+        if (slot < 0) {
+          slot = int32_t(points.size());
           out.push_back(uint32_t(points.size()));
           points.emplace_back();
           points.back().texel = texel;
           points.back().lo = points[c].lo;
           points.back().hi = points[c].hi;
         }
-        ShooterPoint& p = points[pos->second];
+        ShooterPoint& p = points[size_t(slot)];
         const ShooterPoint& q = points[c];
         p.lo = glm::min(p.lo, q.lo);
         p.hi = glm::max(p.hi, q.hi);
@@ -394,7 +410,12 @@ ProgressiveIteration ProgressiveRadiosity::shoot(uint32_t shooter) {
     Kernel kernel;
   };
   const size_t n = elementCount();
-  std::vector<glm::dvec3> incident(n, glm::dvec3(0.0));
+  std::vector<glm::dvec3>& incident = incident_;
+  incident.resize(n);
+  parallelRange(n, 1 << 16, [&](size_t b, size_t e) {
+    std::fill(incident.begin() + std::ptrdiff_t(b), incident.begin() + std::ptrdiff_t(e),
+              glm::dvec3(0.0));
+  });
   std::atomic<uint64_t> rays{0};
   parallelRange(n, 256, [&](size_t begin, size_t end) {
     std::vector<Pair> pairs;
@@ -457,7 +478,7 @@ ProgressiveIteration ProgressiveRadiosity::shoot(uint32_t shooter) {
       if (pairs[k].kernel == Kernel::kPolygon) {
         const auto& [poly, count] = polygons[size_t(s.polygon)];
         if (count >= 3)
-          incident[r] += s.residual * pointToPolygonFormFactor(pr, nr, poly.data(), count);
+          incident[r] += s.residual * pointToPolygonFormFactor<true>(pr, nr, poly.data(), count);
         continue;
       }
       if (pairs[k].kernel == Kernel::kMembers) {
@@ -468,7 +489,7 @@ ProgressiveIteration ProgressiveRadiosity::shoot(uint32_t shooter) {
           std::array<glm::dvec3, 8> poly;
           const int count = elementPolygon(m, poly);
           if (count < 3) continue;
-          incident[r] += db_[m] * pointToPolygonFormFactor(pr, nr, poly.data(), count);
+          incident[r] += db_[m] * pointToPolygonFormFactor<true>(pr, nr, poly.data(), count);
         }
         continue;
       }
@@ -480,18 +501,37 @@ ProgressiveIteration ProgressiveRadiosity::shoot(uint32_t shooter) {
     }
   });
 
-  // Update (progressive eq. 1) and book the energy serially, in element order (deterministic).
-  glm::dvec3 arrived(0.0);
-  for (size_t r = 0; r < n; ++r) {
-    if (incident[r] == glm::dvec3(0.0)) continue;
-    const glm::dvec3 gain = rho_[r] * incident[r];
-    b_[r] += gain;
-    db_[r] += gain;
-    arrived += incident[r] * area_[r];
-    balance_.absorbed += (glm::dvec3(1.0) - rho_[r]) * incident[r] * area_[r];
-    balance_.unshot += gain * area_[r];
-  }
+  // Update (progressive eq. 1), per triangle in parallel: each triangle's elements in order, its
+  // residual power (for the next shooter selection) and its share of the energy books; the books
+  // are then summed over triangles in order, so they do not depend on the threads.
   for (uint32_t e = first; e < last; ++e) db_[e] = glm::dvec3(0.0);
+  struct Books {
+    glm::dvec3 arrived{0.0}, absorbed{0.0}, reflected{0.0};
+  };
+  std::vector<Books> books(triangleCount());
+  parallelRange(triangleCount(), 64, [&](size_t t_begin, size_t t_end) {
+    for (size_t t = t_begin; t < t_end; ++t) {
+      Books& k = books[t];
+      const bool changed = receives[t] || t == shooter;
+      if (!changed) continue;
+      for (uint32_t r = tri_first_[t]; r < tri_first_[t + 1]; ++r) {
+        if (incident[r] == glm::dvec3(0.0)) continue;
+        const glm::dvec3 gain = rho_[r] * incident[r];
+        b_[r] += gain;
+        db_[r] += gain;
+        k.arrived += incident[r] * area_[r];
+        k.absorbed += (glm::dvec3(1.0) - rho_[r]) * incident[r] * area_[r];
+        k.reflected += gain * area_[r];
+      }
+      tri_power_[t] = residualPower(uint32_t(t));
+    }
+  });
+  glm::dvec3 arrived(0.0);
+  for (const Books& k : books) {
+    arrived += k.arrived;
+    balance_.absorbed += k.absorbed;
+    balance_.unshot += k.reflected;
+  }
   balance_.unshot -= shot;
   balance_.escaped += shot - arrived;
 
@@ -555,6 +595,7 @@ Status ProgressiveRadiosity::setState(ProgressiveState state) {
   }
   b_ = std::move(state.radiosity);
   db_ = std::move(state.residual);
+  refreshTrianglePowers();
   balance_ = state.balance;
   iterations_ = state.iterations;
   return {};

@@ -196,6 +196,9 @@ class ProgressiveRadiosity {
   int blockPolygon(uint32_t t, glm::ivec2 lo, glm::ivec2 hi, std::array<glm::dvec3, 8>& out) const;
   std::vector<double> area_;
   std::vector<glm::dvec3> position_, rho_, e_, b_, db_;
+  std::vector<double> tri_power_;     // residualPower per triangle, for selectShooter
+  std::vector<glm::dvec3> incident_;  // per element, an iteration's gathered irradiance
+  void refreshTrianglePowers();
   EnergyBalance balance_;
   glm::dvec3 ambient_factor_{1.0};  // R of eq. 6, per channel
   double total_area_ = 0.0;

@@ -1,0 +1,100 @@
+// Progressive radiosity in a lightmap (Wallner sec. 2-3) on the CPU: time per iteration, elements
+// shot and receiver elements updated per second, shadow rays per second, and memory per element,
+// against the element count (10k to 2.5M lightmap texels), on the teapot scene (the Cornell box
+// with four Utah teapots, 9,060 triangles: the scale of the paper's Table 1 scenes).
+// Each run builds the solver and times its first 8 iterations (the light, then the walls: the
+// largest shooters). The peer of the design doc's sec. 7 is the Ray Engine's own incoherent-ray
+// rate (ray_bench); here the rays/s column shows what the shooting reaches with packets.
+#include "penumbra/io/scene_io.h"
+#include "penumbra/radiosity/progressive.h"
+
+#include <benchmark/benchmark.h>
+#include <glm/geometric.hpp>
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <optional>
+#include <string>
+
+namespace {
+
+using namespace penumbra;
+
+const Scene& teapots() {
+  static const Scene scene = [] {
+    Expected<Scene> s = loadScene(std::string(PENUMBRA_BENCH_SCENES) + "/teapots.json");
+    if (!s) {
+      std::fprintf(stderr, "%s\n", s.error().describe().c_str());
+      std::abort();
+    }
+    return std::move(*s);
+  }();
+  return scene;
+}
+
+// Resident set size now, from /proc/self/statm (bytes).
+double residentBytes() {
+  std::ifstream statm("/proc/self/statm");
+  double pages = 0.0, resident = 0.0;
+  statm >> pages >> resident;
+  return resident * 4096.0;
+}
+
+void progressiveIterations(benchmark::State& state) {
+  const Scene& scene = teapots();
+  const FlatTriangles flat = flattenScene(scene);
+  double area = 0.0;
+  for (const glm::uvec3& t : flat.triangles) {
+    area += 0.5 * double(glm::length(glm::cross(flat.positions[t.y] - flat.positions[t.x],
+                                                flat.positions[t.z] - flat.positions[t.x])));
+  }
+  ProgressiveOptions o;
+  o.atlas.texel_density = std::sqrt(double(state.range(0)) / area);
+  o.convergence = 0.0;
+  constexpr int kIterations = 8;
+  double seconds = 0.0, shot = 0.0, rays = 0.0, bytes = 0.0, elements = 0.0;
+  for (auto _ : state) {
+    const double before = residentBytes();
+    Expected<ProgressiveRadiosity> pr = ProgressiveRadiosity::build(scene, o);
+    if (!pr) {
+      state.SkipWithError(pr.error().describe().c_str());
+      return;
+    }
+    elements = double(pr->elementCount());
+    for (int i = 0; i < kIterations; ++i) {
+      const uint32_t shooter = pr->selectShooter();
+      shot += double(pr->triangleFirst(shooter + 1) - pr->triangleFirst(shooter));
+      const ProgressiveIteration it = pr->shoot(shooter);
+      seconds += it.seconds;
+      rays += double(it.rays);
+    }
+    bytes = residentBytes() - before;
+  }
+  const double iterations = double(state.iterations()) * kIterations;
+  state.counters["elements"] = elements;
+  state.counters["s_per_iteration"] = seconds / iterations;
+  state.counters["shot_elements_per_s"] = shot / seconds;
+  state.counters["receiver_updates_per_s"] = elements * iterations / seconds;
+  state.counters["mrays_per_s"] = rays / seconds * 1e-6;
+  state.counters["bytes_per_element"] = bytes / elements;
+  std::printf(
+      "progressive, %.0f elements: %.3f s per iteration, %.3g elements shot/s, %.3g receiver "
+      "updates/s, %.1f Mrays/s, %.0f bytes per element (resident)\n",
+      elements, seconds / iterations, shot / seconds, elements * iterations / seconds,
+      rays / seconds * 1e-6, bytes / elements);
+}
+
+BENCHMARK(progressiveIterations)
+    ->Arg(10000)
+    ->Arg(40000)
+    ->Arg(160000)
+    ->Arg(640000)
+    ->Arg(2560000)
+    ->Iterations(1)
+    ->UseRealTime()
+    ->Unit(benchmark::kSecond);
+
+}  // namespace
+
+BENCHMARK_MAIN();
