@@ -276,6 +276,7 @@ Status bake(const BakeOptions& options, const CommonOptions& common, bool* inter
     ro.texel_density = options.texel_density;
     ro.lightmap_size = options.lightmap_size;
     ro.iterations = options.iterations;
+    ro.shooter_points = options.shooter_points;
     ro.tolerance = options.tolerance.value_or(1e-3);
     ro.resume = options.resume;
     ro.checkpoint = options.checkpoint.empty() ? (out_dir / (stem + ".checkpoint")).string()

@@ -105,6 +105,12 @@ int parseAndRun(int argc, char** argv) {
       ->capture_default_str();
   render_cmd->add_option("--texel-density", render.texel_density,
                          "progressive: lightmap texels per metre (instead of --elements)");
+  render_cmd
+      ->add_option("--shooter-points", render.shooter_points,
+                   "progressive: points a shooter starts from (its texels grouped in blocks; "
+                   "nearer receivers refine them); more resolve soft shadows finer")
+      ->check(CLI::Range(1, 4096))
+      ->capture_default_str();
   render_cmd->add_option("--resume", render.resume,
                          "progressive: continue from this checkpoint (written on Ctrl-C)");
   render_cmd->add_option("--checkpoint", render.checkpoint,
@@ -183,6 +189,11 @@ int parseAndRun(int argc, char** argv) {
                    "lightmap width and height when --texel-density is not given (matrix: "
                    "default 1024; progressive: default from --elements)")
       ->check(CLI::Range(8, 16384));
+  bake_cmd
+      ->add_option("--shooter-points", bake.shooter_points,
+                   "progressive: points a shooter starts from (see render)")
+      ->check(CLI::Range(1, 4096))
+      ->capture_default_str();
   bake_cmd->add_option("--resume", bake.resume,
                        "progressive: continue from this checkpoint (written on Ctrl-C)");
   bake_cmd->add_option("--checkpoint", bake.checkpoint,

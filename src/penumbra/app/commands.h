@@ -42,6 +42,8 @@ struct RenderOptions {
   std::optional<double> texel_density;
   std::string resume;
   std::string checkpoint;
+  int shooter_points =
+      16;  // progressive: top-level points per shooter (0: the paper's flat scheme)
 };
 
 struct TraceOptions {
@@ -78,6 +80,7 @@ struct BakeOptions {
   std::optional<int> lightmap_size;     // lightmap width and height (default 1024 for matrix)
   std::string resume;                   // progressive: checkpoint to continue from
   std::string checkpoint;  // progressive: where Ctrl-C writes one (DIR/STEM.checkpoint)
+  int shooter_points = 16;  // progressive: top-level points per shooter
 };
 
 int runRender(const RenderOptions& options, const CommonOptions& common);

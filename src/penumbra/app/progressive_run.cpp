@@ -46,6 +46,7 @@ Expected<ProgressiveRun> runProgressive(const Scene& scene, const ProgressiveRun
   ProgressiveOptions po;
   po.max_iterations = options.iterations;
   po.convergence = options.tolerance;
+  po.shooter_top_points = options.shooter_points;
   std::optional<ProgressiveCheckpointInfo> info;
   if (!options.resume.empty()) {
     Expected<ProgressiveCheckpointInfo> i = readProgressiveCheckpointInfo(options.resume);
@@ -53,7 +54,11 @@ Expected<ProgressiveRun> runProgressive(const Scene& scene, const ProgressiveRun
     info = *i;
     po.atlas.texel_density = info->texel_density;
     po.shooter_level = info->shooter_level;
-    po.shooter_top_points = info->shooter_top_points;
+    if (info->shooter_top_points != options.shooter_points) {
+      return inputError(options.resume, "",
+                        fmt::format("was written with --shooter-points {}, not {}",
+                                    info->shooter_top_points, options.shooter_points));
+    }
     if (options.texel_density &&
         std::abs(*options.texel_density / info->texel_density - 1.0) > 1e-9) {
       return inputError(options.resume, "",

@@ -24,6 +24,7 @@ struct ProgressiveRunOptions {
   double tolerance = 1e-3;              // unshot fraction
   std::string resume;                   // checkpoint to continue from
   std::string checkpoint;               // where Ctrl-C writes the checkpoint
+  int shooter_points = 16;              // ProgressiveOptions::shooter_top_points
 };
 
 struct ProgressiveRun {

@@ -54,6 +54,7 @@ Status renderProgressive(const RenderOptions& options, const CommonOptions& comm
   ro.elements = options.elements;
   ro.texel_density = options.texel_density;
   ro.iterations = options.iterations;
+  ro.shooter_points = options.shooter_points;
   ro.tolerance = options.tolerance.value_or(1e-3);
   ro.resume = options.resume;
   ro.checkpoint = options.checkpoint;

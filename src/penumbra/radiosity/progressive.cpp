@@ -629,7 +629,30 @@ Image ProgressiveRadiosity::radianceImage(bool with_ambient) const {
     img.pixels[texel_[e]] = glm::vec3((b_[e] + rho_[e] * amb) / kPi);
     known[texel_[e]] = 1;
   }
-  // Border and dilated texels: rounds of the mean of known 8-neighbours of the same triangle.
+  // Border texels (the row past each chart's hypotenuse, lattice points i + j = leg + 1): the
+  // plane through the three inside texels before it, v(i-1, j) + v(i, j-1) - v(i-1, j-1), so
+  // that bilinear lookups near the hypotenuse continue the chart's gradient instead of
+  // flattening it (with copies, the two triangles of a quad meet in a faint seam along their
+  // diagonal); clamped at 0.
+  for (uint32_t t = 0; t < triangleCount(); ++t) {
+    if (tri_first_[t] == tri_first_[t + 1]) continue;
+    const int leg = a.charts[t].leg;
+    auto at = [&](int i, int j) {
+      const glm::ivec2 p = a.chartTexel(t, i, j);
+      return a.texelIndex(p.x, p.y);
+    };
+    for (int i = 1; i <= leg; ++i) {
+      const int j = leg + 1 - i;
+      const size_t border = at(i, j), u = at(i - 1, j), v = at(i, j - 1), w = at(i - 1, j - 1);
+      if (a.texel_kind[border] != AtlasTexelKind::kBorder || !known[u] || !known[v] || !known[w]) {
+        continue;
+      }
+      img.pixels[border] = glm::max(img.pixels[u] + img.pixels[v] - img.pixels[w], glm::vec3(0.0f));
+      known[border] = 1;
+    }
+  }
+  // Dilated texels (and any border texel left): rounds of the mean of known 8-neighbours of the
+  // same triangle.
   for (int round = 0; round <= a.gutter + 1; ++round) {
     std::vector<size_t> filled;
     for (int y = 0; y < a.height; ++y) {
