@@ -232,7 +232,7 @@ Expected<BakeProduct> solveProgressive(const CommonOptions& common, const Scene&
   const ProgressiveRadiosity& pr = *run->solver;
   BakeProduct out;
   out.interrupted = run->interrupted;
-  out.lightmap = pr.radianceImage(false);
+  out.lightmap = *run->lightmap;
   out.mesh = buildLightmapMesh(scene, pr.atlas(), out.lightmap);
   std::vector<glm::vec3> radiance(pr.elementCount());
   std::vector<uint8_t> emissive(pr.elementCount());
@@ -277,6 +277,7 @@ Status bake(const BakeOptions& options, const CommonOptions& common, bool* inter
     ro.lightmap_size = options.lightmap_size;
     ro.iterations = options.iterations;
     ro.shooter_points = options.shooter_points;
+    ro.device = options.device;
     ro.tolerance = options.tolerance.value_or(1e-3);
     ro.resume = options.resume;
     ro.checkpoint = options.checkpoint.empty() ? (out_dir / (stem + ".checkpoint")).string()

@@ -159,6 +159,11 @@ int parseAndRun(int argc, char** argv) {
       "bake", "solve radiosity and write a glTF with lightmaps (EXR, PNG) into a directory");
   bake_cmd->add_option("scene", bake.scene, "built-in scene name or file")->required();
   bake_cmd->add_option("--method", bake.method, "matrix or progressive")->capture_default_str();
+  bake_cmd
+      ->add_option("--device", bake.device,
+                   "progressive: cpu, gpu or auto (matrix bakes on the CPU)")
+      ->check(CLI::IsMember({"cpu", "gpu", "auto"}))
+      ->capture_default_str();
   bake_cmd->add_option("-o,--output", bake.output, "output directory (created if missing)")
       ->capture_default_str();
   bake_cmd->add_option("--stats", bake.stats, "write statistics to this JSON file");

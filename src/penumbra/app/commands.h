@@ -67,7 +67,8 @@ struct InfoOptions {
 struct BakeOptions {
   std::string scene;
   std::string method = "matrix";
-  std::string output = ".";  // -o DIR, created if missing
+  std::string device = "cpu";  // progressive: cpu, gpu or auto; matrix: cpu
+  std::string output = ".";    // -o DIR, created if missing
   std::string stats;
   uint32_t elements = 2000;
   int iterations = 500;  // iteration cap
@@ -79,7 +80,7 @@ struct BakeOptions {
   std::optional<double> texel_density;  // lightmap texels per metre (default: from the size)
   std::optional<int> lightmap_size;     // lightmap width and height (default 1024 for matrix)
   std::string resume;                   // progressive: checkpoint to continue from
-  std::string checkpoint;  // progressive: where Ctrl-C writes one (DIR/STEM.checkpoint)
+  std::string checkpoint;   // progressive: where Ctrl-C writes one (DIR/STEM.checkpoint)
   int shooter_points = 16;  // progressive: top-level points per shooter
 };
 

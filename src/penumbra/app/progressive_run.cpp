@@ -1,11 +1,13 @@
 #include "penumbra/app/progressive_run.h"
 
+#include "penumbra/app/device.h"
 #include "penumbra/app/stats_file.h"
 #include "penumbra/core/interrupt.h"
 #include "penumbra/core/memory.h"
 #include "penumbra/core/progress.h"
 #include "penumbra/core/timer.h"
 #include "penumbra/radiosity/progressive_checkpoint.h"
+#include "penumbra/radiosity/progressive_gl.h"
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
@@ -43,6 +45,9 @@ Status checkProgressiveRunOptions(const ProgressiveRunOptions& o) {
 Expected<ProgressiveRun> runProgressive(const Scene& scene, const ProgressiveRunOptions& options,
                                         const CommonOptions& common) {
   ProgressiveRun run;
+  if (options.device == "hybrid") {
+    return inputError("", "--device", "hybrid applies to the Ray Engine (trace, pathtrace)");
+  }
   ProgressiveOptions po;
   po.max_iterations = options.iterations;
   po.convergence = options.tolerance;
@@ -53,12 +58,10 @@ Expected<ProgressiveRun> runProgressive(const Scene& scene, const ProgressiveRun
     if (!i) return i.error();
     info = *i;
     po.atlas.texel_density = info->texel_density;
+    // The checkpoint fixes the substructuring too (so that the resumed run shoots exactly as
+    // the interrupted one would have).
     po.shooter_level = info->shooter_level;
-    if (info->shooter_top_points != options.shooter_points) {
-      return inputError(options.resume, "",
-                        fmt::format("was written with --shooter-points {}, not {}",
-                                    info->shooter_top_points, options.shooter_points));
-    }
+    po.shooter_top_points = info->shooter_top_points;
     if (options.texel_density &&
         std::abs(*options.texel_density / info->texel_density - 1.0) > 1e-9) {
       return inputError(options.resume, "",
@@ -91,9 +94,37 @@ Expected<ProgressiveRun> runProgressive(const Scene& scene, const ProgressiveRun
       checkMemory(expected_elements * kBytesPerElement,
                   fmt::format("progressive radiosity with {} lightmap texels", expected_elements)));
 
+  Expected<DeviceChoice> device = chooseDevice(options.device);
+  if (!device) return device.error();
+  const bool gpu = device->device == Device::kGpu;
+  run.device = device->name();
+  if (gpu && info && info->shooter_top_points > 0) {
+    return inputError(options.resume, "",
+                      "was written by the CPU's hierarchical shooter; continue it with --device "
+                      "cpu");
+  }
+  if (gpu && !info) {
+    // The GPU runs the paper's flat substructuring: one mip level for every shooter, the
+    // coarsest at which an average triangle still has at least --shooter-points blocks.
+    po.shooter_top_points = 0;
+    po.shooter_level = -1;  // chosen below, once the elements are known
+  }
+
   const Timer build_timer;
+  const bool choose_level = po.shooter_level < 0;
+  if (choose_level) po.shooter_level = 0;
   Expected<ProgressiveRadiosity> built = ProgressiveRadiosity::build(scene, po);
   if (!built) return built.error();
+  if (choose_level) {
+    const double per_triangle =
+        double(built->elementCount()) / double(std::max<size_t>(1, built->triangleCount()));
+    int level = 0;
+    while (level < 8 && per_triangle / std::pow(4.0, level + 1) >= options.shooter_points) {
+      ++level;
+    }
+    PENUMBRA_TRY(built->setShooterLevel(level));
+    po.shooter_level = level;
+  }
   run.solver.emplace(std::move(*built));
   ProgressiveRadiosity& pr = *run.solver;
   if (info) {
@@ -102,24 +133,46 @@ Expected<ProgressiveRun> runProgressive(const Scene& scene, const ProgressiveRun
     spdlog::info("{}: resumed after {} iterations, {:.3g} of the emitted power unshot",
                  options.resume, pr.iterations(), pr.unshotFraction());
   }
+  std::optional<GlProgressive> gl;
+  if (gpu) {
+    Expected<GlProgressive> g = GlProgressive::create(pr);
+    if (!g) return g.error();
+    gl.emplace(std::move(*g));
+  }
   run.build_seconds = build_timer.seconds();
-  spdlog::info("{}: {} lightmap texels in a {}x{} atlas ({:.1f} texels/m)", scene.source,
-               pr.elementCount(), pr.atlas().width, pr.atlas().height, pr.atlas().texel_density);
+  spdlog::info("{}: {} lightmap texels in a {}x{} atlas ({:.1f} texels/m){}", scene.source,
+               pr.elementCount(), pr.atlas().width, pr.atlas().height, pr.atlas().texel_density,
+               gpu ? fmt::format(", on the GPU (shooter level {})", po.shooter_level) : "");
 
   // Progress: the fraction of the emitted power shot so far on a log scale down to the tolerance
   // (the iteration count is not known in advance), with the iteration and the unshot fraction.
   const InterruptScope interrupt;
   Progress progress("shooting", 1000, !common.quiet && Progress::stderrIsTerminal());
   const double log_goal = std::log(std::max(options.tolerance, 1e-12));
-  run.stats = pr.solve(
-      [&](const ProgressiveIteration& it) {
-        run.history.push_back(it.unshot_fraction);
-        const double f = it.unshot_fraction > 0.0 ? std::log(it.unshot_fraction) / log_goal : 1.0;
-        progress.setNote(
-            fmt::format("iteration {}, {:.3g} unshot", it.iteration, it.unshot_fraction));
-        progress.reach(uint64_t(std::clamp(f, 0.0, 1.0) * 1000.0));
-      },
-      [] { return InterruptScope::requested(); });
+  const auto after = [&](const ProgressiveIteration& it) {
+    run.history.push_back(it.unshot_fraction);
+    run.shooters.push_back(it.shooter);
+    run.iteration_seconds.push_back(it.seconds);
+    const double f = it.unshot_fraction > 0.0 ? std::log(it.unshot_fraction) / log_goal : 1.0;
+    progress.setNote(fmt::format("iteration {}, {:.3g} unshot", it.iteration, it.unshot_fraction));
+    progress.reach(uint64_t(std::clamp(f, 0.0, 1.0) * 1000.0));
+  };
+  const auto stop = [] { return InterruptScope::requested(); };
+  if (gl) {
+    Expected<ProgressiveStats> st = gl->solve(after, stop);
+    if (!st) return st.error();
+    run.stats = *st;
+    // The solution back into the CPU object (checkpoints, stats, baking), and the lightmap
+    // through the GPU's own post-process (sec. 3.1).
+    Expected<ProgressiveState> state = gl->download();
+    if (!state) return state.error();
+    PENUMBRA_TRY(pr.setState(std::move(*state)));
+    Expected<Image> lightmap = gl->radianceImage();
+    if (!lightmap) return lightmap.error();
+    run.lightmap = std::move(*lightmap);
+  } else {
+    run.stats = pr.solve(after, stop);
+  }
   progress.finish();
   if (run.stats.interrupted) {
     run.interrupted = true;
@@ -135,13 +188,15 @@ Expected<ProgressiveRun> runProgressive(const Scene& scene, const ProgressiveRun
         "(tolerance {:.3g})",
         run.stats.unshot_fraction, run.stats.total_iterations, options.tolerance);
   }
+  if (!run.lightmap) run.lightmap = pr.radianceImage(false);
   return run;
 }
 
 nlohmann::json progressiveStatsJson(const ProgressiveRun& run, double tolerance) {
   const ProgressiveRadiosity& pr = *run.solver;
   const EnergyBalance& b = pr.balance();
-  return {{"build_seconds", run.build_seconds},
+  return {{"device", run.device},
+          {"build_seconds", run.build_seconds},
           {"solve_seconds", run.stats.seconds},
           {"elements", pr.elementCount()},
           {"atlas_width", pr.atlas().width},
@@ -154,6 +209,8 @@ nlohmann::json progressiveStatsJson(const ProgressiveRun& run, double tolerance)
           {"interrupted", run.interrupted},
           {"tolerance", tolerance},
           {"history", run.history},
+          {"shooters", run.shooters},
+          {"iteration_seconds", run.iteration_seconds},
           {"rays", run.stats.rays},
           {"emitted_w", {b.emitted.x, b.emitted.y, b.emitted.z}},
           {"absorbed_w", {b.absorbed.x, b.absorbed.y, b.absorbed.z}},

@@ -6,6 +6,7 @@
 
 #include "penumbra/app/commands.h"
 #include "penumbra/core/expected.h"
+#include "penumbra/core/image.h"
 #include "penumbra/radiosity/progressive.h"
 #include "penumbra/scene/scene.h"
 
@@ -25,12 +26,17 @@ struct ProgressiveRunOptions {
   std::string resume;                   // checkpoint to continue from
   std::string checkpoint;               // where Ctrl-C writes the checkpoint
   int shooter_points = 16;              // ProgressiveOptions::shooter_top_points
+  std::string device = "cpu";           // cpu, gpu or auto (design doc sec. 3)
 };
 
 struct ProgressiveRun {
-  std::optional<ProgressiveRadiosity> solver;
+  std::optional<ProgressiveRadiosity> solver;  // holds the solution (also after a GPU solve)
+  std::optional<Image> lightmap;               // radiance B / pi per texel, gaps filled (sec. 3.1)
+  std::string device = "cpu";                  // where it was solved
   ProgressiveStats stats;
-  nlohmann::json history = nlohmann::json::array();  // unshot fraction after each iteration
+  nlohmann::json history = nlohmann::json::array();   // unshot fraction after each iteration
+  nlohmann::json shooters = nlohmann::json::array();  // each iteration's shooter triangle
+  nlohmann::json iteration_seconds = nlohmann::json::array();
   double build_seconds = 0.0;
   int resumed_iterations = 0;  // iterations the checkpoint had done
   bool interrupted = false;    // stopped by Ctrl-C; the checkpoint was written

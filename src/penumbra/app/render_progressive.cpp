@@ -45,16 +45,12 @@ Status renderProgressive(const RenderOptions& options, const CommonOptions& comm
   if (options.relight_frames > 0) {
     return inputError("", "--relight-frames", "applies to --method matrix only");
   }
-  if (options.device == "gpu" || options.device == "hybrid") {
-    return inputError(
-        "", "--device",
-        fmt::format("'{}': progressive radiosity runs on the CPU in this version", options.device));
-  }
   ProgressiveRunOptions ro;
   ro.elements = options.elements;
   ro.texel_density = options.texel_density;
   ro.iterations = options.iterations;
   ro.shooter_points = options.shooter_points;
+  ro.device = options.device;
   ro.tolerance = options.tolerance.value_or(1e-3);
   ro.resume = options.resume;
   ro.checkpoint = options.checkpoint;
@@ -95,7 +91,7 @@ Status renderProgressive(const RenderOptions& options, const CommonOptions& comm
   view.height = height;
   view.spp = spp;
   view.seed = options.seed.value_or(0);
-  const Image lightmap = pr.radianceImage(false);
+  const Image& lightmap = *run->lightmap;
   const Image image = renderLightmapView(pr.triangles().positions, pr.triangles().triangles,
                                          pr.atlas(), lightmap, camera, view);
   const double view_seconds = view_timer.seconds();
@@ -105,7 +101,6 @@ Status renderProgressive(const RenderOptions& options, const CommonOptions& comm
 
   if (!options.stats.empty()) {
     nlohmann::json j = {{"method", "progressive"},
-                        {"device", "cpu"},
                         {"scene", scene->source},
                         {"seconds", total_timer.seconds()},
                         {"view_seconds", view_seconds},

@@ -33,6 +33,7 @@ struct ShooterPoint {
   std::vector<uint32_t> children;  // hierarchical mode: indices of its sub-blocks
   glm::ivec2 texel{0};             // atlas texel of one member (for grouping into blocks)
   glm::ivec2 lo{0}, hi{0};         // the lattice points of its chart it covers (inclusive)
+  bool above_top = false;          // a block coarser than the substructuring's top level
   int32_t polygon = -1;            // hierarchical blocks: index of its polygon
 };
 
@@ -102,9 +103,7 @@ double texelCoverage(int i, int j, int leg, glm::dvec2& centroid,
 
 }  // namespace
 
-// Pairs closer than this many element sizes (sqrt of the shooter point's area) use the exact
-// form factor.
-constexpr double kNear = 3.0;
+constexpr double kNear = kProgressiveNear;
 // Hierarchical mode: eq. 2's disc only for points farther than this many of their sizes, and
 // Lambert's exact point-to-polygon form factor to the block's polygon nearer (from kNear on; a
 // block nearer than kNear sizes is refined). The disc's error falls with the square of
@@ -113,6 +112,12 @@ constexpr double kNear = 3.0;
 // which at millions of elements costs hundreds of pairs per receiver; the polygon keeps a
 // receiver's pairs near the top level's count.
 constexpr double kFar = 8.0;
+// Hierarchical mode: blocks coarser than the top level (up to the whole shooter) serve receivers
+// farther than this many of their sizes (a small shooter far away shoots as one point).
+constexpr double kCoarse = 20.0;
+// Receivers gathered together: their pairs, rays and hits (about 12 pairs per receiver) fit in
+// the L2 cache.
+constexpr size_t kReceiverBlock = 256;
 
 int ProgressiveRadiosity::elementPolygon(uint32_t e, std::array<glm::dvec3, 8>& out) const {
   return blockPolygon(tri_of_[e], lattice_[e], lattice_[e], out);
@@ -285,7 +290,8 @@ ProgressiveIteration ProgressiveRadiosity::shoot(uint32_t shooter) {
   // first with at most shooter_top_points blocks; receivers start from that level's blocks and
   // descend where a block is near (below).
   std::vector<ShooterPoint> points;
-  std::vector<uint32_t> top;  // the points every receiver starts from
+  std::vector<uint32_t> top;    // the substructuring's points (at most shooter_top_points)
+  std::vector<uint32_t> roots;  // what receivers start from: top, or blocks of it above
   std::vector<std::pair<std::array<glm::dvec3, 8>, int>> polygons;
   const bool hierarchical = options_.shooter_top_points > 0;
   glm::dvec3 shot(0.0);
@@ -345,9 +351,16 @@ ProgressiveIteration ProgressiveRadiosity::shoot(uint32_t shooter) {
     }
     if (options_.shooter_top_points > 0) {
       top = level0;
-      for (int level = 1; top.size() > size_t(options_.shooter_top_points) && level <= 16;
-           ++level) {
+      int level = 1;
+      for (; top.size() > size_t(options_.shooter_top_points) && level <= 16; ++level) {
         top = group(top, level);
+      }
+      // Above the top level, up to one block: coarser points for receivers far from the whole
+      // shooter (below).
+      roots = top;
+      for (; roots.size() > 1 && level <= 24; ++level) {
+        roots = group(roots, level);
+        for (uint32_t b : roots) points[b].above_top = true;
       }
       // The blocks' polygons: the chart's part their texels cover together.
       for (ShooterPoint& p : points) {
@@ -358,6 +371,7 @@ ProgressiveIteration ProgressiveRadiosity::shoot(uint32_t shooter) {
       }
     } else {
       top = options_.shooter_level > 0 ? group(level0, options_.shooter_level) : level0;
+      roots = top;
       // Flat mode: a block is a point with members and no sub-blocks.
       for (uint32_t b : top) {
         ShooterPoint& p = points[b];
@@ -366,9 +380,11 @@ ProgressiveIteration ProgressiveRadiosity::shoot(uint32_t shooter) {
         p.children.clear();
       }
     }
-    top.erase(std::remove_if(top.begin(), top.end(),
-                             [&](uint32_t p) { return points[p].residual == glm::dvec3(0.0); }),
-              top.end());
+    for (std::vector<uint32_t>* list : {&top, &roots}) {
+      list->erase(std::remove_if(list->begin(), list->end(),
+                                 [&](uint32_t p) { return points[p].residual == glm::dvec3(0.0); }),
+                  list->end());
+    }
   }
   it.shooter_points = uint32_t(top.size());
 
@@ -419,85 +435,93 @@ ProgressiveIteration ProgressiveRadiosity::shoot(uint32_t shooter) {
   std::atomic<uint64_t> rays{0};
   parallelRange(n, 256, [&](size_t begin, size_t end) {
     std::vector<Pair> pairs;
-    std::vector<uint32_t> stack, order;
+    std::vector<uint32_t> stack;
+    std::vector<uint64_t> order;  // (point, pair index): sorted, the pairs by point, stably
     std::vector<uint8_t> occluded;
     RayBatch batch;
     HitBatch hits;
-    for (size_t r = begin; r < end; ++r) {
-      const uint32_t t = tri_of_[r];
-      if (!receives[t]) continue;
-      const glm::dvec3 nr = tri_normal_[t], pr = position_[r];
-      stack.assign(top.rbegin(), top.rend());
-      while (!stack.empty()) {
-        const uint32_t k = stack.back();
-        stack.pop_back();
-        const ShooterPoint& s = points[k];
-        const glm::dvec3 d = s.position - pr;
-        const double d2 = glm::dot(d, d);
-        const bool near = d2 < kNear * kNear * s.area;
-        if (near && !s.children.empty()) {
-          for (auto c = s.children.rbegin(); c != s.children.rend(); ++c) {
-            if (points[*c].residual != glm::dvec3(0.0)) stack.push_back(*c);
+    // Blocks of receivers small enough that their pairs and rays stay in the caches.
+    for (size_t block = begin; block < end; block += kReceiverBlock) {
+      pairs.clear();
+      for (size_t r = block; r < std::min(end, block + kReceiverBlock); ++r) {
+        const uint32_t t = tri_of_[r];
+        if (!receives[t]) continue;
+        const glm::dvec3 nr = tri_normal_[t], pr = position_[r];
+        stack.assign(roots.rbegin(), roots.rend());
+        while (!stack.empty()) {
+          const uint32_t k = stack.back();
+          stack.pop_back();
+          const ShooterPoint& s = points[k];
+          const glm::dvec3 d = s.position - pr;
+          const double d2 = glm::dot(d, d);
+          const bool near = d2 < kNear * kNear * s.area;
+          // Blocks above the top level stand for their sub-blocks only for receivers farther than
+          // kCoarse of their sizes: to those the whole block subtends a few degrees at most, so one
+          // visibility ray loses no penumbra worth resolving.
+          if ((near || (s.above_top && d2 < kCoarse * kCoarse * s.area)) && !s.children.empty()) {
+            for (auto c = s.children.rbegin(); c != s.children.rend(); ++c) {
+              if (points[*c].residual != glm::dvec3(0.0)) stack.push_back(*c);
+            }
+            continue;
+          }
+          if (d2 <= 0.0) continue;
+          if (glm::dot(nr, d) <= 0.0 || glm::dot(ns, d) >= 0.0) continue;  // culled by either plane
+          Kernel kernel = near ? Kernel::kMembers : Kernel::kDisc;
+          if (hierarchical && d2 < kFar * kFar * s.area) {
+            kernel = s.children.empty() ? Kernel::kMembers : Kernel::kPolygon;
+          }
+          pairs.push_back(Pair{uint32_t(r), k, kernel});
+        }
+      }
+      if (options_.visibility && !pairs.empty()) {
+        // Rays in shooter-point order (stable: receivers in texel order within a point), so that
+        // each aligned group of eight goes from neighbouring texels to one point: a packet.
+        order.resize(pairs.size());
+        for (size_t k = 0; k < pairs.size(); ++k) order[k] = uint64_t(pairs[k].point) << 32 | k;
+        std::sort(order.begin(), order.end());
+        batch.resize(pairs.size());
+        for (size_t k = 0; k < pairs.size(); ++k) {
+          const Pair& pair = pairs[uint32_t(order[k])];
+          const glm::dvec3 from = position_[pair.receiver] +
+                                  tri_normal_[tri_of_[pair.receiver]] * lift_,
+                           to = points[pair.point].position + ns * lift_;
+          batch.set(k, Ray{glm::vec3(from), 1e-4f, glm::vec3(to - from), 1.0f - 1e-4f});
+        }
+        engine_.intersectSerial(batch, hits);
+        occluded.assign(pairs.size(), 0);
+        for (size_t k = 0; k < pairs.size(); ++k)
+          occluded[uint32_t(order[k])] = hits.triangle[k] >= 0;
+        rays += pairs.size();
+      }
+      for (size_t k = 0; k < pairs.size(); ++k) {
+        if (options_.visibility && occluded[k]) continue;
+        const size_t r = pairs[k].receiver;
+        const ShooterPoint& s = points[pairs[k].point];
+        const glm::dvec3 nr = tri_normal_[tri_of_[r]], pr = position_[r];
+        if (pairs[k].kernel == Kernel::kPolygon) {
+          const auto& [poly, count] = polygons[size_t(s.polygon)];
+          if (count >= 3)
+            incident[r] += s.residual * pointToPolygonFormFactor<true>(pr, nr, poly.data(), count);
+          continue;
+        }
+        if (pairs[k].kernel == Kernel::kMembers) {
+          // Near pairs (across an edge, in a corner): eq. 2's disc is a poor stand-in for a
+          // neighbour seen edge-on, so each of the point's elements contributes Lambert's exact
+          // point-to-polygon form factor (kernels/form_factor.h) to its own polygon.
+          for (uint32_t m : s.members) {
+            std::array<glm::dvec3, 8> poly;
+            const int count = elementPolygon(m, poly);
+            if (count < 3) continue;
+            incident[r] += db_[m] * pointToPolygonFormFactor<true>(pr, nr, poly.data(), count);
           }
           continue;
         }
-        if (d2 <= 0.0) continue;
-        if (glm::dot(nr, d) <= 0.0 || glm::dot(ns, d) >= 0.0) continue;  // culled by either plane
-        Kernel kernel = near ? Kernel::kMembers : Kernel::kDisc;
-        if (hierarchical && d2 < kFar * kFar * s.area) {
-          kernel = s.children.empty() ? Kernel::kMembers : Kernel::kPolygon;
-        }
-        pairs.push_back(Pair{uint32_t(r), k, kernel});
+        const glm::dvec3 d = s.position - pr;
+        const double d2 = glm::dot(d, d);
+        const double inv = 1.0 / std::sqrt(d2);
+        const double cos_r = glm::dot(nr, d) * inv, cos_s = -glm::dot(ns, d) * inv;
+        incident[r] += s.residual * discFormFactor(s.area, cos_s, cos_r, d2);
       }
-    }
-    if (options_.visibility && !pairs.empty()) {
-      // Rays in shooter-point order (stable: receivers in texel order within a point), so that
-      // each aligned group of eight goes from neighbouring texels to one point: a packet.
-      order.resize(pairs.size());
-      for (size_t k = 0; k < pairs.size(); ++k) order[k] = uint32_t(k);
-      std::stable_sort(order.begin(), order.end(),
-                       [&](uint32_t a, uint32_t b) { return pairs[a].point < pairs[b].point; });
-      batch.resize(pairs.size());
-      for (size_t k = 0; k < pairs.size(); ++k) {
-        const Pair& pair = pairs[order[k]];
-        const glm::dvec3 from =
-                             position_[pair.receiver] + tri_normal_[tri_of_[pair.receiver]] * lift_,
-                         to = points[pair.point].position + ns * lift_;
-        batch.set(k, Ray{glm::vec3(from), 1e-4f, glm::vec3(to - from), 1.0f - 1e-4f});
-      }
-      engine_.intersectSerial(batch, hits);
-      occluded.assign(pairs.size(), 0);
-      for (size_t k = 0; k < pairs.size(); ++k) occluded[order[k]] = hits.triangle[k] >= 0;
-      rays += pairs.size();
-    }
-    for (size_t k = 0; k < pairs.size(); ++k) {
-      if (options_.visibility && occluded[k]) continue;
-      const size_t r = pairs[k].receiver;
-      const ShooterPoint& s = points[pairs[k].point];
-      const glm::dvec3 nr = tri_normal_[tri_of_[r]], pr = position_[r];
-      if (pairs[k].kernel == Kernel::kPolygon) {
-        const auto& [poly, count] = polygons[size_t(s.polygon)];
-        if (count >= 3)
-          incident[r] += s.residual * pointToPolygonFormFactor<true>(pr, nr, poly.data(), count);
-        continue;
-      }
-      if (pairs[k].kernel == Kernel::kMembers) {
-        // Near pairs (across an edge, in a corner): eq. 2's disc is a poor stand-in for a
-        // neighbour seen edge-on, so each of the point's elements contributes Lambert's exact
-        // point-to-polygon form factor (kernels/form_factor.h) to its own polygon.
-        for (uint32_t m : s.members) {
-          std::array<glm::dvec3, 8> poly;
-          const int count = elementPolygon(m, poly);
-          if (count < 3) continue;
-          incident[r] += db_[m] * pointToPolygonFormFactor<true>(pr, nr, poly.data(), count);
-        }
-        continue;
-      }
-      const glm::dvec3 d = s.position - pr;
-      const double d2 = glm::dot(d, d);
-      const double inv = 1.0 / std::sqrt(d2);
-      const double cos_r = glm::dot(nr, d) * inv, cos_s = -glm::dot(ns, d) * inv;
-      incident[r] += s.residual * discFormFactor(s.area, cos_s, cos_r, d2);
     }
   });
 
@@ -551,26 +575,19 @@ ProgressiveIteration ProgressiveRadiosity::step() {
 ProgressiveStats ProgressiveRadiosity::solve(
     const std::function<void(const ProgressiveIteration&)>& after_iteration,
     const std::function<bool()>& stop) {
-  const Timer timer;
-  ProgressiveStats st;
-  st.unshot_fraction = unshotFraction();
-  while (st.unshot_fraction > options_.convergence && iterations_ < options_.max_iterations) {
-    if (stop && stop()) {
-      st.interrupted = true;
-      break;
-    }
-    const ProgressiveIteration it = step();
-    if (it.iteration == 0) break;  // nothing left to shoot
-    ++st.iterations;
-    st.rays += it.rays;
-    st.unshot_fraction = it.unshot_fraction;
-    if (after_iteration) after_iteration(it);
+  // The CPU's steps cannot fail.
+  return *solveProgressively(
+      options_, unshotFraction(), [&] { return Expected<ProgressiveIteration>(step()); },
+      [&] { return Expected<bool>(selectShooter() == kNoShooter); }, [&] { return iterations_; },
+      after_iteration, stop);
+}
+
+Status ProgressiveRadiosity::setShooterLevel(int level) {
+  if (level < 0 || level > 16) {
+    return inputError("", "progressive radiosity", "shooter_level must be in [0, 16]");
   }
-  st.total_iterations = iterations_;
-  st.converged = st.unshot_fraction <= options_.convergence || selectShooter() == kNoShooter;
-  if (st.converged) st.interrupted = false;
-  st.seconds = timer.seconds();
-  return st;
+  options_.shooter_level = level;
+  return {};
 }
 
 ProgressiveState ProgressiveRadiosity::state() const {

@@ -41,6 +41,7 @@
 
 #include "penumbra/core/expected.h"
 #include "penumbra/core/image.h"
+#include "penumbra/core/timer.h"
 #include "penumbra/geometry/lightmap_atlas.h"
 #include "penumbra/raytrace/ray_engine.h"
 #include "penumbra/scene/scene.h"
@@ -55,6 +56,11 @@
 #include <vector>
 
 namespace penumbra {
+
+// Pairs closer than this many shooter element sizes (sqrt of the point's area) use Lambert's
+// exact point-to-polygon form factor instead of eq. 2's disc (and, in the hierarchical mode,
+// blocks that near are refined).
+inline constexpr double kProgressiveNear = 3.0;
 
 struct ProgressiveOptions {
   AtlasOptions atlas;         // the texel density (or atlas resolution) sets the element size
@@ -113,6 +119,45 @@ inline double residualLuminance(const glm::dvec3& c) {
   return 0.3 * c.x + 0.59 * c.y + 0.11 * c.z;
 }
 
+// The iteration loop of solve() on every device: iterates until the unshot fraction reaches
+// options.convergence, the solver's iteration count reaches options.max_iterations (counted
+// over its whole life) or `stop` says so. `step()` gives Expected<ProgressiveIteration>
+// (iteration 0: nothing left to shoot), `nothing_left()` Expected<bool>, `iterations()` the
+// solver's count.
+template <typename Step, typename NothingLeft, typename Iterations>
+Expected<ProgressiveStats> solveProgressively(
+    const ProgressiveOptions& options, double unshot_fraction, Step&& step,
+    NothingLeft&& nothing_left, Iterations&& iterations,
+    const std::function<void(const ProgressiveIteration&)>& after_iteration,
+    const std::function<bool()>& stop) {
+  const Timer timer;
+  ProgressiveStats st;
+  st.unshot_fraction = unshot_fraction;
+  while (st.unshot_fraction > options.convergence && iterations() < options.max_iterations) {
+    if (stop && stop()) {
+      st.interrupted = true;
+      break;
+    }
+    Expected<ProgressiveIteration> it = step();
+    if (!it) return it.error();
+    if (it->iteration == 0) break;  // nothing left to shoot
+    ++st.iterations;
+    st.rays += it->rays;
+    st.unshot_fraction = it->unshot_fraction;
+    if (after_iteration) after_iteration(*it);
+  }
+  st.converged = st.unshot_fraction <= options.convergence;
+  if (!st.converged) {
+    Expected<bool> none = nothing_left();
+    if (!none) return none.error();
+    st.converged = *none;
+  }
+  st.total_iterations = iterations();
+  if (st.converged) st.interrupted = false;
+  st.seconds = timer.seconds();
+  return st;
+}
+
 class ProgressiveRadiosity {
  public:
   static constexpr uint32_t kNoShooter = std::numeric_limits<uint32_t>::max();
@@ -144,6 +189,8 @@ class ProgressiveRadiosity {
   Status setState(ProgressiveState state);
   int iterations() const { return iterations_; }
   const ProgressiveOptions& options() const { return options_; }
+  // The flat scheme's mip level (ProgressiveOptions::shooter_level), in [0, 16].
+  Status setShooterLevel(int level);
   // Energy totals as booked, and the unshot power recomputed from the elements' dB (W).
   const EnergyBalance& balance() const { return balance_; }
   glm::dvec3 unshotPower() const;
@@ -161,6 +208,9 @@ class ProgressiveRadiosity {
   uint32_t elementTexel(size_t e) const { return texel_[e]; }  // atlas texel index
   double elementArea(size_t e) const { return area_[e]; }
   const glm::dvec3& elementPosition(size_t e) const { return position_[e]; }
+  glm::ivec2 elementLattice(size_t e) const { return lattice_[e]; }  // (i, j) in its chart
+  // The element's polygon in world space (its texel square clipped to its triangle): the count.
+  int elementPolygon(uint32_t e, std::array<glm::dvec3, 8>& out) const;
   const glm::dvec3& radiosity(size_t e) const { return b_[e]; }
   const glm::dvec3& residual(size_t e) const { return db_[e]; }
   const glm::dvec3& reflectance(size_t e) const { return rho_[e]; }
@@ -190,9 +240,8 @@ class ProgressiveRadiosity {
   // Per element.
   std::vector<uint32_t> texel_, tri_of_;
   std::vector<glm::ivec2> lattice_;  // per element: its texel's lattice point (i, j) in the chart
-  // The element's polygon in world space (its texel square clipped to the triangle): the count.
-  int elementPolygon(uint32_t e, std::array<glm::dvec3, 8>& out) const;
-  // The same for the lattice points [lo, hi] of triangle t's chart together (a block of texels).
+  // The element polygon (elementPolygon) for the lattice points [lo, hi] of triangle t's chart
+  // together (a block of texels).
   int blockPolygon(uint32_t t, glm::ivec2 lo, glm::ivec2 hi, std::array<glm::dvec3, 8>& out) const;
   std::vector<double> area_;
   std::vector<glm::dvec3> position_, rho_, e_, b_, db_;

@@ -1,0 +1,949 @@
+#include "penumbra/radiosity/progressive_gl.h"
+
+#include "penumbra/core/check.h"
+#include "penumbra/core/memory.h"
+#include "penumbra/core/timer.h"
+#include "penumbra/gpu/program.h"
+
+#include <fmt/format.h>
+#include <glm/geometric.hpp>
+#include <glm/vec4.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <map>
+#include <string>
+#include <utility>
+
+namespace penumbra {
+
+namespace {
+
+// Work-group sizes of shaders/radiosity/progressive.comp.
+constexpr uint32_t kTriangleGroup = 64;  // pass 0
+constexpr uint32_t kPointGroup = 64;     // pass 2
+constexpr uint32_t kResolveGroup = 256;  // pass 3
+constexpr uint32_t kImageTile = 16;      // passes 4 and 5
+constexpr uint32_t kMaxGroups = 65535;   // the minimum GL_MAX_COMPUTE_WORK_GROUP_COUNT
+constexpr int kMaxTessellation = 64;     // sub-triangle grid per triangle (code: 8 bits each)
+// Points closer to the shooter's plane than this fraction of the far plane count as on it (the
+// float rounding of coplanar geometry; the CPU lifts its shadow rays by 1e-5 of the scene too).
+constexpr float kOnPlane = 1e-5f;
+constexpr int kMaxTiles = kProgressiveBatchTiles;
+static_assert(kMaxTiles * kMaxTiles == 16, "MAX_BATCH_POINTS in progressive_layout.glsl");
+
+uint32_t ceilDiv(uint64_t a, uint64_t b) {
+  return uint32_t((a + b - 1) / b);
+}
+
+// A 1-D grid of `groups` work groups laid out as x * y with x <= kMaxGroups; the shaders
+// number groups y * num_groups_x + x.
+void dispatchLinear(uint32_t groups) {
+  if (groups == 0) return;
+  const uint32_t x = std::min(groups, kMaxGroups), y = ceilDiv(groups, kMaxGroups);
+  glDispatchCompute(x, y, 1);
+}
+
+bool softwareRenderer() {
+  const auto* renderer = reinterpret_cast<const char*>(glGetString(GL_RENDERER));
+  return renderer && (std::strstr(renderer, "llvmpipe") || std::strstr(renderer, "softpipe"));
+}
+
+GLint uniform(const gl::Program& p, const char* name) {
+  return glGetUniformLocation(p.id(), name);
+}
+
+// Any orthonormal frame around the unit normal n: the image axes of the hemisphere.
+void hemisphereFrame(const glm::dvec3& n, glm::dvec3& tangent, glm::dvec3& bitangent) {
+  const glm::dvec3 a = std::abs(n.x) < 0.9 ? glm::dvec3(1.0, 0.0, 0.0) : glm::dvec3(0.0, 1.0, 0.0);
+  tangent = glm::normalize(glm::cross(n, a));
+  bitangent = glm::cross(n, tangent);
+}
+
+// The hemisphere uniforms shared by a shooter's points: the frame around its normal, the far
+// plane and the on-plane tolerance (the origin is each point's, read by the shaders).
+void setHemisphere(const gl::Program& p, const glm::dvec3& normal, float far) {
+  glm::dvec3 t, b;
+  hemisphereFrame(normal, t, b);
+  const GLuint id = p.id();
+  glProgramUniform3f(id, uniform(p, "hemisphere.tangent"), float(t.x), float(t.y), float(t.z));
+  glProgramUniform3f(id, uniform(p, "hemisphere.bitangent"), float(b.x), float(b.y), float(b.z));
+  glProgramUniform3f(id, uniform(p, "hemisphere.normal"), float(normal.x), float(normal.y),
+                     float(normal.z));
+  glProgramUniform1f(id, uniform(p, "hemisphere.inv_far"), 1.0f / far);
+  glProgramUniform1f(id, uniform(p, "hemisphere.on_plane"), kOnPlane * far);
+}
+
+// Whether every corner lies on or behind the plane (point c, normal n): the CPU's behindPlane.
+bool behindPlane(const std::array<glm::dvec3, 3>& v, const glm::dvec3& c, const glm::dvec3& n) {
+  for (const glm::dvec3& p : v) {
+    if (glm::dot(n, p - c) > 0.0) return false;
+  }
+  return true;
+}
+
+template <typename T>
+gl::Buffer makeBuffer(const std::vector<T>& data, GLbitfield flags = GL_DYNAMIC_STORAGE_BIT) {
+  return gl::Buffer(std::max<size_t>(data.size(), 1) * sizeof(T),
+                    data.empty() ? nullptr : data.data(), flags);
+}
+
+gl::Texture makeTexture(GLenum format, int width, int height) {
+  gl::Texture t = gl::createTexture(GL_TEXTURE_2D);
+  glTextureStorage2D(t.id(), 1, format, width, height);
+  glTextureParameteri(t.id(), GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+  glTextureParameteri(t.id(), GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+  glTextureParameteri(t.id(), GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+  glTextureParameteri(t.id(), GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+  return t;
+}
+
+// The depth pass's sub-triangle grid of a chart with legs `leg`: k x k sub-triangles with legs
+// of about `texels` atlas texels.
+int tessellation(int leg, int texels) {
+  return std::clamp((leg + texels - 1) / texels, 1, kMaxTessellation);
+}
+
+// Reads an RGBA32F texture in bands of rows (glGetTextureSubImage's size is a GLsizei).
+void readTexture(GLuint texture, int width, int height, std::vector<glm::vec4>& out) {
+  out.resize(size_t(width) * size_t(height));
+  const size_t row_bytes = size_t(width) * sizeof(glm::vec4);
+  const int band = int(std::max<size_t>(1, (size_t(1) << 30) / row_bytes));
+  for (int y = 0; y < height; y += band) {
+    const int rows = std::min(band, height - y);
+    glGetTextureSubImage(texture, 0, 0, y, 0, width, rows, 1, GL_RGBA, GL_FLOAT,
+                         GLsizei(row_bytes * size_t(rows)), out.data() + size_t(y) * size_t(width));
+  }
+}
+
+}  // namespace
+
+Expected<GlProgressive> GlProgressive::create(const ProgressiveRadiosity& cpu,
+                                              const GlProgressiveOptions& gl_options) {
+  const ProgressiveOptions& options = cpu.options();
+  // Errors left by earlier work are not ours to report.
+  while (glGetError() != GL_NO_ERROR) continue;
+  const char* place = "progressive radiosity on the GPU";
+  if (gl_options.visibility_resolution < 16) {
+    return inputError("", place, "the visibility resolution must be at least 16 texels");
+  }
+  if (gl_options.tessellation_texels < 1) {
+    return inputError("", place, "tessellation_texels must be at least 1");
+  }
+  if (gl_options.gap_fill_passes < 0 || !(gl_options.depth_tolerance >= 0.0f)) {
+    return inputError("", place, "gap_fill_passes and depth_tolerance must not be negative");
+  }
+  if (options.shooter_level < 0 || options.shooter_level > 16) {
+    return inputError("", place, "shooter_level must be in [0, 16]");
+  }
+
+  GlProgressive s;
+  s.options_ = options;
+  s.gl_options_ = gl_options;
+  const LightmapAtlas& atlas = cpu.atlas();
+  const FlatTriangles& flat = cpu.triangles();
+  const size_t n = cpu.elementCount();
+  const uint32_t nt = uint32_t(cpu.triangleCount());
+  s.element_count_ = n;
+  s.triangle_count_ = nt;
+  s.width_ = atlas.width;
+  s.height_ = atlas.height;
+  const int d = gl_options.visibility_resolution;
+
+  // ---- Per triangle: corners, normals and areas as the CPU computes them (double). ----
+  s.corners_.resize(nt);
+  s.normals_.resize(nt);
+  s.areas_.resize(nt);
+  s.sphere_centre_.resize(nt);
+  s.sphere_radius_.resize(nt);
+  glm::dvec3 lo(INFINITY), hi(-INFINITY);
+  for (uint32_t t = 0; t < nt; ++t) {
+    const glm::uvec3 tri = flat.triangles[t];
+    const std::array<glm::dvec3, 3> p = {glm::dvec3(flat.positions[tri.x]),
+                                         glm::dvec3(flat.positions[tri.y]),
+                                         glm::dvec3(flat.positions[tri.z])};
+    s.corners_[t] = p;
+    const glm::dvec3 c = glm::cross(p[1] - p[0], p[2] - p[0]);
+    const double len = glm::length(c);
+    s.areas_[t] = 0.5 * len;
+    s.normals_[t] = len > 0.0 ? c / len : glm::dvec3(0.0);
+    s.sphere_centre_[t] = (p[0] + p[1] + p[2]) / 3.0;
+    s.sphere_radius_[t] = 0.0;
+    for (const glm::dvec3& v : p) {
+      s.sphere_radius_[t] = std::max(s.sphere_radius_[t], glm::length(v - s.sphere_centre_[t]));
+    }
+    for (const glm::dvec3& v : p) {
+      lo = glm::min(lo, v);
+      hi = glm::max(hi, v);
+    }
+  }
+  s.far_ = float(1.01 * glm::length(hi - lo) + 1e-6);
+
+  // ---- Shooter points (the CPU's substructuring blocks, in its order) and sub-triangles ----
+  const int level = options.shooter_level;
+  std::vector<GpuShooterPoint> points;
+  std::vector<uint32_t> members;
+  members.reserve(n);
+  s.point_first_.assign(nt + 1, 0);
+  s.point_max_area_.assign(nt, 0.0);
+  uint32_t max_points = 0;
+  std::vector<glm::uvec2> subs;
+  for (uint32_t t = 0; t < nt; ++t) {
+    s.point_first_[t] = uint32_t(points.size());
+    const uint32_t first = cpu.triangleFirst(t), last = cpu.triangleFirst(t + 1);
+    std::map<std::pair<int, int>, size_t> block_of;
+    std::vector<std::vector<uint32_t>> block_members;
+    std::vector<glm::dvec3> block_position;
+    std::vector<double> block_area;
+    for (uint32_t e = first; e < last; ++e) {
+      if (!(cpu.elementArea(e) > 0.0)) continue;  // shoots nothing (the CPU skips it too)
+      const uint32_t texel = cpu.elementTexel(e);
+      const int x = int(texel % uint32_t(atlas.width)), y = int(texel / uint32_t(atlas.width));
+      const auto [it, inserted] =
+          block_of.try_emplace(std::make_pair(x >> level, y >> level), block_members.size());
+      if (inserted) {
+        block_members.emplace_back();
+        block_position.emplace_back(0.0);
+        block_area.push_back(0.0);
+      }
+      const double a = cpu.elementArea(e);
+      block_position[it->second] += cpu.elementPosition(e) * a;
+      block_area[it->second] += a;
+      block_members[it->second].push_back(e);
+    }
+    for (size_t b = 0; b < block_members.size(); ++b) {
+      GpuShooterPoint p{};
+      // At level 0 a point is its element (its own point, not a mean of one).
+      s.point_position_.push_back(level == 0 ? cpu.elementPosition(block_members[b].front())
+                                             : block_position[b] / block_area[b]);
+      p.member_first = uint32_t(members.size());
+      p.member_count = uint32_t(block_members[b].size());
+      members.insert(members.end(), block_members[b].begin(), block_members[b].end());
+      points.push_back(p);
+      s.point_area_.push_back(block_area[b]);
+      s.point_members_.emplace_back(p.member_first, p.member_count);
+    }
+    max_points = std::max(max_points, uint32_t(block_members.size()));
+    for (double a : block_area) s.point_max_area_[t] = std::max(s.point_max_area_[t], a);
+    if (s.areas_[t] > 0.0) {
+      const int k = tessellation(atlas.charts[t].leg, gl_options.tessellation_texels);
+      for (int j = 0; j < k; ++j) {
+        for (int i = 0; i + j < k; ++i) {
+          subs.emplace_back(t, uint32_t(i) | (uint32_t(j) << 8));
+          if (i + j < k - 1) subs.emplace_back(t, uint32_t(i) | (uint32_t(j) << 8) | (1u << 16));
+        }
+      }
+    }
+  }
+  s.point_first_[nt] = uint32_t(points.size());
+  s.sub_triangle_count_ = uint32_t(subs.size());
+
+  // ---- Limits, before allocating ----
+  GLint max_texture = 0, max_renderbuffer = 0, viewport[2] = {0, 0};
+  GLint64 max_ssbo = 0;
+  glGetIntegerv(GL_MAX_TEXTURE_SIZE, &max_texture);
+  glGetIntegerv(GL_MAX_RENDERBUFFER_SIZE, &max_renderbuffer);
+  glGetIntegerv(GL_MAX_VIEWPORT_DIMS, viewport);
+  glGetInteger64v(GL_MAX_SHADER_STORAGE_BLOCK_SIZE, &max_ssbo);
+  int max_size = std::min({max_texture, max_renderbuffer, viewport[0], viewport[1]});
+  if (gl_options.max_texture_size > 0) max_size = std::min(max_size, gl_options.max_texture_size);
+  const uint64_t texels = uint64_t(atlas.width) * uint64_t(atlas.height);
+  // Radiosity, residual, incident and two radiance atlases (RGBA32F) and the stencil buffer.
+  const uint64_t atlas_bytes = texels * (5 * 16 + 1);
+  // A batch of tiles x tiles shooter points shares one depth texture (kMaxTiles^2 points per
+  // receiver pass), as many tiles as the texture size allows.
+  s.tiles_ = uint32_t(std::clamp(max_size / std::max(d, 1), 1, kMaxTiles));
+  const uint64_t depth_side = uint64_t(d) * s.tiles_;
+  const uint64_t depth_bytes = depth_side * depth_side * 4;
+  const uint64_t groups = ceilDiv(std::max<size_t>(n, 1), kResolveGroup);
+  const struct {
+    const char* what;
+    uint64_t bytes;
+  } buffers[] = {
+      {"texel-to-element map", texels * 4},
+      {"texel-to-triangle map", texels * 4},
+      {"element", uint64_t(n) * sizeof(GpuProgressiveElement)},
+      {"element area", uint64_t(n) * 8},
+      {"element position", uint64_t(n) * 24},
+      {"triangle", uint64_t(nt) * sizeof(GpuProgressiveTriangle)},
+      {"shooter point", uint64_t(points.size()) * sizeof(GpuShooterPoint)},
+      {"shooter point power", uint64_t(points.size()) * 32},
+      {"sub-triangle", uint64_t(subs.size()) * 8},
+      {"triangle power", uint64_t(nt) * 32},
+      {"resolve sums", groups * sizeof(GpuResolveSums)},
+  };
+  uint64_t buffer_bytes = uint64_t(n) * 4 + uint64_t(nt) * 8 + sizeof(GpuBatchPoint) * 16;
+  for (const auto& b : buffers) buffer_bytes += b.bytes;
+  const uint64_t total = atlas_bytes + depth_bytes + buffer_bytes;
+  s.device_bytes_ = total;
+  if (atlas.width > max_size || atlas.height > max_size) {
+    return inputError(
+        "", place,
+        fmt::format("the {}x{} lightmap atlas needs {} bytes ({}) of textures, but this "
+                    "device's maximum texture size (and render target size) is {}; lower the "
+                    "texel density or use the CPU",
+                    atlas.width, atlas.height, atlas_bytes, formatBytes(atlas_bytes), max_size));
+  }
+  if (d > max_size) {
+    return inputError(
+        "", place,
+        fmt::format("the {}x{} visibility depth map needs {} bytes ({}), but this device's "
+                    "maximum texture size is {}; lower the visibility resolution",
+                    d, d, uint64_t(d) * uint64_t(d) * 4, formatBytes(uint64_t(d) * uint64_t(d) * 4),
+                    max_size));
+  }
+  for (const auto& b : buffers) {
+    if (b.bytes > uint64_t(max_ssbo)) {
+      return inputError(
+          "", place,
+          fmt::format("the {} buffer needs {} bytes ({}), but this device allows {} "
+                      "per shader storage block (GL_MAX_SHADER_STORAGE_BLOCK_SIZE)",
+                      b.what, b.bytes, formatBytes(b.bytes), formatBytes(uint64_t(max_ssbo))));
+    }
+  }
+  if (ceilDiv(max_points, kPointGroup) > kMaxGroups || uint64_t(subs.size()) * 6 > INT32_MAX ||
+      n > uint64_t(INT32_MAX)) {
+    return inputError("", place,
+                      fmt::format("{} elements in {} triangles exceed the dispatch limits", n, nt));
+  }
+  if (softwareRenderer()) {
+    PENUMBRA_TRY(checkMemory(total, "progressive radiosity on a software OpenGL device"));
+  } else if (epoxy_has_gl_extension("GL_NVX_gpu_memory_info")) {
+    GLint free_kib = 0;
+    glGetIntegerv(GL_GPU_MEMORY_INFO_CURRENT_AVAILABLE_VIDMEM_NVX, &free_kib);
+    if (free_kib > 0 && total > uint64_t(free_kib) * 1024) {
+      return inputError(
+          "", place,
+          fmt::format("needs {} bytes ({}) of device memory; the device has {} free", total,
+                      formatBytes(total), formatBytes(uint64_t(free_kib) * 1024)));
+    }
+  }
+
+  // ---- Programs ----
+  const char* pass_names[6] = {"power", "select", "points", "resolve", "radiance", "fill"};
+  gl::Program* passes[6] = {&s.power_, &s.select_, &s.points_, &s.resolve_, &s.radiance_, &s.fill_};
+  for (int pass = 0; pass < 6; ++pass) {
+    Expected<gl::Program> p = gl::computeProgram("radiosity/progressive.comp",
+                                                 {fmt::format("PROGRESSIVE_PASS {}", pass)});
+    if (!p) {
+      Error e = p.error();
+      e.message = fmt::format("{} pass: {}", pass_names[pass], e.message);
+      return e;
+    }
+    *passes[pass] = std::move(*p);
+  }
+  {
+    Expected<gl::Program> p =
+        gl::renderProgram("radiosity/progressive_depth.vert", "radiosity/progressive_depth.frag");
+    if (!p) return p.error();
+    s.depth_ = std::move(*p);
+    for (int near = 0; near < 2; ++near) {
+      p = gl::renderProgram("radiosity/progressive_receive.vert",
+                            "radiosity/progressive_receive.frag",
+                            {fmt::format("NEAR_PASS {}", near),
+                             fmt::format("VISIBILITY {}", options.visibility ? 1 : 0)});
+      if (!p) return p.error();
+      (near ? s.receive_near_ : s.receive_far_) = std::move(*p);
+    }
+  }
+
+  // ---- Per-element and per-texel data, from the CPU solver (identical elements) ----
+  std::vector<GpuProgressiveElement> elements(n);
+  std::vector<double> element_area(n);
+  std::vector<int32_t> texel_element(texels, -1);
+  std::vector<glm::vec4> polygons;  // 8 corners per element that is not a whole texel square
+  s.element_texel_.resize(n);
+  glm::dvec3 rho_area(0.0);
+  for (size_t e = 0; e < n; ++e) {
+    const uint32_t t = cpu.elementTriangle(e);
+    const uint32_t texel = cpu.elementTexel(e);
+    const AtlasChart& chart = atlas.charts[t];
+    GpuProgressiveElement& g = elements[e];
+    const glm::dvec3 pos = cpu.elementPosition(e);
+    for (int c = 0; c < 3; ++c) {
+      g.position[c] = float(pos[c]);
+      g.reflectance[c] = float(cpu.reflectance(e)[c]);
+    }
+    g.area = float(cpu.elementArea(e));
+    g.texel = texel;
+    g.triangle = t;
+    // Barycentrics of the element's point (its coverage centroid) on the triangle.
+    const std::array<glm::dvec3, 3>& p = s.corners_[t];
+    const glm::dvec3 e1 = p[1] - p[0], e2 = p[2] - p[0], r = pos - p[0];
+    const double a11 = glm::dot(e1, e1), a12 = glm::dot(e1, e2), a22 = glm::dot(e2, e2);
+    const double det = a11 * a22 - a12 * a12;
+    double w1 = 0.0, w2 = 0.0;
+    if (det > 0.0) {
+      const double b1 = glm::dot(r, e1), b2 = glm::dot(r, e2);
+      w1 = (b1 * a22 - b2 * a12) / det;
+      w2 = (a11 * b2 - a12 * b1) / det;
+    }
+    g.barycentric[0] = float(w1);
+    g.barycentric[1] = float(w2);
+    // The texel's chart lattice point.
+    const int li = cpu.elementLattice(e).x, lj = cpu.elementLattice(e).y;
+    g.polygon = ~0u;
+    if (li < 1 || lj < 1 || li + lj + 1 > chart.leg) {
+      // Along the chart's edges: the texel square clipped to the triangle, in world space (the
+      // CPU solver's own polygon), padded to 8 corners by repeating the last.
+      std::array<glm::dvec3, 8> poly;
+      const int count = cpu.elementPolygon(uint32_t(e), poly);
+      g.polygon = uint32_t(polygons.size() / 8);
+      for (int k = 0; k < 8; ++k) {
+        const glm::dvec3 corner =
+            count > 0 ? poly[size_t(std::min(k, count - 1))] : cpu.elementPosition(e);
+        polygons.emplace_back(glm::vec3(corner), 0.0f);
+      }
+    }
+    element_area[e] = cpu.elementArea(e);
+    texel_element[texel] = int32_t(e);
+    s.element_texel_[e] = texel;
+    s.total_area_ += cpu.elementArea(e);
+    rho_area += cpu.reflectance(e) * cpu.elementArea(e);
+  }
+  s.ambient_factor_ =
+      s.total_area_ > 0.0 ? 1.0 / (1.0 - rho_area / s.total_area_) : glm::dvec3(1.0);
+  std::vector<GpuProgressiveTriangle> tris(nt);
+  for (uint32_t t = 0; t < nt; ++t) {
+    GpuProgressiveTriangle& g = tris[t];
+    const std::array<glm::dvec3, 3>& p = s.corners_[t];
+    for (int c = 0; c < 3; ++c) {
+      g.p0[c] = float(p[0][c]);
+      g.p1[c] = float(p[1][c]);
+      g.p2[c] = float(p[2][c]);
+      g.normal[c] = float(s.normals_[t][c]);
+    }
+    g.area = float(s.areas_[t]);
+    g.leg = atlas.charts[t].leg;
+    g.right = atlas.charts[t].right;
+    g.tessellation = uint32_t(tessellation(g.leg, gl_options.tessellation_texels));
+    for (int k = 0; k < 3; ++k) {
+      g.uv[k][0] = atlas.uvs[3 * size_t(t) + size_t(k)].x;
+      g.uv[k][1] = atlas.uvs[3 * size_t(t) + size_t(k)].y;
+    }
+    g.element_first = cpu.triangleFirst(t);
+    g.element_count = cpu.triangleFirst(t + 1) - cpu.triangleFirst(t);
+    for (int c = 0; c < 2; ++c) {
+      g.corner[c] = atlas.charts[t].corner[c];
+      g.axis[c] = atlas.charts[t].axis[c];
+    }
+  }
+
+  if (polygons.size() * sizeof(glm::vec4) > uint64_t(max_ssbo)) {
+    return inputError(
+        "", place,
+        fmt::format("the element polygon buffer needs {} bytes, but this device "
+                    "allows {} per shader storage block",
+                    polygons.size() * sizeof(glm::vec4), formatBytes(uint64_t(max_ssbo))));
+  }
+
+  s.device_bytes_ += polygons.size() * sizeof(glm::vec4);
+
+  // ---- Buffers ----
+  s.triangles_ = makeBuffer(tris);
+  s.elements_ = makeBuffer(elements);
+  s.element_area_ = makeBuffer(element_area);
+  s.texel_element_ = makeBuffer(texel_element);
+  s.texel_triangle_ = makeBuffer(atlas.texel_triangle);
+  s.points_buf_ = makeBuffer(points);
+  s.members_ = makeBuffer(members);
+  s.sub_triangles_ = makeBuffer(subs);
+  s.polygons_ = makeBuffer(polygons);
+  {
+    std::vector<double> ep(3 * n);
+    for (size_t e = 0; e < n; ++e) {
+      for (int c = 0; c < 3; ++c) ep[3 * e + size_t(c)] = cpu.elementPosition(e)[c];
+    }
+    s.element_position_d_ = makeBuffer(ep);
+  }
+  s.point_power_ = gl::Buffer(std::max<size_t>(points.size(), 1) * 32, nullptr, 0);
+  s.receivers_ = gl::Buffer(std::max<size_t>(2 * size_t(nt), 1) * 4, nullptr);
+  s.batch_ = gl::Buffer(sizeof(GpuBatchPoint) * kMaxTiles * kMaxTiles, nullptr);
+  s.triangle_power_ = gl::Buffer(std::max<size_t>(nt, 1) * 32, nullptr, 0);
+  s.selection_ = gl::Buffer(sizeof(GpuSelection), nullptr, 0);
+  s.sums_ = gl::Buffer(size_t(groups) * sizeof(GpuResolveSums), nullptr, 0);
+
+  // ---- Textures and framebuffers ----
+  s.radiosity_ = makeTexture(GL_RGBA32F, atlas.width, atlas.height);
+  s.residual_ = makeTexture(GL_RGBA32F, atlas.width, atlas.height);
+  s.incident_ = makeTexture(GL_RGBA32F, atlas.width, atlas.height);
+  for (gl::Texture& t : s.radiance_maps_) t = makeTexture(GL_RGBA32F, atlas.width, atlas.height);
+  s.depth_map_ = makeTexture(GL_DEPTH_COMPONENT32F, d * int(s.tiles_), d * int(s.tiles_));
+  glTextureParameteri(s.depth_map_.id(), GL_TEXTURE_COMPARE_MODE, GL_NONE);
+  s.stencil_ = gl::createRenderbuffer();
+  glNamedRenderbufferStorage(s.stencil_.id(), GL_STENCIL_INDEX8, atlas.width, atlas.height);
+  s.atlas_fbo_ = gl::createFramebuffer();
+  glNamedFramebufferTexture(s.atlas_fbo_.id(), GL_COLOR_ATTACHMENT0, s.incident_.id(), 0);
+  glNamedFramebufferRenderbuffer(s.atlas_fbo_.id(), GL_STENCIL_ATTACHMENT, GL_RENDERBUFFER,
+                                 s.stencil_.id());
+  glNamedFramebufferDrawBuffer(s.atlas_fbo_.id(), GL_COLOR_ATTACHMENT0);
+  s.depth_fbo_ = gl::createFramebuffer();
+  glNamedFramebufferTexture(s.depth_fbo_.id(), GL_DEPTH_ATTACHMENT, s.depth_map_.id(), 0);
+  glNamedFramebufferDrawBuffer(s.depth_fbo_.id(), GL_NONE);
+  glNamedFramebufferReadBuffer(s.depth_fbo_.id(), GL_NONE);
+  for (GLuint fbo : {s.atlas_fbo_.id(), s.depth_fbo_.id()}) {
+    if (glCheckNamedFramebufferStatus(fbo, GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE) {
+      return runtimeError("", "progressive radiosity: a framebuffer is incomplete on this device");
+    }
+  }
+  const GLint zero = 0;
+  glClearNamedFramebufferiv(s.atlas_fbo_.id(), GL_STENCIL, 0, &zero);
+  s.vao_ = gl::createVertexArray();
+
+  const GLenum err = glGetError();
+  if (err == GL_OUT_OF_MEMORY) {
+    return runtimeError("", fmt::format("progressive radiosity on the GPU: out of device memory "
+                                        "for {} of textures and buffers",
+                                        formatBytes(total)));
+  }
+  if (err != GL_NO_ERROR) {
+    return runtimeError(
+        "",
+        fmt::format("OpenGL error 0x{:x} while uploading the progressive radiosity atlas", err));
+  }
+  PENUMBRA_TRY(s.upload(cpu.state()));
+  return s;
+}
+
+Status GlProgressive::glStatus(const char* what) const {
+  const GLenum err = glGetError();
+  if (err == GL_NO_ERROR) return {};
+  if (err == GL_OUT_OF_MEMORY) {
+    return runtimeError("", fmt::format("out of device memory while {}", what));
+  }
+  return runtimeError("", fmt::format("OpenGL error 0x{:x} while {}", err, what));
+}
+
+Status GlProgressive::upload(const ProgressiveState& state) {
+  if (state.radiosity.size() != element_count_ || state.residual.size() != element_count_) {
+    return inputError("", "progressive radiosity on the GPU",
+                      fmt::format("the state has {} elements, the solver {}",
+                                  state.radiosity.size(), element_count_));
+  }
+  if (state.iterations < 0) {
+    return inputError("", "progressive radiosity on the GPU", "negative iterations");
+  }
+  const size_t texels = size_t(width_) * size_t(height_);
+  std::vector<glm::vec4> b(texels, glm::vec4(0.0f)), db(texels, glm::vec4(0.0f));
+  for (size_t e = 0; e < element_count_; ++e) {
+    const glm::dvec3 &be = state.radiosity[e], &dbe = state.residual[e];
+    for (int c = 0; c < 3; ++c) {
+      if (!std::isfinite(be[c]) || !std::isfinite(dbe[c]) || be[c] < 0.0 || dbe[c] < 0.0) {
+        return inputError("", "progressive radiosity on the GPU",
+                          fmt::format("element {}: radiosity must be finite and >= 0", e));
+      }
+    }
+    // Alpha 1 marks the occupied texels (sec. 3).
+    b[element_texel_[e]] = glm::vec4(glm::vec3(be), 1.0f);
+    db[element_texel_[e]] = glm::vec4(glm::vec3(dbe), 1.0f);
+  }
+  glTextureSubImage2D(radiosity_.id(), 0, 0, 0, width_, height_, GL_RGBA, GL_FLOAT, b.data());
+  glTextureSubImage2D(residual_.id(), 0, 0, 0, width_, height_, GL_RGBA, GL_FLOAT, db.data());
+  balance_ = state.balance;
+  iterations_ = state.iterations;
+  return glStatus("uploading the progressive radiosity state");
+}
+
+Expected<ProgressiveState> GlProgressive::download() const {
+  std::vector<glm::vec4> b, db;
+  glMemoryBarrier(GL_TEXTURE_UPDATE_BARRIER_BIT);
+  readTexture(radiosity_.id(), width_, height_, b);
+  readTexture(residual_.id(), width_, height_, db);
+  PENUMBRA_TRY(glStatus("reading back the progressive radiosity state"));
+  ProgressiveState st;
+  st.radiosity.resize(element_count_);
+  st.residual.resize(element_count_);
+  for (size_t e = 0; e < element_count_; ++e) {
+    st.radiosity[e] = glm::dvec3(glm::vec3(b[element_texel_[e]]));
+    st.residual[e] = glm::dvec3(glm::vec3(db[element_texel_[e]]));
+  }
+  st.balance = balance_;
+  st.iterations = iterations_;
+  return st;
+}
+
+double GlProgressive::unshotFraction() const {
+  return residualLuminance(balance_.unshot) / residualLuminance(balance_.emitted);
+}
+
+void GlProgressive::dispatchPower() {
+  glUseProgram(power_.id());
+  glUniform1ui(uniform(power_, "triangle_count"), triangle_count_);
+  glUniform1i(uniform(power_, "atlas_width"), width_);
+  triangles_.bindBase(GL_SHADER_STORAGE_BUFFER, 0);
+  elements_.bindBase(GL_SHADER_STORAGE_BUFFER, 2);
+  triangle_power_.bindBase(GL_SHADER_STORAGE_BUFFER, 9);
+  element_area_.bindBase(GL_SHADER_STORAGE_BUFFER, 12);
+  glBindImageTexture(0, residual_.id(), 0, GL_FALSE, 0, GL_READ_ONLY, GL_RGBA32F);
+  dispatchLinear(ceilDiv(triangle_count_, kTriangleGroup));
+  glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT | GL_BUFFER_UPDATE_BARRIER_BIT);
+}
+
+Expected<std::vector<double>> GlProgressive::residualPowers() {
+  dispatchPower();
+  std::vector<glm::dvec4> power(triangle_count_);
+  if (triangle_count_ > 0) triangle_power_.download(power.data(), power.size() * 32);
+  glUseProgram(0);
+  PENUMBRA_TRY(glStatus("computing the residual powers"));
+  std::vector<double> out(triangle_count_);
+  for (uint32_t t = 0; t < triangle_count_; ++t) out[t] = power[t].w;
+  return out;
+}
+
+Expected<uint32_t> GlProgressive::selectShooter() {
+  dispatchPower();
+  glUseProgram(select_.id());
+  glUniform1ui(uniform(select_, "triangle_count"), triangle_count_);
+  triangle_power_.bindBase(GL_SHADER_STORAGE_BUFFER, 9);
+  selection_.bindBase(GL_SHADER_STORAGE_BUFFER, 10);
+  glDispatchCompute(1, 1, 1);
+  glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
+  glUseProgram(0);
+  // The only read-back of the selection: the winner.
+  GpuSelection sel{};
+  selection_.download(&sel, sizeof(sel));
+  PENUMBRA_TRY(glStatus("selecting the shooter"));
+  return sel.power > 0.0 ? sel.triangle : kNoShooter;
+}
+
+glm::uvec2 GlProgressive::uploadReceivers(uint32_t shooter) {
+  // The CPU's receiver test: not wholly behind the shooter's plane, and the shooter not wholly
+  // behind the receiver's (facing it); degenerate triangles neither shoot nor receive.
+  std::vector<uint32_t> receivers, near;
+  if (areas_[shooter] > 0.0) {
+    const std::array<glm::dvec3, 3>& sv = corners_[shooter];
+    const glm::dvec3 ns = normals_[shooter];
+    // Near pairs need d^2 < kNear^2 A_s for some point of the shooter: triangles whose bounding
+    // spheres are farther apart than that cannot have one.
+    const double reach = kProgressiveNear * std::sqrt(point_max_area_[shooter]);
+    for (uint32_t t = 0; t < triangle_count_; ++t) {
+      if (t == shooter || areas_[t] <= 0.0) continue;
+      const std::array<glm::dvec3, 3>& rv = corners_[t];
+      if (behindPlane(rv, sv[0], ns) || behindPlane(sv, rv[0], normals_[t])) continue;
+      receivers.push_back(t);
+      const double gap = glm::length(sphere_centre_[t] - sphere_centre_[shooter]) -
+                         sphere_radius_[t] - sphere_radius_[shooter];
+      if (gap < reach * (1.0 + 1e-6)) near.push_back(t);
+    }
+  }
+  const size_t far_count = receivers.size();
+  receivers.insert(receivers.end(), near.begin(), near.end());
+  if (!receivers.empty()) receivers_.upload(receivers.data(), receivers.size() * 4);
+  return glm::uvec2(uint32_t(far_count), uint32_t(near.size()));
+}
+
+void GlProgressive::nextStamp() {
+  if (++stamp_ > 255) {
+    const GLint zero = 0;
+    glClearNamedFramebufferiv(atlas_fbo_.id(), GL_STENCIL, 0, &zero);
+    stamp_ = 1;
+  }
+}
+
+void GlProgressive::drawReceivers(const gl::Program& program, uint32_t first, uint32_t count,
+                                  bool guarded) {
+  glBindFramebuffer(GL_FRAMEBUFFER, atlas_fbo_.id());
+  glViewport(0, 0, width_, height_);
+  glDisable(GL_DEPTH_TEST);
+  glDisable(GL_CULL_FACE);
+  glDisable(GL_MULTISAMPLE);
+  glDisable(GL_LINE_SMOOTH);
+  glEnable(GL_BLEND);
+  glBlendEquation(GL_FUNC_ADD);
+  glBlendFunc(GL_ONE, GL_ONE);
+  if (guarded) {
+    // Exactly one fragment per texel and shooter point: the first to arrive replaces the
+    // stencil value with this point's stamp, every later one fails the test.
+    nextStamp();
+    glEnable(GL_STENCIL_TEST);
+    glStencilMask(0xff);
+    glStencilFunc(GL_NOTEQUAL, stamp_, 0xff);
+    glStencilOp(GL_KEEP, GL_KEEP, GL_REPLACE);
+  } else {
+    glDisable(GL_STENCIL_TEST);
+  }
+  glUseProgram(program.id());
+  glProgramUniform1ui(program.id(), uniform(program, "receiver_first"), first);
+  triangles_.bindBase(GL_SHADER_STORAGE_BUFFER, 0);
+  receivers_.bindBase(GL_SHADER_STORAGE_BUFFER, 1);
+  elements_.bindBase(GL_SHADER_STORAGE_BUFFER, 2);
+  texel_element_.bindBase(GL_SHADER_STORAGE_BUFFER, 3);
+  members_.bindBase(GL_SHADER_STORAGE_BUFFER, 6);
+  element_position_d_.bindBase(GL_SHADER_STORAGE_BUFFER, 15);
+  polygons_.bindBase(GL_SHADER_STORAGE_BUFFER, 18);
+  batch_.bindBase(GL_UNIFORM_BUFFER, 0);
+  glBindTextureUnit(0, depth_map_.id());
+  glBindTextureUnit(1, residual_.id());
+  glBindVertexArray(vao_.id());
+  // Sec. 3.1: the polygons, then their outlines with line width 1. The diamond-exit rule
+  // leaves the last fragment of a line out, and implementations differ on a segment's first
+  // one (llvmpipe misses the chart corner at lattice (0, leg) of upright charts), so the
+  // corners are drawn once more as points of size 1: a chart corner lies on a texel centre,
+  // which a point there always produces. The stencil guard makes the overlap harmless.
+  glPolygonMode(GL_FRONT_AND_BACK, GL_FILL);
+  glDrawArrays(GL_TRIANGLES, 0, GLsizei(3 * count));
+  glPolygonMode(GL_FRONT_AND_BACK, GL_LINE);
+  glLineWidth(1.0f);
+  glDrawArrays(GL_TRIANGLES, 0, GLsizei(3 * count));
+  glPolygonMode(GL_FRONT_AND_BACK, GL_POINT);
+  glDisable(GL_PROGRAM_POINT_SIZE);
+  glPointSize(1.0f);
+  glDrawArrays(GL_TRIANGLES, 0, GLsizei(3 * count));
+  glPolygonMode(GL_FRONT_AND_BACK, GL_FILL);
+  glBindVertexArray(0);
+  glDisable(GL_STENCIL_TEST);
+  glDisable(GL_BLEND);
+  glBindFramebuffer(GL_FRAMEBUFFER, 0);
+}
+
+Expected<ProgressiveIteration> GlProgressive::shoot(uint32_t shooter) {
+  PENUMBRA_CHECK_MSG(shooter < triangle_count_, "shooter {} of {} triangles", shooter,
+                     triangle_count_);
+  const Timer timer;
+  ProgressiveIteration it;
+  it.iteration = ++iterations_;
+  it.shooter = shooter;
+  const uint32_t point_first = point_first_[shooter];
+  const uint32_t point_count = point_first_[shooter + 1] - point_first;
+
+  // Shooter points: dB sums per block (substructuring, sec. 3).
+  std::vector<glm::dvec4> point_power(point_count);
+  if (point_count > 0) {
+    glUseProgram(points_.id());
+    glUniform1ui(uniform(points_, "point_first"), point_first);
+    glUniform1ui(uniform(points_, "point_count"), point_count);
+    glUniform1i(uniform(points_, "atlas_width"), width_);
+    elements_.bindBase(GL_SHADER_STORAGE_BUFFER, 2);
+    points_buf_.bindBase(GL_SHADER_STORAGE_BUFFER, 4);
+    members_.bindBase(GL_SHADER_STORAGE_BUFFER, 6);
+    point_power_.bindBase(GL_SHADER_STORAGE_BUFFER, 8);
+    element_area_.bindBase(GL_SHADER_STORAGE_BUFFER, 12);
+    glBindImageTexture(0, residual_.id(), 0, GL_FALSE, 0, GL_READ_ONLY, GL_RGBA32F);
+    glDispatchCompute(ceilDiv(point_count, kPointGroup), 1, 1);
+    glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT | GL_BUFFER_UPDATE_BARRIER_BIT);
+    glUseProgram(0);
+    point_power_.download(point_power.data(), point_count * 32, size_t(point_first) * 32);
+  }
+  glm::dvec3 shot(0.0);
+  std::vector<uint32_t> active;             // points with something to shoot (the CPU drops dB = 0)
+  std::vector<glm::dvec3> active_residual;  // their area-weighted mean dB
+  for (uint32_t k = 0; k < point_count; ++k) {
+    const glm::dvec3 p(point_power[k]);
+    shot += p;
+    if (p != glm::dvec3(0.0)) {
+      active.push_back(point_first + k);
+      active_residual.push_back(p / point_area_[point_first + k]);
+    }
+  }
+  it.shooter_points = uint32_t(active.size());
+
+  const GLfloat zero4[4] = {0.0f, 0.0f, 0.0f, 0.0f};
+  glClearTexImage(incident_.id(), 0, GL_RGBA, GL_FLOAT, zero4);
+  const glm::uvec2 receivers = active.empty() ? glm::uvec2(0) : uploadReceivers(shooter);
+  if (receivers.x > 0) {
+    const glm::dvec3 ns = normals_[shooter];
+    const GLuint did = depth_.id();
+    setHemisphere(depth_, ns, far_);
+    glProgramUniform1ui(did, uniform(depth_, "tiles"), tiles_);
+    for (const gl::Program* r : {&receive_far_, &receive_near_}) {
+      const GLuint rid = r->id();
+      setHemisphere(*r, ns, far_);
+      glProgramUniform1ui(rid, uniform(*r, "shooter"), shooter);
+      glProgramUniform1i(rid, uniform(*r, "atlas_width"), width_);
+      glProgramUniform1f(rid, uniform(*r, "depth_tolerance"), gl_options_.depth_tolerance);
+      glProgramUniform1f(rid, uniform(*r, "near_factor"), float(kProgressiveNear));
+      glProgramUniform1i(rid, uniform(*r, "count_mode"), 0);
+      glProgramUniform1ui(rid, uniform(*r, "tiles"), tiles_);
+    }
+    const uint32_t batch = tiles_ * tiles_;
+    const GLint d = gl_options_.visibility_resolution * GLint(tiles_);
+    for (uint32_t first = 0; first < uint32_t(active.size()); first += batch) {
+      const uint32_t count = std::min(batch, uint32_t(active.size()) - first);
+      // The batch's points, as uniforms of both passes.
+      std::array<GpuBatchPoint, kMaxTiles * kMaxTiles> points{};
+      for (uint32_t k = 0; k < count; ++k) {
+        const uint32_t p = active[first + k];
+        GpuBatchPoint& b = points[k];
+        for (int c = 0; c < 3; ++c) {
+          b.position[c] = point_position_[p][c];
+          b.position_f[c] = float(point_position_[p][c]);
+          b.residual[c] = float(active_residual[first + k][c]);
+        }
+        b.position[3] = point_area_[p];
+        b.position_f[3] = float(point_area_[p]);
+        b.members[0] = point_members_[p].x;
+        b.members[1] = point_members_[p].y;
+      }
+      batch_.upload(points.data(), count * sizeof(GpuBatchPoint));
+      batch_.bindBase(GL_UNIFORM_BUFFER, 0);
+      if (options_.visibility) {
+        // Algorithm 1: the scene's depth from each point of the batch, hemispherical
+        // projection, one instance (and one tile of the depth texture) per point.
+        glBindFramebuffer(GL_FRAMEBUFFER, depth_fbo_.id());
+        glViewport(0, 0, d, d);
+        glDisable(GL_BLEND);
+        glDisable(GL_STENCIL_TEST);
+        glDisable(GL_CULL_FACE);
+        glEnable(GL_DEPTH_TEST);
+        glDepthFunc(GL_LESS);
+        glDepthMask(GL_TRUE);
+        for (int c = 0; c < 4; ++c) glEnable(GLenum(GL_CLIP_DISTANCE0 + c));
+        const GLfloat far_depth = 1.0f;
+        glClearNamedFramebufferfv(depth_fbo_.id(), GL_DEPTH, 0, &far_depth);
+        glUseProgram(did);
+        triangles_.bindBase(GL_SHADER_STORAGE_BUFFER, 0);
+        sub_triangles_.bindBase(GL_SHADER_STORAGE_BUFFER, 7);
+        glBindVertexArray(vao_.id());
+        glDrawArraysInstanced(GL_TRIANGLES, 0, GLsizei(6 * sub_triangle_count_), GLsizei(count));
+        glBindVertexArray(0);
+        for (int c = 0; c < 4; ++c) glDisable(GLenum(GL_CLIP_DISTANCE0 + c));
+        glDisable(GL_DEPTH_TEST);
+      }
+      // Far pairs over every receiver, near pairs over the receivers that can have them.
+      for (const gl::Program* r : {&receive_far_, &receive_near_}) {
+        glProgramUniform1ui(r->id(), uniform(*r, "batch_count"), count);
+      }
+      drawReceivers(receive_far_, 0, receivers.x, true);
+      if (receivers.y > 0) drawReceivers(receive_near_, receivers.x, receivers.y, true);
+    }
+    glUseProgram(0);
+  }
+
+  // Resolve: B += rho E_in, dB += rho E_in, the shooter's dB = 0, and the energy sums.
+  const uint32_t groups = ceilDiv(std::max<size_t>(element_count_, 1), kResolveGroup);
+  glUseProgram(resolve_.id());
+  glUniform1ui(uniform(resolve_, "element_count"), uint32_t(element_count_));
+  glUniform1ui(uniform(resolve_, "shooter"), shooter);
+  glUniform1i(uniform(resolve_, "atlas_width"), width_);
+  elements_.bindBase(GL_SHADER_STORAGE_BUFFER, 2);
+  sums_.bindBase(GL_SHADER_STORAGE_BUFFER, 11);
+  element_area_.bindBase(GL_SHADER_STORAGE_BUFFER, 12);
+  glBindImageTexture(0, residual_.id(), 0, GL_FALSE, 0, GL_READ_WRITE, GL_RGBA32F);
+  glBindImageTexture(1, radiosity_.id(), 0, GL_FALSE, 0, GL_READ_WRITE, GL_RGBA32F);
+  glBindTextureUnit(2, incident_.id());
+  dispatchLinear(groups);
+  glMemoryBarrier(GL_SHADER_IMAGE_ACCESS_BARRIER_BIT | GL_TEXTURE_FETCH_BARRIER_BIT |
+                  GL_TEXTURE_UPDATE_BARRIER_BIT | GL_BUFFER_UPDATE_BARRIER_BIT |
+                  GL_SHADER_STORAGE_BARRIER_BIT);
+  glUseProgram(0);
+  std::vector<GpuResolveSums> sums(groups);
+  sums_.download(sums.data(), sums.size() * sizeof(GpuResolveSums));
+  PENUMBRA_TRY(glStatus("shooting"));
+
+  // The books, exactly as the CPU keeps them (progressive.h).
+  glm::dvec3 arrived(0.0), absorbed(0.0), reflected(0.0);
+  for (const GpuResolveSums& g : sums) {
+    arrived += glm::dvec3(g.arrived[0], g.arrived[1], g.arrived[2]);
+    absorbed += glm::dvec3(g.absorbed[0], g.absorbed[1], g.absorbed[2]);
+    reflected += glm::dvec3(g.reflected[0], g.reflected[1], g.reflected[2]);
+  }
+  balance_.absorbed += absorbed;
+  balance_.unshot += reflected - shot;
+  balance_.escaped += shot - arrived;
+
+  it.shot_power = residualLuminance(shot);
+  it.unshot_fraction = unshotFraction();
+  it.rays = 0;  // visibility by depth maps
+  it.seconds = timer.seconds();
+  return it;
+}
+
+Expected<ProgressiveIteration> GlProgressive::step() {
+  Expected<uint32_t> s = selectShooter();
+  if (!s) return s.error();
+  if (*s == kNoShooter) return ProgressiveIteration{};
+  return shoot(*s);
+}
+
+Expected<ProgressiveStats> GlProgressive::solve(
+    const std::function<void(const ProgressiveIteration&)>& after_iteration,
+    const std::function<bool()>& stop) {
+  return solveProgressively(
+      options_, unshotFraction(), [&] { return step(); },
+      [&]() -> Expected<bool> {
+        Expected<uint32_t> s = selectShooter();
+        if (!s) return s.error();
+        return *s == kNoShooter;
+      },
+      [&] { return iterations_; }, after_iteration, stop);
+}
+
+Expected<Image> GlProgressive::radianceImage(bool with_ambient) {
+  glm::dvec3 ambient(0.0);
+  if (with_ambient && total_area_ > 0.0) {
+    // Eq. 4-6: R * sum_j dB_j A_j / sum_k A_k, the unshot power from the power pass.
+    dispatchPower();
+    std::vector<glm::dvec4> power(triangle_count_);
+    if (triangle_count_ > 0) triangle_power_.download(power.data(), power.size() * 32);
+    glm::dvec3 unshot(0.0);
+    for (const glm::dvec4& p : power) unshot += glm::dvec3(p);
+    ambient = ambient_factor_ * unshot / total_area_;
+  }
+  const GLuint gx = ceilDiv(uint32_t(width_), kImageTile),
+               gy = ceilDiv(uint32_t(height_), kImageTile);
+  glUseProgram(radiance_.id());
+  glUniform2i(uniform(radiance_, "atlas_size"), width_, height_);
+  glUniform3f(uniform(radiance_, "ambient"), float(ambient.x), float(ambient.y), float(ambient.z));
+  glUniform1i(uniform(radiance_, "border_plane"), gl_options_.border_plane ? 1 : 0);
+  triangles_.bindBase(GL_SHADER_STORAGE_BUFFER, 0);
+  elements_.bindBase(GL_SHADER_STORAGE_BUFFER, 2);
+  texel_element_.bindBase(GL_SHADER_STORAGE_BUFFER, 3);
+  texel_triangle_.bindBase(GL_SHADER_STORAGE_BUFFER, 13);
+  glBindImageTexture(1, radiosity_.id(), 0, GL_FALSE, 0, GL_READ_ONLY, GL_RGBA32F);
+  glBindImageTexture(3, radiance_maps_[0].id(), 0, GL_FALSE, 0, GL_WRITE_ONLY, GL_RGBA32F);
+  glDispatchCompute(gx, gy, 1);
+  glMemoryBarrier(GL_TEXTURE_FETCH_BARRIER_BIT | GL_SHADER_IMAGE_ACCESS_BARRIER_BIT);
+  // Sec. 3.1: ping-pong passes, each filling the unoccupied texels next to filled ones of the
+  // same triangle with their mean.
+  int current = 0;
+  glUseProgram(fill_.id());
+  glUniform2i(uniform(fill_, "atlas_size"), width_, height_);
+  texel_triangle_.bindBase(GL_SHADER_STORAGE_BUFFER, 13);
+  for (int pass = 0; pass < gl_options_.gap_fill_passes; ++pass) {
+    glBindTextureUnit(2, radiance_maps_[size_t(current)].id());
+    glBindImageTexture(3, radiance_maps_[size_t(1 - current)].id(), 0, GL_FALSE, 0, GL_WRITE_ONLY,
+                       GL_RGBA32F);
+    glDispatchCompute(gx, gy, 1);
+    glMemoryBarrier(GL_TEXTURE_FETCH_BARRIER_BIT | GL_SHADER_IMAGE_ACCESS_BARRIER_BIT);
+    current = 1 - current;
+  }
+  glUseProgram(0);
+  glMemoryBarrier(GL_TEXTURE_UPDATE_BARRIER_BIT);
+  const size_t texels = size_t(width_) * size_t(height_);
+  std::vector<glm::vec4> rgba;
+  readTexture(radiance_maps_[size_t(current)].id(), width_, height_, rgba);
+  PENUMBRA_TRY(glStatus("computing the radiance atlas"));
+  Image img(width_, height_);
+  for (size_t i = 0; i < texels; ++i) img.pixels[i] = glm::vec3(rgba[i]);
+  return img;
+}
+
+Expected<std::vector<uint32_t>> GlProgressive::receiverCoverage(bool guarded) {
+  // Every non-degenerate triangle as a receiver.
+  std::vector<uint32_t> all;
+  for (uint32_t t = 0; t < triangle_count_; ++t) {
+    if (areas_[t] > 0.0) all.push_back(t);
+  }
+  if (!all.empty()) receivers_.upload(all.data(), all.size() * 4);
+  const GLfloat zero4[4] = {0.0f, 0.0f, 0.0f, 0.0f};
+  glClearTexImage(incident_.id(), 0, GL_RGBA, GL_FLOAT, zero4);
+  const gl::Program& r = receive_far_;
+  glProgramUniform1i(r.id(), uniform(r, "atlas_width"), width_);
+  glProgramUniform1i(r.id(), uniform(r, "count_mode"), 1);
+  drawReceivers(r, 0, uint32_t(all.size()), guarded);
+  glProgramUniform1i(r.id(), uniform(r, "count_mode"), 0);
+  glUseProgram(0);
+  std::vector<glm::vec4> rgba;
+  glMemoryBarrier(GL_TEXTURE_UPDATE_BARRIER_BIT);
+  readTexture(incident_.id(), width_, height_, rgba);
+  glClearTexImage(incident_.id(), 0, GL_RGBA, GL_FLOAT, zero4);
+  PENUMBRA_TRY(glStatus("rendering the receiver coverage"));
+  std::vector<uint32_t> out(element_count_);
+  for (size_t e = 0; e < element_count_; ++e) {
+    out[e] = uint32_t(std::lround(rgba[element_texel_[e]].x));
+  }
+  return out;
+}
+
+}  // namespace penumbra
