@@ -17,15 +17,25 @@
 //    times the texel's area. This is the CPU twin of the paper's mipmap reduction that averages
 //    only occupied texels (then multiplies by the triangle's area), computed exactly in one pass
 //    and weighted by each texel's coverage rather than by 2 x 2 ping-pong passes.
-//  - Shooting (eq. 1-2): every shooter element (or, with substructuring, every block of
-//    2^level x 2^level atlas texels of the shooter, the paper's coarser mip level) shoots its
-//    unshot radiosity dB_s to every receiver element r in front of the shooter's plane that
-//    faces it; with Wallner's disc approximation of the form factor from r to the shooter element
-//      F_rs = A_s cos(phi_s) cos(phi_r) / (pi d^2 + A_s)                      (eq. 2, m = 1)
-//    (for pairs closer than three element sizes, where a disc is a poor stand-in for a neighbour
-//    seen edge-on, Lambert's exact point-to-polygon form factor to each shooter element's polygon
-//    instead) and visibility by a Ray Engine shadow ray, r gains  dB_r += rho_r dB_s F_rs  and
-//    B_r += the same (the progressive form of eq. 1); then dB_s = 0.
+//  - Shooting (eq. 1-2): the shooter's unshot radiosity reaches every receiver element r in
+//    front of the shooter's plane that faces it, r gains  dB_r += rho_r dB_s F_rs  and B_r += the
+//    same (the progressive form of eq. 1); then dB_s = 0. Visibility: one Ray Engine shadow ray
+//    per (receiver, shooter point) pair, the rays of a block of receivers sorted by point so that
+//    they travel as packets. The shooter points (substructuring, sec. 3):
+//     - flat (shooter_top_points = 0, the paper's scheme and the GPU path's): every element, or
+//       every block of 2^level x 2^level atlas texels (the paper's coarser mip level), is a
+//       point; eq. 2's disc
+//         F_rs = A_s cos(phi_s) cos(phi_r) / (pi d^2 + A_s)                  (eq. 2, m = 1)
+//       except for pairs nearer than kProgressiveNear point sizes, where a disc is a poor
+//       stand-in for a neighbour seen edge-on: each member element then counts with Lambert's
+//       exact point-to-polygon form factor to its own polygon;
+//     - hierarchical (the default): the shooter's texels grouped into 2 x 2, 4 x 4, ... blocks up
+//       to the first level with at most shooter_top_points blocks; a receiver takes a block as
+//       one point unless nearer than kProgressiveNear block sizes (then its sub-blocks, down to
+//       elements), and blocks coarser still (up to the whole shooter) when farther than 20 of
+//       their sizes; eq. 2's disc beyond 8 sizes, Lambert's form factor to the block's polygon
+//       (its texels' part of the chart) with the block's mean dB nearer. The furnace's worst
+//       element is 0.06% off this way, 0.81% with the flat scheme (progressive_test.cpp).
 //  - Energy bookkeeping (W, per channel): the power shot, P = sum_s dB_s A_s, either arrives at
 //    receivers, Q = sum_r (sum_s dB_s F_rs) A_r, of which rho Q is reflected (joins the unshot
 //    power) and (1 - rho) Q is absorbed, or does not arrive: P - Q is counted as escaped. In an
