@@ -77,6 +77,7 @@ GlProgressive createGpu(const ProgressiveRadiosity& cpu, const GlProgressiveOpti
 ProgressiveOptions furnaceOptions() {
   ProgressiveOptions o;
   o.shooter_top_points = 0;     // the flat substructuring the GPU path implements
+  o.shading_normals = false;    // the GPU path takes the triangles' own normals
   o.atlas.texel_density = 6.0;  // legs of 12 texels on the 2 m^2 triangles, 1092 elements
   o.convergence = 1e-3;
   o.max_iterations = 2000;
@@ -96,6 +97,7 @@ TEST(ProgressiveGl, ReceiverPassCoversEveryTexelOnce) {
        {Case{"furnace", 6.0, 0}, Case{"cornell", 25.0, 0}, Case{"cornell", 0.0, 300}}) {
     ProgressiveOptions o;
     o.shooter_top_points = 0;
+    o.shading_normals = false;  // the GPU path takes the triangles' own normals
     o.atlas.texel_density = c.density;
     if (c.resolution > 0) o.atlas.resolution = c.resolution;
     const ProgressiveRadiosity cpu = buildCpu(c.scene, o);
@@ -199,6 +201,7 @@ TEST(ProgressiveGl, FurnaceConvergesToTheClosedFormWithBalancedBooks) {
 ProgressiveOptions cornellOptions() {
   ProgressiveOptions o;
   o.shooter_top_points = 0;
+  o.shading_normals = false;     // the GPU path takes the triangles' own normals
   o.atlas.texel_density = 25.0;  // 1684 elements
   o.shooter_level = 1;
   o.convergence = 0.0;

@@ -277,5 +277,81 @@ TEST(ProgressiveRadiosity, BilinearLookupsReadOnlyFilledTexelsOfTheirOwnTriangle
   EXPECT_LE(worst, 0.01);
 }
 
+// A 16-sided prism standing in for a cylinder of radius 0.5 m, lit by a small emitter 10 m
+// away. With shading normals (Wallner sec. 3 interpolates normals) the direct irradiance of
+// every element follows the smooth cylinder's cosine; with each triangle's own normal it
+// follows the facets' (up to 11.25 degrees off), which is what makes a tessellated surface look
+// faceted.
+Scene cylinderScene() {
+  Scene s;
+  s.source = "test:cylinder";
+  s.materials = {{"grey", glm::vec3(0.5f), glm::vec3(0.0f)},
+                 {"light", glm::vec3(0.0f), glm::vec3(10.0f)}};
+  Mesh cylinder;
+  constexpr int kSides = 16;
+  for (int i = 0; i < kSides; ++i) {
+    const float a = 2.0f * float(kPi) * float(i) / kSides;
+    cylinder.positions.emplace_back(0.5f * std::cos(a), 0.5f * std::sin(a), 0.0f);
+    cylinder.positions.emplace_back(0.5f * std::cos(a), 0.5f * std::sin(a), 1.0f);
+  }
+  for (uint32_t i = 0; i < kSides; ++i) {
+    const uint32_t j = (i + 1) % kSides;
+    // Counter-clockwise seen from outside.
+    cylinder.triangles.emplace_back(2 * i, 2 * j, 2 * j + 1);
+    cylinder.triangles.emplace_back(2 * i, 2 * j + 1, 2 * i + 1);
+  }
+  cylinder.material_ids.assign(cylinder.triangles.size(), 0);
+  s.meshes.push_back(cylinder);
+  Mesh light;
+  light.positions = {
+      {10.0f, -0.1f, 0.4f}, {10.0f, -0.1f, 0.6f}, {10.0f, 0.1f, 0.6f}, {10.0f, 0.1f, 0.4f}};
+  light.triangles = {{0, 1, 2}, {0, 2, 3}};  // facing -x, towards the cylinder
+  light.material_ids = {1, 1};
+  s.meshes.push_back(light);
+  return s;
+}
+
+TEST(ProgressiveRadiosity, ShadingNormalsFollowTheSmoothSurface) {
+  Scene scene = cylinderScene();
+  ASSERT_TRUE(validateScene(scene).ok());
+  double worst[2] = {0.0, 0.0};
+  for (int shading = 0; shading < 2; ++shading) {
+    ProgressiveOptions o;
+    o.atlas.texel_density = 40.0;
+    o.shading_normals = shading == 1;
+    Expected<ProgressiveRadiosity> pr = ProgressiveRadiosity::build(scene, o);
+    ASSERT_TRUE(pr.ok()) << pr.error().describe();
+    for (int k = 0; k < 2; ++k) {  // the emitter's two triangles, after the cylinder's 32
+      const uint32_t light = pr->selectShooter();
+      ASSERT_GE(light, 32u);
+      pr->shoot(light);
+    }
+    // A small Lambertian emitter: E = L A cos_l cos_r / d^2.
+    const glm::dvec3 centre(10.0, 0.0, 0.5);
+    const double power = 10.0 * 0.04;  // L A
+    size_t compared = 0;
+    for (size_t e = 0; e < pr->elementCount(); ++e) {
+      if (pr->elementTriangle(e) >= 32) continue;
+      const glm::dvec3 p = pr->elementPosition(e);
+      const glm::dvec3 n = glm::normalize(glm::dvec3(p.x, p.y, 0.0));  // the smooth surface's
+      const glm::dvec3 d = centre - p;
+      const double dist = glm::length(d);
+      const double cos_r = glm::dot(n, d) / dist, cos_l = d.x / dist;
+      if (cos_r < 0.3) continue;  // away from the terminator, where facets and cylinder part
+      const double expect = power * cos_l * cos_r / (dist * dist);
+      const double got = pr->radiosity(e).x / 0.5;  // E = gain / rho
+      worst[shading] = std::max(worst[shading], std::abs(got / expect - 1.0));
+      ++compared;
+    }
+    EXPECT_GT(compared, 500u);
+  }
+  std::printf(
+      "cylinder: worst irradiance error against the smooth cylinder: triangle normals "
+      "%.3f, shading normals %.4f\n",
+      worst[0], worst[1]);
+  EXPECT_GT(worst[0], 0.1);   // the facets' own cosine
+  EXPECT_LT(worst[1], 0.03);  // the smooth surface's
+}
+
 }  // namespace
 }  // namespace penumbra

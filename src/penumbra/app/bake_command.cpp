@@ -278,6 +278,7 @@ Status bake(const BakeOptions& options, const CommonOptions& common, bool* inter
     ro.iterations = options.iterations;
     ro.shooter_points = options.shooter_points;
     ro.device = options.device;
+    ro.shading_normals = options.normals == "interpolated";
     ro.tolerance = options.tolerance.value_or(1e-3);
     ro.resume = options.resume;
     ro.checkpoint = options.checkpoint.empty() ? (out_dir / (stem + ".checkpoint")).string()

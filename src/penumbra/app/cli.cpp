@@ -111,6 +111,12 @@ int parseAndRun(int argc, char** argv) {
                    "nearer receivers refine them); more resolve soft shadows finer")
       ->check(CLI::Range(1, 4096))
       ->capture_default_str();
+  render_cmd
+      ->add_option("--normals", render.normals,
+                   "progressive: interpolated (shading normals across triangles, smooth curved "
+                   "surfaces) or triangle (each triangle's own normal)")
+      ->check(CLI::IsMember({"interpolated", "triangle"}))
+      ->capture_default_str();
   render_cmd->add_option("--resume", render.resume,
                          "progressive: continue from this checkpoint (written on Ctrl-C)");
   render_cmd->add_option("--checkpoint", render.checkpoint,
@@ -198,6 +204,10 @@ int parseAndRun(int argc, char** argv) {
       ->add_option("--shooter-points", bake.shooter_points,
                    "progressive: points a shooter starts from (see render)")
       ->check(CLI::Range(1, 4096))
+      ->capture_default_str();
+  bake_cmd
+      ->add_option("--normals", bake.normals, "progressive: interpolated or triangle (see render)")
+      ->check(CLI::IsMember({"interpolated", "triangle"}))
       ->capture_default_str();
   bake_cmd->add_option("--resume", bake.resume,
                        "progressive: continue from this checkpoint (written on Ctrl-C)");

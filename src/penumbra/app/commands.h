@@ -42,8 +42,10 @@ struct RenderOptions {
   std::optional<double> texel_density;
   std::string resume;
   std::string checkpoint;
-  int shooter_points =
-      16;  // progressive: top-level points per shooter (0: the paper's flat scheme)
+  // progressive: top-level points per shooter (0: the paper's flat scheme), and normals
+  // (interpolated or triangle).
+  int shooter_points = 16;
+  std::string normals = "interpolated";
 };
 
 struct TraceOptions {
@@ -82,6 +84,7 @@ struct BakeOptions {
   std::string resume;                   // progressive: checkpoint to continue from
   std::string checkpoint;   // progressive: where Ctrl-C writes one (DIR/STEM.checkpoint)
   int shooter_points = 16;  // progressive: top-level points per shooter
+  std::string normals = "interpolated";  // progressive: interpolated or triangle
 };
 
 int runRender(const RenderOptions& options, const CommonOptions& common);

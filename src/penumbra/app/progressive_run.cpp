@@ -54,6 +54,7 @@ Expected<ProgressiveRun> runProgressive(const Scene& scene, const ProgressiveRun
   po.max_iterations = options.iterations;
   po.convergence = options.tolerance;
   po.shooter_top_points = options.shooter_points;
+  po.shading_normals = options.shading_normals;
   std::optional<ProgressiveCheckpointInfo> info;
   if (!options.resume.empty()) {
     Expected<ProgressiveCheckpointInfo> i = readProgressiveCheckpointInfo(options.resume);
@@ -110,6 +111,11 @@ Expected<ProgressiveRun> runProgressive(const Scene& scene, const ProgressiveRun
     // coarsest at which an average triangle still has at least --shooter-points blocks.
     po.shooter_top_points = 0;
     po.shooter_level = -1;  // chosen below, once the elements are known
+  }
+  if (gpu) {
+    // The GPU path takes each triangle's own normal.
+    if (options.shading_normals) spdlog::info("--device gpu: form factors use triangle normals");
+    po.shading_normals = false;
   }
 
   const Timer build_timer;

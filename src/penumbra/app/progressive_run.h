@@ -27,6 +27,7 @@ struct ProgressiveRunOptions {
   std::string checkpoint;               // where Ctrl-C writes the checkpoint
   int shooter_points = 16;              // ProgressiveOptions::shooter_top_points
   std::string device = "cpu";           // cpu, gpu or auto (design doc sec. 3)
+  bool shading_normals = true;          // ProgressiveOptions::shading_normals (CPU only)
 };
 
 struct ProgressiveRun {

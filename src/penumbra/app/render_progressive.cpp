@@ -51,6 +51,7 @@ Status renderProgressive(const RenderOptions& options, const CommonOptions& comm
   ro.iterations = options.iterations;
   ro.shooter_points = options.shooter_points;
   ro.device = options.device;
+  ro.shading_normals = options.normals == "interpolated";
   ro.tolerance = options.tolerance.value_or(1e-3);
   ro.resume = options.resume;
   ro.checkpoint = options.checkpoint;

@@ -1,5 +1,6 @@
 #include "penumbra/radiosity/progressive.h"
 
+#include "penumbra/geometry/shading_normals.h"
 #include "penumbra/kernels/form_factor.h"
 
 #include "penumbra/core/check.h"
@@ -29,6 +30,7 @@ struct ShooterPoint {
   glm::dvec3 position{0.0};
   double area = 0.0;
   glm::dvec3 residual{0.0};
+  glm::dvec3 normal{0.0};          // area-weighted mean shading normal (unit)
   std::vector<uint32_t> members;   // its elements
   std::vector<uint32_t> children;  // hierarchical mode: indices of its sub-blocks
   glm::ivec2 texel{0};             // atlas texel of one member (for grouping into blocks)
@@ -203,6 +205,9 @@ Expected<ProgressiveRadiosity> ProgressiveRadiosity::build(const Scene& scene,
   pr.lattice_.resize(n);
   pr.rho_.resize(n);
   pr.e_.resize(n);
+  pr.normal_.resize(n);
+  const std::vector<glm::vec3> corner_normals =
+      options.shading_normals ? cornerShadingNormals(scene) : std::vector<glm::vec3>();
   glm::dvec3 rho_area(0.0);
   for (size_t e = 0; e < n; ++e) {
     const uint32_t t = pr.tri_of_[e];
@@ -225,6 +230,19 @@ Expected<ProgressiveRadiosity> ProgressiveRadiosity::build(const Scene& scene,
     pr.position_[e] =
         p[r0] + (c.x / chart.leg) * (p[r1] - p[r0]) + (c.y / chart.leg) * (p[r2] - p[r0]);
     pr.area_[e] = pr.tri_area_[t] * cover / (0.5 * double(chart.leg) * double(chart.leg));
+    pr.normal_[e] = pr.tri_normal_[t];
+    if (!corner_normals.empty() && pr.tri_area_[t] > 0.0) {
+      // The corners' shading normals interpolated at the element's point (sec. 3).
+      double cw[3];
+      cw[r1] = c.x / chart.leg;
+      cw[r2] = c.y / chart.leg;
+      cw[r0] = 1.0 - cw[r1] - cw[r2];
+      glm::dvec3 sn(0.0);
+      for (int k = 0; k < 3; ++k)
+        sn += cw[k] * glm::dvec3(corner_normals[3 * size_t(t) + size_t(k)]);
+      const double len = glm::length(sn);
+      if (len > 0.0 && glm::dot(sn, pr.tri_normal_[t]) > 0.0) pr.normal_[e] = sn / len;
+    }
     const Material& m = scene.materials[pr.flat_.material_ids[t]];
     pr.rho_[e] = glm::dvec3(m.reflectance);
     pr.e_[e] = pr.tri_area_[t] > 0.0 ? kPi * glm::dvec3(m.emission) : glm::dvec3(0.0);
@@ -324,11 +342,13 @@ ProgressiveIteration ProgressiveRadiosity::shoot(uint32_t shooter) {
         p.lo = glm::min(p.lo, q.lo);
         p.hi = glm::max(p.hi, q.hi);
         p.position += q.position * q.area;
+        p.normal += q.normal * q.area;
         p.residual += q.residual * q.area;
         p.area += q.area;
         p.children.push_back(c);
       }
       for (uint32_t b : out) {
+        points[b].normal = glm::normalize(points[b].normal);
         points[b].position /= points[b].area;
         points[b].residual /= points[b].area;
       }
@@ -342,6 +362,7 @@ ProgressiveIteration ProgressiveRadiosity::shoot(uint32_t shooter) {
       p.position = position_[e];
       p.area = area_[e];
       p.residual = db_[e];
+      p.normal = normal_[e];
       p.members = {e};
       p.lo = p.hi = lattice_[e];
       p.texel = glm::ivec2(int(texel_[e] % uint32_t(atlas_.width)),
@@ -497,7 +518,8 @@ ProgressiveIteration ProgressiveRadiosity::shoot(uint32_t shooter) {
         if (options_.visibility && occluded[k]) continue;
         const size_t r = pairs[k].receiver;
         const ShooterPoint& s = points[pairs[k].point];
-        const glm::dvec3 nr = tri_normal_[tri_of_[r]], pr = position_[r];
+        // Form factors take the shading normals; culling and shadow rays the triangles' own.
+        const glm::dvec3 nr = normal_[r], pr = position_[r];
         if (pairs[k].kernel == Kernel::kPolygon) {
           const auto& [poly, count] = polygons[size_t(s.polygon)];
           if (count >= 3)
@@ -519,7 +541,8 @@ ProgressiveIteration ProgressiveRadiosity::shoot(uint32_t shooter) {
         const glm::dvec3 d = s.position - pr;
         const double d2 = glm::dot(d, d);
         const double inv = 1.0 / std::sqrt(d2);
-        const double cos_r = glm::dot(nr, d) * inv, cos_s = -glm::dot(ns, d) * inv;
+        const double cos_r = glm::dot(nr, d) * inv, cos_s = -glm::dot(s.normal, d) * inv;
+        if (cos_r <= 0.0 || cos_s <= 0.0) continue;
         incident[r] += s.residual * discFormFactor(s.area, cos_s, cos_r, d2);
       }
     }

@@ -85,6 +85,12 @@ struct ProgressiveOptions {
   int shooter_top_points = 16;
   int shooter_level = 0;
   bool visibility = true;  // false: no shadow rays (every pair in front is unoccluded)
+  // The form factors' cosines take shading normals interpolated across the triangles (the
+  // mesh's own vertex normals, or generated ones: geometry/shading_normals.h), as the paper
+  // interpolates normals, so tessellated curved surfaces shade smoothly; false: each
+  // triangle's own normal. Flat surfaces are the same either way. Culling and shadow rays use
+  // the triangles' own normals in both cases.
+  bool shading_normals = true;
 };
 
 // Power totals in W per RGB channel.
@@ -254,7 +260,7 @@ class ProgressiveRadiosity {
   // together (a block of texels).
   int blockPolygon(uint32_t t, glm::ivec2 lo, glm::ivec2 hi, std::array<glm::dvec3, 8>& out) const;
   std::vector<double> area_;
-  std::vector<glm::dvec3> position_, rho_, e_, b_, db_;
+  std::vector<glm::dvec3> position_, normal_, rho_, e_, b_, db_;  // normal_: shading normal
   std::vector<double> tri_power_;     // residualPower per triangle, for selectShooter
   std::vector<glm::dvec3> incident_;  // per element, an iteration's gathered irradiance
   void refreshTrianglePowers();

@@ -94,6 +94,7 @@ uint64_t progressiveFingerprint(const Scene& scene, const ProgressiveRadiosity& 
   h.addValue(solver.atlas().width);
   h.addValue(solver.atlas().height);
   h.addValue(uint64_t(solver.elementCount()));
+  h.addValue(uint8_t(solver.options().shading_normals ? 1 : 0));
   return h.h;
 }
 
@@ -161,8 +162,8 @@ Status resumeProgressiveCheckpoint(const std::string& path, const Scene& scene,
   if (stored != h.h) return inputError(path, "", "corrupt (checksum mismatch)");
   if (info->fingerprint != progressiveFingerprint(scene, solver) || n != solver.elementCount()) {
     return inputError(path, "",
-                      fmt::format("was written for another scene or lightmap ({} elements in a "
-                                  "{}x{} atlas; this run has {} in {}x{})",
+                      fmt::format("was written for another scene, lightmap or --normals setting "
+                                  "({} elements in a {}x{} atlas; this run has {} in {}x{})",
                                   n, info->atlas_width, info->atlas_height, solver.elementCount(),
                                   solver.atlas().width, solver.atlas().height));
   }

@@ -11,7 +11,8 @@
 //   body: per element B (3 doubles) then dB (3 doubles), elements in the solver's order
 //   trailer: uint64 FNV-1a hash of everything before it.
 // The fingerprint hashes the flattened scene (positions, triangles, materials' reflectance and
-// emission) with the atlas's size, so a checkpoint is refused for another scene or lightmap.
+// emission) with the atlas's size and the normals setting, so a checkpoint is refused for
+// another scene, lightmap or setting.
 #pragma once
 
 #include "penumbra/core/expected.h"

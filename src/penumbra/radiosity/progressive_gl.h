@@ -4,7 +4,8 @@
 // centroids, areas and reflectances uploaded per element), so that the two can hand the state
 // back and forth (download() / upload(), ProgressiveRadiosity::state() / setState()). It runs
 // the CPU's flat substructuring (ProgressiveOptions::shooter_level; shooter_top_points, the
-// CPU's hierarchical refinement, is not used here).
+// CPU's hierarchical refinement, is not used here) with each triangle's own normal
+// (ProgressiveOptions::shading_normals is not used here either).
 //
 //  - Textures (sec. 3): the radiosity B and residual dB atlases, RGBA32F of the atlas's size,
 //    alpha = 1 on occupied (kInside) texels; an "incident" RGBA32F target that gathers an
