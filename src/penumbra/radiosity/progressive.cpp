@@ -23,21 +23,46 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 
+constexpr uint32_t kNoElement = std::numeric_limits<uint32_t>::max();
+
 // A shooter point: an element, or a block of elements at a coarser mip level (substructuring,
-// Wallner sec. 3: the block's mean position, summed area and area-weighted mean dB). In the
-// hierarchical mode a block also knows its four (or fewer) sub-blocks one level finer.
+// Wallner sec. 3: the block's mean position, summed area and area-weighted mean dB), with its
+// sub-blocks one level finer (elements at the finest).
 struct ShooterPoint {
   glm::dvec3 position{0.0};
   double area = 0.0;
   glm::dvec3 residual{0.0};
   glm::dvec3 normal{0.0};          // area-weighted mean shading normal (unit)
-  std::vector<uint32_t> members;   // its elements
-  std::vector<uint32_t> children;  // hierarchical mode: indices of its sub-blocks
+  uint32_t element = kNoElement;   // a single element: which
+  std::vector<uint32_t> children;  // a block: its sub-blocks (points)
   glm::ivec2 texel{0};             // atlas texel of one member (for grouping into blocks)
   glm::ivec2 lo{0}, hi{0};         // the lattice points of its chart it covers (inclusive)
   bool above_top = false;          // a block coarser than the substructuring's top level
   int32_t polygon = -1;            // hierarchical blocks: index of its polygon
 };
+
+// Numbers the blocks of 2^level x 2^level atlas texels that `texels` fall in, in order of first
+// appearance, through a dense grid over their range: block[i] is texels[i]'s. Returns the count.
+uint32_t groupIntoBlocks(const std::vector<glm::ivec2>& texels, int level,
+                         std::vector<uint32_t>& block) {
+  glm::ivec2 lo(std::numeric_limits<int>::max()), hi(std::numeric_limits<int>::min());
+  for (const glm::ivec2& t : texels) {
+    lo = glm::min(lo, t >> level);
+    hi = glm::max(hi, t >> level);
+  }
+  block.resize(texels.size());
+  if (texels.empty()) return 0;
+  const size_t w = size_t(hi.x - lo.x + 1);
+  std::vector<int32_t> grid(w * size_t(hi.y - lo.y + 1), -1);
+  uint32_t count = 0;
+  for (size_t i = 0; i < texels.size(); ++i) {
+    const glm::ivec2 key = (texels[i] >> level) - lo;
+    int32_t& slot = grid[size_t(key.y) * w + size_t(key.x)];
+    if (slot < 0) slot = int32_t(count++);
+    block[i] = uint32_t(slot);
+  }
+  return count;
+}
 
 // Wallner eq. 2 with one disc (m = 1): the form factor from a receiver point to a shooter
 // element of area `shooter_area` at squared distance d2, given both cosines.
@@ -294,6 +319,21 @@ uint32_t ProgressiveRadiosity::selectShooter() const {
   return best;
 }
 
+std::vector<std::vector<uint32_t>> ProgressiveRadiosity::shooterBlocks(uint32_t t,
+                                                                       int level) const {
+  std::vector<uint32_t> elements, block;
+  std::vector<glm::ivec2> texels;
+  for (uint32_t e = tri_first_[t]; e < tri_first_[t + 1]; ++e) {
+    if (!(area_[e] > 0.0)) continue;
+    elements.push_back(e);
+    texels.emplace_back(int(texel_[e] % uint32_t(atlas_.width)),
+                        int(texel_[e] / uint32_t(atlas_.width)));
+  }
+  std::vector<std::vector<uint32_t>> blocks(groupIntoBlocks(texels, level, block));
+  for (size_t i = 0; i < elements.size(); ++i) blocks[block[i]].push_back(elements[i]);
+  return blocks;
+}
+
 ProgressiveIteration ProgressiveRadiosity::shoot(uint32_t shooter) {
   PENUMBRA_CHECK(shooter < triangleCount());
   const Timer timer;
@@ -314,38 +354,31 @@ ProgressiveIteration ProgressiveRadiosity::shoot(uint32_t shooter) {
   const bool hierarchical = options_.shooter_top_points > 0;
   glm::dvec3 shot(0.0);
   {
-    // Groups `from` (point indices) into blocks of the level `level`, in order of first
-    // appearance, through a dense grid over the blocks' range.
-    std::vector<int32_t> grid;
+    // Groups the points `from` into blocks of the level `level` (their parents, appended).
+    std::vector<glm::ivec2> texels;
+    std::vector<uint32_t> block;
     auto group = [&](const std::vector<uint32_t>& from, int level) {
-      glm::ivec2 lo(std::numeric_limits<int>::max()), hi(std::numeric_limits<int>::min());
-      for (uint32_t c : from) {
-        lo = glm::min(lo, points[c].texel >> level);
-        hi = glm::max(hi, points[c].texel >> level);
-      }
-      const size_t w = size_t(hi.x - lo.x + 1);
-      grid.assign(w * size_t(hi.y - lo.y + 1), -1);
-      std::vector<uint32_t> out;
-      for (uint32_t c : from) {
-        const glm::ivec2 texel = points[c].texel, key = (texel >> level) - lo;
-        int32_t& slot = grid[size_t(key.y) * w + size_t(key.x)];
-        if (slot < 0) {
-          slot = int32_t(points.size());
-          out.push_back(uint32_t(points.size()));
-          points.emplace_back();
-          points.back().texel = texel;
-          points.back().lo = points[c].lo;
-          points.back().hi = points[c].hi;
+      texels.clear();
+      for (uint32_t c : from) texels.push_back(points[c].texel);
+      const uint32_t first_block = uint32_t(points.size());
+      points.resize(first_block + groupIntoBlocks(texels, level, block));
+      std::vector<uint32_t> out(points.size() - first_block);
+      for (size_t k = 0; k < out.size(); ++k) out[k] = first_block + uint32_t(k);
+      for (size_t i = 0; i < from.size(); ++i) {
+        ShooterPoint& p = points[first_block + block[i]];
+        const ShooterPoint& q = points[from[i]];
+        if (p.children.empty()) {
+          p.texel = q.texel;
+          p.lo = q.lo;
+          p.hi = q.hi;
         }
-        ShooterPoint& p = points[size_t(slot)];
-        const ShooterPoint& q = points[c];
         p.lo = glm::min(p.lo, q.lo);
         p.hi = glm::max(p.hi, q.hi);
         p.position += q.position * q.area;
         p.normal += q.normal * q.area;
         p.residual += q.residual * q.area;
         p.area += q.area;
-        p.children.push_back(c);
+        p.children.push_back(from[i]);
       }
       for (uint32_t b : out) {
         points[b].normal = glm::normalize(points[b].normal);
@@ -363,14 +396,14 @@ ProgressiveIteration ProgressiveRadiosity::shoot(uint32_t shooter) {
       p.area = area_[e];
       p.residual = db_[e];
       p.normal = normal_[e];
-      p.members = {e};
+      p.element = e;
       p.lo = p.hi = lattice_[e];
       p.texel = glm::ivec2(int(texel_[e] % uint32_t(atlas_.width)),
                            int(texel_[e] / uint32_t(atlas_.width)));
       level0.push_back(uint32_t(points.size()));
       points.push_back(std::move(p));
     }
-    if (options_.shooter_top_points > 0) {
+    if (hierarchical) {
       top = level0;
       int level = 1;
       for (; top.size() > size_t(options_.shooter_top_points) && level <= 16; ++level) {
@@ -384,22 +417,22 @@ ProgressiveIteration ProgressiveRadiosity::shoot(uint32_t shooter) {
         for (uint32_t b : roots) points[b].above_top = true;
       }
       // The blocks' polygons: the chart's part their texels cover together.
-      for (ShooterPoint& p : points) {
-        if (p.children.empty()) continue;
-        p.polygon = int32_t(polygons.size());
-        polygons.emplace_back();
-        polygons.back().second = blockPolygon(shooter, p.lo, p.hi, polygons.back().first);
+      std::vector<uint32_t> blocks;
+      for (uint32_t k = 0; k < points.size(); ++k) {
+        if (!points[k].children.empty()) blocks.push_back(k);
       }
+      polygons.resize(blocks.size());
+      parallelRange(blocks.size(), 256, [&](size_t b0, size_t b1) {
+        for (size_t b = b0; b < b1; ++b) {
+          ShooterPoint& p = points[blocks[b]];
+          p.polygon = int32_t(b);
+          polygons[b].second = blockPolygon(shooter, p.lo, p.hi, polygons[b].first);
+        }
+      });
     } else {
+      // Flat mode: the blocks of one level, whose elements are their children.
       top = options_.shooter_level > 0 ? group(level0, options_.shooter_level) : level0;
       roots = top;
-      // Flat mode: a block is a point with members and no sub-blocks.
-      for (uint32_t b : top) {
-        ShooterPoint& p = points[b];
-        if (p.children.empty()) continue;
-        for (uint32_t c : p.children) p.members.push_back(points[c].members.front());
-        p.children.clear();
-      }
     }
     for (std::vector<uint32_t>* list : {&top, &roots}) {
       list->erase(std::remove_if(list->begin(), list->end(),
@@ -479,7 +512,8 @@ ProgressiveIteration ProgressiveRadiosity::shoot(uint32_t shooter) {
           // Blocks above the top level stand for their sub-blocks only for receivers farther than
           // kCoarse of their sizes: to those the whole block subtends a few degrees at most, so one
           // visibility ray loses no penumbra worth resolving.
-          if ((near || (s.above_top && d2 < kCoarse * kCoarse * s.area)) && !s.children.empty()) {
+          if (hierarchical && (near || (s.above_top && d2 < kCoarse * kCoarse * s.area)) &&
+              !s.children.empty()) {
             for (auto c = s.children.rbegin(); c != s.children.rend(); ++c) {
               if (points[*c].residual != glm::dvec3(0.0)) stack.push_back(*c);
             }
@@ -530,12 +564,15 @@ ProgressiveIteration ProgressiveRadiosity::shoot(uint32_t shooter) {
           // Near pairs (across an edge, in a corner): eq. 2's disc is a poor stand-in for a
           // neighbour seen edge-on, so each of the point's elements contributes Lambert's exact
           // point-to-polygon form factor (kernels/form_factor.h) to its own polygon.
-          for (uint32_t m : s.members) {
+          auto add = [&](uint32_t m) {
             std::array<glm::dvec3, 8> poly;
             const int count = elementPolygon(m, poly);
-            if (count < 3) continue;
-            incident[r] += db_[m] * pointToPolygonFormFactor<true>(pr, nr, poly.data(), count);
-          }
+            if (count >= 3) {
+              incident[r] += db_[m] * pointToPolygonFormFactor<true>(pr, nr, poly.data(), count);
+            }
+          };
+          if (s.element != kNoElement) add(s.element);
+          for (uint32_t c : s.children) add(points[c].element);  // flat mode's blocks
           continue;
         }
         const glm::dvec3 d = s.position - pr;

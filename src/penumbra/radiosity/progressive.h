@@ -227,6 +227,9 @@ class ProgressiveRadiosity {
   glm::ivec2 elementLattice(size_t e) const { return lattice_[e]; }  // (i, j) in its chart
   // The element's polygon in world space (its texel square clipped to its triangle): the count.
   int elementPolygon(uint32_t e, std::array<glm::dvec3, 8>& out) const;
+  // The flat substructuring's shooter points of triangle t (sec. 3): its elements of non-zero
+  // area grouped by blocks of 2^level x 2^level atlas texels, in the order shoot() takes them.
+  std::vector<std::vector<uint32_t>> shooterBlocks(uint32_t t, int level) const;
   const glm::dvec3& radiosity(size_t e) const { return b_[e]; }
   const glm::dvec3& residual(size_t e) const { return db_[e]; }
   const glm::dvec3& reflectance(size_t e) const { return rho_[e]; }

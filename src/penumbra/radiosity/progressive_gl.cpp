@@ -12,7 +12,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
-#include <map>
 #include <string>
 #include <utility>
 
@@ -191,26 +190,15 @@ Expected<GlProgressive> GlProgressive::create(const ProgressiveRadiosity& cpu,
   std::vector<glm::uvec2> subs;
   for (uint32_t t = 0; t < nt; ++t) {
     s.point_first_[t] = uint32_t(points.size());
-    const uint32_t first = cpu.triangleFirst(t), last = cpu.triangleFirst(t + 1);
-    std::map<std::pair<int, int>, size_t> block_of;
-    std::vector<std::vector<uint32_t>> block_members;
-    std::vector<glm::dvec3> block_position;
-    std::vector<double> block_area;
-    for (uint32_t e = first; e < last; ++e) {
-      if (!(cpu.elementArea(e) > 0.0)) continue;  // shoots nothing (the CPU skips it too)
-      const uint32_t texel = cpu.elementTexel(e);
-      const int x = int(texel % uint32_t(atlas.width)), y = int(texel / uint32_t(atlas.width));
-      const auto [it, inserted] =
-          block_of.try_emplace(std::make_pair(x >> level, y >> level), block_members.size());
-      if (inserted) {
-        block_members.emplace_back();
-        block_position.emplace_back(0.0);
-        block_area.push_back(0.0);
+    // The CPU's flat blocks, with their summed areas and area-weighted mean positions.
+    const std::vector<std::vector<uint32_t>> block_members = cpu.shooterBlocks(t, level);
+    std::vector<glm::dvec3> block_position(block_members.size(), glm::dvec3(0.0));
+    std::vector<double> block_area(block_members.size(), 0.0);
+    for (size_t b = 0; b < block_members.size(); ++b) {
+      for (uint32_t e : block_members[b]) {
+        block_position[b] += cpu.elementPosition(e) * cpu.elementArea(e);
+        block_area[b] += cpu.elementArea(e);
       }
-      const double a = cpu.elementArea(e);
-      block_position[it->second] += cpu.elementPosition(e) * a;
-      block_area[it->second] += a;
-      block_members[it->second].push_back(e);
     }
     for (size_t b = 0; b < block_members.size(); ++b) {
       GpuShooterPoint p{};
