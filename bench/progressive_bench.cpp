@@ -11,7 +11,6 @@
 #include "penumbra/radiosity/progressive.h"
 
 #include <benchmark/benchmark.h>
-#include <glm/geometric.hpp>
 
 #include <cmath>
 #include <cstdio>
@@ -48,14 +47,8 @@ double residentBytes() {
 
 void progressiveIterations(benchmark::State& state, const std::string& scene_name) {
   const Scene& scene = sceneNamed(scene_name);
-  const FlatTriangles flat = flattenScene(scene);
-  double area = 0.0;
-  for (const glm::uvec3& t : flat.triangles) {
-    area += 0.5 * double(glm::length(glm::cross(flat.positions[t.y] - flat.positions[t.x],
-                                                flat.positions[t.z] - flat.positions[t.x])));
-  }
   ProgressiveOptions o;
-  o.atlas.texel_density = std::sqrt(double(state.range(0)) / area);
+  o.atlas.texel_density = std::sqrt(double(state.range(0)) / surfaceArea(flattenScene(scene)));
   o.convergence = 0.0;
   constexpr int kIterations = 8;
   double seconds = 0.0, shot = 0.0, rays = 0.0, bytes = 0.0, elements = 0.0;

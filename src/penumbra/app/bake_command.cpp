@@ -221,12 +221,6 @@ Expected<BakeProduct> solveMatrix(const BakeOptions& options, const CommonOption
 // texels the elements; border texels are filled for bilinear lookups (sec. 3.1).
 Expected<BakeProduct> solveProgressive(const CommonOptions& common, const Scene& scene,
                                        const ProgressiveRunOptions& ro) {
-  if (!scene.lights.empty()) {
-    spdlog::warn(
-        "{}: {} point/spot/directional light(s) ignored: progressive radiosity is lit by "
-        "emissive surfaces only in this version",
-        scene.source, scene.lights.size());
-  }
   Expected<ProgressiveRun> run = runProgressive(scene, ro, common);
   if (!run) return run.error();
   const ProgressiveRadiosity& pr = *run->solver;
@@ -272,17 +266,8 @@ Status bake(const BakeOptions& options, const CommonOptions& common, bool* inter
   const std::string stem = sceneStem(options.scene);
   ProgressiveRunOptions ro;
   if (progressive) {
-    ro.elements = options.elements;
-    ro.texel_density = options.texel_density;
-    ro.lightmap_size = options.lightmap_size;
-    ro.iterations = options.iterations;
-    ro.shooter_points = options.shooter_points;
-    ro.device = options.device;
-    ro.shading_normals = options.normals == "interpolated";
-    ro.tolerance = options.tolerance.value_or(1e-3);
-    ro.resume = options.resume;
-    ro.checkpoint = options.checkpoint.empty() ? (out_dir / (stem + ".checkpoint")).string()
-                                               : options.checkpoint;
+    ro = progressiveRunOptions(options);
+    if (ro.checkpoint.empty()) ro.checkpoint = (out_dir / (stem + ".checkpoint")).string();
     const std::string checkpoint = ro.checkpoint;
     if (!missing->empty()) ro.checkpoint.clear();  // the directory is checked above
     PENUMBRA_TRY(checkProgressiveRunOptions(ro));

@@ -11,7 +11,6 @@
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
-#include <glm/geometric.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -47,6 +46,12 @@ Status checkProgressiveRunOptions(const ProgressiveRunOptions& o) {
 Expected<ProgressiveRun> runProgressive(const Scene& scene, const ProgressiveRunOptions& options,
                                         const CommonOptions& common) {
   ProgressiveRun run;
+  if (!scene.lights.empty()) {
+    spdlog::warn(
+        "{}: {} point/spot/directional light(s) ignored: progressive radiosity is lit by "
+        "emissive surfaces only in this version",
+        scene.source, scene.lights.size());
+  }
   if (options.device == "hybrid") {
     return inputError("", "--device", "hybrid applies to the Ray Engine (trace, pathtrace)");
   }
@@ -78,13 +83,7 @@ Expected<ProgressiveRun> runProgressive(const Scene& scene, const ProgressiveRun
     po.atlas.resolution = *options.lightmap_size;
   } else {
     // The density that gives about `elements` occupied texels: density^2 * total area.
-    const FlatTriangles flat = flattenScene(scene);
-    double total_area = 0.0;
-    for (const glm::uvec3& t : flat.triangles) {
-      total_area +=
-          0.5 * double(glm::length(glm::cross(flat.positions[t.y] - flat.positions[t.x],
-                                              flat.positions[t.z] - flat.positions[t.x])));
-    }
+    const double total_area = surfaceArea(flattenScene(scene));
     if (!(total_area > 0.0)) return inputError(scene.source, "", "the scene has no surface area");
     po.atlas.texel_density = std::sqrt(double(options.elements) / total_area);
   }

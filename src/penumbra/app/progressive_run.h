@@ -43,6 +43,24 @@ struct ProgressiveRun {
   bool interrupted = false;    // stopped by Ctrl-C; the checkpoint was written
 };
 
+// What `render` and `bake` pass on, from either command's options (the checkpoint path as
+// given; each command has its own default).
+template <typename CommandOptions>
+ProgressiveRunOptions progressiveRunOptions(const CommandOptions& o) {
+  ProgressiveRunOptions ro;
+  ro.elements = o.elements;
+  ro.texel_density = o.texel_density;
+  if constexpr (requires { o.lightmap_size; }) ro.lightmap_size = o.lightmap_size;
+  ro.iterations = o.iterations;
+  ro.tolerance = o.tolerance.value_or(1e-3);
+  ro.resume = o.resume;
+  ro.checkpoint = o.checkpoint;
+  ro.shooter_points = o.shooter_points;
+  ro.device = o.device;
+  ro.shading_normals = o.normals == "interpolated";
+  return ro;
+}
+
 // Checks the options that do not need the scene (call before any work).
 Status checkProgressiveRunOptions(const ProgressiveRunOptions& options);
 

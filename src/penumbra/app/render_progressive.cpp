@@ -45,16 +45,7 @@ Status renderProgressive(const RenderOptions& options, const CommonOptions& comm
   if (options.relight_frames > 0) {
     return inputError("", "--relight-frames", "applies to --method matrix only");
   }
-  ProgressiveRunOptions ro;
-  ro.elements = options.elements;
-  ro.texel_density = options.texel_density;
-  ro.iterations = options.iterations;
-  ro.shooter_points = options.shooter_points;
-  ro.device = options.device;
-  ro.shading_normals = options.normals == "interpolated";
-  ro.tolerance = options.tolerance.value_or(1e-3);
-  ro.resume = options.resume;
-  ro.checkpoint = options.checkpoint;
+  ProgressiveRunOptions ro = progressiveRunOptions(options);
   if (ro.checkpoint.empty()) {
     ro.checkpoint =
         std::filesystem::path(outputs.front()).replace_extension(".checkpoint").string();
@@ -73,12 +64,6 @@ Status renderProgressive(const RenderOptions& options, const CommonOptions& comm
   Expected<Scene> scene = loadScene(options.scene);
   if (!scene) return scene.error();
   for (const std::string& w : scene->warnings) spdlog::warn("{}", w);
-  if (!scene->lights.empty()) {
-    spdlog::warn(
-        "{}: {} point/spot/directional light(s) ignored: progressive radiosity is lit by "
-        "emissive surfaces only in this version",
-        scene->source, scene->lights.size());
-  }
   Expected<ProgressiveRun> run = runProgressive(*scene, ro, common);
   if (!run) return run.error();
   const ProgressiveRadiosity& pr = *run->solver;

@@ -45,6 +45,15 @@ FlatTriangles flattenScene(const Scene& scene) {
   return f;
 }
 
+double surfaceArea(const FlatTriangles& flat) {
+  double area = 0.0;
+  for (const glm::uvec3& t : flat.triangles) {
+    area += 0.5 * glm::length(glm::cross(glm::dvec3(flat.positions[t.y] - flat.positions[t.x]),
+                                         glm::dvec3(flat.positions[t.z] - flat.positions[t.x])));
+  }
+  return area;
+}
+
 std::vector<glm::vec2> flattenSceneUvs(const Scene& scene, bool& any) {
   std::vector<glm::vec2> uvs;
   uvs.reserve(3 * scene.triangleCount());
