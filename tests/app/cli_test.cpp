@@ -16,6 +16,7 @@
 #include <chrono>
 #include <cmath>
 #include <csignal>
+#include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -416,8 +417,9 @@ TEST(Cli, ProgressiveRadiosityOnTheGpu) {
     }
   }
   const double rms = std::sqrt(num / den);
-  RecordProperty("gpu_vs_cpu_relative_rms", std::to_string(rms));
-  EXPECT_LE(rms, 0.05);  // measured 2.8% (512 x 512) to 3.5%
+  std::printf("cornell, GPU against CPU image: relative RMS %.4f\n", rms);
+  // Measured 2.2% here (1,500 elements, 48 x 48), 2.8% at 3,000 elements and 512 x 512.
+  EXPECT_LE(rms, 0.05);
 }
 
 // EGL with no vendor library: no context can be made.

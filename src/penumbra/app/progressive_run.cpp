@@ -19,11 +19,11 @@ namespace penumbra {
 
 namespace {
 
-// Bytes per element a run needs at its peak: the solver keeps B, dB, reflectance, emission and
-// position (5 x 24), area, texel, triangle and lattice point (24) and an iteration's incident
-// irradiance (24); the atlas adds 13 bytes per texel (1.5-2 texels per element), a shooter's
-// block hierarchy and the gather's buffers come on top. Measured: 375 bytes per element for the
-// whole process at 4.1 M elements (docs/performance.md).
+// Bytes per element a run needs at its peak: the solver keeps B, dB, reflectance, emission,
+// position and shading normal (6 x 24), area, texel, triangle and lattice point (24) and an
+// iteration's incident irradiance (24); the atlas adds 13 bytes per texel (1.5-2 texels per
+// element), a shooter's block hierarchy comes on top. Measured: 273 bytes per element for the
+// whole process at 4.1 M elements (docs/performance.md); 400 leaves a margin.
 constexpr uint64_t kBytesPerElement = 400;
 
 }  // namespace
