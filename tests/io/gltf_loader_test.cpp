@@ -186,6 +186,19 @@ TEST(GltfLoad, EmbeddedBufferGltf) {
   EXPECT_TRUE(s->warnings.empty()) << s->warnings[0];
 }
 
+TEST(GltfLoad, DoubleSidedDecidesTwoSidedness) {
+  // glTF's default is one-sided (doubleSided false); Blender writes true.
+  TempDir dir;
+  Expected<Scene> one = loadGltf(writeGltf(dir, "one.gltf", makeTestGltf()));
+  ASSERT_TRUE(one.ok());
+  EXPECT_FALSE(one->materials[0].two_sided);
+  TestGltf g = makeTestGltf();
+  g.doc["materials"][0]["doubleSided"] = true;
+  Expected<Scene> two = loadGltf(writeGltf(dir, "two.gltf", g));
+  ASSERT_TRUE(two.ok());
+  EXPECT_TRUE(two->materials[0].two_sided);
+}
+
 TEST(GltfLoad, BinaryGlb) {
   TempDir dir;
   const std::string path = writeGlb(dir, "quad.glb", makeTestGltf());

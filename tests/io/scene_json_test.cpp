@@ -20,6 +20,7 @@ namespace penumbra {
 namespace {
 
 using test::dataPath;
+using test::errorNames;
 using test::TempDir;
 
 const std::string kRepo = std::string(PENUMBRA_TEST_DATA) + "/../..";
@@ -112,6 +113,24 @@ TEST(SceneJsonLoad, DocumentedExampleIsTheRepositoryScene) {
 
 const char* const kTriangleObj =
     "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0.70710678 0.70710678 0\nf 1//1 2//1 3//1\n";
+
+TEST(SceneJsonLoad, TwoSidedIsTheDefaultAndCanBeTurnedOff) {
+  TempDir dir;
+  dir.write("tri.obj", kTriangleObj);
+  const std::string path = dir.write("scene.json", R"({
+    "materials": {"paint": {}, "sheet": {"two_sided": false}},
+    "meshes": [{"file": "tri.obj", "material": "paint"}, {"file": "tri.obj", "material": "sheet"}]
+  })");
+  Expected<Scene> s = loadSceneJson(path);
+  ASSERT_TRUE(s.ok()) << s.error().describe();
+  EXPECT_TRUE(s->materials[0].two_sided);
+  EXPECT_FALSE(s->materials[1].two_sided);
+  const std::string bad = dir.write("bad.json", R"({
+    "materials": {"sheet": {"two_sided": 0}},
+    "meshes": [{"file": "tri.obj", "material": "sheet"}]
+  })");
+  EXPECT_TRUE(errorNames(loadSceneJson(bad), bad, "materials.sheet.two_sided"));
+}
 
 TEST(SceneJsonLoad, TransformsLightsCameraSettings) {
   TempDir dir;

@@ -244,6 +244,7 @@ Expected<uint32_t> GltfReader::materialFor(int gltf_material, const std::string&
     return inputError(path_, place, "pbrMetallicRoughness.baseColorFactor needs 4 numbers");
   }
   m.reflectance = glm::vec3(base[0], base[1], base[2]);
+  m.two_sided = gm.doubleSided;
   if (gm.pbrMetallicRoughness.baseColorTexture.index >= 0) {
     scene_.warnings.push_back(
         fmt::format("{}: {} ('{}'): baseColorTexture is not used yet, only baseColorFactor", path_,

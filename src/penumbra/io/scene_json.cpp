@@ -193,7 +193,7 @@ Status SceneJsonReader::readMaterials(const json& root, Scene& scene) {
       return error(place, fmt::format("must be an object, not {}", jsonTypeName(*it)));
     }
     PENUMBRA_TRY(
-        checkKeys(*it, place, {"reflectance", "emission"},
+        checkKeys(*it, place, {"reflectance", "emission", "two_sided"},
                   {{"normal_map", "normal mapping"}, {"subsurface", "subsurface scattering"}}));
     Material m;
     m.name = it.key();
@@ -206,6 +206,13 @@ Status SceneJsonReader::readMaterials(const json& root, Scene& scene) {
       Expected<glm::vec3> e = colour(it->at("emission"), place + ".emission", false);
       if (!e.ok()) return e.error();
       m.emission = *e;
+    }
+    if (it->contains("two_sided")) {
+      if (!it->at("two_sided").is_boolean()) {
+        return error(place + ".two_sided", fmt::format("must be true or false, not {}",
+                                                       jsonTypeName(it->at("two_sided"))));
+      }
+      m.two_sided = it->at("two_sided").get<bool>();
     }
     material_index_[m.name] = static_cast<uint32_t>(scene.materials.size());
     scene.materials.push_back(std::move(m));

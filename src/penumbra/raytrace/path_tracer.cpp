@@ -141,6 +141,8 @@ int PathTracer::shade(PathState& s, const Hit& hit, const PathTracerSettings& se
   }
   if (settings.max_depth > 0 && s.depth >= settings.max_depth) return 0;
   if (mat.reflectance == glm::vec3(0.0f)) return 0;
+  // One-sided surfaces (Material::two_sided false) have a black back face.
+  if (!mat.two_sided && !(cos_front > 0.0f)) return 0;
 
   // Surfaces reflect on both sides: shade with the normal facing the incoming ray.
   const glm::vec3 n = cos_front > 0.0f ? ng : -ng;
