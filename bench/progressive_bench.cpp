@@ -48,7 +48,7 @@ double residentBytes() {
 void progressiveIterations(benchmark::State& state, const std::string& scene_name) {
   const Scene& scene = sceneNamed(scene_name);
   ProgressiveOptions o;
-  o.atlas.texel_density = std::sqrt(double(state.range(0)) / surfaceArea(flattenScene(scene)));
+  o.atlas.texel_density = std::sqrt(double(state.range(0)) / faceArea(scene));
   o.convergence = 0.0;
   constexpr int kIterations = 8;
   double seconds = 0.0, shot = 0.0, rays = 0.0, bytes = 0.0, elements = 0.0;
@@ -62,7 +62,9 @@ void progressiveIterations(benchmark::State& state, const std::string& scene_nam
     elements = double(pr->elementCount());
     for (int i = 0; i < kIterations; ++i) {
       const uint32_t shooter = pr->selectShooter();
-      shot += double(pr->triangleFirst(shooter + 1) - pr->triangleFirst(shooter));
+      if (shooter != ProgressiveRadiosity::kLights) {
+        shot += double(pr->shooterEnd(shooter) - pr->shooterBegin(shooter));
+      }
       const ProgressiveIteration it = pr->shoot(shooter);
       seconds += it.seconds;
       rays += double(it.rays);

@@ -1,44 +1,43 @@
 #version 450
 // The compute passes of GPU progressive radiosity (Wallner sec. 3 and 3.1), one program per
 // PROGRESSIVE_PASS (src/penumbra/radiosity/progressive_gl.cpp):
-//  0 power:    residual power of every triangle, the sum over its occupied texels only of
-//              luminance(dB) (I = 0.3 R + 0.59 G + 0.11 B) times the element's area, and the RGB
-//              sum (W). The paper averages the occupied texels of each triangle's own texture
-//              by a mipmap ping-pong; our charts share one atlas, so each triangle sums its own
-//              elements (grouped by triangle), one invocation per triangle, in element order
-//              and in double: the CPU's order and precision, so ties break alike.
-//  1 select:   the triangle with the highest residual power, one work group, lowest index on
+//  0 power:    residual power of every shooter (a cluster of the hierarchy: a contiguous range
+//              of elements), the sum over its occupied texels only of luminance(dB) (I = 0.3 R +
+//              0.59 G + 0.11 B) times the element's area, and the RGB sum (W): the paper's
+//              mipmap reduction over occupied texels, one invocation per shooter, in element
+//              order and in double: the CPU's order and precision, so ties break alike.
+//  1 select:   the shooter with the highest residual power, one work group, lowest index on
 //              ties (the CPU's strict > scan). Only this winner is read back.
-//  2 points:   the shooter's points (substructuring, sec. 3): per block of 2^level x 2^level
-//              texels (static membership, from the CPU) the sum of dB * area over its elements
-//              in double; read back, it gives the power shot (the books), the points with
-//              something to shoot, and their area-weighted mean dB.
-//  3 resolve:  after all shooter points: B += rho * incident, dB += rho * incident (eq. 1,
-//              progressive form), the shooter's dB = 0, and per work group the sums of
-//              incident * area, (1 - rho) incident * area and rho incident * area in double for
-//              the energy books (read back and summed on the CPU).
-//  4 radiance: the radiance atlas B / pi (+ rho * ambient / pi), alpha 1 on occupied texels;
-//              optionally the border row past each hypotenuse from the chart's plane.
+//  2 points:   the shooter's points (substructuring, sec. 3): per cluster of one level (a
+//              contiguous range of elements) the sum of dB * area in double; read back, it gives
+//              the power shot (the books), the points with something to shoot, and their
+//              area-weighted mean dB.
+//  3 resolve:  after all shooter points: B += rho * scale * incident, dB += the same (eq. 1,
+//              progressive form; scale = 1 unless the shot is closed), the shooter's dB = 0,
+//              and per work group the sums of incident * area, (1 - rho) incident * area and
+//              rho incident * area in double for the energy books (read back and summed on the
+//              CPU); with apply = false only the sums.
+//  4 radiance: the radiance atlas B / pi (+ rho * ambient / pi), alpha 1 on occupied texels.
 //  5 fill:     one ping-pong pass of the sec. 3.1 post-process: an unoccupied texel next to
-//              occupied texels of the same triangle gets their mean (8-neighbourhood), alpha 1.
+//              occupied texels of the same chart gets their mean (8-neighbourhood), alpha 1.
 #include "radiosity/progressive_layout.glsl"
 
 #if PROGRESSIVE_PASS == 0
 layout(local_size_x = 64) in;
-layout(std430, binding = 0) readonly buffer Triangles { GpuProgressiveTriangle triangles[]; };
+layout(std430, binding = 0) readonly buffer Shooters { GpuShooter shooters[]; };
 layout(std430, binding = 2) readonly buffer Elements { GpuProgressiveElement elements[]; };
-layout(std430, binding = 9) writeonly buffer TrianglePower { dvec4 triangle_power[]; };
+layout(std430, binding = 9) writeonly buffer ShooterPower { dvec4 shooter_power[]; };
 layout(std430, binding = 12) readonly buffer ElementArea { double element_area[]; };
 layout(binding = 0, rgba32f) uniform readonly image2D residual;
 
-uniform uint triangle_count;
+uniform uint shooter_count;
 uniform int atlas_width;
 
 void main() {
   const uint t = gl_WorkGroupID.y * gl_NumWorkGroups.x * gl_WorkGroupSize.x +
                  gl_GlobalInvocationID.x;
-  if (t >= triangle_count) return;
-  const uint first = triangles[t].element_first, last = first + triangles[t].element_count;
+  if (t >= shooter_count) return;
+  const uint first = shooters[t].element_first, last = first + shooters[t].element_count;
   dvec3 rgb = dvec3(0.0);
   double lum = 0.0LF;
   for (uint e = first; e < last; ++e) {
@@ -49,15 +48,15 @@ void main() {
     lum += (0.3LF * db.x + 0.59LF * db.y + 0.11LF * db.z) * a;
     rgb += db * a;
   }
-  triangle_power[t] = dvec4(rgb, lum);
+  shooter_power[t] = dvec4(rgb, lum);
 }
 
 #elif PROGRESSIVE_PASS == 1
 layout(local_size_x = 256) in;
-layout(std430, binding = 9) readonly buffer TrianglePower { dvec4 triangle_power[]; };
+layout(std430, binding = 9) readonly buffer ShooterPower { dvec4 shooter_power[]; };
 layout(std430, binding = 10) writeonly buffer Selection { GpuSelection selection; };
 
-uniform uint triangle_count;
+uniform uint shooter_count;
 
 shared double best_power[256];
 shared uint best_triangle[256];
@@ -66,8 +65,8 @@ void main() {
   const uint lane = gl_LocalInvocationID.x;
   double power = 0.0LF;
   uint best = 0xffffffffu;
-  for (uint t = lane; t < triangle_count; t += 256u) {
-    const double p = triangle_power[t].w;
+  for (uint t = lane; t < shooter_count; t += 256u) {
+    const double p = shooter_power[t].w;
     if (p > power) {  // ascending t: the lowest index wins ties
       power = p;
       best = t;
@@ -96,7 +95,6 @@ void main() {
 layout(local_size_x = 64) in;
 layout(std430, binding = 2) readonly buffer Elements { GpuProgressiveElement elements[]; };
 layout(std430, binding = 4) readonly buffer Points { GpuShooterPoint points[]; };
-layout(std430, binding = 6) readonly buffer Members { uint members[]; };
 layout(std430, binding = 8) writeonly buffer PointPower { dvec4 point_power[]; };
 layout(std430, binding = 12) readonly buffer ElementArea { double element_area[]; };
 layout(binding = 0, rgba32f) uniform readonly image2D residual;
@@ -112,7 +110,7 @@ void main() {
   const GpuShooterPoint s = points[p];
   dvec3 sum = dvec3(0.0);
   for (uint q = 0u; q < s.member_count; ++q) {
-    const uint e = members[s.member_first + q];
+    const uint e = s.member_first + q;
     const uint texel = elements[e].texel;
     const dvec3 db = dvec3(imageLoad(residual, ivec2(int(texel % uint(atlas_width)),
                                                       int(texel / uint(atlas_width)))).rgb);
@@ -131,8 +129,10 @@ layout(binding = 1, rgba32f) uniform image2D radiosity;
 layout(binding = 2) uniform sampler2D incident_map;
 
 uniform uint element_count;
-uniform uint shooter;
+uniform uvec2 shooter_elements;  // the shooter's elements: first, count
 uniform int atlas_width;
+uniform vec3 scale;  // closed shots: power shot / power arrived, per channel
+uniform bool apply;  // false: only the sums
 
 shared dvec3 arrived[256];
 shared dvec3 absorbed[256];
@@ -146,19 +146,24 @@ void main() {
   if (e < element_count) {
     const GpuProgressiveElement el = elements[e];
     const ivec2 xy = ivec2(int(el.texel % uint(atlas_width)), int(el.texel / uint(atlas_width)));
-    const dvec3 inc = dvec3(texelFetch(incident_map, xy, 0).rgb);
+    const dvec3 inc = dvec3(texelFetch(incident_map, xy, 0).rgb) * dvec3(scale);
+    const bool own = e - shooter_elements.x < shooter_elements.y;  // the shooter's element
     if (inc != dvec3(0.0)) {
       const dvec3 rho = dvec3(el.reflectance);
       const dvec3 gain = rho * inc;
       const double a = element_area[e];
-      const vec4 b = imageLoad(radiosity, xy), db = imageLoad(residual, xy);
-      imageStore(radiosity, xy, vec4(vec3(dvec3(b.rgb) + gain), b.a));
-      imageStore(residual, xy, vec4(vec3(dvec3(db.rgb) + gain), db.a));
+      if (apply) {
+        const vec4 b = imageLoad(radiosity, xy), db = imageLoad(residual, xy);
+        imageStore(radiosity, xy, vec4(vec3(dvec3(b.rgb) + gain), b.a));
+        // The shooter's own dB is zeroed before it gains (a curved chart lights itself).
+        imageStore(residual, xy, vec4(vec3((own ? dvec3(0.0) : dvec3(db.rgb)) + gain), db.a));
+      }
       in_a = inc * a;
       ab_a = (dvec3(1.0) - rho) * inc * a;
       re_a = gain * a;
+    } else if (apply && own) {
+      imageStore(residual, xy, vec4(0.0, 0.0, 0.0, 1.0));
     }
-    if (el.triangle == shooter) imageStore(residual, xy, vec4(0.0, 0.0, 0.0, 1.0));
   }
   arrived[lane] = in_a;
   absorbed[lane] = ab_a;
@@ -182,54 +187,31 @@ void main() {
 
 #elif PROGRESSIVE_PASS == 4
 layout(local_size_x = 16, local_size_y = 16) in;
-layout(std430, binding = 0) readonly buffer Triangles { GpuProgressiveTriangle triangles[]; };
 layout(std430, binding = 2) readonly buffer Elements { GpuProgressiveElement elements[]; };
 layout(std430, binding = 3) readonly buffer TexelElement { int texel_element[]; };
-layout(std430, binding = 13) readonly buffer TexelTriangle { int texel_triangle[]; };
 layout(binding = 1, rgba32f) uniform readonly image2D radiosity;
 layout(binding = 3, rgba32f) uniform writeonly image2D radiance;
 
 uniform ivec2 atlas_size;
-uniform vec3 ambient;       // eq. 4-6, zero unless asked for
-uniform bool border_plane;  // border texels from the chart's plane (the CPU's rule)
+uniform vec3 ambient;  // eq. 4-6, zero unless asked for
 
 const float kInvPi = 0.318309886183791;
-
-// Outgoing radiance of the element at texel xy, or -1 when the texel holds none.
-vec3 radianceAt(ivec2 xy) {
-  const int e = texel_element[xy.y * atlas_size.x + xy.x];
-  if (e < 0) return vec3(-1.0);
-  return (imageLoad(radiosity, xy).rgb + elements[e].reflectance * ambient) * kInvPi;
-}
 
 void main() {
   const ivec2 xy = ivec2(gl_GlobalInvocationID.xy);
   if (xy.x >= atlas_size.x || xy.y >= atlas_size.y) return;
   const int e = texel_element[xy.y * atlas_size.x + xy.x];
-  const int t = texel_triangle[xy.y * atlas_size.x + xy.x];
   vec4 out_value = vec4(0.0);
   if (e >= 0) {
-    out_value = vec4(radianceAt(xy), 1.0);
-  } else if (border_plane && t >= 0) {
-    // The border row past the hypotenuse (lattice i + j = leg + 1, i, j >= 1), as the CPU's
-    // radianceImage fills it: the plane through the three inside texels before it,
-    // v(i-1, j) + v(i, j-1) - v(i-1, j-1), clamped at 0, so that bilinear lookups near the
-    // hypotenuse continue the chart's gradient (no seam along a quad's diagonal).
-    const GpuProgressiveTriangle tri = triangles[t];
-    const ivec2 l = tri.axis * (xy - tri.corner);
-    if (l.x >= 1 && l.y >= 1 && l.x + l.y == tri.leg + 1) {
-      const vec3 u = radianceAt(tri.corner + tri.axis * (l - ivec2(1, 0)));
-      const vec3 v = radianceAt(tri.corner + tri.axis * (l - ivec2(0, 1)));
-      const vec3 w = radianceAt(tri.corner + tri.axis * (l - ivec2(1, 1)));
-      if (u.x >= 0.0 && v.x >= 0.0 && w.x >= 0.0) out_value = vec4(max(u + v - w, 0.0), 1.0);
-    }
+    out_value =
+        vec4((imageLoad(radiosity, xy).rgb + elements[e].reflectance * ambient) * kInvPi, 1.0);
   }
   imageStore(radiance, xy, out_value);
 }
 
 #elif PROGRESSIVE_PASS == 5
 layout(local_size_x = 16, local_size_y = 16) in;
-layout(std430, binding = 13) readonly buffer TexelTriangle { int texel_triangle[]; };
+layout(std430, binding = 13) readonly buffer TexelChart { int texel_chart[]; };
 layout(binding = 2) uniform sampler2D source;
 layout(binding = 3, rgba32f) uniform writeonly image2D target;
 
@@ -239,7 +221,7 @@ void main() {
   const ivec2 xy = ivec2(gl_GlobalInvocationID.xy);
   if (xy.x >= atlas_size.x || xy.y >= atlas_size.y) return;
   vec4 v = texelFetch(source, xy, 0);
-  const int t = texel_triangle[xy.y * atlas_size.x + xy.x];
+  const int t = texel_chart[xy.y * atlas_size.x + xy.x];
   if (v.a == 0.0 && t >= 0) {
     vec3 sum = vec3(0.0);
     int k = 0;
@@ -248,7 +230,7 @@ void main() {
         const ivec2 q = xy + ivec2(dx, dy);
         if (q.x < 0 || q.y < 0 || q.x >= atlas_size.x || q.y >= atlas_size.y) continue;
         const vec4 n = texelFetch(source, q, 0);
-        if (n.a == 0.0 || texel_triangle[q.y * atlas_size.x + q.x] != t) continue;
+        if (n.a == 0.0 || texel_chart[q.y * atlas_size.x + q.x] != t) continue;
         sum += n.rgb;
         ++k;
       }

@@ -1,3 +1,8 @@
 #version 450
-// The depth pass writes only the depth of progressive_depth.vert (Algorithm 1's linear depth).
-void main() {}
+// The depth pass writes the depth of progressive_depth.vert (Algorithm 1's linear depth) and
+// which triangle is nearest, so that the receiver pass can tell its own surface seen at a
+// grazing angle from an occluder in front of it.
+flat in uint v_triangle;
+layout(location = 0) out uint triangle_id;
+
+void main() { triangle_id = v_triangle; }

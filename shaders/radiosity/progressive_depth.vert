@@ -19,6 +19,7 @@ uniform Hemisphere hemisphere;  // all but the origin, which is the batch's poin
 uniform uint tiles;             // tiles x tiles depth maps in the texture
 
 out float gl_ClipDistance[4];
+flat out uint v_triangle;
 
 void main() {
   const uint sub = uint(gl_VertexID) / 6u, corner = uint(gl_VertexID) % 6u;
@@ -26,6 +27,7 @@ void main() {
   Hemisphere h = hemisphere;
   h.origin = batch[k].position_f.xyz;
   const uvec2 st = sub_triangles[sub];
+  v_triangle = st.x;
   const ClippedPiece piece = clipSubTriangle(h, triangles[st.x], st.y);
   const int fan = int(corner / 3u);  // 0: (0, 1, 2), 1: (0, 2, 3)
   const int c = int(corner % 3u);

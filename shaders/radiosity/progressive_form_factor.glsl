@@ -25,6 +25,14 @@ float edgeTerm(vec3 x, vec3 n, vec3 a, vec3 b) {
 }
 
 float pointToPolygonFormFactor(vec3 x, vec3 n, vec3 poly[8]) {
+  // A polygon lying in the tangent plane (the other side of the receiver's own surface)
+  // subtends no projected solid angle; Lambert's sum would count it as the whole hemisphere.
+  float height = 0.0, extent = 0.0;
+  for (int k = 0; k < 8; ++k) {
+    height = max(height, dot(n, poly[k] - x));
+    extent = max(extent, length(poly[k] - x));
+  }
+  if (height <= 1e-4 * extent) return 0.0;
   float sum = 0.0;
   vec3 exit_point = vec3(0.0), entry_point = vec3(0.0);
   bool exits = false, enters = false;

@@ -1,22 +1,25 @@
 #version 450
-// The receiver pass (Wallner sec. 3 and 3.1): every receiver triangle rendered orthographically
-// into the atlas through its lightmap UVs, once as a polygon and once as its outline (the same
-// draw with glPolygonMode GL_LINE, line width 1), so that the texel centres lying exactly on the
-// triangle's edges, which polygon rasterisation may leave out, are produced by the lines. UV
-// (0, 0) is the top-left corner of the atlas image (row 0 at the top, lightmap_atlas.h): window
-// y = v * height addresses row v * height of the texture as stored, so no flip is needed.
+// The receiver pass (Wallner sec. 3): every receiver element drawn into the atlas as a point of
+// size 1 at its texel's centre, so that each element gets exactly one fragment. (The paper
+// rasterises each receiver triangle through its lightmap UVs, with outlines for the texels on
+// its edges; the value a fragment computes depends only on its texel's element, so one fragment
+// per element is the same result without double counting or missed texels.) UV (0, 0) is the
+// top-left corner of the atlas image (row 0 at the top, chart_atlas.h): window y = row, so no
+// flip is needed.
 #include "radiosity/progressive_layout.glsl"
 
-layout(std430, binding = 0) readonly buffer Triangles { GpuProgressiveTriangle triangles[]; };
-layout(std430, binding = 1) readonly buffer Receivers { uint receivers[]; };
+layout(std430, binding = 2) readonly buffer Elements { GpuProgressiveElement elements[]; };
 
-uniform uint receiver_first;  // this pass's receivers: receivers[receiver_first ..]
+uniform int atlas_width;
+uniform int atlas_height;
 
-flat out uint v_triangle;
+flat out uint v_element;
 
 void main() {
-  const uint t = receivers[receiver_first + uint(gl_VertexID) / 3u];
-  const vec2 uv = triangles[t].uv[uint(gl_VertexID) % 3u];
-  v_triangle = t;
-  gl_Position = vec4(uv * 2.0 - 1.0, 0.0, 1.0);
+  const uint e = uint(gl_VertexID);  // glDrawArrays' first is included
+  const uint texel = elements[e].texel;
+  const vec2 centre = vec2(float(texel % uint(atlas_width)) + 0.5,
+                           float(texel / uint(atlas_width)) + 0.5);
+  v_element = e;
+  gl_Position = vec4(centre / vec2(float(atlas_width), float(atlas_height)) * 2.0 - 1.0, 0.0, 1.0);
 }

@@ -275,39 +275,53 @@ TEST(Bake, ProgressiveWritesTheSolversOwnLightmap) {
   ASSERT_TRUE(loader.LoadASCIIFromFile(&model, &err, &warn, (out / "cornell.gltf").string()))
       << err;
   for (const tinygltf::Material& m : model.materials) EXPECT_EQ(m.emissiveTexture.texCoord, 1);
-  const LightmapAtlas& atlas = pr->atlas();
+  const ChartAtlas& atlas = pr->atlas();
   const FlatTriangles& flat = pr->triangles();
-  std::vector<bool> seen(flat.triangles.size(), false);
+  // Every face once: the front of each triangle as in the scene, the back (two-sided
+  // materials) wound the other way.
+  std::vector<int32_t> face_of(2 * flat.triangles.size(), -1);
+  size_t faces = 0;
+  for (size_t f = 0; f < atlas.faces.size(); ++f) {
+    if (atlas.charts.face_chart[f] < 0) continue;
+    face_of[2 * atlas.faces[f].triangle + (atlas.faces[f].back ? 1 : 0)] = int32_t(f);
+    ++faces;
+  }
+  std::vector<bool> seen(face_of.size(), false);
   for (const tinygltf::Primitive& p : model.meshes.at(0).primitives) {
     const auto positions = readFloats<3>(model, p.attributes.at("POSITION"));
     const auto radiance = readFloats<3>(model, p.attributes.at("_RADIANCE"));
     const auto uv1 = readFloats<2>(model, p.attributes.at("TEXCOORD_1"));
     const std::vector<uint32_t> indices = readIndices(model, p.indices);
     for (size_t t = 0; t < indices.size() / 3; ++t) {
-      // The scene triangle with these corners.
-      size_t found = flat.triangles.size();
+      // The scene face with these corners.
+      size_t found = face_of.size();
+      const int order[2][3] = {{0, 1, 2}, {0, 2, 1}};
       for (size_t k = 0; k < flat.triangles.size(); ++k) {
         const glm::uvec3 tri = flat.triangles[k];
-        if (same(flat.positions[tri.x], positions[indices[3 * t]]) &&
-            same(flat.positions[tri.y], positions[indices[3 * t + 1]]) &&
-            same(flat.positions[tri.z], positions[indices[3 * t + 2]])) {
-          found = k;
+        for (int back = 0; back < 2; ++back) {
+          bool all = true;
+          for (int j = 0; j < 3; ++j) {
+            all = all &&
+                  same(flat.positions[tri[order[back][j]]], positions[indices[3 * t + size_t(j)]]);
+          }
+          if (all) found = 2 * k + size_t(back);
         }
       }
-      ASSERT_LT(found, flat.triangles.size());
+      ASSERT_LT(found, face_of.size());
+      ASSERT_GE(face_of[found], 0);
       EXPECT_FALSE(seen[found]);
       seen[found] = true;
-      for (int k = 0; k < 3; ++k) {
-        const uint32_t v = indices[3 * t + size_t(k)];
-        EXPECT_EQ(uv1[v], atlas.uvs[3 * found + size_t(k)]);
-        // A corner sits on a texel centre of its chart: the lightmap's value there is the
-        // corner element's radiance.
+      const size_t f = size_t(face_of[found]);
+      for (int j = 0; j < 3; ++j) {
+        const uint32_t v = indices[3 * t + size_t(j)];
+        EXPECT_EQ(uv1[v], atlas.uvs[3 * f + size_t(order[found % 2][j])]);
+        // The corner value is the lightmap's bilinear lookup there.
         const glm::vec3 expect = bilinear(lightmap, uv1[v]);
         for (int c = 0; c < 3; ++c) EXPECT_NEAR(radiance[v][c], expect[c], 1e-5f * (1 + expect[c]));
       }
     }
   }
-  EXPECT_EQ(size_t(std::count(seen.begin(), seen.end(), true)), flat.triangles.size());
+  EXPECT_EQ(size_t(std::count(seen.begin(), seen.end(), true)), faces);
 }
 
 TEST(Bake, BadInputGivesOneErrorLineExitCode2AndNoFiles) {

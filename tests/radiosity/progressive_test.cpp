@@ -31,6 +31,11 @@ double energyIdentityError(const ProgressiveRadiosity& pr) {
   return worst;
 }
 
+// The face holding element e's texel centre.
+const SurfaceFace& elementFace(const ProgressiveRadiosity& pr, size_t e) {
+  return pr.atlas().faces[pr.atlas().element_face[e]];
+}
+
 TEST(ProgressiveRadiosity, FurnaceConvergesToTheClosedForm) {
   Expected<Scene> furnace = builtinScene("furnace");
   ASSERT_TRUE(furnace.ok());
@@ -48,10 +53,17 @@ TEST(ProgressiveRadiosity, FurnaceConvergesToTheClosedForm) {
   EXPECT_LE(worst_identity, 1e-4);
   const double exact = 2.0 * kPi;  // E / (1 - rho) = pi * 1 / 0.5
   double worst = 0.0, mean = 0.0, worst_interior = 0.0;
+  size_t inside = 0;
+  for (size_t e = 0; e < pr->elementCount(); ++e) inside += elementFace(*pr, e).back ? 0 : 1;
   for (size_t e = 0; e < pr->elementCount(); ++e) {
+    // The furnace's inside (its faces' fronts); the outside is two-sided paint in the dark.
+    if (elementFace(*pr, e).back) {
+      EXPECT_EQ(pr->radiosity(e), glm::dvec3(0.0));
+      continue;
+    }
     const double err = std::abs(pr->radiosity(e).x - exact) / exact;
     worst = std::max(worst, err);
-    mean += err / double(pr->elementCount());
+    mean += err / double(inside);
     // Distance to the nearest cube edge: the smallest 1 - |c| over the two in-face coordinates.
     const glm::dvec3 p = glm::abs(pr->elementPosition(e));
     const double m = std::max({p.x, p.y, p.z});
@@ -105,7 +117,7 @@ TEST(ProgressiveRadiosity, EnergyBalancesAfterEveryIterationInAnOpenScene) {
   EXPECT_GT(b.escaped.x, 0.0);  // the open front lets light out
 }
 
-TEST(ProgressiveRadiosity, SelectsTheTriangleWithTheHighestResidualPower) {
+TEST(ProgressiveRadiosity, SelectsTheShooterWithTheHighestResidualPower) {
   Expected<Scene> cornell = builtinScene("cornell");
   ASSERT_TRUE(cornell.ok());
   ProgressiveOptions o;
@@ -113,25 +125,22 @@ TEST(ProgressiveRadiosity, SelectsTheTriangleWithTheHighestResidualPower) {
   o.shooter_level = 1;
   Expected<ProgressiveRadiosity> pr = ProgressiveRadiosity::build(*cornell, o);
   ASSERT_TRUE(pr.ok()) << pr.error().describe();
-  const FlatTriangles& flat = pr->triangles();
-  // The first shooter is a light triangle; then brute force agrees with the selection.
+  // The first shooter is the light's chart; then brute force agrees with the selection.
   const uint32_t first = pr->selectShooter();
-  ASSERT_NE(first, ProgressiveRadiosity::kNoShooter);
-  EXPECT_TRUE(cornell->materials[flat.material_ids[first]].isEmissive());
+  ASSERT_LT(first, pr->shooterCount());
+  EXPECT_NE(pr->emission(pr->shooterBegin(first)), glm::dvec3(0.0));
   for (int i = 0; i < 6; ++i) {
-    std::vector<double> power(pr->triangleCount(), 0.0);
-    for (size_t e = 0; e < pr->elementCount(); ++e) {
-      const uint32_t t = pr->elementTriangle(e);
-      power[t] += residualLuminance(pr->residual(e)) * pr->elementArea(e);
-    }
+    std::vector<double> power(pr->shooterCount(), 0.0);
     uint32_t best = 0;
-    for (uint32_t t = 0; t < pr->triangleCount(); ++t) {
-      if (power[t] > power[best]) best = t;
-      EXPECT_NEAR(pr->residualPower(t), power[t], 1e-12 * (1.0 + power[t]));
+    for (uint32_t s = 0; s < pr->shooterCount(); ++s) {
+      for (uint32_t e = pr->shooterBegin(s); e < pr->shooterEnd(s); ++e) {
+        power[s] += residualLuminance(pr->residual(e)) * pr->elementArea(e);
+      }
+      if (power[s] > power[best]) best = s;
+      EXPECT_NEAR(pr->residualPower(s), power[s], 1e-12 * (1.0 + power[s]));
     }
     EXPECT_EQ(pr->selectShooter(), best);
     pr->shoot(best);
-    EXPECT_EQ(pr->residualPower(best), 0.0);  // the shooter's residual is zeroed
   }
   // The ambient term (eq. 4-6) vanishes with the unshot energy and is only for display.
   const glm::dvec3 amb = pr->ambient();
@@ -185,12 +194,15 @@ TEST(ProgressiveRadiosity, CornellWallsAgreeWithTheMatrixMethod) {
   Expected<ProgressiveRadiosity> pr = ProgressiveRadiosity::build(*cornell, o);
   ASSERT_TRUE(pr.ok()) << pr.error().describe();
   const ProgressiveStats st = pr->solve();
+  // Per scene triangle, over the front faces' elements (the matrix method's elements are
+  // one-sided; the walls' outer sides see no light).
   std::vector<glm::dvec3> p_sum(nt, glm::dvec3(0.0));
   std::vector<double> p_area(nt, 0.0);
-  const std::vector<glm::dvec3> tri_b = pr->triangleRadiosity();
-  for (uint32_t t = 0; t < nt; ++t) {
-    p_sum[t] = tri_b[t] * pr->triangleArea(t);
-    p_area[t] = pr->triangleArea(t);
+  for (size_t e = 0; e < pr->elementCount(); ++e) {
+    const SurfaceFace& f = pr->atlas().faces[pr->atlas().element_face[e]];
+    if (f.back) continue;
+    p_sum[f.triangle] += pr->radiosity(e) * pr->elementArea(e);
+    p_area[f.triangle] += pr->elementArea(e);
   }
   std::printf(
       "cornell progressive: %zu elements (matrix %zu), %d iterations, unshot %.4f, %.2f s "
@@ -220,7 +232,7 @@ TEST(ProgressiveRadiosity, CornellWallsAgreeWithTheMatrixMethod) {
 // radiance is B / pi = 2, so any texel a lookup can touch that was left unfilled (0) or filled
 // from another triangle's chart shows up. The lookup points cover each triangle densely,
 // including its edges and corners, where the footprint reaches past the chart's own texels.
-TEST(ProgressiveRadiosity, BilinearLookupsReadOnlyFilledTexelsOfTheirOwnTriangle) {
+TEST(ProgressiveRadiosity, BilinearLookupsReadOnlyFilledTexelsOfTheirOwnChart) {
   Expected<Scene> furnace = builtinScene("furnace");
   ASSERT_TRUE(furnace.ok());
   ProgressiveOptions o;
@@ -230,16 +242,18 @@ TEST(ProgressiveRadiosity, BilinearLookupsReadOnlyFilledTexelsOfTheirOwnTriangle
   ASSERT_TRUE(pr.ok()) << pr.error().describe();
   ASSERT_TRUE(pr->solve().converged);
   const Image lightmap = pr->radianceImage();
-  const LightmapAtlas& a = pr->atlas();
+  const ChartAtlas& a = pr->atlas();
   const double exact = 2.0;
   constexpr int kSteps = 40;
   size_t lookups = 0, touched_border = 0, wrong_triangle = 0, unlit = 0;
   double worst = 0.0;
-  for (uint32_t t = 0; t < pr->triangleCount(); ++t) {
+  for (uint32_t t = 0; t < a.faces.size(); ++t) {
+    if (a.charts.face_chart[t] < 0 || a.faces[t].back) continue;  // the inside of the furnace
     for (int i = 0; i <= kSteps; ++i) {
       for (int j = 0; i + j <= kSteps; ++j) {
         const glm::vec2 bary(float(i) / kSteps, float(j) / kSteps);
-        const glm::vec2 uv = a.uv(t, bary);
+        const glm::vec2 uv = (1.0f - bary.x - bary.y) * a.uvs[3 * t] + bary.x * a.uvs[3 * t + 1] +
+                             bary.y * a.uvs[3 * t + 2];
         // The texels bilinear filtering reads (GL_LINEAR): the 2 x 2 block around the sample
         // point in texel-centre coordinates, with their weights.
         const double px = double(uv.x) * a.width - 0.5, py = double(uv.y) * a.height - 0.5;
@@ -254,7 +268,7 @@ TEST(ProgressiveRadiosity, BilinearLookupsReadOnlyFilledTexelsOfTheirOwnTriangle
             const int x = std::clamp(x0 + dx, 0, a.width - 1),
                       y = std::clamp(y0 + dy, 0, a.height - 1);
             const size_t k = a.texelIndex(x, y);
-            if (a.texel_triangle[k] != int32_t(t)) ++wrong_triangle;
+            if (a.texel_chart[k] != a.charts.face_chart[t]) ++wrong_triangle;
             if (a.texel_kind[k] != AtlasTexelKind::kInside) ++touched_border;
             const glm::vec3 v = lightmap.pixels[k];
             if (!(v.x > 0.0f && v.y > 0.0f && v.z > 0.0f)) ++unlit;
@@ -269,7 +283,7 @@ TEST(ProgressiveRadiosity, BilinearLookupsReadOnlyFilledTexelsOfTheirOwnTriangle
   }
   std::printf(
       "furnace lightmap %dx%d: %zu lookups, %zu texel reads outside the charts' elements, "
-      "%zu of another triangle, %zu unlit; worst radiance error %.4f\n",
+      "%zu of another chart, %zu unlit; worst radiance error %.4f\n",
       a.width, a.height, lookups, touched_border, wrong_triangle, unlit, worst);
   EXPECT_GT(touched_border, 0u);  // the lookups do reach the border rows
   EXPECT_EQ(wrong_triangle, 0u);
@@ -321,9 +335,10 @@ TEST(ProgressiveRadiosity, ShadingNormalsFollowTheSmoothSurface) {
     o.shading_normals = shading == 1;
     Expected<ProgressiveRadiosity> pr = ProgressiveRadiosity::build(scene, o);
     ASSERT_TRUE(pr.ok()) << pr.error().describe();
-    for (int k = 0; k < 2; ++k) {  // the emitter's two triangles, after the cylinder's 32
+    {  // the emitter's chart (its two triangles) shoots first
       const uint32_t light = pr->selectShooter();
-      ASSERT_GE(light, 32u);
+      ASSERT_LT(light, pr->shooterCount());
+      ASSERT_NE(pr->emission(pr->shooterBegin(light)), glm::dvec3(0.0));
       pr->shoot(light);
     }
     // A small Lambertian emitter: E = L A cos_l cos_r / d^2.
@@ -331,7 +346,8 @@ TEST(ProgressiveRadiosity, ShadingNormalsFollowTheSmoothSurface) {
     const double power = 10.0 * 0.04;  // L A
     size_t compared = 0;
     for (size_t e = 0; e < pr->elementCount(); ++e) {
-      if (pr->elementTriangle(e) >= 32) continue;
+      const SurfaceFace& f = elementFace(*pr, e);
+      if (f.triangle >= 32 || f.back) continue;  // the cylinder's outside
       const glm::dvec3 p = pr->elementPosition(e);
       const glm::dvec3 n = glm::normalize(glm::dvec3(p.x, p.y, 0.0));  // the smooth surface's
       const glm::dvec3 d = centre - p;

@@ -238,7 +238,7 @@ Expected<BakeProduct> solveProgressive(const CommonOptions& common, const Scene&
   out.atlas_width = pr.atlas().width;
   out.atlas_height = pr.atlas().height;
   out.texel_density = pr.atlas().texel_density;
-  out.triangles = pr.atlas().charts.size();
+  out.triangles = pr.triangles().triangles.size();
   out.extras = {{"elements", pr.elementCount()},
                 {"iterations", run->stats.total_iterations},
                 {"unshot_fraction", run->stats.unshot_fraction}};

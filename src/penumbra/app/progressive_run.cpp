@@ -46,12 +46,6 @@ Status checkProgressiveRunOptions(const ProgressiveRunOptions& o) {
 Expected<ProgressiveRun> runProgressive(const Scene& scene, const ProgressiveRunOptions& options,
                                         const CommonOptions& common) {
   ProgressiveRun run;
-  if (!scene.lights.empty()) {
-    spdlog::warn(
-        "{}: {} point/spot/directional light(s) ignored: progressive radiosity is lit by "
-        "emissive surfaces only in this version",
-        scene.source, scene.lights.size());
-  }
   if (options.device == "hybrid") {
     return inputError("", "--device", "hybrid applies to the Ray Engine (trace, pathtrace)");
   }
@@ -82,8 +76,9 @@ Expected<ProgressiveRun> runProgressive(const Scene& scene, const ProgressiveRun
     po.atlas.texel_density = 0.0;
     po.atlas.resolution = *options.lightmap_size;
   } else {
-    // The density that gives about `elements` occupied texels: density^2 * total area.
-    const double total_area = surfaceArea(flattenScene(scene));
+    // The density that gives about `elements` occupied texels: density^2 * the faces' area (a
+    // two-sided surface counts twice).
+    const double total_area = faceArea(scene);
     if (!(total_area > 0.0)) return inputError(scene.source, "", "the scene has no surface area");
     po.atlas.texel_density = std::sqrt(double(options.elements) / total_area);
   }
@@ -107,7 +102,7 @@ Expected<ProgressiveRun> runProgressive(const Scene& scene, const ProgressiveRun
   }
   if (gpu && !info) {
     // The GPU runs the paper's flat substructuring: one mip level for every shooter, the
-    // coarsest at which an average triangle still has at least --shooter-points blocks.
+    // coarsest at which an average shooter still has at least --shooter-points blocks.
     po.shooter_top_points = 0;
     po.shooter_level = -1;  // chosen below, once the elements are known
   }
@@ -123,10 +118,10 @@ Expected<ProgressiveRun> runProgressive(const Scene& scene, const ProgressiveRun
   Expected<ProgressiveRadiosity> built = ProgressiveRadiosity::build(scene, po);
   if (!built) return built.error();
   if (choose_level) {
-    const double per_triangle =
-        double(built->elementCount()) / double(std::max<size_t>(1, built->triangleCount()));
+    const double per_shooter =
+        double(built->elementCount()) / double(std::max<size_t>(1, built->shooterCount()));
     int level = 0;
-    while (level < 8 && per_triangle / std::pow(4.0, level + 1) >= options.shooter_points) {
+    while (level < 8 && per_shooter / std::pow(4.0, level + 1) >= options.shooter_points) {
       ++level;
     }
     PENUMBRA_TRY(built->setShooterLevel(level));
@@ -142,6 +137,14 @@ Expected<ProgressiveRun> runProgressive(const Scene& scene, const ProgressiveRun
   }
   std::optional<GlProgressive> gl;
   if (gpu) {
+    // Point, spot and directional lights shoot first, on the CPU (ray-traced shadows); the GPU
+    // continues from that state.
+    if (!pr.lightsShot()) {
+      const ProgressiveIteration it = pr.shoot(ProgressiveRadiosity::kLights);
+      run.history.push_back(it.unshot_fraction);
+      run.shooters.push_back("lights");
+      run.iteration_seconds.push_back(it.seconds);
+    }
     Expected<GlProgressive> g = GlProgressive::create(pr);
     if (!g) return g.error();
     gl.emplace(std::move(*g));
@@ -158,7 +161,11 @@ Expected<ProgressiveRun> runProgressive(const Scene& scene, const ProgressiveRun
   const double log_goal = std::log(std::max(options.tolerance, 1e-12));
   const auto after = [&](const ProgressiveIteration& it) {
     run.history.push_back(it.unshot_fraction);
-    run.shooters.push_back(it.shooter);
+    if (it.shooter == ProgressiveRadiosity::kLights) {
+      run.shooters.push_back("lights");
+    } else {
+      run.shooters.push_back(it.shooter);
+    }
     run.iteration_seconds.push_back(it.seconds);
     const double f = it.unshot_fraction > 0.0 ? std::log(it.unshot_fraction) / log_goal : 1.0;
     progress.setNote(fmt::format("iteration {}, {:.3g} unshot", it.iteration, it.unshot_fraction));

@@ -28,7 +28,9 @@ struct ChartRaster {
   std::vector<glm::vec2> barycentric;
   std::vector<double> area;      // m^2
   std::vector<double> uv_cover;  // texel^2, summed over faces (> 1: the chart overlaps itself)
-  std::vector<glm::dvec3> position, normal;             // sums weighted by area
+  std::vector<glm::dvec3> position, normal;  // sums weighted by area
+  std::vector<double> largest;               // the largest piece's area, its face
+  std::vector<int32_t> largest_face;
   std::vector<std::pair<uint32_t, uint32_t>> overlaps;  // (local texel, face)
   bool overlapping = false;
 };
@@ -117,6 +119,8 @@ ChartRaster rasterise(const ChartSet& set, size_t c, double density,
     r.uv_cover.assign(n, 0.0);
     r.position.assign(n, glm::dvec3(0.0));
     r.normal.assign(n, glm::dvec3(0.0));
+    r.largest.assign(n, 0.0);
+    r.largest_face.assign(n, -1);
   }
   for (uint32_t f : chart.faces) {
     glm::dvec2 t[3];
@@ -180,6 +184,10 @@ ChartRaster rasterise(const ChartSet& set, size_t c, double density,
         r.uv_cover[i] += cover;
         r.position[i] += a * (p0 + w1 * (p1 - p0) + w2 * (p2 - p0));
         r.normal[i] += a * nrm;
+        if (a > r.largest[i]) {
+          r.largest[i] = a;
+          r.largest_face[i] = int32_t(f);
+        }
         r.overlaps.emplace_back(uint32_t(i), f);
       }
     }
@@ -323,8 +331,8 @@ PackResult pack(const std::vector<Profile>& profiles, const std::vector<uint32_t
               const int x = int(w * 64) + bit - ax;
               if (x < 0 || x + p.w > width) continue;
               bool fits = true;
-              for (int r = 0; r < p.h && fits; ++r) {
-                fits = (window(y + r, x) & p.rows[size_t(r)]) == 0;
+              for (int row_k = 0; row_k < p.h && fits; ++row_k) {
+                fits = (window(y + row_k, x) & p.rows[size_t(row_k)]) == 0;
               }
               if (fits) {
                 found = true;
@@ -725,7 +733,18 @@ Expected<ChartAtlas> buildChartAtlas(std::span<const glm::vec3> positions,
       atlas.element_texel.push_back(uint32_t(t));
       atlas.element_chart.push_back(uint32_t(c));
       atlas.element_area.push_back(r.area[i]);
-      atlas.element_position.push_back(r.position[i] / r.area[i]);
+      // The centroid of the pieces, moved onto the plane of the largest one: where a chart
+      // bends inside a texel the centroid lies off the surface (inside a convex solid, where
+      // its shadow rays would start), by the bend's sagitta.
+      {
+        const uint32_t lf = uint32_t(r.largest_face[i]);
+        const glm::uvec3 tri = triangles[faces[lf].triangle];
+        const glm::dvec3 q0(positions[tri.x]), q1(positions[tri.y]), q2(positions[tri.z]);
+        const glm::dvec3 pn = glm::normalize(glm::cross(q1 - q0, q2 - q0));
+        const glm::dvec3 centroid = r.position[i] / r.area[i];
+        atlas.element_position.push_back(centroid - pn * glm::dot(pn, centroid - q0));
+        atlas.element_face.push_back(lf);
+      }
       const double len = glm::length(r.normal[i]);
       atlas.element_normal.push_back(len > 0.0 ? r.normal[i] / len : atlas.charts.charts[c].normal);
       auto ov = std::lower_bound(r.overlaps.begin(), r.overlaps.end(),
@@ -801,6 +820,51 @@ std::vector<SurfaceFace> surfaceFaces(const Scene& scene, const FlatTriangles& f
     if (scene.materials[flat.material_ids[t]].two_sided) faces.push_back({t, true});
   }
   return faces;
+}
+
+void fillChartGaps(const ChartAtlas& a, Image& img, std::vector<uint8_t>& known) {
+  PENUMBRA_CHECK(img.width == a.width && img.height == a.height);
+  PENUMBRA_CHECK(known.size() == a.texel_kind.size());
+  for (int round = 0; round < 64; ++round) {
+    std::vector<std::pair<size_t, glm::vec3>> filled;
+    for (int y = 0; y < a.height; ++y) {
+      for (int x = 0; x < a.width; ++x) {
+        const size_t i = a.texelIndex(x, y);
+        if (known[i] || a.texel_kind[i] == AtlasTexelKind::kEmpty) continue;
+        glm::vec3 sum(0.0f);
+        int k = 0;
+        for (int dy = -1; dy <= 1; ++dy) {
+          for (int dx = -1; dx <= 1; ++dx) {
+            const int xx = x + dx, yy = y + dy;
+            if (xx < 0 || yy < 0 || xx >= a.width || yy >= a.height) continue;
+            const size_t j = a.texelIndex(xx, yy);
+            if (!known[j] || a.texel_chart[j] != a.texel_chart[i]) continue;
+            sum += img.pixels[j];
+            ++k;
+          }
+        }
+        if (k > 0) filled.emplace_back(i, sum / float(k));
+      }
+    }
+    if (filled.empty()) break;
+    for (const auto& [i, v] : filled) {
+      img.pixels[i] = v;
+      known[i] = 1;
+    }
+  }
+}
+
+double faceArea(const Scene& scene) {
+  const FlatTriangles flat = flattenScene(scene);
+  double area = 0.0;
+  for (size_t t = 0; t < flat.triangles.size(); ++t) {
+    const glm::uvec3 tri = flat.triangles[t];
+    const double a =
+        0.5 * glm::length(glm::cross(glm::dvec3(flat.positions[tri.y] - flat.positions[tri.x]),
+                                     glm::dvec3(flat.positions[tri.z] - flat.positions[tri.x])));
+    area += scene.materials[flat.material_ids[t]].two_sided ? 2.0 * a : a;
+  }
+  return area;
 }
 
 int ChartAtlas::elementPieces(size_t e, std::span<const glm::vec3> positions,

@@ -31,6 +31,7 @@
 #pragma once
 
 #include "penumbra/core/expected.h"
+#include "penumbra/core/image.h"
 #include "penumbra/geometry/charts.h"
 #include "penumbra/geometry/lightmap_atlas.h"
 #include "penumbra/scene/scene.h"
@@ -89,9 +90,12 @@ struct ChartAtlas {
   // chart-local texel coordinates (texel - placement.origin).
   std::vector<uint32_t> element_texel;
   std::vector<uint32_t> element_chart;
-  std::vector<double> element_area;          // m^2
-  std::vector<glm::dvec3> element_position;  // area-weighted centroid of its pieces
-  std::vector<glm::dvec3> element_normal;    // unit, area-weighted normal of its pieces
+  std::vector<double> element_area;  // m^2
+  // The area-weighted centroid of its pieces, moved onto the plane of its largest piece (a
+  // point on the surface where the chart bends inside the texel).
+  std::vector<glm::dvec3> element_position;
+  std::vector<uint32_t> element_face;      // the face of its largest piece
+  std::vector<glm::dvec3> element_normal;  // unit, area-weighted normal of its pieces
   // The faces whose UV triangles overlap the element's texel: element e's are
   // element_faces[element_face_first[e] .. element_face_first[e + 1]).
   std::vector<uint32_t> element_face_first;
@@ -139,6 +143,15 @@ Expected<ChartAtlas> buildChartAtlas(std::span<const glm::vec3> positions,
 // The faces of the scene's flattened triangles that carry light: the front of every triangle and
 // the back of those whose material is two-sided (Material::two_sided), in triangle order.
 std::vector<SurfaceFace> surfaceFaces(const Scene& scene, const FlatTriangles& flat);
+
+// Fills the footprint and padding texels of `image` (the atlas's size) that `known` does not mark
+// from the mean of their known 8-neighbours of the same chart, in rounds until none is left
+// (Wallner sec. 3.1's gap filling), so that bilinear lookups inside a chart read only its own
+// values. `known` is updated.
+void fillChartGaps(const ChartAtlas& atlas, Image& image, std::vector<uint8_t>& known);
+
+// The summed area of the scene's faces (m^2): a two-sided triangle counts twice.
+double faceArea(const Scene& scene);
 
 // Measures of an atlas, for tests, info and docs.
 struct ChartAtlasQuality {

@@ -17,6 +17,7 @@
 #include <glm/geometric.hpp>
 #include <glm/vec3.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 
@@ -52,6 +53,17 @@ inline double angleFast(double y, double x) {
 template <bool Fast = false>
 inline double pointToPolygonFormFactor(const glm::dvec3& x, const glm::dvec3& n,
                                        const glm::dvec3* poly, int count) {
+  // A polygon lying in the tangent plane (the other side of the receiver's own surface, or a
+  // coplanar neighbour) subtends no projected solid angle; Lambert's sum would count a polygon
+  // around x as the whole hemisphere. GLSL twin: progressive_form_factor.glsl.
+  {
+    double height = 0.0, extent = 0.0;
+    for (int k = 0; k < count; ++k) {
+      height = std::max(height, glm::dot(n, poly[k] - x));
+      extent = std::max(extent, glm::length(poly[k] - x));
+    }
+    if (height <= 1e-6 * extent) return 0.0;
+  }
   // Clip against the plane n . (p - x) >= 0 (Sutherland-Hodgman): at most count + 1 corners.
   glm::dvec3 clipped[9];
   int m = 0;
@@ -81,6 +93,16 @@ inline double pointToTriangleFormFactor(const glm::dvec3& x, const glm::dvec3& n
                                         const glm::dvec3& c) {
   const glm::dvec3 poly[3] = {a, b, c};
   return pointToPolygonFormFactor(x, n, poly, 3);
+}
+
+// Wallner eq. 2 with one disc (m = 1): the form factor from a receiver point to a shooter
+// element of area `shooter_area` (m^2) at squared distance d2 (m^2), given both cosines,
+//   F = A_s cos(phi_s) cos(phi_r) / (pi d^2 + A_s);
+// the A_s in the denominator keeps it finite as d -> 0 (the disc's exact on-axis value). GLSL
+// twin: discFormFactor in shaders/radiosity/progressive_form_factor.glsl.
+inline double discFormFactor(double shooter_area, double cos_shooter, double cos_receiver,
+                             double d2) {
+  return shooter_area * cos_shooter * cos_receiver / (std::numbers::pi * d2 + shooter_area);
 }
 
 // The differential area-to-area kernel of the form-factor integral (Cohen and Wallace eq. 4.8):

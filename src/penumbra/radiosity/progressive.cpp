@@ -2,9 +2,12 @@
 
 #include "penumbra/geometry/shading_normals.h"
 #include "penumbra/kernels/form_factor.h"
+#include "penumbra/kernels/sampling.h"
+#include "penumbra/radiosity/lights.h"
 
 #include "penumbra/core/check.h"
 #include "penumbra/core/parallel.h"
+#include "penumbra/core/rng.h"
 #include "penumbra/core/timer.h"
 
 #include <fmt/format.h>
@@ -15,157 +18,54 @@
 #include <atomic>
 #include <cmath>
 #include <limits>
+#include <numbers>
 #include <utility>
 
 namespace penumbra {
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-
+constexpr double kPiD = std::numbers::pi;
 constexpr uint32_t kNoElement = std::numeric_limits<uint32_t>::max();
 
-// A shooter point: an element, or a block of elements at a coarser mip level (substructuring,
-// Wallner sec. 3: the block's mean position, summed area and area-weighted mean dB), with its
-// sub-blocks one level finer (elements at the finest).
+// A shooter point: a cluster of the hierarchy under the shooter (substructuring, Wallner sec. 3:
+// its area-weighted mean position, summed area and area-weighted mean dB), with its children one
+// level finer (elements at level 0).
 struct ShooterPoint {
   glm::dvec3 position{0.0};
   double area = 0.0;
   glm::dvec3 residual{0.0};
-  glm::dvec3 normal{0.0};          // area-weighted mean shading normal (unit)
-  uint32_t element = kNoElement;   // a single element: which
-  std::vector<uint32_t> children;  // a block: its sub-blocks (points)
-  glm::ivec2 texel{0};             // atlas texel of one member (for grouping into blocks)
-  glm::ivec2 lo{0}, hi{0};         // the lattice points of its chart it covers (inclusive)
-  bool above_top = false;          // a block coarser than the substructuring's top level
-  int32_t polygon = -1;            // hierarchical blocks: index of its polygon
+  glm::dvec3 normal{0.0};         // area-weighted mean shading normal (unit): the form factors'
+  glm::dvec3 geometric{0.0};      // area-weighted mean face normal (unit): culling and rays
+  uint32_t element = kNoElement;  // level 0: the element
+  uint32_t child_first = 0, child_count = 0;  // points of its children
+  uint32_t first = 0, last = 0;               // its elements
+  ClusterRef cluster;
+  bool above_top = false;  // coarser than the substructuring's top level
+  int32_t pieces = -1;     // clusters: index of its pieces
 };
-
-// Numbers the blocks of 2^level x 2^level atlas texels that `texels` fall in, in order of first
-// appearance, through a dense grid over their range: block[i] is texels[i]'s. Returns the count.
-uint32_t groupIntoBlocks(const std::vector<glm::ivec2>& texels, int level,
-                         std::vector<uint32_t>& block) {
-  glm::ivec2 lo(std::numeric_limits<int>::max()), hi(std::numeric_limits<int>::min());
-  for (const glm::ivec2& t : texels) {
-    lo = glm::min(lo, t >> level);
-    hi = glm::max(hi, t >> level);
-  }
-  block.resize(texels.size());
-  if (texels.empty()) return 0;
-  const size_t w = size_t(hi.x - lo.x + 1);
-  std::vector<int32_t> grid(w * size_t(hi.y - lo.y + 1), -1);
-  uint32_t count = 0;
-  for (size_t i = 0; i < texels.size(); ++i) {
-    const glm::ivec2 key = (texels[i] >> level) - lo;
-    int32_t& slot = grid[size_t(key.y) * w + size_t(key.x)];
-    if (slot < 0) slot = int32_t(count++);
-    block[i] = uint32_t(slot);
-  }
-  return count;
-}
-
-// Wallner eq. 2 with one disc (m = 1): the form factor from a receiver point to a shooter
-// element of area `shooter_area` at squared distance d2, given both cosines.
-inline double discFormFactor(double shooter_area, double cos_shooter, double cos_receiver,
-                             double d2) {
-  return shooter_area * cos_shooter * cos_receiver / (kPi * d2 + shooter_area);
-}
-
-// Whether every corner of the triangle lies on or behind the plane (point c, normal n).
-bool behindPlane(const glm::dvec3 (&v)[3], const glm::dvec3& c, const glm::dvec3& n) {
-  for (const glm::dvec3& p : v) {
-    if (glm::dot(n, p - c) > 0.0) return false;
-  }
-  return true;
-}
-
-// Exact coverage of a texel by its chart (lightmap_atlas.h: lattice point (i, j) of a chart with
-// legs `leg`): the texel square [i-1/2, i+1/2] x [j-1/2, j+1/2] clipped to the chart triangle
-// i, j >= 0, i + j <= leg (Sutherland-Hodgman). Returns the area (lattice units) and centroid.
-// The clipped squares of a chart's kInside texels tile the chart exactly.
-// More generally, the texels of lattice points [lo, hi] (a block of texels, inclusive) together.
-double blockCoverage(glm::ivec2 lo, glm::ivec2 hi, int leg, glm::dvec2& centroid,
-                     std::vector<glm::dvec2>* polygon = nullptr) {
-  std::vector<glm::dvec2> poly = {{lo.x - 0.5, lo.y - 0.5},
-                                  {hi.x + 0.5, lo.y - 0.5},
-                                  {hi.x + 0.5, hi.y + 0.5},
-                                  {lo.x - 0.5, hi.y + 0.5}};
-  // Half-planes a . p <= b.
-  const glm::dvec2 normals[3] = {{-1.0, 0.0}, {0.0, -1.0}, {1.0, 1.0}};
-  const double offsets[3] = {0.0, 0.0, double(leg)};
-  for (int h = 0; h < 3; ++h) {
-    std::vector<glm::dvec2> out;
-    for (size_t k = 0; k < poly.size(); ++k) {
-      const glm::dvec2 a = poly[k], b = poly[(k + 1) % poly.size()];
-      const double da = glm::dot(normals[h], a) - offsets[h];
-      const double db = glm::dot(normals[h], b) - offsets[h];
-      if (da <= 0.0) out.push_back(a);
-      if ((da < 0.0 && db > 0.0) || (da > 0.0 && db < 0.0))
-        out.push_back(a + (b - a) * (da / (da - db)));
-    }
-    poly = std::move(out);
-    if (poly.empty()) break;
-  }
-  if (polygon) *polygon = poly;
-  double area2 = 0.0;
-  glm::dvec2 c(0.0);
-  for (size_t k = 0; k < poly.size(); ++k) {
-    const glm::dvec2 a = poly[k], b = poly[(k + 1) % poly.size()];
-    const double cr = a.x * b.y - b.x * a.y;
-    area2 += cr;
-    c += (a + b) * cr;
-  }
-  if (area2 <= 0.0) {
-    centroid = 0.5 * glm::dvec2(lo + hi);
-    return 0.0;
-  }
-  centroid = c / (3.0 * area2);
-  return 0.5 * area2;
-}
-
-double texelCoverage(int i, int j, int leg, glm::dvec2& centroid,
-                     std::vector<glm::dvec2>* polygon = nullptr) {
-  return blockCoverage(glm::ivec2(i, j), glm::ivec2(i, j), leg, centroid, polygon);
-}
 
 }  // namespace
 
 constexpr double kNear = kProgressiveNear;
 // Hierarchical mode: eq. 2's disc only for points farther than this many of their sizes, and
-// Lambert's exact point-to-polygon form factor to the block's polygon nearer (from kNear on; a
-// block nearer than kNear sizes is refined). The disc's error falls with the square of
+// Lambert's exact point-to-polygon form factor to the cluster's pieces nearer (from kNear on; a
+// cluster nearer than kNear sizes is refined). The disc's error falls with the square of
 // size / distance: with discs from 3 sizes on, the furnace's worst element was 1.4% off, from 8
-// sizes on 0.81% (the flat scheme's), but discs alone needed refining blocks down to 8 sizes,
-// which at millions of elements costs hundreds of pairs per receiver; the polygon keeps a
-// receiver's pairs near the top level's count.
+// sizes on 0.81% (the flat scheme's), but discs alone needed refining down to 8 sizes, which
+// at millions of elements costs hundreds of pairs per receiver.
 constexpr double kFar = 8.0;
-// Hierarchical mode: blocks coarser than the top level (up to the whole shooter) serve receivers
-// farther than this many of their sizes (a small shooter far away shoots as one point).
+// Hierarchical mode: clusters coarser than the top level (up to the whole shooter) serve
+// receivers farther than this many of their sizes (a small shooter far away shoots as one
+// point).
 constexpr double kCoarse = 20.0;
 // Receivers gathered together: their pairs, rays and hits (about 12 pairs per receiver) fit in
 // the L2 cache.
 constexpr size_t kReceiverBlock = 256;
 
-int ProgressiveRadiosity::elementPolygon(uint32_t e, std::array<glm::dvec3, 8>& out) const {
-  return blockPolygon(tri_of_[e], lattice_[e], lattice_[e], out);
-}
-
-int ProgressiveRadiosity::blockPolygon(uint32_t t, glm::ivec2 lo, glm::ivec2 hi,
-                                       std::array<glm::dvec3, 8>& out) const {
-  const glm::uvec3 tri = flat_.triangles[t];
-  const glm::dvec3 p[3] = {glm::dvec3(flat_.positions[tri.x]), glm::dvec3(flat_.positions[tri.y]),
-                           glm::dvec3(flat_.positions[tri.z])};
-  const AtlasChart& chart = atlas_.charts[t];
-  const uint32_t r0 = chart.right, r1 = (chart.right + 1) % 3, r2 = (chart.right + 2) % 3;
-  glm::dvec2 c;
-  std::vector<glm::dvec2> poly;
-  blockCoverage(lo, hi, chart.leg, c, &poly);
-  const int count = int(std::min<size_t>(poly.size(), out.size()));
-  for (int k = 0; k < count; ++k) {
-    out[size_t(k)] = p[r0] + (poly[size_t(k)].x / chart.leg) * (p[r1] - p[r0]) +
-                     (poly[size_t(k)].y / chart.leg) * (p[r2] - p[r0]);
-  }
-  return count;
+void ProgressiveRadiosity::elementPieces(size_t e, std::vector<std::array<glm::dvec3, 8>>& polygons,
+                                         std::vector<int>& counts) const {
+  atlas_.elementPieces(e, flat_.positions, flat_.triangles, polygons, counts);
 }
 
 Expected<ProgressiveRadiosity> ProgressiveRadiosity::build(const Scene& scene,
@@ -182,297 +82,449 @@ Expected<ProgressiveRadiosity> ProgressiveRadiosity::build(const Scene& scene,
   if (options.shooter_top_points < 0) {
     return inputError("", "progressive radiosity", "shooter_top_points must not be negative");
   }
+  if (options.shooter_elements < 1) {
+    return inputError("", "progressive radiosity", "shooter_elements must be at least 1");
+  }
+  if (options.probe_rays < 0 || options.probe_rays > (1 << 24)) {
+    return inputError("", "progressive radiosity", "probe_rays must be in [0, 2^24]");
+  }
   ProgressiveRadiosity pr;
   pr.options_ = options;
   pr.flat_ = flattenScene(scene);
-  Expected<LightmapAtlas> atlas =
-      buildLightmapAtlas(pr.flat_.positions, pr.flat_.triangles, options.atlas);
+  const std::vector<SurfaceFace> faces = surfaceFaces(scene, pr.flat_);
+  Expected<ChartAtlas> atlas = buildChartAtlas(pr.flat_.positions, pr.flat_.triangles,
+                                               pr.flat_.material_ids, faces, options.atlas);
   if (!atlas.ok()) return atlas.error();
   pr.atlas_ = std::move(*atlas);
+  pr.hierarchy_ = SurfaceHierarchy::build(pr.atlas_);
   pr.engine_ = RayEngine::build(pr.flat_.positions, pr.flat_.triangles);
-  const Bounds3 box = pr.engine_.bounds();
-  pr.lift_ = 1e-5 * double(glm::length(box.hi - box.lo));  // as radiosity/form_factors.cpp
+  pr.bounds_ = pr.engine_.bounds();
+  pr.lift_ = 1e-5 * double(glm::length(pr.bounds_.hi - pr.bounds_.lo));
+  pr.has_side_.assign(2 * pr.flat_.triangles.size(), 0);
+  for (size_t f = 0; f < pr.atlas_.faces.size(); ++f) {
+    if (pr.atlas_.charts.face_chart[f] < 0) continue;
+    const SurfaceFace& face = pr.atlas_.faces[f];
+    pr.has_side_[2 * size_t(face.triangle) + (face.back ? 1 : 0)] = 1;
+  }
 
-  // Elements: kInside texels, grouped by triangle (counting sort over the atlas).
-  const size_t nt = pr.flat_.triangles.size();
-  const LightmapAtlas& a = pr.atlas_;
-  std::vector<uint32_t> count(nt + 1, 0);
-  for (size_t i = 0; i < a.texel_kind.size(); ++i) {
-    if (a.texel_kind[i] == AtlasTexelKind::kInside) ++count[size_t(a.texel_triangle[i]) + 1];
-  }
-  pr.tri_first_.assign(nt + 1, 0);
-  for (size_t t = 0; t < nt; ++t) pr.tri_first_[t + 1] = pr.tri_first_[t] + count[t + 1];
-  const size_t n = pr.tri_first_[nt];
-  pr.texel_.resize(n);
-  pr.tri_of_.resize(n);
-  {
-    std::vector<uint32_t> next(pr.tri_first_.begin(), pr.tri_first_.end() - 1);
-    for (size_t i = 0; i < a.texel_kind.size(); ++i) {
-      if (a.texel_kind[i] != AtlasTexelKind::kInside) continue;
-      const uint32_t t = uint32_t(a.texel_triangle[i]);
-      pr.texel_[next[t]] = uint32_t(i);
-      pr.tri_of_[next[t]++] = t;
-    }
-  }
-  pr.tri_area_.resize(nt);
-  pr.tri_normal_.resize(nt);
-  for (size_t t = 0; t < nt; ++t) {
-    const glm::uvec3 tri = pr.flat_.triangles[t];
-    const glm::dvec3 p0 = pr.flat_.positions[tri.x], p1 = pr.flat_.positions[tri.y],
-                     p2 = pr.flat_.positions[tri.z];
-    const glm::dvec3 c = glm::cross(p1 - p0, p2 - p0);
-    const double len = glm::length(c);
-    pr.tri_area_[t] = 0.5 * len;
-    pr.tri_normal_[t] = len > 0.0 ? c / len : glm::dvec3(0.0);
-  }
-  pr.area_.resize(n);
-  pr.position_.resize(n);
-  pr.lattice_.resize(n);
+  // Per element: material (every face of a chart has the chart's), emission on front faces,
+  // shading normal.
+  const size_t n = pr.atlas_.elementCount();
   pr.rho_.resize(n);
   pr.e_.resize(n);
-  pr.normal_.resize(n);
+  pr.shading_normal_.resize(n);
   const std::vector<glm::vec3> corner_normals =
       options.shading_normals ? cornerShadingNormals(scene) : std::vector<glm::vec3>();
   glm::dvec3 rho_area(0.0);
   for (size_t e = 0; e < n; ++e) {
-    const uint32_t t = pr.tri_of_[e];
-    const glm::uvec3 tri = pr.flat_.triangles[t];
-    const glm::dvec3 p0 = pr.flat_.positions[tri.x], p1 = pr.flat_.positions[tri.y],
-                     p2 = pr.flat_.positions[tri.z];
-    // Exact coverage (the CPU variant of the paper's occlusion-query count): the
-    // element is the part of the triangle its texel square covers; its point is that part's
-    // centroid. (Texel centres themselves sit on the triangle's edges along the chart's
-    // boundary, where a point sees the neighbouring faces edge-on.)
-    const AtlasChart& chart = a.charts[t];
-    const glm::vec2 bw = a.texel_barycentric[pr.texel_[e]];
-    const double w[3] = {1.0 - double(bw.x) - double(bw.y), double(bw.x), double(bw.y)};
-    const glm::dvec3 p[3] = {p0, p1, p2};
-    const uint32_t r0 = chart.right, r1 = (chart.right + 1) % 3, r2 = (chart.right + 2) % 3;
-    const int i = int(std::lround(w[r1] * chart.leg)), j = int(std::lround(w[r2] * chart.leg));
-    glm::dvec2 c;
-    const double cover = texelCoverage(i, j, chart.leg, c);
-    pr.lattice_[e] = glm::ivec2(i, j);
-    pr.position_[e] =
-        p[r0] + (c.x / chart.leg) * (p[r1] - p[r0]) + (c.y / chart.leg) * (p[r2] - p[r0]);
-    pr.area_[e] = pr.tri_area_[t] * cover / (0.5 * double(chart.leg) * double(chart.leg));
-    pr.normal_[e] = pr.tri_normal_[t];
-    if (!corner_normals.empty() && pr.tri_area_[t] > 0.0) {
-      // The corners' shading normals interpolated at the element's point (sec. 3).
-      double cw[3];
-      cw[r1] = c.x / chart.leg;
-      cw[r2] = c.y / chart.leg;
-      cw[r0] = 1.0 - cw[r1] - cw[r2];
-      glm::dvec3 sn(0.0);
-      for (int k = 0; k < 3; ++k)
-        sn += cw[k] * glm::dvec3(corner_normals[3 * size_t(t) + size_t(k)]);
-      const double len = glm::length(sn);
-      if (len > 0.0 && glm::dot(sn, pr.tri_normal_[t]) > 0.0) pr.normal_[e] = sn / len;
-    }
-    const Material& m = scene.materials[pr.flat_.material_ids[t]];
+    const uint32_t f = pr.atlas_.element_faces[pr.atlas_.element_face_first[e]];
+    const SurfaceFace& face = pr.atlas_.faces[f];
+    const Material& m = scene.materials[pr.flat_.material_ids[face.triangle]];
     pr.rho_[e] = glm::dvec3(m.reflectance);
-    pr.e_[e] = pr.tri_area_[t] > 0.0 ? kPi * glm::dvec3(m.emission) : glm::dvec3(0.0);
-    pr.total_area_ += pr.area_[e];
-    rho_area += pr.rho_[e] * pr.area_[e];
-    pr.balance_.emitted += pr.e_[e] * pr.area_[e];
+    pr.e_[e] = face.back ? glm::dvec3(0.0) : kPiD * glm::dvec3(m.emission);
+    const glm::dvec3 ng = pr.atlas_.element_normal[e];
+    pr.shading_normal_[e] = ng;
+    if (!corner_normals.empty()) {
+      // The corners' shading normals interpolated at the element's point on the face of its
+      // largest piece (sec. 3); a back face takes them reversed.
+      const uint32_t tf = pr.atlas_.element_face[e];
+      const uint32_t t = pr.atlas_.faces[size_t(tf)].triangle;
+      const glm::uvec3 tri = pr.flat_.triangles[t];
+      const glm::dvec3 p0(pr.flat_.positions[tri.x]), p1(pr.flat_.positions[tri.y]),
+          p2(pr.flat_.positions[tri.z]);
+      const glm::dvec3 e1 = p1 - p0, e2 = p2 - p0, r = pr.atlas_.element_position[e] - p0;
+      const double a11 = glm::dot(e1, e1), a12 = glm::dot(e1, e2), a22 = glm::dot(e2, e2);
+      const double det = a11 * a22 - a12 * a12;
+      if (det > 0.0) {
+        const double b1 = glm::dot(r, e1), b2 = glm::dot(r, e2);
+        const glm::vec2 w = clampBarycentric(
+            glm::vec2(float((b1 * a22 - b2 * a12) / det), float((a11 * b2 - a12 * b1) / det)));
+        glm::dvec3 sn = (1.0 - double(w.x) - double(w.y)) * glm::dvec3(corner_normals[3 * t]) +
+                        double(w.x) * glm::dvec3(corner_normals[3 * t + 1]) +
+                        double(w.y) * glm::dvec3(corner_normals[3 * t + 2]);
+        if (pr.atlas_.faces[size_t(tf)].back) sn = -sn;
+        const double len = glm::length(sn);
+        if (len > 0.0 && glm::dot(sn, ng) > 0.0) pr.shading_normal_[e] = sn / len;
+      }
+    }
+    const double area = pr.atlas_.element_area[e];
+    pr.total_area_ += area;
+    rho_area += pr.rho_[e] * area;
+    pr.balance_.emitted += pr.e_[e] * area;
   }
+  pr.lights_ = scene.lights;
+  pr.lights_shot_ = pr.lights_.empty();
+  for (const Light& light : pr.lights_) pr.light_power_ += lightPower(light, pr.bounds_);
+  pr.balance_.emitted += pr.light_power_;
   if (residualLuminance(pr.balance_.emitted) <= 0.0) {
-    return inputError(scene.source, "progressive radiosity", "the scene emits no light");
+    return inputError(scene.source, "progressive radiosity",
+                      "the scene emits no light (no emissive surface or light)");
   }
+  // Shooters: chart roots, split down to at most shooter_elements elements.
+  for (uint32_t c = 0; c < pr.hierarchy_.chartCount(); ++c) {
+    std::vector<ClusterRef> stack = {pr.hierarchy_.root(c)};
+    while (!stack.empty()) {
+      const ClusterRef k = stack.back();
+      stack.pop_back();
+      if (pr.hierarchy_.elementEnd(k) - pr.hierarchy_.elementBegin(k) <= options.shooter_elements ||
+          k.level == 0) {
+        pr.shooters_.push_back(k);
+        continue;
+      }
+      const std::vector<ClusterRef> children = pr.hierarchy_.children(k);
+      stack.insert(stack.end(), children.rbegin(), children.rend());
+    }
+  }
+  std::sort(pr.shooters_.begin(), pr.shooters_.end(), [&](ClusterRef a, ClusterRef b) {
+    return pr.hierarchy_.elementBegin(a) < pr.hierarchy_.elementBegin(b);
+  });
   // Eq. 6, per channel.
   pr.ambient_factor_ = 1.0 / (1.0 - rho_area / pr.total_area_);
   pr.b_ = pr.e_;
   pr.db_ = pr.e_;
-  pr.refreshTrianglePowers();
+  pr.shooter_power_.assign(pr.shooters_.size(), 0.0);
+  pr.refreshShooterPowers();
   pr.balance_.unshot = pr.balance_.emitted;
   return pr;
 }
 
-double ProgressiveRadiosity::residualPower(uint32_t triangle) const {
-  PENUMBRA_CHECK(triangle < triangleCount());
-  const uint32_t first = tri_first_[triangle], last = tri_first_[triangle + 1];
-  if (first == last) return 0.0;
-  // The CPU twin of the paper's reduction over occupied texels only: the paper averages the
-  // texels with equal weights and multiplies by the triangle's area; with exact coverage the
-  // texels' areas differ along the chart's edges, so each is weighted by its own area.
+double ProgressiveRadiosity::residualPower(uint32_t shooter) const {
+  PENUMBRA_CHECK(shooter < shooterCount());
+  // The CPU twin of the paper's mipmap reduction over occupied texels, each weighted by its own
+  // area (exact coverage).
   double sum = 0.0;
-  for (uint32_t e = first; e < last; ++e) sum += residualLuminance(db_[e]) * area_[e];
+  for (uint32_t e = shooterBegin(shooter); e < shooterEnd(shooter); ++e) {
+    sum += residualLuminance(db_[e]) * atlas_.element_area[e];
+  }
   return sum;
 }
 
-void ProgressiveRadiosity::refreshTrianglePowers() {
-  tri_power_.resize(triangleCount());
-  parallelRange(triangleCount(), 256, [&](size_t b, size_t e) {
-    for (size_t t = b; t < e; ++t) tri_power_[t] = residualPower(uint32_t(t));
+glm::dvec3 ProgressiveRadiosity::applyIncident(const glm::dvec3& scale, uint32_t first,
+                                               uint32_t last) {
+  // Update (progressive eq. 1), per shooter range in parallel: each range's elements in order,
+  // its residual power (for the next selection) and its share of the energy books; the books
+  // are then summed in order, so they do not depend on the threads. The shooter's own dB is
+  // zeroed first (a curved chart lights itself).
+  for (uint32_t e = first; e < last; ++e) db_[e] = glm::dvec3(0.0);
+  struct Books {
+    glm::dvec3 arrived{0.0}, absorbed{0.0}, reflected{0.0};
+  };
+  std::vector<Books> books(shooterCount());
+  parallelRange(shooterCount(), 16, [&](size_t s_begin, size_t s_end) {
+    for (size_t s = s_begin; s < s_end; ++s) {
+      Books& k = books[s];
+      for (uint32_t r = shooterBegin(uint32_t(s)); r < shooterEnd(uint32_t(s)); ++r) {
+        if (incident_[r] == glm::dvec3(0.0)) continue;
+        const glm::dvec3 in = incident_[r] * scale;
+        const glm::dvec3 gain = rho_[r] * in;
+        b_[r] += gain;
+        db_[r] += gain;
+        const double a = atlas_.element_area[r];
+        k.arrived += in * a;
+        k.absorbed += (glm::dvec3(1.0) - rho_[r]) * in * a;
+        k.reflected += gain * a;
+      }
+      shooter_power_[s] = residualPower(uint32_t(s));
+    }
+  });
+  glm::dvec3 arrived(0.0);
+  for (const Books& k : books) {
+    arrived += k.arrived;
+    balance_.absorbed += k.absorbed;
+    balance_.unshot += k.reflected;
+  }
+  return arrived;
+}
+
+void ProgressiveRadiosity::refreshShooterPowers() {
+  shooter_power_.resize(shooterCount());
+  parallelRange(shooterCount(), 16, [&](size_t b, size_t e) {
+    for (size_t s = b; s < e; ++s) shooter_power_[s] = residualPower(uint32_t(s));
   });
 }
 
 uint32_t ProgressiveRadiosity::selectShooter() const {
+  if (!lights_shot_) return kLights;
   uint32_t best = kNoShooter;
   double best_power = 0.0;
-  for (uint32_t t = 0; t < triangleCount(); ++t) {
-    const double p = tri_power_[t];  // residualPower(t), kept up to date by shoot()
+  for (uint32_t s = 0; s < shooterCount(); ++s) {
+    const double p = shooter_power_[s];  // residualPower(s), kept up to date by shoot()
     if (p > best_power) {
       best_power = p;
-      best = t;
+      best = s;
     }
   }
   return best;
 }
 
-std::vector<std::vector<uint32_t>> ProgressiveRadiosity::shooterBlocks(uint32_t t,
-                                                                       int level) const {
-  std::vector<uint32_t> elements, block;
-  std::vector<glm::ivec2> texels;
-  for (uint32_t e = tri_first_[t]; e < tri_first_[t + 1]; ++e) {
-    if (!(area_[e] > 0.0)) continue;
-    elements.push_back(e);
-    texels.emplace_back(int(texel_[e] % uint32_t(atlas_.width)),
-                        int(texel_[e] / uint32_t(atlas_.width)));
+std::vector<std::pair<uint32_t, uint32_t>> ProgressiveRadiosity::shooterBlocks(uint32_t s,
+                                                                               int level) const {
+  PENUMBRA_CHECK(s < shooterCount());
+  const ClusterRef root = shooters_[s];
+  // The descendants at a level are one contiguous range of that level's clusters.
+  uint32_t lo = root.index, hi = root.index + 1;
+  uint32_t l = root.level;
+  for (; l > uint32_t(std::max(level, 0)); --l) {
+    const ClusterLevel& lv = hierarchy_.level(l);
+    lo = lv.child_first[lo];
+    hi = lv.child_first[hi];
   }
-  std::vector<std::vector<uint32_t>> blocks(groupIntoBlocks(texels, level, block));
-  for (size_t i = 0; i < elements.size(); ++i) blocks[block[i]].push_back(elements[i]);
+  const ClusterLevel& lv = hierarchy_.level(l);
+  std::vector<std::pair<uint32_t, uint32_t>> blocks;
+  for (uint32_t k = lo; k < hi; ++k) blocks.emplace_back(lv.first[k], lv.first[k + 1]);
   return blocks;
 }
 
+bool ProgressiveRadiosity::shotClosed(uint32_t shooter) const {
+  const int count = options_.probe_rays;
+  if (count == 0) return false;
+  const size_t slot = shooter == kLights ? shooterCount() : size_t(shooter);
+  PENUMBRA_CHECK(slot <= shooterCount());
+  if (closed_.size() != shooterCount() + 1) closed_.assign(shooterCount() + 1, -1);
+  if (closed_[slot] >= 0) return closed_[slot] != 0;
+  closed_[slot] = 0;
+  // Cosine-distributed rays from points spread over the shooter by area (or from the lights,
+  // lightProbeRay).
+  Rng rng(0x5eedu, shooter);
+  RayBatch rays;
+  rays.resize(size_t(count));
+  std::vector<double> cdf;
+  uint32_t first = 0, last = 0;
+  if (shooter != kLights) {
+    first = shooterBegin(shooter);
+    last = shooterEnd(shooter);
+    cdf.reserve(last - first);
+    double sum = 0.0;
+    for (uint32_t e = first; e < last; ++e) {
+      sum += atlas_.element_area[e];
+      cdf.push_back(sum);
+    }
+    if (!(sum > 0.0)) return false;
+  }
+  for (int i = 0; i < count; ++i) {
+    Ray ray;
+    if (shooter == kLights) {
+      if (!lightProbeRay(lights_, bounds_, rng, ray)) return false;
+    } else {
+      const double u = double(rng.uniform()) * cdf.back();
+      const uint32_t e =
+          first +
+          uint32_t(std::min<size_t>(
+              size_t(std::upper_bound(cdf.begin(), cdf.end(), u) - cdf.begin()), cdf.size() - 1));
+      const glm::vec3 n(atlas_.element_normal[e]);
+      const glm::vec3 d =
+          Frame::fromNormal(n).toWorld(sampleCosineHemisphere(rng.uniform(), rng.uniform()));
+      ray.origin = glm::vec3(atlas_.element_position[e] + atlas_.element_normal[e] * lift_);
+      ray.dir = d;
+      ray.tmin = 0.0f;
+      ray.tmax = std::numeric_limits<float>::max();
+    }
+    rays.set(size_t(i), ray);
+  }
+  HitBatch hits;
+  engine_.intersect(rays, hits);
+  for (int i = 0; i < count; ++i) {
+    const int32_t t = hits.triangle[size_t(i)];
+    if (t < 0) return false;  // escaped to the outside
+    const glm::uvec3 tri = flat_.triangles[size_t(t)];
+    const glm::vec3 ng = glm::cross(flat_.positions[tri.y] - flat_.positions[tri.x],
+                                    flat_.positions[tri.z] - flat_.positions[tri.x]);
+    const glm::vec3 d(rays.dx[size_t(i)], rays.dy[size_t(i)], rays.dz[size_t(i)]);
+    const bool back = glm::dot(ng, d) > 0.0f;
+    if (!has_side_[2 * size_t(t) + (back ? 1 : 0)]) return false;  // a black back face
+  }
+  closed_[slot] = 1;
+  return true;
+}
+
+ProgressiveIteration ProgressiveRadiosity::shootLights() {
+  const Timer timer;
+  ProgressiveIteration it;
+  it.iteration = ++iterations_;
+  it.shooter = kLights;
+  it.shooter_points = uint32_t(lights_.size());
+  const size_t n = elementCount();
+  incident_.assign(n, glm::dvec3(0.0));
+  std::atomic<uint64_t> rays{0};
+  parallelRange(n, 1024, [&](size_t begin, size_t end) {
+    uint64_t count = 0;
+    for (size_t r = begin; r < end; ++r) {
+      const glm::dvec3 p = atlas_.element_position[r];
+      const glm::dvec3 ng = atlas_.element_normal[r];
+      glm::dvec3 sum(0.0);
+      for (const Light& light : lights_) {
+        const LightSample s = sampleLight(light, p, ng, shading_normal_[r]);
+        if (s.irradiance == glm::dvec3(0.0)) continue;
+        if (options_.visibility) {
+          // Shadow ray towards the light (to its position, or far out for a directional one).
+          const glm::dvec3 from = p + ng * lift_;
+          Ray ray{glm::vec3(from), 1e-4f, glm::vec3(s.direction * s.distance),
+                  s.distance > 1e30 ? std::numeric_limits<float>::max() : 1.0f - 1e-4f};
+          if (s.distance > 1e30) ray.dir = glm::vec3(s.direction);
+          ++count;
+          if (engine_.occluded(ray)) continue;
+        }
+        sum += s.irradiance;
+      }
+      incident_[r] = sum;
+    }
+    rays += count;
+  });
+  glm::dvec3 arrived(0.0);
+  for (size_t r = 0; r < n; ++r) arrived += incident_[r] * atlas_.element_area[r];
+  glm::dvec3 scale(1.0);
+  it.closed = shotClosed(kLights);
+  if (it.closed) {
+    for (int c = 0; c < 3; ++c) {
+      if (arrived[c] > 0.0) scale[c] = light_power_[c] / arrived[c];
+    }
+  }
+  lights_shot_ = true;
+  const glm::dvec3 shot = light_power_;
+  const glm::dvec3 got = applyIncident(scale, 0, 0);
+  balance_.unshot -= shot;
+  balance_.escaped += shot - got;
+  it.shot_power = residualLuminance(shot);
+  it.unshot_fraction = unshotFraction();
+  it.rays = rays.load() + uint64_t(options_.probe_rays);
+  it.seconds = timer.seconds();
+  return it;
+}
+
 ProgressiveIteration ProgressiveRadiosity::shoot(uint32_t shooter) {
-  PENUMBRA_CHECK(shooter < triangleCount());
+  if (shooter == kLights) return shootLights();
+  PENUMBRA_CHECK(shooter < shooterCount());
   const Timer timer;
   ProgressiveIteration it;
   it.iteration = ++iterations_;
   it.shooter = shooter;
-  const uint32_t first = tri_first_[shooter], last = tri_first_[shooter + 1];
-  const glm::dvec3 ns = tri_normal_[shooter];
+  const uint32_t first = shooterBegin(shooter), last = shooterEnd(shooter);
+  const ClusterRef root = shooters_[shooter];
 
-  // Shooter points (sec. 3). Flat mode (shooter_top_points = 0, the paper's): blocks of
-  // 2^level x 2^level atlas texels. Hierarchical mode: every level from the elements up to the
-  // first with at most shooter_top_points blocks; receivers start from that level's blocks and
-  // descend where a block is near (below).
+  // Shooter points (sec. 3): every cluster under the shooter, level by level from the shooter
+  // down to the elements (the descendants at each level are one contiguous range).
   std::vector<ShooterPoint> points;
-  std::vector<uint32_t> top;    // the substructuring's points (at most shooter_top_points)
-  std::vector<uint32_t> roots;  // what receivers start from: top, or blocks of it above
-  std::vector<std::pair<std::array<glm::dvec3, 8>, int>> polygons;
-  const bool hierarchical = options_.shooter_top_points > 0;
-  glm::dvec3 shot(0.0);
+  // Points of level l: [level_first[l], level_end[l]) (the top level first in the list).
+  std::vector<uint32_t> level_first(root.level + 1, 0), level_end(root.level + 1, 0);
   {
-    // Groups the points `from` into blocks of the level `level` (their parents, appended).
-    std::vector<glm::ivec2> texels;
-    std::vector<uint32_t> block;
-    auto group = [&](const std::vector<uint32_t>& from, int level) {
-      texels.clear();
-      for (uint32_t c : from) texels.push_back(points[c].texel);
-      const uint32_t first_block = uint32_t(points.size());
-      points.resize(first_block + groupIntoBlocks(texels, level, block));
-      std::vector<uint32_t> out(points.size() - first_block);
-      for (size_t k = 0; k < out.size(); ++k) out[k] = first_block + uint32_t(k);
-      for (size_t i = 0; i < from.size(); ++i) {
-        ShooterPoint& p = points[first_block + block[i]];
-        const ShooterPoint& q = points[from[i]];
-        if (p.children.empty()) {
-          p.texel = q.texel;
-          p.lo = q.lo;
-          p.hi = q.hi;
-        }
-        p.lo = glm::min(p.lo, q.lo);
-        p.hi = glm::max(p.hi, q.hi);
-        p.position += q.position * q.area;
-        p.normal += q.normal * q.area;
-        p.residual += q.residual * q.area;
-        p.area += q.area;
-        p.children.push_back(from[i]);
-      }
-      for (uint32_t b : out) {
-        points[b].normal = glm::normalize(points[b].normal);
-        points[b].position /= points[b].area;
-        points[b].residual /= points[b].area;
-      }
-      return out;
-    };
-    std::vector<uint32_t> level0;
-    for (uint32_t e = first; e < last; ++e) {
-      shot += db_[e] * area_[e];
-      if (!(area_[e] > 0.0)) continue;
-      ShooterPoint p;
-      p.position = position_[e];
-      p.area = area_[e];
-      p.residual = db_[e];
-      p.normal = normal_[e];
-      p.element = e;
-      p.lo = p.hi = lattice_[e];
-      p.texel = glm::ivec2(int(texel_[e] % uint32_t(atlas_.width)),
-                           int(texel_[e] / uint32_t(atlas_.width)));
-      level0.push_back(uint32_t(points.size()));
-      points.push_back(std::move(p));
+    std::vector<std::pair<uint32_t, uint32_t>> range(root.level + 1);
+    range[root.level] = {root.index, root.index + 1};
+    for (uint32_t l = root.level; l > 0; --l) {
+      const ClusterLevel& lv = hierarchy_.level(l);
+      range[l - 1] = {lv.child_first[range[l].first], lv.child_first[range[l].second]};
     }
-    if (hierarchical) {
-      top = level0;
-      int level = 1;
-      for (; top.size() > size_t(options_.shooter_top_points) && level <= 16; ++level) {
-        top = group(top, level);
-      }
-      // Above the top level, up to one block: coarser points for receivers far from the whole
-      // shooter (below).
-      roots = top;
-      for (; roots.size() > 1 && level <= 24; ++level) {
-        roots = group(roots, level);
-        for (uint32_t b : roots) points[b].above_top = true;
-      }
-      // The blocks' polygons: the chart's part their texels cover together.
-      std::vector<uint32_t> blocks;
-      for (uint32_t k = 0; k < points.size(); ++k) {
-        if (!points[k].children.empty()) blocks.push_back(k);
-      }
-      polygons.resize(blocks.size());
-      parallelRange(blocks.size(), 256, [&](size_t b0, size_t b1) {
-        for (size_t b = b0; b < b1; ++b) {
-          ShooterPoint& p = points[blocks[b]];
-          p.polygon = int32_t(b);
-          polygons[b].second = blockPolygon(shooter, p.lo, p.hi, polygons[b].first);
-        }
-      });
-    } else {
-      // Flat mode: the blocks of one level, whose elements are their children.
-      top = options_.shooter_level > 0 ? group(level0, options_.shooter_level) : level0;
-      roots = top;
+    // Points from the top (index 0: the shooter) down.
+    uint32_t count = 0;
+    for (uint32_t l = root.level + 1; l-- > 0;) {
+      level_first[l] = count;
+      count += range[l].second - range[l].first;
+      level_end[l] = count;
     }
-    for (std::vector<uint32_t>* list : {&top, &roots}) {
-      list->erase(std::remove_if(list->begin(), list->end(),
-                                 [&](uint32_t p) { return points[p].residual == glm::dvec3(0.0); }),
-                  list->end());
+    points.resize(count);
+    // Level 0 first (elements), then each level from its children.
+    for (uint32_t l = 0; l <= root.level; ++l) {
+      const ClusterLevel& lv = hierarchy_.level(l);
+      for (uint32_t k = range[l].first; k < range[l].second; ++k) {
+        ShooterPoint& p = points[level_first[l] + (k - range[l].first)];
+        p.cluster = ClusterRef{l, k};
+        p.position = lv.position[k];
+        p.area = lv.area[k];
+        p.first = lv.first[k];
+        p.last = lv.first[k + 1];
+        if (l == 0) {
+          p.element = k;
+          p.residual = db_[k];
+          p.normal = shading_normal_[k];
+          p.geometric = atlas_.element_normal[k];
+          continue;
+        }
+        p.child_first = level_first[l - 1] + (lv.child_first[k] - range[l - 1].first);
+        p.child_count = lv.child_first[k + 1] - lv.child_first[k];
+        glm::dvec3 res(0.0), nrm(0.0);
+        for (uint32_t c = p.child_first; c < p.child_first + p.child_count; ++c) {
+          res += points[c].residual * points[c].area;
+          nrm += points[c].normal * points[c].area;
+        }
+        p.residual = p.area > 0.0 ? res / p.area : glm::dvec3(0.0);
+        const double len = glm::length(nrm);
+        p.normal = len > 0.0 ? nrm / len : lv.normal[k];
+        p.geometric = lv.normal[k];
+      }
     }
   }
-  it.shooter_points = uint32_t(top.size());
-
-  // Receiver triangles: not wholly behind the shooter's plane, and facing it (the shooter not
-  // wholly behind theirs). Coplanar triangles drop out here or through a zero cosine.
-  std::vector<uint8_t> receives(triangleCount(), 0);
-  if (tri_area_[shooter] > 0.0) {
-    const glm::uvec3 st = flat_.triangles[shooter];
-    const glm::dvec3 sv[3] = {glm::dvec3(flat_.positions[st.x]), glm::dvec3(flat_.positions[st.y]),
-                              glm::dvec3(flat_.positions[st.z])};
-    for (uint32_t t = 0; t < triangleCount(); ++t) {
-      if (t == shooter || tri_area_[t] <= 0.0) continue;
-      const glm::uvec3 rt = flat_.triangles[t];
-      const glm::dvec3 rv[3] = {glm::dvec3(flat_.positions[rt.x]),
-                                glm::dvec3(flat_.positions[rt.y]),
-                                glm::dvec3(flat_.positions[rt.z])};
-      if (behindPlane(rv, sv[0], ns) || behindPlane(sv, rv[0], tri_normal_[t])) continue;
-      receives[t] = 1;
+  const bool hierarchical = options_.shooter_top_points > 0;
+  std::vector<uint32_t> roots;  // what receivers start from
+  uint32_t top_level = 0;
+  if (hierarchical) {
+    // The top: the finest level with at most shooter_top_points clusters; coarser ones are
+    // above it.
+    while (top_level < root.level &&
+           level_end[top_level] - level_first[top_level] > uint32_t(options_.shooter_top_points)) {
+      ++top_level;
     }
+    for (uint32_t l = top_level + 1; l <= root.level; ++l) {
+      for (uint32_t k = level_first[l]; k < level_end[l]; ++k) points[k].above_top = true;
+    }
+    roots = {0};  // the shooter itself (index 0: the top of the list)
+    it.shooter_points = level_end[top_level] - level_first[top_level];
+  } else {
+    const uint32_t l = std::min<uint32_t>(uint32_t(options_.shooter_level), root.level);
+    for (uint32_t k = level_first[l]; k < level_end[l]; ++k) roots.push_back(k);
+    it.shooter_points = uint32_t(roots.size());
   }
+  // The clusters' pieces (for Lambert's form factor to a cluster): its chart's faces clipped to
+  // its texels; candidate faces merged up from the elements.
+  std::vector<std::vector<std::pair<std::array<glm::dvec3, 8>, int>>> pieces;
+  if (hierarchical) {
+    std::vector<std::vector<uint32_t>> candidates(points.size());
+    for (uint32_t l = 0; l <= root.level; ++l) {
+      for (uint32_t k = level_first[l]; k < level_end[l]; ++k) {
+        std::vector<uint32_t>& c = candidates[k];
+        if (l == 0) {
+          const uint32_t e = points[k].element;
+          c.assign(atlas_.element_faces.begin() + atlas_.element_face_first[e],
+                   atlas_.element_faces.begin() + atlas_.element_face_first[e + 1]);
+          std::sort(c.begin(), c.end());
+          continue;
+        }
+        for (uint32_t ch = points[k].child_first;
+             ch < points[k].child_first + points[k].child_count; ++ch) {
+          c.insert(c.end(), candidates[ch].begin(), candidates[ch].end());
+        }
+        std::sort(c.begin(), c.end());
+        c.erase(std::unique(c.begin(), c.end()), c.end());
+      }
+    }
+    std::vector<uint32_t> clusters;
+    for (uint32_t k = 0; k < level_first[0]; ++k) clusters.push_back(k);  // levels above 0
+    pieces.resize(clusters.size());
+    parallelRange(clusters.size(), 64, [&](size_t b, size_t e) {
+      for (size_t i = b; i < e; ++i) {
+        ShooterPoint& p = points[clusters[i]];
+        p.pieces = int32_t(i);
+        const ClusterLevel& lv = hierarchy_.level(p.cluster.level);
+        atlas_.forEachPiece(lv.lo[p.cluster.index], lv.hi[p.cluster.index], candidates[clusters[i]],
+                            flat_.positions, flat_.triangles,
+                            [&](uint32_t, const std::array<glm::dvec3, 8>& corners, int count,
+                                double) { pieces[i].emplace_back(corners, count); });
+      }
+    });
+  }
+  glm::dvec3 shot(0.0);
+  for (uint32_t e = first; e < last; ++e) shot += db_[e] * atlas_.element_area[e];
 
   // Gather at every receiver element the irradiance sum_s dB_s F_rs (W m^-2); in parallel over
-  // chunks of receivers, each writing only its own entries. A receiver's pairs come from the top
-  // points: a point farther than kNear of its sizes is one pair; a nearer one descends to its
-  // sub-blocks (hierarchical mode) or, at the elements or in flat mode, is a near pair whose
-  // members each contribute Lambert's exact point-to-polygon form factor. Each
-  // pair has one shadow ray; a chunk's rays are traced together, so the rays from one receiver
-  // to the points of one shooter (or from neighbouring texels to one point) travel as packets of
-  // eight (raytrace/cpu_packet.h). Each receiver sums its pairs in a fixed order, so the result
-  // does not depend on the chunking.
+  // chunks of receivers, each writing only its own entries. A receiver's pairs come from the
+  // roots: a point farther than kNear of its sizes is one pair; a nearer one descends to its
+  // children (hierarchical mode) or, at the elements or in flat mode, is a near pair whose
+  // members each contribute Lambert's exact point-to-polygon form factor. Each pair has one
+  // shadow ray; a chunk's rays are traced together, sorted by point, so the rays from
+  // neighbouring texels to one point travel as packets of eight. Each receiver sums its pairs
+  // in a fixed order, so the result does not depend on the chunking.
   enum class Kernel : uint8_t {
     kDisc,     // eq. 2 with the point's area, position and mean residual
-    kPolygon,  // Lambert's point-to-polygon form factor to a block's polygon, mean residual
-    kMembers,  // the same to each member element's own polygon, with its own residual
+    kPolygon,  // Lambert's point-to-polygon form factor to a cluster's pieces, mean residual
+    kMembers,  // the same to each member element's own pieces, with its own residual
   };
   struct Pair {
     uint32_t receiver;
@@ -492,54 +544,54 @@ ProgressiveIteration ProgressiveRadiosity::shoot(uint32_t shooter) {
     std::vector<uint32_t> stack;
     std::vector<uint64_t> order;  // (point, pair index): sorted, the pairs by point, stably
     std::vector<uint8_t> occluded;
+    std::vector<std::array<glm::dvec3, 8>> polys;
+    std::vector<int> counts;
     RayBatch batch;
     HitBatch hits;
-    // Blocks of receivers small enough that their pairs and rays stay in the caches.
     for (size_t block = begin; block < end; block += kReceiverBlock) {
       pairs.clear();
       for (size_t r = block; r < std::min(end, block + kReceiverBlock); ++r) {
-        const uint32_t t = tri_of_[r];
-        if (!receives[t]) continue;
-        const glm::dvec3 nr = tri_normal_[t], pr = position_[r];
+        const glm::dvec3 nr = atlas_.element_normal[r], pr = atlas_.element_position[r];
         stack.assign(roots.rbegin(), roots.rend());
         while (!stack.empty()) {
           const uint32_t k = stack.back();
           stack.pop_back();
           const ShooterPoint& s = points[k];
+          if (s.residual == glm::dvec3(0.0)) continue;
           const glm::dvec3 d = s.position - pr;
           const double d2 = glm::dot(d, d);
           const bool near = d2 < kNear * kNear * s.area;
-          // Blocks above the top level stand for their sub-blocks only for receivers farther than
-          // kCoarse of their sizes: to those the whole block subtends a few degrees at most, so one
-          // visibility ray loses no penumbra worth resolving.
-          if (hierarchical && (near || (s.above_top && d2 < kCoarse * kCoarse * s.area)) &&
-              !s.children.empty()) {
-            for (auto c = s.children.rbegin(); c != s.children.rend(); ++c) {
-              if (points[*c].residual != glm::dvec3(0.0)) stack.push_back(*c);
+          // Clusters above the top level stand for their children only for receivers farther
+          // than kCoarse of their sizes: to those the whole cluster subtends a few degrees at
+          // most, so one visibility ray loses no penumbra worth resolving.
+          if (hierarchical && s.child_count > 0 &&
+              (near || (s.above_top && d2 < kCoarse * kCoarse * s.area))) {
+            for (uint32_t c = s.child_first + s.child_count; c-- > s.child_first;) {
+              stack.push_back(c);
             }
             continue;
           }
           if (d2 <= 0.0) continue;
-          if (glm::dot(nr, d) <= 0.0 || glm::dot(ns, d) >= 0.0) continue;  // culled by either plane
+          // Culled by either plane (the faces' own normals).
+          if (glm::dot(nr, d) <= 0.0 || glm::dot(s.geometric, d) >= 0.0) continue;
           Kernel kernel = near ? Kernel::kMembers : Kernel::kDisc;
           if (hierarchical && d2 < kFar * kFar * s.area) {
-            kernel = s.children.empty() ? Kernel::kMembers : Kernel::kPolygon;
+            kernel = s.child_count == 0 ? Kernel::kMembers : Kernel::kPolygon;
           }
           pairs.push_back(Pair{uint32_t(r), k, kernel});
         }
       }
       if (options_.visibility && !pairs.empty()) {
-        // Rays in shooter-point order (stable: receivers in texel order within a point), so that
-        // each aligned group of eight goes from neighbouring texels to one point: a packet.
         order.resize(pairs.size());
         for (size_t k = 0; k < pairs.size(); ++k) order[k] = uint64_t(pairs[k].point) << 32 | k;
         std::sort(order.begin(), order.end());
         batch.resize(pairs.size());
         for (size_t k = 0; k < pairs.size(); ++k) {
           const Pair& pair = pairs[uint32_t(order[k])];
-          const glm::dvec3 from = position_[pair.receiver] +
-                                  tri_normal_[tri_of_[pair.receiver]] * lift_,
-                           to = points[pair.point].position + ns * lift_;
+          const ShooterPoint& s = points[pair.point];
+          const glm::dvec3 from = atlas_.element_position[pair.receiver] +
+                                  atlas_.element_normal[pair.receiver] * lift_,
+                           to = s.position + s.geometric * lift_;
           batch.set(k, Ray{glm::vec3(from), 1e-4f, glm::vec3(to - from), 1.0f - 1e-4f});
         }
         engine_.intersectSerial(batch, hits);
@@ -552,27 +604,30 @@ ProgressiveIteration ProgressiveRadiosity::shoot(uint32_t shooter) {
         if (options_.visibility && occluded[k]) continue;
         const size_t r = pairs[k].receiver;
         const ShooterPoint& s = points[pairs[k].point];
-        // Form factors take the shading normals; culling and shadow rays the triangles' own.
-        const glm::dvec3 nr = normal_[r], pr = position_[r];
+        // Form factors take the shading normals; culling and shadow rays the faces' own.
+        const glm::dvec3 nr = shading_normal_[r], pr = atlas_.element_position[r];
         if (pairs[k].kernel == Kernel::kPolygon) {
-          const auto& [poly, count] = polygons[size_t(s.polygon)];
-          if (count >= 3)
-            incident[r] += s.residual * pointToPolygonFormFactor<true>(pr, nr, poly.data(), count);
+          double f = 0.0;
+          for (const auto& [poly, count] : pieces[size_t(s.pieces)]) {
+            if (count >= 3) f += pointToPolygonFormFactor<true>(pr, nr, poly.data(), count);
+          }
+          incident[r] += s.residual * f;
           continue;
         }
         if (pairs[k].kernel == Kernel::kMembers) {
           // Near pairs (across an edge, in a corner): eq. 2's disc is a poor stand-in for a
           // neighbour seen edge-on, so each of the point's elements contributes Lambert's exact
-          // point-to-polygon form factor (kernels/form_factor.h) to its own polygon.
-          auto add = [&](uint32_t m) {
-            std::array<glm::dvec3, 8> poly;
-            const int count = elementPolygon(m, poly);
-            if (count >= 3) {
-              incident[r] += db_[m] * pointToPolygonFormFactor<true>(pr, nr, poly.data(), count);
+          // point-to-polygon form factor (kernels/form_factor.h) to its own pieces.
+          for (uint32_t m = s.first; m < s.last; ++m) {
+            if (db_[m] == glm::dvec3(0.0)) continue;
+            elementPieces(m, polys, counts);
+            double f = 0.0;
+            for (size_t q = 0; q < polys.size(); ++q) {
+              if (counts[q] >= 3)
+                f += pointToPolygonFormFactor<true>(pr, nr, polys[q].data(), counts[q]);
             }
-          };
-          if (s.element != kNoElement) add(s.element);
-          for (uint32_t c : s.children) add(points[c].element);  // flat mode's blocks
+            incident[r] += db_[m] * f;
+          }
           continue;
         }
         const glm::dvec3 d = s.position - pr;
@@ -585,43 +640,35 @@ ProgressiveIteration ProgressiveRadiosity::shoot(uint32_t shooter) {
     }
   });
 
-  // Update (progressive eq. 1), per triangle in parallel: each triangle's elements in order, its
-  // residual power (for the next shooter selection) and its share of the energy books; the books
-  // are then summed over triangles in order, so they do not depend on the threads.
-  for (uint32_t e = first; e < last; ++e) db_[e] = glm::dvec3(0.0);
-  struct Books {
-    glm::dvec3 arrived{0.0}, absorbed{0.0}, reflected{0.0};
-  };
-  std::vector<Books> books(triangleCount());
-  parallelRange(triangleCount(), 64, [&](size_t t_begin, size_t t_end) {
-    for (size_t t = t_begin; t < t_end; ++t) {
-      Books& k = books[t];
-      const bool changed = receives[t] || t == shooter;
-      if (!changed) continue;
-      for (uint32_t r = tri_first_[t]; r < tri_first_[t + 1]; ++r) {
-        if (incident[r] == glm::dvec3(0.0)) continue;
-        const glm::dvec3 gain = rho_[r] * incident[r];
-        b_[r] += gain;
-        db_[r] += gain;
-        k.arrived += incident[r] * area_[r];
-        k.absorbed += (glm::dvec3(1.0) - rho_[r]) * incident[r] * area_[r];
-        k.reflected += gain * area_[r];
+  // Closed shot: the power arriving equals the power shot (the form factors' sum rule).
+  glm::dvec3 arrived_raw(0.0);
+  {
+    std::vector<glm::dvec3> part(shooterCount(), glm::dvec3(0.0));
+    parallelRange(shooterCount(), 16, [&](size_t b, size_t e) {
+      for (size_t s = b; s < e; ++s) {
+        for (uint32_t r = shooterBegin(uint32_t(s)); r < shooterEnd(uint32_t(s)); ++r) {
+          part[s] += incident[r] * atlas_.element_area[r];
+        }
       }
-      tri_power_[t] = residualPower(uint32_t(t));
-    }
-  });
-  glm::dvec3 arrived(0.0);
-  for (const Books& k : books) {
-    arrived += k.arrived;
-    balance_.absorbed += k.absorbed;
-    balance_.unshot += k.reflected;
+    });
+    for (const glm::dvec3& p : part) arrived_raw += p;
   }
+  glm::dvec3 scale(1.0);
+  it.closed = shotClosed(shooter);
+  if (it.closed) {
+    for (int c = 0; c < 3; ++c) {
+      if (arrived_raw[c] > 0.0) scale[c] = shot[c] / arrived_raw[c];
+    }
+  }
+
+  const glm::dvec3 arrived = applyIncident(scale, first, last);
   balance_.unshot -= shot;
   balance_.escaped += shot - arrived;
 
   it.shot_power = residualLuminance(shot);
   it.unshot_fraction = unshotFraction();
-  it.rays = rays.load();
+  it.rays =
+      rays.load() + (it.closed || options_.probe_rays > 0 ? uint64_t(options_.probe_rays) : 0);
   it.seconds = timer.seconds();
   return it;
 }
@@ -651,7 +698,7 @@ Status ProgressiveRadiosity::setShooterLevel(int level) {
 }
 
 ProgressiveState ProgressiveRadiosity::state() const {
-  return ProgressiveState{b_, db_, balance_, iterations_};
+  return ProgressiveState{b_, db_, balance_, iterations_, lights_shot_};
 }
 
 Status ProgressiveRadiosity::setState(ProgressiveState state) {
@@ -672,15 +719,17 @@ Status ProgressiveRadiosity::setState(ProgressiveState state) {
   }
   b_ = std::move(state.radiosity);
   db_ = std::move(state.residual);
-  refreshTrianglePowers();
+  refreshShooterPowers();
   balance_ = state.balance;
   iterations_ = state.iterations;
+  lights_shot_ = state.lights_shot || lights_.empty();
   return {};
 }
 
 glm::dvec3 ProgressiveRadiosity::unshotPower() const {
   glm::dvec3 sum(0.0);
-  for (size_t e = 0; e < elementCount(); ++e) sum += db_[e] * area_[e];
+  for (size_t e = 0; e < elementCount(); ++e) sum += db_[e] * atlas_.element_area[e];
+  if (!lights_shot_) sum += light_power_;
   return sum;
 }
 
@@ -698,78 +747,16 @@ glm::dvec3 ProgressiveRadiosity::displayRadiosity(size_t element) const {
 }
 
 Image ProgressiveRadiosity::radianceImage(bool with_ambient) const {
-  const LightmapAtlas& a = atlas_;
+  const ChartAtlas& a = atlas_;
   Image img(a.width, a.height);
   std::vector<uint8_t> known(a.texel_kind.size(), 0);
   const glm::dvec3 amb = with_ambient ? ambient() : glm::dvec3(0.0);
   for (size_t e = 0; e < elementCount(); ++e) {
-    img.pixels[texel_[e]] = glm::vec3((b_[e] + rho_[e] * amb) / kPi);
-    known[texel_[e]] = 1;
+    img.pixels[a.element_texel[e]] = glm::vec3((b_[e] + rho_[e] * amb) / kPiD);
+    known[a.element_texel[e]] = 1;
   }
-  // Border texels (the row past each chart's hypotenuse, lattice points i + j = leg + 1): the
-  // plane through the three inside texels before it, v(i-1, j) + v(i, j-1) - v(i-1, j-1), so
-  // that bilinear lookups near the hypotenuse continue the chart's gradient instead of
-  // flattening it (with copies, the two triangles of a quad meet in a faint seam along their
-  // diagonal); clamped at 0.
-  for (uint32_t t = 0; t < triangleCount(); ++t) {
-    if (tri_first_[t] == tri_first_[t + 1]) continue;
-    const int leg = a.charts[t].leg;
-    auto at = [&](int i, int j) {
-      const glm::ivec2 p = a.chartTexel(t, i, j);
-      return a.texelIndex(p.x, p.y);
-    };
-    for (int i = 1; i <= leg; ++i) {
-      const int j = leg + 1 - i;
-      const size_t border = at(i, j), u = at(i - 1, j), v = at(i, j - 1), w = at(i - 1, j - 1);
-      if (a.texel_kind[border] != AtlasTexelKind::kBorder || !known[u] || !known[v] || !known[w]) {
-        continue;
-      }
-      img.pixels[border] = glm::max(img.pixels[u] + img.pixels[v] - img.pixels[w], glm::vec3(0.0f));
-      known[border] = 1;
-    }
-  }
-  // Dilated texels (and any border texel left): rounds of the mean of known 8-neighbours of the
-  // same triangle.
-  for (int round = 0; round <= a.gutter + 1; ++round) {
-    std::vector<size_t> filled;
-    for (int y = 0; y < a.height; ++y) {
-      for (int x = 0; x < a.width; ++x) {
-        const size_t i = a.texelIndex(x, y);
-        if (known[i] || a.texel_kind[i] == AtlasTexelKind::kEmpty) continue;
-        glm::vec3 sum(0.0f);
-        int k = 0;
-        for (int dy = -1; dy <= 1; ++dy) {
-          for (int dx = -1; dx <= 1; ++dx) {
-            const int xx = x + dx, yy = y + dy;
-            if (xx < 0 || yy < 0 || xx >= a.width || yy >= a.height) continue;
-            const size_t j = a.texelIndex(xx, yy);
-            if (!known[j] || a.texel_triangle[j] != a.texel_triangle[i]) continue;
-            sum += img.pixels[j];
-            ++k;
-          }
-        }
-        if (k == 0) continue;
-        img.pixels[i] = sum / float(k);
-        filled.push_back(i);
-      }
-    }
-    if (filled.empty()) break;
-    for (size_t i : filled) known[i] = 1;
-  }
+  fillChartGaps(a, img, known);
   return img;
-}
-
-std::vector<glm::dvec3> ProgressiveRadiosity::triangleRadiosity() const {
-  std::vector<glm::dvec3> out(triangleCount(), glm::dvec3(0.0));
-  for (uint32_t t = 0; t < triangleCount(); ++t) {
-    double area = 0.0;
-    for (uint32_t e = tri_first_[t]; e < tri_first_[t + 1]; ++e) {
-      out[t] += b_[e] * area_[e];
-      area += area_[e];
-    }
-    if (area > 0.0) out[t] /= area;
-  }
-  return out;
 }
 
 }  // namespace penumbra

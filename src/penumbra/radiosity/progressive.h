@@ -1,58 +1,64 @@
-// Progressive refinement radiosity on triangle meshes with lightmaps (Wallner, sec. 2-3), the CPU
-// version: every triangle's radiosity and residual (unshot) radiosity live in per-triangle
-// textures packed in one atlas (geometry/lightmap_atlas.h), and each occupied texel is an element.
+// Progressive refinement radiosity with lightmaps (Wallner, sec. 2-3), the CPU version, on the
+// chart atlas and its multiresolution hierarchy (geometry/chart_atlas.h, surface_hierarchy.h):
+// the radiosity and the residual (unshot) radiosity live in the atlas, and each occupied texel
+// is an element.
 //
-//  - Elements: the `kInside` texels of the atlas (the paper's alpha = 1 texels). An element is
-//    the part of its triangle that its texel square covers (exact coverage, the CPU variant of
-//    the paper's area / occlusion-query count of sec. 3: the clipped squares tile the triangle);
-//    its point is that part's centroid. Not the texel centre: along a chart's edges the centres
-//    lie on the triangle's edges, where a point sees the neighbouring faces of a closed room
-//    edge-on; with centres and equal areas the furnace loses a third of every shot. Elements are
-//    one-sided like the matrix method's (radiosity/elements.h): they emit and reflect from the
-//    counter-clockwise front face, with E = pi * emitted radiance and the material's reflectance.
-//  - Units: B and dB (unshot radiosity) in W m^-2 per RGB channel; the power of an element is
-//    B * area (W). Everything is kept in double so that the energy bookkeeping is exact.
-//  - Shooter selection (sec. 3): the triangle with the highest residual power, the sum over its
-//    occupied texels of the luminance of dB (I = 0.3 R + 0.59 G + 0.11 B, the paper's weights)
-//    times the texel's area. This is the CPU twin of the paper's mipmap reduction that averages
-//    only occupied texels (then multiplies by the triangle's area), computed exactly in one pass
-//    and weighted by each texel's coverage rather than by 2 x 2 ping-pong passes.
+//  - Elements: the atlas's kInside texels, with their exact coverage (the pieces of the chart's
+//    faces inside the texel square, mapped to the surface): area, centroid (on the surface),
+//    normal. Texels sit
+//    on faces, so two-sided surfaces (Material::two_sided) have elements on each side, each
+//    emitting (front faces only, E = pi * emitted radiance) and reflecting on its own side.
+//  - Units: B and dB in W m^-2 per RGB channel; the power of an element is B * area (W), kept
+//    in double so that the energy books are exact.
+//  - Shooters (sec. 3, the mipmap selection): clusters of the hierarchy, each chart's root (or,
+//    for a chart of more than shooter_elements elements, the largest clusters under it that
+//    are not), so that a 69k-triangle scan shoots as a few hundred charts rather than 69k
+//    triangles. The one with the highest residual power (the luminance of dB, I = 0.3 R +
+//    0.59 G + 0.11 B, times area, over its elements) shoots.
+//  - Lights: point, spot and directional lights shoot first, in one iteration (iteration 1,
+//    shooter kLights): every element facing a light receives its irradiance, I cos / d^2 for
+//    a point or spot (with the glTF cone fall-off), E cos for a directional light, with a Ray
+//    Engine shadow ray; their power is booked as emitted (4 pi I for a point, the integral of
+//    the cone for a spot, E times the scene's bounding-sphere cross-section for a directional
+//    light).
 //  - Shooting (eq. 1-2): the shooter's unshot radiosity reaches every receiver element r in
-//    front of the shooter's plane that faces it, r gains  dB_r += rho_r dB_s F_rs  and B_r += the
-//    same (the progressive form of eq. 1); then dB_s = 0. Visibility: one Ray Engine shadow ray
-//    per (receiver, shooter point) pair, the rays of a block of receivers sorted by point so that
-//    they travel as packets. The shooter points (substructuring, sec. 3):
-//     - flat (shooter_top_points = 0, the paper's scheme and the GPU path's): every element, or
-//       every block of 2^level x 2^level atlas texels (the paper's coarser mip level), is a
-//       point; eq. 2's disc
+//    front of it that faces it: dB_r += rho_r dB_s F_rs, B_r += the same; then dB_s = 0.
+//    Visibility: one Ray Engine shadow ray per (receiver, shooter point) pair, the rays of a
+//    block of receivers sorted by point so that they travel as packets. The shooter points
+//    (substructuring, sec. 3) are the shooter's clusters in the hierarchy:
+//     - flat (shooter_top_points = 0, the paper's scheme and the GPU path's): every cluster of
+//       level `shooter_level` is a point; eq. 2's disc
 //         F_rs = A_s cos(phi_s) cos(phi_r) / (pi d^2 + A_s)                  (eq. 2, m = 1)
-//       except for pairs nearer than kProgressiveNear point sizes, where a disc is a poor
-//       stand-in for a neighbour seen edge-on: each member element then counts with Lambert's
-//       exact point-to-polygon form factor to its own polygon;
-//     - hierarchical (the default): the shooter's texels grouped into 2 x 2, 4 x 4, ... blocks up
-//       to the first level with at most shooter_top_points blocks; a receiver takes a block as
-//       one point unless nearer than kProgressiveNear block sizes (then its sub-blocks, down to
-//       elements), and blocks coarser still (up to the whole shooter) when farther than 20 of
-//       their sizes; eq. 2's disc beyond 8 sizes, Lambert's form factor to the block's polygon
-//       (its texels' part of the chart) with the block's mean dB nearer. The furnace's worst
-//       element is 0.06% off this way, 0.81% with the flat scheme (progressive_test.cpp).
-//  - Energy bookkeeping (W, per channel): the power shot, P = sum_s dB_s A_s, either arrives at
-//    receivers, Q = sum_r (sum_s dB_s F_rs) A_r, of which rho Q is reflected (joins the unshot
-//    power) and (1 - rho) Q is absorbed, or does not arrive: P - Q is counted as escaped. In an
-//    open scene (the Cornell box) that is the light leaving through the opening; in a closed one
-//    it is the form factors' departure from reciprocity and eq. 3 (negative when they
-//    overestimate). So, after every iteration,
+//       except for pairs nearer than kProgressiveNear point sizes, where each member element
+//       counts with Lambert's exact point-to-polygon form factor to its own pieces;
+//     - hierarchical (the default): the first level under the shooter with at most
+//       shooter_top_points clusters is the top; a receiver takes a cluster as one point unless
+//       nearer than kProgressiveNear of its sizes (then its children, down to elements), and
+//       clusters above the top (up to the shooter) when farther than 20 of their sizes;
+//       eq. 2's disc beyond 8 sizes, Lambert's form factor to the cluster's pieces (its texels'
+//       part of the chart) with the cluster's mean dB nearer.
+//  - Closed shots: a shot's form factors are sums of approximations, so what arrives differs
+//    from what was shot by their error even in a closed room. Each shot first sends
+//    probe_rays rays (cosine-distributed from points spread over the shooter by area, or from
+//    the lights); if every one of them hits a face that has elements, the shot is closed and
+//    the gathered irradiance is scaled so that the power arriving equals the power shot
+//    (Sum_r F_rs A_r = A_s, the form factors' sum rule). Otherwise (an opening, or black backs
+//    of one-sided surfaces) the shot keeps its form factors as computed.
+//  - Energy bookkeeping (W, per channel): the power shot either arrives at receivers, of which
+//    rho is reflected (joins the unshot power) and 1 - rho absorbed, or does not arrive and is
+//    counted as escaped (through openings, or onto black back faces). After every iteration
 //      emitted = absorbed + unshot + escaped
-//    holds exactly up to rounding.
-//  - Ambient term (eq. 4-6, Cohen et al. 1988): A = R sum_j dB_j A_j / sum_k A_k with the
-//    interreflection factor R = 1 / (1 - sum_k rho_k A_k / sum_k A_k); displayed radiosity
-//    B + rho A during early iterations. It is exposed for display only, never added to B.
+//    holds up to rounding; in a closed scene of two-sided surfaces escaped stays 0.
+//  - Ambient term (eq. 4-6, Cohen et al. 1988): A = R sum_j dB_j A_j / sum_k A_k with
+//    R = 1 / (1 - sum_k rho_k A_k / sum_k A_k); displayed radiosity B + rho A during early
+//    iterations, never added to B.
 #pragma once
 
 #include "penumbra/core/expected.h"
 #include "penumbra/core/image.h"
 #include "penumbra/core/timer.h"
-#include "penumbra/geometry/lightmap_atlas.h"
+#include "penumbra/geometry/chart_atlas.h"
+#include "penumbra/geometry/surface_hierarchy.h"
 #include "penumbra/raytrace/ray_engine.h"
 #include "penumbra/scene/scene.h"
 
@@ -69,28 +75,30 @@ namespace penumbra {
 
 // Pairs closer than this many shooter element sizes (sqrt of the point's area) use Lambert's
 // exact point-to-polygon form factor instead of eq. 2's disc (and, in the hierarchical mode,
-// blocks that near are refined).
+// clusters that near are refined).
 inline constexpr double kProgressiveNear = 3.0;
 
 struct ProgressiveOptions {
-  AtlasOptions atlas;         // the texel density (or atlas resolution) sets the element size
-  int max_iterations = 1000;  // shooters (one iteration = one shooter triangle)
+  ChartAtlasOptions atlas;    // the texel density (or atlas resolution) sets the element size
+  int max_iterations = 1000;  // shots (the lights' shot counts as one)
   double convergence = 1e-3;  // stop when unshot power / emitted power (luminance) <= this
-  // Substructuring (sec. 3). shooter_top_points > 0 (the default): hierarchical, each shooter's
-  // elements grouped into blocks of 2x2, 4x4, ... texels up to the first level with at most this
-  // many blocks; a receiver takes a block as one point when it is farther than 3 block sizes,
-  // else its sub-blocks, down to the elements. 0: the paper's flat scheme, every element of the
-  // shooter's mip level `shooter_level` (blocks of 2^level x 2^level texels) shoots to every
-  // receiver (what the GPU path does).
+  // Substructuring (sec. 3). shooter_top_points > 0 (the default): hierarchical, from the
+  // first level under the shooter with at most this many clusters. 0: the paper's flat scheme,
+  // every cluster of level `shooter_level` of the shooter shoots to every receiver (the GPU
+  // path's).
   int shooter_top_points = 16;
   int shooter_level = 0;
+  // Shooters are chart roots, or the largest clusters under a root with at most this many
+  // elements.
+  uint32_t shooter_elements = 1u << 16;
   bool visibility = true;  // false: no shadow rays (every pair in front is unoccluded)
   // The form factors' cosines take shading normals interpolated across the triangles (the
   // mesh's own vertex normals, or generated ones: geometry/shading_normals.h), as the paper
-  // interpolates normals, so tessellated curved surfaces shade smoothly; false: each
-  // triangle's own normal. Flat surfaces are the same either way. Culling and shadow rays use
-  // the triangles' own normals in both cases.
+  // interpolates normals, so tessellated curved surfaces shade smoothly; false: the faces' own
+  // normals. Culling and shadow rays use the faces' own normals in both cases.
   bool shading_normals = true;
+  // Rays per shot that decide whether it is closed (see the file comment); 0: never normalise.
+  int probe_rays = 1024;
 };
 
 // Power totals in W per RGB channel.
@@ -102,11 +110,12 @@ struct EnergyBalance {
 };
 
 struct ProgressiveIteration {
-  int iteration = 0;             // 1 for the first shooter
-  uint32_t shooter = 0;          // the shooter triangle (flattenScene order)
-  uint32_t shooter_points = 0;   // top-level elements or blocks that shot
+  int iteration = 0;             // 1 for the first shot
+  uint32_t shooter = 0;          // the shooter (ProgressiveRadiosity::shooter*), or kLights
+  uint32_t shooter_points = 0;   // top-level points that shot
   double shot_power = 0.0;       // luminance of the power shot (W)
   double unshot_fraction = 0.0;  // unshot / emitted power (luminance) after the iteration
+  bool closed = false;           // every probe ray found a face with elements: normalised
   uint64_t rays = 0;
   double seconds = 0.0;
 };
@@ -118,6 +127,7 @@ struct ProgressiveState {
   std::vector<glm::dvec3> residual;   // dB per element
   EnergyBalance balance;
   int iterations = 0;
+  bool lights_shot = true;  // the point, spot and directional lights have shot
 };
 
 struct ProgressiveStats {
@@ -177,18 +187,20 @@ Expected<ProgressiveStats> solveProgressively(
 class ProgressiveRadiosity {
  public:
   static constexpr uint32_t kNoShooter = std::numeric_limits<uint32_t>::max();
+  static constexpr uint32_t kLights = std::numeric_limits<uint32_t>::max() - 1;
 
-  // Builds the atlas over the scene's flattened triangles (the scene must have passed
-  // validateScene) and sets B = dB = E. Fails when the atlas cannot be built, the options are
-  // out of range, or the scene emits nothing.
+  // Builds the atlas over the scene's faces (the scene must have passed validateScene) and sets
+  // B = dB = E. Fails when the atlas cannot be built, the options are out of range, or the
+  // scene has neither emissive surfaces nor lights.
   static Expected<ProgressiveRadiosity> build(const Scene& scene,
                                               const ProgressiveOptions& options);
 
-  // The triangle with the highest residual power (luminance), kNoShooter when none is left.
+  // The next shot: kLights while the lights have not shot, else the shooter with the highest
+  // residual power, kNoShooter when nothing is left.
   uint32_t selectShooter() const;
-  // Residual power of triangle t: sum of luminance(dB) * area over its elements (W).
-  double residualPower(uint32_t triangle) const;
-  // One iteration with triangle `shooter` as the shooter.
+  // Residual power of shooter s: sum of luminance(dB) * area over its elements (W).
+  double residualPower(uint32_t shooter) const;
+  // One iteration with `shooter` (a shooter index or kLights) as the shooter.
   ProgressiveIteration shoot(uint32_t shooter);
   // Selects the shooter and shoots; returns iteration 0 (nothing done) when nothing is left.
   ProgressiveIteration step();
@@ -205,72 +217,87 @@ class ProgressiveRadiosity {
   Status setState(ProgressiveState state);
   int iterations() const { return iterations_; }
   const ProgressiveOptions& options() const { return options_; }
-  // The flat scheme's mip level (ProgressiveOptions::shooter_level), in [0, 16].
+  // The flat scheme's level (ProgressiveOptions::shooter_level), in [0, 16].
   Status setShooterLevel(int level);
   // Energy totals as booked, and the unshot power recomputed from the elements' dB (W).
   const EnergyBalance& balance() const { return balance_; }
   glm::dvec3 unshotPower() const;
   double unshotFraction() const;  // unshot / emitted power, luminance
+  bool lightsShot() const { return lights_shot_; }
+  // Whether a shot from shooter s (or kLights) is closed: every one of probe_rays rays,
+  // cosine-distributed from points spread over the shooter by area (or leaving the lights as
+  // they emit), hits a face that has elements. Deterministic; probed once and remembered.
+  bool shotClosed(uint32_t shooter) const;
   // Eq. 4-6: the ambient radiosity (W m^-2) for display; B_display = B + rho * ambient().
   glm::dvec3 ambient() const;
   glm::dvec3 displayRadiosity(size_t element) const;
 
-  // Elements (kInside texels), grouped by triangle: elements of triangle t are
-  // [triangleFirst(t), triangleFirst(t + 1)).
-  size_t elementCount() const { return texel_.size(); }
-  size_t triangleCount() const { return tri_first_.size() - 1; }
-  uint32_t triangleFirst(uint32_t t) const { return tri_first_[t]; }
-  uint32_t elementTriangle(size_t e) const { return tri_of_[e]; }
-  uint32_t elementTexel(size_t e) const { return texel_[e]; }  // atlas texel index
-  double elementArea(size_t e) const { return area_[e]; }
-  const glm::dvec3& elementPosition(size_t e) const { return position_[e]; }
-  glm::ivec2 elementLattice(size_t e) const { return lattice_[e]; }  // (i, j) in its chart
-  // The element's polygon in world space (its texel square clipped to its triangle): the count.
-  int elementPolygon(uint32_t e, std::array<glm::dvec3, 8>& out) const;
-  // The flat substructuring's shooter points of triangle t (sec. 3): its elements of non-zero
-  // area grouped by blocks of 2^level x 2^level atlas texels, in the order shoot() takes them.
-  std::vector<std::vector<uint32_t>> shooterBlocks(uint32_t t, int level) const;
+  // Elements: the atlas's elements (grouped by chart, Morton order within a chart).
+  size_t elementCount() const { return atlas_.elementCount(); }
+  uint32_t elementChart(size_t e) const { return atlas_.element_chart[e]; }
+  uint32_t elementTexel(size_t e) const { return atlas_.element_texel[e]; }
+  double elementArea(size_t e) const { return atlas_.element_area[e]; }
+  const glm::dvec3& elementPosition(size_t e) const { return atlas_.element_position[e]; }
+  const glm::dvec3& elementNormal(size_t e) const { return atlas_.element_normal[e]; }
+  // The element's pieces in world space (one convex polygon per face it overlaps).
+  void elementPieces(size_t e, std::vector<std::array<glm::dvec3, 8>>& polygons,
+                     std::vector<int>& counts) const;
+  // Shooters: clusters of the hierarchy; shooter s holds elements
+  // [shooterBegin(s), shooterEnd(s)).
+  size_t shooterCount() const { return shooters_.size(); }
+  ClusterRef shooterCluster(uint32_t s) const { return shooters_[s]; }
+  uint32_t shooterBegin(uint32_t s) const { return hierarchy_.elementBegin(shooters_[s]); }
+  uint32_t shooterEnd(uint32_t s) const { return hierarchy_.elementEnd(shooters_[s]); }
+  // The flat substructuring's points of shooter s (sec. 3): its clusters at `level` (at most
+  // the shooter's own level), each as its element range [first, second).
+  std::vector<std::pair<uint32_t, uint32_t>> shooterBlocks(uint32_t s, int level) const;
   const glm::dvec3& radiosity(size_t e) const { return b_[e]; }
   const glm::dvec3& residual(size_t e) const { return db_[e]; }
   const glm::dvec3& reflectance(size_t e) const { return rho_[e]; }
   const glm::dvec3& emission(size_t e) const { return e_[e]; }
-  double triangleArea(uint32_t t) const { return tri_area_[t]; }
-  const LightmapAtlas& atlas() const { return atlas_; }
+  const glm::dvec3& shadingNormal(size_t e) const { return shading_normal_[e]; }
+  const ChartAtlas& atlas() const { return atlas_; }
+  const SurfaceHierarchy& hierarchy() const { return hierarchy_; }
   const FlatTriangles& triangles() const { return flat_; }
+  const std::vector<Light>& lights() const { return lights_; }
+  double totalArea() const { return total_area_; }
 
   // Outgoing radiance B / pi (W m^-2 sr^-1) per atlas texel, the size of the atlas: kInside
   // texels hold their element's value (plus rho * ambient when `with_ambient`), kBorder and
-  // kDilated texels the mean of adjacent filled texels of the same triangle (constant extension
-  // for bilinear lookups), kEmpty texels zero.
+  // kDilated texels the mean of adjacent filled texels of the same chart (in rounds), kEmpty
+  // texels zero.
   Image radianceImage(bool with_ambient = false) const;
-  // Area-weighted mean B per triangle (W m^-2), flattenScene order.
-  std::vector<glm::dvec3> triangleRadiosity() const;
 
  private:
   ProgressiveOptions options_;
-  LightmapAtlas atlas_;
+  ChartAtlas atlas_;
+  SurfaceHierarchy hierarchy_;
   FlatTriangles flat_;
   RayEngine engine_;
+  std::vector<Light> lights_;
+  bool lights_shot_ = true;
+  glm::dvec3 light_power_{0.0};
   double lift_ = 0.0;  // shadow-ray end points are lifted off their surfaces by this (m)
-  // Per triangle.
-  std::vector<uint32_t> tri_first_;  // size triangles + 1
-  std::vector<double> tri_area_;
-  std::vector<glm::dvec3> tri_normal_;  // unit front normal (zero for degenerate triangles)
+  Bounds3 bounds_;
+  // Which sides have elements: has_side_[2 t + back].
+  std::vector<uint8_t> has_side_;
+  std::vector<ClusterRef> shooters_;
   // Per element.
-  std::vector<uint32_t> texel_, tri_of_;
-  std::vector<glm::ivec2> lattice_;  // per element: its texel's lattice point (i, j) in the chart
-  // The element polygon (elementPolygon) for the lattice points [lo, hi] of triangle t's chart
-  // together (a block of texels).
-  int blockPolygon(uint32_t t, glm::ivec2 lo, glm::ivec2 hi, std::array<glm::dvec3, 8>& out) const;
-  std::vector<double> area_;
-  std::vector<glm::dvec3> position_, normal_, rho_, e_, b_, db_;  // normal_: shading normal
-  std::vector<double> tri_power_;     // residualPower per triangle, for selectShooter
-  std::vector<glm::dvec3> incident_;  // per element, an iteration's gathered irradiance
-  void refreshTrianglePowers();
+  std::vector<glm::dvec3> shading_normal_, rho_, e_, b_, db_;
+  std::vector<double> shooter_power_;  // residualPower per shooter, for selectShooter
+  std::vector<glm::dvec3> incident_;   // per element, an iteration's gathered irradiance
   EnergyBalance balance_;
   glm::dvec3 ambient_factor_{1.0};  // R of eq. 6, per channel
   double total_area_ = 0.0;
   int iterations_ = 0;
+
+  mutable std::vector<int8_t> closed_;  // per shooter, then the lights: -1 not probed yet
+  ProgressiveIteration shootLights();
+  void refreshShooterPowers();
+  // Applies an iteration's incident irradiance (incident_, times `scale` per channel) to every
+  // element after zeroing the shooter's dB (elements [first, last)), books absorbed and
+  // reflected power, refreshes the shooters' powers; returns the power that arrived (W).
+  glm::dvec3 applyIncident(const glm::dvec3& scale, uint32_t first, uint32_t last);
 };
 
 }  // namespace penumbra

@@ -16,8 +16,8 @@ namespace {
 static_assert(std::endian::native == std::endian::little, "checkpoints are little-endian");
 
 constexpr char kMagic[16] = {'P', 'E', 'N', 'U', 'M', 'B', 'R', 'A',
-                             '-', 'P', 'R', 'G', 'R', 'S', 'V', '1'};
-constexpr size_t kHeaderBytes = 16 + 8 + 8 + 5 * 4 + 8 + 12 * 8;
+                             '-', 'P', 'R', 'G', 'R', 'S', 'V', '2'};
+constexpr size_t kHeaderBytes = 16 + 8 + 8 + 6 * 4 + 8 + 12 * 8;
 
 struct Fnv1a {
   uint64_t h = 0xcbf29ce484222325ull;
@@ -65,14 +65,15 @@ Expected<ProgressiveCheckpointInfo> parseHeader(const std::string& path, const s
   EnergyBalance b;
   bool ok = r.get(info.fingerprint) && r.get(info.texel_density) && r.get(info.atlas_width) &&
             r.get(info.atlas_height) && r.get(info.shooter_level) &&
-            r.get(info.shooter_top_points) && r.get(info.iterations) && r.get(info.elements);
+            r.get(info.shooter_top_points) && r.get(info.iterations) && r.get(info.lights_shot) &&
+            r.get(info.elements);
   for (glm::dvec3* v : {&b.emitted, &b.absorbed, &b.unshot, &b.escaped}) {
     for (int c = 0; c < 3; ++c) ok = ok && r.get((*v)[c]);
   }
   if (!ok) return inputError(path, "header", "truncated");
   if (!(info.texel_density > 0.0) || info.atlas_width <= 0 || info.atlas_height <= 0 ||
       info.shooter_level < 0 || info.shooter_top_points < 0 || info.iterations < 0 ||
-      info.elements == 0) {
+      info.lights_shot < 0 || info.lights_shot > 1 || info.elements == 0) {
     return inputError(path, "header", "values out of range");
   }
   if (balance) *balance = b;
@@ -90,6 +91,11 @@ uint64_t progressiveFingerprint(const Scene& scene, const ProgressiveRadiosity& 
   for (const Material& m : scene.materials) {
     h.addValue(m.reflectance);
     h.addValue(m.emission);
+    h.addValue(uint8_t(m.two_sided ? 1 : 0));
+  }
+  for (const Light& light : scene.lights) {
+    h.addValue(uint32_t(light.index()));
+    std::visit([&](const auto& l) { h.addValue(l); }, light);
   }
   h.addValue(solver.atlas().width);
   h.addValue(solver.atlas().height);
@@ -111,6 +117,7 @@ Status writeProgressiveCheckpoint(const std::string& path, const Scene& scene,
   w.put(int32_t(solver.options().shooter_level));
   w.put(int32_t(solver.options().shooter_top_points));
   w.put(int32_t(state.iterations));
+  w.put(int32_t(state.lights_shot ? 1 : 0));
   w.put(uint64_t(solver.elementCount()));
   for (const glm::dvec3* v : {&state.balance.emitted, &state.balance.absorbed,
                               &state.balance.unshot, &state.balance.escaped}) {
@@ -174,6 +181,7 @@ Status resumeProgressiveCheckpoint(const std::string& path, const Scene& scene,
   ProgressiveState state;
   state.balance = balance;
   state.iterations = info->iterations;
+  state.lights_shot = info->lights_shot != 0;
   state.radiosity.resize(n);
   state.residual.resize(n);
   Reader r{*bytes, kHeaderBytes};

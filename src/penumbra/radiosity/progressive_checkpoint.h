@@ -32,6 +32,7 @@ struct ProgressiveCheckpointInfo {
   int shooter_level = 0;
   int shooter_top_points = 0;
   int iterations = 0;
+  int lights_shot = 1;  // 0 or 1
   uint64_t elements = 0;
 };
 

@@ -12,6 +12,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <string>
 #include <utility>
 
@@ -20,7 +21,7 @@ namespace penumbra {
 namespace {
 
 // Work-group sizes of shaders/radiosity/progressive.comp.
-constexpr uint32_t kTriangleGroup = 64;  // pass 0
+constexpr uint32_t kShooterGroup = 64;   // pass 0
 constexpr uint32_t kPointGroup = 64;     // pass 2
 constexpr uint32_t kResolveGroup = 256;  // pass 3
 constexpr uint32_t kImageTile = 16;      // passes 4 and 5
@@ -74,14 +75,6 @@ void setHemisphere(const gl::Program& p, const glm::dvec3& normal, float far) {
   glProgramUniform1f(id, uniform(p, "hemisphere.on_plane"), kOnPlane * far);
 }
 
-// Whether every corner lies on or behind the plane (point c, normal n): the CPU's behindPlane.
-bool behindPlane(const std::array<glm::dvec3, 3>& v, const glm::dvec3& c, const glm::dvec3& n) {
-  for (const glm::dvec3& p : v) {
-    if (glm::dot(n, p - c) > 0.0) return false;
-  }
-  return true;
-}
-
 template <typename T>
 gl::Buffer makeBuffer(const std::vector<T>& data, GLbitfield flags = GL_DYNAMIC_STORAGE_BIT) {
   return gl::Buffer(std::max<size_t>(data.size(), 1) * sizeof(T),
@@ -98,8 +91,8 @@ gl::Texture makeTexture(GLenum format, int width, int height) {
   return t;
 }
 
-// The depth pass's sub-triangle grid of a chart with legs `leg`: k x k sub-triangles with legs
-// of about `texels` atlas texels.
+// The depth pass's sub-triangle grid of a triangle `leg` atlas texels across: k x k
+// sub-triangles with legs of about `texels` texels.
 int tessellation(int leg, int texels) {
   return std::clamp((leg + texels - 1) / texels, 1, kMaxTessellation);
 }
@@ -124,6 +117,11 @@ Expected<GlProgressive> GlProgressive::create(const ProgressiveRadiosity& cpu,
   // Errors left by earlier work are not ours to report.
   while (glGetError() != GL_NO_ERROR) continue;
   const char* place = "progressive radiosity on the GPU";
+  if (!cpu.lightsShot()) {
+    return inputError("", place,
+                      "the point, spot and directional lights shoot first, on the CPU (shoot "
+                      "ProgressiveRadiosity::kLights before creating the GPU solver)");
+  }
   if (gl_options.visibility_resolution < 16) {
     return inputError("", place, "the visibility resolution must be at least 16 texels");
   }
@@ -140,92 +138,162 @@ Expected<GlProgressive> GlProgressive::create(const ProgressiveRadiosity& cpu,
   GlProgressive s;
   s.options_ = options;
   s.gl_options_ = gl_options;
-  const LightmapAtlas& atlas = cpu.atlas();
+  const ChartAtlas& atlas = cpu.atlas();
+  const SurfaceHierarchy& hierarchy = cpu.hierarchy();
   const FlatTriangles& flat = cpu.triangles();
   const size_t n = cpu.elementCount();
-  const uint32_t nt = uint32_t(cpu.triangleCount());
+  const uint32_t nt = uint32_t(flat.triangles.size());
+  const uint32_t ns = uint32_t(cpu.shooterCount());
   s.element_count_ = n;
+  s.shooter_count_ = ns;
   s.triangle_count_ = nt;
   s.width_ = atlas.width;
   s.height_ = atlas.height;
   const int d = gl_options.visibility_resolution;
 
-  // ---- Per triangle: corners, normals and areas as the CPU computes them (double). ----
-  s.corners_.resize(nt);
-  s.normals_.resize(nt);
-  s.areas_.resize(nt);
-  s.sphere_centre_.resize(nt);
-  s.sphere_radius_.resize(nt);
+  // ---- Occluders: every scene triangle, tessellated for the depth pass by its size in atlas
+  // texels (the longest edge at the atlas's density). ----
+  std::vector<GpuProgressiveTriangle> tris(nt);
+  std::vector<glm::uvec2> subs;
   glm::dvec3 lo(INFINITY), hi(-INFINITY);
   for (uint32_t t = 0; t < nt; ++t) {
     const glm::uvec3 tri = flat.triangles[t];
-    const std::array<glm::dvec3, 3> p = {glm::dvec3(flat.positions[tri.x]),
-                                         glm::dvec3(flat.positions[tri.y]),
-                                         glm::dvec3(flat.positions[tri.z])};
-    s.corners_[t] = p;
-    const glm::dvec3 c = glm::cross(p[1] - p[0], p[2] - p[0]);
-    const double len = glm::length(c);
-    s.areas_[t] = 0.5 * len;
-    s.normals_[t] = len > 0.0 ? c / len : glm::dvec3(0.0);
-    s.sphere_centre_[t] = (p[0] + p[1] + p[2]) / 3.0;
-    s.sphere_radius_[t] = 0.0;
-    for (const glm::dvec3& v : p) {
-      s.sphere_radius_[t] = std::max(s.sphere_radius_[t], glm::length(v - s.sphere_centre_[t]));
+    const glm::dvec3 p[3] = {glm::dvec3(flat.positions[tri.x]), glm::dvec3(flat.positions[tri.y]),
+                             glm::dvec3(flat.positions[tri.z])};
+    GpuProgressiveTriangle& g = tris[t];
+    for (int c = 0; c < 3; ++c) {
+      g.p0[c] = float(p[0][c]);
+      g.p1[c] = float(p[1][c]);
+      g.p2[c] = float(p[2][c]);
     }
+    const double area = 0.5 * glm::length(glm::cross(p[1] - p[0], p[2] - p[0]));
+    g.front_chart = -1;
+    g.back_chart = -1;
+    const double edge =
+        std::max({glm::length(p[1] - p[0]), glm::length(p[2] - p[1]), glm::length(p[0] - p[2])});
+    const int k =
+        tessellation(int(std::ceil(edge * atlas.texel_density)), gl_options.tessellation_texels);
+    g.tessellation = uint32_t(k);
     for (const glm::dvec3& v : p) {
       lo = glm::min(lo, v);
       hi = glm::max(hi, v);
     }
+    if (!(area > 0.0)) continue;
+    for (int j = 0; j < k; ++j) {
+      for (int i = 0; i + j < k; ++i) {
+        subs.emplace_back(t, uint32_t(i) | (uint32_t(j) << 8));
+        if (i + j < k - 1) subs.emplace_back(t, uint32_t(i) | (uint32_t(j) << 8) | (1u << 16));
+      }
+    }
+  }
+  for (size_t f = 0; f < atlas.faces.size(); ++f) {
+    const int32_t c = atlas.charts.face_chart[f];
+    GpuProgressiveTriangle& g = tris[atlas.faces[f].triangle];
+    (atlas.faces[f].back ? g.back_chart : g.front_chart) = c;
   }
   s.far_ = float(1.01 * glm::length(hi - lo) + 1e-6);
-
-  // ---- Shooter points (the CPU's substructuring blocks, in its order) and sub-triangles ----
-  const int level = options.shooter_level;
-  std::vector<GpuShooterPoint> points;
-  std::vector<uint32_t> members;
-  members.reserve(n);
-  s.point_first_.assign(nt + 1, 0);
-  s.point_max_area_.assign(nt, 0.0);
-  uint32_t max_points = 0;
-  std::vector<glm::uvec2> subs;
-  for (uint32_t t = 0; t < nt; ++t) {
-    s.point_first_[t] = uint32_t(points.size());
-    // The CPU's flat blocks, with their summed areas and area-weighted mean positions.
-    const std::vector<std::vector<uint32_t>> block_members = cpu.shooterBlocks(t, level);
-    std::vector<glm::dvec3> block_position(block_members.size(), glm::dvec3(0.0));
-    std::vector<double> block_area(block_members.size(), 0.0);
-    for (size_t b = 0; b < block_members.size(); ++b) {
-      for (uint32_t e : block_members[b]) {
-        block_position[b] += cpu.elementPosition(e) * cpu.elementArea(e);
-        block_area[b] += cpu.elementArea(e);
-      }
+  s.sub_triangle_count_ = uint32_t(subs.size());
+  // Charts that touch (share a corner position): the depth test's neighbourhood may look past
+  // a neighbouring chart across an edge, not past an unconnected occluder (receive.frag).
+  std::vector<uint32_t> adjacency_first(atlas.chartCount() + 1, 0), adjacency;
+  {
+    std::vector<std::pair<glm::vec3, uint32_t>> corners;  // (position, chart)
+    for (size_t f = 0; f < atlas.faces.size(); ++f) {
+      const int32_t c = atlas.charts.face_chart[f];
+      if (c < 0) continue;
+      const glm::uvec3 tri = flat.triangles[atlas.faces[f].triangle];
+      for (int k = 0; k < 3; ++k) corners.emplace_back(flat.positions[tri[k]], uint32_t(c));
     }
-    for (size_t b = 0; b < block_members.size(); ++b) {
-      GpuShooterPoint p{};
-      // At level 0 a point is its element (its own point, not a mean of one).
-      s.point_position_.push_back(level == 0 ? cpu.elementPosition(block_members[b].front())
-                                             : block_position[b] / block_area[b]);
-      p.member_first = uint32_t(members.size());
-      p.member_count = uint32_t(block_members[b].size());
-      members.insert(members.end(), block_members[b].begin(), block_members[b].end());
-      points.push_back(p);
-      s.point_area_.push_back(block_area[b]);
-      s.point_members_.emplace_back(p.member_first, p.member_count);
-    }
-    max_points = std::max(max_points, uint32_t(block_members.size()));
-    for (double a : block_area) s.point_max_area_[t] = std::max(s.point_max_area_[t], a);
-    if (s.areas_[t] > 0.0) {
-      const int k = tessellation(atlas.charts[t].leg, gl_options.tessellation_texels);
-      for (int j = 0; j < k; ++j) {
-        for (int i = 0; i + j < k; ++i) {
-          subs.emplace_back(t, uint32_t(i) | (uint32_t(j) << 8));
-          if (i + j < k - 1) subs.emplace_back(t, uint32_t(i) | (uint32_t(j) << 8) | (1u << 16));
+    auto less = [](const std::pair<glm::vec3, uint32_t>& a,
+                   const std::pair<glm::vec3, uint32_t>& b) {
+      if (a.first.x != b.first.x) return a.first.x < b.first.x;
+      if (a.first.y != b.first.y) return a.first.y < b.first.y;
+      if (a.first.z != b.first.z) return a.first.z < b.first.z;
+      return a.second < b.second;
+    };
+    std::sort(corners.begin(), corners.end(), less);
+    std::vector<std::pair<uint32_t, uint32_t>> pairs;
+    for (size_t i = 0; i < corners.size();) {
+      size_t j = i;
+      while (j < corners.size() && corners[j].first == corners[i].first) ++j;
+      for (size_t a = i; a < j; ++a) {
+        for (size_t b = a + 1; b < j && b < a + 64; ++b) {
+          if (corners[a].second != corners[b].second) {
+            pairs.emplace_back(corners[a].second, corners[b].second);
+            pairs.emplace_back(corners[b].second, corners[a].second);
+          }
         }
       }
+      i = j;
+    }
+    std::sort(pairs.begin(), pairs.end());
+    pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
+    for (const auto& pr : pairs) ++adjacency_first[pr.first + 1];
+    for (size_t c = 0; c < atlas.chartCount(); ++c) adjacency_first[c + 1] += adjacency_first[c];
+    for (const auto& pr : pairs) adjacency.push_back(pr.second);
+  }
+
+  // ---- Shooters and their points (the CPU's flat substructuring: clusters of one level) ----
+  const int level = options.shooter_level;
+  std::vector<GpuShooterPoint> points;
+  std::vector<GpuShooter> shooters(ns);
+  s.point_first_.assign(ns + 1, 0);
+  s.point_max_area_.assign(ns, 0.0);
+  s.shooter_elements_.resize(ns);
+  s.shooter_normal_.resize(ns);
+  s.shooter_closed_.resize(ns);
+  s.shooter_centre_.resize(ns);
+  s.shooter_radius_.resize(ns);
+  uint32_t max_points = 0;
+  for (uint32_t sh = 0; sh < ns; ++sh) {
+    const uint32_t first = cpu.shooterBegin(sh), last = cpu.shooterEnd(sh);
+    shooters[sh] = GpuShooter{first, last - first};
+    s.shooter_elements_[sh] = glm::uvec2(first, last - first);
+    const ClusterRef c = cpu.shooterCluster(sh);
+    s.shooter_normal_[sh] = hierarchy.level(c.level).normal[c.index];
+    s.shooter_closed_[sh] = cpu.shotClosed(sh) ? 1 : 0;
+    glm::dvec3 centre = hierarchy.level(c.level).position[c.index];
+    double radius = 0.0;
+    for (uint32_t e = first; e < last; ++e) {
+      radius = std::max(radius, glm::length(cpu.elementPosition(e) - centre));
+    }
+    s.shooter_centre_[sh] = centre;
+    s.shooter_radius_[sh] = radius;
+    s.point_first_[sh] = uint32_t(points.size());
+    const std::vector<std::pair<uint32_t, uint32_t>> blocks = cpu.shooterBlocks(sh, level);
+    for (const auto& [b0, b1] : blocks) {
+      glm::dvec3 position(0.0);
+      double area = 0.0;
+      for (uint32_t e = b0; e < b1; ++e) {
+        position += cpu.elementPosition(e) * cpu.elementArea(e);
+        area += cpu.elementArea(e);
+      }
+      if (!(area > 0.0)) continue;
+      // At level 0 a point is its element (its own point, not a mean of one).
+      s.point_position_.push_back(b1 - b0 == 1 ? cpu.elementPosition(b0) : position / area);
+      s.point_area_.push_back(area);
+      s.point_members_.emplace_back(b0, b1 - b0);
+      points.push_back(GpuShooterPoint{b0, b1 - b0});
+      s.point_max_area_[sh] = std::max(s.point_max_area_[sh], area);
+    }
+    max_points = std::max(max_points, uint32_t(points.size()) - s.point_first_[sh]);
+  }
+  s.point_first_[ns] = uint32_t(points.size());
+  // Charts: element ranges and bounding spheres, for the near pass.
+  const size_t nc = atlas.chartCount();
+  s.chart_elements_.resize(nc);
+  s.chart_centre_.resize(nc);
+  s.chart_radius_.assign(nc, 0.0);
+  for (size_t c = 0; c < nc; ++c) {
+    const AtlasChartPlacement& pl = atlas.placement[c];
+    s.chart_elements_[c] = glm::uvec2(pl.first_element, pl.element_count);
+    const ClusterRef root = hierarchy.root(uint32_t(c));
+    s.chart_centre_[c] = hierarchy.level(root.level).position[root.index];
+    for (uint32_t e = pl.first_element; e < pl.first_element + pl.element_count; ++e) {
+      s.chart_radius_[c] =
+          std::max(s.chart_radius_[c], glm::length(cpu.elementPosition(e) - s.chart_centre_[c]));
     }
   }
-  s.point_first_[nt] = uint32_t(points.size());
-  s.sub_triangle_count_ = uint32_t(subs.size());
 
   // ---- Limits, before allocating ----
   GLint max_texture = 0, max_renderbuffer = 0, viewport[2] = {0, 0};
@@ -237,31 +305,38 @@ Expected<GlProgressive> GlProgressive::create(const ProgressiveRadiosity& cpu,
   int max_size = std::min({max_texture, max_renderbuffer, viewport[0], viewport[1]});
   if (gl_options.max_texture_size > 0) max_size = std::min(max_size, gl_options.max_texture_size);
   const uint64_t texels = uint64_t(atlas.width) * uint64_t(atlas.height);
-  // Radiosity, residual, incident and two radiance atlases (RGBA32F) and the stencil buffer.
-  const uint64_t atlas_bytes = texels * (5 * 16 + 1);
+  // Radiosity, residual, incident and two radiance atlases (RGBA32F).
+  const uint64_t atlas_bytes = texels * (5 * 16);
   // A batch of tiles x tiles shooter points shares one depth texture (kMaxTiles^2 points per
   // receiver pass), as many tiles as the texture size allows.
   s.tiles_ = uint32_t(std::clamp(max_size / std::max(d, 1), 1, kMaxTiles));
   const uint64_t depth_side = uint64_t(d) * s.tiles_;
-  const uint64_t depth_bytes = depth_side * depth_side * 4;
+  const uint64_t depth_bytes = depth_side * depth_side * 8;  // depth and triangle id
   const uint64_t groups = ceilDiv(std::max<size_t>(n, 1), kResolveGroup);
+  // Element pieces (for the near pairs' exact form factor), 8 corners each.
+  uint64_t piece_count = 0;
+  for (size_t e = 0; e < n; ++e) {
+    piece_count += atlas.element_face_first[e + 1] - atlas.element_face_first[e];
+  }
   const struct {
     const char* what;
     uint64_t bytes;
   } buffers[] = {
       {"texel-to-element map", texels * 4},
-      {"texel-to-triangle map", texels * 4},
+      {"texel-to-chart map", texels * 4},
       {"element", uint64_t(n) * sizeof(GpuProgressiveElement)},
       {"element area", uint64_t(n) * 8},
       {"element position", uint64_t(n) * 24},
+      {"element piece", piece_count * 8 * 16},
       {"triangle", uint64_t(nt) * sizeof(GpuProgressiveTriangle)},
+      {"shooter", uint64_t(ns) * sizeof(GpuShooter)},
       {"shooter point", uint64_t(points.size()) * sizeof(GpuShooterPoint)},
       {"shooter point power", uint64_t(points.size()) * 32},
       {"sub-triangle", uint64_t(subs.size()) * 8},
-      {"triangle power", uint64_t(nt) * 32},
+      {"shooter power", uint64_t(ns) * 32},
       {"resolve sums", groups * sizeof(GpuResolveSums)},
   };
-  uint64_t buffer_bytes = uint64_t(n) * 4 + uint64_t(nt) * 8 + sizeof(GpuBatchPoint) * 16;
+  uint64_t buffer_bytes = sizeof(GpuBatchPoint) * 16;
   for (const auto& b : buffers) buffer_bytes += b.bytes;
   const uint64_t total = atlas_bytes + depth_bytes + buffer_bytes;
   s.device_bytes_ = total;
@@ -340,49 +415,60 @@ Expected<GlProgressive> GlProgressive::create(const ProgressiveRadiosity& cpu,
   std::vector<GpuProgressiveElement> elements(n);
   std::vector<double> element_area(n);
   std::vector<int32_t> texel_element(texels, -1);
-  std::vector<glm::vec4> polygons;  // 8 corners per element that is not a whole texel square
+  std::vector<glm::vec4> polygons;  // 8 corners per piece
+  polygons.reserve(size_t(piece_count) * 8);
   s.element_texel_.resize(n);
   glm::dvec3 rho_area(0.0);
+  std::vector<std::array<glm::dvec3, 8>> pieces;
+  std::vector<int> counts;
   for (size_t e = 0; e < n; ++e) {
-    const uint32_t t = cpu.elementTriangle(e);
     const uint32_t texel = cpu.elementTexel(e);
-    const AtlasChart& chart = atlas.charts[t];
     GpuProgressiveElement& g = elements[e];
     const glm::dvec3 pos = cpu.elementPosition(e);
     for (int c = 0; c < 3; ++c) {
       g.position[c] = float(pos[c]);
       g.reflectance[c] = float(cpu.reflectance(e)[c]);
+      g.normal[c] = float(cpu.elementNormal(e)[c]);
     }
     g.area = float(cpu.elementArea(e));
     g.texel = texel;
-    g.triangle = t;
-    // Barycentrics of the element's point (its coverage centroid) on the triangle.
-    const std::array<glm::dvec3, 3>& p = s.corners_[t];
-    const glm::dvec3 e1 = p[1] - p[0], e2 = p[2] - p[0], r = pos - p[0];
-    const double a11 = glm::dot(e1, e1), a12 = glm::dot(e1, e2), a22 = glm::dot(e2, e2);
-    const double det = a11 * a22 - a12 * a12;
-    double w1 = 0.0, w2 = 0.0;
-    if (det > 0.0) {
+    // The triangle, among its pieces' faces, that holds the element's point (or comes nearest:
+    // the largest smallest barycentric weight), and the point's barycentrics on it, for the
+    // back projection through the same sub-triangle the depth pass rasterised.
+    double w1 = 0.0, w2 = 0.0, best = -std::numeric_limits<double>::max();
+    uint32_t t = atlas.faces[atlas.element_face[e]].triangle;
+    for (uint32_t k = atlas.element_face_first[e]; k < atlas.element_face_first[e + 1]; ++k) {
+      const uint32_t tk = atlas.faces[atlas.element_faces[k]].triangle;
+      const glm::uvec3 tri = flat.triangles[tk];
+      const glm::dvec3 p0(flat.positions[tri.x]), p1(flat.positions[tri.y]),
+          p2(flat.positions[tri.z]);
+      const glm::dvec3 e1 = p1 - p0, e2 = p2 - p0, r = pos - p0;
+      const double a11 = glm::dot(e1, e1), a12 = glm::dot(e1, e2), a22 = glm::dot(e2, e2);
+      const double det = a11 * a22 - a12 * a12;
+      if (!(det > 0.0)) continue;
       const double b1 = glm::dot(r, e1), b2 = glm::dot(r, e2);
-      w1 = (b1 * a22 - b2 * a12) / det;
-      w2 = (a11 * b2 - a12 * b1) / det;
+      const double u = (b1 * a22 - b2 * a12) / det, v = (a11 * b2 - a12 * b1) / det;
+      const double smallest = std::min({1.0 - u - v, u, v});
+      if (smallest > best) {
+        best = smallest;
+        t = tk;
+        w1 = u;
+        w2 = v;
+      }
     }
+    g.triangle = t;
     g.barycentric[0] = float(w1);
     g.barycentric[1] = float(w2);
-    // The texel's chart lattice point.
-    const int li = cpu.elementLattice(e).x, lj = cpu.elementLattice(e).y;
-    g.polygon = ~0u;
-    if (li < 1 || lj < 1 || li + lj + 1 > chart.leg) {
-      // Along the chart's edges: the texel square clipped to the triangle, in world space (the
-      // CPU solver's own polygon), padded to 8 corners by repeating the last.
-      std::array<glm::dvec3, 8> poly;
-      const int count = cpu.elementPolygon(uint32_t(e), poly);
-      g.polygon = uint32_t(polygons.size() / 8);
+    // Its pieces in world space, padded to 8 corners by repeating the last.
+    cpu.elementPieces(e, pieces, counts);
+    g.piece_first = uint32_t(polygons.size() / 8);
+    g.piece_count = 0;
+    for (size_t q = 0; q < pieces.size(); ++q) {
+      if (counts[q] < 3) continue;
       for (int k = 0; k < 8; ++k) {
-        const glm::dvec3 corner =
-            count > 0 ? poly[size_t(std::min(k, count - 1))] : cpu.elementPosition(e);
-        polygons.emplace_back(glm::vec3(corner), 0.0f);
+        polygons.emplace_back(glm::vec3(pieces[q][size_t(std::min(k, counts[q] - 1))]), 0.0f);
       }
+      ++g.piece_count;
     }
     element_area[e] = cpu.elementArea(e);
     texel_element[texel] = int32_t(e);
@@ -392,52 +478,19 @@ Expected<GlProgressive> GlProgressive::create(const ProgressiveRadiosity& cpu,
   }
   s.ambient_factor_ =
       s.total_area_ > 0.0 ? 1.0 / (1.0 - rho_area / s.total_area_) : glm::dvec3(1.0);
-  std::vector<GpuProgressiveTriangle> tris(nt);
-  for (uint32_t t = 0; t < nt; ++t) {
-    GpuProgressiveTriangle& g = tris[t];
-    const std::array<glm::dvec3, 3>& p = s.corners_[t];
-    for (int c = 0; c < 3; ++c) {
-      g.p0[c] = float(p[0][c]);
-      g.p1[c] = float(p[1][c]);
-      g.p2[c] = float(p[2][c]);
-      g.normal[c] = float(s.normals_[t][c]);
-    }
-    g.area = float(s.areas_[t]);
-    g.leg = atlas.charts[t].leg;
-    g.right = atlas.charts[t].right;
-    g.tessellation = uint32_t(tessellation(g.leg, gl_options.tessellation_texels));
-    for (int k = 0; k < 3; ++k) {
-      g.uv[k][0] = atlas.uvs[3 * size_t(t) + size_t(k)].x;
-      g.uv[k][1] = atlas.uvs[3 * size_t(t) + size_t(k)].y;
-    }
-    g.element_first = cpu.triangleFirst(t);
-    g.element_count = cpu.triangleFirst(t + 1) - cpu.triangleFirst(t);
-    for (int c = 0; c < 2; ++c) {
-      g.corner[c] = atlas.charts[t].corner[c];
-      g.axis[c] = atlas.charts[t].axis[c];
-    }
-  }
-
-  if (polygons.size() * sizeof(glm::vec4) > uint64_t(max_ssbo)) {
-    return inputError(
-        "", place,
-        fmt::format("the element polygon buffer needs {} bytes, but this device "
-                    "allows {} per shader storage block",
-                    polygons.size() * sizeof(glm::vec4), formatBytes(uint64_t(max_ssbo))));
-  }
-
-  s.device_bytes_ += polygons.size() * sizeof(glm::vec4);
 
   // ---- Buffers ----
   s.triangles_ = makeBuffer(tris);
+  s.shooters_ = makeBuffer(shooters);
   s.elements_ = makeBuffer(elements);
   s.element_area_ = makeBuffer(element_area);
   s.texel_element_ = makeBuffer(texel_element);
-  s.texel_triangle_ = makeBuffer(atlas.texel_triangle);
+  s.texel_chart_ = makeBuffer(atlas.texel_chart);
   s.points_buf_ = makeBuffer(points);
-  s.members_ = makeBuffer(members);
   s.sub_triangles_ = makeBuffer(subs);
   s.polygons_ = makeBuffer(polygons);
+  s.chart_adjacency_first_ = makeBuffer(adjacency_first);
+  s.chart_adjacency_ = makeBuffer(adjacency);
   {
     std::vector<double> ep(3 * n);
     for (size_t e = 0; e < n; ++e) {
@@ -446,9 +499,8 @@ Expected<GlProgressive> GlProgressive::create(const ProgressiveRadiosity& cpu,
     s.element_position_d_ = makeBuffer(ep);
   }
   s.point_power_ = gl::Buffer(std::max<size_t>(points.size(), 1) * 32, nullptr, 0);
-  s.receivers_ = gl::Buffer(std::max<size_t>(2 * size_t(nt), 1) * 4, nullptr);
   s.batch_ = gl::Buffer(sizeof(GpuBatchPoint) * kMaxTiles * kMaxTiles, nullptr);
-  s.triangle_power_ = gl::Buffer(std::max<size_t>(nt, 1) * 32, nullptr, 0);
+  s.shooter_power_ = gl::Buffer(std::max<size_t>(ns, 1) * 32, nullptr, 0);
   s.selection_ = gl::Buffer(sizeof(GpuSelection), nullptr, 0);
   s.sums_ = gl::Buffer(size_t(groups) * sizeof(GpuResolveSums), nullptr, 0);
 
@@ -459,24 +511,20 @@ Expected<GlProgressive> GlProgressive::create(const ProgressiveRadiosity& cpu,
   for (gl::Texture& t : s.radiance_maps_) t = makeTexture(GL_RGBA32F, atlas.width, atlas.height);
   s.depth_map_ = makeTexture(GL_DEPTH_COMPONENT32F, d * int(s.tiles_), d * int(s.tiles_));
   glTextureParameteri(s.depth_map_.id(), GL_TEXTURE_COMPARE_MODE, GL_NONE);
-  s.stencil_ = gl::createRenderbuffer();
-  glNamedRenderbufferStorage(s.stencil_.id(), GL_STENCIL_INDEX8, atlas.width, atlas.height);
+  s.id_map_ = makeTexture(GL_R32UI, d * int(s.tiles_), d * int(s.tiles_));
   s.atlas_fbo_ = gl::createFramebuffer();
   glNamedFramebufferTexture(s.atlas_fbo_.id(), GL_COLOR_ATTACHMENT0, s.incident_.id(), 0);
-  glNamedFramebufferRenderbuffer(s.atlas_fbo_.id(), GL_STENCIL_ATTACHMENT, GL_RENDERBUFFER,
-                                 s.stencil_.id());
   glNamedFramebufferDrawBuffer(s.atlas_fbo_.id(), GL_COLOR_ATTACHMENT0);
   s.depth_fbo_ = gl::createFramebuffer();
   glNamedFramebufferTexture(s.depth_fbo_.id(), GL_DEPTH_ATTACHMENT, s.depth_map_.id(), 0);
-  glNamedFramebufferDrawBuffer(s.depth_fbo_.id(), GL_NONE);
+  glNamedFramebufferTexture(s.depth_fbo_.id(), GL_COLOR_ATTACHMENT0, s.id_map_.id(), 0);
+  glNamedFramebufferDrawBuffer(s.depth_fbo_.id(), GL_COLOR_ATTACHMENT0);
   glNamedFramebufferReadBuffer(s.depth_fbo_.id(), GL_NONE);
   for (GLuint fbo : {s.atlas_fbo_.id(), s.depth_fbo_.id()}) {
     if (glCheckNamedFramebufferStatus(fbo, GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE) {
       return runtimeError("", "progressive radiosity: a framebuffer is incomplete on this device");
     }
   }
-  const GLint zero = 0;
-  glClearNamedFramebufferiv(s.atlas_fbo_.id(), GL_STENCIL, 0, &zero);
   s.vao_ = gl::createVertexArray();
 
   const GLenum err = glGetError();
@@ -511,6 +559,10 @@ Status GlProgressive::upload(const ProgressiveState& state) {
   }
   if (state.iterations < 0) {
     return inputError("", "progressive radiosity on the GPU", "negative iterations");
+  }
+  if (!state.lights_shot) {
+    return inputError("", "progressive radiosity on the GPU",
+                      "the lights have not shot yet (they shoot on the CPU)");
   }
   const size_t texels = size_t(width_) * size_t(height_);
   std::vector<glm::vec4> b(texels, glm::vec4(0.0f)), db(texels, glm::vec4(0.0f));
@@ -548,6 +600,7 @@ Expected<ProgressiveState> GlProgressive::download() const {
   }
   st.balance = balance_;
   st.iterations = iterations_;
+  st.lights_shot = true;
   return st;
 }
 
@@ -557,33 +610,33 @@ double GlProgressive::unshotFraction() const {
 
 void GlProgressive::dispatchPower() {
   glUseProgram(power_.id());
-  glUniform1ui(uniform(power_, "triangle_count"), triangle_count_);
+  glUniform1ui(uniform(power_, "shooter_count"), shooter_count_);
   glUniform1i(uniform(power_, "atlas_width"), width_);
-  triangles_.bindBase(GL_SHADER_STORAGE_BUFFER, 0);
+  shooters_.bindBase(GL_SHADER_STORAGE_BUFFER, 0);
   elements_.bindBase(GL_SHADER_STORAGE_BUFFER, 2);
-  triangle_power_.bindBase(GL_SHADER_STORAGE_BUFFER, 9);
+  shooter_power_.bindBase(GL_SHADER_STORAGE_BUFFER, 9);
   element_area_.bindBase(GL_SHADER_STORAGE_BUFFER, 12);
   glBindImageTexture(0, residual_.id(), 0, GL_FALSE, 0, GL_READ_ONLY, GL_RGBA32F);
-  dispatchLinear(ceilDiv(triangle_count_, kTriangleGroup));
+  dispatchLinear(ceilDiv(shooter_count_, kShooterGroup));
   glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT | GL_BUFFER_UPDATE_BARRIER_BIT);
 }
 
 Expected<std::vector<double>> GlProgressive::residualPowers() {
   dispatchPower();
-  std::vector<glm::dvec4> power(triangle_count_);
-  if (triangle_count_ > 0) triangle_power_.download(power.data(), power.size() * 32);
+  std::vector<glm::dvec4> power(shooter_count_);
+  if (shooter_count_ > 0) shooter_power_.download(power.data(), power.size() * 32);
   glUseProgram(0);
   PENUMBRA_TRY(glStatus("computing the residual powers"));
-  std::vector<double> out(triangle_count_);
-  for (uint32_t t = 0; t < triangle_count_; ++t) out[t] = power[t].w;
+  std::vector<double> out(shooter_count_);
+  for (uint32_t t = 0; t < shooter_count_; ++t) out[t] = power[t].w;
   return out;
 }
 
 Expected<uint32_t> GlProgressive::selectShooter() {
   dispatchPower();
   glUseProgram(select_.id());
-  glUniform1ui(uniform(select_, "triangle_count"), triangle_count_);
-  triangle_power_.bindBase(GL_SHADER_STORAGE_BUFFER, 9);
+  glUniform1ui(uniform(select_, "shooter_count"), shooter_count_);
+  shooter_power_.bindBase(GL_SHADER_STORAGE_BUFFER, 9);
   selection_.bindBase(GL_SHADER_STORAGE_BUFFER, 10);
   glDispatchCompute(1, 1, 1);
   glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
@@ -592,102 +645,83 @@ Expected<uint32_t> GlProgressive::selectShooter() {
   GpuSelection sel{};
   selection_.download(&sel, sizeof(sel));
   PENUMBRA_TRY(glStatus("selecting the shooter"));
-  return sel.power > 0.0 ? sel.triangle : kNoShooter;
+  return sel.power > 0.0 ? sel.shooter : kNoShooter;
 }
 
-glm::uvec2 GlProgressive::uploadReceivers(uint32_t shooter) {
-  // The CPU's receiver test: not wholly behind the shooter's plane, and the shooter not wholly
-  // behind the receiver's (facing it); degenerate triangles neither shoot nor receive.
-  std::vector<uint32_t> receivers, near;
-  if (areas_[shooter] > 0.0) {
-    const std::array<glm::dvec3, 3>& sv = corners_[shooter];
-    const glm::dvec3 ns = normals_[shooter];
-    // Near pairs need d^2 < kNear^2 A_s for some point of the shooter: triangles whose bounding
-    // spheres are farther apart than that cannot have one.
-    const double reach = kProgressiveNear * std::sqrt(point_max_area_[shooter]);
-    for (uint32_t t = 0; t < triangle_count_; ++t) {
-      if (t == shooter || areas_[t] <= 0.0) continue;
-      const std::array<glm::dvec3, 3>& rv = corners_[t];
-      if (behindPlane(rv, sv[0], ns) || behindPlane(sv, rv[0], normals_[t])) continue;
-      receivers.push_back(t);
-      const double gap = glm::length(sphere_centre_[t] - sphere_centre_[shooter]) -
-                         sphere_radius_[t] - sphere_radius_[shooter];
-      if (gap < reach * (1.0 + 1e-6)) near.push_back(t);
-    }
-  }
-  const size_t far_count = receivers.size();
-  receivers.insert(receivers.end(), near.begin(), near.end());
-  if (!receivers.empty()) receivers_.upload(receivers.data(), receivers.size() * 4);
-  return glm::uvec2(uint32_t(far_count), uint32_t(near.size()));
-}
-
-void GlProgressive::nextStamp() {
-  if (++stamp_ > 255) {
-    const GLint zero = 0;
-    glClearNamedFramebufferiv(atlas_fbo_.id(), GL_STENCIL, 0, &zero);
-    stamp_ = 1;
-  }
-}
-
-void GlProgressive::drawReceivers(const gl::Program& program, uint32_t first, uint32_t count,
-                                  bool guarded) {
+void GlProgressive::drawReceivers(const gl::Program& program, uint32_t first, uint32_t count) {
+  if (count == 0) return;
   glBindFramebuffer(GL_FRAMEBUFFER, atlas_fbo_.id());
   glViewport(0, 0, width_, height_);
   glDisable(GL_DEPTH_TEST);
   glDisable(GL_CULL_FACE);
   glDisable(GL_MULTISAMPLE);
-  glDisable(GL_LINE_SMOOTH);
+  glDisable(GL_STENCIL_TEST);
   glEnable(GL_BLEND);
   glBlendEquation(GL_FUNC_ADD);
   glBlendFunc(GL_ONE, GL_ONE);
-  if (guarded) {
-    // Exactly one fragment per texel and shooter point: the first to arrive replaces the
-    // stencil value with this point's stamp, every later one fails the test.
-    nextStamp();
-    glEnable(GL_STENCIL_TEST);
-    glStencilMask(0xff);
-    glStencilFunc(GL_NOTEQUAL, stamp_, 0xff);
-    glStencilOp(GL_KEEP, GL_KEEP, GL_REPLACE);
-  } else {
-    glDisable(GL_STENCIL_TEST);
-  }
   glUseProgram(program.id());
-  glProgramUniform1ui(program.id(), uniform(program, "receiver_first"), first);
-  triangles_.bindBase(GL_SHADER_STORAGE_BUFFER, 0);
-  receivers_.bindBase(GL_SHADER_STORAGE_BUFFER, 1);
+  glProgramUniform1i(program.id(), uniform(program, "atlas_width"), width_);
+  glProgramUniform1i(program.id(), uniform(program, "atlas_height"), height_);
   elements_.bindBase(GL_SHADER_STORAGE_BUFFER, 2);
-  texel_element_.bindBase(GL_SHADER_STORAGE_BUFFER, 3);
-  members_.bindBase(GL_SHADER_STORAGE_BUFFER, 6);
+  triangles_.bindBase(GL_SHADER_STORAGE_BUFFER, 0);
   element_position_d_.bindBase(GL_SHADER_STORAGE_BUFFER, 15);
   polygons_.bindBase(GL_SHADER_STORAGE_BUFFER, 18);
   batch_.bindBase(GL_UNIFORM_BUFFER, 0);
   glBindTextureUnit(0, depth_map_.id());
   glBindTextureUnit(1, residual_.id());
+  glBindTextureUnit(2, id_map_.id());
+  texel_chart_.bindBase(GL_SHADER_STORAGE_BUFFER, 13);
+  chart_adjacency_first_.bindBase(GL_SHADER_STORAGE_BUFFER, 16);
+  chart_adjacency_.bindBase(GL_SHADER_STORAGE_BUFFER, 17);
   glBindVertexArray(vao_.id());
-  // Sec. 3.1: the polygons, then their outlines with line width 1. The diamond-exit rule
-  // leaves the last fragment of a line out, and implementations differ on a segment's first
-  // one (llvmpipe misses the chart corner at lattice (0, leg) of upright charts), so the
-  // corners are drawn once more as points of size 1: a chart corner lies on a texel centre,
-  // which a point there always produces. The stencil guard makes the overlap harmless.
-  glPolygonMode(GL_FRONT_AND_BACK, GL_FILL);
-  glDrawArrays(GL_TRIANGLES, 0, GLsizei(3 * count));
-  glPolygonMode(GL_FRONT_AND_BACK, GL_LINE);
-  glLineWidth(1.0f);
-  glDrawArrays(GL_TRIANGLES, 0, GLsizei(3 * count));
-  glPolygonMode(GL_FRONT_AND_BACK, GL_POINT);
+  // One point of size 1 at each element's texel centre: exactly one fragment per element (the
+  // paper rasterises the receiver triangles through their lightmap UVs; every fragment of a
+  // texel computes the same value from its element's data, so one per texel is what counts).
   glDisable(GL_PROGRAM_POINT_SIZE);
   glPointSize(1.0f);
-  glDrawArrays(GL_TRIANGLES, 0, GLsizei(3 * count));
-  glPolygonMode(GL_FRONT_AND_BACK, GL_FILL);
+  glDrawArrays(GL_POINTS, GLint(first), GLsizei(count));
   glBindVertexArray(0);
-  glDisable(GL_STENCIL_TEST);
   glDisable(GL_BLEND);
   glBindFramebuffer(GL_FRAMEBUFFER, 0);
 }
 
+Expected<GpuResolveSums> GlProgressive::resolve(uint32_t shooter, const glm::dvec3& scale,
+                                                bool apply) {
+  const uint32_t groups = ceilDiv(std::max<size_t>(element_count_, 1), kResolveGroup);
+  glUseProgram(resolve_.id());
+  glUniform1ui(uniform(resolve_, "element_count"), uint32_t(element_count_));
+  glUniform2ui(uniform(resolve_, "shooter_elements"), shooter_elements_[shooter].x,
+               shooter_elements_[shooter].y);
+  glUniform1i(uniform(resolve_, "atlas_width"), width_);
+  glUniform3f(uniform(resolve_, "scale"), float(scale.x), float(scale.y), float(scale.z));
+  glUniform1i(uniform(resolve_, "apply"), apply ? 1 : 0);
+  elements_.bindBase(GL_SHADER_STORAGE_BUFFER, 2);
+  sums_.bindBase(GL_SHADER_STORAGE_BUFFER, 11);
+  element_area_.bindBase(GL_SHADER_STORAGE_BUFFER, 12);
+  glBindImageTexture(0, residual_.id(), 0, GL_FALSE, 0, GL_READ_WRITE, GL_RGBA32F);
+  glBindImageTexture(1, radiosity_.id(), 0, GL_FALSE, 0, GL_READ_WRITE, GL_RGBA32F);
+  glBindTextureUnit(2, incident_.id());
+  dispatchLinear(groups);
+  glMemoryBarrier(GL_SHADER_IMAGE_ACCESS_BARRIER_BIT | GL_TEXTURE_FETCH_BARRIER_BIT |
+                  GL_TEXTURE_UPDATE_BARRIER_BIT | GL_BUFFER_UPDATE_BARRIER_BIT |
+                  GL_SHADER_STORAGE_BARRIER_BIT);
+  glUseProgram(0);
+  std::vector<GpuResolveSums> sums(groups);
+  sums_.download(sums.data(), sums.size() * sizeof(GpuResolveSums));
+  PENUMBRA_TRY(glStatus("resolving the shot"));
+  GpuResolveSums total{};
+  for (const GpuResolveSums& g : sums) {
+    for (int c = 0; c < 3; ++c) {
+      total.arrived[c] += g.arrived[c];
+      total.absorbed[c] += g.absorbed[c];
+      total.reflected[c] += g.reflected[c];
+    }
+  }
+  return total;
+}
+
 Expected<ProgressiveIteration> GlProgressive::shoot(uint32_t shooter) {
-  PENUMBRA_CHECK_MSG(shooter < triangle_count_, "shooter {} of {} triangles", shooter,
-                     triangle_count_);
+  PENUMBRA_CHECK_MSG(shooter < shooter_count_, "shooter {} of {}", shooter, shooter_count_);
   const Timer timer;
   ProgressiveIteration it;
   it.iteration = ++iterations_;
@@ -695,7 +729,7 @@ Expected<ProgressiveIteration> GlProgressive::shoot(uint32_t shooter) {
   const uint32_t point_first = point_first_[shooter];
   const uint32_t point_count = point_first_[shooter + 1] - point_first;
 
-  // Shooter points: dB sums per block (substructuring, sec. 3).
+  // Shooter points: dB sums per cluster (substructuring, sec. 3).
   std::vector<glm::dvec4> point_power(point_count);
   if (point_count > 0) {
     glUseProgram(points_.id());
@@ -704,7 +738,6 @@ Expected<ProgressiveIteration> GlProgressive::shoot(uint32_t shooter) {
     glUniform1i(uniform(points_, "atlas_width"), width_);
     elements_.bindBase(GL_SHADER_STORAGE_BUFFER, 2);
     points_buf_.bindBase(GL_SHADER_STORAGE_BUFFER, 4);
-    members_.bindBase(GL_SHADER_STORAGE_BUFFER, 6);
     point_power_.bindBase(GL_SHADER_STORAGE_BUFFER, 8);
     element_area_.bindBase(GL_SHADER_STORAGE_BUFFER, 12);
     glBindImageTexture(0, residual_.id(), 0, GL_FALSE, 0, GL_READ_ONLY, GL_RGBA32F);
@@ -728,17 +761,25 @@ Expected<ProgressiveIteration> GlProgressive::shoot(uint32_t shooter) {
 
   const GLfloat zero4[4] = {0.0f, 0.0f, 0.0f, 0.0f};
   glClearTexImage(incident_.id(), 0, GL_RGBA, GL_FLOAT, zero4);
-  const glm::uvec2 receivers = active.empty() ? glm::uvec2(0) : uploadReceivers(shooter);
-  if (receivers.x > 0) {
-    const glm::dvec3 ns = normals_[shooter];
+  // Near pairs need d^2 < kNear^2 A for some point of the shooter: charts whose bounding
+  // spheres are farther from the shooter's than that cannot have one.
+  std::vector<glm::uvec2> near_charts;
+  const double reach = kProgressiveNear * std::sqrt(point_max_area_[shooter]);
+  for (size_t c = 0; c < chart_elements_.size(); ++c) {
+    const double gap = glm::length(chart_centre_[c] - shooter_centre_[shooter]) - chart_radius_[c] -
+                       shooter_radius_[shooter];
+    if (gap < reach * (1.0 + 1e-6) && chart_elements_[c].y > 0) {
+      near_charts.push_back(chart_elements_[c]);
+    }
+  }
+  if (!active.empty()) {
+    const glm::dvec3 ns = shooter_normal_[shooter];
     const GLuint did = depth_.id();
     setHemisphere(depth_, ns, far_);
     glProgramUniform1ui(did, uniform(depth_, "tiles"), tiles_);
     for (const gl::Program* r : {&receive_far_, &receive_near_}) {
       const GLuint rid = r->id();
       setHemisphere(*r, ns, far_);
-      glProgramUniform1ui(rid, uniform(*r, "shooter"), shooter);
-      glProgramUniform1i(rid, uniform(*r, "atlas_width"), width_);
       glProgramUniform1f(rid, uniform(*r, "depth_tolerance"), gl_options_.depth_tolerance);
       glProgramUniform1f(rid, uniform(*r, "near_factor"), float(kProgressiveNear));
       glProgramUniform1i(rid, uniform(*r, "count_mode"), 0);
@@ -779,6 +820,8 @@ Expected<ProgressiveIteration> GlProgressive::shoot(uint32_t shooter) {
         for (int c = 0; c < 4; ++c) glEnable(GLenum(GL_CLIP_DISTANCE0 + c));
         const GLfloat far_depth = 1.0f;
         glClearNamedFramebufferfv(depth_fbo_.id(), GL_DEPTH, 0, &far_depth);
+        const GLuint no_triangle[4] = {0xffffffffu, 0u, 0u, 0u};
+        glClearNamedFramebufferuiv(depth_fbo_.id(), GL_COLOR, 0, no_triangle);
         glUseProgram(did);
         triangles_.bindBase(GL_SHADER_STORAGE_BUFFER, 0);
         sub_triangles_.bindBase(GL_SHADER_STORAGE_BUFFER, 7);
@@ -788,44 +831,36 @@ Expected<ProgressiveIteration> GlProgressive::shoot(uint32_t shooter) {
         for (int c = 0; c < 4; ++c) glDisable(GLenum(GL_CLIP_DISTANCE0 + c));
         glDisable(GL_DEPTH_TEST);
       }
-      // Far pairs over every receiver, near pairs over the receivers that can have them.
+      // Far pairs over every element, near pairs over the charts that can have them.
       for (const gl::Program* r : {&receive_far_, &receive_near_}) {
         glProgramUniform1ui(r->id(), uniform(*r, "batch_count"), count);
       }
-      drawReceivers(receive_far_, 0, receivers.x, true);
-      if (receivers.y > 0) drawReceivers(receive_near_, receivers.x, receivers.y, true);
+      drawReceivers(receive_far_, 0, uint32_t(element_count_));
+      for (const glm::uvec2& c : near_charts) drawReceivers(receive_near_, c.x, c.y);
     }
     glUseProgram(0);
   }
 
+  // Closed shots arrive whole (ProgressiveRadiosity::shotClosed): the gathered irradiance
+  // scaled so that the power arriving equals the power shot.
+  glm::dvec3 scale(1.0);
+  it.closed = shooter_closed_[shooter] != 0;
+  if (it.closed) {
+    Expected<GpuResolveSums> raw = resolve(shooter, glm::dvec3(1.0), false);
+    if (!raw) return raw.error();
+    for (int c = 0; c < 3; ++c) {
+      if (raw->arrived[c] > 0.0) scale[c] = shot[c] / raw->arrived[c];
+    }
+  }
   // Resolve: B += rho E_in, dB += rho E_in, the shooter's dB = 0, and the energy sums.
-  const uint32_t groups = ceilDiv(std::max<size_t>(element_count_, 1), kResolveGroup);
-  glUseProgram(resolve_.id());
-  glUniform1ui(uniform(resolve_, "element_count"), uint32_t(element_count_));
-  glUniform1ui(uniform(resolve_, "shooter"), shooter);
-  glUniform1i(uniform(resolve_, "atlas_width"), width_);
-  elements_.bindBase(GL_SHADER_STORAGE_BUFFER, 2);
-  sums_.bindBase(GL_SHADER_STORAGE_BUFFER, 11);
-  element_area_.bindBase(GL_SHADER_STORAGE_BUFFER, 12);
-  glBindImageTexture(0, residual_.id(), 0, GL_FALSE, 0, GL_READ_WRITE, GL_RGBA32F);
-  glBindImageTexture(1, radiosity_.id(), 0, GL_FALSE, 0, GL_READ_WRITE, GL_RGBA32F);
-  glBindTextureUnit(2, incident_.id());
-  dispatchLinear(groups);
-  glMemoryBarrier(GL_SHADER_IMAGE_ACCESS_BARRIER_BIT | GL_TEXTURE_FETCH_BARRIER_BIT |
-                  GL_TEXTURE_UPDATE_BARRIER_BIT | GL_BUFFER_UPDATE_BARRIER_BIT |
-                  GL_SHADER_STORAGE_BARRIER_BIT);
-  glUseProgram(0);
-  std::vector<GpuResolveSums> sums(groups);
-  sums_.download(sums.data(), sums.size() * sizeof(GpuResolveSums));
+  Expected<GpuResolveSums> sums = resolve(shooter, scale, true);
+  if (!sums) return sums.error();
   PENUMBRA_TRY(glStatus("shooting"));
 
   // The books, exactly as the CPU keeps them (progressive.h).
-  glm::dvec3 arrived(0.0), absorbed(0.0), reflected(0.0);
-  for (const GpuResolveSums& g : sums) {
-    arrived += glm::dvec3(g.arrived[0], g.arrived[1], g.arrived[2]);
-    absorbed += glm::dvec3(g.absorbed[0], g.absorbed[1], g.absorbed[2]);
-    reflected += glm::dvec3(g.reflected[0], g.reflected[1], g.reflected[2]);
-  }
+  const glm::dvec3 arrived(sums->arrived[0], sums->arrived[1], sums->arrived[2]);
+  const glm::dvec3 absorbed(sums->absorbed[0], sums->absorbed[1], sums->absorbed[2]);
+  const glm::dvec3 reflected(sums->reflected[0], sums->reflected[1], sums->reflected[2]);
   balance_.absorbed += absorbed;
   balance_.unshot += reflected - shot;
   balance_.escaped += shot - arrived;
@@ -862,8 +897,8 @@ Expected<Image> GlProgressive::radianceImage(bool with_ambient) {
   if (with_ambient && total_area_ > 0.0) {
     // Eq. 4-6: R * sum_j dB_j A_j / sum_k A_k, the unshot power from the power pass.
     dispatchPower();
-    std::vector<glm::dvec4> power(triangle_count_);
-    if (triangle_count_ > 0) triangle_power_.download(power.data(), power.size() * 32);
+    std::vector<glm::dvec4> power(shooter_count_);
+    if (shooter_count_ > 0) shooter_power_.download(power.data(), power.size() * 32);
     glm::dvec3 unshot(0.0);
     for (const glm::dvec4& p : power) unshot += glm::dvec3(p);
     ambient = ambient_factor_ * unshot / total_area_;
@@ -873,21 +908,18 @@ Expected<Image> GlProgressive::radianceImage(bool with_ambient) {
   glUseProgram(radiance_.id());
   glUniform2i(uniform(radiance_, "atlas_size"), width_, height_);
   glUniform3f(uniform(radiance_, "ambient"), float(ambient.x), float(ambient.y), float(ambient.z));
-  glUniform1i(uniform(radiance_, "border_plane"), gl_options_.border_plane ? 1 : 0);
-  triangles_.bindBase(GL_SHADER_STORAGE_BUFFER, 0);
   elements_.bindBase(GL_SHADER_STORAGE_BUFFER, 2);
   texel_element_.bindBase(GL_SHADER_STORAGE_BUFFER, 3);
-  texel_triangle_.bindBase(GL_SHADER_STORAGE_BUFFER, 13);
   glBindImageTexture(1, radiosity_.id(), 0, GL_FALSE, 0, GL_READ_ONLY, GL_RGBA32F);
   glBindImageTexture(3, radiance_maps_[0].id(), 0, GL_FALSE, 0, GL_WRITE_ONLY, GL_RGBA32F);
   glDispatchCompute(gx, gy, 1);
   glMemoryBarrier(GL_TEXTURE_FETCH_BARRIER_BIT | GL_SHADER_IMAGE_ACCESS_BARRIER_BIT);
   // Sec. 3.1: ping-pong passes, each filling the unoccupied texels next to filled ones of the
-  // same triangle with their mean.
+  // same chart with their mean.
   int current = 0;
   glUseProgram(fill_.id());
   glUniform2i(uniform(fill_, "atlas_size"), width_, height_);
-  texel_triangle_.bindBase(GL_SHADER_STORAGE_BUFFER, 13);
+  texel_chart_.bindBase(GL_SHADER_STORAGE_BUFFER, 13);
   for (int pass = 0; pass < gl_options_.gap_fill_passes; ++pass) {
     glBindTextureUnit(2, radiance_maps_[size_t(current)].id());
     glBindImageTexture(3, radiance_maps_[size_t(1 - current)].id(), 0, GL_FALSE, 0, GL_WRITE_ONLY,
@@ -907,19 +939,12 @@ Expected<Image> GlProgressive::radianceImage(bool with_ambient) {
   return img;
 }
 
-Expected<std::vector<uint32_t>> GlProgressive::receiverCoverage(bool guarded) {
-  // Every non-degenerate triangle as a receiver.
-  std::vector<uint32_t> all;
-  for (uint32_t t = 0; t < triangle_count_; ++t) {
-    if (areas_[t] > 0.0) all.push_back(t);
-  }
-  if (!all.empty()) receivers_.upload(all.data(), all.size() * 4);
+Expected<std::vector<uint32_t>> GlProgressive::receiverCoverage() {
   const GLfloat zero4[4] = {0.0f, 0.0f, 0.0f, 0.0f};
   glClearTexImage(incident_.id(), 0, GL_RGBA, GL_FLOAT, zero4);
   const gl::Program& r = receive_far_;
-  glProgramUniform1i(r.id(), uniform(r, "atlas_width"), width_);
   glProgramUniform1i(r.id(), uniform(r, "count_mode"), 1);
-  drawReceivers(r, 0, uint32_t(all.size()), guarded);
+  drawReceivers(r, 0, uint32_t(element_count_));
   glProgramUniform1i(r.id(), uniform(r, "count_mode"), 0);
   glUseProgram(0);
   std::vector<glm::vec4> rgba;

@@ -29,10 +29,16 @@ glm::vec3 sampleBilinear(const Image& lightmap, glm::vec2 uv) {
 }
 
 Image renderLightmapView(std::span<const glm::vec3> positions,
-                         std::span<const glm::uvec3> triangles, const LightmapAtlas& atlas,
+                         std::span<const glm::uvec3> triangles, const ChartAtlas& atlas,
                          const Image& lightmap, const Camera& camera,
                          const LightmapViewSettings& settings) {
-  PENUMBRA_CHECK(atlas.uvs.size() == 3 * triangles.size());
+  PENUMBRA_CHECK(atlas.uvs.size() == 3 * atlas.faces.size());
+  // The face of each side of each triangle, -1 where the side has none.
+  std::vector<int32_t> face_of(2 * triangles.size(), -1);
+  for (size_t f = 0; f < atlas.faces.size(); ++f) {
+    if (atlas.charts.face_chart[f] < 0) continue;
+    face_of[2 * size_t(atlas.faces[f].triangle) + (atlas.faces[f].back ? 1 : 0)] = int32_t(f);
+  }
   PENUMBRA_CHECK(lightmap.width == atlas.width && lightmap.height == atlas.height);
   const RayEngine engine = RayEngine::build(positions, triangles);
   const CameraRays rays(camera, settings.width, settings.height);
@@ -52,9 +58,11 @@ Image renderLightmapView(std::span<const glm::vec3> positions,
           const glm::uvec3 tri = triangles[t];
           const glm::vec3 n =
               glm::cross(positions[tri.y] - positions[tri.x], positions[tri.z] - positions[tri.x]);
-          if (glm::dot(ray.dir, n) >= 0.0f) continue;  // the unlit back
-          const glm::vec2 uv = (1.0f - hit.u - hit.v) * atlas.uvs[3 * t] +
-                               hit.u * atlas.uvs[3 * t + 1] + hit.v * atlas.uvs[3 * t + 2];
+          const int32_t f = face_of[2 * t + (glm::dot(ray.dir, n) >= 0.0f ? 1 : 0)];
+          if (f < 0) continue;  // a side without elements: black
+          const size_t c = 3 * size_t(f);
+          const glm::vec2 uv = (1.0f - hit.u - hit.v) * atlas.uvs[c] + hit.u * atlas.uvs[c + 1] +
+                               hit.v * atlas.uvs[c + 2];
           sum += sampleBilinear(lightmap, uv);
         }
         image.at(x, int(y)) = sum / float(settings.spp);

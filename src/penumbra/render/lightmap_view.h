@@ -4,7 +4,7 @@
 #pragma once
 
 #include "penumbra/core/image.h"
-#include "penumbra/geometry/lightmap_atlas.h"
+#include "penumbra/geometry/chart_atlas.h"
 #include "penumbra/scene/camera.h"
 
 #include <glm/vec3.hpp>
@@ -22,13 +22,15 @@ struct LightmapViewSettings {
 };
 
 // Bilinear lookup of `lightmap` (the atlas' size) at UV (0, 0 = the top-left corner of the
-// image, as LightmapAtlas::uvs), clamped to the image.
+// image, as ChartAtlas::uvs), clamped to the image.
 glm::vec3 sampleBilinear(const Image& lightmap, glm::vec2 uv);
 
-// `triangles` over `positions` are the atlas' triangles (in its order); back faces (elements
-// are one-sided) and misses are black. Pixels are independent of the thread count.
+// `triangles` over `positions` are the atlas' triangles (its faces refer to them); a hit reads
+// the lightmap through the face on the side the ray sees, and is black where that side has no
+// face (the back of a one-sided surface), as are misses. Pixels are independent of the thread
+// count.
 Image renderLightmapView(std::span<const glm::vec3> positions,
-                         std::span<const glm::uvec3> triangles, const LightmapAtlas& atlas,
+                         std::span<const glm::uvec3> triangles, const ChartAtlas& atlas,
                          const Image& lightmap, const Camera& camera,
                          const LightmapViewSettings& settings);
 

@@ -1,0 +1,48 @@
+// Point, spot and directional lights for the radiosity methods: the direct irradiance they give
+// a surface point, the power they send into the scene, and rays from them (for the check that a
+// shot is closed). Radiometric units (scene/light.h): intensity I in W sr^-1, directional
+// irradiance E in W m^-2.
+//
+//  - Point: E = I cos(theta) / d^2 (the inverse-square cosine law), power 4 pi I.
+//  - Spot: the same times the glTF KHR_lights_punctual cone fall-off
+//      s(a) = clamp((cos a - cos outer) / (cos inner - cos outer), 0, 1)^2,
+//    power 2 pi I integral_0^outer s(a) sin(a) da (integrated in closed form below).
+//  - Directional: E cos(theta) for surfaces facing it, power E pi R^2 with R the radius of the
+//    scene's bounding sphere (what crosses a disc that covers the scene).
+// theta is measured from the receiver's shading normal; a receiver whose face (geometric
+// normal) turns away from the light gets nothing.
+#pragma once
+
+#include "penumbra/accel/bounds.h"
+#include "penumbra/core/rng.h"
+#include "penumbra/raytrace/ray.h"
+#include "penumbra/scene/light.h"
+
+#include <glm/vec3.hpp>
+
+#include <span>
+
+namespace penumbra {
+
+struct LightSample {
+  glm::dvec3 irradiance{0.0};  // W m^-2 at the point, before visibility
+  glm::dvec3 direction{0.0};   // unit, from the point towards the light
+  double distance = 0.0;       // to the light (infinity for a directional light)
+};
+
+// The glTF cone fall-off of a spot at angle cos_a from its axis.
+double spotFalloff(const SpotLight& spot, double cos_a);
+
+// Direct irradiance from `light` at `p` (geometric normal `ng`, shading normal `ns`).
+LightSample sampleLight(const Light& light, const glm::dvec3& p, const glm::dvec3& ng,
+                        const glm::dvec3& ns);
+
+// The power `light` sends into a scene within `bounds` (W per channel).
+glm::dvec3 lightPower(const Light& light, const Bounds3& bounds);
+
+// A ray leaving one of `lights` (chosen by power), distributed as its emission: uniform over the
+// sphere for a point, within the cone by its fall-off for a spot, from a disc covering `bounds`
+// for a directional light. False when the lights have no power.
+bool lightProbeRay(std::span<const Light> lights, const Bounds3& bounds, Rng& rng, Ray& ray);
+
+}  // namespace penumbra
