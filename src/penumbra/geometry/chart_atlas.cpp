@@ -386,6 +386,37 @@ int roundUp4(int v) {
 
 }  // namespace
 
+glm::dvec3 closestPointOnConvexPolygon(const glm::dvec3& p, const glm::dvec3* poly, int n) {
+  // Its plane's normal (Newell), the projection of p, and if that falls outside, the nearest
+  // point of the edges.
+  glm::dvec3 normal(0.0);
+  for (int k = 0; k < n; ++k) normal += glm::cross(poly[k], poly[(k + 1) % n]);
+  const double len = glm::length(normal);
+  if (!(len > 0.0)) return poly[0];
+  normal /= len;
+  const glm::dvec3 q = p - normal * glm::dot(normal, p - poly[0]);
+  bool inside = true;
+  for (int k = 0; k < n && inside; ++k) {
+    const glm::dvec3 edge = poly[(k + 1) % n] - poly[k];
+    if (glm::dot(glm::cross(edge, q - poly[k]), normal) < -1e-15) inside = false;
+  }
+  if (inside) return q;
+  glm::dvec3 best = poly[0];
+  double best_d = std::numeric_limits<double>::max();
+  for (int k = 0; k < n; ++k) {
+    const glm::dvec3 a = poly[k], ab = poly[(k + 1) % n] - a;
+    const double l2 = glm::dot(ab, ab);
+    const double u = l2 > 0.0 ? std::clamp(glm::dot(q - a, ab) / l2, 0.0, 1.0) : 0.0;
+    const glm::dvec3 c = a + u * ab;
+    const double d = glm::length(c - p);
+    if (d < best_d) {
+      best_d = d;
+      best = c;
+    }
+  }
+  return best;
+}
+
 uint64_t mortonCode(uint32_t x, uint32_t y) {
   auto spread = [](uint64_t v) {
     v &= 0xffffffffu;
@@ -733,18 +764,9 @@ Expected<ChartAtlas> buildChartAtlas(std::span<const glm::vec3> positions,
       atlas.element_texel.push_back(uint32_t(t));
       atlas.element_chart.push_back(uint32_t(c));
       atlas.element_area.push_back(r.area[i]);
-      // The centroid of the pieces, moved onto the plane of the largest one: where a chart
-      // bends inside a texel the centroid lies off the surface (inside a convex solid, where
-      // its shadow rays would start), by the bend's sagitta.
-      {
-        const uint32_t lf = uint32_t(r.largest_face[i]);
-        const glm::uvec3 tri = triangles[faces[lf].triangle];
-        const glm::dvec3 q0(positions[tri.x]), q1(positions[tri.y]), q2(positions[tri.z]);
-        const glm::dvec3 pn = glm::normalize(glm::cross(q1 - q0, q2 - q0));
-        const glm::dvec3 centroid = r.position[i] / r.area[i];
-        atlas.element_position.push_back(centroid - pn * glm::dot(pn, centroid - q0));
-        atlas.element_face.push_back(lf);
-      }
+      // The centroid of the pieces for now (moved onto the surface below).
+      atlas.element_position.push_back(r.position[i] / r.area[i]);
+      atlas.element_face.push_back(uint32_t(r.largest_face[i]));
       const double len = glm::length(r.normal[i]);
       atlas.element_normal.push_back(len > 0.0 ? r.normal[i] / len : atlas.charts.charts[c].normal);
       auto ov = std::lower_bound(r.overlaps.begin(), r.overlaps.end(),
@@ -781,6 +803,37 @@ Expected<ChartAtlas> buildChartAtlas(std::span<const glm::vec3> positions,
                                atlas.corner_texel[i].y / double(atlas.height));
     }
   }
+
+  // Element points on the surface: the point of the element's pieces nearest their centroid.
+  // Where a chart bends inside a texel (a scan's charts bend in every texel) the centroid lies
+  // off the surface, inside a convex solid, where shadow rays would start.
+  parallelRange(atlas.elementCount(), 256, [&](size_t b, size_t e_end) {
+    for (size_t e = b; e < e_end; ++e) {
+      const glm::dvec3 centroid = atlas.element_position[e];
+      double best = std::numeric_limits<double>::max();
+      glm::dvec3 point = centroid;
+      uint32_t face = atlas.element_face[e];
+      const glm::ivec2 t = atlas.texelOf(e);
+      atlas.forEachPiece(
+          t, t,
+          std::span<const uint32_t>(atlas.element_faces)
+              .subspan(atlas.element_face_first[e],
+                       atlas.element_face_first[e + 1] - atlas.element_face_first[e]),
+          positions, triangles,
+          [&](uint32_t f, const std::array<glm::dvec3, 8>& poly, int n, double area) {
+            if (!(area > 0.0)) return;
+            const glm::dvec3 q = closestPointOnConvexPolygon(centroid, poly.data(), n);
+            const double d = glm::length(q - centroid);
+            if (d < best) {
+              best = d;
+              point = q;
+              face = f;
+            }
+          });
+      atlas.element_position[e] = point;
+      atlas.element_face[e] = face;
+    }
+  });
 
   // Dilation into the padding: empty texels next to a footprint copy a neighbour's chart, face
   // and barycentrics (4-neighbours first, then diagonals, in a fixed order).

@@ -124,6 +124,9 @@ struct ChartAtlas {
                     std::vector<int>& counts) const;
 };
 
+// The point of the convex planar polygon poly[0 .. n) nearest p.
+glm::dvec3 closestPointOnConvexPolygon(const glm::dvec3& p, const glm::dvec3* poly, int n);
+
 // The Z-order (Morton) code of (x, y): bits interleaved, x in the even ones.
 uint64_t mortonCode(uint32_t x, uint32_t y);
 
