@@ -150,7 +150,7 @@ Expected<BakeProduct> solveMatrix(const BakeOptions& options, const CommonOption
   double atlas_seconds = atlas_timer.seconds();
 
   MatrixRadiosityOptions mo;
-  mo.meshing.target_elements = options.elements;
+  mo.meshing.target_elements = options.elements.value_or(2000);
   mo.form_factors.samples = options.ff_samples;
   std::optional<Progress> ff_progress;
   std::once_flag ff_progress_once;

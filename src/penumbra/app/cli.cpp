@@ -66,10 +66,9 @@ int parseAndRun(int argc, char** argv) {
       ->check(CLI::IsMember({"jacobi", "gauss-seidel"}));
   render_cmd
       ->add_option("--elements", render.elements,
-                   "matrix: about this many elements; progressive: about this many lightmap "
-                   "texels")
-      ->check(CLI::Range(1u, 1u << 28))
-      ->capture_default_str();
+                   "matrix: about this many elements (default 2000); progressive: about this "
+                   "many lightmap texels (default 40000)")
+      ->check(CLI::Range(1u, 1u << 28));
   render_cmd
       ->add_option("--iterations", render.iterations,
                    "iteration cap (progressive: shooters, counted over resumed runs)")
@@ -175,9 +174,9 @@ int parseAndRun(int argc, char** argv) {
   bake_cmd->add_option("--stats", bake.stats, "write statistics to this JSON file");
   bake_cmd
       ->add_option("--elements", bake.elements,
-                   "about this many radiosity elements (progressive: lightmap texels)")
-      ->check(CLI::Range(1u, 1u << 28))
-      ->capture_default_str();
+                   "about this many radiosity elements (default 2000; progressive: lightmap "
+                   "texels, default 40000)")
+      ->check(CLI::Range(1u, 1u << 28));
   bake_cmd->add_option("--iterations", bake.iterations, "iteration cap")
       ->check(CLI::Range(1, 1 << 20))
       ->capture_default_str();

@@ -27,8 +27,10 @@ struct RenderOptions {
   ToneMapSettings tonemap;
   // --method matrix (Carr, Hall, Hart 2003, sec. 3).
   std::optional<std::string> solver;  // jacobi or gauss-seidel (default: the device's own)
-  uint32_t elements = 2000;           // matrix: elements; progressive: lightmap texels (about)
-  int iterations = 500;               // iteration cap (progressive: shooters)
+  // Matrix: elements (default 2000); progressive: lightmap texels (about; default
+  // kProgressiveDefaultElements).
+  std::optional<uint32_t> elements;
+  int iterations = 500;  // iteration cap (progressive: shooters)
   // matrix: mean squared residual of MB - E, (W m^-2)^2 (default 1e-6); progressive: unshot
   // fraction of the emitted power (default 1e-3).
   std::optional<double> tolerance;
@@ -72,8 +74,8 @@ struct BakeOptions {
   std::string device = "cpu";  // progressive: cpu, gpu or auto; matrix: cpu
   std::string output = ".";    // -o DIR, created if missing
   std::string stats;
-  uint32_t elements = 2000;
-  int iterations = 500;  // iteration cap
+  std::optional<uint32_t> elements;  // as RenderOptions::elements
+  int iterations = 500;              // iteration cap
   // matrix: mean squared residual of MB - E, (W m^-2)^2 (default 1e-6); progressive: unshot
   // fraction of the emitted power (default 1e-3).
   std::optional<double> tolerance;

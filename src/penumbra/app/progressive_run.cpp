@@ -19,12 +19,12 @@ namespace penumbra {
 
 namespace {
 
-// Bytes per element a run needs at its peak: the solver keeps B, dB, reflectance, emission,
-// position and shading normal (6 x 24), area, texel, triangle and lattice point (24) and an
-// iteration's incident irradiance (24); the atlas adds 13 bytes per texel (1.5-2 texels per
-// element), a shooter's block hierarchy comes on top. Measured: 273 bytes per element for the
-// whole process at 4.1 M elements (docs/performance.md); 400 leaves a margin.
-constexpr uint64_t kBytesPerElement = 400;
+// Bytes per element a run needs at its peak: the solver keeps B, dB, reflectance, emission and
+// shading normal (5 x 24) and an iteration's incident irradiance (24); the chart atlas about 70
+// per element and 21 per texel, the hierarchy about 90; a shooter's clusters and pieces come on
+// top. Measured with progressive_bench: 305-387 bytes per element from 150,000 elements up, 675
+// at 11,000 (docs/performance.md); 700 leaves a margin.
+constexpr uint64_t kBytesPerElement = 700;
 
 }  // namespace
 
@@ -78,9 +78,10 @@ Expected<ProgressiveRun> runProgressive(const Scene& scene, const ProgressiveRun
   } else {
     // The density that gives about `elements` occupied texels: density^2 * the faces' area (a
     // two-sided surface counts twice).
-    const double total_area = faceArea(scene);
-    if (!(total_area > 0.0)) return inputError(scene.source, "", "the scene has no surface area");
-    po.atlas.texel_density = std::sqrt(double(options.elements) / total_area);
+    po.atlas.texel_density = progressiveTexelDensity(scene, options.elements);
+    if (!(po.atlas.texel_density > 0.0)) {
+      return inputError(scene.source, "", "the scene has no surface area");
+    }
   }
   const uint64_t expected_elements =
       info ? info->elements

@@ -18,16 +18,16 @@
 namespace penumbra {
 
 struct ProgressiveRunOptions {
-  uint32_t elements = 2000;             // about this many lightmap texels (elements)
-  std::optional<double> texel_density;  // texels per metre (overrides elements)
-  std::optional<int> lightmap_size;     // an N x N atlas at the largest density that fits
-  int iterations = 500;                 // cap on iterations, counted over resumed runs
-  double tolerance = 1e-3;              // unshot fraction
-  std::string resume;                   // checkpoint to continue from
-  std::string checkpoint;               // where Ctrl-C writes the checkpoint
-  int shooter_points = 16;              // ProgressiveOptions::shooter_top_points
-  std::string device = "cpu";           // cpu, gpu or auto (design doc sec. 3)
-  bool shading_normals = true;          // ProgressiveOptions::shading_normals (CPU only)
+  uint32_t elements = kProgressiveDefaultElements;  // about this many lightmap texels
+  std::optional<double> texel_density;              // texels per metre (overrides elements)
+  std::optional<int> lightmap_size;  // an N x N atlas at the largest density that fits
+  int iterations = 500;              // cap on iterations, counted over resumed runs
+  double tolerance = 1e-3;           // unshot fraction
+  std::string resume;                // checkpoint to continue from
+  std::string checkpoint;            // where Ctrl-C writes the checkpoint
+  int shooter_points = 16;           // ProgressiveOptions::shooter_top_points
+  std::string device = "cpu";        // cpu, gpu or auto (design doc sec. 3)
+  bool shading_normals = true;       // ProgressiveOptions::shading_normals (CPU only)
 };
 
 struct ProgressiveRun {
@@ -48,7 +48,7 @@ struct ProgressiveRun {
 template <typename CommandOptions>
 ProgressiveRunOptions progressiveRunOptions(const CommandOptions& o) {
   ProgressiveRunOptions ro;
-  ro.elements = o.elements;
+  ro.elements = o.elements.value_or(kProgressiveDefaultElements);
   ro.texel_density = o.texel_density;
   if constexpr (requires { o.lightmap_size; }) ro.lightmap_size = o.lightmap_size;
   ro.iterations = o.iterations;

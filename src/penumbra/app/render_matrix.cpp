@@ -88,7 +88,7 @@ Status renderMatrix(const RenderOptions& options, const CommonOptions& common) {
   if (!any_emitter) spdlog::warn("{}: no emissive material: the solution is black", scene->source);
 
   MatrixRadiosityOptions mo;
-  mo.meshing.target_elements = options.elements;
+  mo.meshing.target_elements = options.elements.value_or(2000);
   mo.form_factors.samples = options.ff_samples;
   mo.form_factors.seed = options.seed.value_or(0);
   mo.precision = options.precision == "fp16" ? MatrixPrecision::kFp16 : MatrixPrecision::kFp32;

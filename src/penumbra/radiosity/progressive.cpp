@@ -68,6 +68,11 @@ void ProgressiveRadiosity::elementPieces(size_t e, std::vector<std::array<glm::d
   atlas_.elementPieces(e, flat_.positions, flat_.triangles, polygons, counts);
 }
 
+double progressiveTexelDensity(const Scene& scene, uint32_t elements) {
+  const double area = faceArea(scene);
+  return area > 0.0 ? std::sqrt(double(elements) / area) : 0.0;
+}
+
 Expected<ProgressiveRadiosity> ProgressiveRadiosity::build(const Scene& scene,
                                                            const ProgressiveOptions& options) {
   if (options.max_iterations < 0) {
