@@ -515,8 +515,49 @@ ProgressiveIteration ProgressiveRadiosity::shoot(uint32_t shooter) {
       }
     });
   }
+  // The shooter's elements' own pieces (near pairs take Lambert's form factor to them), once
+  // per shot: member_first[m - first] .. member_first[m - first + 1] in member_polys.
+  std::vector<uint32_t> member_first(last - first + 1, 0);
+  std::vector<std::pair<std::array<glm::dvec3, 8>, int>> member_polys;
+  {
+    std::vector<std::vector<std::pair<std::array<glm::dvec3, 8>, int>>> per(last - first);
+    parallelRange(last - first, 256, [&](size_t b, size_t e) {
+      std::vector<std::array<glm::dvec3, 8>> polys;
+      std::vector<int> counts;
+      for (size_t i = b; i < e; ++i) {
+        elementPieces(first + i, polys, counts);
+        for (size_t q = 0; q < polys.size(); ++q) {
+          if (counts[q] >= 3) per[i].emplace_back(polys[q], counts[q]);
+        }
+      }
+    });
+    for (size_t i = 0; i < per.size(); ++i) {
+      member_polys.insert(member_polys.end(), per[i].begin(), per[i].end());
+      member_first[i + 1] = uint32_t(member_polys.size());
+    }
+  }
   glm::dvec3 shot(0.0);
   for (uint32_t e = first; e < last; ++e) shot += db_[e] * atlas_.element_area[e];
+
+  // Planar charts wholly behind or level with the shooter's bounding sphere receive nothing (the
+  // outsides of a room's walls, the back of a panel): skipped before visiting their elements.
+  std::vector<uint8_t> skip(atlas_.chartCount(), 0);
+  {
+    glm::dvec3 centre = points[0].position;
+    double radius = 0.0;
+    for (uint32_t e = first; e < last; ++e) {
+      radius = std::max(radius, glm::length(atlas_.element_position[e] - centre));
+    }
+    for (size_t c = 0; c < atlas_.chartCount(); ++c) {
+      const Chart& chart = atlas_.charts.charts[c];
+      const AtlasChartPlacement& pl = atlas_.placement[c];
+      if (!chart.planar || pl.element_count == 0) continue;
+      const glm::dvec3 p0 = atlas_.element_position[pl.first_element];
+      // Planar charts lie within 1 degree of their normal: a margin of that over the sphere.
+      const double margin = radius + 0.02 * glm::length(centre - p0);
+      if (glm::dot(chart.normal, centre - p0) <= -margin) skip[c] = 1;
+    }
+  }
 
   // Gather at every receiver element the irradiance sum_s dB_s F_rs (W m^-2); in parallel over
   // chunks of receivers, each writing only its own entries. A receiver's pairs come from the
@@ -549,13 +590,12 @@ ProgressiveIteration ProgressiveRadiosity::shoot(uint32_t shooter) {
     std::vector<uint32_t> stack;
     std::vector<uint64_t> order;  // (point, pair index): sorted, the pairs by point, stably
     std::vector<uint8_t> occluded;
-    std::vector<std::array<glm::dvec3, 8>> polys;
-    std::vector<int> counts;
     RayBatch batch;
     HitBatch hits;
     for (size_t block = begin; block < end; block += kReceiverBlock) {
       pairs.clear();
       for (size_t r = block; r < std::min(end, block + kReceiverBlock); ++r) {
+        if (skip[atlas_.element_chart[r]]) continue;
         const glm::dvec3 nr = atlas_.element_normal[r], pr = atlas_.element_position[r];
         stack.assign(roots.rbegin(), roots.rend());
         while (!stack.empty()) {
@@ -625,11 +665,10 @@ ProgressiveIteration ProgressiveRadiosity::shoot(uint32_t shooter) {
           // point-to-polygon form factor (kernels/form_factor.h) to its own pieces.
           for (uint32_t m = s.first; m < s.last; ++m) {
             if (db_[m] == glm::dvec3(0.0)) continue;
-            elementPieces(m, polys, counts);
             double f = 0.0;
-            for (size_t q = 0; q < polys.size(); ++q) {
-              if (counts[q] >= 3)
-                f += pointToPolygonFormFactor<true>(pr, nr, polys[q].data(), counts[q]);
+            for (uint32_t q = member_first[m - first]; q < member_first[m - first + 1]; ++q) {
+              f += pointToPolygonFormFactor<true>(pr, nr, member_polys[q].first.data(),
+                                                  member_polys[q].second);
             }
             incident[r] += db_[m] * f;
           }
