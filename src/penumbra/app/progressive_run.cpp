@@ -22,7 +22,7 @@ namespace {
 // Bytes per element a run needs at its peak: the solver keeps B, dB, reflectance, emission and
 // shading normal (5 x 24) and an iteration's incident irradiance (24); the chart atlas about 70
 // per element and 21 per texel, the hierarchy about 90; a shooter's clusters and pieces come on
-// top. Measured with progressive_bench: 305-387 bytes per element from 150,000 elements up, 675
+// top. Measured with progressive_bench: 347-401 bytes per element from 150,000 elements up, 693
 // at 11,000 (docs/performance.md); 700 leaves a margin.
 constexpr uint64_t kBytesPerElement = 700;
 
