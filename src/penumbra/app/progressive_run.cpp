@@ -101,32 +101,17 @@ Expected<ProgressiveRun> runProgressive(const Scene& scene, const ProgressiveRun
                       "was written by the CPU's hierarchical shooter; continue it with --device "
                       "cpu");
   }
-  if (gpu && !info) {
-    // The GPU runs the paper's flat substructuring: one mip level for every shooter, the
-    // coarsest at which an average shooter still has at least --shooter-points blocks.
-    po.shooter_top_points = 0;
-    po.shooter_level = -1;  // chosen below, once the elements are known
-  }
   if (gpu) {
-    // The GPU path takes each triangle's own normal.
-    if (options.shading_normals) spdlog::info("--device gpu: form factors use triangle normals");
-    po.shading_normals = false;
+    if (options.shading_normals) spdlog::info("--device gpu: form factors use the faces' normals");
+    po = gpuProgressiveOptions(po);
   }
 
   const Timer build_timer;
-  const bool choose_level = po.shooter_level < 0;
-  if (choose_level) po.shooter_level = 0;
   Expected<ProgressiveRadiosity> built = ProgressiveRadiosity::build(scene, po);
   if (!built) return built.error();
-  if (choose_level) {
-    const double per_shooter =
-        double(built->elementCount()) / double(std::max<size_t>(1, built->shooterCount()));
-    int level = 0;
-    while (level < 8 && per_shooter / std::pow(4.0, level + 1) >= options.shooter_points) {
-      ++level;
-    }
-    PENUMBRA_TRY(built->setShooterLevel(level));
-    po.shooter_level = level;
+  if (gpu && !info) {
+    po.shooter_level = gpuShooterLevel(*built, options.shooter_points);
+    PENUMBRA_TRY(built->setShooterLevel(po.shooter_level));
   }
   run.solver.emplace(std::move(*built));
   ProgressiveRadiosity& pr = *run.solver;

@@ -111,6 +111,22 @@ void readTexture(GLuint texture, int width, int height, std::vector<glm::vec4>& 
 
 }  // namespace
 
+ProgressiveOptions gpuProgressiveOptions(ProgressiveOptions options) {
+  options.shooter_top_points = 0;
+  options.shading_normals = false;
+  return options;
+}
+
+int gpuShooterLevel(const ProgressiveRadiosity& cpu, int points) {
+  const double per_shooter =
+      double(cpu.elementCount()) / double(std::max<size_t>(1, cpu.shooterCount()));
+  int level = 0;
+  while (level < 8 && per_shooter / std::pow(4.0, level + 1) >= double(std::max(points, 1))) {
+    ++level;
+  }
+  return level;
+}
+
 Expected<GlProgressive> GlProgressive::create(const ProgressiveRadiosity& cpu,
                                               const GlProgressiveOptions& gl_options) {
   const ProgressiveOptions& options = cpu.options();

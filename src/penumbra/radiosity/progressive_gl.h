@@ -93,6 +93,15 @@ struct GlProgressiveOptions {
   int max_texture_size = 0;
 };
 
+// What the GPU path runs, from a caller's options: the paper's flat substructuring
+// (shooter_top_points = 0) with the faces' own normals (shading_normals = false); the level is
+// chosen once the elements are known (gpuShooterLevel).
+ProgressiveOptions gpuProgressiveOptions(ProgressiveOptions options);
+
+// The flat substructuring's level for the GPU: the coarsest at which an average shooter of
+// `cpu` still has at least `points` clusters (sec. 3: one mip level for every shooter), at most 8.
+int gpuShooterLevel(const ProgressiveRadiosity& cpu, int points);
+
 // ---- GPU layouts (std430), mirrored in shaders/radiosity/progressive_layout.glsl ----
 
 struct GpuProgressiveElement {  // 64 bytes
