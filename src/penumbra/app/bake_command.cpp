@@ -133,12 +133,6 @@ struct BakeProduct {
 
 Expected<BakeProduct> solveMatrix(const BakeOptions& options, const CommonOptions& common,
                                   const Scene& scene) {
-  if (!scene.lights.empty()) {
-    spdlog::warn(
-        "{}: {} point/spot/directional light(s) ignored: matrix radiosity is lit by emissive "
-        "surfaces only",
-        scene.source, scene.lights.size());
-  }
   // The atlas first: it is cheap, and its options can still be wrong.
   const Timer atlas_timer;
   const FlatTriangles flat = flattenScene(scene);

@@ -77,15 +77,11 @@ Status renderMatrix(const RenderOptions& options, const CommonOptions& common) {
   Expected<Scene> scene = loadScene(options.scene);
   if (!scene) return scene.error();
   for (const std::string& w : scene->warnings) spdlog::warn("{}", w);
-  if (!scene->lights.empty()) {
-    spdlog::warn(
-        "{}: {} point/spot/directional light(s) ignored: matrix radiosity is lit by "
-        "emissive surfaces only",
-        scene->source, scene->lights.size());
-  }
-  bool any_emitter = false;
+  bool any_emitter = !scene->lights.empty();
   for (const Material& m : scene->materials) any_emitter |= m.isEmissive();
-  if (!any_emitter) spdlog::warn("{}: no emissive material: the solution is black", scene->source);
+  if (!any_emitter) {
+    spdlog::warn("{}: no emissive material and no light: the solution is black", scene->source);
+  }
 
   MatrixRadiosityOptions mo;
   mo.meshing.target_elements = options.elements.value_or(2000);

@@ -2,7 +2,15 @@
 
 #include "penumbra/core/check.h"
 #include "penumbra/core/memory.h"
+#include "penumbra/core/parallel.h"
 #include "penumbra/kernels/sampling.h"
+#include "penumbra/radiosity/lights.h"
+#include "penumbra/raytrace/ray_engine.h"
+
+#include <glm/geometric.hpp>
+
+#include <cmath>
+#include <limits>
 
 #include <fmt/format.h>
 
@@ -20,6 +28,7 @@ void MatrixRadiosity::applyMaterials(std::span<const Material> materials) {
     const Material& m = materials[elements.material[e]];
     system->reflectance[e] = m.reflectance;
     system->emission[e] = m.emission * kPi;
+    if (!direct.empty()) system->emission[e] += m.reflectance * direct[e];
   }
 }
 
@@ -53,6 +62,34 @@ Expected<MatrixRadiosity> buildMatrixRadiosity(const Scene& scene,
                                                     });
   if (!f) return f.error();
   mr.system.emplace(std::move(*f), options.precision);
+  if (!scene.lights.empty()) {
+    // The direct term: each light's irradiance at the element's centroid on its front face,
+    // unless a shadow ray finds the light hidden.
+    const RayEngine engine =
+        RayEngine::build(mr.elements.scene.positions, mr.elements.scene.triangles);
+    const Bounds3 box = engine.bounds();
+    const double lift = 1e-5 * double(glm::length(box.hi - box.lo));
+    mr.direct.assign(n, glm::vec3(0.0f));
+    parallelRange(n, 256, [&](size_t b, size_t e_end) {
+      for (size_t e = b; e < e_end; ++e) {
+        const glm::dvec3 p(mr.elements.centroid[e]), nrm(mr.elements.normal[e]);
+        glm::dvec3 sum(0.0);
+        for (const Light& light : scene.lights) {
+          const LightSample s = sampleLight(light, p, nrm, nrm);
+          if (s.irradiance == glm::dvec3(0.0)) continue;
+          const glm::dvec3 from = p + nrm * lift;
+          Ray ray{glm::vec3(from), 1e-4f, glm::vec3(s.direction),
+                  std::numeric_limits<float>::max()};
+          if (std::isfinite(s.distance)) {
+            ray.dir = glm::vec3(s.direction * s.distance);
+            ray.tmax = 1.0f - 1e-4f;
+          }
+          if (!engine.occluded(ray)) sum += s.irradiance;
+        }
+        mr.direct[e] = glm::vec3(sum);
+      }
+    });
+  }
   mr.applyMaterials(scene.materials);
   mr.radiosity.assign(n, glm::vec3(0.0f));
   return mr;

@@ -31,10 +31,14 @@ struct MatrixRadiosity {
   Elements elements;
   std::optional<RadiositySystem> system;  // always set once built
   std::vector<glm::vec3> radiosity;       // B per element (W m^-2), the latest solution
+  // Irradiance from the point, spot and directional lights at each element's centroid, with a
+  // Ray Engine shadow ray (W m^-2; radiosity/lights.h): the direct term.
+  std::vector<glm::vec3> direct;
   FormFactorStats form_factor_stats;
 
   // Sets each element's reflectance and emission from the materials (emission is radiance,
-  // so E = pi L_e for a Lambertian emitter).
+  // so E = pi L_e for a Lambertian emitter), plus the lights' direct term reflected:
+  // B = E + rho * direct + rho F B.
   void applyMaterials(std::span<const Material> materials);
   // Solves from the current `radiosity` (zeros at first, the previous solution afterwards).
   SolveStats solve(const SolveOptions& options,
