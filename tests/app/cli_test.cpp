@@ -418,7 +418,7 @@ TEST(Cli, ProgressiveRadiosityOnTheGpu) {
   }
   const double rms = std::sqrt(num / den);
   std::printf("cornell, GPU against CPU image: relative RMS %.4f\n", rms);
-  // Measured 8.8% here (1,500 elements over both sides of every surface, 48 x 48): the GPU's
+  // Measured 8.7% here (1,500 elements over both sides of every surface, 48 x 48): the GPU's
   // depth-map visibility (Fig. 3's neighbourhood at shadow boundaries and in concave corners, the
   // interpolated depth of sub-triangles) against the CPU's rays; 2.2% when every element was on
   // one side only (twice the texels per side). Per shot from the same state the two agree to

@@ -54,7 +54,7 @@
 //  - Cornell box (25 texels/m, level 1, 512^2 depth maps), 30 iterations along the CPU's
 //    sequence: relative RMS 8.5e-3 over the front faces, the largest differences on the floor
 //    at the corner of a box's base and the ceiling over the light (0.8 mm gap), where the depth
-//    maps and the CPU's rays part; a rendered image (1,500 elements) 8.8% RMS from the CPU's
+//    maps and the CPU's rays part; a rendered image (1,500 elements) 8.7% RMS from the CPU's
 //    (tests/app/cli_test.cpp).
 //
 // The shaders avoid variable-length arrays and put work behind loops rather than branches where
