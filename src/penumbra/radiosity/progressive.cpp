@@ -241,6 +241,26 @@ glm::dvec3 ProgressiveRadiosity::applyIncident(const glm::dvec3& scale, uint32_t
   return arrived;
 }
 
+glm::dvec3 ProgressiveRadiosity::closedScale(const glm::dvec3& shot) const {
+  // The power the iteration's incident irradiance brings (summed per shooter range in parallel,
+  // then in order), and per channel the factor that makes it the power shot.
+  std::vector<glm::dvec3> part(shooterCount(), glm::dvec3(0.0));
+  parallelRange(shooterCount(), 16, [&](size_t b, size_t e) {
+    for (size_t s = b; s < e; ++s) {
+      for (uint32_t r = shooterBegin(uint32_t(s)); r < shooterEnd(uint32_t(s)); ++r) {
+        part[s] += incident_[r] * atlas_.element_area[r];
+      }
+    }
+  });
+  glm::dvec3 arrived(0.0);
+  for (const glm::dvec3& p : part) arrived += p;
+  glm::dvec3 scale(1.0);
+  for (int c = 0; c < 3; ++c) {
+    if (arrived[c] > 0.0) scale[c] = shot[c] / arrived[c];
+  }
+  return scale;
+}
+
 void ProgressiveRadiosity::refreshShooterPowers() {
   shooter_power_.resize(shooterCount());
   parallelRange(shooterCount(), 16, [&](size_t b, size_t e) {
@@ -280,7 +300,7 @@ std::vector<std::pair<uint32_t, uint32_t>> ProgressiveRadiosity::shooterBlocks(u
   return blocks;
 }
 
-bool ProgressiveRadiosity::shotClosed(uint32_t shooter) const {
+bool ProgressiveRadiosity::shotClosed(uint32_t shooter, uint64_t* traced) const {
   const int count = options_.probe_rays;
   if (count == 0) return false;
   const size_t slot = shooter == kLights ? shooterCount() : size_t(shooter);
@@ -288,6 +308,7 @@ bool ProgressiveRadiosity::shotClosed(uint32_t shooter) const {
   if (closed_.size() != shooterCount() + 1) closed_.assign(shooterCount() + 1, -1);
   if (closed_[slot] >= 0) return closed_[slot] != 0;
   closed_[slot] = 0;
+  if (traced) *traced += uint64_t(count);
   // Cosine-distributed rays from points spread over the shooter by area (or from the lights,
   // lightProbeRay).
   Rng rng(0x5eedu, shooter);
@@ -375,15 +396,10 @@ ProgressiveIteration ProgressiveRadiosity::shootLights() {
     }
     rays += count;
   });
-  glm::dvec3 arrived(0.0);
-  for (size_t r = 0; r < n; ++r) arrived += incident_[r] * atlas_.element_area[r];
+  uint64_t probes = 0;
   glm::dvec3 scale(1.0);
-  it.closed = shotClosed(kLights);
-  if (it.closed) {
-    for (int c = 0; c < 3; ++c) {
-      if (arrived[c] > 0.0) scale[c] = light_power_[c] / arrived[c];
-    }
-  }
+  it.closed = shotClosed(kLights, &probes);
+  if (it.closed) scale = closedScale(light_power_);
   lights_shot_ = true;
   const glm::dvec3 shot = light_power_;
   const glm::dvec3 got = applyIncident(scale, 0, 0);
@@ -391,7 +407,7 @@ ProgressiveIteration ProgressiveRadiosity::shootLights() {
   balance_.escaped += shot - got;
   it.shot_power = residualLuminance(shot);
   it.unshot_fraction = unshotFraction();
-  it.rays = rays.load() + uint64_t(options_.probe_rays);
+  it.rays = rays.load() + probes;
   it.seconds = timer.seconds();
   return it;
 }
@@ -685,25 +701,10 @@ ProgressiveIteration ProgressiveRadiosity::shoot(uint32_t shooter) {
   });
 
   // Closed shot: the power arriving equals the power shot (the form factors' sum rule).
-  glm::dvec3 arrived_raw(0.0);
-  {
-    std::vector<glm::dvec3> part(shooterCount(), glm::dvec3(0.0));
-    parallelRange(shooterCount(), 16, [&](size_t b, size_t e) {
-      for (size_t s = b; s < e; ++s) {
-        for (uint32_t r = shooterBegin(uint32_t(s)); r < shooterEnd(uint32_t(s)); ++r) {
-          part[s] += incident[r] * atlas_.element_area[r];
-        }
-      }
-    });
-    for (const glm::dvec3& p : part) arrived_raw += p;
-  }
+  uint64_t probes = 0;
   glm::dvec3 scale(1.0);
-  it.closed = shotClosed(shooter);
-  if (it.closed) {
-    for (int c = 0; c < 3; ++c) {
-      if (arrived_raw[c] > 0.0) scale[c] = shot[c] / arrived_raw[c];
-    }
-  }
+  it.closed = shotClosed(shooter, &probes);
+  if (it.closed) scale = closedScale(shot);
 
   const glm::dvec3 arrived = applyIncident(scale, first, last);
   balance_.unshot -= shot;
@@ -711,8 +712,7 @@ ProgressiveIteration ProgressiveRadiosity::shoot(uint32_t shooter) {
 
   it.shot_power = residualLuminance(shot);
   it.unshot_fraction = unshotFraction();
-  it.rays =
-      rays.load() + (it.closed || options_.probe_rays > 0 ? uint64_t(options_.probe_rays) : 0);
+  it.rays = rays.load() + probes;
   it.seconds = timer.seconds();
   return it;
 }

@@ -235,8 +235,9 @@ class ProgressiveRadiosity {
   bool lightsShot() const { return lights_shot_; }
   // Whether a shot from shooter s (or kLights) is closed: every one of probe_rays rays,
   // cosine-distributed from points spread over the shooter by area (or leaving the lights as
-  // they emit), hits a face that has elements. Deterministic; probed once and remembered.
-  bool shotClosed(uint32_t shooter) const;
+  // they emit), hits a face that has elements. Deterministic; probed once and remembered (the
+  // rays traced, if any, are added to *traced).
+  bool shotClosed(uint32_t shooter, uint64_t* traced = nullptr) const;
   // Eq. 4-6: the ambient radiosity (W m^-2) for display; B_display = B + rho * ambient().
   glm::dvec3 ambient() const;
   glm::dvec3 displayRadiosity(size_t element) const;
@@ -303,6 +304,8 @@ class ProgressiveRadiosity {
   mutable std::vector<int8_t> closed_;  // per shooter, then the lights: -1 not probed yet
   ProgressiveIteration shootLights();
   void refreshShooterPowers();
+  // Per channel, the power shot over the power the iteration's incident irradiance brings.
+  glm::dvec3 closedScale(const glm::dvec3& shot) const;
   // Applies an iteration's incident irradiance (incident_, times `scale` per channel) to every
   // element after zeroing the shooter's dB (elements [first, last)), books absorbed and
   // reflected power, refreshes the shooters' powers; returns the power that arrived (W).
