@@ -386,6 +386,17 @@ int roundUp4(int v) {
 
 }  // namespace
 
+glm::dvec2 triangleBarycentric(const glm::dvec3& p, const glm::dvec3& p0, const glm::dvec3& p1,
+                               const glm::dvec3& p2) {
+  // Least squares in the triangle's plane (the normal equations of p - p0 = w1 e1 + w2 e2).
+  const glm::dvec3 e1 = p1 - p0, e2 = p2 - p0, r = p - p0;
+  const double a11 = glm::dot(e1, e1), a12 = glm::dot(e1, e2), a22 = glm::dot(e2, e2);
+  const double det = a11 * a22 - a12 * a12;
+  if (!(det > 0.0)) return glm::dvec2(0.0);
+  const double b1 = glm::dot(r, e1), b2 = glm::dot(r, e2);
+  return glm::dvec2((b1 * a22 - b2 * a12) / det, (a11 * b2 - a12 * b1) / det);
+}
+
 glm::dvec3 closestPointOnConvexPolygon(const glm::dvec3& p, const glm::dvec3* poly, int n) {
   // Its plane's normal (Newell), the projection of p, and if that falls outside, the nearest
   // point of the edges.
@@ -807,6 +818,7 @@ Expected<ChartAtlas> buildChartAtlas(std::span<const glm::vec3> positions,
   // Element points on the surface: the point of the element's pieces nearest their centroid.
   // Where a chart bends inside a texel (a scan's charts bend in every texel) the centroid lies
   // off the surface, inside a convex solid, where shadow rays would start.
+  atlas.element_barycentric.assign(atlas.elementCount(), glm::vec2(0.0f));
   parallelRange(atlas.elementCount(), 256, [&](size_t b, size_t e_end) {
     for (size_t e = b; e < e_end; ++e) {
       const glm::dvec3 centroid = atlas.element_position[e];
@@ -832,6 +844,10 @@ Expected<ChartAtlas> buildChartAtlas(std::span<const glm::vec3> positions,
           });
       atlas.element_position[e] = point;
       atlas.element_face[e] = face;
+      const glm::uvec3 tri = triangles[atlas.faces[face].triangle];
+      atlas.element_barycentric[e] = glm::vec2(
+          triangleBarycentric(point, glm::dvec3(positions[tri.x]), glm::dvec3(positions[tri.y]),
+                              glm::dvec3(positions[tri.z])));
     }
   });
 

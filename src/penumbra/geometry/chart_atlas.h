@@ -10,8 +10,9 @@
 //  - Coverage: texel t covers the part of its chart that lies in its square. Texels with
 //    positive coverage are `kInside`: they are the elements (level 0 of the hierarchy), each with
 //    its exact area in metres^2 (the clipped pieces of the chart's triangles, mapped back to the
-//    surface), the area-weighted centroid and normal of those pieces. The pieces of a chart's
-//    elements tile the chart exactly.
+//    surface), the area-weighted normal of those pieces, and the point of the pieces nearest
+//    their centroid (with its face and barycentrics). The pieces of a chart's elements tile the
+//    chart exactly.
 //  - Footprint: the texels a bilinear lookup at some point of the chart reads with a non-zero
 //    weight, i.e. those whose centre is less than one texel away from the chart along x and
 //    along y. Footprints of different charts never overlap, so no lookup mixes two charts'
@@ -91,10 +92,12 @@ struct ChartAtlas {
   std::vector<uint32_t> element_texel;
   std::vector<uint32_t> element_chart;
   std::vector<double> element_area;  // m^2
-  // The area-weighted centroid of its pieces, moved onto the plane of its largest piece (a
-  // point on the surface where the chart bends inside the texel).
+  // The point of its pieces nearest their area-weighted centroid: on the surface also where the
+  // chart bends inside the texel (there the centroid lies off it, inside a convex solid).
   std::vector<glm::dvec3> element_position;
-  std::vector<uint32_t> element_face;      // the face of its largest piece
+  std::vector<uint32_t> element_face;  // the face of the piece that point lies on
+  // The point's barycentrics (w1, w2) on that face's triangle (its corner order).
+  std::vector<glm::vec2> element_barycentric;
   std::vector<glm::dvec3> element_normal;  // unit, area-weighted normal of its pieces
   // The faces whose UV triangles overlap the element's texel: element e's are
   // element_faces[element_face_first[e] .. element_face_first[e + 1]).
@@ -123,6 +126,11 @@ struct ChartAtlas {
                     std::vector<std::array<glm::dvec3, 8>>& polygons,
                     std::vector<int>& counts) const;
 };
+
+// Barycentrics (w1, w2) of p on the triangle (p0, p1, p2), p projected onto its plane; (0, 0)
+// for a degenerate triangle.
+glm::dvec2 triangleBarycentric(const glm::dvec3& p, const glm::dvec3& p0, const glm::dvec3& p1,
+                               const glm::dvec3& p2);
 
 // The point of the convex planar polygon poly[0 .. n) nearest p.
 glm::dvec3 closestPointOnConvexPolygon(const glm::dvec3& p, const glm::dvec3* poly, int n);

@@ -130,20 +130,12 @@ Expected<ProgressiveRadiosity> ProgressiveRadiosity::build(const Scene& scene,
     const glm::dvec3 ng = pr.atlas_.element_normal[e];
     pr.shading_normal_[e] = ng;
     if (!corner_normals.empty()) {
-      // The corners' shading normals interpolated at the element's point on the face of its
-      // largest piece (sec. 3); a back face takes them reversed.
+      // The corners' shading normals interpolated at the element's point on its face (sec. 3);
+      // a back face takes them reversed.
       const uint32_t tf = pr.atlas_.element_face[e];
       const uint32_t t = pr.atlas_.faces[size_t(tf)].triangle;
-      const glm::uvec3 tri = pr.flat_.triangles[t];
-      const glm::dvec3 p0(pr.flat_.positions[tri.x]), p1(pr.flat_.positions[tri.y]),
-          p2(pr.flat_.positions[tri.z]);
-      const glm::dvec3 e1 = p1 - p0, e2 = p2 - p0, r = pr.atlas_.element_position[e] - p0;
-      const double a11 = glm::dot(e1, e1), a12 = glm::dot(e1, e2), a22 = glm::dot(e2, e2);
-      const double det = a11 * a22 - a12 * a12;
-      if (det > 0.0) {
-        const double b1 = glm::dot(r, e1), b2 = glm::dot(r, e2);
-        const glm::vec2 w = clampBarycentric(
-            glm::vec2(float((b1 * a22 - b2 * a12) / det), float((a11 * b2 - a12 * b1) / det)));
+      {
+        const glm::vec2 w = clampBarycentric(pr.atlas_.element_barycentric[e]);
         glm::dvec3 sn = (1.0 - double(w.x) - double(w.y)) * glm::dvec3(corner_normals[3 * t]) +
                         double(w.x) * glm::dvec3(corner_normals[3 * t + 1]) +
                         double(w.y) * glm::dvec3(corner_normals[3 * t + 2]);

@@ -448,33 +448,11 @@ Expected<GlProgressive> GlProgressive::create(const ProgressiveRadiosity& cpu,
     }
     g.area = float(cpu.elementArea(e));
     g.texel = texel;
-    // The triangle, among its pieces' faces, that holds the element's point (or comes nearest:
-    // the largest smallest barycentric weight), and the point's barycentrics on it, for the
-    // back projection through the same sub-triangle the depth pass rasterised.
-    double w1 = 0.0, w2 = 0.0, best = -std::numeric_limits<double>::max();
-    uint32_t t = atlas.faces[atlas.element_face[e]].triangle;
-    for (uint32_t k = atlas.element_face_first[e]; k < atlas.element_face_first[e + 1]; ++k) {
-      const uint32_t tk = atlas.faces[atlas.element_faces[k]].triangle;
-      const glm::uvec3 tri = flat.triangles[tk];
-      const glm::dvec3 p0(flat.positions[tri.x]), p1(flat.positions[tri.y]),
-          p2(flat.positions[tri.z]);
-      const glm::dvec3 e1 = p1 - p0, e2 = p2 - p0, r = pos - p0;
-      const double a11 = glm::dot(e1, e1), a12 = glm::dot(e1, e2), a22 = glm::dot(e2, e2);
-      const double det = a11 * a22 - a12 * a12;
-      if (!(det > 0.0)) continue;
-      const double b1 = glm::dot(r, e1), b2 = glm::dot(r, e2);
-      const double u = (b1 * a22 - b2 * a12) / det, v = (a11 * b2 - a12 * b1) / det;
-      const double smallest = std::min({1.0 - u - v, u, v});
-      if (smallest > best) {
-        best = smallest;
-        t = tk;
-        w1 = u;
-        w2 = v;
-      }
-    }
-    g.triangle = t;
-    g.barycentric[0] = float(w1);
-    g.barycentric[1] = float(w2);
+    // The element's point lies on its face's triangle (chart_atlas.h); its barycentrics there
+    // take the back projection through the sub-triangle the depth pass rasterised.
+    g.triangle = atlas.faces[atlas.element_face[e]].triangle;
+    g.barycentric[0] = atlas.element_barycentric[e].x;
+    g.barycentric[1] = atlas.element_barycentric[e].y;
     // Its pieces in world space, padded to 8 corners by repeating the last.
     cpu.elementPieces(e, pieces, counts);
     g.piece_first = uint32_t(polygons.size() / 8);

@@ -52,7 +52,7 @@
 //  - furnace, 24 iterations from the same sequence: per-element relative RMS 2.7e-7; one shot:
 //    gains within 1.7e-6; converged on the GPU: every element within 0.17% of E / (1 - rho).
 //  - Cornell box (25 texels/m, level 1, 512^2 depth maps), 30 iterations along the CPU's
-//    sequence: relative RMS 8.5e-3 over the front faces, the largest differences on the floor
+//    sequence: relative RMS 5.1e-3 over the front faces, the largest differences on the floor
 //    at the corner of a box's base and the ceiling over the light (0.8 mm gap), where the depth
 //    maps and the CPU's rays part; a rendered image (1,500 elements) 8.7% RMS from the CPU's
 //    (tests/app/cli_test.cpp).
