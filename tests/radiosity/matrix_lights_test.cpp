@@ -10,14 +10,7 @@
 
 namespace penumbra {
 namespace {
-
-void addQuad(Mesh& m, glm::vec3 o, glm::vec3 u, glm::vec3 v, uint32_t material) {
-  const uint32_t b = uint32_t(m.positions.size());
-  m.positions.insert(m.positions.end(), {o, o + u, o + u + v, o + v});
-  m.triangles.emplace_back(b, b + 1, b + 2);
-  m.triangles.emplace_back(b, b + 2, b + 3);
-  m.material_ids.insert(m.material_ids.end(), {material, material});
-}
+using test::addQuad;
 
 TEST(MatrixRadiosity, PointLightGivesTheInverseSquareDirectTermAndShadows) {
   // A 10 m floor (facing up) under a point light 2 m above it, and a 1 m blocker (facing up,

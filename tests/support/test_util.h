@@ -3,6 +3,7 @@
 
 #include "penumbra/core/expected.h"
 #include "penumbra/core/rng.h"
+#include "penumbra/scene/mesh.h"
 
 #include <glm/vec3.hpp>
 
@@ -51,6 +52,16 @@ inline glm::vec3 randomDirection(Rng& rng) {
 }
 
 // Path of a file under tests/data.
+// Appends a quad (two triangles) with corners o, o + u, o + u + v, o + v to `m`, front face
+// along u x v, both triangles of `material`.
+inline void addQuad(Mesh& m, glm::vec3 o, glm::vec3 u, glm::vec3 v, uint32_t material) {
+  const uint32_t b = uint32_t(m.positions.size());
+  m.positions.insert(m.positions.end(), {o, o + u, o + u + v, o + v});
+  m.triangles.emplace_back(b, b + 1, b + 2);
+  m.triangles.emplace_back(b, b + 2, b + 3);
+  m.material_ids.insert(m.material_ids.end(), {material, material});
+}
+
 inline std::string dataPath(const std::string& relative) {
   return std::string(PENUMBRA_TEST_DATA) + "/" + relative;
 }
