@@ -65,12 +65,11 @@ constexpr size_t kReceiverBlock = 256;
 
 void ProgressiveRadiosity::elementPieces(size_t e, std::vector<std::array<glm::dvec3, 8>>& polygons,
                                          std::vector<int>& counts) const {
-  atlas_.elementPieces(e, flat_.positions, flat_.triangles, polygons, counts);
+  surface_.atlas.elementPieces(e, surface_.flat.positions, surface_.flat.triangles, polygons, counts);
 }
 
 double progressiveTexelDensity(const Scene& scene, uint32_t elements) {
-  const double area = faceArea(scene);
-  return area > 0.0 ? std::sqrt(double(elements) / area) : 0.0;
+  return texelDensityFor(scene, elements);
 }
 
 Expected<ProgressiveRadiosity> ProgressiveRadiosity::build(const Scene& scene,
@@ -95,90 +94,47 @@ Expected<ProgressiveRadiosity> ProgressiveRadiosity::build(const Scene& scene,
   }
   ProgressiveRadiosity pr;
   pr.options_ = options;
-  pr.flat_ = flattenScene(scene);
-  const std::vector<SurfaceFace> faces = surfaceFaces(scene, pr.flat_);
-  Expected<ChartAtlas> atlas = buildChartAtlas(pr.flat_.positions, pr.flat_.triangles,
-                                               pr.flat_.material_ids, faces, options.atlas);
-  if (!atlas.ok()) return atlas.error();
-  pr.atlas_ = std::move(*atlas);
-  pr.hierarchy_ = SurfaceHierarchy::build(pr.atlas_);
-  pr.engine_ = RayEngine::build(pr.flat_.positions, pr.flat_.triangles);
-  pr.bounds_ = pr.engine_.bounds();
-  pr.lift_ = 1e-5 * double(glm::length(pr.bounds_.hi - pr.bounds_.lo));
-  pr.has_side_.assign(2 * pr.flat_.triangles.size(), 0);
-  for (size_t f = 0; f < pr.atlas_.faces.size(); ++f) {
-    if (pr.atlas_.charts.face_chart[f] < 0) continue;
-    const SurfaceFace& face = pr.atlas_.faces[f];
-    pr.has_side_[2 * size_t(face.triangle) + (face.back ? 1 : 0)] = 1;
-  }
-
-  // Per element: material (every face of a chart has the chart's), emission on front faces,
-  // shading normal.
-  const size_t n = pr.atlas_.elementCount();
-  pr.rho_.resize(n);
-  pr.e_.resize(n);
-  pr.shading_normal_.resize(n);
-  const std::vector<glm::vec3> corner_normals =
-      options.shading_normals ? cornerShadingNormals(scene) : std::vector<glm::vec3>();
+  Expected<RadiositySurface> surface =
+      RadiositySurface::build(scene, options.atlas, options.shading_normals);
+  if (!surface) return surface.error();
+  pr.surface_ = std::move(*surface);
+  const size_t n = pr.surface_.elementCount();
   glm::dvec3 rho_area(0.0);
   for (size_t e = 0; e < n; ++e) {
-    const uint32_t f = pr.atlas_.element_faces[pr.atlas_.element_face_first[e]];
-    const SurfaceFace& face = pr.atlas_.faces[f];
-    const Material& m = scene.materials[pr.flat_.material_ids[face.triangle]];
-    pr.rho_[e] = glm::dvec3(m.reflectance);
-    pr.e_[e] = face.back ? glm::dvec3(0.0) : kPiD * glm::dvec3(m.emission);
-    const glm::dvec3 ng = pr.atlas_.element_normal[e];
-    pr.shading_normal_[e] = ng;
-    if (!corner_normals.empty()) {
-      // The corners' shading normals interpolated at the element's point on its face (sec. 3);
-      // a back face takes them reversed.
-      const uint32_t tf = pr.atlas_.element_face[e];
-      const uint32_t t = pr.atlas_.faces[size_t(tf)].triangle;
-      {
-        const glm::vec2 w = clampBarycentric(pr.atlas_.element_barycentric[e]);
-        glm::dvec3 sn = (1.0 - double(w.x) - double(w.y)) * glm::dvec3(corner_normals[3 * t]) +
-                        double(w.x) * glm::dvec3(corner_normals[3 * t + 1]) +
-                        double(w.y) * glm::dvec3(corner_normals[3 * t + 2]);
-        if (pr.atlas_.faces[size_t(tf)].back) sn = -sn;
-        const double len = glm::length(sn);
-        if (len > 0.0 && glm::dot(sn, ng) > 0.0) pr.shading_normal_[e] = sn / len;
-      }
-    }
-    const double area = pr.atlas_.element_area[e];
-    pr.total_area_ += area;
-    rho_area += pr.rho_[e] * area;
-    pr.balance_.emitted += pr.e_[e] * area;
+    const double area = pr.surface_.atlas.element_area[e];
+    rho_area += pr.surface_.reflectance[e] * area;
+    pr.balance_.emitted += pr.surface_.emission[e] * area;
   }
   pr.lights_ = scene.lights;
   pr.lights_shot_ = pr.lights_.empty();
-  for (const Light& light : pr.lights_) pr.light_power_ += lightPower(light, pr.bounds_);
+  for (const Light& light : pr.lights_) pr.light_power_ += lightPower(light, pr.surface_.bounds);
   pr.balance_.emitted += pr.light_power_;
   if (residualLuminance(pr.balance_.emitted) <= 0.0) {
     return inputError(scene.source, "progressive radiosity",
                       "the scene emits no light (no emissive surface or light)");
   }
   // Shooters: chart roots, split down to at most shooter_elements elements.
-  for (uint32_t c = 0; c < pr.hierarchy_.chartCount(); ++c) {
-    std::vector<ClusterRef> stack = {pr.hierarchy_.root(c)};
+  for (uint32_t c = 0; c < pr.surface_.hierarchy.chartCount(); ++c) {
+    std::vector<ClusterRef> stack = {pr.surface_.hierarchy.root(c)};
     while (!stack.empty()) {
       const ClusterRef k = stack.back();
       stack.pop_back();
-      if (pr.hierarchy_.elementEnd(k) - pr.hierarchy_.elementBegin(k) <= options.shooter_elements ||
+      if (pr.surface_.hierarchy.elementEnd(k) - pr.surface_.hierarchy.elementBegin(k) <= options.shooter_elements ||
           k.level == 0) {
         pr.shooters_.push_back(k);
         continue;
       }
-      const std::vector<ClusterRef> children = pr.hierarchy_.children(k);
+      const std::vector<ClusterRef> children = pr.surface_.hierarchy.children(k);
       stack.insert(stack.end(), children.rbegin(), children.rend());
     }
   }
   std::sort(pr.shooters_.begin(), pr.shooters_.end(), [&](ClusterRef a, ClusterRef b) {
-    return pr.hierarchy_.elementBegin(a) < pr.hierarchy_.elementBegin(b);
+    return pr.surface_.hierarchy.elementBegin(a) < pr.surface_.hierarchy.elementBegin(b);
   });
   // Eq. 6, per channel.
-  pr.ambient_factor_ = 1.0 / (1.0 - rho_area / pr.total_area_);
-  pr.b_ = pr.e_;
-  pr.db_ = pr.e_;
+  pr.ambient_factor_ = 1.0 / (1.0 - rho_area / pr.surface_.total_area);
+  pr.b_ = pr.surface_.emission;
+  pr.db_ = pr.surface_.emission;
   pr.shooter_power_.assign(pr.shooters_.size(), 0.0);
   pr.refreshShooterPowers();
   pr.balance_.unshot = pr.balance_.emitted;
@@ -191,7 +147,7 @@ double ProgressiveRadiosity::residualPower(uint32_t shooter) const {
   // area (exact coverage).
   double sum = 0.0;
   for (uint32_t e = shooterBegin(shooter); e < shooterEnd(shooter); ++e) {
-    sum += residualLuminance(db_[e]) * atlas_.element_area[e];
+    sum += residualLuminance(db_[e]) * surface_.atlas.element_area[e];
   }
   return sum;
 }
@@ -213,12 +169,12 @@ glm::dvec3 ProgressiveRadiosity::applyIncident(const glm::dvec3& scale, uint32_t
       for (uint32_t r = shooterBegin(uint32_t(s)); r < shooterEnd(uint32_t(s)); ++r) {
         if (incident_[r] == glm::dvec3(0.0)) continue;
         const glm::dvec3 in = incident_[r] * scale;
-        const glm::dvec3 gain = rho_[r] * in;
+        const glm::dvec3 gain = surface_.reflectance[r] * in;
         b_[r] += gain;
         db_[r] += gain;
-        const double a = atlas_.element_area[r];
+        const double a = surface_.atlas.element_area[r];
         k.arrived += in * a;
-        k.absorbed += (glm::dvec3(1.0) - rho_[r]) * in * a;
+        k.absorbed += (glm::dvec3(1.0) - surface_.reflectance[r]) * in * a;
         k.reflected += gain * a;
       }
       shooter_power_[s] = residualPower(uint32_t(s));
@@ -240,7 +196,7 @@ glm::dvec3 ProgressiveRadiosity::closedScale(const glm::dvec3& shot) const {
   parallelRange(shooterCount(), 16, [&](size_t b, size_t e) {
     for (size_t s = b; s < e; ++s) {
       for (uint32_t r = shooterBegin(uint32_t(s)); r < shooterEnd(uint32_t(s)); ++r) {
-        part[s] += incident_[r] * atlas_.element_area[r];
+        part[s] += incident_[r] * surface_.atlas.element_area[r];
       }
     }
   });
@@ -282,11 +238,11 @@ std::vector<std::pair<uint32_t, uint32_t>> ProgressiveRadiosity::shooterBlocks(u
   uint32_t lo = root.index, hi = root.index + 1;
   uint32_t l = root.level;
   for (; l > uint32_t(std::max(level, 0)); --l) {
-    const ClusterLevel& lv = hierarchy_.level(l);
+    const ClusterLevel& lv = surface_.hierarchy.level(l);
     lo = lv.child_first[lo];
     hi = lv.child_first[hi];
   }
-  const ClusterLevel& lv = hierarchy_.level(l);
+  const ClusterLevel& lv = surface_.hierarchy.level(l);
   std::vector<std::pair<uint32_t, uint32_t>> blocks;
   for (uint32_t k = lo; k < hi; ++k) blocks.emplace_back(lv.first[k], lv.first[k + 1]);
   return blocks;
@@ -303,53 +259,20 @@ bool ProgressiveRadiosity::shotClosed(uint32_t shooter, uint64_t* traced) const 
   if (traced) *traced += uint64_t(count);
   // Cosine-distributed rays from points spread over the shooter by area (or from the lights,
   // lightProbeRay).
-  Rng rng(0x5eedu, shooter);
-  RayBatch rays;
-  rays.resize(size_t(count));
-  std::vector<double> cdf;
-  uint32_t first = 0, last = 0;
   if (shooter != kLights) {
-    first = shooterBegin(shooter);
-    last = shooterEnd(shooter);
-    cdf.reserve(last - first);
-    double sum = 0.0;
-    for (uint32_t e = first; e < last; ++e) {
-      sum += atlas_.element_area[e];
-      cdf.push_back(sum);
+    if (!surface_.seesOnlyElements(shooterBegin(shooter), shooterEnd(shooter), count, shooter)) {
+      return false;
     }
-    if (!(sum > 0.0)) return false;
-  }
-  for (int i = 0; i < count; ++i) {
-    Ray ray;
-    if (shooter == kLights) {
-      if (!lightProbeRay(lights_, bounds_, rng, ray)) return false;
-    } else {
-      const double u = double(rng.uniform()) * cdf.back();
-      const uint32_t e =
-          first +
-          uint32_t(std::min<size_t>(
-              size_t(std::upper_bound(cdf.begin(), cdf.end(), u) - cdf.begin()), cdf.size() - 1));
-      const glm::vec3 n(atlas_.element_normal[e]);
-      const glm::vec3 d =
-          Frame::fromNormal(n).toWorld(sampleCosineHemisphere(rng.uniform(), rng.uniform()));
-      ray.origin = glm::vec3(atlas_.element_position[e] + atlas_.element_normal[e] * lift_);
-      ray.dir = d;
-      ray.tmin = 0.0f;
-      ray.tmax = std::numeric_limits<float>::max();
+  } else {
+    Rng rng(0x5eedu, shooter);
+    RayBatch rays;
+    rays.resize(size_t(count));
+    for (int i = 0; i < count; ++i) {
+      Ray ray;
+      if (!lightProbeRay(lights_, surface_.bounds, rng, ray)) return false;
+      rays.set(size_t(i), ray);
     }
-    rays.set(size_t(i), ray);
-  }
-  HitBatch hits;
-  engine_.intersect(rays, hits);
-  for (int i = 0; i < count; ++i) {
-    const int32_t t = hits.triangle[size_t(i)];
-    if (t < 0) return false;  // escaped to the outside
-    const glm::uvec3 tri = flat_.triangles[size_t(t)];
-    const glm::vec3 ng = glm::cross(flat_.positions[tri.y] - flat_.positions[tri.x],
-                                    flat_.positions[tri.z] - flat_.positions[tri.x]);
-    const glm::vec3 d(rays.dx[size_t(i)], rays.dy[size_t(i)], rays.dz[size_t(i)]);
-    const bool back = glm::dot(ng, d) > 0.0f;
-    if (!has_side_[2 * size_t(t) + (back ? 1 : 0)]) return false;  // a black back face
+    if (!surface_.allHitElements(rays)) return false;
   }
   closed_[slot] = 1;
   return true;
@@ -361,33 +284,8 @@ ProgressiveIteration ProgressiveRadiosity::shootLights() {
   it.iteration = ++iterations_;
   it.shooter = kLights;
   it.shooter_points = uint32_t(lights_.size());
-  const size_t n = elementCount();
-  incident_.assign(n, glm::dvec3(0.0));
-  std::atomic<uint64_t> rays{0};
-  parallelRange(n, 1024, [&](size_t begin, size_t end) {
-    uint64_t count = 0;
-    for (size_t r = begin; r < end; ++r) {
-      const glm::dvec3 p = atlas_.element_position[r];
-      const glm::dvec3 ng = atlas_.element_normal[r];
-      glm::dvec3 sum(0.0);
-      for (const Light& light : lights_) {
-        const LightSample s = sampleLight(light, p, ng, shading_normal_[r]);
-        if (s.irradiance == glm::dvec3(0.0)) continue;
-        if (options_.visibility) {
-          // Shadow ray towards the light (to its position, or far out for a directional one).
-          const glm::dvec3 from = p + ng * lift_;
-          Ray ray{glm::vec3(from), 1e-4f, glm::vec3(s.direction * s.distance),
-                  s.distance > 1e30 ? std::numeric_limits<float>::max() : 1.0f - 1e-4f};
-          if (s.distance > 1e30) ray.dir = glm::vec3(s.direction);
-          ++count;
-          if (engine_.occluded(ray)) continue;
-        }
-        sum += s.irradiance;
-      }
-      incident_[r] = sum;
-    }
-    rays += count;
-  });
+  uint64_t traced = 0;
+  incident_ = surface_.lightIrradiance(lights_, options_.visibility, &traced);
   uint64_t probes = 0;
   glm::dvec3 scale(1.0);
   it.closed = shotClosed(kLights, &probes);
@@ -399,7 +297,7 @@ ProgressiveIteration ProgressiveRadiosity::shootLights() {
   balance_.escaped += shot - got;
   it.shot_power = residualLuminance(shot);
   it.unshot_fraction = unshotFraction();
-  it.rays = rays.load() + probes;
+  it.rays = traced + probes;
   it.seconds = timer.seconds();
   return it;
 }
@@ -423,7 +321,7 @@ ProgressiveIteration ProgressiveRadiosity::shoot(uint32_t shooter) {
     std::vector<std::pair<uint32_t, uint32_t>> range(root.level + 1);
     range[root.level] = {root.index, root.index + 1};
     for (uint32_t l = root.level; l > 0; --l) {
-      const ClusterLevel& lv = hierarchy_.level(l);
+      const ClusterLevel& lv = surface_.hierarchy.level(l);
       range[l - 1] = {lv.child_first[range[l].first], lv.child_first[range[l].second]};
     }
     // Points from the top (index 0: the shooter) down.
@@ -436,7 +334,7 @@ ProgressiveIteration ProgressiveRadiosity::shoot(uint32_t shooter) {
     points.resize(count);
     // Level 0 first (elements), then each level from its children.
     for (uint32_t l = 0; l <= root.level; ++l) {
-      const ClusterLevel& lv = hierarchy_.level(l);
+      const ClusterLevel& lv = surface_.hierarchy.level(l);
       for (uint32_t k = range[l].first; k < range[l].second; ++k) {
         ShooterPoint& p = points[level_first[l] + (k - range[l].first)];
         p.cluster = ClusterRef{l, k};
@@ -447,8 +345,8 @@ ProgressiveIteration ProgressiveRadiosity::shoot(uint32_t shooter) {
         if (l == 0) {
           p.element = k;
           p.residual = db_[k];
-          p.normal = shading_normal_[k];
-          p.geometric = atlas_.element_normal[k];
+          p.normal = surface_.shading_normal[k];
+          p.geometric = surface_.atlas.element_normal[k];
           continue;
         }
         p.child_first = level_first[l - 1] + (lv.child_first[k] - range[l - 1].first);
@@ -495,8 +393,8 @@ ProgressiveIteration ProgressiveRadiosity::shoot(uint32_t shooter) {
         std::vector<uint32_t>& c = candidates[k];
         if (l == 0) {
           const uint32_t e = points[k].element;
-          c.assign(atlas_.element_faces.begin() + atlas_.element_face_first[e],
-                   atlas_.element_faces.begin() + atlas_.element_face_first[e + 1]);
+          c.assign(surface_.atlas.element_faces.begin() + surface_.atlas.element_face_first[e],
+                   surface_.atlas.element_faces.begin() + surface_.atlas.element_face_first[e + 1]);
           std::sort(c.begin(), c.end());
           continue;
         }
@@ -515,9 +413,9 @@ ProgressiveIteration ProgressiveRadiosity::shoot(uint32_t shooter) {
       for (size_t i = b; i < e; ++i) {
         ShooterPoint& p = points[clusters[i]];
         p.pieces = int32_t(i);
-        const ClusterLevel& lv = hierarchy_.level(p.cluster.level);
-        atlas_.forEachPiece(lv.lo[p.cluster.index], lv.hi[p.cluster.index], candidates[clusters[i]],
-                            flat_.positions, flat_.triangles,
+        const ClusterLevel& lv = surface_.hierarchy.level(p.cluster.level);
+        surface_.atlas.forEachPiece(lv.lo[p.cluster.index], lv.hi[p.cluster.index], candidates[clusters[i]],
+                            surface_.flat.positions, surface_.flat.triangles,
                             [&](uint32_t, const std::array<glm::dvec3, 8>& corners, int count,
                                 double) { pieces[i].emplace_back(corners, count); });
       }
@@ -545,22 +443,22 @@ ProgressiveIteration ProgressiveRadiosity::shoot(uint32_t shooter) {
     }
   }
   glm::dvec3 shot(0.0);
-  for (uint32_t e = first; e < last; ++e) shot += db_[e] * atlas_.element_area[e];
+  for (uint32_t e = first; e < last; ++e) shot += db_[e] * surface_.atlas.element_area[e];
 
   // Planar charts wholly behind or level with the shooter's bounding sphere receive nothing (the
   // outsides of a room's walls, the back of a panel): skipped before visiting their elements.
-  std::vector<uint8_t> skip(atlas_.chartCount(), 0);
+  std::vector<uint8_t> skip(surface_.atlas.chartCount(), 0);
   {
     glm::dvec3 centre = points[0].position;
     double radius = 0.0;
     for (uint32_t e = first; e < last; ++e) {
-      radius = std::max(radius, glm::length(atlas_.element_position[e] - centre));
+      radius = std::max(radius, glm::length(surface_.atlas.element_position[e] - centre));
     }
-    for (size_t c = 0; c < atlas_.chartCount(); ++c) {
-      const Chart& chart = atlas_.charts.charts[c];
-      const AtlasChartPlacement& pl = atlas_.placement[c];
+    for (size_t c = 0; c < surface_.atlas.chartCount(); ++c) {
+      const Chart& chart = surface_.atlas.charts.charts[c];
+      const AtlasChartPlacement& pl = surface_.atlas.placement[c];
       if (!chart.planar || pl.element_count == 0) continue;
-      const glm::dvec3 p0 = atlas_.element_position[pl.first_element];
+      const glm::dvec3 p0 = surface_.atlas.element_position[pl.first_element];
       // Planar charts lie within 1 degree of their normal: a margin of that over the sphere.
       const double margin = radius + 0.02 * glm::length(centre - p0);
       if (glm::dot(chart.normal, centre - p0) <= -margin) skip[c] = 1;
@@ -603,8 +501,8 @@ ProgressiveIteration ProgressiveRadiosity::shoot(uint32_t shooter) {
     for (size_t block = begin; block < end; block += kReceiverBlock) {
       pairs.clear();
       for (size_t r = block; r < std::min(end, block + kReceiverBlock); ++r) {
-        if (skip[atlas_.element_chart[r]]) continue;
-        const glm::dvec3 nr = atlas_.element_normal[r], pr = atlas_.element_position[r];
+        if (skip[surface_.atlas.element_chart[r]]) continue;
+        const glm::dvec3 nr = surface_.atlas.element_normal[r], pr = surface_.atlas.element_position[r];
         stack.assign(roots.rbegin(), roots.rend());
         while (!stack.empty()) {
           const uint32_t k = stack.back();
@@ -642,12 +540,12 @@ ProgressiveIteration ProgressiveRadiosity::shoot(uint32_t shooter) {
         for (size_t k = 0; k < pairs.size(); ++k) {
           const Pair& pair = pairs[uint32_t(order[k])];
           const ShooterPoint& s = points[pair.point];
-          const glm::dvec3 from = atlas_.element_position[pair.receiver] +
-                                  atlas_.element_normal[pair.receiver] * lift_,
-                           to = s.position + s.geometric * lift_;
+          const glm::dvec3 from = surface_.atlas.element_position[pair.receiver] +
+                                  surface_.atlas.element_normal[pair.receiver] * surface_.lift,
+                           to = s.position + s.geometric * surface_.lift;
           batch.set(k, Ray{glm::vec3(from), 1e-4f, glm::vec3(to - from), 1.0f - 1e-4f});
         }
-        engine_.intersectSerial(batch, hits);
+        surface_.engine.intersectSerial(batch, hits);
         occluded.assign(pairs.size(), 0);
         for (size_t k = 0; k < pairs.size(); ++k)
           occluded[uint32_t(order[k])] = hits.triangle[k] >= 0;
@@ -658,7 +556,7 @@ ProgressiveIteration ProgressiveRadiosity::shoot(uint32_t shooter) {
         const size_t r = pairs[k].receiver;
         const ShooterPoint& s = points[pairs[k].point];
         // Form factors take the shading normals; culling and shadow rays the faces' own.
-        const glm::dvec3 nr = shading_normal_[r], pr = atlas_.element_position[r];
+        const glm::dvec3 nr = surface_.shading_normal[r], pr = surface_.atlas.element_position[r];
         if (pairs[k].kernel == Kernel::kPolygon) {
           double f = 0.0;
           for (const auto& [poly, count] : pieces[size_t(s.pieces)]) {
@@ -764,7 +662,7 @@ Status ProgressiveRadiosity::setState(ProgressiveState state) {
 
 glm::dvec3 ProgressiveRadiosity::unshotPower() const {
   glm::dvec3 sum(0.0);
-  for (size_t e = 0; e < elementCount(); ++e) sum += db_[e] * atlas_.element_area[e];
+  for (size_t e = 0; e < elementCount(); ++e) sum += db_[e] * surface_.atlas.element_area[e];
   if (!lights_shot_) sum += light_power_;
   return sum;
 }
@@ -775,24 +673,18 @@ double ProgressiveRadiosity::unshotFraction() const {
 
 glm::dvec3 ProgressiveRadiosity::ambient() const {
   // Eq. 4 with F'_ij = A_j / sum_k A_k (eq. 5) and R of eq. 6.
-  return ambient_factor_ * unshotPower() / total_area_;
+  return ambient_factor_ * unshotPower() / surface_.total_area;
 }
 
 glm::dvec3 ProgressiveRadiosity::displayRadiosity(size_t element) const {
-  return b_[element] + rho_[element] * ambient();
+  return b_[element] + surface_.reflectance[element] * ambient();
 }
 
 Image ProgressiveRadiosity::radianceImage(bool with_ambient) const {
-  const ChartAtlas& a = atlas_;
-  Image img(a.width, a.height);
-  std::vector<uint8_t> known(a.texel_kind.size(), 0);
   const glm::dvec3 amb = with_ambient ? ambient() : glm::dvec3(0.0);
-  for (size_t e = 0; e < elementCount(); ++e) {
-    img.pixels[a.element_texel[e]] = glm::vec3((b_[e] + rho_[e] * amb) / kPiD);
-    known[a.element_texel[e]] = 1;
-  }
-  fillChartGaps(a, img, known);
-  return img;
+  std::vector<glm::dvec3> b(elementCount());
+  for (size_t e = 0; e < elementCount(); ++e) b[e] = b_[e] + surface_.reflectance[e] * amb;
+  return surface_.radianceImage(b);
 }
 
 }  // namespace penumbra

@@ -59,6 +59,7 @@
 #include "penumbra/core/timer.h"
 #include "penumbra/geometry/chart_atlas.h"
 #include "penumbra/geometry/surface_hierarchy.h"
+#include "penumbra/radiosity/radiosity_surface.h"
 #include "penumbra/raytrace/ray_engine.h"
 #include "penumbra/scene/scene.h"
 
@@ -83,8 +84,7 @@ inline constexpr double kProgressiveNear = 3.0;
 // power in about 20 s on two cores and agrees with the path tracer to 1% (docs/performance.md).
 inline constexpr uint32_t kProgressiveDefaultElements = 40000;
 
-// The texel density that gives about `elements` elements on the scene's faces (a two-sided
-// triangle's area counts twice): sqrt(elements / area); 0 when the scene has no area.
+// texelDensityFor (radiosity/radiosity_surface.h).
 double progressiveTexelDensity(const Scene& scene, uint32_t elements);
 
 struct ProgressiveOptions {
@@ -243,12 +243,12 @@ class ProgressiveRadiosity {
   glm::dvec3 displayRadiosity(size_t element) const;
 
   // Elements: the atlas's elements (grouped by chart, Morton order within a chart).
-  size_t elementCount() const { return atlas_.elementCount(); }
-  uint32_t elementChart(size_t e) const { return atlas_.element_chart[e]; }
-  uint32_t elementTexel(size_t e) const { return atlas_.element_texel[e]; }
-  double elementArea(size_t e) const { return atlas_.element_area[e]; }
-  const glm::dvec3& elementPosition(size_t e) const { return atlas_.element_position[e]; }
-  const glm::dvec3& elementNormal(size_t e) const { return atlas_.element_normal[e]; }
+  size_t elementCount() const { return surface_.elementCount(); }
+  uint32_t elementChart(size_t e) const { return surface_.atlas.element_chart[e]; }
+  uint32_t elementTexel(size_t e) const { return surface_.atlas.element_texel[e]; }
+  double elementArea(size_t e) const { return surface_.atlas.element_area[e]; }
+  const glm::dvec3& elementPosition(size_t e) const { return surface_.atlas.element_position[e]; }
+  const glm::dvec3& elementNormal(size_t e) const { return surface_.atlas.element_normal[e]; }
   // The element's pieces in world space (one convex polygon per face it overlaps).
   void elementPieces(size_t e, std::vector<std::array<glm::dvec3, 8>>& polygons,
                      std::vector<int>& counts) const;
@@ -256,21 +256,24 @@ class ProgressiveRadiosity {
   // [shooterBegin(s), shooterEnd(s)).
   size_t shooterCount() const { return shooters_.size(); }
   ClusterRef shooterCluster(uint32_t s) const { return shooters_[s]; }
-  uint32_t shooterBegin(uint32_t s) const { return hierarchy_.elementBegin(shooters_[s]); }
-  uint32_t shooterEnd(uint32_t s) const { return hierarchy_.elementEnd(shooters_[s]); }
+  uint32_t shooterBegin(uint32_t s) const {
+    return surface_.hierarchy.elementBegin(shooters_[s]);
+  }
+  uint32_t shooterEnd(uint32_t s) const { return surface_.hierarchy.elementEnd(shooters_[s]); }
   // The flat substructuring's points of shooter s (sec. 3): its clusters at `level` (at most
   // the shooter's own level), each as its element range [first, second).
   std::vector<std::pair<uint32_t, uint32_t>> shooterBlocks(uint32_t s, int level) const;
   const glm::dvec3& radiosity(size_t e) const { return b_[e]; }
   const glm::dvec3& residual(size_t e) const { return db_[e]; }
-  const glm::dvec3& reflectance(size_t e) const { return rho_[e]; }
-  const glm::dvec3& emission(size_t e) const { return e_[e]; }
-  const glm::dvec3& shadingNormal(size_t e) const { return shading_normal_[e]; }
-  const ChartAtlas& atlas() const { return atlas_; }
-  const SurfaceHierarchy& hierarchy() const { return hierarchy_; }
-  const FlatTriangles& triangles() const { return flat_; }
+  const glm::dvec3& reflectance(size_t e) const { return surface_.reflectance[e]; }
+  const glm::dvec3& emission(size_t e) const { return surface_.emission[e]; }
+  const glm::dvec3& shadingNormal(size_t e) const { return surface_.shading_normal[e]; }
+  const RadiositySurface& surface() const { return surface_; }
+  const ChartAtlas& atlas() const { return surface_.atlas; }
+  const SurfaceHierarchy& hierarchy() const { return surface_.hierarchy; }
+  const FlatTriangles& triangles() const { return surface_.flat; }
   const std::vector<Light>& lights() const { return lights_; }
-  double totalArea() const { return total_area_; }
+  double totalArea() const { return surface_.total_area; }
 
   // Outgoing radiance B / pi (W m^-2 sr^-1) per atlas texel, the size of the atlas: kInside
   // texels hold their element's value (plus rho * ambient when `with_ambient`), kBorder and
@@ -280,25 +283,17 @@ class ProgressiveRadiosity {
 
  private:
   ProgressiveOptions options_;
-  ChartAtlas atlas_;
-  SurfaceHierarchy hierarchy_;
-  FlatTriangles flat_;
-  RayEngine engine_;
+  RadiositySurface surface_;
   std::vector<Light> lights_;
   bool lights_shot_ = true;
   glm::dvec3 light_power_{0.0};
-  double lift_ = 0.0;  // shadow-ray end points are lifted off their surfaces by this (m)
-  Bounds3 bounds_;
-  // Which sides have elements: has_side_[2 t + back].
-  std::vector<uint8_t> has_side_;
   std::vector<ClusterRef> shooters_;
   // Per element.
-  std::vector<glm::dvec3> shading_normal_, rho_, e_, b_, db_;
+  std::vector<glm::dvec3> b_, db_;
   std::vector<double> shooter_power_;  // residualPower per shooter, for selectShooter
   std::vector<glm::dvec3> incident_;   // per element, an iteration's gathered irradiance
   EnergyBalance balance_;
   glm::dvec3 ambient_factor_{1.0};  // R of eq. 6, per channel
-  double total_area_ = 0.0;
   int iterations_ = 0;
 
   mutable std::vector<int8_t> closed_;  // per shooter, then the lights: -1 not probed yet

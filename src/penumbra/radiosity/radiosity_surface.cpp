@@ -1,0 +1,182 @@
+#include "penumbra/radiosity/radiosity_surface.h"
+
+#include "penumbra/core/check.h"
+#include "penumbra/core/parallel.h"
+#include "penumbra/geometry/shading_normals.h"
+#include "penumbra/kernels/sampling.h"
+#include "penumbra/radiosity/lights.h"
+
+#include <glm/geometric.hpp>
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <limits>
+#include <numbers>
+
+namespace penumbra {
+
+double texelDensityFor(const Scene& scene, uint32_t elements) {
+  const double area = faceArea(scene);
+  return area > 0.0 ? std::sqrt(double(elements) / area) : 0.0;
+}
+
+Expected<RadiositySurface> RadiositySurface::build(const Scene& scene,
+                                                   const ChartAtlasOptions& atlas_options,
+                                                   bool shading_normals) {
+  RadiositySurface s;
+  s.flat = flattenScene(scene);
+  const std::vector<SurfaceFace> faces = surfaceFaces(scene, s.flat);
+  Expected<ChartAtlas> atlas = buildChartAtlas(s.flat.positions, s.flat.triangles,
+                                               s.flat.material_ids, faces, atlas_options);
+  if (!atlas.ok()) return atlas.error();
+  s.atlas = std::move(*atlas);
+  s.hierarchy = SurfaceHierarchy::build(s.atlas);
+  s.engine = RayEngine::build(s.flat.positions, s.flat.triangles);
+  s.bounds = s.engine.bounds();
+  s.lift = 1e-5 * double(glm::length(s.bounds.hi - s.bounds.lo));
+  s.has_side.assign(2 * s.flat.triangles.size(), 0);
+  for (size_t f = 0; f < s.atlas.faces.size(); ++f) {
+    if (s.atlas.charts.face_chart[f] < 0) continue;
+    const SurfaceFace& face = s.atlas.faces[f];
+    s.has_side[2 * size_t(face.triangle) + (face.back ? 1 : 0)] = 1;
+  }
+
+  const size_t n = s.atlas.elementCount();
+  s.material.resize(n);
+  s.shading_normal.resize(n);
+  const std::vector<glm::vec3> corner_normals =
+      shading_normals ? cornerShadingNormals(scene) : std::vector<glm::vec3>();
+  for (size_t e = 0; e < n; ++e) {
+    // Every face of a chart has the chart's material.
+    const uint32_t f = s.atlas.element_faces[s.atlas.element_face_first[e]];
+    s.material[e] = s.flat.material_ids[s.atlas.faces[f].triangle];
+    const glm::dvec3 ng = s.atlas.element_normal[e];
+    s.shading_normal[e] = ng;
+    if (!corner_normals.empty()) {
+      // The corners' shading normals interpolated at the element's point on its face (Wallner
+      // sec. 3); a back face takes them reversed.
+      const uint32_t tf = s.atlas.element_face[e];
+      const uint32_t t = s.atlas.faces[size_t(tf)].triangle;
+      const glm::vec2 w = clampBarycentric(s.atlas.element_barycentric[e]);
+      glm::dvec3 sn = (1.0 - double(w.x) - double(w.y)) * glm::dvec3(corner_normals[3 * t]) +
+                      double(w.x) * glm::dvec3(corner_normals[3 * t + 1]) +
+                      double(w.y) * glm::dvec3(corner_normals[3 * t + 2]);
+      if (s.atlas.faces[size_t(tf)].back) sn = -sn;
+      const double len = glm::length(sn);
+      if (len > 0.0 && glm::dot(sn, ng) > 0.0) s.shading_normal[e] = sn / len;
+    }
+    s.total_area += s.atlas.element_area[e];
+  }
+  s.applyMaterials(scene.materials);
+  return s;
+}
+
+void RadiositySurface::applyMaterials(std::span<const Material> materials) {
+  const size_t n = elementCount();
+  reflectance.resize(n);
+  emission.resize(n);
+  for (size_t e = 0; e < n; ++e) {
+    const Material& m = materials[material[e]];
+    const bool back = atlas.faces[atlas.element_face[e]].back;
+    reflectance[e] = glm::dvec3(m.reflectance);
+    emission[e] = back ? glm::dvec3(0.0) : std::numbers::pi * glm::dvec3(m.emission);
+  }
+}
+
+std::vector<glm::dvec3> RadiositySurface::lightIrradiance(std::span<const Light> lights,
+                                                          bool visibility, uint64_t* rays) const {
+  const size_t n = elementCount();
+  std::vector<glm::dvec3> out(n, glm::dvec3(0.0));
+  if (lights.empty()) return out;
+  std::atomic<uint64_t> traced{0};
+  parallelRange(n, 1024, [&](size_t begin, size_t end) {
+    uint64_t count = 0;
+    for (size_t r = begin; r < end; ++r) {
+      const glm::dvec3 p = atlas.element_position[r];
+      const glm::dvec3 ng = atlas.element_normal[r];
+      glm::dvec3 sum(0.0);
+      for (const Light& light : lights) {
+        const LightSample s = sampleLight(light, p, ng, shading_normal[r]);
+        if (s.irradiance == glm::dvec3(0.0)) continue;
+        if (visibility) {
+          // Shadow ray towards the light (to its position, or far out for a directional one).
+          const glm::dvec3 from = p + ng * lift;
+          Ray ray{glm::vec3(from), 1e-4f, glm::vec3(s.direction * s.distance),
+                  s.distance > 1e30 ? std::numeric_limits<float>::max() : 1.0f - 1e-4f};
+          if (s.distance > 1e30) ray.dir = glm::vec3(s.direction);
+          ++count;
+          if (engine.occluded(ray)) continue;
+        }
+        sum += s.irradiance;
+      }
+      out[r] = sum;
+    }
+    traced += count;
+  });
+  if (rays) *rays += traced.load();
+  return out;
+}
+
+bool RadiositySurface::allHitElements(const RayBatch& rays) const {
+  HitBatch hits;
+  engine.intersect(rays, hits);
+  for (size_t i = 0; i < rays.size(); ++i) {
+    const int32_t t = hits.triangle[i];
+    if (t < 0) return false;  // escaped to the outside
+    const glm::uvec3 tri = flat.triangles[size_t(t)];
+    const glm::vec3 ng = glm::cross(flat.positions[tri.y] - flat.positions[tri.x],
+                                    flat.positions[tri.z] - flat.positions[tri.x]);
+    const glm::vec3 d(rays.dx[i], rays.dy[i], rays.dz[i]);
+    const bool back = glm::dot(ng, d) > 0.0f;
+    if (!has_side[2 * size_t(t) + (back ? 1 : 0)]) return false;  // a black back face
+  }
+  return true;
+}
+
+bool RadiositySurface::seesOnlyElements(uint32_t first, uint32_t last, int count,
+                                        uint64_t seed) const {
+  if (count <= 0 || last <= first) return false;
+  std::vector<double> cdf;
+  cdf.reserve(last - first);
+  double sum = 0.0;
+  for (uint32_t e = first; e < last; ++e) {
+    sum += atlas.element_area[e];
+    cdf.push_back(sum);
+  }
+  if (!(sum > 0.0)) return false;
+  Rng rng(0x5eedu, seed);
+  RayBatch rays;
+  rays.resize(size_t(count));
+  for (int i = 0; i < count; ++i) {
+    const double u = double(rng.uniform()) * cdf.back();
+    const uint32_t e =
+        first + uint32_t(std::min<size_t>(
+                    size_t(std::upper_bound(cdf.begin(), cdf.end(), u) - cdf.begin()),
+                    cdf.size() - 1));
+    const glm::vec3 nrm(atlas.element_normal[e]);
+    const glm::vec3 d =
+        Frame::fromNormal(nrm).toWorld(sampleCosineHemisphere(rng.uniform(), rng.uniform()));
+    Ray ray;
+    ray.origin = glm::vec3(atlas.element_position[e] + atlas.element_normal[e] * lift);
+    ray.dir = d;
+    ray.tmin = 0.0f;
+    ray.tmax = std::numeric_limits<float>::max();
+    rays.set(size_t(i), ray);
+  }
+  return allHitElements(rays);
+}
+
+Image RadiositySurface::radianceImage(std::span<const glm::dvec3> radiosity) const {
+  PENUMBRA_CHECK(radiosity.size() == elementCount());
+  Image img(atlas.width, atlas.height);
+  std::vector<uint8_t> known(atlas.texel_kind.size(), 0);
+  for (size_t e = 0; e < elementCount(); ++e) {
+    img.pixels[atlas.element_texel[e]] = glm::vec3(radiosity[e] / std::numbers::pi);
+    known[atlas.element_texel[e]] = 1;
+  }
+  fillChartGaps(atlas, img, known);
+  return img;
+}
+
+}  // namespace penumbra

@@ -1,0 +1,79 @@
+// The surface every radiosity method solves on: the scene's faces laid out in the chart atlas
+// (geometry/chart_atlas.h), whose occupied texels are the elements, with the multiresolution
+// hierarchy over them (geometry/surface_hierarchy.h), each element's material, and the Ray Engine
+// over the scene's triangles for visibility. Matrix radiosity (clusters of a cut as its
+// unknowns), progressive radiosity (clusters as shooters) and the methods to come share it, so
+// they bake to the same lightmap layout.
+//
+//  - Two-sided surfaces (Material::two_sided) have elements on each side; an element emits
+//    (front faces only, E = pi * emitted radiance) and reflects on its own side.
+//  - Shading normals: the mesh's own vertex normals, or generated ones (geometry/
+//    shading_normals.h), interpolated at each element's point, as Wallner interpolates normals
+//    (sec. 3); culling and shadow rays use the faces' own normals.
+#pragma once
+
+#include "penumbra/core/expected.h"
+#include "penumbra/core/image.h"
+#include "penumbra/core/rng.h"
+#include "penumbra/geometry/chart_atlas.h"
+#include "penumbra/geometry/surface_hierarchy.h"
+#include "penumbra/raytrace/ray_engine.h"
+#include "penumbra/scene/scene.h"
+
+#include <glm/vec3.hpp>
+
+#include <cstdint>
+#include <span>
+#include <vector>
+
+namespace penumbra {
+
+// The texel density that gives about `elements` elements on the scene's faces (a two-sided
+// triangle's area counts twice): sqrt(elements / area); 0 when the scene has no area.
+double texelDensityFor(const Scene& scene, uint32_t elements);
+
+struct RadiositySurface {
+  ChartAtlas atlas;
+  SurfaceHierarchy hierarchy;
+  FlatTriangles flat;
+  RayEngine engine;
+  Bounds3 bounds;
+  double lift = 0.0;  // shadow-ray end points are lifted off their surfaces by this (m)
+  // Which sides of the flattened triangles have elements: has_side[2 t + back].
+  std::vector<uint8_t> has_side;
+  // Per element.
+  std::vector<glm::dvec3> reflectance;
+  std::vector<glm::dvec3> emission;  // W m^-2 (pi L_e on front faces of emissive materials)
+  std::vector<glm::dvec3> shading_normal;
+  std::vector<uint32_t> material;  // Scene::materials index
+  double total_area = 0.0;         // m^2, both sides of two-sided surfaces
+
+  // Builds the atlas over the scene's faces (the scene must have passed validateScene).
+  static Expected<RadiositySurface> build(const Scene& scene, const ChartAtlasOptions& atlas,
+                                          bool shading_normals);
+
+  size_t elementCount() const { return atlas.elementCount(); }
+  // Sets reflectance and emission from the materials (relighting: the geometry stays).
+  void applyMaterials(std::span<const Material> materials);
+
+  // Direct irradiance from the lights at each element's point (W m^-2, radiosity/lights.h),
+  // with one Ray Engine shadow ray per element and light when `visibility`; rays traced are
+  // added to *rays.
+  std::vector<glm::dvec3> lightIrradiance(std::span<const Light> lights, bool visibility,
+                                          uint64_t* rays = nullptr) const;
+
+  // Whether every ray of `rays` hits a face that has elements (none escapes to the outside or
+  // reaches a black back face of a one-sided surface).
+  bool allHitElements(const RayBatch& rays) const;
+  // `count` cosine-distributed rays from points of elements [first, last) chosen by area
+  // (deterministic for a seed), tested with allHitElements: whether that part of the surface
+  // sees only elements.
+  bool seesOnlyElements(uint32_t first, uint32_t last, int count, uint64_t seed) const;
+
+  // Outgoing radiance B / pi per atlas texel from B per element: kInside texels hold their
+  // element's value, the chart's other footprint and padding texels the mean of filled
+  // neighbours of the same chart (in rounds, fillChartGaps), kEmpty texels zero.
+  Image radianceImage(std::span<const glm::dvec3> radiosity) const;
+};
+
+}  // namespace penumbra
