@@ -30,14 +30,14 @@ RadiositySystem withPrecision(const RadiositySystem& s, MatrixPrecision precisio
   return out;
 }
 
-// The cornell box meshed for about 400 elements (the meshing refines each triangle 1 to 4^k); its
+// The cornell box as about 400 clusters of the hierarchy; its
 // form factors are computed once.
 const RadiositySystem& cornellSystem(MatrixPrecision precision) {
   static const RadiositySystem fp32 = [] {
     Expected<Scene> cornell = builtinScene("cornell");
     PENUMBRA_CHECK(cornell.ok());
     MatrixRadiosityOptions o;
-    o.meshing.target_elements = 400;
+    o.elements = 400;
     Expected<MatrixRadiosity> mr = buildMatrixRadiosity(*cornell, o);
     PENUMBRA_CHECK(mr.ok());
     return std::move(*mr->system);
@@ -186,7 +186,7 @@ TEST(GlJacobi, FurnaceMatchesTheClosedForm) {
   Expected<Scene> furnace = builtinScene("furnace");
   ASSERT_TRUE(furnace.ok());
   MatrixRadiosityOptions o;
-  o.meshing.target_elements = 400;
+  o.elements = 400;
   Expected<MatrixRadiosity> mr = buildMatrixRadiosity(*furnace, o);
   ASSERT_TRUE(mr.ok());
   for (MatrixPrecision p : {MatrixPrecision::kFp32, MatrixPrecision::kFp16}) {
@@ -203,8 +203,9 @@ TEST(GlJacobi, FurnaceMatchesTheClosedForm) {
     EXPECT_TRUE(st->converged) << matrixPrecisionName(p) << " residual " << st->residual;
     const double expected = 2.0 * std::numbers::pi;
     double worst = 0.0;
-    for (const glm::vec3& v : b) {
-      for (int c = 0; c < 3; ++c) worst = std::max(worst, std::fabs(v[c] / expected - 1.0));
+    for (size_t k = 0; k < b.size(); ++k) {
+      if (s.emission[k].x == 0.0f) continue;  // the walls' outsides
+      for (int c = 0; c < 3; ++c) worst = std::max(worst, std::fabs(b[k][c] / expected - 1.0));
     }
     EXPECT_LT(worst, 0.005) << matrixPrecisionName(p);
     // And the CPU twin reaches the same B (so a miss above is the system's, not the device's).

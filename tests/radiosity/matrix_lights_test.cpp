@@ -1,5 +1,6 @@
 // Matrix radiosity with point lights: the direct term B = E + rho * direct + rho F B, the
-// irradiance taken at each element's centroid with a Ray Engine shadow ray.
+// irradiance taken at every lightmap element's point with a Ray Engine shadow ray (so shadows are
+// as sharp as the lightmap, whatever the number of clusters).
 #include "penumbra/radiosity/matrix_radiosity.h"
 #include "support/test_util.h"
 
@@ -30,7 +31,7 @@ TEST(MatrixRadiosity, PointLightGivesTheInverseSquareDirectTermAndShadows) {
   ASSERT_TRUE(validateScene(s).ok());
 
   MatrixRadiosityOptions o;
-  o.meshing.target_elements = 1200;
+  o.elements = 1200;
   Expected<MatrixRadiosity> mr = buildMatrixRadiosity(s, o);
   ASSERT_TRUE(mr.ok()) << mr.error().describe();
   SolveOptions so;
@@ -38,16 +39,18 @@ TEST(MatrixRadiosity, PointLightGivesTheInverseSquareDirectTermAndShadows) {
   ASSERT_TRUE(mr->solve(so).converged);
   double worst = 0.0;
   size_t lit = 0, shadowed = 0;
-  for (size_t e = 0; e < mr->elements.size(); ++e) {
-    if (mr->elements.material[e] != 0) continue;
-    const glm::dvec3 p(mr->elements.centroid[e]);
+  const std::vector<glm::dvec3> radiosity = mr->elementRadiosity();
+  const ChartAtlas& atlas = mr->surface.atlas;
+  for (size_t e = 0; e < radiosity.size(); ++e) {
+    if (mr->surface.material[e] != 0 || atlas.element_normal[e].y < 0.5) continue;
+    const glm::dvec3 p(atlas.element_position[e]);
     // Behind the blocker as seen from the light: the segment to the light crosses y = 1 inside
     // the blocker's square (x in [2, 3], z in [-0.5, 0.5]), with a margin for the element size.
     const double t = (1.0 - p.y) / (light.y - p.y);
     const glm::dvec3 q = p + t * (light - p);
     const bool inside = q.x > 2.1 && q.x < 2.9 && std::abs(q.z) < 0.4;
     const bool outside = q.x < 1.9 || q.x > 3.1 || std::abs(q.z) > 0.6;
-    const double b = mr->radiosity[e].x;
+    const double b = radiosity[e].x;
     if (inside) {
       EXPECT_EQ(b, 0.0);
       ++shadowed;
@@ -62,7 +65,7 @@ TEST(MatrixRadiosity, PointLightGivesTheInverseSquareDirectTermAndShadows) {
   std::printf("matrix, point light: %zu lit elements worst %.2e, %zu shadowed\n", lit, worst,
               shadowed);
   EXPECT_GT(lit, 500u);
-  EXPECT_GT(shadowed, 2u);
+  EXPECT_GT(shadowed, 100u);
   EXPECT_LE(worst, 1e-5);  // a flat floor sees nothing of itself: B is the direct term alone
 }
 

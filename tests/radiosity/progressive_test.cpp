@@ -172,7 +172,7 @@ TEST(ProgressiveRadiosity, CornellWallsAgreeWithTheMatrixMethod) {
   const size_t nt = flattenScene(*cornell).triangles.size();
 
   MatrixRadiosityOptions mo;
-  mo.meshing.target_elements = 1500;
+  mo.elements = 1500;
   Expected<MatrixRadiosity> mr = buildMatrixRadiosity(*cornell, mo);
   ASSERT_TRUE(mr.ok()) << mr.error().describe();
   SolveOptions so;
@@ -180,10 +180,13 @@ TEST(ProgressiveRadiosity, CornellWallsAgreeWithTheMatrixMethod) {
   ASSERT_TRUE(mr->solve(so).converged);
   std::vector<glm::dvec3> m_sum(nt, glm::dvec3(0.0));
   std::vector<double> m_area(nt, 0.0);
-  for (size_t e = 0; e < mr->elements.size(); ++e) {
-    const double a = mr->elements.area[e];
-    m_sum[mr->elements.source[e]] += glm::dvec3(mr->radiosity[e]) * a;
-    m_area[mr->elements.source[e]] += a;
+  const std::vector<glm::dvec3> mb = mr->elementRadiosity();
+  for (size_t e = 0; e < mb.size(); ++e) {
+    const SurfaceFace& f = mr->surface.atlas.faces[mr->surface.atlas.element_face[e]];
+    if (f.back) continue;
+    const double a = mr->surface.atlas.element_area[e];
+    m_sum[f.triangle] += mb[e] * a;
+    m_area[f.triangle] += a;
   }
 
   ProgressiveOptions o;
@@ -194,8 +197,7 @@ TEST(ProgressiveRadiosity, CornellWallsAgreeWithTheMatrixMethod) {
   Expected<ProgressiveRadiosity> pr = ProgressiveRadiosity::build(*cornell, o);
   ASSERT_TRUE(pr.ok()) << pr.error().describe();
   const ProgressiveStats st = pr->solve();
-  // Per scene triangle, over the front faces' elements (the matrix method's elements are
-  // one-sided; the walls' outer sides see no light).
+  // Per scene triangle, over the front faces' elements (the walls' outer sides see no light).
   std::vector<glm::dvec3> p_sum(nt, glm::dvec3(0.0));
   std::vector<double> p_area(nt, 0.0);
   for (size_t e = 0; e < pr->elementCount(); ++e) {
@@ -207,7 +209,7 @@ TEST(ProgressiveRadiosity, CornellWallsAgreeWithTheMatrixMethod) {
   std::printf(
       "cornell progressive: %zu elements (matrix %zu), %d iterations, unshot %.4f, %.2f s "
       "(%.1f ms/iteration), %llu rays\n",
-      pr->elementCount(), mr->elements.size(), st.iterations, st.unshot_fraction, st.seconds,
+      pr->elementCount(), mr->size(), st.iterations, st.unshot_fraction, st.seconds,
       1e3 * st.seconds / std::max(1, st.iterations), static_cast<unsigned long long>(st.rays));
 
   const auto pm = meshMeans(*cornell, p_sum, p_area);

@@ -1,10 +1,10 @@
 // `penumbra bake SCENE --method matrix|progressive -o DIR`: solves radiosity and writes the
 // solution as files other tools read: a glTF mesh with per-corner radiance, and a lightmap atlas
 // as EXR (exact, linear) and PNG (tone mapped, referenced by the glTF on the second UV set).
-//  - matrix (Carr, Hall, Hart 2003, sec. 3): the element mesh, and the lightmap resampled from
-//    the elements (sec. 3.1).
-//  - progressive (Wallner sec. 2-3): the scene's triangles, and the solver's own lightmap (its
-//    texels are the elements), border texels filled for bilinear lookups (sec. 3.1).
+// Both methods write the scene's triangles and the chart atlas's lightmap (its occupied texels
+// are the elements), border texels filled for bilinear lookups (Wallner sec. 3.1):
+//  - matrix (Carr, Hall, Hart 2003, sec. 3): the clusters' solution interpolated to the texels;
+//  - progressive (Wallner sec. 2-3): the solver's own texels.
 // Conventions: docs/algorithms.md, "Baked output".
 //
 // All outputs are staged in a hidden directory inside DIR and renamed into place only once every
@@ -17,12 +17,10 @@
 #include "penumbra/core/parallel.h"
 #include "penumbra/core/progress.h"
 #include "penumbra/core/timer.h"
-#include "penumbra/geometry/lightmap_atlas.h"
 #include "penumbra/io/gltf_writer.h"
 #include "penumbra/io/image_io.h"
 #include "penumbra/io/scene_io.h"
 #include "penumbra/radiosity/matrix_radiosity.h"
-#include "penumbra/render/element_lightmap.h"
 #include "penumbra/render/lightmap_mesh.h"
 
 #include <fmt/format.h>
@@ -133,19 +131,13 @@ struct BakeProduct {
 
 Expected<BakeProduct> solveMatrix(const BakeOptions& options, const CommonOptions& common,
                                   const Scene& scene) {
-  // The atlas first: it is cheap, and its options can still be wrong.
-  const Timer atlas_timer;
-  const FlatTriangles flat = flattenScene(scene);
-  AtlasOptions ao;
-  ao.texel_density = options.texel_density.value_or(0.0);
-  ao.resolution = options.lightmap_size.value_or(1024);
-  Expected<LightmapAtlas> atlas = buildLightmapAtlas(flat.positions, flat.triangles, ao);
-  if (!atlas) return atlas.error();
-  double atlas_seconds = atlas_timer.seconds();
-
   MatrixRadiosityOptions mo;
-  mo.meshing.target_elements = options.elements.value_or(2000);
-  mo.form_factors.samples = options.ff_samples;
+  mo.elements = options.elements.value_or(kMatrixDefaultElements);
+  mo.lightmap.texel_density = options.texel_density;
+  mo.lightmap.size = options.lightmap_size;
+  if (options.ff_rays) mo.form_factors.rays = *options.ff_rays;
+  mo.shading_normals = options.normals == "interpolated";
+  const Timer build_timer;
   std::optional<Progress> ff_progress;
   std::once_flag ff_progress_once;
   Expected<MatrixRadiosity> built = buildMatrixRadiosity(scene, mo, [&](size_t done, size_t rows) {
@@ -158,9 +150,12 @@ Expected<BakeProduct> solveMatrix(const BakeOptions& options, const CommonOption
   if (ff_progress) ff_progress->finish();
   if (!built) return built.error();
   MatrixRadiosity& mr = *built;
-  const size_t n = mr.elements.size();
-  spdlog::info("{}: {} elements, form factors in {:.2f} s ({} rays)", scene.source, n,
-               mr.form_factor_stats.seconds, mr.form_factor_stats.rays);
+  const double build_seconds = build_timer.seconds();
+  const size_t n = mr.size();
+  spdlog::info(
+      "{}: {} elements (clusters of {} lightmap texels), form factors in {:.2f} s ({} rays)",
+      scene.source, n, mr.surface.elementCount(), mr.form_factor_stats.seconds,
+      mr.form_factor_stats.rays);
 
   SolveOptions so;
   so.solver = options.solver == "jacobi" ? MatrixSolver::kJacobi : MatrixSolver::kGaussSeidel;
@@ -177,32 +172,34 @@ Expected<BakeProduct> solveMatrix(const BakeOptions& options, const CommonOption
   spdlog::info("{} iterations ({}), residual {:.3g}, {:.3f} s", solved.iterations,
                matrixSolverName(so.solver), solved.residual, solved.seconds);
 
-  // The display path of sec. 3.1: smooth corner radiance, resampled into the atlas.
-  const Timer resample_timer;
+  // The solution interpolated to the lightmap's elements, the same layout as every method's.
   BakeProduct out;
-  const std::vector<glm::vec3> corners = mr.cornerRadiance();
-  out.lightmap = rasterizeElementLightmap(*atlas, mr.elements, corners);
-  out.mesh = buildBakedMesh(scene, mr.elements, *atlas, corners);
-  std::vector<glm::vec3> radiance(n);
-  std::vector<uint8_t> emissive(n);
-  for (size_t e = 0; e < n; ++e) {
-    radiance[e] = mr.radiosity[e] / 3.14159265358979f;
-    emissive[e] = scene.materials[mr.elements.material[e]].isEmissive() ? 1 : 0;
+  const std::vector<glm::dvec3> b = mr.elementRadiosity();
+  out.lightmap = mr.surface.radianceImage(b);
+  out.mesh = buildLightmapMesh(scene, mr.surface.atlas, out.lightmap);
+  std::vector<glm::vec3> radiance(b.size());
+  std::vector<uint8_t> emissive(b.size());
+  for (size_t e = 0; e < b.size(); ++e) {
+    radiance[e] = glm::vec3(b[e] / 3.14159265358979323846);
+    emissive[e] = mr.surface.emission[e] != glm::dvec3(0.0) ? 1 : 0;
   }
   out.color_scale = colorScale(radiance, emissive);
-  atlas_seconds += resample_timer.seconds();
-  out.atlas_width = atlas->width;
-  out.atlas_height = atlas->height;
-  out.texel_density = atlas->texel_density;
-  out.triangles = atlas->charts.size();
-  out.extras = {{"elements", n}, {"iterations", solved.iterations}, {"residual", solved.residual}};
+  out.atlas_width = mr.surface.atlas.width;
+  out.atlas_height = mr.surface.atlas.height;
+  out.texel_density = mr.surface.atlas.texel_density;
+  out.triangles = mr.surface.flat.triangles.size();
+  out.extras = {{"elements", n},
+                {"lightmap_elements", mr.surface.elementCount()},
+                {"iterations", solved.iterations},
+                {"residual", solved.residual}};
   out.stats = {{"solver", matrixSolverName(so.solver)},
                {"elements", n},
+               {"lightmap_elements", mr.surface.elementCount()},
                {"form_factor_seconds", mr.form_factor_stats.seconds},
                {"form_factor_rays", mr.form_factor_stats.rays},
                {"rays", mr.form_factor_stats.rays},
+               {"build_seconds", build_seconds},
                {"solve_seconds", solved.seconds},
-               {"atlas_seconds", atlas_seconds},
                {"iterations", solved.iterations},
                {"residual", solved.residual},
                {"converged", solved.converged},

@@ -86,10 +86,10 @@ int parseAndRun(int argc, char** argv) {
       ->check(CLI::IsMember({"fp32", "fp16"}))
       ->capture_default_str();
   render_cmd
-      ->add_option("--ff-samples", render.ff_samples,
-                   "matrix: sample points per element pair for the form factors")
-      ->check(CLI::Range(1, 1024))
-      ->capture_default_str();
+      ->add_option("--ff-rays", render.ff_rays,
+                   "matrix: shadow rays per pair of elements that exchange a noticeable share "
+                   "of their light (default 4)")
+      ->check(CLI::Range(1, 1024));
   render_cmd
       ->add_option("--relight-frames", render.relight_frames,
                    "matrix: render this many frames with the emitters' colour changing, "
@@ -189,9 +189,11 @@ int parseAndRun(int argc, char** argv) {
   bake_cmd->add_option("--solver", bake.solver, "jacobi or gauss-seidel")
       ->check(CLI::IsMember({"jacobi", "gauss-seidel"}))
       ->capture_default_str();
-  bake_cmd->add_option("--ff-samples", bake.ff_samples, "form-factor sample points per pair")
-      ->check(CLI::Range(1, 1024))
-      ->capture_default_str();
+  bake_cmd
+      ->add_option("--ff-rays", bake.ff_rays,
+                   "matrix: shadow rays per pair of elements that exchange a noticeable share "
+                   "of their light (default 4)")
+      ->check(CLI::Range(1, 1024));
   bake_cmd->add_option("--texel-density", bake.texel_density,
                        "lightmap texels per metre (default: the most that fit --lightmap-size)");
   bake_cmd

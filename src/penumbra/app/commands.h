@@ -35,7 +35,9 @@ struct RenderOptions {
   // fraction of the emitted power (default 1e-3).
   std::optional<double> tolerance;
   std::string precision = "fp32";
-  int ff_samples = 16;     // form-factor sample points per element pair
+  // Matrix: shadow rays per cluster pair that exchanges a noticeable share (default
+  // FormFactorOptions::rays).
+  std::optional<int> ff_rays;
   int relight_frames = 0;  // > 1: a sequence of relit frames from one set of form factors
   std::string shading = "smooth";
   // --method progressive (Wallner): lightmap texels per metre (overrides --elements), the
@@ -80,7 +82,9 @@ struct BakeOptions {
   // fraction of the emitted power (default 1e-3).
   std::optional<double> tolerance;
   std::string solver = "gauss-seidel";
-  int ff_samples = 16;                  // form-factor sample points per element pair
+  // Matrix: shadow rays per cluster pair that exchanges a noticeable share (default
+  // FormFactorOptions::rays).
+  std::optional<int> ff_rays;
   std::optional<double> texel_density;  // lightmap texels per metre (default: from the size)
   std::optional<int> lightmap_size;     // lightmap width and height (default 1024 for matrix)
   std::string resume;                   // progressive: checkpoint to continue from

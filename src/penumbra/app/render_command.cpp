@@ -182,9 +182,11 @@ int runRender(const RenderOptions& options, const CommonOptions& common) {
     return reportError(inputError(
         "", "", fmt::format("--device '{}': use cpu, gpu, hybrid or auto", options.device)));
   }
+  if (options.method != "progressive" && options.method != "matrix" && options.texel_density) {
+    return reportError(inputError("", "--texel-density", "applies to the radiosity methods only"));
+  }
   if (options.method != "progressive") {
-    const char* only = options.texel_density         ? "--texel-density"
-                       : !options.resume.empty()     ? "--resume"
+    const char* only = !options.resume.empty()       ? "--resume"
                        : !options.checkpoint.empty() ? "--checkpoint"
                                                      : nullptr;
     if (only) {

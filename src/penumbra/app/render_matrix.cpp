@@ -13,7 +13,7 @@
 #include "penumbra/io/scene_io.h"
 #include "penumbra/radiosity/jacobi_gl.h"
 #include "penumbra/radiosity/matrix_radiosity.h"
-#include "penumbra/render/element_view.h"
+#include "penumbra/render/lightmap_view.h"
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
@@ -84,19 +84,13 @@ Status renderMatrix(const RenderOptions& options, const CommonOptions& common) {
   }
 
   MatrixRadiosityOptions mo;
-  mo.meshing.target_elements = options.elements.value_or(2000);
-  mo.form_factors.samples = options.ff_samples;
+  mo.elements = options.elements.value_or(kMatrixDefaultElements);
+  mo.lightmap.texel_density = options.texel_density;
+  if (options.ff_rays) mo.form_factors.rays = *options.ff_rays;
   mo.form_factors.seed = options.seed.value_or(0);
   mo.precision = options.precision == "fp16" ? MatrixPrecision::kFp16 : MatrixPrecision::kFp32;
-  {
-    // Refuse an N^2 system that will not fit before anything else (meshing alone is cheap).
-    Expected<Elements> elements = meshElements(*scene, mo.meshing);
-    if (!elements) return elements.error();
-    const uint64_t n = elements->size();
-    PENUMBRA_TRY(
-        checkMemory(matrixRadiosityBytes(n, mo.precision),
-                    fmt::format("matrix radiosity with {} elements ({} form factors)", n, n * n)));
-  }
+  mo.shading_normals = options.normals == "interpolated";
+  PENUMBRA_TRY(checkMatrixRadiosity(*scene, mo));
 
   Expected<DeviceChoice> device = chooseDevice(options.device);
   if (!device) return device.error();
@@ -111,7 +105,6 @@ Status renderMatrix(const RenderOptions& options, const CommonOptions& common) {
                       "or --solver jacobi on the GPU)");
   }
 
-  // Elements first (cheap), so that the N^2 memory check names the real element count.
   const Timer build_timer;
   std::optional<Progress> ff_progress;
   std::once_flag ff_progress_once;
@@ -126,11 +119,12 @@ Status renderMatrix(const RenderOptions& options, const CommonOptions& common) {
   if (!built) return built.error();
   MatrixRadiosity& mr = *built;
   const double build_seconds = build_timer.seconds();
-  const size_t n = mr.elements.size();
-  spdlog::info("{}: {} elements, {:.3g} M form factors in {:.2f} s ({:.1f} M pairs/s, {} rays)",
-               scene->source, n, double(n) * double(n) * 1e-6, mr.form_factor_stats.seconds,
-               double(mr.form_factor_stats.pairs) / mr.form_factor_stats.seconds * 1e-6,
-               mr.form_factor_stats.rays);
+  const size_t n = mr.size();
+  spdlog::info(
+      "{}: {} elements (clusters of {} lightmap texels, {}x{} atlas), {:.3g} M form factors in "
+      "{:.2f} s ({} rays)",
+      scene->source, n, mr.surface.elementCount(), mr.surface.atlas.width, mr.surface.atlas.height,
+      double(n) * double(n) * 1e-6, mr.form_factor_stats.seconds, mr.form_factor_stats.rays);
 
   std::optional<GlJacobi> gl;
   if (gpu) {
@@ -140,7 +134,7 @@ Status renderMatrix(const RenderOptions& options, const CommonOptions& common) {
   }
 
   const Camera camera = scene->camera ? *scene->camera : defaultCamera(*scene);
-  ElementViewSettings view;
+  LightmapViewSettings view;
   view.width = width;
   view.height = height;
   view.spp = spp;
@@ -179,16 +173,9 @@ Status renderMatrix(const RenderOptions& options, const CommonOptions& common) {
                    last.residual, last.iterations, so.tolerance);
     }
     const Timer view_timer;
-    std::vector<glm::vec3> corners;
-    if (options.shading == "smooth") {
-      corners = mr.cornerRadiance();
-    } else {
-      corners.resize(3 * n);
-      for (size_t e = 0; e < n; ++e) {
-        corners[3 * e] = corners[3 * e + 1] = corners[3 * e + 2] = mr.radiosity[e] / 3.14159265f;
-      }
-    }
-    const Image image = renderElementView(mr.elements, corners, camera, view);
+    const Image lightmap = mr.radianceImage(options.shading == "smooth");
+    const Image image = renderLightmapView(mr.surface.flat.positions, mr.surface.flat.triangles,
+                                           mr.surface.atlas, lightmap, camera, view);
     view_seconds += view_timer.seconds();
     for (const std::string& out : outputs) {
       PENUMBRA_TRY(writeImage(frames > 1 ? frameName(out, f) : out, image, options.tonemap));
@@ -210,10 +197,16 @@ Status renderMatrix(const RenderOptions& options, const CommonOptions& common) {
                         {"solver", matrixSolverName(solver)},
                         {"precision", matrixPrecisionName(mo.precision)},
                         {"elements", n},
+                        {"lightmap_elements", mr.surface.elementCount()},
+                        {"atlas_width", mr.surface.atlas.width},
+                        {"atlas_height", mr.surface.atlas.height},
+                        {"texel_density", mr.surface.atlas.texel_density},
                         {"matrix_bytes", mr.system->matrixBytes()},
                         {"form_factor_seconds", mr.form_factor_stats.seconds},
                         {"form_factor_pairs", mr.form_factor_stats.pairs},
                         {"form_factor_rays", mr.form_factor_stats.rays},
+                        {"form_factor_refined", mr.form_factor_stats.refined},
+                        {"closed_rows", mr.form_factor_stats.closed_rows},
                         {"rays", mr.form_factor_stats.rays},
                         {"build_seconds", build_seconds},
                         {"solve_seconds", solve_seconds},

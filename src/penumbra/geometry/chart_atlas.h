@@ -34,7 +34,6 @@
 #include "penumbra/core/expected.h"
 #include "penumbra/core/image.h"
 #include "penumbra/geometry/charts.h"
-#include "penumbra/geometry/lightmap_atlas.h"
 #include "penumbra/scene/scene.h"
 
 #include <glm/geometric.hpp>
@@ -49,6 +48,24 @@
 #include <vector>
 
 namespace penumbra {
+
+enum class AtlasTexelKind : uint8_t {
+  kEmpty,    // no chart: face -1, value 0
+  kInside,   // covered by its chart: an element
+  kBorder,   // in a chart's footprint (bilinear lookups inside the chart read it), not covered
+  kDilated,  // padding filled from a neighbouring texel (copy of its face and barycentrics)
+};
+
+// The barycentrics of a point of the triangle near (w1, w2): negative weights set to zero and the
+// rest renormalised (the identity for points inside).
+inline glm::vec2 clampBarycentric(glm::vec2 b) {
+  float w0 = 1.0f - b.x - b.y, w1 = b.x, w2 = b.y;
+  w0 = w0 > 0.0f ? w0 : 0.0f;
+  w1 = w1 > 0.0f ? w1 : 0.0f;
+  w2 = w2 > 0.0f ? w2 : 0.0f;
+  const float sum = w0 + w1 + w2;
+  return sum > 0.0f ? glm::vec2(w1 / sum, w2 / sum) : glm::vec2(0.0f);
+}
 
 struct ChartAtlasOptions {
   // Texels per metre. > 0: the charts are scaled with it. <= 0: the largest density whose

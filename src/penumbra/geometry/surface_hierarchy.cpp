@@ -1,10 +1,14 @@
 #include "penumbra/geometry/surface_hierarchy.h"
 
 #include "penumbra/core/check.h"
+#include "penumbra/core/parallel.h"
 
 #include <glm/geometric.hpp>
+#include <glm/vec4.hpp>
 
 #include <algorithm>
+#include <climits>
+#include <cstdint>
 #include <queue>
 
 namespace penumbra {
@@ -143,6 +147,68 @@ std::vector<ClusterRef> SurfaceHierarchy::cut(size_t n) const {
   std::sort(done.begin(), done.end(),
             [&](ClusterRef a, ClusterRef b) { return elementBegin(a) < elementBegin(b); });
   return done;
+}
+
+std::vector<glm::dvec3> SurfaceHierarchy::interpolate(const ChartAtlas& atlas,
+                                                      std::span<const ClusterRef> cut,
+                                                      std::span<const glm::dvec3> values) const {
+  PENUMBRA_CHECK(values.size() == cut.size());
+  const size_t n = atlas.elementCount();
+  // Each element's cut cluster.
+  std::vector<uint32_t> owner(n, UINT32_MAX);
+  for (size_t k = 0; k < cut.size(); ++k) {
+    for (uint32_t e = elementBegin(cut[k]); e < elementEnd(cut[k]); ++e) owner[e] = uint32_t(k);
+  }
+  std::vector<glm::dvec3> out(n, glm::dvec3(0.0));
+  parallelRange(atlas.chartCount(), 1, [&](size_t c_begin, size_t c_end) {
+    // Summed-area tables of (A v, A) over the chart's bounding box, with a zero row and column.
+    std::vector<glm::dvec4> sat;
+    for (size_t c = c_begin; c < c_end; ++c) {
+      const AtlasChartPlacement& pl = atlas.placement[c];
+      if (pl.element_count == 0) continue;
+      const int w = pl.size.x, h = pl.size.y;
+      const size_t stride = size_t(w) + 1;
+      sat.assign(stride * (size_t(h) + 1), glm::dvec4(0.0));
+      auto at = [&](int x, int y) -> glm::dvec4& { return sat[size_t(y) * stride + size_t(x)]; };
+      const uint32_t first = pl.first_element, last = pl.first_element + pl.element_count;
+      for (uint32_t e = first; e < last; ++e) {
+        PENUMBRA_CHECK(owner[e] != UINT32_MAX);
+        const glm::ivec2 t = atlas.texelOf(e) - pl.origin;
+        const double a = atlas.element_area[e];
+        at(t.x + 1, t.y + 1) = glm::dvec4(values[owner[e]] * a, a);
+      }
+      for (int y = 1; y <= h; ++y) {
+        for (int x = 1; x <= w; ++x) at(x, y) += at(x - 1, y) + at(x, y - 1) - at(x - 1, y - 1);
+      }
+      // Sum over texels [x0, x1] x [y0, y1] (clamped to the box; empty when x0 > x1).
+      auto box = [&](int x0, int y0, int x1, int y1) {
+        x0 = std::max(x0, 0);
+        y0 = std::max(y0, 0);
+        x1 = std::min(x1, w - 1);
+        y1 = std::min(y1, h - 1);
+        if (x0 > x1 || y0 > y1) return glm::dvec4(0.0);
+        return at(x1 + 1, y1 + 1) - at(x0, y1 + 1) - at(x1 + 1, y0) + at(x0, y0);
+      };
+      for (uint32_t e = first; e < last; ++e) {
+        const ClusterRef k = cut[owner[e]];
+        if (k.level == 0) {
+          out[e] = values[owner[e]];
+          continue;
+        }
+        // A box of width s = 2^l centred on the texel's centre: texels t - s/2 .. t + s/2, the
+        // two end ones weighted by 1/2 along each axis, i.e. the mean of the four boxes
+        // (outer or inner along x) x (outer or inner along y).
+        const int r = 1 << (k.level - 1);
+        const glm::ivec2 t = atlas.texelOf(e) - pl.origin;
+        const glm::dvec4 sum = box(t.x - r, t.y - r, t.x + r, t.y + r) +
+                               box(t.x - r + 1, t.y - r, t.x + r - 1, t.y + r) +
+                               box(t.x - r, t.y - r + 1, t.x + r, t.y + r - 1) +
+                               box(t.x - r + 1, t.y - r + 1, t.x + r - 1, t.y + r - 1);
+        out[e] = sum.w > 0.0 ? glm::dvec3(sum) / sum.w : values[owner[e]];
+      }
+    }
+  });
+  return out;
 }
 
 }  // namespace penumbra

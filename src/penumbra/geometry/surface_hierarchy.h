@@ -26,6 +26,7 @@
 #include <glm/vec3.hpp>
 
 #include <cstdint>
+#include <span>
 #include <vector>
 
 namespace penumbra {
@@ -71,6 +72,15 @@ class SurfaceHierarchy {
   // At least n clusters covering every element once (fewer when every cluster is a single
   // element), refined largest area first; in element order.
   std::vector<ClusterRef> cut(size_t n) const;
+
+  // Values given per cluster of a cut (cut(n)'s order) interpolated to every element: within
+  // each chart, the area-weighted mean of the piecewise-constant cut values over a window of
+  // 2^l x 2^l texels centred on the element, l its cluster's level. Where neighbouring clusters
+  // have the same level this is bilinear interpolation between their centres (a box filter of a
+  // block's width over blocks); at a chart's boundary the value extends flat. Lookups never
+  // cross charts. `atlas` is the one the hierarchy was built from.
+  std::vector<glm::dvec3> interpolate(const ChartAtlas& atlas, std::span<const ClusterRef> cut,
+                                      std::span<const glm::dvec3> values) const;
 
  private:
   std::vector<ClusterLevel> levels_;

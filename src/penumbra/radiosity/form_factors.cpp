@@ -5,15 +5,15 @@
 #include "penumbra/core/rng.h"
 #include "penumbra/core/timer.h"
 #include "penumbra/kernels/form_factor.h"
-#include "penumbra/kernels/sampling.h"
-#include "penumbra/raytrace/ray_engine.h"
 
 #include <fmt/format.h>
 #include <glm/geometric.hpp>
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <cmath>
+#include <numbers>
 
 namespace penumbra {
 
@@ -25,140 +25,207 @@ double FormFactorMatrix::rowSum(uint32_t i) const {
 
 namespace {
 
-// Point with stratum (sx, sy) of a g x g grid on element e, jittered by (u1, u2).
-glm::dvec3 stratifiedPoint(const Elements& el, uint32_t e, int sx, int sy, int g, float u1,
-                           float u2) {
-  const glm::vec2 b =
-      sampleTriangleBarycentrics((float(sx) + u1) / float(g), (float(sy) + u2) / float(g));
-  const glm::uvec3 t = el.triangles[e];
-  const glm::dvec3 p0 = el.positions[t.x], p1 = el.positions[t.y], p2 = el.positions[t.z];
-  return (1.0 - double(b.x) - double(b.y)) * p0 + double(b.x) * p1 + double(b.y) * p2;
-}
+constexpr double kPiD = std::numbers::pi;
 
-// A shadow ray between points x and y of two elements, each lifted off its surface.
-Ray visibilityRay(const glm::dvec3& x, const glm::dvec3& nx, const glm::dvec3& y,
-                  const glm::dvec3& ny, double lift) {
-  const glm::dvec3 from = x + nx * lift, to = y + ny * lift;
-  return Ray{glm::vec3(from), 1e-4f, glm::vec3(to - from), 1.0f - 1e-4f};
-}
+// One thread's state while it evaluates pairs.
+struct PairEvaluator {
+  const RadiositySurface& s;
+  const FormFactorOptions& o;
+  std::vector<std::array<glm::dvec3, 8>> polygons;
+  std::vector<int> counts;
+  uint64_t rays = 0;
+  uint64_t refined = 0;
 
-// Whether every corner of element `e` lies on or behind the plane (point c, normal n).
-bool behind(const Elements& el, uint32_t e, const glm::dvec3& c, const glm::dvec3& n) {
-  for (int k = 0; k < 3; ++k) {
-    if (glm::dot(n, glm::dvec3(el.positions[el.triangles[e][k]]) - c) > 0.0) return false;
+  // Whether the segment between element points a and b (each lifted off its surface) is free.
+  bool visible(uint32_t a, uint32_t b) {
+    ++rays;
+    const glm::dvec3 from = s.atlas.element_position[a] + s.atlas.element_normal[a] * s.lift;
+    const glm::dvec3 to = s.atlas.element_position[b] + s.atlas.element_normal[b] * s.lift;
+    return !s.engine.occluded(Ray{glm::vec3(from), 1e-4f, glm::vec3(to - from), 1.0f - 1e-4f});
   }
-  return true;
-}
+
+  // Lambert's form factor from element a's point to element b's pieces (0 when the point is
+  // behind b).
+  double pointToElement(uint32_t a, uint32_t b) {
+    const glm::dvec3 x = s.atlas.element_position[a], n = s.atlas.element_normal[a];
+    if (glm::dot(s.atlas.element_normal[b], x - s.atlas.element_position[b]) <= 0.0) return 0.0;
+    s.atlas.elementPieces(b, s.flat.positions, s.flat.triangles, polygons, counts);
+    double f = 0.0;
+    for (size_t k = 0; k < counts.size(); ++k) {
+      f += pointToPolygonFormFactor(x, n, polygons[k].data(), counts[k]);
+    }
+    return f;
+  }
+
+  // T = integral over a of F(dA_x -> b) V dA_x (m^2), by the rules of the file comment.
+  double transport(ClusterRef a, ClusterRef b, Rng& rng) {
+    ++refined;
+    const SurfaceHierarchy& h = s.hierarchy;
+    const ClusterLevel& la = h.level(a.level);
+    const ClusterLevel& lb = h.level(b.level);
+    if (la.chart[a.index] == lb.chart[b.index] && s.atlas.charts.charts[la.chart[a.index]].planar) {
+      return 0.0;  // coplanar
+    }
+    const double aa = la.area[a.index], ab = lb.area[b.index];
+    const glm::dvec3 d = lb.position[b.index] - la.position[a.index];
+    const double d2 = glm::dot(d, d);
+    const double reach = o.near * (std::sqrt(aa / kPiD) + std::sqrt(ab / kPiD));
+    const bool near = d2 < reach * reach;
+    if (near && (a.level > 0 || b.level > 0)) {
+      // Refine the larger of the two (an element cannot be).
+      const bool split_a = b.level == 0 || (a.level > 0 && aa >= ab);
+      const ClusterRef c = split_a ? a : b;
+      const ClusterLevel& lc = h.level(c.level);
+      const ClusterLevel& below = h.level(c.level - 1);
+      double t = 0.0;
+      for (uint32_t k = lc.child_first[c.index]; k < lc.child_first[c.index + 1]; ++k) {
+        const ClusterRef child{c.level - 1, k};
+        if (below.area[k] <= 0.0) continue;
+        t += split_a ? transport(child, b, rng) : transport(a, child, rng);
+      }
+      return t;
+    }
+    if (near) {
+      // Two elements: Lambert's exact form factor each way at the elements' points.
+      const double fab = pointToElement(a.index, b.index), fba = pointToElement(b.index, a.index);
+      const double t = 0.5 * (aa * fab + ab * fba);
+      if (t <= 0.0) return 0.0;
+      if (o.visibility && !visible(a.index, b.index)) return 0.0;
+      return t;
+    }
+    // Eq. 2's disc each way, symmetrised.
+    const double dist = std::sqrt(d2);
+    const glm::dvec3 w = d / dist;
+    const double ca = glm::dot(la.normal[a.index], w) * la.flatness[a.index];
+    const double cb = -glm::dot(lb.normal[b.index], w) * lb.flatness[b.index];
+    if (ca <= 0.0 || cb <= 0.0) return 0.0;
+    const double t =
+        0.5 * (aa * discFormFactor(ab, cb, ca, d2) + ab * discFormFactor(aa, ca, cb, d2));
+    if (!o.visibility) return t;
+    const uint32_t a0 = la.first[a.index], na = la.first[a.index + 1] - a0;
+    const uint32_t b0 = lb.first[b.index], nb = lb.first[b.index + 1] - b0;
+    const int m = (t < kFewRaysBelow * aa && t < kFewRaysBelow * ab) ? 1 : std::max(1, o.rays);
+    int free = 0;
+    for (int k = 0; k < m; ++k) {
+      // Element points in strata of each cluster's Morton range (the two strata sequences
+      // shifted, so that ray k pairs different parts of the clusters).
+      const uint32_t ea =
+          a0 + std::min(na - 1, uint32_t((double(k) + rng.uniform()) / double(m) * double(na)));
+      const uint32_t eb = b0 + std::min(nb - 1, uint32_t((double((k + 1) % m) + rng.uniform()) /
+                                                         double(m) * double(nb)));
+      if (visible(ea, eb)) ++free;
+    }
+    return t * double(free) / double(m);
+  }
+};
 
 }  // namespace
 
-Expected<FormFactorMatrix> computeFormFactors(const Elements& el, const FormFactorOptions& options,
+Expected<FormFactorMatrix> computeFormFactors(const RadiositySurface& surface,
+                                              std::span<const ClusterRef> cut,
+                                              const FormFactorOptions& options,
                                               FormFactorStats* stats,
                                               const std::function<void(size_t)>& on_row) {
   const Timer timer;
-  const uint64_t n = el.size();
+  const uint64_t n = cut.size();
+  if (!(options.near > 0.0) || options.rays < 1 || options.probe_rays < 0 ||
+      options.probe_rays > (1 << 20)) {
+    return inputError("", "form factors",
+                      "near must be positive, rays at least 1, probe_rays in [0, 2^20]");
+  }
   PENUMBRA_TRY(
       checkMemory(formFactorBytes(n), fmt::format("the {} x {} form-factor matrix", n, n)));
-  if (options.samples < 1) return inputError("", "form factors", "samples must be at least 1");
   FormFactorMatrix m;
   m.n = uint32_t(n);
   m.f.assign(n * n, 0.0f);
+  m.row_scale.assign(n, 1.0f);
+  std::vector<double> area(n);
+  for (size_t i = 0; i < n; ++i) area[i] = surface.hierarchy.level(cut[i].level).area[cut[i].index];
 
-  const RayEngine engine = RayEngine::build(el.scene.positions, el.scene.triangles);
-  const Bounds3 box = engine.bounds();
-  // Ray end points are lifted off their surfaces by this much (relative to the scene).
-  const double lift = 1e-5 * double(glm::length(box.hi - box.lo));
-  const int g = int(std::ceil(std::sqrt(double(options.samples)) - 1e-9));
-  const int samples = g * g;
-  // Element sizes: the radius of the disc of the element's area.
-  std::vector<double> radius(n);
-  for (size_t e = 0; e < n; ++e) radius[e] = std::sqrt(double(el.area[e]) / 3.14159265358979);
-  constexpr double kNear = 4.0;
-  std::atomic<uint64_t> rays{0};
+  std::atomic<uint64_t> rays{0}, refined{0}, closed_rows{0};
   std::atomic<size_t> rows_done{0};
-
+  // Row i evaluates the pairs (i, j > i) and writes both F_ij and F_ji: each entry is written
+  // by exactly one row.
   parallelRange(n, 1, [&](size_t begin, size_t end) {
-    std::vector<glm::dvec3> xs(static_cast<size_t>(samples));
-    uint64_t local_rays = 0;
+    PairEvaluator ev{surface, options, {}, {}, 0, 0};
     for (size_t i = begin; i < end; ++i) {
-      // The row's receiver points, from the row's own stream (thread-count independent).
-      Rng row_rng(mixBits(options.seed), i);
-      for (int s = 0; s < samples; ++s) {
-        xs[size_t(s)] =
-            stratifiedPoint(el, uint32_t(i), s % g, s / g, g, row_rng.uniform(), row_rng.uniform());
-      }
-      const glm::dvec3 ni = el.normal[i], ci = el.centroid[i];
-      float* row = &m.f[i * n];
-      for (size_t j = 0; j < n; ++j) {
-        if (j == i || el.source[j] == el.source[i]) continue;  // coplanar: F = 0
-        const glm::dvec3 nj = el.normal[j], cj = el.centroid[j];
-        // j wholly below i's horizon, or i wholly behind j's front face: nothing to exchange.
-        if (behind(el, uint32_t(j), ci, ni) || behind(el, uint32_t(i), cj, nj)) continue;
-        const glm::uvec3 tj = el.triangles[j];
-        const glm::dvec3 a = el.positions[tj.x], b = el.positions[tj.y], c = el.positions[tj.z];
-        Rng pair_rng(mixBits(options.seed ^ 0x9e3779b97f4a7c15ull), i * n + j);
-        // Visibility: near pairs (centroids closer than kNear times the elements' sizes) trace
-        // one ray per sample point; far pairs, where visibility changes slowly over i, one ray
-        // per 2 x 2 block of strata, whose answer serves the block's points. The form factors
-        // themselves are evaluated at every point of the row's one point set, so that in an
-        // unoccluded closed scene each row still sums to 1.
-        const double reach = radius[i] + radius[j];
-        const bool near = options.estimator == FormFactorEstimator::kMonteCarlo ||
-                          glm::dot(cj - ci, cj - ci) < kNear * kNear * reach * reach;
-        int8_t block_visible[4] = {-1, -1, -1, -1};  // -1: not traced yet
-        double sum = 0.0;
-        for (int s = 0; s < samples; ++s) {
-          const glm::dvec3& x = xs[size_t(s)];
-          const int sx = s % g, sy = s / g;
-          double value;
-          if (options.estimator == FormFactorEstimator::kPointPolygon) {
-            if (glm::dot(nj, x - cj) <= 0.0) continue;  // x sees j's back
-            value = pointToTriangleFormFactor(x, ni, a, b, c);
-          } else {
-            const glm::dvec3 y =
-                stratifiedPoint(el, uint32_t(j), sx, sy, g, pair_rng.uniform(), pair_rng.uniform());
-            value = differentialFormFactorKernel(x, ni, y, nj) * double(el.area[j]);
-            if (value > 0.0 && options.visibility) {
-              ++local_rays;
-              if (engine.occluded(visibilityRay(x, ni, y, nj, lift))) continue;
-            }
-            sum += value;
-            continue;
-          }
-          if (value <= 0.0) continue;
-          if (options.visibility) {
-            if (near) {
-              const glm::dvec3 y = stratifiedPoint(el, uint32_t(j), sx, sy, g, pair_rng.uniform(),
-                                                   pair_rng.uniform());
-              ++local_rays;
-              if (engine.occluded(visibilityRay(x, ni, y, nj, lift))) continue;
-            } else {
-              const int bg = std::min(g, 2);
-              const int bx = sx * bg / g, by = sy * bg / g, block = by * bg + bx;
-              if (block_visible[block] < 0) {
-                const glm::dvec3 y = stratifiedPoint(el, uint32_t(j), bx, by, bg,
-                                                     pair_rng.uniform(), pair_rng.uniform());
-                ++local_rays;
-                block_visible[block] = engine.occluded(visibilityRay(x, ni, y, nj, lift)) ? 0 : 1;
-              }
-              if (block_visible[block] == 0) continue;
-            }
-          }
-          sum += value;
-        }
-        row[j] = float(sum / double(samples));
+      for (size_t j = i + 1; j < n; ++j) {
+        Rng rng(mixBits(options.seed), i * n + j);
+        const double t = ev.transport(cut[i], cut[j], rng);
+        if (t <= 0.0) continue;
+        m.f[i * n + j] = float(t / area[i]);
+        m.f[j * n + i] = float(t / area[j]);
       }
       const size_t done = rows_done.fetch_add(1) + 1;
       if (on_row) on_row(done);
     }
-    rays += local_rays;
+    rays += ev.rays;
+    refined += ev.refined;
+  });
+  // Closed rows sum to 1; none sums to more.
+  parallelRange(n, 4, [&](size_t begin, size_t end) {
+    uint64_t traced = 0, closed = 0;
+    for (size_t i = begin; i < end; ++i) {
+      float* row = &m.f[i * n];
+      double sum = 0.0;
+      for (size_t j = 0; j < n; ++j) sum += row[j];
+      if (!(sum > 0.0)) continue;
+      double target = std::min(sum, 1.0);
+      if (options.probe_rays > 0) {
+        traced += uint64_t(options.probe_rays);
+        const SurfaceHierarchy& h = surface.hierarchy;
+        if (surface.seesOnlyElements(h.elementBegin(cut[i]), h.elementEnd(cut[i]),
+                                     options.probe_rays, mixBits(options.seed) ^ i)) {
+          target = 1.0;
+          ++closed;
+        }
+      }
+      if (target == sum) continue;
+      const double scale = target / sum;
+      m.row_scale[i] = float(scale);
+      for (size_t j = 0; j < n; ++j) row[j] = float(double(row[j]) * scale);
+    }
+    rays += traced;
+    closed_rows += closed;
   });
   if (stats) {
     stats->seconds = timer.seconds();
-    stats->pairs = n * n - n;
+    stats->pairs = n * (n - 1) / 2;
+    stats->refined = refined.load();
     stats->rays = rays.load();
+    stats->closed_rows = closed_rows.load();
   }
   return m;
+}
+
+Expected<std::vector<float>> computeElementFormFactors(const RadiositySurface& surface,
+                                                       std::span<const ClusterRef> cut,
+                                                       std::span<const uint32_t> sources,
+                                                       const FormFactorOptions& options,
+                                                       FormFactorStats* stats) {
+  const size_t n = surface.elementCount(), s_count = sources.size();
+  PENUMBRA_TRY(checkMemory(
+      uint64_t(n) * s_count * sizeof(float),
+      fmt::format("form factors from {} elements to {} emitting clusters", n, s_count)));
+  std::vector<float> out(n * s_count, 0.0f);
+  std::atomic<uint64_t> rays{0};
+  parallelRange(n, 64, [&](size_t begin, size_t end) {
+    PairEvaluator ev{surface, options, {}, {}, 0, 0};
+    for (size_t e = begin; e < end; ++e) {
+      const double area = surface.atlas.element_area[e];
+      if (!(area > 0.0)) continue;
+      for (size_t s = 0; s < s_count; ++s) {
+        const ClusterRef c = cut[sources[s]];
+        if (e >= surface.hierarchy.elementBegin(c) && e < surface.hierarchy.elementEnd(c)) continue;
+        Rng rng(mixBits(options.seed ^ 0x2545f4914f6cdd1dull), e * s_count + s);
+        const double t = ev.transport(ClusterRef{0, uint32_t(e)}, c, rng);
+        out[e * s_count + s] = float(t / area);
+      }
+    }
+    rays += ev.rays;
+  });
+  if (stats) stats->rays += rays.load();
+  return out;
 }
 
 }  // namespace penumbra

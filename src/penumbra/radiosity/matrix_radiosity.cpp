@@ -3,94 +3,208 @@
 #include "penumbra/core/check.h"
 #include "penumbra/core/memory.h"
 #include "penumbra/core/parallel.h"
-#include "penumbra/kernels/sampling.h"
-#include "penumbra/radiosity/lights.h"
-#include "penumbra/raytrace/ray_engine.h"
-
-#include <glm/geometric.hpp>
-
-#include <cmath>
-#include <limits>
 
 #include <fmt/format.h>
 
+#include <algorithm>
+#include <numbers>
+
 namespace penumbra {
+
+namespace {
+
+// Bytes per lightmap element while the surface is built and solved (atlas, hierarchy, materials,
+// direct term, interpolation): progressive radiosity measured 347-401 with its own buffers
+// (docs/performance.md); 500 leaves a margin.
+constexpr uint64_t kSurfaceBytesPerElement = 500;
+
+// The lightmap has several elements per cluster (so that the cut can be chosen freely).
+LightmapResolution lightmapFor(const MatrixRadiosityOptions& options) {
+  LightmapResolution res = options.lightmap;
+  res.elements = std::max<uint32_t>(
+      res.elements, uint32_t(std::min<uint64_t>(uint64_t(options.elements) * 4, 1u << 30)));
+  return res;
+}
+
+}  // namespace
+
+Status checkMatrixRadiosity(const Scene& scene, const MatrixRadiosityOptions& options) {
+  if (options.elements == 0) return inputError("", "--elements", "must be at least 1");
+  const uint64_t n_max = options.elements + 3;  // cut(n) gives at most n + 3 clusters
+  PENUMBRA_TRY(
+      checkMemory(matrixRadiosityBytes(n_max, options.precision),
+                  fmt::format("matrix radiosity with {} elements ({} form factors)",
+                              options.elements, uint64_t(options.elements) * options.elements)));
+  // The lightmap has several elements per cluster (so that the cut can be chosen freely).
+  const LightmapResolution res = lightmapFor(options);
+  const uint64_t texels = expectedLightmapElements(scene, res);
+  if (Status fits = checkMemory(texels * kSurfaceBytesPerElement,
+                                fmt::format("a lightmap of {} texels", texels));
+      !fits) {
+    Error e = fits.error();
+    e.place = res.texel_density ? "--texel-density" : res.size ? "--lightmap-size" : "--elements";
+    return e;
+  }
+  Expected<ChartAtlasOptions> ao = lightmapAtlasOptions(scene, res);
+  if (!ao) return ao.error();
+  return {};
+}
 
 uint64_t matrixRadiosityBytes(uint64_t n, MatrixPrecision precision) {
   const uint64_t stored = n * n * (precision == MatrixPrecision::kFp32 ? 4 : 2);
   const uint64_t computed = precision == MatrixPrecision::kFp32 ? 0 : n * n * 4;
-  return stored + computed + elementBytes(n) + n * 64;
+  return stored + computed + n * 64;
 }
 
 void MatrixRadiosity::applyMaterials(std::span<const Material> materials) {
   PENUMBRA_CHECK(system.has_value());
-  for (size_t e = 0; e < elements.size(); ++e) {
-    const Material& m = materials[elements.material[e]];
-    system->reflectance[e] = m.reflectance;
-    system->emission[e] = m.emission * kPi;
-    if (!direct.empty()) system->emission[e] += m.reflectance * direct[e];
+  surface.applyMaterials(materials);
+  for (size_t k = 0; k < size(); ++k) {
+    const uint32_t b = surface.hierarchy.elementBegin(clusters[k]);
+    const uint32_t e = surface.hierarchy.elementEnd(clusters[k]);
+    glm::dvec3 emitted(0.0), lit(0.0);
+    for (uint32_t i = b; i < e; ++i) {
+      const double a = surface.atlas.element_area[i];
+      emitted += surface.emission[i] * a;
+      if (!direct.empty()) lit += direct[i] * a;
+    }
+    // A cluster lies in one chart, so it has one material.
+    const glm::dvec3 rho = surface.reflectance[b];
+    system->reflectance[k] = glm::vec3(rho);
+    system->emission[k] = glm::vec3((emitted + rho * lit) / cluster_area[k]);
   }
+}
+
+bool MatrixRadiosity::emittedByMaterial(size_t k) const {
+  const uint32_t b = surface.hierarchy.elementBegin(clusters[k]);
+  const uint32_t e = surface.hierarchy.elementEnd(clusters[k]);
+  for (uint32_t i = b; i < e; ++i) {
+    if (surface.emission[i] != glm::dvec3(0.0)) return true;
+  }
+  return false;
 }
 
 SolveStats MatrixRadiosity::solve(const SolveOptions& options,
                                   const std::function<void(int, double)>& after_iteration) {
   PENUMBRA_CHECK(system.has_value());
-  radiosity.resize(elements.size(), glm::vec3(0.0f));
+  radiosity.resize(size(), glm::vec3(0.0f));
   return solveRadiosity(*system, radiosity, options, after_iteration);
 }
 
-std::vector<glm::vec3> MatrixRadiosity::cornerRadiance() const {
-  std::vector<glm::vec3> radiance(radiosity.size());
-  for (size_t e = 0; e < radiosity.size(); ++e) radiance[e] = radiosity[e] * kInvPi;
-  return elements.cornerAverage(radiance);
+std::vector<glm::dvec3> MatrixRadiosity::elementRadiosity(bool interpolate) const {
+  PENUMBRA_CHECK(system.has_value() && radiosity.size() == size());
+  std::vector<glm::dvec3> gathered = gatherIrradiance(*system, radiosity);
+  // The emitters' part is gathered at each element instead (G_e), each cluster's elements scaled
+  // per channel so that their area-weighted mean is the cluster's own emitter part: the
+  // elements add detail (sharp shadows), the clusters keep the solution's energy.
+  const size_t ns = emitters.size();
+  const size_t n_el = surface.elementCount();
+  std::vector<glm::dvec3> g;
+  if (ns > 0) {
+    g.assign(n_el, glm::dvec3(0.0));
+    parallelRange(size(), 16, [&](size_t b, size_t end) {
+      for (size_t k = b; k < end; ++k) {
+        glm::dvec3 cluster_part(0.0);
+        for (uint32_t j : emitters) {
+          cluster_part += double(system->formFactor(uint32_t(k), j)) * glm::dvec3(radiosity[j]);
+        }
+        gathered[k] -= cluster_part;
+        glm::dvec3 mean(0.0);
+        const uint32_t first = surface.hierarchy.elementBegin(clusters[k]);
+        const uint32_t last = surface.hierarchy.elementEnd(clusters[k]);
+        for (uint32_t e = first; e < last; ++e) {
+          glm::dvec3 in(0.0);
+          for (size_t s = 0; s < ns; ++s) {
+            in += double(element_ff[e * ns + s]) * glm::dvec3(radiosity[emitters[s]]);
+          }
+          g[e] = in;
+          mean += in * surface.atlas.element_area[e];
+        }
+        mean /= cluster_area[k];
+        for (int ch = 0; ch < 3; ++ch) {
+          const double scale = mean[ch] > 0.0 ? cluster_part[ch] / mean[ch] : 0.0;
+          for (uint32_t e = first; e < last; ++e) g[e][ch] *= scale;
+          if (!(mean[ch] > 0.0)) gathered[k][ch] += cluster_part[ch];  // nothing to detail
+        }
+      }
+    });
+  }
+  std::vector<glm::dvec3> h;
+  if (interpolate) {
+    h = surface.hierarchy.interpolate(surface.atlas, clusters, gathered);
+  } else {
+    h.resize(n_el);
+    for (size_t k = 0; k < size(); ++k) {
+      for (uint32_t e = surface.hierarchy.elementBegin(clusters[k]);
+           e < surface.hierarchy.elementEnd(clusters[k]); ++e) {
+        h[e] = gathered[k];
+      }
+    }
+  }
+  parallelRange(n_el, 1024, [&](size_t b, size_t end) {
+    for (size_t e = b; e < end; ++e) {
+      const glm::dvec3 in = h[e] + (direct.empty() ? glm::dvec3(0.0) : direct[e]) +
+                            (g.empty() ? glm::dvec3(0.0) : g[e]);
+      h[e] = surface.emission[e] + surface.reflectance[e] * in;
+    }
+  });
+  return h;
+}
+
+Image MatrixRadiosity::radianceImage(bool interpolate) const {
+  return surface.radianceImage(elementRadiosity(interpolate));
 }
 
 Expected<MatrixRadiosity> buildMatrixRadiosity(const Scene& scene,
                                                const MatrixRadiosityOptions& options,
                                                const std::function<void(size_t, size_t)>& on_row) {
+  PENUMBRA_TRY(checkMatrixRadiosity(scene, options));
+  Expected<ChartAtlasOptions> ao = lightmapAtlasOptions(scene, lightmapFor(options));
+  if (!ao) return ao.error();
+
   MatrixRadiosity mr;
-  Expected<Elements> elements = meshElements(scene, options.meshing);
-  if (!elements) return elements.error();
-  mr.elements = std::move(*elements);
-  const uint64_t n = mr.elements.size();
+  Expected<RadiositySurface> surface = RadiositySurface::build(scene, *ao, options.shading_normals);
+  if (!surface) return surface.error();
+  mr.surface = std::move(*surface);
+  mr.clusters = mr.surface.hierarchy.cut(options.elements);
+  const uint64_t n = mr.clusters.size();
+  mr.cluster_area.resize(n);
+  for (size_t k = 0; k < n; ++k) {
+    mr.cluster_area[k] =
+        mr.surface.hierarchy.level(mr.clusters[k].level).area[mr.clusters[k].index];
+  }
   PENUMBRA_TRY(
       checkMemory(matrixRadiosityBytes(n, options.precision),
                   fmt::format("matrix radiosity with {} elements ({} form factors)", n, n * n)));
-  Expected<FormFactorMatrix> f = computeFormFactors(mr.elements, options.form_factors,
+  Expected<FormFactorMatrix> f = computeFormFactors(mr.surface, mr.clusters, options.form_factors,
                                                     &mr.form_factor_stats, [&](size_t done) {
                                                       if (on_row) on_row(done, size_t(n));
                                                     });
   if (!f) return f.error();
   mr.system.emplace(std::move(*f), options.precision);
   if (!scene.lights.empty()) {
-    // The direct term: each light's irradiance at the element's centroid on its front face,
-    // unless a shadow ray finds the light hidden.
-    const RayEngine engine =
-        RayEngine::build(mr.elements.scene.positions, mr.elements.scene.triangles);
-    const Bounds3 box = engine.bounds();
-    const double lift = 1e-5 * double(glm::length(box.hi - box.lo));
-    mr.direct.assign(n, glm::vec3(0.0f));
-    parallelRange(n, 256, [&](size_t b, size_t e_end) {
-      for (size_t e = b; e < e_end; ++e) {
-        const glm::dvec3 p(mr.elements.centroid[e]), nrm(mr.elements.normal[e]);
-        glm::dvec3 sum(0.0);
-        for (const Light& light : scene.lights) {
-          const LightSample s = sampleLight(light, p, nrm, nrm);
-          if (s.irradiance == glm::dvec3(0.0)) continue;
-          const glm::dvec3 from = p + nrm * lift;
-          Ray ray{glm::vec3(from), 1e-4f, glm::vec3(s.direction),
-                  std::numeric_limits<float>::max()};
-          if (std::isfinite(s.distance)) {
-            ray.dir = glm::vec3(s.direction * s.distance);
-            ray.tmax = 1.0f - 1e-4f;
-          }
-          if (!engine.occluded(ray)) sum += s.irradiance;
-        }
-        mr.direct[e] = glm::vec3(sum);
-      }
-    });
+    mr.direct = mr.surface.lightIrradiance(scene.lights, options.form_factors.visibility,
+                                           &mr.form_factor_stats.rays);
   }
   mr.applyMaterials(scene.materials);
+  {
+    // The emitting clusters, if they are few enough.
+    for (uint32_t k = 0; k < n; ++k) {
+      if (mr.emittedByMaterial(k)) mr.emitters.push_back(k);
+    }
+    double emitting_area = 0.0;
+    for (uint32_t k : mr.emitters) emitting_area += mr.cluster_area[k];
+    if (uint64_t(mr.emitters.size()) * mr.surface.elementCount() > kElementGatherBudget ||
+        emitting_area > kElementGatherArea * mr.surface.total_area) {
+      mr.emitters.clear();
+    }
+    if (!mr.emitters.empty()) {
+      Expected<std::vector<float>> ff = computeElementFormFactors(
+          mr.surface, mr.clusters, mr.emitters, options.form_factors, &mr.form_factor_stats);
+      if (!ff) return ff.error();
+      mr.element_ff = std::move(*ff);
+    }
+  }
   mr.radiosity.assign(n, glm::vec3(0.0f));
   return mr;
 }

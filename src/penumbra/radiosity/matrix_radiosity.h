@@ -1,13 +1,34 @@
-// Matrix radiosity as a user runs it (Carr, Hall, Hart 2003, sec. 3): mesh the scene into
-// elements, compute the form factors once, then solve, and solve again after emissions or
-// reflectances change (dynamic relighting: the form factors, which hold all the geometry and
-// visibility, are kept; the previous solution is the starting point).
+// Matrix radiosity as a user runs it (Carr, Hall, Hart 2003, sec. 3) on the radiosity surface
+// (radiosity/radiosity_surface.h): the unknowns are the clusters of a cut through the
+// multiresolution hierarchy, as many as asked whatever the triangle count; the form factors
+// between them are computed once (radiosity/form_factors.h); the system is solved, and solved
+// again after emissions or reflectances change (dynamic relighting: the form factors, which hold
+// all the geometry and visibility, are kept; the previous solution is the starting point).
+//
+//  - The system, per cluster c (area-weighted means over its elements):
+//      B_c = E_c + rho_c (D_c + sum_j F_cj B_j),
+//    D the direct irradiance of the point, spot and directional lights (radiosity/lights.h),
+//    computed at every element with a Ray Engine shadow ray.
+//  - Display and bake (the solution interpolated down to level 0): each element takes
+//      B_e = E_e + rho_e (D_e + G_e + H_e),
+//    with its own emission, reflectance and direct light (sharp shadows of point lights); G_e
+//    the light gathered at the element itself from the emitting clusters (those with E > 0 when
+//    built, if they cover at most kElementGatherArea of the surface and elements x emitters <=
+//    kElementGatherBudget, else none), with element-to-cluster form factors and their own shadow
+//    rays, scaled per cluster so that the mean over its elements is the cluster's own emitter
+//    part (the elements add detail, the clusters keep the energy), so that the shadows of small
+//    area lights are as sharp as the lightmap too; and H_e the rest of the gathered irradiance, H_c
+//    = (F B)_c minus the emitters' part, interpolated from the clusters
+//    (SurfaceHierarchy::interpolate). The lightmap is the chart atlas's, as every radiosity
+//    method's.
+//  - Two-sided surfaces have clusters on both sides (each chart lies on one side).
 #pragma once
 
 #include "penumbra/core/expected.h"
-#include "penumbra/radiosity/elements.h"
+#include "penumbra/core/image.h"
 #include "penumbra/radiosity/form_factors.h"
 #include "penumbra/radiosity/matrix_solver.h"
+#include "penumbra/radiosity/radiosity_surface.h"
 #include "penumbra/scene/scene.h"
 
 #include <functional>
@@ -17,38 +38,62 @@
 
 namespace penumbra {
 
+// Element-to-emitter form factors computed at most (elements x emitting clusters).
+inline constexpr uint64_t kElementGatherBudget = 10'000'000;
+// Emitters are gathered at the elements only while they cover at most this fraction of the
+// surface (small luminaires; a scene that glows all over gains nothing from it).
+inline constexpr double kElementGatherArea = 0.1;
+
+// Clusters (unknowns) when the caller names no count.
+inline constexpr uint32_t kMatrixDefaultElements = 2000;
+
 struct MatrixRadiosityOptions {
-  MeshingOptions meshing;
+  uint32_t elements = kMatrixDefaultElements;  // clusters of the cut: the unknowns
+  LightmapResolution lightmap;                 // the elements the solution is shown on
   FormFactorOptions form_factors;
   MatrixPrecision precision = MatrixPrecision::kFp32;
+  bool shading_normals = true;  // for the lights' direct term (RadiositySurface)
 };
 
-// Bytes the method needs for n elements at a precision (form factors in fp32 while they are
-// computed, the stored matrix, the elements): checked before anything N^2 is allocated.
+// Bytes the method needs for n clusters at a precision (form factors in fp32 while they are
+// computed, the stored matrix): checked before anything N^2 is allocated.
 uint64_t matrixRadiosityBytes(uint64_t n, MatrixPrecision precision);
 
 struct MatrixRadiosity {
-  Elements elements;
+  RadiositySurface surface;
+  std::vector<ClusterRef> clusters;  // the cut: cluster k is unknown k, in element order
+  std::vector<double> cluster_area;  // m^2
+  std::vector<glm::dvec3> direct;    // per element: the lights' irradiance D_e (W m^-2)
+  // The emitting clusters gathered at every element, and their form factors:
+  // element_ff[e * emitters.size() + s] = F(element e -> cluster emitters[s]).
+  std::vector<uint32_t> emitters;
+  std::vector<float> element_ff;
   std::optional<RadiositySystem> system;  // always set once built
-  std::vector<glm::vec3> radiosity;       // B per element (W m^-2), the latest solution
-  // Irradiance from the point, spot and directional lights at each element's centroid, with a
-  // Ray Engine shadow ray (W m^-2; radiosity/lights.h): the direct term.
-  std::vector<glm::vec3> direct;
+  std::vector<glm::vec3> radiosity;       // B per cluster (W m^-2), the latest solution
   FormFactorStats form_factor_stats;
 
-  // Sets each element's reflectance and emission from the materials (emission is radiance,
-  // so E = pi L_e for a Lambertian emitter), plus the lights' direct term reflected:
-  // B = E + rho * direct + rho F B.
+  size_t size() const { return clusters.size(); }
+  // Whether cluster k's own elements emit (E_e > 0, not only reflected light).
+  bool emittedByMaterial(size_t k) const;
+  // Sets reflectance and emission, per element and per cluster, from the materials (indexed as
+  // the scene's), with the lights' direct term reflected.
   void applyMaterials(std::span<const Material> materials);
   // Solves from the current `radiosity` (zeros at first, the previous solution afterwards).
   SolveStats solve(const SolveOptions& options,
                    const std::function<void(int, double)>& after_iteration = {});
-  // Outgoing radiance (B / pi) at element corners, smooth across elements (sec. 3.1).
-  std::vector<glm::vec3> cornerRadiance() const;
+  // B per element (see the file comment), from the current solution; with `interpolate` false
+  // each element takes its cluster's gathered irradiance as it is (the clusters show as blocks).
+  std::vector<glm::dvec3> elementRadiosity(bool interpolate = true) const;
+  // Outgoing radiance B / pi per atlas texel (RadiositySurface::radianceImage).
+  Image radianceImage(bool interpolate = true) const;
 };
 
-// Meshes the scene and computes the form factors (`on_row(rows_done, rows)` reports progress).
-// Refuses, with the amount, a system that would not fit in memory.
+// The checks buildMatrixRadiosity makes before any work (options in range, memory for the system
+// and the lightmap), for callers that want to refuse early.
+Status checkMatrixRadiosity(const Scene& scene, const MatrixRadiosityOptions& options);
+
+// Builds the surface, picks the cut and computes the form factors (`on_row(rows_done, rows)`
+// reports progress). Refuses, with the amount, a system that would not fit in memory.
 Expected<MatrixRadiosity> buildMatrixRadiosity(
     const Scene& scene, const MatrixRadiosityOptions& options,
     const std::function<void(size_t, size_t)>& on_row = {});

@@ -249,6 +249,23 @@ void rowsDot4x3(const RadiositySystem& sys, uint32_t i, const float* const* x, d
 
 }  // namespace
 
+std::vector<glm::dvec3> gatherIrradiance(const RadiositySystem& sys, std::span<const glm::vec3> b) {
+  const uint32_t n = sys.size();
+  PENUMBRA_CHECK(b.size() == n);
+  Channels x;
+  x.load(b, padded(n));
+  const float* xs[3] = {x.c[0].data(), x.c[1].data(), x.c[2].data()};
+  std::vector<glm::dvec3> out(n);
+  parallelRange(n, 16, [&](size_t begin, size_t end) {
+    for (size_t i = begin; i < end; ++i) {
+      double g[3];
+      rowDot<3>(sys, uint32_t(i), xs, g);
+      out[i] = glm::dvec3(g[0], g[1], g[2]);
+    }
+  });
+  return out;
+}
+
 double meanSquaredResidual(const RadiositySystem& sys, std::span<const glm::vec3> b) {
   std::vector<glm::vec3> next(b.size());
   return jacobiStep(sys, b, next);

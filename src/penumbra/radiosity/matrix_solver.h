@@ -78,6 +78,10 @@ struct SolveStats {
   double seconds = 0.0;
 };
 
+// (F B)_i per element: the irradiance each element gathers from the others (W m^-2).
+std::vector<glm::dvec3> gatherIrradiance(const RadiositySystem& system,
+                                         std::span<const glm::vec3> b);
+
 // Mean squared residual of M B - E over elements and channels ((W m^-2)^2).
 double meanSquaredResidual(const RadiositySystem& system, std::span<const glm::vec3> b);
 

@@ -21,6 +21,35 @@ double texelDensityFor(const Scene& scene, uint32_t elements) {
   return area > 0.0 ? std::sqrt(double(elements) / area) : 0.0;
 }
 
+Expected<ChartAtlasOptions> lightmapAtlasOptions(const Scene& scene, const LightmapResolution& r) {
+  ChartAtlasOptions o;
+  if (r.texel_density) {
+    if (!(*r.texel_density > 0.0 && std::isfinite(*r.texel_density))) {
+      return inputError("", "--texel-density", "must be a positive number of texels per metre");
+    }
+    o.texel_density = *r.texel_density;
+  } else if (r.size) {
+    o.texel_density = 0.0;
+    o.resolution = *r.size;
+  } else {
+    if (r.elements == 0) return inputError("", "--elements", "must be at least 1");
+    o.texel_density = texelDensityFor(scene, r.elements);
+    if (!(o.texel_density > 0.0)) {
+      return inputError(scene.source, "", "the scene has no surface area");
+    }
+  }
+  return o;
+}
+
+uint64_t expectedLightmapElements(const Scene& scene, const LightmapResolution& r) {
+  if (r.texel_density) {
+    const double n = faceArea(scene) * *r.texel_density * *r.texel_density;
+    return std::isfinite(n) && n < 1e18 ? uint64_t(n) : uint64_t(1e18);
+  }
+  if (r.size) return uint64_t(*r.size) * uint64_t(*r.size) / 2;
+  return r.elements;
+}
+
 Expected<RadiositySurface> RadiositySurface::build(const Scene& scene,
                                                    const ChartAtlasOptions& atlas_options,
                                                    bool shading_normals) {
@@ -151,9 +180,9 @@ bool RadiositySurface::seesOnlyElements(uint32_t first, uint32_t last, int count
   for (int i = 0; i < count; ++i) {
     const double u = double(rng.uniform()) * cdf.back();
     const uint32_t e =
-        first + uint32_t(std::min<size_t>(
-                    size_t(std::upper_bound(cdf.begin(), cdf.end(), u) - cdf.begin()),
-                    cdf.size() - 1));
+        first +
+        uint32_t(std::min<size_t>(size_t(std::upper_bound(cdf.begin(), cdf.end(), u) - cdf.begin()),
+                                  cdf.size() - 1));
     const glm::vec3 nrm(atlas.element_normal[e]);
     const glm::vec3 d =
         Frame::fromNormal(nrm).toWorld(sampleCosineHemisphere(rng.uniform(), rng.uniform()));
