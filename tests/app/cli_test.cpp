@@ -266,7 +266,7 @@ TEST(Cli, BadInputGivesOneErrorLineExitTwoAndNoOutput) {
       {"render cornell --method progressive --elements 268435456 -o " + out,
        "progressive radiosity with 268435456 lightmap texels"},
       {"render cornell --method progressive --device hybrid -o " + out, "hybrid"},
-      {"render cornell --method matrix --texel-density 10 -o " + out, "--texel-density"},
+      {"render cornell --method pathtrace --texel-density 10 -o " + out, "--texel-density"},
       {"render cornell --method progressive --texel-density -1 -o " + out, "--texel-density"},
       {"render cornell --method progressive --resume " + out + ".nope -o " + out, ".nope"},
       {"render cornell --method matrix --elements 0 -o " + out, "--elements"},

@@ -35,6 +35,8 @@ struct PairEvaluator {
   std::vector<int> counts;
   uint64_t rays = 0;
   uint64_t refined = 0;
+  int rays_per_pair = o.rays;
+  double few_rays_below = kFewRaysBelow;  // 0: every far pair takes rays_per_pair
 
   // Whether the segment between element points a and b (each lifted off its surface) is free.
   bool visible(uint32_t a, uint32_t b) {
@@ -104,7 +106,9 @@ struct PairEvaluator {
     if (!o.visibility) return t;
     const uint32_t a0 = la.first[a.index], na = la.first[a.index + 1] - a0;
     const uint32_t b0 = lb.first[b.index], nb = lb.first[b.index + 1] - b0;
-    const int m = (t < kFewRaysBelow * aa && t < kFewRaysBelow * ab) ? 1 : std::max(1, o.rays);
+    const int m = (few_rays_below > 0.0 && t < few_rays_below * aa && t < few_rays_below * ab)
+                      ? 1
+                      : std::max(1, rays_per_pair);
     int free = 0;
     for (int k = 0; k < m; ++k) {
       // Element points in strata of each cluster's Morton range (the two strata sequences
@@ -147,7 +151,7 @@ Expected<FormFactorMatrix> computeFormFactors(const RadiositySurface& surface,
   // Row i evaluates the pairs (i, j > i) and writes both F_ij and F_ji: each entry is written
   // by exactly one row.
   parallelRange(n, 1, [&](size_t begin, size_t end) {
-    PairEvaluator ev{surface, options, {}, {}, 0, 0};
+    PairEvaluator ev{surface, options, {}, {}, 0, 0, options.rays, kFewRaysBelow};
     for (size_t i = begin; i < end; ++i) {
       for (size_t j = i + 1; j < n; ++j) {
         Rng rng(mixBits(options.seed), i * n + j);
@@ -210,7 +214,7 @@ Expected<std::vector<float>> computeElementFormFactors(const RadiositySurface& s
   std::vector<float> out(n * s_count, 0.0f);
   std::atomic<uint64_t> rays{0};
   parallelRange(n, 64, [&](size_t begin, size_t end) {
-    PairEvaluator ev{surface, options, {}, {}, 0, 0};
+    PairEvaluator ev{surface, options, {}, {}, 0, 0, options.element_rays, 0.0};
     for (size_t e = begin; e < end; ++e) {
       const double area = surface.atlas.element_area[e];
       if (!(area > 0.0)) continue;

@@ -45,6 +45,7 @@ struct FormFactorOptions {
   uint64_t seed = 0;
   double near = 2.0;     // pairs nearer than this many summed radii are refined
   int rays = 4;          // shadow rays for a far pair that exchanges a noticeable share
+  int element_rays = 16;  // for every far pair of an element and an emitting cluster
   int probe_rays = 256;  // per cluster, for the closed-row test; 0: never normalise
 };
 

@@ -94,9 +94,7 @@ SolveStats MatrixRadiosity::solve(const SolveOptions& options,
 std::vector<glm::dvec3> MatrixRadiosity::elementRadiosity(bool interpolate) const {
   PENUMBRA_CHECK(system.has_value() && radiosity.size() == size());
   std::vector<glm::dvec3> gathered = gatherIrradiance(*system, radiosity);
-  // The emitters' part is gathered at each element instead (G_e), each cluster's elements scaled
-  // per channel so that their area-weighted mean is the cluster's own emitter part: the
-  // elements add detail (sharp shadows), the clusters keep the solution's energy.
+  // The emitters' part is gathered at each element instead (G_e).
   const size_t ns = emitters.size();
   const size_t n_el = surface.elementCount();
   std::vector<glm::dvec3> g;
@@ -104,27 +102,14 @@ std::vector<glm::dvec3> MatrixRadiosity::elementRadiosity(bool interpolate) cons
     g.assign(n_el, glm::dvec3(0.0));
     parallelRange(size(), 16, [&](size_t b, size_t end) {
       for (size_t k = b; k < end; ++k) {
-        glm::dvec3 cluster_part(0.0);
         for (uint32_t j : emitters) {
-          cluster_part += double(system->formFactor(uint32_t(k), j)) * glm::dvec3(radiosity[j]);
+          gathered[k] -= double(system->formFactor(uint32_t(k), j)) * glm::dvec3(radiosity[j]);
         }
-        gathered[k] -= cluster_part;
-        glm::dvec3 mean(0.0);
-        const uint32_t first = surface.hierarchy.elementBegin(clusters[k]);
-        const uint32_t last = surface.hierarchy.elementEnd(clusters[k]);
-        for (uint32_t e = first; e < last; ++e) {
-          glm::dvec3 in(0.0);
+        for (uint32_t e = surface.hierarchy.elementBegin(clusters[k]);
+             e < surface.hierarchy.elementEnd(clusters[k]); ++e) {
           for (size_t s = 0; s < ns; ++s) {
-            in += double(element_ff[e * ns + s]) * glm::dvec3(radiosity[emitters[s]]);
+            g[e] += double(element_ff[e * ns + s]) * glm::dvec3(radiosity[emitters[s]]);
           }
-          g[e] = in;
-          mean += in * surface.atlas.element_area[e];
-        }
-        mean /= cluster_area[k];
-        for (int ch = 0; ch < 3; ++ch) {
-          const double scale = mean[ch] > 0.0 ? cluster_part[ch] / mean[ch] : 0.0;
-          for (uint32_t e = first; e < last; ++e) g[e][ch] *= scale;
-          if (!(mean[ch] > 0.0)) gathered[k][ch] += cluster_part[ch];  // nothing to detail
         }
       }
     });

@@ -15,9 +15,8 @@
 //    the light gathered at the element itself from the emitting clusters (those with E > 0 when
 //    built, if they cover at most kElementGatherArea of the surface and elements x emitters <=
 //    kElementGatherBudget, else none), with element-to-cluster form factors and their own shadow
-//    rays, scaled per cluster so that the mean over its elements is the cluster's own emitter
-//    part (the elements add detail, the clusters keep the energy), so that the shadows of small
-//    area lights are as sharp as the lightmap too; and H_e the rest of the gathered irradiance, H_c
+//    rays (FormFactorOptions::element_rays), so that the shadows of small area lights are as
+//    sharp as the lightmap too; and H_e the rest of the gathered irradiance, H_c
 //    = (F B)_c minus the emitters' part, interpolated from the clusters
 //    (SurfaceHierarchy::interpolate). The lightmap is the chart atlas's, as every radiosity
 //    method's.
