@@ -43,10 +43,10 @@ namespace penumbra {
 struct FormFactorOptions {
   bool visibility = true;  // false: no rays, every pair treated as unoccluded
   uint64_t seed = 0;
-  double near = 2.0;     // pairs nearer than this many summed radii are refined
-  int rays = 4;          // shadow rays for a far pair that exchanges a noticeable share
+  double near = 2.0;      // pairs nearer than this many summed radii are refined
+  int rays = 4;           // shadow rays for a far pair that exchanges a noticeable share
   int element_rays = 16;  // for every far pair of an element and an emitting cluster
-  int probe_rays = 256;  // per cluster, for the closed-row test; 0: never normalise
+  int probe_rays = 256;   // per cluster, for the closed-row test; 0: never normalise
 };
 
 // Far pairs whose F_ij and F_ji are both below this take a single shadow ray.

@@ -65,7 +65,8 @@ constexpr size_t kReceiverBlock = 256;
 
 void ProgressiveRadiosity::elementPieces(size_t e, std::vector<std::array<glm::dvec3, 8>>& polygons,
                                          std::vector<int>& counts) const {
-  surface_.atlas.elementPieces(e, surface_.flat.positions, surface_.flat.triangles, polygons, counts);
+  surface_.atlas.elementPieces(e, surface_.flat.positions, surface_.flat.triangles, polygons,
+                               counts);
 }
 
 double progressiveTexelDensity(const Scene& scene, uint32_t elements) {
@@ -119,7 +120,8 @@ Expected<ProgressiveRadiosity> ProgressiveRadiosity::build(const Scene& scene,
     while (!stack.empty()) {
       const ClusterRef k = stack.back();
       stack.pop_back();
-      if (pr.surface_.hierarchy.elementEnd(k) - pr.surface_.hierarchy.elementBegin(k) <= options.shooter_elements ||
+      if (pr.surface_.hierarchy.elementEnd(k) - pr.surface_.hierarchy.elementBegin(k) <=
+              options.shooter_elements ||
           k.level == 0) {
         pr.shooters_.push_back(k);
         continue;
@@ -414,10 +416,12 @@ ProgressiveIteration ProgressiveRadiosity::shoot(uint32_t shooter) {
         ShooterPoint& p = points[clusters[i]];
         p.pieces = int32_t(i);
         const ClusterLevel& lv = surface_.hierarchy.level(p.cluster.level);
-        surface_.atlas.forEachPiece(lv.lo[p.cluster.index], lv.hi[p.cluster.index], candidates[clusters[i]],
-                            surface_.flat.positions, surface_.flat.triangles,
-                            [&](uint32_t, const std::array<glm::dvec3, 8>& corners, int count,
-                                double) { pieces[i].emplace_back(corners, count); });
+        surface_.atlas.forEachPiece(
+            lv.lo[p.cluster.index], lv.hi[p.cluster.index], candidates[clusters[i]],
+            surface_.flat.positions, surface_.flat.triangles,
+            [&](uint32_t, const std::array<glm::dvec3, 8>& corners, int count, double) {
+              pieces[i].emplace_back(corners, count);
+            });
       }
     });
   }
@@ -502,7 +506,8 @@ ProgressiveIteration ProgressiveRadiosity::shoot(uint32_t shooter) {
       pairs.clear();
       for (size_t r = block; r < std::min(end, block + kReceiverBlock); ++r) {
         if (skip[surface_.atlas.element_chart[r]]) continue;
-        const glm::dvec3 nr = surface_.atlas.element_normal[r], pr = surface_.atlas.element_position[r];
+        const glm::dvec3 nr = surface_.atlas.element_normal[r],
+                         pr = surface_.atlas.element_position[r];
         stack.assign(roots.rbegin(), roots.rend());
         while (!stack.empty()) {
           const uint32_t k = stack.back();

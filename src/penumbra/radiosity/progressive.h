@@ -256,9 +256,7 @@ class ProgressiveRadiosity {
   // [shooterBegin(s), shooterEnd(s)).
   size_t shooterCount() const { return shooters_.size(); }
   ClusterRef shooterCluster(uint32_t s) const { return shooters_[s]; }
-  uint32_t shooterBegin(uint32_t s) const {
-    return surface_.hierarchy.elementBegin(shooters_[s]);
-  }
+  uint32_t shooterBegin(uint32_t s) const { return surface_.hierarchy.elementBegin(shooters_[s]); }
   uint32_t shooterEnd(uint32_t s) const { return surface_.hierarchy.elementEnd(shooters_[s]); }
   // The flat substructuring's points of shooter s (sec. 3): its clusters at `level` (at most
   // the shooter's own level), each as its element range [first, second).
