@@ -1,12 +1,14 @@
 #include "penumbra/geometry/charts.h"
 
 #include "penumbra/core/check.h"
+#include "penumbra/core/parallel.h"
 
 #include <Eigen/Sparse>
 #include <Eigen/SparseCholesky>
 #include <glm/geometric.hpp>
 
 #include <algorithm>
+#include <climits>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -180,9 +182,9 @@ void parameterise(ChartSet& set, Chart& chart, const std::vector<FaceGeometry>& 
   size_t components = nv;
   for (size_t i = 0; i < chart.faces.size(); ++i) {
     for (int j = 1; j < 3; ++j) {
-      const uint32_t a = findRoot(corner[3 * i]), b = findRoot(corner[3 * i + size_t(j)]);
-      if (a != b) {
-        parent[a] = b;
+      const uint32_t ra = findRoot(corner[3 * i]), rb = findRoot(corner[3 * i + size_t(j)]);
+      if (ra != rb) {
+        parent[ra] = rb;
         --components;
       }
     }
@@ -502,6 +504,30 @@ ChartSet buildCharts(std::span<const glm::vec3> positions, std::span<const glm::
     if (set.face_chart[seed] < 0 && geo[seed].area > 0.0) growFrom(seed);
   }
 
+  // Connected components of the adjacency (what one chart can span at most).
+  std::vector<uint32_t> component(nf, UINT32_MAX);
+  size_t component_count = 0;
+  {
+    std::vector<uint32_t> stack;
+    for (uint32_t f0 = 0; f0 < nf; ++f0) {
+      if (component[f0] != UINT32_MAX) continue;
+      const uint32_t id = uint32_t(component_count++);
+      component[f0] = id;
+      stack.push_back(f0);
+      while (!stack.empty()) {
+        const uint32_t f = stack.back();
+        stack.pop_back();
+        for (uint32_t q = adj.first[f]; q < adj.first[f + 1]; ++q) {
+          const uint32_t g = adj.face[q];
+          if (component[g] == UINT32_MAX) {
+            component[g] = id;
+            stack.push_back(g);
+          }
+        }
+      }
+    }
+  }
+
   // Relaxation (Lloyd iterations as in Variational Shape Approximation, Cohen-Steiner, Alliez,
   // Desbrun 2004, with the compactness of D-charts): each chart is reseeded at its most central
   // face and all charts regrow together from their seeds through one priority queue, cost =
@@ -513,54 +539,64 @@ ChartSet buildCharts(std::span<const glm::vec3> positions, std::span<const glm::
     std::vector<glm::dvec3> normal(nc), centre(nc);
     std::vector<double> radius(nc);
     std::vector<uint32_t> seed(nc), material(nc);
-    for (size_t c = 0; c < nc; ++c) {
-      glm::dvec3 sn(0.0), sc(0.0);
-      double area = 0.0;
-      for (uint32_t f : set.charts[c].faces) {
-        sn += geo[f].normal * geo[f].area;
-        sc += geo[f].centroid * geo[f].area;
-        area += geo[f].area;
-      }
-      normal[c] = glm::normalize(sn);
-      centre[c] = sc / area;
-      radius[c] = std::sqrt(area / kPi);
-      material[c] = material_ids[faces[set.charts[c].faces[0]].triangle];
-      double best = std::numeric_limits<double>::max();
-      for (uint32_t f : set.charts[c].faces) {
-        const double cost = glm::length(geo[f].centroid - centre[c]) / radius[c] +
-                            2.0 * (1.0 - glm::dot(geo[f].normal, normal[c]));
-        if (cost < best) {
-          best = cost;
-          seed[c] = f;
+    parallelRange(nc, 64, [&](size_t c_begin, size_t c_end) {
+      for (size_t c = c_begin; c < c_end; ++c) {
+        glm::dvec3 sn(0.0), sc(0.0);
+        double area = 0.0;
+        for (uint32_t f : set.charts[c].faces) {
+          sn += geo[f].normal * geo[f].area;
+          sc += geo[f].centroid * geo[f].area;
+          area += geo[f].area;
+        }
+        normal[c] = glm::normalize(sn);
+        centre[c] = sc / area;
+        radius[c] = std::sqrt(area / kPi);
+        material[c] = material_ids[faces[set.charts[c].faces[0]].triangle];
+        double best = std::numeric_limits<double>::max();
+        for (uint32_t f : set.charts[c].faces) {
+          const double cost = glm::length(geo[f].centroid - centre[c]) / radius[c] +
+                              2.0 * (1.0 - glm::dot(geo[f].normal, normal[c]));
+          if (cost < best) {
+            best = cost;
+            seed[c] = f;
+          }
         }
       }
-    }
+    });
+    // Charts never cross connected components, so each component regrows on its own (in
+    // parallel; the result is the same as one queue over all of them).
     std::fill(set.face_chart.begin(), set.face_chart.end(), -1);
-    std::priority_queue<Candidate, std::vector<Candidate>, std::greater<>> heap;
-    auto push = [&](uint32_t f, int32_t c) {
-      for (uint32_t k = adj.first[f]; k < adj.first[f + 1]; ++k) {
-        const uint32_t g = adj.face[k];
-        if (set.face_chart[g] >= 0) continue;
-        const double cost =
-            glm::length(geo[g].centroid - geo[seed[size_t(c)]].centroid) / radius[size_t(c)] +
-            2.0 * (1.0 - glm::dot(geo[g].normal, normal[size_t(c)]));
-        heap.push({cost, g, f});
-      }
-    };
     for (size_t c = 0; c < nc; ++c) set.face_chart[seed[c]] = int32_t(c);
-    for (size_t c = 0; c < nc; ++c) push(seed[c], int32_t(c));
-    while (!heap.empty()) {
-      const Candidate cand = heap.top();
-      heap.pop();
-      if (set.face_chart[cand.face] >= 0) continue;
-      const int32_t c = set.face_chart[cand.from];
-      if (material_ids[faces[cand.face].triangle] != material[size_t(c)]) continue;
-      const glm::dvec3& n = geo[cand.face].normal;
-      if (glm::dot(n, normal[size_t(c)]) < cos_cone) continue;
-      if (glm::dot(n, geo[cand.from].normal) < cos_crease) continue;
-      set.face_chart[cand.face] = c;
-      push(cand.face, c);
-    }
+    std::vector<std::vector<uint32_t>> component_charts(component_count);
+    for (size_t c = 0; c < nc; ++c) component_charts[component[seed[c]]].push_back(uint32_t(c));
+    parallelRange(component_count, 1, [&](size_t b, size_t e) {
+      for (size_t k = b; k < e; ++k) {
+        std::priority_queue<Candidate, std::vector<Candidate>, std::greater<>> heap;
+        auto push = [&](uint32_t f, int32_t c) {
+          for (uint32_t q = adj.first[f]; q < adj.first[f + 1]; ++q) {
+            const uint32_t g = adj.face[q];
+            if (set.face_chart[g] >= 0) continue;
+            const double cost =
+                glm::length(geo[g].centroid - geo[seed[size_t(c)]].centroid) / radius[size_t(c)] +
+                2.0 * (1.0 - glm::dot(geo[g].normal, normal[size_t(c)]));
+            heap.push({cost, g, f});
+          }
+        };
+        for (uint32_t c : component_charts[k]) push(seed[c], int32_t(c));
+        while (!heap.empty()) {
+          const Candidate cand = heap.top();
+          heap.pop();
+          if (set.face_chart[cand.face] >= 0) continue;
+          const int32_t c = set.face_chart[cand.from];
+          if (material_ids[faces[cand.face].triangle] != material[size_t(c)]) continue;
+          const glm::dvec3& n = geo[cand.face].normal;
+          if (glm::dot(n, normal[size_t(c)]) < cos_cone) continue;
+          if (glm::dot(n, geo[cand.from].normal) < cos_crease) continue;
+          set.face_chart[cand.face] = c;
+          push(cand.face, c);
+        }
+      }
+    });
     for (Chart& chart : set.charts) chart.faces.clear();
     for (uint32_t f = 0; f < nf; ++f) {
       if (set.face_chart[f] >= 0) set.charts[size_t(set.face_chart[f])].faces.push_back(f);
@@ -571,7 +607,10 @@ ChartSet buildCharts(std::span<const glm::vec3> positions, std::span<const glm::
   }
   for (Chart& chart : set.charts) std::sort(chart.faces.begin(), chart.faces.end());
   mergeSmallCharts(set, geo, adj, faces, material_ids, options);
-  for (Chart& chart : set.charts) parameterise(set, chart, geo, faces, options);
+  // Each chart writes only its own faces' UVs and stretch.
+  parallelRange(set.charts.size(), 1, [&](size_t b, size_t e) {
+    for (size_t k = b; k < e; ++k) parameterise(set, set.charts[k], geo, faces, options);
+  });
   return set;
 }
 
