@@ -45,12 +45,6 @@ void frame(const glm::dvec3& n, glm::dvec3& t, glm::dvec3& b) {
 
 }  // namespace
 
-double spotFalloff(const SpotLight& spot, double cos_a) {
-  const double a =
-      std::clamp((cos_a - std::cos(double(spot.outer_angle))) * spotScale(spot), 0.0, 1.0);
-  return a * a;
-}
-
 LightSample sampleLight(const Light& light, const glm::dvec3& p, const glm::dvec3& ng,
                         const glm::dvec3& ns) {
   LightSample s;

@@ -30,9 +30,6 @@ struct LightSample {
   double distance = 0.0;       // to the light (infinity for a directional light)
 };
 
-// The glTF cone fall-off of a spot at angle cos_a from its axis.
-double spotFalloff(const SpotLight& spot, double cos_a);
-
 // Direct irradiance from `light` at `p` (geometric normal `ng`, shading normal `ns`).
 LightSample sampleLight(const Light& light, const glm::dvec3& p, const glm::dvec3& ng,
                         const glm::dvec3& ns);

@@ -29,15 +29,6 @@ inline glm::vec3 offsetOrigin(const glm::vec3& p, float offset, const glm::vec3&
 // surface.
 constexpr float kShadowShorten = 1.0f - 1e-5f;
 
-// glTF KHR_lights_punctual spot attenuation.
-inline float spotFalloff(const SpotLight& s, const glm::vec3& to_point) {
-  const float cos_outer = std::cos(s.outer_angle), cos_inner = std::cos(s.inner_angle);
-  const float cd = glm::dot(s.direction, to_point);
-  const float scale = 1.0f / std::max(1e-3f, cos_inner - cos_outer);
-  const float a = std::clamp((cd - cos_outer) * scale, 0.0f, 1.0f);
-  return a * a;
-}
-
 }  // namespace
 
 PathTracer::PathTracer(const Scene& scene)
@@ -83,7 +74,7 @@ int PathTracer::directQueries(const glm::vec3& p, float p_offset, const glm::vec
     if (cos_s <= 0.0f || !(d2 > 0.0f)) continue;
     glm::vec3 intensity;
     if (const auto* sl = std::get_if<SpotLight>(&light)) {
-      intensity = sl->intensity * spotFalloff(*sl, -wi);
+      intensity = sl->intensity * float(spotFalloff(*sl, double(glm::dot(sl->direction, -wi))));
     } else {
       intensity = std::get<PointLight>(light).intensity;
     }

@@ -4,6 +4,9 @@
 
 #include <glm/vec3.hpp>
 
+#include <algorithm>
+#include <cmath>
+
 #include <variant>
 
 namespace penumbra {
@@ -24,6 +27,16 @@ struct SpotLight {
   float inner_angle = 0.0f;
   float outer_angle = 0.7853981634f;
 };
+
+// The glTF KHR_lights_punctual cone fall-off of a spot at angle cos_a from its axis,
+//   s(a) = clamp((cos a - cos outer) / (cos inner - cos outer), 0, 1)^2,
+// the one definition the path tracer and the radiosity methods use.
+inline double spotFalloff(const SpotLight& spot, double cos_a) {
+  const double cos_outer = std::cos(double(spot.outer_angle));
+  const double scale = 1.0 / std::max(1e-3, std::cos(double(spot.inner_angle)) - cos_outer);
+  const double a = std::clamp((cos_a - cos_outer) * scale, 0.0, 1.0);
+  return a * a;
+}
 
 // Distant light: irradiance E (W m^-2) on a surface facing it, arriving along `direction`.
 struct DirectionalLight {
