@@ -1,4 +1,5 @@
 #version 450
+#include "radiosity/jacobi_bindings.glsl"
 // One Jacobi iteration of matrix radiosity (Carr, Hall, Hart 2003, sec. 3), eq. 4:
 //   B' = B + diag(M)^-1 (E - M B),  M = I - diag(rho) F,  so  (M B)_i = B_i - rho_i (F B)_i,
 // per RGB channel, F shared by the channels. The paper splits each matrix-vector product into
@@ -16,12 +17,12 @@ layout(local_size_x = LANES, local_size_y = WARPS) in;
 
 #if JACOBI_FP16
 // Row i, columns 2k and 2k + 1 in word i * row_words + k (low half first).
-layout(std430, binding = 0) readonly buffer Matrix { uint f[]; };
+layout(std430, binding = JACOBI_SSBO_MATRIX) readonly buffer Matrix { uint f[]; };
 #else
-layout(std430, binding = 0) readonly buffer Matrix { float f[]; };
+layout(std430, binding = JACOBI_SSBO_MATRIX) readonly buffer Matrix { float f[]; };
 #endif
-layout(std430, binding = 1) readonly buffer Radiosity { GpuRgb b[]; };
-layout(std430, binding = 2) writeonly buffer Partials { GpuRgb partials[]; };
+layout(std430, binding = JACOBI_SSBO_RADIOSITY) readonly buffer Radiosity { GpuRgb b[]; };
+layout(std430, binding = JACOBI_SSBO_PARTIALS) writeonly buffer Partials { GpuRgb partials[]; };
 
 uniform uint n;          // elements
 uniform uint row_words;  // matrix words per row: n (fp32), ceil(n / 2) (fp16)
@@ -104,11 +105,11 @@ void main() {
 // ---- Pass 2: (F B)_i from the partials in block order, then eq. 4 and |(M B - E)_i|^2 ----
 layout(local_size_x = UPDATE_GROUP) in;
 
-layout(std430, binding = 1) readonly buffer Radiosity { GpuRgb b[]; };
-layout(std430, binding = 2) readonly buffer Partials { GpuRgb partials[]; };
-layout(std430, binding = 3) readonly buffer Elements { GpuJacobiElement elements[]; };
-layout(std430, binding = 4) writeonly buffer Next { GpuRgb next[]; };
-layout(std430, binding = 5) writeonly buffer RowResidual { double row_residual[]; };
+layout(std430, binding = JACOBI_SSBO_RADIOSITY) readonly buffer Radiosity { GpuRgb b[]; };
+layout(std430, binding = JACOBI_SSBO_PARTIALS) readonly buffer Partials { GpuRgb partials[]; };
+layout(std430, binding = JACOBI_SSBO_ELEMENTS) readonly buffer Elements { GpuJacobiElement elements[]; };
+layout(std430, binding = JACOBI_SSBO_NEXT) writeonly buffer Next { GpuRgb next[]; };
+layout(std430, binding = JACOBI_SSBO_ROW_RESIDUAL) writeonly buffer RowResidual { double row_residual[]; };
 
 uniform uint n;
 uniform uint blocks;
@@ -132,8 +133,8 @@ void main() {
 // ---- Pass 3: sum of the rows' squared residuals, one group, fixed order ----
 layout(local_size_x = REDUCE_GROUP) in;
 
-layout(std430, binding = 5) readonly buffer RowResidual { double row_residual[]; };
-layout(std430, binding = 6) buffer Result { double result[]; };
+layout(std430, binding = JACOBI_SSBO_ROW_RESIDUAL) readonly buffer RowResidual { double row_residual[]; };
+layout(std430, binding = JACOBI_SSBO_RESULT) buffer Result { double result[]; };
 
 uniform uint n;
 uniform uint slot;

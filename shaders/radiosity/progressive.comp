@@ -1,4 +1,5 @@
 #version 450
+#include "radiosity/progressive_bindings.glsl"
 // The compute passes of GPU progressive radiosity (Wallner sec. 3 and 3.1), one program per
 // PROGRESSIVE_PASS (src/penumbra/radiosity/progressive_gl.cpp):
 //  0 power:    residual power of every shooter (a cluster of the hierarchy: a contiguous range
@@ -24,11 +25,11 @@
 
 #if PROGRESSIVE_PASS == 0
 layout(local_size_x = 64) in;
-layout(std430, binding = 0) readonly buffer Shooters { GpuShooter shooters[]; };
-layout(std430, binding = 2) readonly buffer Elements { GpuProgressiveElement elements[]; };
-layout(std430, binding = 9) writeonly buffer ShooterPower { dvec4 shooter_power[]; };
-layout(std430, binding = 12) readonly buffer ElementArea { double element_area[]; };
-layout(binding = 0, rgba32f) uniform readonly image2D residual;
+layout(std430, binding = PROGRESSIVE_SSBO_SHOOTERS) readonly buffer Shooters { GpuShooter shooters[]; };
+layout(std430, binding = PROGRESSIVE_SSBO_ELEMENTS) readonly buffer Elements { GpuProgressiveElement elements[]; };
+layout(std430, binding = PROGRESSIVE_SSBO_SHOOTER_POWER) writeonly buffer ShooterPower { dvec4 shooter_power[]; };
+layout(std430, binding = PROGRESSIVE_SSBO_ELEMENT_AREA) readonly buffer ElementArea { double element_area[]; };
+layout(binding = PROGRESSIVE_IMAGE_RESIDUAL, rgba32f) uniform readonly image2D residual;
 
 uniform uint shooter_count;
 uniform int atlas_width;
@@ -53,8 +54,8 @@ void main() {
 
 #elif PROGRESSIVE_PASS == 1
 layout(local_size_x = 256) in;
-layout(std430, binding = 9) readonly buffer ShooterPower { dvec4 shooter_power[]; };
-layout(std430, binding = 10) writeonly buffer Selection { GpuSelection selection; };
+layout(std430, binding = PROGRESSIVE_SSBO_SHOOTER_POWER) readonly buffer ShooterPower { dvec4 shooter_power[]; };
+layout(std430, binding = PROGRESSIVE_SSBO_SELECTION) writeonly buffer Selection { GpuSelection selection; };
 
 uniform uint shooter_count;
 
@@ -93,11 +94,11 @@ void main() {
 
 #elif PROGRESSIVE_PASS == 2
 layout(local_size_x = 64) in;
-layout(std430, binding = 2) readonly buffer Elements { GpuProgressiveElement elements[]; };
-layout(std430, binding = 4) readonly buffer Points { GpuShooterPoint points[]; };
-layout(std430, binding = 8) writeonly buffer PointPower { dvec4 point_power[]; };
-layout(std430, binding = 12) readonly buffer ElementArea { double element_area[]; };
-layout(binding = 0, rgba32f) uniform readonly image2D residual;
+layout(std430, binding = PROGRESSIVE_SSBO_ELEMENTS) readonly buffer Elements { GpuProgressiveElement elements[]; };
+layout(std430, binding = PROGRESSIVE_SSBO_POINTS) readonly buffer Points { GpuShooterPoint points[]; };
+layout(std430, binding = PROGRESSIVE_SSBO_POINT_POWER) writeonly buffer PointPower { dvec4 point_power[]; };
+layout(std430, binding = PROGRESSIVE_SSBO_ELEMENT_AREA) readonly buffer ElementArea { double element_area[]; };
+layout(binding = PROGRESSIVE_IMAGE_RESIDUAL, rgba32f) uniform readonly image2D residual;
 
 uniform uint point_first;
 uniform uint point_count;
@@ -121,12 +122,12 @@ void main() {
 
 #elif PROGRESSIVE_PASS == 3
 layout(local_size_x = 256) in;
-layout(std430, binding = 2) readonly buffer Elements { GpuProgressiveElement elements[]; };
-layout(std430, binding = 11) writeonly buffer Sums { GpuResolveSums sums[]; };
-layout(std430, binding = 12) readonly buffer ElementArea { double element_area[]; };
-layout(binding = 0, rgba32f) uniform image2D residual;
-layout(binding = 1, rgba32f) uniform image2D radiosity;
-layout(binding = 2) uniform sampler2D incident_map;
+layout(std430, binding = PROGRESSIVE_SSBO_ELEMENTS) readonly buffer Elements { GpuProgressiveElement elements[]; };
+layout(std430, binding = PROGRESSIVE_SSBO_SUMS) writeonly buffer Sums { GpuResolveSums sums[]; };
+layout(std430, binding = PROGRESSIVE_SSBO_ELEMENT_AREA) readonly buffer ElementArea { double element_area[]; };
+layout(binding = PROGRESSIVE_IMAGE_RESIDUAL, rgba32f) uniform image2D residual;
+layout(binding = PROGRESSIVE_IMAGE_RADIOSITY, rgba32f) uniform image2D radiosity;
+layout(binding = PROGRESSIVE_TEXTURE_INCIDENT_MAP) uniform sampler2D incident_map;
 
 uniform uint element_count;
 uniform uvec2 shooter_elements;  // the shooter's elements: first, count
@@ -187,10 +188,10 @@ void main() {
 
 #elif PROGRESSIVE_PASS == 4
 layout(local_size_x = 16, local_size_y = 16) in;
-layout(std430, binding = 2) readonly buffer Elements { GpuProgressiveElement elements[]; };
-layout(std430, binding = 3) readonly buffer TexelElement { int texel_element[]; };
-layout(binding = 1, rgba32f) uniform readonly image2D radiosity;
-layout(binding = 3, rgba32f) uniform writeonly image2D radiance;
+layout(std430, binding = PROGRESSIVE_SSBO_ELEMENTS) readonly buffer Elements { GpuProgressiveElement elements[]; };
+layout(std430, binding = PROGRESSIVE_SSBO_TEXEL_ELEMENT) readonly buffer TexelElement { int texel_element[]; };
+layout(binding = PROGRESSIVE_IMAGE_RADIOSITY, rgba32f) uniform readonly image2D radiosity;
+layout(binding = PROGRESSIVE_IMAGE_RADIANCE, rgba32f) uniform writeonly image2D radiance;
 
 uniform ivec2 atlas_size;
 uniform vec3 ambient;  // eq. 4-6, zero unless asked for
@@ -211,9 +212,9 @@ void main() {
 
 #elif PROGRESSIVE_PASS == 5
 layout(local_size_x = 16, local_size_y = 16) in;
-layout(std430, binding = 13) readonly buffer TexelChart { int texel_chart[]; };
-layout(binding = 2) uniform sampler2D source;
-layout(binding = 3, rgba32f) uniform writeonly image2D target;
+layout(std430, binding = PROGRESSIVE_SSBO_TEXEL_CHART) readonly buffer TexelChart { int texel_chart[]; };
+layout(binding = PROGRESSIVE_TEXTURE_SOURCE) uniform sampler2D source;
+layout(binding = PROGRESSIVE_IMAGE_TARGET, rgba32f) uniform writeonly image2D target;
 
 uniform ivec2 atlas_size;
 

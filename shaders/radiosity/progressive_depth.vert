@@ -1,4 +1,5 @@
 #version 450
+#include "radiosity/progressive_bindings.glsl"
 // Visibility from a batch of shooter points (Wallner sec. 3, Algorithm 1): the scene rendered
 // through each point's hemispherical stereographic projection into its tile of a shared depth
 // texture, the linear depth computed here, in the vertex stage. One instance per point of the
@@ -10,10 +11,10 @@
 #include "radiosity/progressive_layout.glsl"
 #include "radiosity/progressive_hemisphere.glsl"
 
-layout(std430, binding = 0) readonly buffer Triangles { GpuProgressiveTriangle triangles[]; };
+layout(std430, binding = PROGRESSIVE_SSBO_TRIANGLES) readonly buffer Triangles { GpuProgressiveTriangle triangles[]; };
 // Per sub-triangle: (triangle, sub-triangle code).
-layout(std430, binding = 7) readonly buffer SubTriangles { uvec2 sub_triangles[]; };
-layout(std140, binding = 0) uniform Batch { GpuBatchPoint batch[MAX_BATCH_POINTS]; };
+layout(std430, binding = PROGRESSIVE_SSBO_SUB_TRIANGLES) readonly buffer SubTriangles { uvec2 sub_triangles[]; };
+layout(std140, binding = PROGRESSIVE_UBO_BATCH) uniform Batch { GpuBatchPoint batch[MAX_BATCH_POINTS]; };
 
 uniform Hemisphere hemisphere;  // all but the origin, which is the batch's point
 uniform uint tiles;             // tiles x tiles depth maps in the texture

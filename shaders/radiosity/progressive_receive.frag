@@ -1,4 +1,5 @@
 #version 450
+#include "radiosity/progressive_bindings.glsl"
 // The receiver pass's fragment stage (Wallner sec. 3): one fragment per receiver element (a
 // point at its texel, progressive_receive.vert), which gathers from a batch of shooter points
 // (one draw per batch rather than per point: draw calls are what a software rasteriser pays
@@ -19,23 +20,23 @@
 #include "radiosity/progressive_hemisphere.glsl"
 #include "radiosity/progressive_form_factor.glsl"
 
-layout(std430, binding = 0) readonly buffer Triangles { GpuProgressiveTriangle triangles[]; };
-layout(std430, binding = 2) readonly buffer Elements { GpuProgressiveElement elements[]; };
+layout(std430, binding = PROGRESSIVE_SSBO_TRIANGLES) readonly buffer Triangles { GpuProgressiveTriangle triangles[]; };
+layout(std430, binding = PROGRESSIVE_SSBO_ELEMENTS) readonly buffer Elements { GpuProgressiveElement elements[]; };
 // Element pieces (its faces clipped to its texel, in world space), 8 corners each (xyz, padded
 // by repeating the last corner).
-layout(std430, binding = 18) readonly buffer Polygons { vec4 polygons[]; };
+layout(std430, binding = PROGRESSIVE_SSBO_POLYGONS) readonly buffer Polygons { vec4 polygons[]; };
 // Element points in double, for the near-pair test in the CPU's precision.
-layout(std430, binding = 15) readonly buffer ElementPositionD { double element_position[]; };
-layout(std140, binding = 0) uniform Batch { GpuBatchPoint batch[MAX_BATCH_POINTS]; };
+layout(std430, binding = PROGRESSIVE_SSBO_ELEMENT_POSITION_D) readonly buffer ElementPositionD { double element_position[]; };
+layout(std140, binding = PROGRESSIVE_UBO_BATCH) uniform Batch { GpuBatchPoint batch[MAX_BATCH_POINTS]; };
 
-layout(binding = 0) uniform sampler2D depth_map;     // tiles of linear depth, Algorithm 1
-layout(binding = 1) uniform sampler2D residual_map;  // dB atlas (RGBA32F, alpha = occupied)
-layout(binding = 2) uniform usampler2D id_map;       // the nearest triangle per depth texel
-layout(std430, binding = 13) readonly buffer TexelChart { int texel_chart[]; };
+layout(binding = PROGRESSIVE_TEXTURE_DEPTH_MAP) uniform sampler2D depth_map;     // tiles of linear depth, Algorithm 1
+layout(binding = PROGRESSIVE_TEXTURE_RESIDUAL_MAP) uniform sampler2D residual_map;  // dB atlas (RGBA32F, alpha = occupied)
+layout(binding = PROGRESSIVE_TEXTURE_ID_MAP) uniform usampler2D id_map;       // the nearest triangle per depth texel
+layout(std430, binding = PROGRESSIVE_SSBO_TEXEL_CHART) readonly buffer TexelChart { int texel_chart[]; };
 // Charts that touch chart c: chart_adjacency[chart_adjacency_first[c] ..
 // chart_adjacency_first[c + 1]).
-layout(std430, binding = 16) readonly buffer AdjacencyFirst { uint chart_adjacency_first[]; };
-layout(std430, binding = 17) readonly buffer Adjacency { uint chart_adjacency[]; };
+layout(std430, binding = PROGRESSIVE_SSBO_ADJACENCY_FIRST) readonly buffer AdjacencyFirst { uint chart_adjacency_first[]; };
+layout(std430, binding = PROGRESSIVE_SSBO_ADJACENCY) readonly buffer Adjacency { uint chart_adjacency[]; };
 
 uniform Hemisphere hemisphere;  // the shooter's frame; the origin is each point's position
 uniform uint batch_count;       // points in the batch

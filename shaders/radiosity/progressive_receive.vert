@@ -1,4 +1,5 @@
 #version 450
+#include "radiosity/progressive_bindings.glsl"
 // The receiver pass (Wallner sec. 3): every receiver element drawn into the atlas as a point of
 // size 1 at its texel's centre, so that each element gets exactly one fragment. (The paper
 // rasterises each receiver triangle through its lightmap UVs, with outlines for the texels on
@@ -8,7 +9,7 @@
 // flip is needed.
 #include "radiosity/progressive_layout.glsl"
 
-layout(std430, binding = 2) readonly buffer Elements { GpuProgressiveElement elements[]; };
+layout(std430, binding = PROGRESSIVE_SSBO_ELEMENTS) readonly buffer Elements { GpuProgressiveElement elements[]; };
 
 uniform int atlas_width;
 uniform int atlas_height;

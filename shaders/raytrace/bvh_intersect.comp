@@ -1,4 +1,5 @@
 #version 450
+#include "raytrace/bindings.glsl"
 // The Ray Engine's general GPU kernel: one invocation per ray traverses the binary BVH (the
 // canonical tree of accel/bvh.h, uploaded as is) near child first, with the watertight test in
 // the leaves; closest hit, exact ties to the lower triangle index, as on the CPU.
@@ -7,10 +8,10 @@
 
 layout(local_size_x = 64) in;
 
-layout(std430, binding = 0) readonly buffer Nodes { BvhNode nodes[]; };
-layout(std430, binding = 1) readonly buffer Triangles { GpuTriangle triangles[]; };
-layout(std430, binding = 2) readonly buffer Rays { GpuRay rays[]; };
-layout(std430, binding = 3) writeonly buffer Hits { GpuHit hits[]; };
+layout(std430, binding = RAY_ENGINE_SSBO_NODES) readonly buffer Nodes { BvhNode nodes[]; };
+layout(std430, binding = RAY_ENGINE_SSBO_TRIANGLES) readonly buffer Triangles { GpuTriangle triangles[]; };
+layout(std430, binding = RAY_ENGINE_SSBO_RAYS) readonly buffer Rays { GpuRay rays[]; };
+layout(std430, binding = RAY_ENGINE_SSBO_HITS) writeonly buffer Hits { GpuHit hits[]; };
 
 uniform uint ray_count;
 uniform uint any_hit;  // 1: stop at the first hit (occlusion)

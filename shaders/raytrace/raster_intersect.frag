@@ -1,4 +1,5 @@
 #version 450
+#include "raytrace/bindings.glsl"
 // Ray-triangle intersection in the fragment stage (Carr et al. 2002, sec. 4.3, eq. 1-8). Each
 // fragment is one ray: its origin and direction come from the ray-origins and ray-directions
 // textures at this pixel (sec. 4.1). The hit distance t replaces the fragment's depth, so the
@@ -14,8 +15,8 @@
 // bound (the smaller of tmax and where it leaves the scene's box, in the directions texture's w)
 // so that it lies in [0, 1] whatever the scene's scale.
 
-layout(binding = 0) uniform sampler2D ray_origins;     // xyz origin, w tmin
-layout(binding = 1) uniform sampler2D ray_directions;  // xyz direction, w far bound
+layout(binding = RAY_ENGINE_TEXTURE_RAY_ORIGINS) uniform sampler2D ray_origins;     // xyz origin, w tmin
+layout(binding = RAY_ENGINE_TEXTURE_RAY_DIRECTIONS) uniform sampler2D ray_directions;  // xyz direction, w far bound
 
 flat in vec3 v_a;
 flat in vec3 v_b;

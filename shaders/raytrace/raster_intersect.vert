@@ -1,4 +1,5 @@
 #version 450
+#include "raytrace/bindings.glsl"
 // The Ray Engine's GPU kernel (Carr, Hall, Hart 2002, sec. 3.3-4.2): each triangle is broadcast
 // to every ray as the attributes of a screen-filling quad. One instance per triangle, in triangle
 // order; the quad's four corners come from gl_VertexID (triangle strip). The ray-independent
@@ -13,7 +14,7 @@
 #include "common/bucket_cull.glsl"
 #include "raytrace/layout.glsl"
 
-layout(std430, binding = 1) readonly buffer Triangles {
+layout(std430, binding = RAY_ENGINE_SSBO_TRIANGLES) readonly buffer Triangles {
   GpuTriangle triangles[];
 };
 

@@ -1,5 +1,6 @@
 #include "penumbra/gpu/program.h"
 
+#include "penumbra/core/check.h"
 #include "penumbra/gpu/shader_sources.h"
 
 #include <fmt/format.h>
@@ -166,6 +167,12 @@ Expected<Program> renderProgram(const std::string& vertex, const std::string& fr
     return fs.error();
   }
   return link({*vs, *fs}, vertex + " + " + fragment);
+}
+
+GLint uniformLocation(GLuint program, const char* name) {
+  const GLint location = glGetUniformLocation(program, name);
+  PENUMBRA_CHECK_MSG(location >= 0, "the shader program has no active uniform '{}'", name);
+  return location;
 }
 
 }  // namespace penumbra::gl

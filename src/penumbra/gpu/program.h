@@ -36,4 +36,9 @@ Expected<Program> computeProgram(const std::string& name,
 Expected<Program> renderProgram(const std::string& vertex, const std::string& fragment,
                                 const std::vector<std::string>& defines = {});
 
+// The location of the active uniform `name` of `program`. A name the program does not have (a
+// rename on one side only, or a uniform the compiler dropped as unused) is a programming error:
+// it stops with a report naming the uniform instead of setting nothing silently.
+GLint uniformLocation(GLuint program, const char* name);
+
 }  // namespace penumbra::gl

@@ -1,4 +1,5 @@
 #include "penumbra/radiosity/jacobi_gl.h"
+#include "radiosity/jacobi_bindings.glsl"
 
 #include "penumbra/core/check.h"
 #include "penumbra/core/memory.h"
@@ -194,30 +195,32 @@ Status GlJacobi::download(std::vector<glm::vec3>& b) const {
 void GlJacobi::dispatch(int slot, bool advance) {
   const int next = 1 - current_;
   if (n_ > 0) {
-    matrix_.bindBase(GL_SHADER_STORAGE_BUFFER, 0);
-    b_[current_].bindBase(GL_SHADER_STORAGE_BUFFER, 1);
-    partials_.bindBase(GL_SHADER_STORAGE_BUFFER, 2);
-    elements_.bindBase(GL_SHADER_STORAGE_BUFFER, 3);
-    b_[next].bindBase(GL_SHADER_STORAGE_BUFFER, 4);
-    row_residual_.bindBase(GL_SHADER_STORAGE_BUFFER, 5);
+    matrix_.bindBase(GL_SHADER_STORAGE_BUFFER, JACOBI_SSBO_MATRIX);
+    b_[current_].bindBase(GL_SHADER_STORAGE_BUFFER, JACOBI_SSBO_RADIOSITY);
+    partials_.bindBase(GL_SHADER_STORAGE_BUFFER, JACOBI_SSBO_PARTIALS);
+    elements_.bindBase(GL_SHADER_STORAGE_BUFFER, JACOBI_SSBO_ELEMENTS);
+    b_[next].bindBase(GL_SHADER_STORAGE_BUFFER, JACOBI_SSBO_NEXT);
+    row_residual_.bindBase(GL_SHADER_STORAGE_BUFFER, JACOBI_SSBO_ROW_RESIDUAL);
     // Pass 1: the product, one group per (column block, tile of 32 rows).
     glUseProgram(product_.id());
-    glUniform1ui(glGetUniformLocation(product_.id(), "n"), n_);
-    glUniform1ui(glGetUniformLocation(product_.id(), "row_words"), row_words_);
+    glUniform1ui(gl::uniformLocation(product_.id(), "n"), n_);
+    if (precision_ == MatrixPrecision::kFp16) {  // fp32 rows are n floats: no such uniform
+      glUniform1ui(gl::uniformLocation(product_.id(), "row_words"), row_words_);
+    }
     glDispatchCompute(blocks_, ceilDiv(n_, kJacobiRowsPerGroup), 1);
     glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
     // Pass 2: the partials summed in block order, eq. 4.
     glUseProgram(update_.id());
-    glUniform1ui(glGetUniformLocation(update_.id(), "n"), n_);
-    glUniform1ui(glGetUniformLocation(update_.id(), "blocks"), blocks_);
+    glUniform1ui(gl::uniformLocation(update_.id(), "n"), n_);
+    glUniform1ui(gl::uniformLocation(update_.id(), "blocks"), blocks_);
     glDispatchCompute(ceilDiv(n_, kJacobiUpdateGroup), 1, 1);
     glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
   }
   // Pass 3: the sum of squared residuals into the slot (0 for an empty system).
-  result_.bindBase(GL_SHADER_STORAGE_BUFFER, 6);
+  result_.bindBase(GL_SHADER_STORAGE_BUFFER, JACOBI_SSBO_RESULT);
   glUseProgram(reduce_.id());
-  glUniform1ui(glGetUniformLocation(reduce_.id(), "n"), n_);
-  glUniform1ui(glGetUniformLocation(reduce_.id(), "slot"), GLuint(slot));
+  glUniform1ui(gl::uniformLocation(reduce_.id(), "n"), n_);
+  glUniform1ui(gl::uniformLocation(reduce_.id(), "slot"), GLuint(slot));
   glDispatchCompute(1, 1, 1);
   glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT | GL_CLIENT_MAPPED_BUFFER_BARRIER_BIT);
   glUseProgram(0);

@@ -1,4 +1,5 @@
 #include "penumbra/radiosity/progressive_gl.h"
+#include "radiosity/progressive_bindings.glsl"
 
 #include "penumbra/core/check.h"
 #include "penumbra/core/memory.h"
@@ -51,7 +52,7 @@ bool softwareRenderer() {
 }
 
 GLint uniform(const gl::Program& p, const char* name) {
-  return glGetUniformLocation(p.id(), name);
+  return gl::uniformLocation(p.id(), name);
 }
 
 // Any orthonormal frame around the unit normal n: the image axes of the hemisphere.
@@ -606,11 +607,12 @@ void GlProgressive::dispatchPower() {
   glUseProgram(power_.id());
   glUniform1ui(uniform(power_, "shooter_count"), shooter_count_);
   glUniform1i(uniform(power_, "atlas_width"), width_);
-  shooters_.bindBase(GL_SHADER_STORAGE_BUFFER, 0);
-  elements_.bindBase(GL_SHADER_STORAGE_BUFFER, 2);
-  shooter_power_.bindBase(GL_SHADER_STORAGE_BUFFER, 9);
-  element_area_.bindBase(GL_SHADER_STORAGE_BUFFER, 12);
-  glBindImageTexture(0, residual_.id(), 0, GL_FALSE, 0, GL_READ_ONLY, GL_RGBA32F);
+  shooters_.bindBase(GL_SHADER_STORAGE_BUFFER, PROGRESSIVE_SSBO_SHOOTERS);
+  elements_.bindBase(GL_SHADER_STORAGE_BUFFER, PROGRESSIVE_SSBO_ELEMENTS);
+  shooter_power_.bindBase(GL_SHADER_STORAGE_BUFFER, PROGRESSIVE_SSBO_SHOOTER_POWER);
+  element_area_.bindBase(GL_SHADER_STORAGE_BUFFER, PROGRESSIVE_SSBO_ELEMENT_AREA);
+  glBindImageTexture(PROGRESSIVE_IMAGE_RESIDUAL, residual_.id(), 0, GL_FALSE, 0, GL_READ_ONLY,
+                     GL_RGBA32F);
   dispatchLinear(ceilDiv(shooter_count_, kShooterGroup));
   glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT | GL_BUFFER_UPDATE_BARRIER_BIT);
 }
@@ -630,8 +632,8 @@ Expected<uint32_t> GlProgressive::selectShooter() {
   dispatchPower();
   glUseProgram(select_.id());
   glUniform1ui(uniform(select_, "shooter_count"), shooter_count_);
-  shooter_power_.bindBase(GL_SHADER_STORAGE_BUFFER, 9);
-  selection_.bindBase(GL_SHADER_STORAGE_BUFFER, 10);
+  shooter_power_.bindBase(GL_SHADER_STORAGE_BUFFER, PROGRESSIVE_SSBO_SHOOTER_POWER);
+  selection_.bindBase(GL_SHADER_STORAGE_BUFFER, PROGRESSIVE_SSBO_SELECTION);
   glDispatchCompute(1, 1, 1);
   glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
   glUseProgram(0);
@@ -656,17 +658,17 @@ void GlProgressive::drawReceivers(const gl::Program& program, uint32_t first, ui
   glUseProgram(program.id());
   glProgramUniform1i(program.id(), uniform(program, "atlas_width"), width_);
   glProgramUniform1i(program.id(), uniform(program, "atlas_height"), height_);
-  elements_.bindBase(GL_SHADER_STORAGE_BUFFER, 2);
-  triangles_.bindBase(GL_SHADER_STORAGE_BUFFER, 0);
-  element_position_d_.bindBase(GL_SHADER_STORAGE_BUFFER, 15);
-  polygons_.bindBase(GL_SHADER_STORAGE_BUFFER, 18);
-  batch_.bindBase(GL_UNIFORM_BUFFER, 0);
-  glBindTextureUnit(0, depth_map_.id());
-  glBindTextureUnit(1, residual_.id());
-  glBindTextureUnit(2, id_map_.id());
-  texel_chart_.bindBase(GL_SHADER_STORAGE_BUFFER, 13);
-  chart_adjacency_first_.bindBase(GL_SHADER_STORAGE_BUFFER, 16);
-  chart_adjacency_.bindBase(GL_SHADER_STORAGE_BUFFER, 17);
+  elements_.bindBase(GL_SHADER_STORAGE_BUFFER, PROGRESSIVE_SSBO_ELEMENTS);
+  triangles_.bindBase(GL_SHADER_STORAGE_BUFFER, PROGRESSIVE_SSBO_TRIANGLES);
+  element_position_d_.bindBase(GL_SHADER_STORAGE_BUFFER, PROGRESSIVE_SSBO_ELEMENT_POSITION_D);
+  polygons_.bindBase(GL_SHADER_STORAGE_BUFFER, PROGRESSIVE_SSBO_POLYGONS);
+  batch_.bindBase(GL_UNIFORM_BUFFER, PROGRESSIVE_UBO_BATCH);
+  glBindTextureUnit(PROGRESSIVE_TEXTURE_DEPTH_MAP, depth_map_.id());
+  glBindTextureUnit(PROGRESSIVE_TEXTURE_RESIDUAL_MAP, residual_.id());
+  glBindTextureUnit(PROGRESSIVE_TEXTURE_ID_MAP, id_map_.id());
+  texel_chart_.bindBase(GL_SHADER_STORAGE_BUFFER, PROGRESSIVE_SSBO_TEXEL_CHART);
+  chart_adjacency_first_.bindBase(GL_SHADER_STORAGE_BUFFER, PROGRESSIVE_SSBO_ADJACENCY_FIRST);
+  chart_adjacency_.bindBase(GL_SHADER_STORAGE_BUFFER, PROGRESSIVE_SSBO_ADJACENCY);
   glBindVertexArray(vao_.id());
   // One point of size 1 at each element's texel centre: exactly one fragment per element (the
   // paper rasterises the receiver triangles through their lightmap UVs; every fragment of a
@@ -689,12 +691,14 @@ Expected<GpuResolveSums> GlProgressive::resolve(uint32_t shooter, const glm::dve
   glUniform1i(uniform(resolve_, "atlas_width"), width_);
   glUniform3f(uniform(resolve_, "scale"), float(scale.x), float(scale.y), float(scale.z));
   glUniform1i(uniform(resolve_, "apply"), apply ? 1 : 0);
-  elements_.bindBase(GL_SHADER_STORAGE_BUFFER, 2);
-  sums_.bindBase(GL_SHADER_STORAGE_BUFFER, 11);
-  element_area_.bindBase(GL_SHADER_STORAGE_BUFFER, 12);
-  glBindImageTexture(0, residual_.id(), 0, GL_FALSE, 0, GL_READ_WRITE, GL_RGBA32F);
-  glBindImageTexture(1, radiosity_.id(), 0, GL_FALSE, 0, GL_READ_WRITE, GL_RGBA32F);
-  glBindTextureUnit(2, incident_.id());
+  elements_.bindBase(GL_SHADER_STORAGE_BUFFER, PROGRESSIVE_SSBO_ELEMENTS);
+  sums_.bindBase(GL_SHADER_STORAGE_BUFFER, PROGRESSIVE_SSBO_SUMS);
+  element_area_.bindBase(GL_SHADER_STORAGE_BUFFER, PROGRESSIVE_SSBO_ELEMENT_AREA);
+  glBindImageTexture(PROGRESSIVE_IMAGE_RESIDUAL, residual_.id(), 0, GL_FALSE, 0, GL_READ_WRITE,
+                     GL_RGBA32F);
+  glBindImageTexture(PROGRESSIVE_IMAGE_RADIOSITY, radiosity_.id(), 0, GL_FALSE, 0, GL_READ_WRITE,
+                     GL_RGBA32F);
+  glBindTextureUnit(PROGRESSIVE_TEXTURE_INCIDENT_MAP, incident_.id());
   dispatchLinear(groups);
   glMemoryBarrier(GL_SHADER_IMAGE_ACCESS_BARRIER_BIT | GL_TEXTURE_FETCH_BARRIER_BIT |
                   GL_TEXTURE_UPDATE_BARRIER_BIT | GL_BUFFER_UPDATE_BARRIER_BIT |
@@ -730,11 +734,12 @@ Expected<ProgressiveIteration> GlProgressive::shoot(uint32_t shooter) {
     glUniform1ui(uniform(points_, "point_first"), point_first);
     glUniform1ui(uniform(points_, "point_count"), point_count);
     glUniform1i(uniform(points_, "atlas_width"), width_);
-    elements_.bindBase(GL_SHADER_STORAGE_BUFFER, 2);
-    points_buf_.bindBase(GL_SHADER_STORAGE_BUFFER, 4);
-    point_power_.bindBase(GL_SHADER_STORAGE_BUFFER, 8);
-    element_area_.bindBase(GL_SHADER_STORAGE_BUFFER, 12);
-    glBindImageTexture(0, residual_.id(), 0, GL_FALSE, 0, GL_READ_ONLY, GL_RGBA32F);
+    elements_.bindBase(GL_SHADER_STORAGE_BUFFER, PROGRESSIVE_SSBO_ELEMENTS);
+    points_buf_.bindBase(GL_SHADER_STORAGE_BUFFER, PROGRESSIVE_SSBO_POINTS);
+    point_power_.bindBase(GL_SHADER_STORAGE_BUFFER, PROGRESSIVE_SSBO_POINT_POWER);
+    element_area_.bindBase(GL_SHADER_STORAGE_BUFFER, PROGRESSIVE_SSBO_ELEMENT_AREA);
+    glBindImageTexture(PROGRESSIVE_IMAGE_RESIDUAL, residual_.id(), 0, GL_FALSE, 0, GL_READ_ONLY,
+                       GL_RGBA32F);
     glDispatchCompute(ceilDiv(point_count, kPointGroup), 1, 1);
     glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT | GL_BUFFER_UPDATE_BARRIER_BIT);
     glUseProgram(0);
@@ -799,7 +804,7 @@ Expected<ProgressiveIteration> GlProgressive::shoot(uint32_t shooter) {
         b.members[1] = point_members_[p].y;
       }
       batch_.upload(points.data(), count * sizeof(GpuBatchPoint));
-      batch_.bindBase(GL_UNIFORM_BUFFER, 0);
+      batch_.bindBase(GL_UNIFORM_BUFFER, PROGRESSIVE_UBO_BATCH);
       if (options_.visibility) {
         // Algorithm 1: the scene's depth from each point of the batch, hemispherical
         // projection, one instance (and one tile of the depth texture) per point.
@@ -817,8 +822,8 @@ Expected<ProgressiveIteration> GlProgressive::shoot(uint32_t shooter) {
         const GLuint no_triangle[4] = {0xffffffffu, 0u, 0u, 0u};
         glClearNamedFramebufferuiv(depth_fbo_.id(), GL_COLOR, 0, no_triangle);
         glUseProgram(did);
-        triangles_.bindBase(GL_SHADER_STORAGE_BUFFER, 0);
-        sub_triangles_.bindBase(GL_SHADER_STORAGE_BUFFER, 7);
+        triangles_.bindBase(GL_SHADER_STORAGE_BUFFER, PROGRESSIVE_SSBO_TRIANGLES);
+        sub_triangles_.bindBase(GL_SHADER_STORAGE_BUFFER, PROGRESSIVE_SSBO_SUB_TRIANGLES);
         glBindVertexArray(vao_.id());
         glDrawArraysInstanced(GL_TRIANGLES, 0, GLsizei(6 * sub_triangle_count_), GLsizei(count));
         glBindVertexArray(0);
@@ -902,10 +907,12 @@ Expected<Image> GlProgressive::radianceImage(bool with_ambient) {
   glUseProgram(radiance_.id());
   glUniform2i(uniform(radiance_, "atlas_size"), width_, height_);
   glUniform3f(uniform(radiance_, "ambient"), float(ambient.x), float(ambient.y), float(ambient.z));
-  elements_.bindBase(GL_SHADER_STORAGE_BUFFER, 2);
-  texel_element_.bindBase(GL_SHADER_STORAGE_BUFFER, 3);
-  glBindImageTexture(1, radiosity_.id(), 0, GL_FALSE, 0, GL_READ_ONLY, GL_RGBA32F);
-  glBindImageTexture(3, radiance_maps_[0].id(), 0, GL_FALSE, 0, GL_WRITE_ONLY, GL_RGBA32F);
+  elements_.bindBase(GL_SHADER_STORAGE_BUFFER, PROGRESSIVE_SSBO_ELEMENTS);
+  texel_element_.bindBase(GL_SHADER_STORAGE_BUFFER, PROGRESSIVE_SSBO_TEXEL_ELEMENT);
+  glBindImageTexture(PROGRESSIVE_IMAGE_RADIOSITY, radiosity_.id(), 0, GL_FALSE, 0, GL_READ_ONLY,
+                     GL_RGBA32F);
+  glBindImageTexture(PROGRESSIVE_IMAGE_RADIANCE, radiance_maps_[0].id(), 0, GL_FALSE, 0,
+                     GL_WRITE_ONLY, GL_RGBA32F);
   glDispatchCompute(gx, gy, 1);
   glMemoryBarrier(GL_TEXTURE_FETCH_BARRIER_BIT | GL_SHADER_IMAGE_ACCESS_BARRIER_BIT);
   // Sec. 3.1: ping-pong passes, each filling the unoccupied texels next to filled ones of the
@@ -913,11 +920,11 @@ Expected<Image> GlProgressive::radianceImage(bool with_ambient) {
   int current = 0;
   glUseProgram(fill_.id());
   glUniform2i(uniform(fill_, "atlas_size"), width_, height_);
-  texel_chart_.bindBase(GL_SHADER_STORAGE_BUFFER, 13);
+  texel_chart_.bindBase(GL_SHADER_STORAGE_BUFFER, PROGRESSIVE_SSBO_TEXEL_CHART);
   for (int pass = 0; pass < gl_options_.gap_fill_passes; ++pass) {
-    glBindTextureUnit(2, radiance_maps_[size_t(current)].id());
-    glBindImageTexture(3, radiance_maps_[size_t(1 - current)].id(), 0, GL_FALSE, 0, GL_WRITE_ONLY,
-                       GL_RGBA32F);
+    glBindTextureUnit(PROGRESSIVE_TEXTURE_SOURCE, radiance_maps_[size_t(current)].id());
+    glBindImageTexture(PROGRESSIVE_IMAGE_TARGET, radiance_maps_[size_t(1 - current)].id(), 0,
+                       GL_FALSE, 0, GL_WRITE_ONLY, GL_RGBA32F);
     glDispatchCompute(gx, gy, 1);
     glMemoryBarrier(GL_TEXTURE_FETCH_BARRIER_BIT | GL_SHADER_IMAGE_ACCESS_BARRIER_BIT);
     current = 1 - current;

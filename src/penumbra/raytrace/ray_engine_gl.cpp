@@ -1,4 +1,5 @@
 #include "penumbra/raytrace/ray_engine_gl.h"
+#include "raytrace/bindings.glsl"
 
 #include "penumbra/core/check.h"
 #include "penumbra/core/memory.h"
@@ -67,12 +68,12 @@ Status GlRayEngine::run(const RayBatch& rays, bool any_hit, std::vector<GpuHit>&
   gl::Buffer ray_buf(slice * sizeof(GpuRay), nullptr);
   gl::Buffer hit_buf(slice * sizeof(GpuHit), nullptr);
   glUseProgram(program_.id());
-  glUniform1ui(glGetUniformLocation(program_.id(), "any_hit"), any_hit ? 1u : 0u);
-  const GLint count_loc = glGetUniformLocation(program_.id(), "ray_count");
-  nodes_.bindBase(GL_SHADER_STORAGE_BUFFER, 0);
-  triangles_.bindBase(GL_SHADER_STORAGE_BUFFER, 1);
-  ray_buf.bindBase(GL_SHADER_STORAGE_BUFFER, 2);
-  hit_buf.bindBase(GL_SHADER_STORAGE_BUFFER, 3);
+  glUniform1ui(gl::uniformLocation(program_.id(), "any_hit"), any_hit ? 1u : 0u);
+  const GLint count_loc = gl::uniformLocation(program_.id(), "ray_count");
+  nodes_.bindBase(GL_SHADER_STORAGE_BUFFER, RAY_ENGINE_SSBO_NODES);
+  triangles_.bindBase(GL_SHADER_STORAGE_BUFFER, RAY_ENGINE_SSBO_TRIANGLES);
+  ray_buf.bindBase(GL_SHADER_STORAGE_BUFFER, RAY_ENGINE_SSBO_RAYS);
+  hit_buf.bindBase(GL_SHADER_STORAGE_BUFFER, RAY_ENGINE_SSBO_HITS);
   for (size_t begin = 0; begin < n; begin += slice) {
     const size_t m = std::min(slice, n - begin);
     for (size_t i = 0; i < m; ++i) {
@@ -247,11 +248,11 @@ Expected<GlRasterKernel::Job> GlRasterKernel::submit(const RayBatch& rays,
                                               std::span(directions.data(), m), clip_lo, clip_hi);
   if (count > 0) {
     glUseProgram(program_.id());
-    glUniform1ui(glGetUniformLocation(program_.id(), "first_triangle"), first);
+    glUniform1ui(gl::uniformLocation(program_.id(), "first_triangle"), first);
     setBucketBoundUniforms(program_.id(), bound);
-    triangles_.bindBase(GL_SHADER_STORAGE_BUFFER, 1);
-    glBindTextureUnit(0, origins_.id());
-    glBindTextureUnit(1, directions_.id());
+    triangles_.bindBase(GL_SHADER_STORAGE_BUFFER, RAY_ENGINE_SSBO_TRIANGLES);
+    glBindTextureUnit(RAY_ENGINE_TEXTURE_RAY_ORIGINS, origins_.id());
+    glBindTextureUnit(RAY_ENGINE_TEXTURE_RAY_DIRECTIONS, directions_.id());
     glBindVertexArray(vao_.id());
     // Triangles in slot order: on equal depth the first drawn (lower slot) stays.
     glDrawArraysInstanced(GL_TRIANGLE_STRIP, 0, 4, GLsizei(count));
@@ -291,7 +292,7 @@ size_t GlRasterKernel::culledTriangles(const RayBucketBound& bound, uint32_t fir
 
 void setBucketBoundUniforms(GLuint program, const RayBucketBound& b) {
   auto vec3 = [program](const char* name, const glm::vec3& v) {
-    glUniform3f(glGetUniformLocation(program, name), v.x, v.y, v.z);
+    glUniform3f(gl::uniformLocation(program, name), v.x, v.y, v.z);
   };
   vec3("bucket.reach_lo", b.reach_lo);
   vec3("bucket.reach_hi", b.reach_hi);
@@ -299,9 +300,9 @@ void setBucketBoundUniforms(GLuint program, const RayBucketBound& b) {
   vec3("bucket.q0_hi", b.q0_hi);
   vec3("bucket.q1_lo", b.q1_lo);
   vec3("bucket.q1_hi", b.q1_hi);
-  glUniform1i(glGetUniformLocation(program, "bucket.mode"), GLint(b.mode));
-  glUniform1i(glGetUniformLocation(program, "bucket.axis"), b.axis);
-  glUniform1f(glGetUniformLocation(program, "bucket.inv_length"), b.inv_length);
+  glUniform1i(gl::uniformLocation(program, "bucket.mode"), GLint(b.mode));
+  glUniform1i(gl::uniformLocation(program, "bucket.axis"), b.axis);
+  glUniform1f(gl::uniformLocation(program, "bucket.inv_length"), b.inv_length);
 }
 
 void GlRasterKernel::collect(Job& job, Hit* out) const {
