@@ -79,10 +79,8 @@ namespace penumbra {
 // clusters that near are refined).
 inline constexpr double kProgressiveNear = 3.0;
 
-// Lightmap texels (elements, both sides of two-sided surfaces) when the caller names no density:
-// a room of a few hundred charts (the bunny scan, a teapot, quads) at this count reaches 1% unshot
-// power in about 20 s on two cores and agrees with the path tracer to 1% (docs/performance.md).
-inline constexpr uint32_t kProgressiveDefaultElements = 40000;
+// Lightmap texels when the caller names no density (radiosity/radiosity_surface.h).
+inline constexpr uint32_t kProgressiveDefaultElements = kDefaultLightmapElements;
 
 // texelDensityFor (radiosity/radiosity_surface.h).
 double progressiveTexelDensity(const Scene& scene, uint32_t elements);

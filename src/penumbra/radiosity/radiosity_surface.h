@@ -35,7 +35,7 @@ double texelDensityFor(const Scene& scene, uint32_t elements);
 
 // Lightmap texels (elements, both sides of two-sided surfaces) when the caller names no density:
 // a room of a few hundred charts (the bunny scan, a teapot, quads) at this count reaches 1% unshot
-// power with progressive radiosity in about 10 s on two cores and agrees with the path tracer to
+// power with progressive radiosity in about 12 s on two cores and agrees with the path tracer to
 // 1% (docs/performance.md).
 inline constexpr uint32_t kDefaultLightmapElements = 40000;
 
