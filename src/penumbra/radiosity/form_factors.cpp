@@ -27,10 +27,65 @@ namespace {
 
 constexpr double kPiD = std::numbers::pi;
 
+// Every element's pieces (the clip of its chart's faces to its texel, on the surface), clipped
+// once: near element pairs ask for them many times. Element e's pieces are
+// [piece_first[e], piece_first[e + 1]), piece p's corners [corner_first[p], corner_first[p + 1]).
+struct PieceCache {
+  std::vector<uint32_t> piece_first;
+  std::vector<uint32_t> corner_first;
+  std::vector<glm::dvec3> corners;
+
+  static constexpr size_t kMaxElements = 200'000;  // beyond: clip on demand (memory)
+
+  static PieceCache build(const RadiositySurface& s) {
+    PieceCache cache;
+    const size_t n = s.elementCount();
+    if (n > kMaxElements) return cache;
+    // Chunks in parallel, concatenated in order.
+    constexpr size_t kChunk = 1024;
+    const size_t chunks = (n + kChunk - 1) / kChunk;
+    struct Part {
+      std::vector<uint32_t> pieces_per_element, corners_per_piece;
+      std::vector<glm::dvec3> corners;
+    };
+    std::vector<Part> parts(chunks);
+    parallelRange(chunks, 1, [&](size_t b, size_t e) {
+      std::vector<std::array<glm::dvec3, 8>> polygons;
+      std::vector<int> counts;
+      for (size_t k = b; k < e; ++k) {
+        Part& part = parts[k];
+        for (size_t el = k * kChunk; el < std::min(n, (k + 1) * kChunk); ++el) {
+          s.atlas.elementPieces(el, s.flat.positions, s.flat.triangles, polygons, counts);
+          part.pieces_per_element.push_back(uint32_t(counts.size()));
+          for (size_t q = 0; q < counts.size(); ++q) {
+            part.corners_per_piece.push_back(uint32_t(counts[q]));
+            part.corners.insert(part.corners.end(), polygons[q].begin(),
+                                polygons[q].begin() + counts[q]);
+          }
+        }
+      }
+    });
+    cache.piece_first.push_back(0);
+    cache.corner_first.push_back(0);
+    for (const Part& part : parts) {
+      for (uint32_t c : part.pieces_per_element) {
+        cache.piece_first.push_back(cache.piece_first.back() + c);
+      }
+      for (uint32_t c : part.corners_per_piece) {
+        cache.corner_first.push_back(cache.corner_first.back() + c);
+      }
+      cache.corners.insert(cache.corners.end(), part.corners.begin(), part.corners.end());
+    }
+    return cache;
+  }
+  bool empty() const { return piece_first.empty(); }
+};
+
 // One thread's state while it evaluates pairs.
 struct PairEvaluator {
   const RadiositySurface& s;
   const FormFactorOptions& o;
+  const PieceCache& cache;
   std::vector<std::array<glm::dvec3, 8>> polygons;
   std::vector<int> counts;
   uint64_t rays = 0;
@@ -51,8 +106,15 @@ struct PairEvaluator {
   double pointToElement(uint32_t a, uint32_t b) {
     const glm::dvec3 x = s.atlas.element_position[a], n = s.atlas.element_normal[a];
     if (glm::dot(s.atlas.element_normal[b], x - s.atlas.element_position[b]) <= 0.0) return 0.0;
-    s.atlas.elementPieces(b, s.flat.positions, s.flat.triangles, polygons, counts);
     double f = 0.0;
+    if (!cache.empty()) {
+      for (uint32_t p = cache.piece_first[b]; p < cache.piece_first[b + 1]; ++p) {
+        f += pointToPolygonFormFactor(x, n, cache.corners.data() + cache.corner_first[p],
+                                      int(cache.corner_first[p + 1] - cache.corner_first[p]));
+      }
+      return f;
+    }
+    s.atlas.elementPieces(b, s.flat.positions, s.flat.triangles, polygons, counts);
     for (size_t k = 0; k < counts.size(); ++k) {
       f += pointToPolygonFormFactor(x, n, polygons[k].data(), counts[k]);
     }
@@ -146,12 +208,13 @@ Expected<FormFactorMatrix> computeFormFactors(const RadiositySurface& surface,
   std::vector<double> area(n);
   for (size_t i = 0; i < n; ++i) area[i] = surface.hierarchy.level(cut[i].level).area[cut[i].index];
 
+  const PieceCache cache = PieceCache::build(surface);
   std::atomic<uint64_t> rays{0}, refined{0}, closed_rows{0};
   std::atomic<size_t> rows_done{0};
   // Row i evaluates the pairs (i, j > i) and writes both F_ij and F_ji: each entry is written
   // by exactly one row.
   parallelRange(n, 1, [&](size_t begin, size_t end) {
-    PairEvaluator ev{surface, options, {}, {}, 0, 0, options.rays, kFewRaysBelow};
+    PairEvaluator ev{surface, options, cache, {}, {}, 0, 0, options.rays, kFewRaysBelow};
     for (size_t i = begin; i < end; ++i) {
       for (size_t j = i + 1; j < n; ++j) {
         Rng rng(mixBits(options.seed), i * n + j);
@@ -212,9 +275,10 @@ Expected<std::vector<float>> computeElementFormFactors(const RadiositySurface& s
       uint64_t(n) * s_count * sizeof(float),
       fmt::format("form factors from {} elements to {} emitting clusters", n, s_count)));
   std::vector<float> out(n * s_count, 0.0f);
+  const PieceCache cache = PieceCache::build(surface);
   std::atomic<uint64_t> rays{0};
   parallelRange(n, 64, [&](size_t begin, size_t end) {
-    PairEvaluator ev{surface, options, {}, {}, 0, 0, options.element_rays, 0.0};
+    PairEvaluator ev{surface, options, cache, {}, {}, 0, 0, options.element_rays, 0.0};
     for (size_t e = begin; e < end; ++e) {
       const double area = surface.atlas.element_area[e];
       if (!(area > 0.0)) continue;
