@@ -27,65 +27,11 @@ namespace {
 
 constexpr double kPiD = std::numbers::pi;
 
-// Every element's pieces (the clip of its chart's faces to its texel, on the surface), clipped
-// once: near element pairs ask for them many times. Element e's pieces are
-// [piece_first[e], piece_first[e + 1]), piece p's corners [corner_first[p], corner_first[p + 1]).
-struct PieceCache {
-  std::vector<uint32_t> piece_first;
-  std::vector<uint32_t> corner_first;
-  std::vector<glm::dvec3> corners;
-
-  static constexpr size_t kMaxElements = 200'000;  // beyond: clip on demand (memory)
-
-  static PieceCache build(const RadiositySurface& s) {
-    PieceCache cache;
-    const size_t n = s.elementCount();
-    if (n > kMaxElements) return cache;
-    // Chunks in parallel, concatenated in order.
-    constexpr size_t kChunk = 1024;
-    const size_t chunks = (n + kChunk - 1) / kChunk;
-    struct Part {
-      std::vector<uint32_t> pieces_per_element, corners_per_piece;
-      std::vector<glm::dvec3> corners;
-    };
-    std::vector<Part> parts(chunks);
-    parallelRange(chunks, 1, [&](size_t b, size_t e) {
-      std::vector<std::array<glm::dvec3, 8>> polygons;
-      std::vector<int> counts;
-      for (size_t k = b; k < e; ++k) {
-        Part& part = parts[k];
-        for (size_t el = k * kChunk; el < std::min(n, (k + 1) * kChunk); ++el) {
-          s.atlas.elementPieces(el, s.flat.positions, s.flat.triangles, polygons, counts);
-          part.pieces_per_element.push_back(uint32_t(counts.size()));
-          for (size_t q = 0; q < counts.size(); ++q) {
-            part.corners_per_piece.push_back(uint32_t(counts[q]));
-            part.corners.insert(part.corners.end(), polygons[q].begin(),
-                                polygons[q].begin() + counts[q]);
-          }
-        }
-      }
-    });
-    cache.piece_first.push_back(0);
-    cache.corner_first.push_back(0);
-    for (const Part& part : parts) {
-      for (uint32_t c : part.pieces_per_element) {
-        cache.piece_first.push_back(cache.piece_first.back() + c);
-      }
-      for (uint32_t c : part.corners_per_piece) {
-        cache.corner_first.push_back(cache.corner_first.back() + c);
-      }
-      cache.corners.insert(cache.corners.end(), part.corners.begin(), part.corners.end());
-    }
-    return cache;
-  }
-  bool empty() const { return piece_first.empty(); }
-};
-
 // One thread's state while it evaluates pairs.
 struct PairEvaluator {
   const RadiositySurface& s;
   const FormFactorOptions& o;
-  const PieceCache& cache;
+  const ElementPieces& cache;
   std::vector<std::array<glm::dvec3, 8>> polygons;
   std::vector<int> counts;
   uint64_t rays = 0;
@@ -187,11 +133,54 @@ struct PairEvaluator {
 
 }  // namespace
 
+ElementPieces ElementPieces::build(const RadiositySurface& s) {
+  ElementPieces cache;
+  const size_t n = s.elementCount();
+  if (n > ElementPieces::kMaxElements) return cache;
+  // Chunks in parallel, concatenated in order.
+  constexpr size_t kChunk = 1024;
+  const size_t chunks = (n + kChunk - 1) / kChunk;
+  struct Part {
+    std::vector<uint32_t> pieces_per_element, corners_per_piece;
+    std::vector<glm::dvec3> corners;
+  };
+  std::vector<Part> parts(chunks);
+  parallelRange(chunks, 1, [&](size_t b, size_t e) {
+    std::vector<std::array<glm::dvec3, 8>> polygons;
+    std::vector<int> counts;
+    for (size_t k = b; k < e; ++k) {
+      Part& part = parts[k];
+      for (size_t el = k * kChunk; el < std::min(n, (k + 1) * kChunk); ++el) {
+        s.atlas.elementPieces(el, s.flat.positions, s.flat.triangles, polygons, counts);
+        part.pieces_per_element.push_back(uint32_t(counts.size()));
+        for (size_t q = 0; q < counts.size(); ++q) {
+          part.corners_per_piece.push_back(uint32_t(counts[q]));
+          part.corners.insert(part.corners.end(), polygons[q].begin(),
+                              polygons[q].begin() + counts[q]);
+        }
+      }
+    }
+  });
+  cache.piece_first.push_back(0);
+  cache.corner_first.push_back(0);
+  for (const Part& part : parts) {
+    for (uint32_t c : part.pieces_per_element) {
+      cache.piece_first.push_back(cache.piece_first.back() + c);
+    }
+    for (uint32_t c : part.corners_per_piece) {
+      cache.corner_first.push_back(cache.corner_first.back() + c);
+    }
+    cache.corners.insert(cache.corners.end(), part.corners.begin(), part.corners.end());
+  }
+  return cache;
+}
+
 Expected<FormFactorMatrix> computeFormFactors(const RadiositySurface& surface,
                                               std::span<const ClusterRef> cut,
                                               const FormFactorOptions& options,
                                               FormFactorStats* stats,
-                                              const std::function<void(size_t)>& on_row) {
+                                              const std::function<void(size_t)>& on_row,
+                                              const ElementPieces* pieces) {
   const Timer timer;
   const uint64_t n = cut.size();
   if (!(options.near > 0.0) || options.rays < 1 || options.probe_rays < 0 ||
@@ -208,7 +197,8 @@ Expected<FormFactorMatrix> computeFormFactors(const RadiositySurface& surface,
   std::vector<double> area(n);
   for (size_t i = 0; i < n; ++i) area[i] = surface.hierarchy.level(cut[i].level).area[cut[i].index];
 
-  const PieceCache cache = PieceCache::build(surface);
+  const ElementPieces own = pieces ? ElementPieces{} : ElementPieces::build(surface);
+  const ElementPieces& cache = pieces ? *pieces : own;
   std::atomic<uint64_t> rays{0}, refined{0}, closed_rows{0};
   std::atomic<size_t> rows_done{0};
   // Row i evaluates the pairs (i, j > i) and writes both F_ij and F_ji: each entry is written
@@ -269,13 +259,15 @@ Expected<std::vector<float>> computeElementFormFactors(const RadiositySurface& s
                                                        std::span<const ClusterRef> cut,
                                                        std::span<const uint32_t> sources,
                                                        const FormFactorOptions& options,
-                                                       FormFactorStats* stats) {
+                                                       FormFactorStats* stats,
+                                                       const ElementPieces* pieces) {
   const size_t n = surface.elementCount(), s_count = sources.size();
   PENUMBRA_TRY(checkMemory(
       uint64_t(n) * s_count * sizeof(float),
       fmt::format("form factors from {} elements to {} emitting clusters", n, s_count)));
   std::vector<float> out(n * s_count, 0.0f);
-  const PieceCache cache = PieceCache::build(surface);
+  const ElementPieces own = pieces ? ElementPieces{} : ElementPieces::build(surface);
+  const ElementPieces& cache = pieces ? *pieces : own;
   std::atomic<uint64_t> rays{0};
   parallelRange(n, 64, [&](size_t begin, size_t end) {
     PairEvaluator ev{surface, options, cache, {}, {}, 0, 0, options.element_rays, 0.0};

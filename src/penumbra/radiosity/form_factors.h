@@ -52,6 +52,20 @@ struct FormFactorOptions {
 // Far pairs whose F_ij and F_ji are both below this take a single shadow ray.
 inline constexpr double kFewRaysBelow = 1e-3;
 
+// Every element's pieces (the clip of its chart's faces to its texel, on the surface), clipped
+// once: near element pairs ask for them many times. Element e's pieces are
+// [piece_first[e], piece_first[e + 1]), piece p's corners [corner_first[p], corner_first[p + 1]).
+// Empty (clip on demand) for more than kMaxElements elements, where it would take too much memory.
+struct ElementPieces {
+  std::vector<uint32_t> piece_first;
+  std::vector<uint32_t> corner_first;
+  std::vector<glm::dvec3> corners;
+
+  static constexpr size_t kMaxElements = 200'000;
+  static ElementPieces build(const RadiositySurface& surface);
+  bool empty() const { return piece_first.empty(); }
+};
+
 // Row-major N x N: f[i * n + j] = F_ij.
 struct FormFactorMatrix {
   uint32_t n = 0;
@@ -78,12 +92,14 @@ inline uint64_t formFactorBytes(uint64_t n) {
 
 // Computes every F_ij between the clusters of `cut` (rows in parallel; the result does not depend
 // on the thread count). Refuses, before allocating, a matrix that would not fit in memory.
-// `on_row(rows_done)` may be called from worker threads.
+// `on_row(rows_done)` may be called from worker threads. `pieces`: ElementPieces::build(surface)
+// when the caller has it (else built here).
 Expected<FormFactorMatrix> computeFormFactors(const RadiositySurface& surface,
                                               std::span<const ClusterRef> cut,
                                               const FormFactorOptions& options,
                                               FormFactorStats* stats = nullptr,
-                                              const std::function<void(size_t)>& on_row = {});
+                                              const std::function<void(size_t)>& on_row = {},
+                                              const ElementPieces* pieces = nullptr);
 
 // Form factors from every element (level 0) to the clusters cut[sources[s]]: out[e * S + s] =
 // F(element e -> cluster), by the same rules (an element inside the cluster gets 0). What
@@ -93,6 +109,7 @@ Expected<std::vector<float>> computeElementFormFactors(const RadiositySurface& s
                                                        std::span<const ClusterRef> cut,
                                                        std::span<const uint32_t> sources,
                                                        const FormFactorOptions& options,
-                                                       FormFactorStats* stats = nullptr);
+                                                       FormFactorStats* stats = nullptr,
+                                                       const ElementPieces* pieces = nullptr);
 
 }  // namespace penumbra

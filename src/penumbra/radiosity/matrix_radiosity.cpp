@@ -161,10 +161,13 @@ Expected<MatrixRadiosity> buildMatrixRadiosity(const Scene& scene,
   PENUMBRA_TRY(
       checkMemory(matrixRadiosityBytes(n, options.precision),
                   fmt::format("matrix radiosity with {} elements ({} form factors)", n, n * n)));
-  Expected<FormFactorMatrix> f = computeFormFactors(mr.surface, mr.clusters, options.form_factors,
-                                                    &mr.form_factor_stats, [&](size_t done) {
-                                                      if (on_row) on_row(done, size_t(n));
-                                                    });
+  const ElementPieces pieces = ElementPieces::build(mr.surface);
+  Expected<FormFactorMatrix> f = computeFormFactors(
+      mr.surface, mr.clusters, options.form_factors, &mr.form_factor_stats,
+      [&](size_t done) {
+        if (on_row) on_row(done, size_t(n));
+      },
+      &pieces);
   if (!f) return f.error();
   mr.system.emplace(std::move(*f), options.precision);
   if (!scene.lights.empty()) {
@@ -184,8 +187,9 @@ Expected<MatrixRadiosity> buildMatrixRadiosity(const Scene& scene,
       mr.emitters.clear();
     }
     if (!mr.emitters.empty()) {
-      Expected<std::vector<float>> ff = computeElementFormFactors(
-          mr.surface, mr.clusters, mr.emitters, options.form_factors, &mr.form_factor_stats);
+      Expected<std::vector<float>> ff =
+          computeElementFormFactors(mr.surface, mr.clusters, mr.emitters, options.form_factors,
+                                    &mr.form_factor_stats, &pieces);
       if (!ff) return ff.error();
       mr.element_ff = std::move(*ff);
     }
