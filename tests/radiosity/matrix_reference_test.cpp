@@ -6,7 +6,6 @@
 #include "penumbra/io/scene_io.h"
 #include "penumbra/radiosity/jacobi_gl.h"
 #include "penumbra/radiosity/matrix_radiosity.h"
-#include "penumbra/render/lightmap_view.h"
 #include "penumbra/scene/builtin.h"
 #include "support/image_compare.h"
 #include "support/test_util.h"
@@ -25,12 +24,8 @@ using test::luminance;
 using test::pathTracedReference;
 
 Image view(const MatrixRadiosity& mr, const Camera& camera, int width, int height, int spp) {
-  LightmapViewSettings v;
-  v.width = width;
-  v.height = height;
-  v.spp = spp;
-  return renderLightmapView(mr.surface.flat.positions, mr.surface.flat.triangles, mr.surface.atlas,
-                            mr.radianceImage(), camera, v);
+  return test::lightmapView(mr.surface.flat, mr.surface.atlas, mr.radianceImage(), camera, width,
+                            height, spp);
 }
 
 TEST(MatrixRadiosity, CornellImageAgreesWithThePathTracer) {
@@ -48,11 +43,7 @@ TEST(MatrixRadiosity, CornellImageAgreesWithThePathTracer) {
   const Image& reference =
       pathTracedReference("cornell64", *cornell, *cornell->camera, kSize, kSize, 2048);
   // Lit pixels that do not see the light itself (as the progressive method's test).
-  std::vector<uint8_t> lit(reference.pixels.size(), 0);
-  for (size_t i = 0; i < lit.size(); ++i) {
-    const double l = luminance(reference.pixels[i]);
-    lit[i] = l > 1e-3 && l < 1.0;
-  }
+  const std::vector<uint8_t> lit = test::litPixels(reference, 1.0);
   const double error = test::relativeRms(image, reference, lit);
   const test::BlockComparison blocks = compareBlocks(image, reference, 4, 1.0);
   std::printf(

@@ -8,7 +8,6 @@
 #include "penumbra/io/scene_io.h"
 #include "penumbra/radiosity/matrix_radiosity.h"
 #include "penumbra/radiosity/progressive.h"
-#include "penumbra/render/lightmap_view.h"
 #include "support/image_compare.h"
 #include "support/test_util.h"
 
@@ -134,12 +133,8 @@ Image matrixView(const Scene& scene, const Camera& camera, uint32_t clusters) {
   SolveOptions so;
   so.tolerance = 1e-8;
   EXPECT_TRUE(mr->solve(so).converged);
-  LightmapViewSettings v;
-  v.width = kWidth;
-  v.height = kHeight;
-  v.spp = 16;
-  return renderLightmapView(mr->surface.flat.positions, mr->surface.flat.triangles,
-                            mr->surface.atlas, mr->radianceImage(), camera, v);
+  return test::lightmapView(mr->surface.flat, mr->surface.atlas, mr->radianceImage(), camera,
+                            kWidth, kHeight, 16);
 }
 
 TEST(RealScenes, GltfRoomFromBlenderAgreesWithThePathTracerWithEveryRadiosityMethod) {
@@ -160,12 +155,8 @@ TEST(RealScenes, GltfRoomFromBlenderAgreesWithThePathTracerWithEveryRadiosityMet
   Expected<ProgressiveRadiosity> pr = ProgressiveRadiosity::build(*scene, po);
   ASSERT_TRUE(pr.ok()) << pr.error().describe();
   ASSERT_TRUE(pr->solve().converged);
-  LightmapViewSettings v;
-  v.width = kWidth;
-  v.height = kHeight;
-  v.spp = 16;
-  const Image progressive = renderLightmapView(pr->triangles().positions, pr->triangles().triangles,
-                                               pr->atlas(), pr->radianceImage(), camera, v);
+  const Image progressive = test::lightmapView(pr->triangles(), pr->atlas(), pr->radianceImage(),
+                                               camera, kWidth, kHeight, 16);
   const Image matrix = matrixView(*scene, camera, 3000);
   for (const auto& [name, image] :
        std::map<std::string, const Image*>{{"progressive", &progressive}, {"matrix", &matrix}}) {

@@ -1,11 +1,13 @@
 #include "support/image_compare.h"
 
 #include "penumbra/raytrace/path_tracer.h"
+#include "penumbra/render/lightmap_view.h"
 
 #include <cmath>
 #include <map>
 #include <memory>
 #include <mutex>
+#include <utility>
 
 namespace penumbra::test {
 
@@ -62,20 +64,39 @@ BlockComparison compareBlocks(const Image& image, const Image& reference, int bl
 }
 
 const Image& pathTracedReference(const std::string& key, const Scene& scene, const Camera& camera,
-                                 int width, int height, int spp) {
+                                 int width, int height, int spp, uint64_t seed) {
   static std::mutex mutex;
-  static std::map<std::string, std::unique_ptr<Image>> cache;
+  static std::map<std::pair<std::string, uint64_t>, std::unique_ptr<Image>> cache;
   const std::lock_guard<std::mutex> lock(mutex);
-  std::unique_ptr<Image>& slot = cache[key];
+  std::unique_ptr<Image>& slot = cache[{key, seed}];
   if (!slot) {
     const PathTracer tracer(scene);
     PathTracerSettings pt;
     pt.width = width;
     pt.height = height;
     pt.spp = spp;
+    pt.seed = seed;
     slot = std::make_unique<Image>(tracer.render(camera, pt));
   }
   return *slot;
+}
+
+std::vector<uint8_t> litPixels(const Image& reference, double emitter_luminance) {
+  std::vector<uint8_t> lit(reference.pixels.size(), 0);
+  for (size_t i = 0; i < lit.size(); ++i) {
+    const double l = luminance(reference.pixels[i]);
+    lit[i] = l > 1e-3 && l < emitter_luminance;
+  }
+  return lit;
+}
+
+Image lightmapView(const FlatTriangles& flat, const ChartAtlas& atlas, const Image& lightmap,
+                   const Camera& camera, int width, int height, int spp) {
+  LightmapViewSettings v;
+  v.width = width;
+  v.height = height;
+  v.spp = spp;
+  return renderLightmapView(flat.positions, flat.triangles, atlas, lightmap, camera, v);
 }
 
 }  // namespace penumbra::test

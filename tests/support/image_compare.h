@@ -4,6 +4,7 @@
 #pragma once
 
 #include "penumbra/core/image.h"
+#include "penumbra/geometry/chart_atlas.h"
 #include "penumbra/scene/camera.h"
 #include "penumbra/scene/scene.h"
 
@@ -30,9 +31,20 @@ struct BlockComparison {
 BlockComparison compareBlocks(const Image& image, const Image& reference, int block,
                               double emitter_luminance);
 
-// The path tracer's image of `scene` from `camera` (w x h, spp samples per pixel, seed 0),
-// rendered once per process for each `key` and kept.
+// The path tracer's image of `scene` from `camera` (w x h, spp samples per pixel, `seed`),
+// rendered once per process for each (`key`, seed) and kept: tests comparing methods on the same
+// view share one reference.
 const Image& pathTracedReference(const std::string& key, const Scene& scene, const Camera& camera,
-                                 int width, int height, int spp);
+                                 int width, int height, int spp, uint64_t seed = 0);
+
+// The pixels of `reference` that are lit (luminance above 1e-3) and do not see an emitter
+// (luminance below `emitter_luminance`: an emitter's outline, where antialiasing decides, would
+// swamp every other pixel).
+std::vector<uint8_t> litPixels(const Image& reference, double emitter_luminance);
+
+// The camera's view through a lightmap of the chart atlas (bilinear lookups, as a lightmapped
+// scene is displayed), `spp` jittered rays per pixel.
+Image lightmapView(const FlatTriangles& flat, const ChartAtlas& atlas, const Image& lightmap,
+                   const Camera& camera, int width, int height, int spp);
 
 }  // namespace penumbra::test
