@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <climits>
+#include <cmath>
 #include <cstdint>
 #include <queue>
 
@@ -190,15 +191,19 @@ std::vector<glm::dvec3> SurfaceHierarchy::interpolate(const ChartAtlas& atlas,
         return at(x1 + 1, y1 + 1) - at(x0, y1 + 1) - at(x1 + 1, y0) + at(x0, y0);
       };
       for (uint32_t e = first; e < last; ++e) {
-        const ClusterRef k = cut[owner[e]];
-        if (k.level == 0) {
+        // A box of the cluster's width s centred on the texel's centre: texels t - s/2 ..
+        // t + s/2, the two end ones weighted by 1/2 along each axis, i.e. the mean of the four
+        // boxes (outer or inner along x) x (outer or inner along y). s is sqrt of the cluster's
+        // element count (2^l for a full block of level l), not 2^l itself: a block cut short by
+        // its chart's edge holds fewer elements and stays at a coarser level than its full
+        // neighbours, and a window of its level's size would jump there (visible bands along
+        // the edges of walls).
+        const uint32_t count = elementEnd(cut[owner[e]]) - elementBegin(cut[owner[e]]);
+        const int r = int(std::lround(0.5 * std::sqrt(double(count))));
+        if (count <= 1 || r == 0) {
           out[e] = values[owner[e]];
           continue;
         }
-        // A box of width s = 2^l centred on the texel's centre: texels t - s/2 .. t + s/2, the
-        // two end ones weighted by 1/2 along each axis, i.e. the mean of the four boxes
-        // (outer or inner along x) x (outer or inner along y).
-        const int r = 1 << (k.level - 1);
         const glm::ivec2 t = atlas.texelOf(e) - pl.origin;
         const glm::dvec4 sum = box(t.x - r, t.y - r, t.x + r, t.y + r) +
                                box(t.x - r + 1, t.y - r, t.x + r - 1, t.y + r) +

@@ -74,11 +74,12 @@ class SurfaceHierarchy {
   std::vector<ClusterRef> cut(size_t n) const;
 
   // Values given per cluster of a cut (cut(n)'s order) interpolated to every element: within
-  // each chart, the area-weighted mean of the piecewise-constant cut values over a window of
-  // 2^l x 2^l texels centred on the element, l its cluster's level. Where neighbouring clusters
-  // have the same level this is bilinear interpolation between their centres (a box filter of a
-  // block's width over blocks); at a chart's boundary the value extends flat. Lookups never
-  // cross charts. `atlas` is the one the hierarchy was built from.
+  // each chart, the area-weighted mean of the piecewise-constant cut values over a square window
+  // centred on the element, as wide as the square root of its cluster's element count (2^l for a
+  // full block of level l). Where neighbouring clusters are full blocks of the same level this
+  // is bilinear interpolation between their centres (a box filter of a block's width over
+  // blocks); at a chart's boundary the value extends flat. Lookups never cross charts. `atlas` is
+  // the one the hierarchy was built from.
   std::vector<glm::dvec3> interpolate(const ChartAtlas& atlas, std::span<const ClusterRef> cut,
                                       std::span<const glm::dvec3> values) const;
 
