@@ -305,8 +305,16 @@ struct Adjacency {
   std::vector<uint32_t> face;
 };
 
-// Faces sharing an edge (by welded vertex ids).
-Adjacency adjacency(const std::vector<FaceGeometry>& geo) {
+// Faces sharing an edge (by welded vertex ids) across which one chart may grow: the same
+// material and normals within the crease angle. Nothing else can join a chart, so growth,
+// relaxation and merging see only these edges (the two sides of a two-sided surface, facing
+// opposite ways, are never adjacent, so they fall into separate components).
+Adjacency adjacency(const std::vector<FaceGeometry>& geo, std::span<const SurfaceFace> faces,
+                    std::span<const uint32_t> material_ids, double cos_crease) {
+  auto joinable = [&](uint32_t a, uint32_t b) {
+    return material_ids[faces[a].triangle] == material_ids[faces[b].triangle] &&
+           glm::dot(geo[a].normal, geo[b].normal) >= cos_crease;
+  };
   struct EdgeFace {
     uint64_t key;
     uint32_t face;
@@ -332,7 +340,7 @@ Adjacency adjacency(const std::vector<FaceGeometry>& geo) {
     if (j - i <= 8) {
       for (size_t a = i; a < j; ++a) {
         for (size_t b = a + 1; b < j; ++b) {
-          if (edges[a].face == edges[b].face) continue;
+          if (edges[a].face == edges[b].face || !joinable(edges[a].face, edges[b].face)) continue;
           pairs.emplace_back(edges[a].face, edges[b].face);
           pairs.emplace_back(edges[b].face, edges[a].face);
         }
@@ -441,8 +449,9 @@ ChartSet buildCharts(std::span<const glm::vec3> positions, std::span<const glm::
     PENUMBRA_CHECK(faces[f].triangle < triangles.size());
     geo[f] = faceGeometry(positions, triangles, weld, faces[f]);
   }
-  const Adjacency adj = adjacency(geo);
-
+  const double cos_cone = std::cos(options.max_cone_deg * kDegree);
+  const double cos_crease = std::cos(options.crease_deg * kDegree);
+  const Adjacency adj = adjacency(geo, faces, material_ids, cos_crease);
   ChartSet set;
   set.face_chart.assign(nf, -1);
   set.uv.assign(3 * nf, glm::dvec2(0.0));
@@ -451,8 +460,37 @@ ChartSet buildCharts(std::span<const glm::vec3> positions, std::span<const glm::
   std::iota(seeds.begin(), seeds.end(), 0u);
   std::stable_sort(seeds.begin(), seeds.end(),
                    [&](uint32_t a, uint32_t b) { return geo[a].area > geo[b].area; });
-  const double cos_cone = std::cos(options.max_cone_deg * kDegree);
-  const double cos_crease = std::cos(options.crease_deg * kDegree);
+
+  // Connected components of the adjacency: what one chart can span at most. Charts never cross
+  // them, so each component grows and relaxes on its own, in parallel, with the same result as
+  // one pass over all faces.
+  std::vector<uint32_t> component(nf, UINT32_MAX);
+  size_t component_count = 0;
+  {
+    std::vector<uint32_t> stack;
+    for (uint32_t f0 = 0; f0 < nf; ++f0) {
+      if (component[f0] != UINT32_MAX) continue;
+      const uint32_t id = uint32_t(component_count++);
+      component[f0] = id;
+      stack.push_back(f0);
+      while (!stack.empty()) {
+        const uint32_t f = stack.back();
+        stack.pop_back();
+        for (uint32_t q = adj.first[f]; q < adj.first[f + 1]; ++q) {
+          const uint32_t g = adj.face[q];
+          if (component[g] == UINT32_MAX) {
+            component[g] = id;
+            stack.push_back(g);
+          }
+        }
+      }
+    }
+  }
+  // Each component's seeds, in the global order (largest face first).
+  std::vector<std::vector<uint32_t>> component_seeds(component_count);
+  for (uint32_t rank = 0; rank < nf; ++rank) {
+    if (geo[seeds[rank]].area > 0.0) component_seeds[component[seeds[rank]]].push_back(rank);
+  }
 
   struct Candidate {
     double cost;
@@ -461,12 +499,10 @@ ChartSet buildCharts(std::span<const glm::vec3> positions, std::span<const glm::
       return cost != o.cost ? cost > o.cost : face > o.face;
     }
   };
-  // Grows one chart from `seed` over unassigned faces (the first pass, and faces that the
-  // relaxation below leaves to no chart).
-  auto growFrom = [&](uint32_t seed) {
-    const int32_t id = int32_t(set.charts.size());
-    Chart chart;
-    const uint32_t material = material_ids[faces[seed].triangle];
+  // Grows one chart, labelled `id` in set.face_chart, from `seed` over unassigned faces (the
+  // first pass, and faces that the relaxation below leaves to no chart). Touches only the seed's
+  // component.
+  auto growFrom = [&](uint32_t seed, int32_t id, Chart& chart) {
     glm::dvec3 sum_n = geo[seed].normal * geo[seed].area;
     double area = geo[seed].area;
     const glm::dvec3 origin = geo[seed].centroid;
@@ -490,41 +526,37 @@ ChartSet buildCharts(std::span<const glm::vec3> positions, std::span<const glm::
       const Candidate c = heap.top();
       heap.pop();
       if (set.face_chart[c.face] >= 0) continue;
-      if (material_ids[faces[c.face].triangle] != material) continue;
+      // Material and crease rules hold for every edge of the adjacency.
       const glm::dvec3& n = geo[c.face].normal;
       if (glm::dot(n, glm::normalize(sum_n)) < cos_cone) continue;
-      if (glm::dot(n, geo[c.from].normal) < cos_crease) continue;
       sum_n += n * geo[c.face].area;
       area += geo[c.face].area;
       accept(c.face);
     }
-    set.charts.push_back(std::move(chart));
   };
-  for (uint32_t seed : seeds) {
-    if (set.face_chart[seed] < 0 && geo[seed].area > 0.0) growFrom(seed);
-  }
-
-  // Connected components of the adjacency (what one chart can span at most).
-  std::vector<uint32_t> component(nf, UINT32_MAX);
-  size_t component_count = 0;
   {
-    std::vector<uint32_t> stack;
-    for (uint32_t f0 = 0; f0 < nf; ++f0) {
-      if (component[f0] != UINT32_MAX) continue;
-      const uint32_t id = uint32_t(component_count++);
-      component[f0] = id;
-      stack.push_back(f0);
-      while (!stack.empty()) {
-        const uint32_t f = stack.back();
-        stack.pop_back();
-        for (uint32_t q = adj.first[f]; q < adj.first[f + 1]; ++q) {
-          const uint32_t g = adj.face[q];
-          if (component[g] == UINT32_MAX) {
-            component[g] = id;
-            stack.push_back(g);
-          }
+    // Labelled by the seed's rank while components grow in parallel, then numbered in seed
+    // order.
+    std::vector<std::pair<uint32_t, Chart>> grown;
+    std::vector<std::vector<std::pair<uint32_t, Chart>>> per_component(component_count);
+    parallelRange(component_count, 1, [&](size_t b, size_t e) {
+      for (size_t k = b; k < e; ++k) {
+        for (uint32_t rank : component_seeds[k]) {
+          if (set.face_chart[seeds[rank]] >= 0) continue;
+          Chart chart;
+          growFrom(seeds[rank], int32_t(rank), chart);
+          per_component[k].emplace_back(rank, std::move(chart));
         }
       }
+    });
+    for (auto& list : per_component) {
+      for (auto& entry : list) grown.push_back(std::move(entry));
+    }
+    std::sort(grown.begin(), grown.end(),
+              [](const auto& a, const auto& b) { return a.first < b.first; });
+    for (auto& entry : grown) {
+      for (uint32_t f : entry.second.faces) set.face_chart[f] = int32_t(set.charts.size());
+      set.charts.push_back(std::move(entry.second));
     }
   }
 
@@ -538,7 +570,7 @@ ChartSet buildCharts(std::span<const glm::vec3> positions, std::span<const glm::
     const size_t nc = set.charts.size();
     std::vector<glm::dvec3> normal(nc), centre(nc);
     std::vector<double> radius(nc);
-    std::vector<uint32_t> seed(nc), material(nc);
+    std::vector<uint32_t> seed(nc);
     parallelRange(nc, 64, [&](size_t c_begin, size_t c_end) {
       for (size_t c = c_begin; c < c_end; ++c) {
         glm::dvec3 sn(0.0), sc(0.0);
@@ -551,7 +583,6 @@ ChartSet buildCharts(std::span<const glm::vec3> positions, std::span<const glm::
         normal[c] = glm::normalize(sn);
         centre[c] = sc / area;
         radius[c] = std::sqrt(area / kPi);
-        material[c] = material_ids[faces[set.charts[c].faces[0]].triangle];
         double best = std::numeric_limits<double>::max();
         for (uint32_t f : set.charts[c].faces) {
           const double cost = glm::length(geo[f].centroid - centre[c]) / radius[c] +
@@ -563,8 +594,6 @@ ChartSet buildCharts(std::span<const glm::vec3> positions, std::span<const glm::
         }
       }
     });
-    // Charts never cross connected components, so each component regrows on its own (in
-    // parallel; the result is the same as one queue over all of them).
     std::fill(set.face_chart.begin(), set.face_chart.end(), -1);
     for (size_t c = 0; c < nc; ++c) set.face_chart[seed[c]] = int32_t(c);
     std::vector<std::vector<uint32_t>> component_charts(component_count);
@@ -572,13 +601,18 @@ ChartSet buildCharts(std::span<const glm::vec3> positions, std::span<const glm::
     parallelRange(component_count, 1, [&](size_t b, size_t e) {
       for (size_t k = b; k < e; ++k) {
         std::priority_queue<Candidate, std::vector<Candidate>, std::greater<>> heap;
+        // The chart a candidate would join is its `from` face's, fixed when it is pushed, so
+        // the cone rule is applied then (material and crease hold for every edge).
         auto push = [&](uint32_t f, int32_t c) {
+          const glm::dvec3& mean = normal[size_t(c)];
           for (uint32_t q = adj.first[f]; q < adj.first[f + 1]; ++q) {
             const uint32_t g = adj.face[q];
             if (set.face_chart[g] >= 0) continue;
+            const double facing = glm::dot(geo[g].normal, mean);
+            if (facing < cos_cone) continue;
             const double cost =
                 glm::length(geo[g].centroid - geo[seed[size_t(c)]].centroid) / radius[size_t(c)] +
-                2.0 * (1.0 - glm::dot(geo[g].normal, normal[size_t(c)]));
+                2.0 * (1.0 - facing);
             heap.push({cost, g, f});
           }
         };
@@ -588,10 +622,6 @@ ChartSet buildCharts(std::span<const glm::vec3> positions, std::span<const glm::
           heap.pop();
           if (set.face_chart[cand.face] >= 0) continue;
           const int32_t c = set.face_chart[cand.from];
-          if (material_ids[faces[cand.face].triangle] != material[size_t(c)]) continue;
-          const glm::dvec3& n = geo[cand.face].normal;
-          if (glm::dot(n, normal[size_t(c)]) < cos_cone) continue;
-          if (glm::dot(n, geo[cand.from].normal) < cos_crease) continue;
           set.face_chart[cand.face] = c;
           push(cand.face, c);
         }
@@ -602,7 +632,11 @@ ChartSet buildCharts(std::span<const glm::vec3> positions, std::span<const glm::
       if (set.face_chart[f] >= 0) set.charts[size_t(set.face_chart[f])].faces.push_back(f);
     }
     for (uint32_t s : seeds) {
-      if (set.face_chart[s] < 0 && geo[s].area > 0.0) growFrom(s);
+      if (set.face_chart[s] < 0 && geo[s].area > 0.0) {
+        Chart chart;
+        growFrom(s, int32_t(set.charts.size()), chart);
+        set.charts.push_back(std::move(chart));
+      }
     }
   }
   for (Chart& chart : set.charts) std::sort(chart.faces.begin(), chart.faces.end());

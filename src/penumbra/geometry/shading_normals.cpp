@@ -47,11 +47,45 @@ std::vector<glm::vec3> cornerShadingNormals(const Scene& scene, double crease_de
       }
     }
   }
-  // Welded corners: the triangles meeting at each distinct position.
-  std::unordered_map<glm::vec3, std::vector<uint32_t>, PositionHash> at;
+  // Welded corners: the triangles meeting at each distinct position (ids by position, then
+  // the triangles of each id in one array).
+  std::unordered_map<glm::vec3, uint32_t, PositionHash> id_of;
+  id_of.reserve(flat.positions.size());
+  std::vector<uint32_t> weld(flat.positions.size());
+  for (size_t i = 0; i < flat.positions.size(); ++i) {
+    weld[i] = id_of.emplace(flat.positions[i], uint32_t(id_of.size())).first->second;
+  }
+  std::vector<uint32_t> first(id_of.size() + 1, 0);
+  auto counted = [&](size_t t) { return area2[t] > 0.0 && mesh_of[t]->normals.empty(); };
   for (size_t t = 0; t < nt; ++t) {
-    if (area2[t] <= 0.0 || !mesh_of[t]->normals.empty()) continue;
-    for (int k = 0; k < 3; ++k) at[flat.positions[flat.triangles[t][k]]].push_back(uint32_t(t));
+    if (!counted(t)) continue;
+    for (int k = 0; k < 3; ++k) ++first[weld[flat.triangles[t][k]] + 1];
+  }
+  for (size_t i = 1; i < first.size(); ++i) first[i] += first[i - 1];
+  // (triangle, corner) pairs at each welded position.
+  std::vector<std::pair<uint32_t, uint32_t>> at(first.back());
+  {
+    std::vector<uint32_t> next(first.begin(), first.end() - 1);
+    for (size_t t = 0; t < nt; ++t) {
+      if (!counted(t)) continue;
+      for (uint32_t k = 0; k < 3; ++k) at[next[weld[flat.triangles[t][k]]]++] = {uint32_t(t), k};
+    }
+  }
+  // Each triangle's angle at each corner: the weight of its normal there (Thuermer and
+  // Wuethrich 1998): the result does not depend on how a face was split into triangles, as
+  // area weights do.
+  std::vector<glm::dvec3> angle(nt, glm::dvec3(0.0));
+  for (size_t t = 0; t < nt; ++t) {
+    if (!counted(t)) continue;
+    for (int c = 0; c < 3; ++c) {
+      const glm::dvec3 here(flat.positions[flat.triangles[t][c]]);
+      const glm::dvec3 a = glm::dvec3(flat.positions[flat.triangles[t][(c + 1) % 3]]) - here;
+      const glm::dvec3 b = glm::dvec3(flat.positions[flat.triangles[t][(c + 2) % 3]]) - here;
+      const double la = glm::length(a), lb = glm::length(b);
+      if (la > 0.0 && lb > 0.0) {
+        angle[t][c] = std::acos(std::clamp(glm::dot(a, b) / (la * lb), -1.0, 1.0));
+      }
+    }
   }
   const double cos_crease = std::cos(crease_deg * 3.14159265358979323846 / 180.0);
   for (size_t t = 0; t < nt; ++t) {
@@ -61,19 +95,11 @@ std::vector<glm::vec3> cornerShadingNormals(const Scene& scene, double crease_de
       if (!mesh_of[t]->normals.empty()) {
         n = glm::dvec3(mesh_of[t]->normals[local[t][k]]);
       } else {
-        const glm::vec3 here = flat.positions[flat.triangles[t][k]];
-        for (uint32_t u : at[here]) {
+        const uint32_t w = weld[flat.triangles[t][k]];
+        for (uint32_t i = first[w]; i < first[w + 1]; ++i) {
+          const auto [u, c] = at[i];
           if (glm::dot(face[u], face[t]) < cos_crease) continue;
-          // Weighted by the triangle's angle at the corner (Thuermer and Wuethrich 1998): the
-          // result does not depend on how a face was split into triangles, as area weights do.
-          const glm::uvec3 tri = flat.triangles[u];
-          int c = 0;
-          while (c < 2 && flat.positions[tri[c]] != here) ++c;
-          const glm::dvec3 a = glm::dvec3(flat.positions[tri[(c + 1) % 3]]) - glm::dvec3(here);
-          const glm::dvec3 b = glm::dvec3(flat.positions[tri[(c + 2) % 3]]) - glm::dvec3(here);
-          const double la = glm::length(a), lb = glm::length(b);
-          if (la <= 0.0 || lb <= 0.0) continue;
-          n += face[u] * std::acos(std::clamp(glm::dot(a, b) / (la * lb), -1.0, 1.0));
+          n += face[u] * angle[u][int(c)];
         }
       }
       const double len = glm::length(n);
