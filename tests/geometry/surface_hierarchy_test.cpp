@@ -8,6 +8,9 @@
 #include <gtest/gtest.h>
 #include <glm/geometric.hpp>
 
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
 #include <vector>
 
 namespace penumbra {
@@ -119,6 +122,61 @@ TEST(SurfaceHierarchy, CutGivesTheClusterCountAskedForOnAScan) {
   // Asking for more than the elements gives the elements.
   const std::vector<ClusterRef> all = b.hierarchy.cut(b.atlas.elementCount() * 2);
   EXPECT_EQ(all.size(), b.atlas.elementCount());
+}
+
+TEST(SurfaceHierarchy, InterpolationIsContinuousAndReproducesALinearField) {
+  // A 5 x 3 m wall of two triangles at 20 texels per metre, cut into about 60 clusters (blocks
+  // up to 16 x 16 texels, some cut short by the chart's edge). Cluster values of a linear field
+  // f(p) = 2 x + y, taken at the clusters' centroids, interpolated to the elements: the result
+  // follows f, and neighbouring texels differ by about one texel's step of f, not by a
+  // cluster's (bands along the wall where blocks meet).
+  const std::vector<glm::vec3> positions = {{0, 0, 0}, {5, 0, 0}, {5, 3, 0}, {0, 3, 0}};
+  const std::vector<glm::uvec3> triangles = {{0, 1, 2}, {0, 2, 3}};
+  const std::vector<uint32_t> materials = {0, 0};
+  const std::vector<SurfaceFace> faces = {{0, false}, {1, false}};
+  ChartAtlasOptions o;
+  o.texel_density = 20.0;
+  Expected<ChartAtlas> a = buildChartAtlas(positions, triangles, materials, faces, o);
+  ASSERT_TRUE(a.ok()) << a.error().message;
+  ASSERT_EQ(a->chartCount(), 1u);
+  const SurfaceHierarchy h = SurfaceHierarchy::build(*a);
+  const std::vector<ClusterRef> cut = h.cut(60);
+  auto f = [](const glm::dvec3& p) { return 2.0 * p.x + p.y; };
+  std::vector<glm::dvec3> values;
+  uint32_t largest = 0;
+  for (const ClusterRef& c : cut) {
+    values.emplace_back(f(h.level(c.level).position[c.index]));
+    largest = std::max(largest, h.elementEnd(c) - h.elementBegin(c));
+  }
+  ASSERT_GE(largest, 64u);  // blocks of at least 8 x 8 texels
+  const std::vector<glm::dvec3> out = h.interpolate(*a, cut, values);
+  ASSERT_EQ(out.size(), a->elementCount());
+  const double texel = 1.0 / a->texel_density;
+  const double step = 2.0 * texel;  // f's largest change from one texel to the next
+  double worst_step = 0.0, worst_error = 0.0;
+  for (uint32_t e = 0; e < a->elementCount(); ++e) {
+    EXPECT_EQ(out[e].x, out[e].y);
+    worst_error = std::max(worst_error, std::fabs(out[e].x - f(a->element_position[e])));
+    const uint32_t t = a->element_texel[e];
+    const int x = int(t % uint32_t(a->width)), y = int(t / uint32_t(a->width));
+    for (const glm::ivec2 d : {glm::ivec2(1, 0), glm::ivec2(0, 1)}) {
+      const int nx = x + d.x, ny = y + d.y;
+      if (nx >= a->width || ny >= a->height) continue;
+      const int32_t n = a->texel_element[size_t(ny) * size_t(a->width) + size_t(nx)];
+      if (n < 0) continue;
+      worst_step = std::max(worst_step, std::fabs(out[size_t(n)].x - out[e].x));
+    }
+  }
+  std::printf(
+      "interpolation on a wall: largest step %.3f (one texel of f: %.3f), largest error "
+      "%.3f\n",
+      worst_step, step, worst_error);
+  // Bands would step by a block's width of f (8 texels and more); a box filter's slope is f's,
+  // steeper by up to half where the window is clipped at the chart's edge.
+  EXPECT_LE(worst_step, 3.0 * step);
+  // Off f by at most half the largest block's width along both axes (flat at the edges):
+  // (2 + 1) per metre times half a block.
+  EXPECT_LE(worst_error, 3.0 * 0.5 * std::sqrt(double(largest)) * texel * 1.01);
 }
 
 }  // namespace
