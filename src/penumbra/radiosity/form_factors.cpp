@@ -48,21 +48,22 @@ struct PairEvaluator {
   }
 
   // Lambert's form factor from element a's point to element b's pieces (0 when the point is
-  // behind b).
+  // behind b), with angleFast's angles (relative error about 1e-6: far below the discretisation;
+  // each pair is evaluated once, so reciprocity is untouched).
   double pointToElement(uint32_t a, uint32_t b) {
     const glm::dvec3 x = s.atlas.element_position[a], n = s.atlas.element_normal[a];
     if (glm::dot(s.atlas.element_normal[b], x - s.atlas.element_position[b]) <= 0.0) return 0.0;
     double f = 0.0;
     if (!cache.empty()) {
       for (uint32_t p = cache.piece_first[b]; p < cache.piece_first[b + 1]; ++p) {
-        f += pointToPolygonFormFactor(x, n, cache.corners.data() + cache.corner_first[p],
-                                      int(cache.corner_first[p + 1] - cache.corner_first[p]));
+        f += pointToPolygonFormFactor<true>(x, n, cache.corners.data() + cache.corner_first[p],
+                                            int(cache.corner_first[p + 1] - cache.corner_first[p]));
       }
       return f;
     }
     s.atlas.elementPieces(b, s.flat.positions, s.flat.triangles, polygons, counts);
     for (size_t k = 0; k < counts.size(); ++k) {
-      f += pointToPolygonFormFactor(x, n, polygons[k].data(), counts[k]);
+      f += pointToPolygonFormFactor<true>(x, n, polygons[k].data(), counts[k]);
     }
     return f;
   }

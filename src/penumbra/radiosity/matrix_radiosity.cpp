@@ -3,6 +3,7 @@
 #include "penumbra/core/check.h"
 #include "penumbra/core/memory.h"
 #include "penumbra/core/parallel.h"
+#include "penumbra/core/timer.h"
 
 #include <fmt/format.h>
 
@@ -161,6 +162,9 @@ Expected<MatrixRadiosity> buildMatrixRadiosity(const Scene& scene,
   PENUMBRA_TRY(
       checkMemory(matrixRadiosityBytes(n, options.precision),
                   fmt::format("matrix radiosity with {} elements ({} form factors)", n, n * n)));
+  // Everything transport takes, timed together: the pieces, the clusters' form factors, the
+  // lights' shadow rays and the emitters' per-element form factors.
+  const Timer transport_timer;
   const ElementPieces pieces = ElementPieces::build(mr.surface);
   Expected<FormFactorMatrix> f = computeFormFactors(
       mr.surface, mr.clusters, options.form_factors, &mr.form_factor_stats,
@@ -194,6 +198,7 @@ Expected<MatrixRadiosity> buildMatrixRadiosity(const Scene& scene,
       mr.element_ff = std::move(*ff);
     }
   }
+  mr.form_factor_stats.seconds = transport_timer.seconds();
   mr.radiosity.assign(n, glm::vec3(0.0f));
   return mr;
 }
