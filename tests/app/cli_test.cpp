@@ -237,6 +237,16 @@ TEST(Cli, SceneSettingsApplyAndCommandLineWins) {
   EXPECT_EQ(err.exit_code, 2);
   EXPECT_NE(err.output.find("settings.pathtrace.sppp"), std::string::npos) << err.output;
   EXPECT_FALSE(fs::exists(dir.file("b.pfm")));
+  // A value out of range names the file, the key and the value (2^40 does not wrap).
+  scene["settings"]["pathtrace"].erase("sppp");
+  scene["settings"]["pathtrace"]["spp"] = uint64_t(1) << 40;
+  const std::string big = dir.write("big.json", scene.dump());
+  const auto range = runCli("render " + big + " --quiet -o " + dir.file("c.pfm"));
+  EXPECT_EQ(range.exit_code, 2);
+  EXPECT_NE(range.output.find("big.json: settings.pathtrace.spp: 1099511627776 is out of range"),
+            std::string::npos)
+      << range.output;
+  EXPECT_FALSE(fs::exists(dir.file("c.pfm")));
 }
 
 struct BadCase {

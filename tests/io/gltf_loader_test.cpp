@@ -2,6 +2,7 @@
 // with a node hierarchy (translation, rotation, scale), an emissive material with
 // KHR_materials_emissive_strength, KHR_lights_punctual point and spot lights and a camera; and
 // malformed files whose errors name the file and the accessor, vertex or extension.
+#include "penumbra/core/file_util.h"
 #include "penumbra/io/scene_io.h"
 #include "support/test_util.h"
 
@@ -293,12 +294,107 @@ TEST(GltfLoad, ErrorsNameFileAndPlace) {
     TestGltf g = makeTestGltf();
     std::string bytes = g.doc.dump();
     const std::string p = dir.write("truncated.glb", std::string("glTF") + bytes.substr(0, 10));
-    EXPECT_TRUE(errorNames(loadGltf(p), p, "glTF"));
+    EXPECT_TRUE(errorNames(loadGltf(p), p, "cut short"));
   }
   const std::string missing = dir.file("missing.glb");
   EXPECT_TRUE(errorNames(loadGltf(missing), missing, "no such file"));
   const std::string empty = dir.write("empty.gltf", "");
   EXPECT_TRUE(errorNames(loadGltf(empty), empty, "empty"));
+}
+
+TEST(GltfLoad, ADeepChainOfNodesLoadsWithItsTransformsComposed) {
+  // 20,000 nodes, each a child of the one before and moved 1 mm along x; the last holds the
+  // quad. A recursive walk overflows the stack long before.
+  TempDir dir;
+  TestGltf g = makeTestGltf();
+  const int depth = 20000;
+  json nodes = json::array();
+  for (int i = 0; i < depth; ++i) {
+    json n = {{"translation", {0.001, 0.0, 0.0}}};
+    if (i + 1 < depth) n["children"] = {i + 1};
+    if (i + 1 == depth) n["mesh"] = 0;
+    nodes.push_back(n);
+  }
+  g.doc["nodes"] = nodes;
+  g.doc["scenes"][0]["nodes"] = {0};
+  g.doc.erase("extensionsUsed");
+  g.doc["extensions"].clear();
+  g.doc.erase("cameras");
+  Expected<Scene> s = loadGltf(writeGltf(dir, "chain.gltf", g));
+  ASSERT_TRUE(s.ok()) << s.error().describe();
+  ASSERT_EQ(s->meshes.size(), 1u);
+  expectNear(s->meshes[0].positions[0], {0.001f * depth, 0, 0}, 1e-3f);
+  expectNear(s->meshes[0].positions[2], {0.001f * depth + 1, 1, 0}, 1e-3f);
+}
+
+TEST(GltfLoad, HostileFilesAreRefusedBeforeTheWork) {
+  TempDir dir;
+  {
+    // A DAG: node 0 lists its child twice; 30 such levels would instance the quad 2^30 times.
+    TestGltf g = makeTestGltf();
+    g.doc["nodes"][0]["children"] = {1, 1};
+    const std::string p = writeGltf(dir, "twice.gltf", g);
+    EXPECT_TRUE(errorNames(loadGltf(p), p, "child 1 is listed twice"));
+  }
+  {
+    // ... and a node with two parents.
+    TestGltf g = makeTestGltf();
+    g.doc["nodes"][2]["children"] = {1};
+    const std::string p = writeGltf(dir, "twoparents.gltf", g);
+    EXPECT_TRUE(errorNames(loadGltf(p), p, "at most one parent"));
+  }
+  {
+    // A scene that lists a child node as a root.
+    TestGltf g = makeTestGltf();
+    g.doc["scenes"][0]["nodes"] = {0, 1};
+    const std::string p = writeGltf(dir, "childroot.gltf", g);
+    EXPECT_TRUE(errorNames(loadGltf(p), p, "scene 0"));
+  }
+  {
+    // A mesh instanced by many nodes whose accessors claim 3e7 triangles each: refused by the
+    // count, before any buffer is read.
+    TestGltf g = makeTestGltf();
+    json children = json::array();
+    for (int i = 0; i < 100; ++i) {
+      g.doc["nodes"].push_back({{"mesh", 0}});
+      children.push_back(5 + i);
+    }
+    g.doc["nodes"][0]["children"] = children;
+    g.doc["accessors"][2]["count"] = 90000000;
+    const std::string p = writeGltf(dir, "instances.gltf", g);
+    EXPECT_TRUE(errorNames(loadGltf(p), p, "3000000000 triangles"));
+  }
+  {
+    // extras nested 100,000 deep: refused with the place, not handed to the JSON parser.
+    TestGltf g = makeTestGltf();
+    std::string text = g.doc.dump();
+    const std::string deep = std::string(100000, '[') + std::string(100000, ']');
+    text.insert(1, "\"extras\": " + deep + ", ");
+    const std::string p = dir.write("deep.gltf", text);
+    EXPECT_TRUE(errorNames(loadGltf(p), p, "line 1, column 267: JSON nested more than 256"));
+  }
+  {
+    TestGltf g = makeTestGltf();
+    g.doc["asset"]["version"] = "1.0";
+    const std::string p = writeGltf(dir, "v1.gltf", g);
+    EXPECT_TRUE(errorNames(loadGltf(p), p, "asset.version: '1.0'"));
+  }
+  {
+    // GLB version 1 (glTF 1.0's binary extension).
+    TestGltf g = makeTestGltf();
+    const std::string p = writeGlb(dir, "v1.glb", g);
+    Expected<std::string> bytes = readFile(p);
+    ASSERT_TRUE(bytes.ok());
+    (*bytes)[4] = 1;
+    dir.write("v1.glb", *bytes);
+    EXPECT_TRUE(errorNames(loadGltf(p), p, "GLB version 1"));
+  }
+  {
+    TestGltf g = makeTestGltf();
+    g.doc["buffers"][0]["uri"] = ".";
+    const std::string p = dir.write("dot.gltf", g.doc.dump());
+    EXPECT_TRUE(errorNames(loadGltf(p), p, "buffers[0]: uri '.' does not name a file"));
+  }
 }
 
 TEST(GltfLoad, TexturesAndUnsupportedThingsWarn) {

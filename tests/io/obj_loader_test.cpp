@@ -3,7 +3,11 @@
 #include "penumbra/io/scene_io.h"
 #include "support/test_util.h"
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
+#include <glm/geometric.hpp>
+
+#include <cmath>
 
 #include <string>
 
@@ -101,6 +105,41 @@ TEST(ObjLoad, FanTriangulationMaterialsAndCorners) {
   EXPECT_FALSE(red.isEmissive());
 }
 
+TEST(ObjLoad, PolygonsOfAnySizeKeepEveryCornerInFileOrder) {
+  // A convex 1000-gon (a CAD export's disc) and a triangle after it: 998 + 1 triangles, the
+  // polygon's fan (v0 v_k v_k+1) in order, then the triangle, with the material it names.
+  TempDir dir;
+  dir.write("m.mtl", "newmtl red\nKd 0.6 0.1 0.1\n");
+  std::string text = "mtllib m.mtl\n";
+  const int n = 1000;
+  for (int k = 0; k < n; ++k) {
+    const double a = 2.0 * 3.14159265358979 * k / n;
+    text += fmt::format("v {} {} 0\n", std::cos(a), std::sin(a));
+  }
+  text += "v 0 0 1\nusemtl red\nf";
+  for (int k = 1; k <= n; ++k) text += fmt::format(" {}", k);
+  text += fmt::format("\nf 1 2 {}\n", n + 1);
+  Expected<Scene> s = loadObj(dir.write("disc.obj", text));
+  ASSERT_TRUE(s.ok()) << s.error().describe();
+  ASSERT_EQ(s->triangleCount(), size_t(n - 2 + 1));
+  const Mesh& m = s->meshes[0];
+  for (int k = 0; k < n - 2; ++k) {
+    ASSERT_EQ(m.positions[m.triangles[size_t(k)].x], m.positions[0]) << k;
+    ASSERT_EQ(m.positions[m.triangles[size_t(k)].y], m.positions[size_t(k + 1)]) << k;
+    ASSERT_EQ(m.positions[m.triangles[size_t(k)].z], m.positions[size_t(k + 2)]) << k;
+  }
+  EXPECT_EQ(m.positions[m.triangles[size_t(n - 2)].z], glm::vec3(0, 0, 1));
+  // The fan covers the disc: its area is the polygon's.
+  double area = 0.0;
+  for (int k = 0; k < n - 2; ++k) {
+    const glm::uvec3 t = m.triangles[size_t(k)];
+    area += 0.5 * glm::length(glm::cross(m.positions[t.y] - m.positions[t.x],
+                                         m.positions[t.z] - m.positions[t.x]));
+  }
+  EXPECT_NEAR(area, 0.5 * n * std::sin(2.0 * 3.14159265358979 / n), 1e-4);
+  for (uint32_t id : m.material_ids) EXPECT_EQ(s->materials[id].name, "red");
+}
+
 TEST(ObjLoad, VerticesAreSplitPerNormal) {
   TempDir dir;
   // Two triangles share positions 1 and 3 but not their normals.
@@ -162,6 +201,34 @@ TEST(ObjLoad, ErrorsNameFileAndLine) {
   const std::string missing = dir.file("missing.obj");
   EXPECT_TRUE(errorNames(loadObj(missing), missing, "no such file"));
   EXPECT_TRUE(errorNames(loadObj(dataPath("bunny.ply")), dataPath("bunny.ply"), "line 1"));
+}
+
+TEST(ObjLoad, NonFiniteOrNegativeMaterialValuesNameTheLibraryAndLine) {
+  TempDir dir;
+  const std::string obj = "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl a\nf 1 2 3\n";
+  struct Case {
+    const char* mtl;
+    const char* place;
+  };
+  const Case cases[] = {
+      {"newmtl a\nKd nan 0.5 0.5\n", "line 2"},
+      {"newmtl a\nKd 0.5 0.5 0.5\nKe 1 inf 1\n", "line 3"},
+      {"newmtl a\n\nKd 0.5 -0.5 0.5\n", "line 3"},
+      {"newmtl a\nKd 0.5 half 0.5\n", "line 2"},
+      {"newmtl a\nNs 1e999\n", "line 2"},
+      {"newmtl a\nKd spectral white.rfl\n", "line 2"},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.mtl);
+    const std::string mtl = dir.write("m.mtl", c.mtl);
+    const std::string path = dir.write("o.obj", obj);
+    EXPECT_TRUE(errorNames(loadObj(path), mtl, c.place));
+  }
+  // Good values load.
+  dir.write("m.mtl", "newmtl a  # comment\nKd 0.5 0.25 1\nKe 2 2 2\nNs 10\nd 1\n");
+  Expected<Scene> s = loadObj(dir.write("o.obj", obj));
+  ASSERT_TRUE(s.ok()) << s.error().describe();
+  EXPECT_FLOAT_EQ(s->materials[0].reflectance.y, 0.25f);
 }
 
 TEST(ObjLoad, IgnoredStatementsWarn) {

@@ -141,6 +141,20 @@ TEST(PlyLoad, ErrorsNameFileAndPlace) {
       {"noend.ply", "ply\nformat ascii 1.0\nelement vertex 3\n", "end_header"},
       {"badheader.ply", "ply\nformat ascii 1.0\nelemant vertex 3\nend_header\n", "line 3"},
       {"empty.ply", "", "line 1"},
+      // Counts no file of this size can hold, refused before any loop over them.
+      {"huge.ply",
+       "ply\nformat binary_little_endian 1.0\nelement vertex 18446744073709551615\n"
+       "property float x\nproperty float y\nproperty float z\nend_header\n0000",
+       "18446744073709551615 entries"},
+      {"huge31.ply",
+       "ply\nformat ascii 1.0\nelement vertex 2147483648\nproperty float x\n"
+       "property float y\nproperty float z\nelement face 1\nproperty list uchar int "
+       "vertex_indices\nend_header\n0 0 0\n",
+       "2147483648 entries"},
+      {"noproperties.ply",
+       "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\n"
+       "element junk 18446744073709551615\nend_header\n",
+       "no properties"},
   };
   for (const Case& c : cases) {
     SCOPED_TRACE(c.name);

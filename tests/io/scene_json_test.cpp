@@ -279,6 +279,22 @@ TEST(SceneJsonLoad, ParseErrorsGiveLineAndColumn) {
   EXPECT_TRUE(errorNames(loadSceneJson(empty), empty, "line 1, column 1"));
 }
 
+TEST(SceneJsonLoad, DeepNestingIsRefusedWithThePlace) {
+  // A "settings" value nested 300,000 deep overflows a recursive parser or copy; it is refused
+  // where it passes 256 levels, and brackets inside strings and comments do not count.
+  TempDir dir;
+  const std::string deep = std::string(300000, '[') + std::string(300000, ']');
+  const std::string path = dir.write("deep.json", "{\n  \"settings\": " + deep + "\n}\n");
+  EXPECT_TRUE(errorNames(loadSceneJson(path), path, "line 2, column 270: JSON nested more"));
+  const std::string quoted =
+      dir.write("quoted.json", "{\"settings\": {\"x\": \"" + std::string(1000, '[') +
+                                   "\\\"\"}, // " + std::string(1000, '{') + "\n /* " +
+                                   std::string(1000, '[') + " */ \"meshes\": []}");
+  Expected<Scene> s = loadSceneJson(quoted);
+  ASSERT_FALSE(s.ok());  // no meshes, but parsed: the error is about the content
+  EXPECT_EQ(s.error().message.find("nested"), std::string::npos) << s.error().describe();
+}
+
 TEST(SceneJsonLoad, MeshFileErrorsNameTheMeshFile) {
   TempDir dir;
   const std::string obj = dir.write("bad.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 7\n");

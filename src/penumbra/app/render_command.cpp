@@ -23,17 +23,25 @@ namespace penumbra {
 
 namespace {
 
-// Reads an integer setting from the scene file's "settings": {"pathtrace": {...}}.
+// Reads an integer setting from the scene file's "settings": {"pathtrace": {...}}, in
+// [lo, hi]; errors name the file, the key and the value.
 Expected<int> sceneSetting(const Scene& scene, const std::string& method, const std::string& key,
-                           int fallback) {
+                           int fallback, int lo, int hi) {
   if (!scene.settings.contains(method)) return fallback;
   const nlohmann::json& m = scene.settings[method];
   if (!m.is_object() || !m.contains(key)) return fallback;
-  if (!m[key].is_number_integer()) {
-    return inputError(scene.source, fmt::format("settings.{}.{}", method, key),
-                      "must be an integer");
+  const nlohmann::json& v = m[key];
+  const std::string where = fmt::format("settings.{}.{}", method, key);
+  if (!v.is_number_integer()) {
+    return inputError(scene.source, where, fmt::format("must be an integer, not {}", v.dump()));
   }
-  return m[key].get<int>();
+  const bool in_range = v.is_number_unsigned() ? v.get<uint64_t>() <= uint64_t(hi) && lo <= hi
+                                               : v.get<int64_t>() >= lo && v.get<int64_t>() <= hi;
+  if (!in_range) {
+    return inputError(scene.source, where,
+                      fmt::format("{} is out of range [{}, {}]", v.dump(), lo, hi));
+  }
+  return int(v.get<int64_t>());
 }
 
 Status checkRange(const std::string& what, int value, int lo, int hi) {
@@ -81,25 +89,24 @@ Status renderPathTrace(const RenderOptions& options, const CommonOptions& common
     }
   }
   PathTracerSettings settings;
-  auto setting = [&](const std::optional<int>& cli, const char* key, int& dst) -> Status {
+  // From the command line, else the scene's settings, else the default; each in [lo, hi].
+  auto setting = [&](const std::optional<int>& cli, const char* flag, const char* key, int lo,
+                     int hi, int& dst) -> Status {
     if (cli) {
       dst = *cli;
-      return {};
+      return checkRange(flag, dst, lo, hi);
     }
-    Expected<int> v = sceneSetting(*scene, "pathtrace", key, dst);
+    Expected<int> v = sceneSetting(*scene, "pathtrace", key, dst, lo, hi);
     if (!v) return v.error();
     dst = *v;
     return {};
   };
-  PENUMBRA_TRY(setting(options.width, "width", settings.width));
-  PENUMBRA_TRY(setting(options.height, "height", settings.height));
-  PENUMBRA_TRY(setting(options.spp, "spp", settings.spp));
-  PENUMBRA_TRY(setting(options.max_depth, "max_depth", settings.max_depth));
+  PENUMBRA_TRY(setting(options.width, "--width", "width", 1, 1 << 16, settings.width));
+  PENUMBRA_TRY(setting(options.height, "--height", "height", 1, 1 << 16, settings.height));
+  PENUMBRA_TRY(setting(options.spp, "--spp", "spp", 1, 1 << 20, settings.spp));
+  PENUMBRA_TRY(
+      setting(options.max_depth, "--max-depth", "max_depth", 0, 1 << 16, settings.max_depth));
   if (options.seed) settings.seed = *options.seed;
-  PENUMBRA_TRY(checkRange("--width", settings.width, 1, 1 << 16));
-  PENUMBRA_TRY(checkRange("--height", settings.height, 1, 1 << 16));
-  PENUMBRA_TRY(checkRange("--spp", settings.spp, 1, 1 << 20));
-  PENUMBRA_TRY(checkRange("--max-depth", settings.max_depth, 0, 1 << 16));
   // The image, its tone-mapped copy and the file buffers: about 40 bytes per pixel.
   PENUMBRA_TRY(checkMemory(uint64_t(settings.width) * uint64_t(settings.height) * 40,
                            fmt::format("a {}x{} image", settings.width, settings.height)));

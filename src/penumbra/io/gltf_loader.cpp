@@ -12,9 +12,12 @@
 //     and become radiometric by dividing by 683 lm/W and multiplying by the light's linear colour;
 //   - lights and cameras look down their node's local -Z; a camera's up is the node's local +Y.
 #include "penumbra/core/file_util.h"
+#include "penumbra/core/memory.h"
+#include "penumbra/io/json_guard.h"
 #include "penumbra/io/scene_io.h"
 
 #include <tiny_gltf.h>
+#include <nlohmann/json.hpp>
 
 #include <glm/geometric.hpp>
 #include <glm/gtc/quaternion.hpp>
@@ -28,11 +31,18 @@
 #include <filesystem>
 #include <numbers>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace penumbra {
 
 namespace {
+
+// The most triangles one glTF scene may instance (the engine indexes triangles with 32 bits;
+// beyond this the memory guard refuses long before), and what each costs once loaded
+// (positions, normals and indices of an expanded instance, with the vectors' slack).
+constexpr uint64_t kMaxSceneTriangles = uint64_t(1) << 31;
+constexpr uint64_t kLoadedBytesPerTriangle = 64;
 
 // lm/W: luminous efficacy of monochromatic 555 nm light, the conversion KHR_lights_punctual
 // implementations use between photometric and radiometric quantities.
@@ -122,6 +132,74 @@ const char* typeName(int type) {
   }
 }
 
+uint32_t readLe32(std::string_view bytes, size_t at) {
+  const auto* b = reinterpret_cast<const unsigned char*>(bytes.data() + at);
+  return uint32_t(b[0]) | uint32_t(b[1]) << 8 | uint32_t(b[2]) << 16 | uint32_t(b[3]) << 24;
+}
+
+// The JSON chunk of a GLB file, after checking the header (glTF 2.0, sec. 4.4: magic, version
+// 2, length, then a JSON chunk first).
+Expected<std::string_view> glbJsonChunk(const std::string& path, std::string_view bytes) {
+  if (bytes.size() < 20) return inputError(path, "GLB header", "the file is cut short");
+  const uint32_t version = readLe32(bytes, 4);
+  if (version != 2) {
+    return inputError(path, "GLB header",
+                      fmt::format("GLB version {} is not supported (glTF 2.0 files are GLB "
+                                  "version 2)",
+                                  version));
+  }
+  const uint32_t length = readLe32(bytes, 8);
+  if (length != bytes.size()) {
+    return inputError(path, "GLB header",
+                      fmt::format("the header gives a length of {} bytes, the file has {}", length,
+                                  bytes.size()));
+  }
+  const uint32_t chunk = readLe32(bytes, 12);
+  if (readLe32(bytes, 16) != 0x4E4F534Au) {
+    return inputError(path, "GLB header", "the first chunk is not JSON");
+  }
+  if (chunk > bytes.size() - 20) {
+    return inputError(path, "GLB JSON chunk",
+                      fmt::format("its length {} runs past the end of the file", chunk));
+  }
+  return bytes.substr(20, chunk);
+}
+
+// What tinygltf takes on trust, checked on the JSON first: the asset's version (tinygltf reads
+// glTF 1.0 files as if they were 2.0) and that external buffers and images name files (a
+// directory makes tinygltf fail with an allocation error).
+Status checkGltfJson(const std::string& path, std::string_view text, const std::string& base) {
+  const nlohmann::json root = nlohmann::json::parse(text, nullptr, /*allow_exceptions=*/false);
+  if (root.is_discarded() || !root.is_object()) return {};  // tinygltf reports the syntax
+  if (root.contains("asset") && root["asset"].is_object() && root["asset"].contains("version")) {
+    const nlohmann::json& v = root["asset"]["version"];
+    const std::string version = v.is_string() ? v.get<std::string>() : v.dump();
+    if (version.rfind("2.", 0) != 0) {
+      return inputError(path, "asset.version",
+                        fmt::format("'{}': only glTF 2.0 is supported", version));
+    }
+  }
+  for (const char* key : {"buffers", "images"}) {
+    if (!root.contains(key) || !root[key].is_array()) continue;
+    const nlohmann::json& list = root[key];
+    for (size_t i = 0; i < list.size(); ++i) {
+      if (!list[i].is_object() || !list[i].contains("uri") || !list[i]["uri"].is_string()) {
+        continue;
+      }
+      const std::string uri = list[i]["uri"].get<std::string>();
+      if (uri.rfind("data:", 0) == 0) continue;
+      std::error_code ec;
+      const std::filesystem::path file = std::filesystem::path(base) / uri;
+      if (uri.empty() ||
+          (std::filesystem::exists(file, ec) && !std::filesystem::is_regular_file(file, ec))) {
+        return inputError(path, fmt::format("{}[{}]", key, i),
+                          fmt::format("uri '{}' does not name a file", uri));
+      }
+    }
+  }
+  return {};
+}
+
 class GltfReader {
  public:
   GltfReader(const std::string& path, const tinygltf::Model& model, Scene& scene)
@@ -134,7 +212,11 @@ class GltfReader {
   // accepted component types; `type` the accessor type.
   Expected<AccessorView> view(int accessor_index, const std::string& role, int type,
                               std::initializer_list<int> allowed);
-  Status visitNode(int node_index, const glm::dmat4& parent, size_t depth);
+  // Adds node `node_index`'s mesh, camera and light with its parent's world transform `parent`
+  // (the node's own is kept in world_ for its children).
+  Status visitNode(int node_index, const glm::dmat4& parent);
+  Status checkHierarchy();
+  Status checkInstancedTriangles(const std::vector<int>& roots);
   Status addPrimitive(const tinygltf::Node& node, int mesh_index, size_t primitive_index,
                       const glm::dmat4& world_from_object);
   Status addLight(int node_index, const glm::dmat4& world_from_light);
@@ -147,7 +229,8 @@ class GltfReader {
   Scene& scene_;
   std::vector<int> material_map_;  // glTF material -> scene material, -1 until used
   int default_material_ = -1;
-  std::vector<bool> on_path_;  // nodes on the current root-to-node path, to catch cycles
+  std::vector<int> parent_;        // per node, -1 for a root
+  std::vector<glm::dmat4> world_;  // per node, once visited
 };
 
 Expected<AccessorView> GltfReader::view(int accessor_index, const std::string& role, int type,
@@ -312,14 +395,8 @@ Expected<glm::dmat4> GltfReader::localTransform(int node_index) {
   return t * r * s;
 }
 
-Status GltfReader::visitNode(int node_index, const glm::dmat4& parent, size_t depth) {
-  if (node_index < 0 || static_cast<size_t>(node_index) >= model_.nodes.size()) {
-    return inputError(path_, "nodes", fmt::format("node {} does not exist", node_index));
-  }
+Status GltfReader::visitNode(int node_index, const glm::dmat4& parent) {
   const size_t ni = static_cast<size_t>(node_index);
-  if (on_path_[ni] || depth > model_.nodes.size()) {
-    return inputError(path_, fmt::format("node {}", node_index), "the node hierarchy has a cycle");
-  }
   Expected<glm::dmat4> local = localTransform(node_index);
   if (!local.ok()) return local.error();
   const glm::dmat4 world = parent * *local;
@@ -330,12 +407,9 @@ Status GltfReader::visitNode(int node_index, const glm::dmat4& parent, size_t de
       }
     }
   }
+  world_[ni] = world;
   const tinygltf::Node& node = model_.nodes[ni];
   if (node.mesh >= 0) {
-    if (static_cast<size_t>(node.mesh) >= model_.meshes.size()) {
-      return inputError(path_, fmt::format("node {}", node_index),
-                        fmt::format("mesh {} does not exist", node.mesh));
-    }
     if (node.skin >= 0) {
       scene_.warnings.push_back(
           fmt::format("{}: node {}: skinning is ignored; the mesh is used as posed by the node "
@@ -350,17 +424,96 @@ Status GltfReader::visitNode(int node_index, const glm::dmat4& parent, size_t de
   if (node.camera >= 0) PENUMBRA_TRY(addCamera(node_index, node.camera, world));
   auto light = node.extensions.find("KHR_lights_punctual");
   if (light != node.extensions.end()) PENUMBRA_TRY(addLight(node_index, world));
+  return {};
+}
 
-  on_path_[ni] = true;
-  for (int child : node.children) {
-    Status s = visitNode(child, world, depth + 1);
-    if (!s.ok()) {
-      on_path_[ni] = false;
-      return s;
+Status GltfReader::checkHierarchy() {
+  // glTF 2.0 (sec. 3.5.3, "Nodes and Hierarchy"): the nodes form disjoint strict trees; no node
+  // has two parents, and none is its own ancestor. A file that breaks this (a DAG, which
+  // instances a subtree once per path and can grow exponentially, or a cycle) is refused.
+  const size_t nn = model_.nodes.size();
+  parent_.assign(nn, -1);
+  for (size_t n = 0; n < nn; ++n) {
+    for (int c : model_.nodes[n].children) {
+      if (c < 0 || static_cast<size_t>(c) >= nn) {
+        return inputError(path_, fmt::format("node {}", n),
+                          fmt::format("child {} does not exist (the file has {} nodes)", c, nn));
+      }
+      const size_t ci = static_cast<size_t>(c);
+      if (parent_[ci] >= 0) {
+        return inputError(
+            path_, fmt::format("node {}", n),
+            parent_[ci] == static_cast<int>(n)
+                ? fmt::format("child {} is listed twice (glTF nodes form trees)", c)
+                : fmt::format("node {} is also a child of node {}: a node has at most one parent "
+                              "(glTF nodes form trees)",
+                              c, parent_[ci]));
+      }
+      parent_[ci] = static_cast<int>(n);
+    }
+    const tinygltf::Node& node = model_.nodes[n];
+    if (node.mesh >= 0 && static_cast<size_t>(node.mesh) >= model_.meshes.size()) {
+      return inputError(path_, fmt::format("node {}", n),
+                        fmt::format("mesh {} does not exist", node.mesh));
     }
   }
-  on_path_[ni] = false;
+  // A cycle: following parents from some node never ends at a root.
+  std::vector<uint8_t> state(nn, 0);  // 0 unknown, 1 on the current walk, 2 reaches a root
+  std::vector<size_t> walk;
+  for (size_t n = 0; n < nn; ++n) {
+    walk.clear();
+    size_t at = n;
+    while (state[at] == 0) {
+      state[at] = 1;
+      walk.push_back(at);
+      if (parent_[at] < 0) break;
+      at = static_cast<size_t>(parent_[at]);
+    }
+    if (state[at] == 1 && parent_[at] >= 0) {
+      return inputError(path_, fmt::format("node {}", at), "the node hierarchy has a cycle");
+    }
+    for (size_t w : walk) state[w] = 2;
+  }
   return {};
+}
+
+Status GltfReader::checkInstancedTriangles(const std::vector<int>& roots) {
+  // Triangles the scene's trees instance (a mesh counts once per node that uses it), counted
+  // before anything is built.
+  std::vector<uint64_t> per_mesh(model_.meshes.size(), 0);
+  for (size_t m = 0; m < model_.meshes.size(); ++m) {
+    for (const tinygltf::Primitive& prim : model_.meshes[m].primitives) {
+      const int mode = prim.mode < 0 ? TINYGLTF_MODE_TRIANGLES : prim.mode;
+      int accessor = prim.indices;
+      if (accessor < 0) {
+        auto it = prim.attributes.find("POSITION");
+        accessor = it == prim.attributes.end() ? -1 : it->second;
+      }
+      if (accessor < 0 || static_cast<size_t>(accessor) >= model_.accessors.size()) continue;
+      const uint64_t count = model_.accessors[static_cast<size_t>(accessor)].count;
+      if (mode == TINYGLTF_MODE_TRIANGLES) {
+        per_mesh[m] += count / 3;
+      } else if (mode == TINYGLTF_MODE_TRIANGLE_STRIP || mode == TINYGLTF_MODE_TRIANGLE_FAN) {
+        per_mesh[m] += count >= 3 ? count - 2 : 0;
+      }
+    }
+  }
+  uint64_t total = 0;
+  std::vector<int> stack(roots.rbegin(), roots.rend());
+  while (!stack.empty()) {
+    const tinygltf::Node& node = model_.nodes[static_cast<size_t>(stack.back())];
+    stack.pop_back();
+    if (node.mesh >= 0) total += per_mesh[static_cast<size_t>(node.mesh)];
+    for (int c : node.children) stack.push_back(c);
+  }
+  if (total > kMaxSceneTriangles) {
+    return inputError(path_, "nodes",
+                      fmt::format("the scene instances {} triangles, more than the {} a scene may "
+                                  "hold",
+                                  total, kMaxSceneTriangles));
+  }
+  return checkMemory(total * kLoadedBytesPerTriangle,
+                     fmt::format("{}: the scene's {} instanced triangles", path_, total));
 }
 
 Status GltfReader::addPrimitive(const tinygltf::Node& node, int mesh_index, size_t primitive_index,
@@ -609,7 +762,8 @@ Status GltfReader::read() {
     }
   }
   material_map_.assign(model_.materials.size(), -1);
-  on_path_.assign(model_.nodes.size(), false);
+  PENUMBRA_TRY(checkHierarchy());
+  world_.assign(model_.nodes.size(), glm::dmat4(1.0));
 
   std::vector<int> roots;
   if (!model_.scenes.empty()) {
@@ -618,6 +772,22 @@ Status GltfReader::read() {
       return inputError(path_, "scene", fmt::format("scene {} does not exist", si));
     }
     roots = model_.scenes[static_cast<size_t>(si)].nodes;
+    std::vector<bool> listed(model_.nodes.size(), false);
+    for (int r : roots) {
+      const std::string place = fmt::format("scene {}", si);
+      if (r < 0 || static_cast<size_t>(r) >= model_.nodes.size()) {
+        return inputError(path_, place, fmt::format("node {} does not exist", r));
+      }
+      if (parent_[static_cast<size_t>(r)] >= 0) {
+        return inputError(path_, place,
+                          fmt::format("node {} is a child of node {}, not a root", r,
+                                      parent_[static_cast<size_t>(r)]));
+      }
+      if (listed[static_cast<size_t>(r)]) {
+        return inputError(path_, place, fmt::format("node {} is listed twice", r));
+      }
+      listed[static_cast<size_t>(r)] = true;
+    }
   } else {
     // No scene: every node that is nobody's child is a root.
     std::vector<bool> is_child(model_.nodes.size(), false);
@@ -636,7 +806,18 @@ Status GltfReader::read() {
           fmt::format("{}: the file defines no scene; all root nodes are loaded", path_));
     }
   }
-  for (int root : roots) PENUMBRA_TRY(visitNode(root, glm::dmat4(1.0), 0));
+  PENUMBRA_TRY(checkInstancedTriangles(roots));
+  // Depth first, children in order (the order of the scene's meshes), with an explicit stack:
+  // a chain of nodes thousands deep is a valid tree.
+  std::vector<int> stack(roots.rbegin(), roots.rend());
+  while (!stack.empty()) {
+    const int n = stack.back();
+    stack.pop_back();
+    const int p = parent_[static_cast<size_t>(n)];
+    PENUMBRA_TRY(visitNode(n, p < 0 ? glm::dmat4(1.0) : world_[static_cast<size_t>(p)]));
+    const std::vector<int>& children = model_.nodes[static_cast<size_t>(n)].children;
+    for (auto it = children.rbegin(); it != children.rend(); ++it) stack.push_back(*it);
+  }
   return {};
 }
 
@@ -650,14 +831,23 @@ Expected<Scene> loadGltf(const std::string& path) {
 
   Scene scene;
   scene.source = path;
+  const std::string base_dir = std::filesystem::path(path).parent_path().string();
+  const bool binary = bytes->size() >= 4 && bytes->compare(0, 4, "glTF") == 0;
+  std::string_view json_text = *bytes;
+  if (binary) {
+    Expected<std::string_view> chunk = glbJsonChunk(path, *bytes);
+    if (!chunk) return chunk.error();
+    json_text = *chunk;
+  }
+  PENUMBRA_TRY(checkJsonNesting(path, json_text, /*comments=*/false));
+  PENUMBRA_TRY(checkGltfJson(path, json_text, base_dir));
+
   tinygltf::Model model;
   std::string err, warn;
   bool ok = false;
   try {
     tinygltf::TinyGLTF loader;
     loader.SetImageLoader(&skipImage, nullptr);
-    const std::string base_dir = std::filesystem::path(path).parent_path().string();
-    const bool binary = bytes->size() >= 4 && bytes->compare(0, 4, "glTF") == 0;
     if (binary) {
       ok = loader.LoadBinaryFromMemory(&model, &err, &warn,
                                        reinterpret_cast<const unsigned char*>(bytes->data()),

@@ -14,6 +14,8 @@
 #include <tiny_obj_loader.h>
 
 #include <fmt/format.h>
+
+#include <algorithm>
 #include <cctype>
 #include <charconv>
 #include <cmath>
@@ -87,8 +89,12 @@ bool isIgnoredStatement(std::string_view k) {
   return false;
 }
 
+// The most corners tinyobjloader keeps for one face (it stores the count in a byte).
+constexpr size_t kMaxLoaderCorners = 255;
+
 // Checks `text` and writes to `clean` the same lines without comments (tinyobjloader does not
-// accept a comment after a statement), so line numbers stay the same.
+// accept a comment after a statement), so line numbers stay the same (except after a polygon
+// of more than kMaxLoaderCorners corners, which takes several lines).
 Status scanObj(const std::string& path, const std::string& text, ObjScan* scan,
                std::string* clean) {
   clean->reserve(text.size());
@@ -208,7 +214,25 @@ Status scanObj(const std::string& path, const std::string& text, ObjScan* scan,
           }
         }
       }
-      if (key == "f") {
+      if (key == "f" && tok.size() - 1 > kMaxLoaderCorners) {
+        // tinyobjloader counts a face's corners in 8 bits: a polygon of 256 or more corners
+        // (CAD exports have them) is written as consecutive polygons of at most 255 corners
+        // that share corner 0, whose fans are the same triangles in the same order.
+        clean->resize(clean->size() - line.size() - 1);
+        const size_t n = tok.size() - 1;
+        for (size_t k = 1; k + 1 < n;) {
+          const size_t end = std::min(k + kMaxLoaderCorners - 2, n - 1);
+          clean->append("f ");
+          clean->append(tok[1]);
+          for (size_t i = k; i <= end; ++i) {
+            clean->push_back(' ');
+            clean->append(tok[i + 1]);
+          }
+          clean->push_back('\n');
+          ++scan->faces;
+          k = end;
+        }
+      } else if (key == "f") {
         ++scan->faces;
       } else if (!warned_lines) {
         scan->warnings.push_back(
@@ -266,6 +290,58 @@ Status scanObj(const std::string& path, const std::string& text, ObjScan* scan,
   return {};
 }
 
+// Checks the numbers of a material library's colour and scalar statements (tinyobjloader reads
+// "nan", "inf" and words as 0): each must be a finite number, and colours not negative. Other
+// statements (texture maps, illum, names) are left to tinyobjloader.
+Status scanMtl(const std::string& path, const std::string& text) {
+  static const char* const kColours[] = {"Ka", "Kd", "Ks", "Ke", "Tf"};
+  static const char* const kScalars[] = {"Ns", "Ni", "d", "Tr"};
+  size_t line_no = 0, pos = 0;
+  std::vector<std::string_view> tok;
+  while (pos < text.size()) {
+    size_t eol = text.find('\n', pos);
+    if (eol == std::string::npos) eol = text.size();
+    std::string_view line(text.data() + pos, eol - pos);
+    pos = eol + 1;
+    ++line_no;
+    const size_t comment = line.find('#');
+    if (comment != std::string_view::npos) line = line.substr(0, comment);
+    if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
+    splitTokens(line, tok);
+    if (tok.empty()) continue;
+    bool colour = false, scalar = false;
+    for (const char* k : kColours) colour = colour || tok[0] == k;
+    for (const char* k : kScalars) scalar = scalar || tok[0] == k;
+    if (!colour && !scalar) continue;
+    const auto place = [&] { return fmt::format("line {}", line_no); };
+    if (colour && tok.size() >= 2 && (tok[1] == "spectral" || tok[1] == "xyz")) {
+      return inputError(
+          path, place(),
+          fmt::format("'{} {}' colours are not supported (give RGB numbers)", tok[0], tok[1]));
+    }
+    const size_t max_n = colour ? 3 : 1;
+    if (tok.size() < 2 || tok.size() - 1 > max_n) {
+      return inputError(path, place(),
+                        fmt::format("'{}' needs {} number{}, found {}", tok[0],
+                                    colour ? "1 to 3" : "1", colour ? "s" : "", tok.size() - 1));
+    }
+    for (size_t i = 1; i < tok.size(); ++i) {
+      double value = 0.0;
+      if (!parseNumber(tok[i], &value)) {
+        return inputError(path, place(), fmt::format("'{}' is not a number", tok[i]));
+      }
+      if (!std::isfinite(static_cast<float>(value))) {
+        return inputError(path, place(),
+                          fmt::format("{} value '{}' is not a finite number", tok[0], tok[i]));
+      }
+      if (colour && value < 0.0) {
+        return inputError(path, place(), fmt::format("{} value {} is negative", tok[0], tok[i]));
+      }
+    }
+  }
+  return {};
+}
+
 struct CornerKey {
   int v, vn, vt;
   bool operator==(const CornerKey&) const = default;
@@ -308,6 +384,7 @@ Expected<Scene> loadObj(const std::string& path) {
       library_missing = true;
       continue;
     }
+    PENUMBRA_TRY(scanMtl(mtl_path, *mtl));
     mtl_text += *mtl;
     mtl_text += "\n";
   }

@@ -18,6 +18,8 @@
 #include <assimp/Importer.hpp>
 
 #include <fmt/format.h>
+
+#include <algorithm>
 #include <bit>
 #include <cctype>
 #include <cmath>
@@ -279,6 +281,28 @@ Status scanPly(const std::string& path, const std::string& text, PlyScan* scan) 
   }
   if (!vertex_element) return inputError(path, "header", "no 'vertex' element");
   scan->vertices = vertex_element->count;
+
+  // Counts against the file's size, before any loop over them. An element with entries but no
+  // properties holds nothing to read (and nothing would end a loop over a hostile count); every
+  // entry of any other element takes at least one byte, so a count larger than the rest of the
+  // file is refused here. Smaller shortfalls are found by the walk below, which stops at the
+  // first missing value and names it.
+  for (const PlyElement& e : elements) {
+    if (e.count > 0 && e.properties.empty()) {
+      return inputError(
+          path, "header",
+          fmt::format("element '{}' has {} entries but no properties", e.name, e.count));
+    }
+  }
+  const size_t body_bytes = text.size() - std::min(pos, text.size());
+  for (const PlyElement& e : elements) {
+    if (e.count > body_bytes) {
+      return inputError(path, "header",
+                        fmt::format("element '{}' declares {} entries, more than the file's {} "
+                                    "bytes of data can hold",
+                                    e.name, e.count, body_bytes));
+    }
+  }
 
   // Body.
   PlyBodyReader body(text, pos, *format, line_no + 1);

@@ -5,6 +5,7 @@
 // silently changes a scene. Mesh files are loaded by their own loaders (which name the mesh file
 // in their errors), transformed to world space and merged.
 #include "penumbra/core/file_util.h"
+#include "penumbra/io/json_guard.h"
 #include "penumbra/io/scene_io.h"
 #include "penumbra/scene/builtin.h"
 
@@ -580,24 +581,12 @@ Expected<Scene> SceneJsonReader::read(const json& root) {
   return scene;
 }
 
-// "line L, column C" of the byte at 0-based `offset`.
-std::string lineAndColumn(const std::string& text, size_t offset) {
-  offset = std::min(offset, text.size());
-  size_t line = 1, line_start = 0;
-  for (size_t i = 0; i < offset; ++i) {
-    if (text[i] == '\n') {
-      ++line;
-      line_start = i + 1;
-    }
-  }
-  return fmt::format("line {}, column {}", line, offset - line_start + 1);
-}
-
 }  // namespace
 
 Expected<Scene> loadSceneJson(const std::string& path) {
   Expected<std::string> text = readFile(path);
   if (!text.ok()) return text.error();
+  PENUMBRA_TRY(checkJsonNesting(path, *text, /*comments=*/true));
   json root;
   try {
     root = json::parse(*text, nullptr, /*allow_exceptions=*/true, /*ignore_comments=*/true);
