@@ -3,7 +3,12 @@
 #include "penumbra/core/log.h"
 #include "penumbra/core/parallel.h"
 
+#include <fmt/format.h>
 #include <CLI/CLI.hpp>
+
+#include <charconv>
+#include <cmath>
+#include <cstdint>
 
 #include <cstdio>
 #include <exception>
@@ -17,6 +22,55 @@ int reportError(const Error& error) {
 }
 
 namespace {
+
+// Option values are checked here, where they are parsed, so that every command refuses the
+// same nonsense the same way (exit 2, one line naming the option and the value).
+
+// A number: finite, in [lo, hi] (an open end when `open_lo` / `open_hi`). CLI11's Range lets NaN
+// through (every comparison with it is false).
+CLI::Validator finiteIn(double lo, double hi, bool open_lo = false, bool open_hi = false) {
+  return CLI::Validator(
+      [=](std::string& value) -> std::string {
+        double v = 0.0;
+        if (!CLI::detail::lexical_cast(value, v)) return "'" + value + "' is not a number";
+        if (!std::isfinite(v)) return "'" + value + "' is not a finite number";
+        const bool below = open_lo ? !(v > lo) : !(v >= lo);
+        const bool above = open_hi ? !(v < hi) : !(v <= hi);
+        if (below || above) {
+          return fmt::format("{} is out of range {}{}, {}{}", value, open_lo ? '(' : '[', lo, hi,
+                             open_hi ? ')' : ']');
+        }
+        return std::string();
+      },
+      fmt::format("{}{}, {}{}", open_lo ? '(' : '[', lo, hi, open_hi ? ')' : ']'));
+}
+
+// An unsigned integer written in decimal digits (no sign: "-1" would wrap to 2^64 - 1).
+const CLI::Validator kUnsigned(
+    [](std::string& value) -> std::string {
+      if (value.empty() || value.find_first_not_of("0123456789") != std::string::npos) {
+        return "'" + value + "' is not a non-negative integer";
+      }
+      uint64_t v = 0;
+      const auto [end, ec] = std::from_chars(value.data(), value.data() + value.size(), v);
+      if (ec != std::errc() || end != value.data() + value.size()) {
+        return value + " is larger than 2^64 - 1";
+      }
+      return std::string();
+    },
+    "UINT");
+
+// Every option of `cmd` refuses an empty value ("--spp ''" is a mistake, not the default).
+void refuseEmptyValues(CLI::App* cmd) {
+  const CLI::Validator non_empty(
+      [](std::string& value) -> std::string {
+        return value.empty() ? std::string("an empty value is not allowed") : std::string();
+      },
+      "");
+  for (CLI::Option* option : cmd->get_options()) {
+    if (option->get_expected_min() > 0) option->check(non_empty);
+  }
+}
 
 void addCommon(CLI::App* app, CommonOptions& common) {
   app->add_option("--threads", common.threads, "worker threads (0 = all cores)")
@@ -38,7 +92,11 @@ int parseAndRun(int argc, char** argv) {
                    "built-in scene name (cornell, furnace) or a .json/.obj/.gltf/.glb/.ply "
                    "file")
       ->capture_default_str();
-  render_cmd->add_option("--method", render.method, "pathtrace")->capture_default_str();
+  render_cmd
+      ->add_option("--method", render.method,
+                   "pathtrace (the reference path tracer), matrix (matrix radiosity) or "
+                   "progressive (progressive radiosity in a lightmap)")
+      ->capture_default_str();
   render_cmd
       ->add_option("--device", render.device,
                    "cpu, gpu, hybrid (the Ray Engine's CPU/GPU split) or auto")
@@ -51,14 +109,19 @@ int parseAndRun(int argc, char** argv) {
   render_cmd->add_option("--spp", render.spp, "samples per pixel (default 64)");
   render_cmd->add_option("--max-depth", render.max_depth,
                          "maximum bounces, 0 = unlimited (Russian roulette)");
-  render_cmd->add_option("--seed", render.seed, "random seed (default 0)");
+  render_cmd->add_option("--seed", render.seed, "random seed (default 0)")->check(kUnsigned);
   render_cmd->add_option("--tonemap", tonemap, "PNG tone mapping: reinhard or exposure")
       ->check(CLI::IsMember({"reinhard", "exposure"}))
       ->capture_default_str();
-  render_cmd->add_option("--exposure", render.tonemap.exposure_stops,
-                         "exposure in stops before tone mapping");
-  render_cmd->add_option("--key", render.tonemap.key,
-                         "Reinhard key value (default: estimated from the image)");
+  render_cmd
+      ->add_option("--exposure", render.tonemap.exposure_stops,
+                   "exposure in stops before tone mapping")
+      ->check(finiteIn(-64.0, 64.0));
+  render_cmd
+      ->add_option("--key", render.tonemap.key,
+                   "Reinhard key value, the mean image brightness aimed at (default: estimated "
+                   "from the image)")
+      ->check(finiteIn(0.0, 1.0, /*open_lo=*/true));
   render_cmd
       ->add_option("--solver", render.solver,
                    "matrix: jacobi or gauss-seidel (default: gauss-seidel on the CPU, jacobi "
@@ -79,7 +142,7 @@ int parseAndRun(int argc, char** argv) {
                    "matrix: stop when the mean squared residual of MB - E ((W m^-2)^2) is at "
                    "most this (default 1e-6); progressive: when the unshot fraction of the "
                    "emitted power is (default 1e-3)")
-      ->check(CLI::Range(0.0, 1e30));
+      ->check(finiteIn(0.0, 1e30, /*open_lo=*/true));
   render_cmd
       ->add_option("--precision", render.precision,
                    "matrix: form-factor storage, fp32 or fp16 (as the paper stores them)")
@@ -102,8 +165,11 @@ int parseAndRun(int argc, char** argv) {
                    "element)")
       ->check(CLI::IsMember({"smooth", "flat"}))
       ->capture_default_str();
-  render_cmd->add_option("--texel-density", render.texel_density,
-                         "progressive: lightmap texels per metre (instead of --elements)");
+  render_cmd
+      ->add_option("--texel-density", render.texel_density,
+                   "radiosity: lightmap texels per metre (instead of the default from "
+                   "--elements)")
+      ->check(finiteIn(0.0, 1e9, /*open_lo=*/true));
   render_cmd
       ->add_option("--shooter-points", render.shooter_points,
                    "progressive: points a shooter starts from (its texels grouped in blocks; "
@@ -163,7 +229,10 @@ int parseAndRun(int argc, char** argv) {
   CLI::App* bake_cmd = app.add_subcommand(
       "bake", "solve radiosity and write a glTF with lightmaps (EXR, PNG) into a directory");
   bake_cmd->add_option("scene", bake.scene, "built-in scene name or file")->required();
-  bake_cmd->add_option("--method", bake.method, "matrix or progressive")->capture_default_str();
+  bake_cmd
+      ->add_option("--method", bake.method,
+                   "matrix (matrix radiosity) or progressive (progressive radiosity)")
+      ->capture_default_str();
   bake_cmd
       ->add_option("--device", bake.device,
                    "progressive: cpu, gpu or auto (matrix bakes on the CPU)")
@@ -185,7 +254,7 @@ int parseAndRun(int argc, char** argv) {
                    "matrix: stop when the mean squared residual of MB - E ((W m^-2)^2) is at "
                    "most this (default 1e-6); progressive: when the unshot fraction of the "
                    "emitted power is (default 1e-3)")
-      ->check(CLI::Range(0.0, 1e30));
+      ->check(finiteIn(0.0, 1e30, /*open_lo=*/true));
   bake_cmd->add_option("--solver", bake.solver, "jacobi or gauss-seidel")
       ->check(CLI::IsMember({"jacobi", "gauss-seidel"}))
       ->capture_default_str();
@@ -194,8 +263,10 @@ int parseAndRun(int argc, char** argv) {
                    "matrix: shadow rays per pair of elements that exchange a noticeable share "
                    "of their light (default 4)")
       ->check(CLI::Range(1, 1024));
-  bake_cmd->add_option("--texel-density", bake.texel_density,
-                       "lightmap texels per metre (default: the most that fit --lightmap-size)");
+  bake_cmd
+      ->add_option("--texel-density", bake.texel_density,
+                   "lightmap texels per metre (default: the most that fit --lightmap-size)")
+      ->check(finiteIn(0.0, 1e9, /*open_lo=*/true));
   bake_cmd
       ->add_option("--lightmap-size", bake.lightmap_size,
                    "lightmap width and height when --texel-density is not given (matrix: "
@@ -216,6 +287,8 @@ int parseAndRun(int argc, char** argv) {
                        "progressive: where Ctrl-C writes the checkpoint (default: "
                        "DIR/SCENE.checkpoint)");
   addCommon(bake_cmd, common);
+
+  for (CLI::App* cmd : {render_cmd, trace_cmd, info_cmd, bake_cmd}) refuseEmptyValues(cmd);
 
   const std::string first = argc > 1 ? argv[1] : "";
   if (first == "view") {
