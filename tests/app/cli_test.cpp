@@ -132,7 +132,15 @@ TEST(Cli, ProgressiveRadiosityRendersTheFurnace) {
 
 // Runs the executable with `args` (split on spaces), sends it SIGINT after `delay_s` seconds, and
 // returns its exit code (-1 when it did not exit normally). Output goes to /dev/null.
+// Runs the CLI and sends it `signal` after `delay_s` seconds; the exit status as a shell gives
+// it (128 + the signal's number when the signal ended the process).
+int runCliSignalled(const std::string& args, double delay_s, int signal);
+
 int runCliInterrupted(const std::string& args, double delay_s) {
+  return runCliSignalled(args, delay_s, SIGINT);
+}
+
+int runCliSignalled(const std::string& args, double delay_s, int signal) {
   std::vector<std::string> words = {PENUMBRA_CLI};
   for (size_t at = 0; at < args.size();) {
     const size_t end = std::min(args.find(' ', at), args.size());
@@ -152,10 +160,100 @@ int runCliInterrupted(const std::string& args, double delay_s) {
   }
   if (pid < 0) return -1;
   std::this_thread::sleep_for(std::chrono::duration<double>(delay_s));
-  ::kill(pid, SIGINT);
+  ::kill(pid, signal);
   int status = 0;
   ::waitpid(pid, &status, 0);
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return WIFEXITED(status)     ? WEXITSTATUS(status)
+         : WIFSIGNALED(status) ? 128 + WTERMSIG(status)
+                               : -1;
+}
+
+std::vector<std::string> entries(const fs::path& dir) {
+  std::vector<std::string> names;
+  for (const auto& e : fs::directory_iterator(dir)) names.push_back(e.path().filename());
+  std::sort(names.begin(), names.end());
+  return names;
+}
+
+// A command's outputs appear together or not at all: an output that cannot be written is found
+// before the work, and nothing else is left.
+TEST(Cli, OutputsArePlacedAllOrNothing) {
+  TempDir dir;
+  const std::string quick = "render cornell --width 8 --height 8 --spp 1 --quiet ";
+  // The second output's directory takes no files (/proc): refused up front, the first not
+  // written.
+  auto r = runCli(quick + "-o " + dir.file("a.png") + " -o /proc/b.png");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("/proc/b.png"), std::string::npos) << r.output;
+  r = runCli(quick + "-o " + dir.file("a.png") + " --stats /proc/s.json");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  r = runCli("trace cornell --rays " + dir.file("none.bin") + " -o " + dir.file("h.bin") +
+             " --stats /proc/s.json");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_TRUE(entries(dir.path()).empty());
+  // A 250-byte name is valid (its temporary is short); one longer than the file system allows
+  // is refused before the work.
+  const std::string long_name = dir.file(std::string(246, 'n') + ".pfm");
+  r = runCli(quick + "-o " + long_name);
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_TRUE(fs::exists(long_name));
+  r = runCli(quick + "-o " + dir.file(std::string(300, 'n') + ".pfm"));
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("this file system allows 255"), std::string::npos) << r.output;
+  // A bake whose stats cannot be written leaves no output directory.
+  r = runCli("bake cornell --method matrix --elements 50 --quiet -o " + dir.file("baked") +
+             " --stats /proc/s.json");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_FALSE(fs::exists(dir.file("baked")));
+  // A relit sequence's directory is made for it.
+  r = runCli(
+      "render cornell --method matrix --elements 50 --relight-frames 2 --width 8 "
+      "--height 8 --quiet -o " +
+      dir.file("frames/c.png"));
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_EQ(entries(dir.file("frames")), (std::vector<std::string>{"c_0000.png", "c_0001.png"}));
+  // Temporaries of a process that no longer exists (killed with SIGKILL) are swept by the next
+  // run that writes into the directory.
+  dir.write(".penumbra-999999999-0.pfm", "partial");
+  r = runCli(quick + "-o " + dir.file("z.pfm"));
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_FALSE(fs::exists(dir.file(".penumbra-999999999-0.pfm")));
+}
+
+// SIGTERM and SIGINT: where there is a solver to stop (progressive radiosity) the run stops
+// cleanly, writes what it has and a checkpoint, and exits with 128 + the signal; elsewhere the
+// process ends by the signal and leaves nothing: no temporaries, no staging, no directory it
+// made.
+TEST(Cli, SignalsLeaveNoDebris) {
+  TempDir dir;
+  // A matrix bake into a new directory, terminated while it solves.
+  const std::string scene_dir = std::string(PENUMBRA_TEST_DATA) + "/../..";
+  int code = runCliSignalled("bake " + scene_dir +
+                                 "/scenes/room.json --method matrix --elements "
+                                 "3000 -o " +
+                                 dir.file("out/room"),
+                             1.0, SIGTERM);
+  EXPECT_EQ(code, 128 + SIGTERM);
+  EXPECT_TRUE(entries(dir.path()).empty());
+  // The same with SIGINT before the work starts (while the scene loads).
+  code = runCliSignalled("bake " + scene_dir +
+                             "/scenes/room.json --method matrix --elements "
+                             "3000 -o " +
+                             dir.file("out/room"),
+                         0.05, SIGINT);
+  EXPECT_EQ(code, 128 + SIGINT);
+  EXPECT_TRUE(entries(dir.path()).empty());
+  // A progressive bake stops cleanly on SIGTERM: outputs and a checkpoint, exit 143, no
+  // staging or temporaries.
+  code = runCliSignalled(
+      "bake cornell --method progressive --texel-density 200 --tolerance "
+      "1e-9 --iterations 100000 -o " +
+          dir.file("prog"),
+      2.0, SIGTERM);
+  EXPECT_EQ(code, 143);
+  EXPECT_EQ(entries(dir.file("prog")),
+            (std::vector<std::string>{"cornell.bin", "cornell.checkpoint", "cornell.gltf",
+                                      "cornell_lightmap.exr", "cornell_lightmap.png"}));
 }
 
 // Ctrl-C stops progressive radiosity between two iterations: it writes the image of the current
@@ -179,9 +277,11 @@ TEST(Cli, ProgressiveInterruptWritesACheckpointThatResumesExactly) {
   ASSERT_TRUE(std::filesystem::exists(dir.file("cut.pfm")));
   ASSERT_TRUE(std::filesystem::exists(dir.file("cut.checkpoint")));
 
-  const auto resumed = runCli(common + "--quiet --resume " + dir.file("cut.checkpoint") + " -o " +
-                              dir.file("resumed.pfm") + " --stats " + dir.file("resumed.json"));
+  const auto resumed =
+      runCli(common + "--quiet --keep-checkpoint --resume " + dir.file("cut.checkpoint") + " -o " +
+             dir.file("resumed.pfm") + " --stats " + dir.file("resumed.json"));
   ASSERT_EQ(resumed.exit_code, 0) << resumed.output;
+  ASSERT_TRUE(std::filesystem::exists(dir.file("cut.checkpoint")));
   const nlohmann::json rs = readJson(dir.file("resumed.json"));
   EXPECT_EQ(rs["resumed_iterations"].get<int>(), done);
   EXPECT_EQ(rs["iterations"].get<int>(), 40);
@@ -208,6 +308,14 @@ TEST(Cli, ProgressiveInterruptWritesACheckpointThatResumesExactly) {
   EXPECT_NE(bad.output.find("corrupt"), std::string::npos) << bad.output;
   EXPECT_FALSE(std::filesystem::exists(dir.file("x.pfm")));
   EXPECT_FALSE(std::filesystem::exists(dir.file("y.pfm")));
+
+  // Without --keep-checkpoint a run that completes removes the checkpoint it continued (its
+  // outputs supersede it), once they are in place.
+  const auto again = runCli(common + "--quiet --resume " + dir.file("cut.checkpoint") + " -o " +
+                            dir.file("again.pfm"));
+  ASSERT_EQ(again.exit_code, 0) << again.output;
+  EXPECT_TRUE(std::filesystem::exists(dir.file("again.pfm")));
+  EXPECT_FALSE(std::filesystem::exists(dir.file("cut.checkpoint")));
 }
 
 TEST(Cli, SceneSettingsApplyAndCommandLineWins) {
@@ -278,6 +386,11 @@ TEST(Cli, BadInputGivesOneErrorLineExitTwoAndNoOutput) {
       {"render cornell --method progressive --device hybrid -o " + out, "hybrid"},
       {"render cornell --method pathtrace --texel-density 10 -o " + out, "--texel-density"},
       {"render cornell --method progressive --texel-density -1 -o " + out, "--texel-density"},
+      // The density sizes the plan: refused before anything is built.
+      {"render cornell --method progressive --texel-density 3000 -o " + out,
+       "lightmap texels (--texel-density) needs"},
+      {"bake cornell --method progressive --texel-density 3000 -o " + dir.file("bk"),
+       "(--texel-density) needs"},
       {"render cornell --method progressive --resume " + out + ".nope -o " + out, ".nope"},
       {"render cornell --method matrix --elements 0 -o " + out, "--elements"},
       {"render cornell --method matrix --solver sor -o " + out, "--solver"},

@@ -82,22 +82,6 @@ Expected<std::vector<fs::path>> checkOutputDirectory(const std::string& dir) {
   return missing;
 }
 
-// Undoes a partial bake: the staging directory, files already moved into place, directories this
-// run created (only if empty).
-struct Cleanup {
-  fs::path staging;
-  std::vector<fs::path> placed;
-  std::vector<fs::path> created;  // outermost first
-  bool done = false;
-  ~Cleanup() {
-    std::error_code ec;
-    if (!staging.empty()) fs::remove_all(staging, ec);
-    if (done) return;
-    for (const fs::path& f : placed) fs::remove(f, ec);
-    for (auto it = created.rbegin(); it != created.rend(); ++it) fs::remove(*it, ec);
-  }
-};
-
 // COLOR_0 = min(1, scale * radiance): 1 at the 99th percentile of the brightest channel of the
 // non-emissive elements' radiance (emitters, a few hot spots and the light's neighbourhood clip).
 float colorScale(std::span<const glm::vec3> radiance, std::span<const uint8_t> emissive) {
@@ -250,37 +234,31 @@ Status bake(const BakeOptions& options, const CommonOptions& common, bool* inter
     if (!options.checkpoint.empty()) {
       return inputError("", "--checkpoint", "applies to --method progressive only");
     }
+    if (options.keep_checkpoint) {
+      return inputError("", "--keep-checkpoint", "applies to --method progressive only");
+    }
   }
   Expected<std::vector<fs::path>> missing = checkOutputDirectory(options.output);
   if (!missing) return missing.error();
   const fs::path out_dir = normalDirectory(options.output);
   const std::string stem = sceneStem(options.scene);
+  // The directory is made now (and removed again if the bake fails or is stopped before its
+  // outputs are placed), so that every output path, the checkpoint's included, is checked as it
+  // will be written.
+  OutputTransaction& transaction = *OutputTransaction::current();
+  PENUMBRA_TRY(transaction.createDirectories(out_dir.string()));
   ProgressiveRunOptions ro;
   if (progressive) {
     ro = progressiveRunOptions(options);
     if (ro.checkpoint.empty()) ro.checkpoint = (out_dir / (stem + ".checkpoint")).string();
-    const std::string checkpoint = ro.checkpoint;
-    if (!missing->empty()) ro.checkpoint.clear();  // the directory is checked above
     PENUMBRA_TRY(checkProgressiveRunOptions(ro));
-    ro.checkpoint = checkpoint;
   }
-  if (!options.stats.empty()) {
-    const fs::path stats_dir = fs::path(options.stats).parent_path();
-    const bool into_new_dir = !missing->empty() && !stats_dir.empty() &&
-                              stats_dir.lexically_normal() == out_dir.lexically_normal();
-    if (!into_new_dir) PENUMBRA_TRY(checkOutputPath(options.stats));
+  const std::string gltf_name = stem + ".gltf", bin_name = stem + ".bin",
+                    exr_name = stem + "_lightmap.exr", png_name = stem + "_lightmap.png";
+  for (const std::string& name : {gltf_name, bin_name, exr_name, png_name}) {
+    PENUMBRA_TRY(checkOutputPath((out_dir / name).string()));
   }
-  // The staging directory is made now, as the test that DIR can be created and written (access()
-  // says yes to root everywhere, even on read-only file systems); a failed run removes it, and
-  // DIR if this run created it.
-  Cleanup cleanup;
-  cleanup.created = *missing;
-  std::error_code ec;
-  fs::create_directories(out_dir, ec);
-  if (ec) return inputError(options.output, "", "cannot create the directory: " + ec.message());
-  cleanup.staging = out_dir / fmt::format(".penumbra-bake-{}", ::getpid());
-  fs::create_directory(cleanup.staging, ec);
-  if (ec) return inputError(options.output, "", "cannot write into the directory: " + ec.message());
+  if (!options.stats.empty()) PENUMBRA_TRY(checkOutputPath(options.stats));
 
   const Timer total_timer;
   Expected<Scene> scene = loadScene(options.scene);
@@ -297,16 +275,14 @@ Status bake(const BakeOptions& options, const CommonOptions& common, bool* inter
   if (product->interrupted) {
     *interrupted = true;
     // The checkpoint is part of what this run leaves, also if the outputs fail.
-    cleanup.created.clear();
+    transaction.keepCreatedDirectories();
   }
   const double seconds = total_timer.seconds();
 
-  // Output: staged, then moved into place.
-  const std::string gltf_name = stem + ".gltf", bin_name = stem + ".bin",
-                    exr_name = stem + "_lightmap.exr", png_name = stem + "_lightmap.png";
-  PENUMBRA_TRY(writeImage((cleanup.staging / exr_name).string(), product->lightmap));
-  PENUMBRA_TRY(
-      writeImage((cleanup.staging / png_name).string(), product->lightmap, ToneMapSettings{}));
+  // Output: temporaries in DIR, placed together by the transaction's commit, in the order
+  // written: the glTF last, so that what it references is in place before it is.
+  PENUMBRA_TRY(writeImage((out_dir / exr_name).string(), product->lightmap));
+  PENUMBRA_TRY(writeImage((out_dir / png_name).string(), product->lightmap, ToneMapSettings{}));
   BakedGltfInfo info;
   info.name = stem;
   info.bin_uri = bin_name;
@@ -329,9 +305,6 @@ Status bake(const BakeOptions& options, const CommonOptions& common, bool* inter
         {"png_content",
          "the EXR tone mapped (Reinhard 2002, automatic key), sRGB encoded; for display"}}}};
   info.extras.update(product->extras);
-  PENUMBRA_TRY(writeBakedGltf((cleanup.staging / gltf_name).string(), product->mesh,
-                              scene->materials, info));
-
   if (!options.stats.empty()) {
     nlohmann::json j = {{"method", options.method},
                         {"device", "cpu"},
@@ -349,15 +322,10 @@ Status bake(const BakeOptions& options, const CommonOptions& common, bool* inter
                           (out_dir / exr_name).string(), (out_dir / png_name).string()}}};
     j.update(product->stats);
     PENUMBRA_TRY(writeStatsFile(options.stats, j));
-    cleanup.placed.push_back(options.stats);
   }
-  // The glTF last: what it references is in place before it is.
-  for (const std::string& name : {bin_name, exr_name, png_name, gltf_name}) {
-    fs::rename(cleanup.staging / name, out_dir / name, ec);
-    if (ec) return runtimeError((out_dir / name).string(), "cannot write: " + ec.message());
-    cleanup.placed.push_back(out_dir / name);
-  }
-  cleanup.done = true;
+  PENUMBRA_TRY(
+      writeBakedGltf((out_dir / gltf_name).string(), product->mesh, scene->materials, info));
+
   spdlog::info("baked in {:.2f} s: {} ({}x{} lightmap, {:.0f} texels/m)", total_timer.seconds(),
                (out_dir / gltf_name).string(), product->atlas_width, product->atlas_height,
                product->texel_density);
@@ -373,10 +341,12 @@ int runBake(const BakeOptions& options, const CommonOptions& common) {
                                 : fmt::format("unknown method '{}'", options.method);
     return reportError(inputError("", "--method", why + " (available: matrix, progressive)"));
   }
+  OutputTransaction transaction;
   bool interrupted = false;
-  const Status s = bake(options, common, &interrupted);
+  Status s = bake(options, common, &interrupted);
+  if (s.ok()) s = transaction.commit();
   if (!s.ok()) return reportError(s.error());
-  return interrupted ? kInterruptedExitCode : 0;
+  return interrupted ? InterruptScope::exitCode() : 0;
 }
 
 }  // namespace penumbra

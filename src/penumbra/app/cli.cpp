@@ -1,5 +1,6 @@
 #include "penumbra/app/commands.h"
 
+#include "penumbra/core/interrupt.h"
 #include "penumbra/core/log.h"
 #include "penumbra/core/parallel.h"
 
@@ -184,6 +185,9 @@ int parseAndRun(int argc, char** argv) {
       ->capture_default_str();
   render_cmd->add_option("--resume", render.resume,
                          "progressive: continue from this checkpoint (written on Ctrl-C)");
+  render_cmd->add_flag("--keep-checkpoint", render.keep_checkpoint,
+                       "progressive: keep the --resume checkpoint after the run completes "
+                       "(it is removed by default: the outputs supersede it)");
   render_cmd->add_option("--checkpoint", render.checkpoint,
                          "progressive: where Ctrl-C writes the checkpoint (default: the first "
                          "output with the extension .checkpoint)");
@@ -283,6 +287,8 @@ int parseAndRun(int argc, char** argv) {
       ->capture_default_str();
   bake_cmd->add_option("--resume", bake.resume,
                        "progressive: continue from this checkpoint (written on Ctrl-C)");
+  bake_cmd->add_flag("--keep-checkpoint", bake.keep_checkpoint,
+                     "progressive: keep the --resume checkpoint after the bake completes");
   bake_cmd->add_option("--checkpoint", bake.checkpoint,
                        "progressive: where Ctrl-C writes the checkpoint (default: "
                        "DIR/SCENE.checkpoint)");
@@ -317,6 +323,7 @@ int parseAndRun(int argc, char** argv) {
   render.tonemap.op =
       tonemap == "exposure" ? ToneMapOperator::kExposure : ToneMapOperator::kReinhard;
   initLogging(common.quiet);
+  installInterruptHandlers();
   auto thread_limit = limitThreads(common.threads);
   if (render_cmd->parsed()) return runRender(render, common);
   if (bake_cmd->parsed()) return runBake(bake, common);

@@ -46,6 +46,7 @@ struct RenderOptions {
   std::optional<double> texel_density;
   std::string resume;
   std::string checkpoint;
+  bool keep_checkpoint = false;  // keep --resume's file after the run completes
   // progressive: top-level points per shooter (0: the paper's flat scheme), and normals
   // (interpolated or triangle).
   int shooter_points = 16;
@@ -88,8 +89,9 @@ struct BakeOptions {
   std::optional<double> texel_density;  // lightmap texels per metre (default: from the size)
   std::optional<int> lightmap_size;     // lightmap width and height (default 1024 for matrix)
   std::string resume;                   // progressive: checkpoint to continue from
-  std::string checkpoint;   // progressive: where Ctrl-C writes one (DIR/STEM.checkpoint)
-  int shooter_points = 16;  // progressive: top-level points per shooter
+  std::string checkpoint;        // progressive: where Ctrl-C writes one (DIR/STEM.checkpoint)
+  bool keep_checkpoint = false;  // progressive: keep --resume's file after the run completes
+  int shooter_points = 16;       // progressive: top-level points per shooter
   std::string normals = "interpolated";  // progressive: interpolated or triangle
 };
 

@@ -2,12 +2,14 @@
 
 #include "penumbra/app/device.h"
 #include "penumbra/app/stats_file.h"
+#include "penumbra/core/file_util.h"
 #include "penumbra/core/interrupt.h"
 #include "penumbra/core/memory.h"
 #include "penumbra/core/progress.h"
 #include "penumbra/core/timer.h"
 #include "penumbra/radiosity/progressive_checkpoint.h"
 #include "penumbra/radiosity/progressive_gl.h"
+#include "penumbra/radiosity/radiosity_surface.h"
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
@@ -83,14 +85,27 @@ Expected<ProgressiveRun> runProgressive(const Scene& scene, const ProgressiveRun
       return inputError(scene.source, "", "the scene has no surface area");
     }
   }
+  // The texels the plan asks for, from the option that sizes the lightmap, counted before
+  // anything is built.
+  LightmapResolution resolution;
+  resolution.texel_density = options.texel_density;
+  resolution.size = options.lightmap_size;
+  resolution.elements = options.elements;
   const uint64_t expected_elements =
-      info ? info->elements
-           : (options.lightmap_size
-                  ? uint64_t(*options.lightmap_size) * uint64_t(*options.lightmap_size) / 2
-                  : uint64_t(options.elements));
-  PENUMBRA_TRY(
-      checkMemory(expected_elements * kBytesPerElement,
-                  fmt::format("progressive radiosity with {} lightmap texels", expected_elements)));
+      info ? info->elements : expectedLightmapElements(scene, resolution);
+  const char* sized_by = info                    ? "the checkpoint's lightmap"
+                         : options.texel_density ? "--texel-density"
+                         : options.lightmap_size ? "--lightmap-size"
+                                                 : "--elements";
+  if (expected_elements > uint64_t(UINT32_MAX)) {
+    return inputError("", sized_by,
+                      fmt::format("progressive radiosity with {} lightmap texels: more than a "
+                                  "lightmap can index",
+                                  expected_elements));
+  }
+  PENUMBRA_TRY(checkMemory(expected_elements * kBytesPerElement,
+                           fmt::format("progressive radiosity with {} lightmap texels ({})",
+                                       expected_elements, sized_by)));
 
   Expected<DeviceChoice> device = chooseDevice(options.device);
   if (!device) return device.error();
@@ -108,7 +123,15 @@ Expected<ProgressiveRun> runProgressive(const Scene& scene, const ProgressiveRun
 
   const Timer build_timer;
   Expected<ProgressiveRadiosity> built = ProgressiveRadiosity::build(scene, po);
-  if (!built) return built.error();
+  if (!built) {
+    // Resuming, the lightmap's size comes from the checkpoint, not from an option.
+    if (info && built.error().file.empty()) {
+      return inputError(options.resume, "",
+                        fmt::format("its lightmap ({} texels per metre) cannot be built: {}",
+                                    info->texel_density, built.error().message));
+    }
+    return built.error();
+  }
   if (gpu && !info) {
     po.shooter_level = gpuShooterLevel(*built, options.shooter_points);
     PENUMBRA_TRY(built->setShooterLevel(po.shooter_level));
@@ -182,7 +205,12 @@ Expected<ProgressiveRun> runProgressive(const Scene& scene, const ProgressiveRun
         "written to {}; continue with --resume {}",
         run.stats.total_iterations, run.stats.unshot_fraction, options.checkpoint,
         options.checkpoint);
-  } else if (!run.stats.converged) {
+  } else if (!options.resume.empty() && !options.keep_checkpoint) {
+    // The run completed: the checkpoint it continued is stale. It goes once the outputs are in
+    // place (kept if they fail).
+    if (OutputTransaction* t = OutputTransaction::current()) t->removeOnCommit(options.resume);
+  }
+  if (!run.interrupted && !run.stats.converged) {
     spdlog::warn(
         "not converged: {:.3g} of the emitted power unshot after {} iterations "
         "(tolerance {:.3g})",

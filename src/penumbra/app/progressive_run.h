@@ -25,6 +25,7 @@ struct ProgressiveRunOptions {
   double tolerance = 1e-3;           // unshot fraction
   std::string resume;                // checkpoint to continue from
   std::string checkpoint;            // where Ctrl-C writes the checkpoint
+  bool keep_checkpoint = false;      // keep `resume` after a run that completes
   int shooter_points = 16;           // ProgressiveOptions::shooter_top_points
   std::string device = "cpu";        // cpu, gpu or auto (design doc sec. 3)
   bool shading_normals = true;       // ProgressiveOptions::shading_normals (CPU only)
@@ -55,6 +56,7 @@ ProgressiveRunOptions progressiveRunOptions(const CommandOptions& o) {
   ro.tolerance = o.tolerance.value_or(1e-3);
   ro.resume = o.resume;
   ro.checkpoint = o.checkpoint;
+  ro.keep_checkpoint = o.keep_checkpoint;
   ro.shooter_points = o.shooter_points;
   ro.device = o.device;
   ro.shading_normals = o.normals == "interpolated";

@@ -195,11 +195,14 @@ int runRender(const RenderOptions& options, const CommonOptions& common) {
   if (options.method != "progressive") {
     const char* only = !options.resume.empty()       ? "--resume"
                        : !options.checkpoint.empty() ? "--checkpoint"
+                       : options.keep_checkpoint     ? "--keep-checkpoint"
                                                      : nullptr;
     if (only) {
       return reportError(inputError("", only, "applies to --method progressive only"));
     }
   }
+  // Every output is placed at the end, together, or none is (core/file_util.h).
+  OutputTransaction transaction;
   Status s;
   bool interrupted = false;
   if (options.method == "pathtrace") {
@@ -218,8 +221,9 @@ int runRender(const RenderOptions& options, const CommonOptions& common) {
                    fmt::format("unknown --method '{}' (available: pathtrace, matrix, progressive)",
                                options.method));
   }
+  if (s.ok()) s = transaction.commit();
   if (!s.ok()) return reportError(s.error());
-  return interrupted ? kInterruptedExitCode : 0;
+  return interrupted ? InterruptScope::exitCode() : 0;
 }
 
 }  // namespace penumbra

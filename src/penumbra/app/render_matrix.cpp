@@ -58,6 +58,11 @@ Status renderMatrix(const RenderOptions& options, const CommonOptions& common) {
                         fmt::format("unsupported image format '{}' (use .exr, .hdr, .pfm or .png)",
                                     extensionOf(out)));
     }
+    if (frames > 1) {
+      // A sequence's directory is made for it (and removed again if the run fails).
+      const std::string dir = std::filesystem::path(out).parent_path().string();
+      if (!dir.empty()) PENUMBRA_TRY(OutputTransaction::current()->createDirectories(dir));
+    }
     PENUMBRA_TRY(checkOutputPath(frames > 1 ? frameName(out, 0) : out));
   }
   if (!options.stats.empty()) PENUMBRA_TRY(checkOutputPath(options.stats));

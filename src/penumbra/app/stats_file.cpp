@@ -17,15 +17,4 @@ Status writeStatsFile(const std::string& path, const nlohmann::json& stats) {
   });
 }
 
-Status checkOutputPath(const std::string& path) {
-  namespace fs = std::filesystem;
-  const fs::path dir = fs::path(path).parent_path();
-  std::error_code ec;
-  if (!dir.empty() && !fs::is_directory(dir, ec)) {
-    return inputError(path, "", "the output directory '" + dir.string() + "' does not exist");
-  }
-  if (fs::is_directory(path, ec)) return inputError(path, "", "is a directory");
-  return {};
-}
-
 }  // namespace penumbra

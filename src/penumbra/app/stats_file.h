@@ -2,6 +2,7 @@
 #pragma once
 
 #include "penumbra/core/expected.h"
+#include "penumbra/core/file_util.h"
 
 #include <nlohmann/json.hpp>
 
@@ -10,8 +11,5 @@
 namespace penumbra {
 
 Status writeStatsFile(const std::string& path, const nlohmann::json& stats);
-
-// Checks before any work starts that an output path can be written: its directory exists.
-Status checkOutputPath(const std::string& path);
 
 }  // namespace penumbra

@@ -147,7 +147,10 @@ Status trace(const TraceOptions& options) {
 }  // namespace
 
 int runTrace(const TraceOptions& options, const CommonOptions&) {
-  const Status s = trace(options);
+  // The hits and the stats are placed together at the end, or neither is.
+  OutputTransaction transaction;
+  Status s = trace(options);
+  if (s.ok()) s = transaction.commit();
   return s.ok() ? 0 : reportError(s.error());
 }
 

@@ -1,8 +1,15 @@
 #include "penumbra/core/file_util.h"
 
+#include <fmt/format.h>
+
 #include <unistd.h>
+#include <climits>
+#include <csignal>
+
 #include <algorithm>
+#include <atomic>
 #include <cctype>
+#include <cerrno>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -12,27 +19,185 @@ namespace penumbra {
 
 namespace fs = std::filesystem;
 
-Status writeAtomically(const std::string& path,
-                       const std::function<Status(const std::string&)>& write) {
-  fs::path target(path);
-  fs::path dir = target.parent_path();
+namespace {
+
+OutputTransaction* g_current = nullptr;
+std::atomic<unsigned> g_counter{0};
+constexpr const char* kTempPrefix = ".penumbra-";
+
+// A short temporary name beside `target` that keeps its extension (writers choose the format by
+// it): ".penumbra-PID-N.ext". Short, so that any name that fits the file system has one that fits
+// too.
+fs::path temporaryFor(const fs::path& target) {
+  return target.parent_path() / fmt::format("{}{}-{}{}", kTempPrefix, ::getpid(),
+                                            g_counter.fetch_add(1), target.extension().string());
+}
+
+// Temporaries of processes that no longer exist (killed with SIGKILL, which nothing can catch)
+// are removed when a later run writes into the same directory.
+void removeStaleTemporaries(const fs::path& dir) {
+  std::error_code ec;
+  const fs::path where = dir.empty() ? fs::path(".") : dir;
+  for (fs::directory_iterator it(where, ec), end; !ec && it != end; it.increment(ec)) {
+    const std::string name = it->path().filename().string();
+    if (name.rfind(kTempPrefix, 0) != 0) continue;
+    const std::string rest = name.substr(std::string(kTempPrefix).size());
+    size_t digits = 0;
+    while (digits < rest.size() && std::isdigit(static_cast<unsigned char>(rest[digits]))) {
+      ++digits;
+    }
+    if (digits == 0 || digits > 9 || digits >= rest.size() || rest[digits] != '-') continue;
+    const long pid = std::stol(rest.substr(0, digits));
+    if (pid == long(::getpid()) || ::kill(pid_t(pid), 0) == 0 || errno != ESRCH) continue;
+    std::error_code rm;
+    fs::remove_all(it->path(), rm);
+  }
+}
+
+Status writeTemporary(const std::string& path,
+                      const std::function<Status(const std::string&)>& write, fs::path* tmp,
+                      CleanupOnSignal* guard) {
+  const fs::path target(path);
+  const fs::path dir = target.parent_path();
   std::error_code ec;
   if (!dir.empty() && !fs::is_directory(dir, ec)) {
     return runtimeError(path, "the directory '" + dir.string() + "' does not exist");
   }
-  // Keep the extension so that writers which dispatch on it see the right one.
-  fs::path tmp =
-      dir / (".penumbra-tmp-" + std::to_string(::getpid()) + "-" + target.filename().string());
-  Status s = write(tmp.string());
+  *tmp = temporaryFor(target);
+  *guard = CleanupOnSignal(fs::absolute(*tmp, ec).string(), false);
+  Status s = write(tmp->string());
   if (!s.ok()) {
-    fs::remove(tmp, ec);
+    fs::remove(*tmp, ec);
     return s;
   }
-  fs::rename(tmp, target, ec);
+  return {};
+}
+
+Status placeNow(const std::string& path, const fs::path& tmp) {
+  std::error_code ec;
+  fs::rename(tmp, path, ec);
   if (ec) {
-    fs::remove(tmp, ec);
+    std::error_code rm;
+    fs::remove(tmp, rm);
     return runtimeError(path, "cannot write: " + ec.message());
   }
+  return {};
+}
+
+}  // namespace
+
+Status writeAtomically(const std::string& path,
+                       const std::function<Status(const std::string&)>& write) {
+  fs::path tmp;
+  CleanupOnSignal guard;
+  PENUMBRA_TRY(writeTemporary(path, write, &tmp, &guard));
+  if (g_current) {
+    g_current->pending_.push_back({tmp.string(), path, std::move(guard)});
+    return {};
+  }
+  return placeNow(path, tmp);
+}
+
+Status writeAtomicallyNow(const std::string& path,
+                          const std::function<Status(const std::string&)>& write) {
+  fs::path tmp;
+  CleanupOnSignal guard;
+  PENUMBRA_TRY(writeTemporary(path, write, &tmp, &guard));
+  return placeNow(path, tmp);
+}
+
+OutputTransaction::OutputTransaction() {
+  g_current = this;
+}
+
+OutputTransaction::~OutputTransaction() {
+  if (g_current == this) g_current = nullptr;
+  if (committed_) return;
+  std::error_code ec;
+  for (const Pending& p : pending_) fs::remove(p.tmp, ec);
+  for (auto it = created_.rbegin(); it != created_.rend(); ++it) fs::remove(it->first, ec);
+}
+
+OutputTransaction* OutputTransaction::current() {
+  return g_current;
+}
+
+Status checkOutputPath(const std::string& path) {
+  const fs::path target(path);
+  const fs::path dir = target.parent_path();
+  std::error_code ec;
+  if (!dir.empty() && !fs::is_directory(dir, ec)) {
+    return inputError(path, "", "the output directory '" + dir.string() + "' does not exist");
+  }
+  if (fs::is_directory(target, ec)) return inputError(path, "", "is a directory");
+  const long name_max = ::pathconf(dir.empty() ? "." : dir.c_str(), _PC_NAME_MAX);
+  const size_t limit = name_max > 0 ? size_t(name_max) : size_t(NAME_MAX);
+  if (target.filename().string().size() > limit) {
+    return inputError(path, "",
+                      fmt::format("the file name is {} bytes long; this file system allows {}",
+                                  target.filename().string().size(), limit));
+  }
+  removeStaleTemporaries(dir);
+  // A probe with the temporary's name shape: the directory takes new files.
+  const fs::path probe = temporaryFor(target);
+  {
+    std::ofstream out(probe, std::ios::binary);
+    if (!out) {
+      return inputError(path, "",
+                        fmt::format("cannot write into the directory '{}'",
+                                    dir.empty() ? std::string(".") : dir.string()));
+    }
+  }
+  fs::remove(probe, ec);
+  return {};
+}
+
+Status OutputTransaction::createDirectories(const std::string& dir) {
+  std::vector<fs::path> missing;
+  std::error_code ec;
+  for (fs::path p = fs::path(dir).lexically_normal(); !p.empty() && !fs::exists(p, ec);
+       p = p.parent_path()) {
+    missing.push_back(p);
+    if (p == p.parent_path()) break;
+  }
+  for (auto it = missing.rbegin(); it != missing.rend(); ++it) {
+    if (!fs::create_directory(*it, ec) || ec) {
+      return inputError(dir, "", "cannot create the directory" + (ec ? ": " + ec.message() : ""));
+    }
+    created_.emplace_back(it->string(),
+                          CleanupOnSignal(fs::absolute(*it, ec).string(), /*directory=*/true));
+  }
+  if (!fs::is_directory(dir, ec)) return inputError(dir, "", "is not a directory");
+  return {};
+}
+
+void OutputTransaction::keepCreatedDirectories() {
+  created_.clear();
+}
+
+Status OutputTransaction::commit() {
+  std::vector<std::string> placed;
+  for (size_t i = 0; i < pending_.size(); ++i) {
+    std::error_code ec;
+    fs::rename(pending_[i].tmp, pending_[i].path, ec);
+    if (ec) {
+      const Error e = runtimeError(pending_[i].path, "cannot write: " + ec.message());
+      std::error_code rm;
+      for (size_t j = i; j < pending_.size(); ++j) fs::remove(pending_[j].tmp, rm);
+      for (const std::string& p : placed) fs::remove(p, rm);
+      pending_.clear();
+      return e;
+    }
+    placed.push_back(pending_[i].path);
+  }
+  pending_.clear();
+  created_.clear();
+  for (const std::string& p : remove_on_commit_) {
+    std::error_code ec;
+    fs::remove(p, ec);
+  }
+  committed_ = true;
+  if (g_current == this) g_current = nullptr;
   return {};
 }
 

@@ -1,17 +1,71 @@
-// Files: outputs are written to a temporary name beside the target and renamed into place, so a
-// failed or interrupted run never leaves a partial output file.
+// Files. Outputs are written to a temporary beside the target and renamed into place, so a
+// failed or interrupted run never leaves a partial output file; an OutputTransaction places all
+// of a command's outputs together, at the end, or none of them.
 #pragma once
 
 #include "penumbra/core/expected.h"
+#include "penumbra/core/interrupt.h"
 
 #include <functional>
 #include <string>
+#include <utility>
+#include <vector>
 
 namespace penumbra {
 
-// Calls write(tmp_path); on success renames tmp_path to `path`, otherwise removes it.
+// Calls write(tmp_path) with a temporary beside `path` (same extension); on success renames it to
+// `path` (or, while an OutputTransaction is open, leaves that to its commit()), otherwise removes
+// it. SIGINT or SIGTERM arriving meanwhile removes the temporary too.
 Status writeAtomically(const std::string& path,
                        const std::function<Status(const std::string&)>& write);
+
+// As writeAtomically, but placed at once even inside a transaction (a checkpoint is kept when the
+// other outputs fail).
+Status writeAtomicallyNow(const std::string& path,
+                          const std::function<Status(const std::string&)>& write);
+
+// Before the work: that `path` can be written. Its directory exists and takes a new file (a probe
+// is created and removed: access() says yes to root on read-only file systems), `path` is not a
+// directory, and its name is not longer than the file system allows. Temporaries left in the
+// directory by processes that no longer exist (SIGKILL) are removed.
+Status checkOutputPath(const std::string& path);
+
+// All outputs of one command. While it is open (one at a time), writeAtomically writes into
+// temporaries and commit() renames them into place in the order written; a transaction closed
+// without commit() (an error, an exception) removes its temporaries and the directories it
+// created, and SIGINT / SIGTERM ending the process does the same (core/interrupt.h).
+class OutputTransaction {
+ public:
+  OutputTransaction();
+  ~OutputTransaction();
+  OutputTransaction(const OutputTransaction&) = delete;
+  OutputTransaction& operator=(const OutputTransaction&) = delete;
+
+  // Creates `dir` and its missing parents now; those this run made are removed again unless the
+  // transaction commits (or `keep` is called, as when a checkpoint was written into them).
+  Status createDirectories(const std::string& dir);
+  void keepCreatedDirectories();
+  // A file removed once the outputs are placed (a checkpoint the run made stale).
+  void removeOnCommit(const std::string& path) { remove_on_commit_.push_back(path); }
+  // Renames every temporary into place. If one fails, the temporaries left are removed and the
+  // outputs this commit placed are removed again.
+  Status commit();
+
+  // The open transaction, or null.
+  static OutputTransaction* current();
+
+ private:
+  friend Status writeAtomically(const std::string&,
+                                const std::function<Status(const std::string&)>&);
+  struct Pending {
+    std::string tmp, path;
+    CleanupOnSignal guard;
+  };
+  std::vector<Pending> pending_;
+  std::vector<std::pair<std::string, CleanupOnSignal>> created_;  // in creation order
+  std::vector<std::string> remove_on_commit_;
+  bool committed_ = false;
+};
 
 // Reads a whole file into a string (binary).
 Expected<std::string> readFile(const std::string& path);

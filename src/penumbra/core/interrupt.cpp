@@ -1,41 +1,118 @@
 #include "penumbra/core/interrupt.h"
 
+#include <unistd.h>
+
+#include <atomic>
 #include <csignal>
+#include <cstring>
 
 namespace penumbra {
 
 namespace {
 
-volatile std::sig_atomic_t g_requested = 0;
-struct sigaction g_previous;
+volatile std::sig_atomic_t g_scope = 0;      // an InterruptScope is alive
+volatile std::sig_atomic_t g_requested = 0;  // the signal that asked to stop, 0 if none
 
-extern "C" void onInterrupt(int) {
-  if (g_requested) {
-    // The second Ctrl-C: the default action (terminate), now.
-    std::signal(SIGINT, SIG_DFL);
-    std::raise(SIGINT);
+// The cleanup registry: fixed slots, so the handler reads without allocating. A slot's state is
+// written after its path, and cleared before the path is reused.
+constexpr int kSlots = 128;
+constexpr size_t kPathBytes = 1024;
+struct Slot {
+  volatile std::sig_atomic_t state = 0;  // 0 free, 1 file, 2 directory
+  unsigned long order = 0;               // registration order (directories: latest first)
+  char path[kPathBytes] = {};
+};
+Slot g_slots[kSlots];
+std::atomic<bool> g_slot_busy[kSlots];
+std::atomic<unsigned long> g_order{0};
+
+void removeRegistered() {
+  for (Slot& s : g_slots) {
+    if (s.state == 1) ::unlink(s.path);
+  }
+  // Directories, the most recently made first (a parent after its children).
+  for (;;) {
+    Slot* latest = nullptr;
+    for (Slot& s : g_slots) {
+      if (s.state == 2 && (!latest || s.order > latest->order)) latest = &s;
+    }
+    if (!latest) break;
+    ::rmdir(latest->path);
+    latest->state = 0;
+  }
+}
+
+extern "C" void onSignal(int sig) {
+  if (g_scope && !g_requested) {
+    g_requested = sig;
     return;
   }
-  g_requested = 1;
+  removeRegistered();
+  std::signal(sig, SIG_DFL);
+  std::raise(sig);
 }
 
 }  // namespace
 
-InterruptScope::InterruptScope() {
-  g_requested = 0;
+void installInterruptHandlers() {
   struct sigaction sa = {};
-  sa.sa_handler = onInterrupt;
+  sa.sa_handler = onSignal;
   sigemptyset(&sa.sa_mask);
   sa.sa_flags = SA_RESTART;
-  sigaction(SIGINT, &sa, &g_previous);
+  sigaction(SIGINT, &sa, nullptr);
+  sigaction(SIGTERM, &sa, nullptr);
+}
+
+InterruptScope::InterruptScope() {
+  g_requested = 0;
+  g_scope = 1;
 }
 
 InterruptScope::~InterruptScope() {
-  sigaction(SIGINT, &g_previous, nullptr);
+  g_scope = 0;
 }
 
 bool InterruptScope::requested() {
   return g_requested != 0;
+}
+
+int InterruptScope::exitCode() {
+  return 128 + (g_requested != 0 ? int(g_requested) : SIGINT);
+}
+
+CleanupOnSignal::CleanupOnSignal(const std::string& path, bool directory) {
+  if (path.size() >= kPathBytes) return;
+  for (int i = 0; i < kSlots; ++i) {
+    bool expected = false;
+    if (!g_slot_busy[i].compare_exchange_strong(expected, true)) continue;
+    Slot& s = g_slots[i];
+    std::memcpy(s.path, path.c_str(), path.size() + 1);
+    s.order = g_order.fetch_add(1);
+    std::atomic_signal_fence(std::memory_order_seq_cst);
+    s.state = directory ? 2 : 1;
+    slot_ = i;
+    return;
+  }
+}
+
+CleanupOnSignal::~CleanupOnSignal() {
+  if (slot_ < 0) return;
+  g_slots[slot_].state = 0;
+  std::atomic_signal_fence(std::memory_order_seq_cst);
+  g_slot_busy[slot_].store(false);
+}
+
+CleanupOnSignal::CleanupOnSignal(CleanupOnSignal&& other) noexcept : slot_(other.slot_) {
+  other.slot_ = -1;
+}
+
+CleanupOnSignal& CleanupOnSignal::operator=(CleanupOnSignal&& other) noexcept {
+  if (this != &other) {
+    this->~CleanupOnSignal();
+    slot_ = other.slot_;
+    other.slot_ = -1;
+  }
+  return *this;
 }
 
 }  // namespace penumbra

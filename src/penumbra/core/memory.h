@@ -14,7 +14,17 @@ uint64_t physicalMemoryBytes();
 // "1.5 GiB", "12.0 MiB", ...
 std::string formatBytes(uint64_t bytes);
 
-// An input error when `bytes` exceeds 80% of physical memory, naming `what` and both amounts.
+// What this process may still allocate: the least of MemAvailable (/proc/meminfo), the
+// address-space limit (ulimit -v) less what the process maps already, and its control group's
+// memory.max less memory.current; with what set it.
+struct MemoryBudget {
+  uint64_t bytes = 0;
+  const char* limited_by = "";
+};
+MemoryBudget availableMemory();
+
+// An input error when `bytes` exceeds 90% of availableMemory(), naming `what`, both amounts and
+// the limit that applies. Callers estimate from counts, before allocating.
 Status checkMemory(uint64_t bytes, const std::string& what);
 
 }  // namespace penumbra

@@ -1,14 +1,20 @@
 #include "penumbra/io/gltf_writer.h"
 
 #include "penumbra/core/check.h"
+#include "penumbra/core/file_util.h"
+#include "penumbra/core/interrupt.h"
 
 #include <glm/common.hpp>
 
 #include <tiny_gltf.h>
 
+#include <fmt/format.h>
+#include <unistd.h>
+
 #include <algorithm>
 #include <cstring>
 #include <exception>
+#include <filesystem>
 #include <limits>
 #include <vector>
 
@@ -209,13 +215,45 @@ Status writeBakedGltf(const std::string& gltf_path, const BakedMesh& mesh,
     model.scenes.push_back(scene);
     model.defaultScene = 0;
 
+    // tinygltf writes the .gltf and its buffer side by side: into a private directory beside
+    // the target, from which each is handed to writeAtomically (so both are placed with the
+    // command's other outputs, the buffer first).
+    namespace fs = std::filesystem;
+    const fs::path target(gltf_path);
+    const fs::path bin_target = target.parent_path() / info.bin_uri;
+    const fs::path staging = target.parent_path() / fmt::format(".penumbra-{}-{}.d", ::getpid(),
+                                                                target.filename().string());
+    std::error_code ec;
+    fs::create_directory(staging, ec);
+    if (ec) return runtimeError(gltf_path, "cannot write: " + ec.message());
+    const CleanupOnSignal staged_dir(fs::absolute(staging, ec).string(), true);
+    const CleanupOnSignal staged_gltf(fs::absolute(staging / target.filename(), ec).string(),
+                                      false);
+    const CleanupOnSignal staged_bin(fs::absolute(staging / info.bin_uri, ec).string(), false);
+    struct RemoveStaging {
+      fs::path dir;
+      ~RemoveStaging() {
+        std::error_code e;
+        fs::remove_all(dir, e);
+      }
+    } remove_staging{staging};
     tinygltf::TinyGLTF writer;
     writer.SetImageWriter(nullptr, nullptr);  // the PNG is written separately; keep its uri
-    if (!writer.WriteGltfSceneToFile(&model, gltf_path, /*embedImages=*/false,
-                                     /*embedBuffers=*/false, /*prettyPrint=*/true,
-                                     /*writeBinary=*/false)) {
+    if (!writer.WriteGltfSceneToFile(&model, (staging / target.filename()).string(),
+                                     /*embedImages=*/false, /*embedBuffers=*/false,
+                                     /*prettyPrint=*/true, /*writeBinary=*/false)) {
       return runtimeError(gltf_path, "cannot write glTF file or its buffer '" + info.bin_uri + "'");
     }
+    auto move = [](const fs::path& from) {
+      return [from](const std::string& tmp) -> Status {
+        std::error_code e;
+        fs::rename(from, tmp, e);
+        if (e) return runtimeError(tmp, "cannot write: " + e.message());
+        return {};
+      };
+    };
+    PENUMBRA_TRY(writeAtomically(bin_target.string(), move(staging / info.bin_uri)));
+    PENUMBRA_TRY(writeAtomically(gltf_path, move(staging / target.filename())));
   } catch (const std::exception& e) {
     return runtimeError(gltf_path, std::string("cannot write glTF file: ") + e.what());
   }

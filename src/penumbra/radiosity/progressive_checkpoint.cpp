@@ -7,6 +7,7 @@
 #include <bit>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <memory>
 
 namespace penumbra {
@@ -71,9 +72,15 @@ Expected<ProgressiveCheckpointInfo> parseHeader(const std::string& path, const s
     for (int c = 0; c < 3; ++c) ok = ok && r.get((*v)[c]);
   }
   if (!ok) return inputError(path, "header", "truncated");
-  if (!(info.texel_density > 0.0) || info.atlas_width <= 0 || info.atlas_height <= 0 ||
-      info.shooter_level < 0 || info.shooter_top_points < 0 || info.iterations < 0 ||
-      info.lights_shot < 0 || info.lights_shot > 1 || info.elements == 0) {
+  // What a checkpoint of this version can hold (the atlas at most 16384 texels a side, the
+  // shooter options' ranges): a forged or corrupt header is refused here, naming the file,
+  // rather than driving the build.
+  if (!(info.texel_density > 0.0 && info.texel_density < 1e9) || info.atlas_width <= 0 ||
+      info.atlas_height <= 0 || info.atlas_width > 16384 || info.atlas_height > 16384 ||
+      info.shooter_level < 0 || info.shooter_level > 16 || info.shooter_top_points < 0 ||
+      info.shooter_top_points > 4096 || info.iterations < 0 || info.lights_shot < 0 ||
+      info.lights_shot > 1 || info.elements == 0 ||
+      info.elements > uint64_t(info.atlas_width) * uint64_t(info.atlas_height)) {
     return inputError(path, "header", "values out of range");
   }
   if (balance) *balance = b;
@@ -130,7 +137,7 @@ Status writeProgressiveCheckpoint(const std::string& path, const Scene& scene,
   Fnv1a h;
   h.add(w.bytes.data(), w.bytes.size());
   w.put(h.h);
-  return writeAtomically(path, [&](const std::string& tmp) -> Status {
+  return writeAtomicallyNow(path, [&](const std::string& tmp) -> Status {
     std::unique_ptr<FILE, int (*)(FILE*)> f(std::fopen(tmp.c_str(), "wb"), &std::fclose);
     if (!f) return runtimeError(path, "cannot write the checkpoint");
     if (std::fwrite(w.bytes.data(), 1, w.bytes.size(), f.get()) != w.bytes.size() ||
@@ -147,7 +154,19 @@ Expected<ProgressiveCheckpointInfo> readProgressiveCheckpointInfo(const std::str
   if (!f) return inputError(path, "", "cannot open the checkpoint");
   std::string bytes(kHeaderBytes + 8, '\0');
   bytes.resize(std::fread(bytes.data(), 1, bytes.size(), f.get()));
-  return parseHeader(path, bytes, nullptr);
+  Expected<ProgressiveCheckpointInfo> info = parseHeader(path, bytes, nullptr);
+  if (!info) return info;
+  // The body holds 48 bytes per element and a checksum: the element count is checked against
+  // the file's size before anything is built for it.
+  std::error_code ec;
+  const uint64_t size = std::filesystem::file_size(path, ec);
+  if (ec || info->elements > (size - std::min<uint64_t>(size, kHeaderBytes)) / 48 ||
+      size != kHeaderBytes + 48 * info->elements + 8) {
+    return inputError(path, "",
+                      fmt::format("truncated or padded: {} bytes for {} elements", ec ? 0 : size,
+                                  info->elements));
+  }
+  return info;
 }
 
 Status resumeProgressiveCheckpoint(const std::string& path, const Scene& scene,
