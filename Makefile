@@ -3,7 +3,7 @@ BUILD ?= build
 JOBS ?= $(shell nproc)
 CMAKE_FLAGS ?= -DCMAKE_BUILD_TYPE=Release
 
-.PHONY: deps configure build demo test bench plots format clean
+.PHONY: deps configure build demo test test-asan fuzz fuzz-build bench plots format clean
 
 deps:
 	bash scripts/install-deps.sh
@@ -21,6 +21,37 @@ demo: build
 test: build
 	cd $(BUILD) && ctest --output-on-failure -j $(JOBS)
 
+# The test suite under AddressSanitizer and UndefinedBehaviorSanitizer, in its own build folder.
+# ASAN_TESTS narrows it to a GoogleTest filter (.ci/run passes the fast tests).
+ASAN_BUILD ?= build-asan
+ASAN_TESTS ?= *
+test-asan: deps
+	cmake -S . -B $(ASAN_BUILD) -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DPENUMBRA_SANITIZE=ON \
+	  -DPENUMBRA_BUILD_BENCH=OFF -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1"
+	cmake --build $(ASAN_BUILD) -j $(JOBS) --target penumbra_tests penumbra_cli
+	ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \
+	  $(ASAN_BUILD)/bin/penumbra_tests --gtest_filter='$(ASAN_TESTS)'
+
+# libFuzzer (clang from Debian): every target in fuzz/ runs FUZZ_SECONDS on its corpus in
+# fuzz/corpus/<target>, which grows with what it finds; crashes land in fuzz-out/.
+FUZZ_BUILD ?= build-fuzz
+FUZZ_SECONDS ?= 60
+FUZZ_TARGETS ?= obj ply gltf scene_json rays image checkpoint
+fuzz-build: deps
+	CXX=clang++ cmake -S . -B $(FUZZ_BUILD) -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+	  -DPENUMBRA_FUZZ=ON -DPENUMBRA_BUILD_TESTS=OFF -DPENUMBRA_BUILD_BENCH=OFF \
+	  -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1"
+	cmake --build $(FUZZ_BUILD) -j $(JOBS) $(addprefix --target fuzz_,$(FUZZ_TARGETS))
+
+fuzz: fuzz-build
+	mkdir -p fuzz-out
+	for t in $(FUZZ_TARGETS); do \
+	  mkdir -p fuzz/corpus/$$t && \
+	  $(FUZZ_BUILD)/bin/fuzz_$$t fuzz/corpus/$$t -max_total_time=$(FUZZ_SECONDS) -timeout=10 \
+	    -rss_limit_mb=4096 -max_len=1048576 -artifact_prefix=fuzz-out/$$t- \
+	    -print_final_stats=1 2>&1 | tail -n 20 || exit 1; \
+	done
+
 bench: build
 	mkdir -p bench-out
 	$(BUILD)/bin/ray_bench --benchmark_out=bench-out/ray_bench.json --benchmark_out_format=json
@@ -35,4 +66,4 @@ format:
 	clang-format -i $$(git ls-files '*.cpp' '*.h' '*.hpp')
 
 clean:
-	rm -rf $(BUILD) out bench-out
+	rm -rf $(BUILD) $(ASAN_BUILD) $(FUZZ_BUILD) out bench-out fuzz-out
