@@ -37,16 +37,18 @@ inline std::string writeInput(const std::string& name, std::string_view bytes) {
   return path;
 }
 
-// The contract: success, or an input error naming `path` (a crash or exception aborts anyway).
-template <typename T>
-void expectContract(const Expected<T>& result, const std::string& path) {
+// The contract: success, or an input error that names a file (a crash or an exception aborts
+// anyway). `R` is a
+// Status or an Expected<T>.
+template <typename R>
+void expectContract(const R& result, const std::string& path) {
   if (result.ok()) return;
   const Error& e = result.error();
-  if (e.kind != ErrorKind::kInput || e.message.empty()) {
-    std::fprintf(stderr, "not an input error: %s\n", e.describe().c_str());
+  if (e.kind != ErrorKind::kInput || e.message.empty() || e.file.empty()) {
+    std::fprintf(stderr, "not an input error naming a file (%s): %s\n", path.c_str(),
+                 e.describe().c_str());
     std::abort();
   }
-  (void)path;
 }
 
 }  // namespace penumbra::fuzz
