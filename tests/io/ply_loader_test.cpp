@@ -153,8 +153,18 @@ TEST(PlyLoad, ErrorsNameFileAndPlace) {
        "2147483648 entries"},
       {"noproperties.ply",
        "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\n"
-       "element junk 18446744073709551615\nend_header\n",
+       "property float y\nproperty float z\nelement junk 18446744073709551615\nend_header\n",
        "no properties"},
+      {"noz.ply",
+       "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
+       "end_header\n0 0\n",
+       "one scalar property 'z'"},
+      // Found by fuzzing (Assimp leaked on it): NUL bytes inside a header line.
+      {"nul.ply",
+       std::string("ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty "
+                   "float y\0\0z\nend_header\n0 0 0\n",
+                   92),
+       "line 5: the header holds a byte that is not text"},
   };
   for (const Case& c : cases) {
     SCOPED_TRACE(c.name);

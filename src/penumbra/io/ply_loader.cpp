@@ -213,6 +213,13 @@ Status scanPly(const std::string& path, const std::string& text, PlyScan* scan) 
     pos = eol + 1;
     ++line_no;
     const std::string place = fmt::format("line {}", line_no);
+    // The header is text: printable ASCII, spaces and tabs.
+    for (char c : line) {
+      const auto u = static_cast<unsigned char>(c);
+      if ((u < 0x20 && c != '\t' && c != '\r') || u > 0x7e) {
+        return inputError(path, place, "the header holds a byte that is not text");
+      }
+    }
     const std::vector<std::string_view> w = splitWords(line);
     if (line_no == 1 || w.empty() || w[0] == "comment" || w[0] == "obj_info") continue;
     if (w[0] == "end_header") {
@@ -281,6 +288,18 @@ Status scanPly(const std::string& path, const std::string& text, PlyScan* scan) 
   }
   if (!vertex_element) return inputError(path, "header", "no 'vertex' element");
   scan->vertices = vertex_element->count;
+  // Positions need x, y and z, each once and not a list (Assimp fails on anything else, and
+  // leaks memory on the way out).
+  for (const char* axis : {"x", "y", "z"}) {
+    int found = 0;
+    for (const PlyProperty& p : vertex_element->properties) {
+      if (p.name == axis) found += p.is_list ? 2 : 1;
+    }
+    if (found != 1) {
+      return inputError(path, "header",
+                        fmt::format("the 'vertex' element needs one scalar property '{}'", axis));
+    }
+  }
 
   // Counts against the file's size, before any loop over them. An element with entries but no
   // properties holds nothing to read (and nothing would end a loop over a hostile count); every
