@@ -159,6 +159,10 @@ TEST(PlyLoad, ErrorsNameFileAndPlace) {
        "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
        "end_header\n0 0\n",
        "one scalar property 'z'"},
+      // Found by fuzzing: a list length no count type holds (an ASCII file can write it).
+      {"biglist.ply", asciiPly(kFiveVertices, "3 0 1 2\n5.5e75 0 1 2\n", 5, 2),
+       "line 17, face 1: list length 5.5e+75"},
+      {"typedlist.ply", asciiPly(kFiveVertices, "256 0 1 2\n", 5, 1), "list length 256"},
       // Found by fuzzing (Assimp leaked on it): NUL bytes inside a header line.
       {"nul.ply",
        std::string("ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty "

@@ -69,6 +69,26 @@ size_t sizeOf(PlyType t) {
   return 1;
 }
 
+// The largest value an integer type holds (lists' counts).
+double largestValue(PlyType t) {
+  switch (t) {
+    case PlyType::kInt8:
+      return 127.0;
+    case PlyType::kUInt8:
+      return 255.0;
+    case PlyType::kInt16:
+      return 32767.0;
+    case PlyType::kUInt16:
+      return 65535.0;
+    case PlyType::kInt32:
+      return 2147483647.0;
+    case PlyType::kUInt32:
+      return 4294967295.0;
+    default:
+      return 0.0;  // counts are integers (checked in the header)
+  }
+}
+
 struct PlyProperty {
   std::string name;
   bool is_list = false;
@@ -358,7 +378,8 @@ Status scanPly(const std::string& path, const std::string& text, PlyScan* scan) 
           continue;
         }
         if (!body.next(p.count_type, &value, &bad)) return fail();
-        if (!(value >= 0.0) || value != std::floor(value)) {
+        // A count within its declared type (an ASCII file can write any number).
+        if (!(value >= 0.0) || value != std::floor(value) || value > largestValue(p.count_type)) {
           return inputError(path, where(),
                             fmt::format("list length {} of '{}' is not a count", value, p.name));
         }
