@@ -163,7 +163,20 @@ TEST(PlyLoad, ErrorsNameFileAndPlace) {
       {"biglist.ply", asciiPly(kFiveVertices, "3 0 1 2\n5.5e75 0 1 2\n", 5, 2),
        "line 17, face 1: list length 5.5e+75"},
       {"typedlist.ply", asciiPly(kFiveVertices, "256 0 1 2\n", 5, 1), "list length 256"},
-      // Found by fuzzing (Assimp leaked on it): NUL bytes inside a header line.
+      // Found by fuzzing (Assimp leaked on them): two formats, and NUL bytes in a header line.
+      {"twoformats.ply",
+       "ply\nformat ascii 1.0\nformat binary_little_endian 1.0\nelement vertex 1\n"
+       "property float x\nproperty float y\nproperty float z\nend_header\n0 0 0\n",
+       "line 3: a second 'format' line"},
+      {"twovertex.ply",
+       "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
+       "property float z\nelement vertex 1\nproperty float x\nend_header\n0 0 0\n0\n",
+       "line 7: a second element 'vertex'"},
+      {"noindices.ply",
+       "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
+       "property float z\nelement face 1\nproperty list uchar int vertex_indice\nend_header\n"
+       "0 0 0\n1 0\n",
+       "no 'vertex_indices' list"},
       {"nul.ply",
        std::string("ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty "
                    "float y\0\0z\nend_header\n0 0 0\n",

@@ -248,6 +248,7 @@ Status scanPly(const std::string& path, const std::string& text, PlyScan* scan) 
     }
     if (w[0] == "format") {
       if (w.size() != 3) return inputError(path, place, "'format' needs a type and a version");
+      if (format) return inputError(path, place, "a second 'format' line");
       if (w[1] == "ascii") {
         format = PlyFormat::kAscii;
       } else if (w[1] == "binary_little_endian") {
@@ -261,6 +262,11 @@ Status scanPly(const std::string& path, const std::string& text, PlyScan* scan) 
       if (w.size() != 3) return inputError(path, place, "'element' needs a name and a count");
       PlyElement e;
       e.name = std::string(w[1]);
+      for (const PlyElement& other : elements) {
+        if (other.name == e.name) {
+          return inputError(path, place, fmt::format("a second element '{}'", e.name));
+        }
+      }
       const std::string count(w[2]);
       char* end = nullptr;
       errno = 0;
@@ -307,6 +313,16 @@ Status scanPly(const std::string& path, const std::string& text, PlyScan* scan) 
     }
   }
   if (!vertex_element) return inputError(path, "header", "no 'vertex' element");
+  for (const PlyElement& e : elements) {
+    if (e.name != "face" || e.count == 0) continue;
+    bool indices = false;
+    for (const PlyProperty& p : e.properties) {
+      indices = indices || (p.is_list && (p.name == "vertex_indices" || p.name == "vertex_index"));
+    }
+    if (!indices) {
+      return inputError(path, "header", "the 'face' element has no 'vertex_indices' list");
+    }
+  }
   scan->vertices = vertex_element->count;
   // Positions need x, y and z, each once and not a list (Assimp fails on anything else, and
   // leaks memory on the way out).
