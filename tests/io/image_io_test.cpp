@@ -496,5 +496,21 @@ TEST(ImageIoTest, ExtensionIsCaseInsensitive) {
   expectBitExact(img, *back);
 }
 
+TEST(ImageIoTest, APngClaimingMorePixelsThanItsBytesHoldIsRefusedFromItsHeader) {
+  // Found by fuzzing: 64 bytes whose header claims 16,777,216 x 12 pixels (2.4 GB decoded).
+  test::TempDir dir;
+  const std::string bytes(
+      "\x89\x50\x4e\x47\x0d\x0a\x1a\x0a\x00\x00\x00\x0d\x49\x48\x44\x52\x01\x00\x00\x00\x00\x00\x00"
+      "\x0c\x08\x02\x00\x00\x00\x22\x66\xd9\x14\x00\x00\x00\x45\x49\x48\x44\x52\x00\x09\x00\x06\x00"
+      "\x00\x00\x04\x08\x02\x00\x91\x00\x00\x53\x1b\x21\x44\xae\x42\x60\x82\x4a",
+      64);
+  const std::string path = dir.write("claims.png", bytes);
+  Expected<Image> img = readImage(path);
+  ASSERT_FALSE(img.ok());
+  EXPECT_EQ(img.error().file, path);
+  EXPECT_NE(img.error().message.find("more than its 64 bytes can hold"), std::string::npos)
+      << img.error().describe();
+}
+
 }  // namespace
 }  // namespace penumbra

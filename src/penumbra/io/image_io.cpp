@@ -9,6 +9,8 @@
 // Writes go through writeAtomically; no exception escapes this file.
 #include "penumbra/io/image_io.h"
 
+#include "penumbra/core/memory.h"
+
 #include "penumbra/core/file_util.h"
 
 #include <OpenEXR/ImfChannelList.h>
@@ -303,6 +305,14 @@ Expected<Image> readHdr(const std::string& path) {
   }
   PENUMBRA_TRY(checkRgbeData(path, *bytes));
   int w = 0, h = 0, n = 0;
+  if (stbi_info_from_memory(data, len, &w, &h, &n)) {
+    if (int64_t(w) * int64_t(h) > kMaxReadPixels) return inputError(path, "", "image too large");
+    if (Status m = checkMemory(uint64_t(w) * uint64_t(h) * 24,
+                               fmt::format("reading a {} x {} image", w, h));
+        !m.ok()) {
+      return inputError(path, "", m.error().message);
+    }
+  }
   std::unique_ptr<float, StbFree> pixels(stbi_loadf_from_memory(data, len, &w, &h, &n, 3));
   if (!pixels) {
     return inputError(path, "",
@@ -332,6 +342,19 @@ Expected<Image> readPng(const std::string& path) {
     return inputError(path, "", std::string("not a readable PNG file: ") + stbi_failure_reason());
   }
   if (int64_t(w) * int64_t(h) > kMaxReadPixels) return inputError(path, "", "image too large");
+  // Deflate expands at most 1032:1, so a 64-byte file that claims 16 million x 12 pixels is
+  // refused from its header, before anything is allocated for it.
+  const uint64_t raw = uint64_t(w) * uint64_t(h) * uint64_t(std::max(n, 1));
+  if (raw > 1100 * uint64_t(bytes->size()) + 4096) {
+    return inputError(
+        path, "",
+        fmt::format("claims {} x {} pixels, more than its {} bytes can hold", w, h, bytes->size()));
+  }
+  if (Status m =
+          checkMemory(uint64_t(w) * uint64_t(h) * 24, fmt::format("reading a {} x {} image", w, h));
+      !m.ok()) {
+    return inputError(path, "", m.error().message);
+  }
   Image image(w, h);
   if (stbi_is_16_bit_from_memory(data, len)) {
     std::unique_ptr<stbi_us, StbFree> pixels(stbi_load_16_from_memory(data, len, &w, &h, &n, 3));
