@@ -1,25 +1,13 @@
 #include "penumbra/geometry/shading_normals.h"
 
+#include "penumbra/geometry/weld.h"
+
 #include <glm/geometric.hpp>
 
 #include <algorithm>
 #include <cmath>
-#include <cstring>
-#include <unordered_map>
 
 namespace penumbra {
-
-namespace {
-
-struct PositionHash {
-  size_t operator()(const glm::vec3& p) const {
-    uint32_t b[3];
-    std::memcpy(b, &p, sizeof(b));
-    return size_t(b[0]) * 73856093u ^ size_t(b[1]) * 19349663u ^ size_t(b[2]) * 83492791u;
-  }
-};
-
-}  // namespace
 
 std::vector<glm::vec3> cornerShadingNormals(const Scene& scene, double crease_deg) {
   const FlatTriangles flat = flattenScene(scene);
@@ -49,13 +37,9 @@ std::vector<glm::vec3> cornerShadingNormals(const Scene& scene, double crease_de
   }
   // Welded corners: the triangles meeting at each distinct position (ids by position, then
   // the triangles of each id in one array).
-  std::unordered_map<glm::vec3, uint32_t, PositionHash> id_of;
-  id_of.reserve(flat.positions.size());
-  std::vector<uint32_t> weld(flat.positions.size());
-  for (size_t i = 0; i < flat.positions.size(); ++i) {
-    weld[i] = id_of.emplace(flat.positions[i], uint32_t(id_of.size())).first->second;
-  }
-  std::vector<uint32_t> first(id_of.size() + 1, 0);
+  const std::vector<uint32_t> weld = weldPositions(flat.positions);
+  const uint32_t welded = weld.empty() ? 0 : *std::max_element(weld.begin(), weld.end()) + 1;
+  std::vector<uint32_t> first(size_t(welded) + 1, 0);
   auto counted = [&](size_t t) { return area2[t] > 0.0 && mesh_of[t]->normals.empty(); };
   for (size_t t = 0; t < nt; ++t) {
     if (!counted(t)) continue;
