@@ -42,6 +42,17 @@ void splitTokens(std::string_view line, std::vector<std::string_view>& tokens) {
   }
 }
 
+// The next line of `text` from *pos, without its "\n" or "\r\n"; false at the end.
+bool nextLine(std::string_view text, size_t* pos, std::string_view* line) {
+  if (*pos >= text.size()) return false;
+  size_t eol = text.find('\n', *pos);
+  if (eol == std::string_view::npos) eol = text.size();
+  *line = text.substr(*pos, eol - *pos);
+  *pos = eol + 1;
+  if (!line->empty() && line->back() == '\r') line->remove_suffix(1);
+  return true;
+}
+
 // A decimal number as OBJ writes it; "nan" and "inf" spellings, and numbers too large for a
 // double, are read as non-finite values so that the caller can report them. Returns false when
 // `token` is not a number at all.
@@ -111,13 +122,9 @@ Status scanObj(const std::string& path, const std::string& text, ObjScan* scan,
   size_t line_no = 0;
   size_t pos = 0;
   std::vector<std::string_view> tok;
-  while (pos < text.size()) {
-    size_t eol = text.find('\n', pos);
-    if (eol == std::string::npos) eol = text.size();
-    std::string_view line(text.data() + pos, eol - pos);
-    pos = eol + 1;
+  std::string_view line;
+  while (nextLine(text, &pos, &line)) {
     ++line_no;
-    if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
     auto place = [&line_no]() { return fmt::format("line {}", line_no); };
     if (line.find('\0') != std::string_view::npos) {
       return inputError(path, place(), "binary data: this is not a text OBJ file");
@@ -298,15 +305,11 @@ Status scanMtl(const std::string& path, const std::string& text) {
   static const char* const kScalars[] = {"Ns", "Ni", "d", "Tr"};
   size_t line_no = 0, pos = 0;
   std::vector<std::string_view> tok;
-  while (pos < text.size()) {
-    size_t eol = text.find('\n', pos);
-    if (eol == std::string::npos) eol = text.size();
-    std::string_view line(text.data() + pos, eol - pos);
-    pos = eol + 1;
+  std::string_view line;
+  while (nextLine(text, &pos, &line)) {
     ++line_no;
     const size_t comment = line.find('#');
     if (comment != std::string_view::npos) line = line.substr(0, comment);
-    if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
     splitTokens(line, tok);
     if (tok.empty()) continue;
     bool colour = false, scalar = false;
