@@ -133,14 +133,17 @@ TEST(Cli, ProgressiveRadiosityRendersTheFurnace) {
 // Runs the executable with `args` (split on spaces), sends it SIGINT after `delay_s` seconds, and
 // returns its exit code (-1 when it did not exit normally). Output goes to /dev/null.
 // Runs the CLI and sends it `signal` after `delay_s` seconds; the exit status as a shell gives
-// it (128 + the signal's number when the signal ended the process).
-int runCliSignalled(const std::string& args, double delay_s, int signal);
+// it (128 + the signal's number when the signal ended the process). With `must_exist`, that path
+// must exist when the signal is sent (else -2): the run had made it, so it had something to clean.
+int runCliSignalled(const std::string& args, double delay_s, int signal,
+                    const std::string& must_exist = "");
 
 int runCliInterrupted(const std::string& args, double delay_s) {
   return runCliSignalled(args, delay_s, SIGINT);
 }
 
-int runCliSignalled(const std::string& args, double delay_s, int signal) {
+int runCliSignalled(const std::string& args, double delay_s, int signal,
+                    const std::string& must_exist) {
   std::vector<std::string> words = {PENUMBRA_CLI};
   for (size_t at = 0; at < args.size();) {
     const size_t end = std::min(args.find(' ', at), args.size());
@@ -160,9 +163,11 @@ int runCliSignalled(const std::string& args, double delay_s, int signal) {
   }
   if (pid < 0) return -1;
   std::this_thread::sleep_for(std::chrono::duration<double>(delay_s));
+  const bool existed = must_exist.empty() || fs::exists(must_exist);
   ::kill(pid, signal);
   int status = 0;
   ::waitpid(pid, &status, 0);
+  if (!existed) return -2;
   return WIFEXITED(status)     ? WEXITSTATUS(status)
          : WIFSIGNALED(status) ? 128 + WTERMSIG(status)
                                : -1;
@@ -228,19 +233,15 @@ TEST(Cli, SignalsLeaveNoDebris) {
   TempDir dir;
   // A matrix bake into a new directory, terminated while it solves.
   const std::string scene_dir = std::string(PENUMBRA_TEST_DATA) + "/../..";
-  int code = runCliSignalled("bake " + scene_dir +
-                                 "/scenes/room.json --method matrix --elements "
-                                 "3000 -o " +
-                                 dir.file("out/room"),
-                             1.0, SIGTERM);
+  // A matrix bake into a new directory, ended while it builds and solves: by SIGTERM, and by
+  // SIGINT (no solver polls it there). The directory exists when the signal comes.
+  const std::string bake = "bake " + scene_dir +
+                           "/scenes/room.json --method matrix --elements 3000 -o " +
+                           dir.file("out/room");
+  int code = runCliSignalled(bake, 1.0, SIGTERM, dir.file("out/room"));
   EXPECT_EQ(code, 128 + SIGTERM);
   EXPECT_TRUE(entries(dir.path()).empty());
-  // The same with SIGINT before the work starts (while the scene loads).
-  code = runCliSignalled("bake " + scene_dir +
-                             "/scenes/room.json --method matrix --elements "
-                             "3000 -o " +
-                             dir.file("out/room"),
-                         0.05, SIGINT);
+  code = runCliSignalled(bake, 0.4, SIGINT, dir.file("out/room"));
   EXPECT_EQ(code, 128 + SIGINT);
   EXPECT_TRUE(entries(dir.path()).empty());
   // A progressive bake stops cleanly on SIGTERM: outputs and a checkpoint, exit 143, no
