@@ -9,7 +9,7 @@ packages=(
   # core libraries
   libtbb-dev libglm-dev libeigen3-dev libfmt-dev libspdlog-dev libcli11-dev nlohmann-json3-dev libpcg-cpp-dev
   # file formats
-  libtinyobjloader-dev libtinygltf-dev libstb-dev libopenexr-dev libassimp-dev
+  libtinyobjloader-dev libtinygltf-dev libstb-dev libopenexr-dev
   # OpenGL 4.5 through EGL (Mesa llvmpipe where there is no GPU) and the viewer
   libepoxy-dev libegl-dev libgl-dev libegl-mesa0 libgl1-mesa-dri libglfw3-dev libimgui-dev
   # tests, benchmarks, and the ray-intersection peer

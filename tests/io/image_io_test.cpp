@@ -15,6 +15,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <limits>
 #include <random>
 #include <sstream>
@@ -510,6 +511,33 @@ TEST(ImageIoTest, APngClaimingMorePixelsThanItsBytesHoldIsRefusedFromItsHeader) 
   EXPECT_EQ(img.error().file, path);
   EXPECT_NE(img.error().message.find("more than its 64 bytes can hold"), std::string::npos)
       << img.error().describe();
+}
+
+TEST(ImageIoTest, AnExrAttributeLargerThanTheFileIsRefusedBeforeOpenExrReadsIt) {
+  // Found by fuzzing: an attribute claiming 1.7 GB in a 530-byte file kept OpenEXR's header
+  // reader busy for more than 10 s. The same fault is made here in a valid file: the size field
+  // of its lineOrder attribute is raised past the end of the file.
+  test::TempDir dir;
+  Image image(4, 3);
+  const std::string good = (dir.path() / "good.exr").string();
+  ASSERT_TRUE(writeImage(good, image).ok());
+  std::ifstream in(good, std::ios::binary);
+  std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::string attribute("lineOrder\0lineOrder\0", 20);
+  const size_t at = bytes.find(attribute);
+  ASSERT_NE(at, std::string::npos);
+  ASSERT_EQ(bytes[at + 20], 1);  // a one-byte attribute
+  const std::string valid = dir.write("valid.exr", bytes);
+  EXPECT_TRUE(readImage(valid).ok());
+  bytes.replace(at + 20, 4, std::string("\x00\x69\x6e\x65", 4));  // 1,701,734,656 bytes
+  const std::string path = dir.write("attribute.exr", bytes);
+  Expected<Image> img = readImage(path);
+  EXPECT_TRUE(test::errorNames(img, path, "attribute 'lineOrder'"));
+  EXPECT_NE(img.error().message.find("runs past the end of the file"), std::string::npos)
+      << img.error().describe();
+  // A file cut inside its header.
+  const std::string cut = dir.write("cut.exr", bytes.substr(0, at + 5));
+  EXPECT_TRUE(test::errorNames(readImage(cut), cut, "the header ends early"));
 }
 
 }  // namespace

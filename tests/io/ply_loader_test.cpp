@@ -119,6 +119,76 @@ TEST(PlyLoad, AsciiPolygonsAreFanTriangulated) {
   EXPECT_NE(s->warnings[0].find("2 point or line"), std::string::npos) << s->warnings[0];
 }
 
+// Big-endian binary with mixed types: double positions, float normals between them, uchar colours,
+// s/t texture coordinates, an unrelated element between vertices and faces, and a face element
+// with a property after its index list. Written byte by byte here, read back value by value.
+class BigEndianWriter {
+ public:
+  template <typename T>
+  void put(T v) {
+    unsigned char b[sizeof(T)];
+    std::memcpy(b, &v, sizeof(T));
+    for (size_t i = sizeof(T); i-- > 0;) bytes_.push_back(static_cast<char>(b[i]));
+  }
+  const std::string& bytes() const { return bytes_; }
+
+ private:
+  std::string bytes_;
+};
+
+TEST(PlyLoad, BinaryBigEndianReadsNormalsUvsAndSkipsOtherProperties) {
+  const std::string header =
+      "ply\nformat binary_big_endian 1.0\nelement vertex 4\nproperty double x\n"
+      "property float nx\nproperty float ny\nproperty float nz\nproperty double y\n"
+      "property uchar red\nproperty double z\nproperty float s\nproperty float t\n"
+      "element material 2\nproperty list uchar float weights\nproperty int id\n"
+      "element face 2\nproperty list uint ushort vertex_indices\nproperty int flags\n"
+      "end_header\n";
+  BigEndianWriter w;
+  const double xyz[4][3] = {{0, 0, 0}, {1.5, 0, 0}, {1.5, 2.25, 0}, {0, 2.25, -1}};
+  for (int v = 0; v < 4; ++v) {
+    w.put(xyz[v][0]);
+    w.put(0.0f), w.put(0.0f), w.put(1.0f);
+    w.put(xyz[v][1]);
+    w.put(static_cast<uint8_t>(200));
+    w.put(xyz[v][2]);
+    w.put(0.25f * v), w.put(1.0f - 0.25f * v);
+  }
+  for (int m = 0; m < 2; ++m) {
+    w.put(static_cast<uint8_t>(m + 1));
+    for (int k = 0; k <= m; ++k) w.put(0.5f);
+    w.put(int32_t{7});
+  }
+  w.put(uint32_t{4});
+  for (uint16_t i : {3, 0, 1, 2}) w.put(i);
+  w.put(int32_t{-1});
+  w.put(uint32_t{3});
+  for (uint16_t i : {2, 1, 0}) w.put(i);
+  w.put(int32_t{0});
+
+  TempDir dir;
+  Expected<Scene> s = loadPly(dir.write("mixed.ply", header + w.bytes()));
+  ASSERT_TRUE(s.ok()) << s.error().describe();
+  ASSERT_EQ(s->meshes.size(), 1u);
+  const Mesh& m = s->meshes[0];
+  ASSERT_EQ(m.positions.size(), 4u);
+  for (int v = 0; v < 4; ++v) {
+    EXPECT_EQ(m.positions[v], glm::vec3(xyz[v][0], xyz[v][1], xyz[v][2])) << v;
+  }
+  ASSERT_EQ(m.normals.size(), 4u);
+  EXPECT_EQ(m.normals[3], glm::vec3(0, 0, 1));
+  ASSERT_EQ(m.uvs.size(), 4u);
+  EXPECT_EQ(m.uvs[3], glm::vec2(0.75f, 0.25f));
+  ASSERT_EQ(m.triangles.size(), 3u);
+  EXPECT_EQ(m.triangles[0], glm::uvec3(3, 0, 1));
+  EXPECT_EQ(m.triangles[1], glm::uvec3(3, 1, 2));
+  EXPECT_EQ(m.triangles[2], glm::uvec3(2, 1, 0));
+  // Cut the last face short: the walk names it.
+  Expected<Scene> cut =
+      loadPly(dir.write("cut.ply", header + w.bytes().substr(0, w.bytes().size() - 6)));
+  EXPECT_TRUE(errorNames(cut, "cut.ply", "face 1: the file ends early"));
+}
+
 TEST(PlyLoad, ErrorsNameFileAndPlace) {
   TempDir dir;
   struct Case {
@@ -163,7 +233,7 @@ TEST(PlyLoad, ErrorsNameFileAndPlace) {
       {"biglist.ply", asciiPly(kFiveVertices, "3 0 1 2\n5.5e75 0 1 2\n", 5, 2),
        "line 17, face 1: list length 5.5e+75"},
       {"typedlist.ply", asciiPly(kFiveVertices, "256 0 1 2\n", 5, 1), "list length 256"},
-      // Found by fuzzing (Assimp leaked on them): two formats, and NUL bytes in a header line.
+      // Found by fuzzing: two formats, and NUL bytes in a header line.
       {"twoformats.ply",
        "ply\nformat ascii 1.0\nformat binary_little_endian 1.0\nelement vertex 1\n"
        "property float x\nproperty float y\nproperty float z\nend_header\n0 0 0\n",

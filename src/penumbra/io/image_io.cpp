@@ -133,8 +133,91 @@ Status writeExr(const std::string& path, const std::string& tmp, const Image& im
   return {};
 }
 
+// Refuses to decode a w x h image (12 bytes a pixel, and as much again for a decoder's copy)
+// that would not fit in memory, naming the file.
+Status checkDecodeMemory(const std::string& path, int64_t w, int64_t h) {
+  if (Status m =
+          checkMemory(uint64_t(w) * uint64_t(h) * 24, fmt::format("reading a {} x {} image", w, h));
+      !m.ok()) {
+    return inputError(path, "", m.error().message);
+  }
+  return {};
+}
+
+// Walks the header(s) of an OpenEXR file (OpenEXR file layout: the magic number 20000630, a
+// version field whose bit 12 marks a multi-part file, then per part a list of attributes, each a
+// name, a type name, a 32-bit size and that many bytes, ended by an empty name; a multi-part
+// file ends its list of headers with one more empty name). OpenEXR trusts the sizes it reads: an
+// attribute claiming a gigabyte in a 500-byte file keeps its reader busy for many seconds. So
+// each size is checked against the bytes that follow before OpenEXR opens the file.
+Status checkExrHeaders(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  in.seekg(0, std::ios::end);
+  const int64_t size = in.tellg();
+  in.seekg(0);
+  if (!in || size < 8) return inputError(path, "header", "not an OpenEXR file (too short)");
+  unsigned char start[8];
+  in.read(reinterpret_cast<char*>(start), 8);
+  if (!(start[0] == 0x76 && start[1] == 0x2f && start[2] == 0x31 && start[3] == 0x01)) {
+    return inputError(path, "header", "not an OpenEXR file (no magic number)");
+  }
+  const bool multipart = (start[5] & 0x10) != 0;  // bit 12 of the little-endian version field
+  const size_t max_name = (start[5] & 0x04) ? 255 : 31;  // bit 10: long names
+  int64_t at = 8;
+  // A name or type name: printable bytes up to a NUL, at most max_name of them.
+  auto readName = [&](std::string* name) -> Status {
+    name->clear();
+    for (;;) {
+      const int c = in.get();
+      if (c == EOF) return inputError(path, fmt::format("byte {}", at), "the header ends early");
+      ++at;
+      if (c == 0) return {};
+      if (name->size() >= max_name) {
+        return inputError(path, fmt::format("byte {}", at),
+                          fmt::format("an attribute name longer than {} bytes", max_name));
+      }
+      name->push_back(static_cast<char>(c));
+    }
+  };
+  std::string name, type;
+  int parts = 0, attributes = 0;  // headers ended, attributes in the current one
+  for (;;) {
+    PENUMBRA_TRY(readName(&name));
+    if (name.empty()) {
+      if (attributes == 0) {
+        if (multipart && parts > 0) return {};  // the empty name that ends the list of headers
+        return inputError(path, fmt::format("byte {}", at), "an empty header");
+      }
+      ++parts;
+      attributes = 0;
+      if (!multipart) return {};
+      continue;
+    }
+    ++attributes;
+    PENUMBRA_TRY(readName(&type));
+    if (type.empty()) {
+      return inputError(path, fmt::format("attribute '{}'", name), "an empty type name");
+    }
+    unsigned char b[4];
+    if (!in.read(reinterpret_cast<char*>(b), 4)) {
+      return inputError(path, fmt::format("attribute '{}'", name), "the header ends early");
+    }
+    at += 4;
+    const int32_t bytes =
+        int32_t(uint32_t(b[0]) | uint32_t(b[1]) << 8 | uint32_t(b[2]) << 16 | uint32_t(b[3]) << 24);
+    if (bytes < 0 || bytes > size - at) {
+      return inputError(path, fmt::format("attribute '{}'", name),
+                        fmt::format("its size {} runs past the end of the file ({} bytes left)",
+                                    bytes, size - at));
+    }
+    at += bytes;
+    in.seekg(at);
+  }
+}
+
 Expected<Image> readExr(const std::string& path) {
   PENUMBRA_TRY(checkReadable(path));
+  PENUMBRA_TRY(checkExrHeaders(path));
   try {
     Imf::InputFile file(path.c_str());
     const Imf::Header& header = file.header();
@@ -153,6 +236,7 @@ Expected<Image> readExr(const std::string& path) {
     const bool has_y = channels.findChannel("Y") != nullptr;
     if (!has_rgb && !has_y) return inputError(path, "header", "no R, G, B or Y channel");
 
+    PENUMBRA_TRY(checkDecodeMemory(path, w, h));
     Image image(static_cast<int>(w), static_cast<int>(h));
     char* base = reinterpret_cast<char*>(image.pixels.data());
     const size_t x_stride = sizeof(glm::vec3);
@@ -307,11 +391,7 @@ Expected<Image> readHdr(const std::string& path) {
   int w = 0, h = 0, n = 0;
   if (stbi_info_from_memory(data, len, &w, &h, &n)) {
     if (int64_t(w) * int64_t(h) > kMaxReadPixels) return inputError(path, "", "image too large");
-    if (Status m = checkMemory(uint64_t(w) * uint64_t(h) * 24,
-                               fmt::format("reading a {} x {} image", w, h));
-        !m.ok()) {
-      return inputError(path, "", m.error().message);
-    }
+    PENUMBRA_TRY(checkDecodeMemory(path, w, h));
   }
   std::unique_ptr<float, StbFree> pixels(stbi_loadf_from_memory(data, len, &w, &h, &n, 3));
   if (!pixels) {
@@ -350,11 +430,7 @@ Expected<Image> readPng(const std::string& path) {
         path, "",
         fmt::format("claims {} x {} pixels, more than its {} bytes can hold", w, h, bytes->size()));
   }
-  if (Status m =
-          checkMemory(uint64_t(w) * uint64_t(h) * 24, fmt::format("reading a {} x {} image", w, h));
-      !m.ok()) {
-    return inputError(path, "", m.error().message);
-  }
+  PENUMBRA_TRY(checkDecodeMemory(path, w, h));
   Image image(w, h);
   if (stbi_is_16_bit_from_memory(data, len)) {
     std::unique_ptr<stbi_us, StbFree> pixels(stbi_load_16_from_memory(data, len, &w, &h, &n, 3));

@@ -1,21 +1,15 @@
-// PLY loading (ASCII, binary little- and big-endian) through Assimp.
+// PLY loading (ASCII, binary little- and big-endian).
 //
-// Assimp is asked for no post-processing at all, so it neither merges nor reorders vertices or
-// faces: vertex i and face j are the file's. Polygons are fan-triangulated here (v0 v1 v2,
-// v0 v2 v3, ...; Assimp's aiProcess_Triangulate does not keep that order), points and lines are
-// skipped with a warning.
-//
-// Assimp does not check what it reads: it passes NaN coordinates and out-of-range face indices
-// through, and an ASCII file cut short silently repeats its last face. So the file is first
-// walked here (header, then every element of the body, ASCII or binary): that finds truncation,
-// non-finite vertex coordinates and out-of-range indices, and names the vertex or face (and the
-// line in an ASCII file). Only then is it handed to Assimp, whose face count is checked against
-// the walk.
+// The file is read in one walk (header, then every element of the body, value by value): vertex i
+// and face j are the file's, with nothing merged or reordered. Polygons are fan-triangulated
+// (v0 v1 v2, v0 v2 v3, ...), points and lines are skipped with a warning. The walk checks what it
+// reads: truncation, non-finite coordinates, list lengths outside their type, out-of-range
+// indices, each named by vertex or face (and the line in an ASCII file). Positions come from
+// x/y/z, normals from nx/ny/nz, texture coordinates from u/v (or s/t, texture_u/texture_v,
+// texture_s/texture_t); every other property is read and ignored.
 #include "penumbra/core/file_util.h"
+#include "penumbra/core/memory.h"
 #include "penumbra/io/scene_io.h"
-
-#include <assimp/scene.h>
-#include <assimp/Importer.hpp>
 
 #include <fmt/format.h>
 
@@ -23,6 +17,7 @@
 #include <bit>
 #include <cctype>
 #include <cmath>
+#include <cstdint>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
@@ -213,9 +208,28 @@ class PlyBodyReader {
 struct PlyScan {
   size_t vertices = 0;
   size_t faces = 0;
-  size_t triangles = 0;  // after fan triangulation
   size_t points_and_lines = 0;
+  Mesh mesh;  // positions, normals and uvs as the file holds them; triangles fanned
 };
+
+// Where a vertex property goes: a position, normal or texture coordinate component, or nowhere.
+enum class VertexSlot { kNone, kX, kY, kZ, kNx, kNy, kNz, kU, kV };
+
+VertexSlot vertexSlot(const std::string& name) {
+  if (name == "x") return VertexSlot::kX;
+  if (name == "y") return VertexSlot::kY;
+  if (name == "z") return VertexSlot::kZ;
+  if (name == "nx") return VertexSlot::kNx;
+  if (name == "ny") return VertexSlot::kNy;
+  if (name == "nz") return VertexSlot::kNz;
+  if (name == "u" || name == "s" || name == "texture_u" || name == "texture_s") {
+    return VertexSlot::kU;
+  }
+  if (name == "v" || name == "t" || name == "texture_v" || name == "texture_t") {
+    return VertexSlot::kV;
+  }
+  return VertexSlot::kNone;
+}
 
 Status scanPly(const std::string& path, const std::string& text, PlyScan* scan) {
   if (text.compare(0, 3, "ply") != 0 || text.size() < 4 || (text[3] != '\n' && text[3] != '\r')) {
@@ -324,8 +338,7 @@ Status scanPly(const std::string& path, const std::string& text, PlyScan* scan) 
     }
   }
   scan->vertices = vertex_element->count;
-  // Positions need x, y and z, each once and not a list (Assimp fails on anything else, and
-  // leaks memory on the way out).
+  // Positions need x, y and z, each once and not a list.
   for (const char* axis : {"x", "y", "z"}) {
     int found = 0;
     for (const PlyProperty& p : vertex_element->properties) {
@@ -359,8 +372,39 @@ Status scanPly(const std::string& path, const std::string& text, PlyScan* scan) 
     }
   }
 
+  // Normals and texture coordinates are read when every component is there, once, as a scalar.
+  auto hasScalars = [&](std::initializer_list<VertexSlot> slots) {
+    for (VertexSlot slot : slots) {
+      int found = 0;
+      for (const PlyProperty& p : vertex_element->properties) {
+        if (vertexSlot(p.name) == slot) found += p.is_list ? 2 : 1;
+      }
+      if (found != 1) return false;
+    }
+    return true;
+  };
+  const bool has_normals = hasScalars({VertexSlot::kNx, VertexSlot::kNy, VertexSlot::kNz});
+  const bool has_uvs = hasScalars({VertexSlot::kU, VertexSlot::kV});
+  if (scan->vertices > UINT32_MAX) {
+    return inputError(
+        path, "header",
+        fmt::format("{} vertices; at most {} are supported", scan->vertices, UINT32_MAX));
+  }
+  // Vertices as stored, and triangles at least one per face entry (fans add more as they come).
+  size_t face_entries = 0;
+  for (const PlyElement& e : elements) face_entries += e.name == "face" ? e.count : 0;
+  PENUMBRA_TRY(
+      checkMemory(scan->vertices * (sizeof(glm::vec3) * (has_normals ? 2 : 1) + (has_uvs ? 8 : 0)) +
+                      face_entries * (sizeof(glm::uvec3) + sizeof(uint32_t)),
+                  fmt::format("the mesh of {}", path)));
+  Mesh& mesh = scan->mesh;
+  mesh.positions.resize(scan->vertices);
+  if (has_normals) mesh.normals.resize(scan->vertices);
+  if (has_uvs) mesh.uvs.resize(scan->vertices);
+
   // Body.
   PlyBodyReader body(text, pos, *format, line_no + 1);
+  std::vector<uint32_t> polygon;
   for (const PlyElement& e : elements) {
     const bool is_vertex = e.name == "vertex";
     const bool is_face = e.name == "face";
@@ -385,11 +429,37 @@ Status scanPly(const std::string& path, const std::string& text, PlyScan* scan) 
         };
         if (!p.is_list) {
           if (!body.next(p.type, &value, &bad)) return fail();
-          const bool coordinate = p.name == "x" || p.name == "y" || p.name == "z";
-          if (is_vertex && coordinate && !std::isfinite(static_cast<float>(value))) {
-            return inputError(
-                path, where(),
-                fmt::format("coordinate {} is not a finite number ({})", p.name, value));
+          if (!is_vertex) continue;
+          const auto f = static_cast<float>(value);
+          switch (vertexSlot(p.name)) {
+            case VertexSlot::kX:
+            case VertexSlot::kY:
+            case VertexSlot::kZ:
+              if (!std::isfinite(f)) {
+                return inputError(
+                    path, where(),
+                    fmt::format("coordinate {} is not a finite number ({})", p.name, value));
+              }
+              mesh.positions[i][static_cast<int>(vertexSlot(p.name)) -
+                                static_cast<int>(VertexSlot::kX)] = f;
+              break;
+            case VertexSlot::kNx:
+            case VertexSlot::kNy:
+            case VertexSlot::kNz:
+              if (has_normals) {
+                mesh.normals[i][static_cast<int>(vertexSlot(p.name)) -
+                                static_cast<int>(VertexSlot::kNx)] = f;
+              }
+              break;
+            case VertexSlot::kU:
+            case VertexSlot::kV:
+              if (has_uvs) {
+                mesh.uvs[i][static_cast<int>(vertexSlot(p.name)) -
+                            static_cast<int>(VertexSlot::kU)] = f;
+              }
+              break;
+            case VertexSlot::kNone:
+              break;
           }
           continue;
         }
@@ -401,22 +471,27 @@ Status scanPly(const std::string& path, const std::string& text, PlyScan* scan) 
         }
         const size_t n = static_cast<size_t>(value);
         const bool indices = is_face && (p.name == "vertex_indices" || p.name == "vertex_index");
+        polygon.clear();
         for (size_t k = 0; k < n; ++k) {
           if (!body.next(p.type, &value, &bad)) return fail();
-          if (indices && !(value >= 0.0 && value < static_cast<double>(scan->vertices) &&
-                           value == std::floor(value))) {
+          if (!indices) continue;
+          if (!(value >= 0.0 && value < static_cast<double>(scan->vertices) &&
+                value == std::floor(value))) {
             return inputError(path, where(),
                               fmt::format("vertex index {} is out of range ({} vertices)", value,
                                           scan->vertices));
           }
+          polygon.push_back(static_cast<uint32_t>(value));
         }
-        if (indices) {
-          ++scan->faces;
-          if (n >= 3) {
-            scan->triangles += n - 2;
-          } else {
-            ++scan->points_and_lines;
-          }
+        if (!indices) continue;
+        ++scan->faces;
+        if (n < 3) {
+          ++scan->points_and_lines;
+          continue;
+        }
+        for (size_t k = 2; k < n; ++k) {
+          mesh.triangles.emplace_back(polygon[0], polygon[k - 1], polygon[k]);
+          mesh.material_ids.push_back(0);
         }
       }
     }
@@ -431,72 +506,16 @@ Expected<Scene> loadPly(const std::string& path) {
   if (!text.ok()) return text.error();
   PlyScan scan;
   PENUMBRA_TRY(scanPly(path, *text, &scan));
-  text->clear();
-  text->shrink_to_fit();
 
   Scene scene;
   scene.source = path;
-  Assimp::Importer importer;
-  const aiScene* ai = nullptr;
-  try {
-    // No post-processing: no vertex merging, no reordering, no triangulation.
-    ai = importer.ReadFile(path, 0u);
-  } catch (const std::exception& e) {
-    return inputError(path, "", fmt::format("Assimp failed: {}", e.what()));
-  }
-  if (!ai) return inputError(path, "", fmt::format("Assimp: {}", importer.GetErrorString()));
-
-  const std::string stem = std::filesystem::path(path).stem().string();
   scene.materials.push_back(Material{"default", glm::vec3(0.8f), glm::vec3(0.0f)});
-  size_t faces_seen = 0;
-  for (unsigned mi = 0; mi < ai->mNumMeshes; ++mi) {
-    const aiMesh* am = ai->mMeshes[mi];
-    Mesh mesh;
-    mesh.name = ai->mNumMeshes == 1 ? stem : fmt::format("{}#{}", stem, mi);
-    mesh.positions.resize(am->mNumVertices);
-    for (unsigned v = 0; v < am->mNumVertices; ++v) {
-      mesh.positions[v] = glm::vec3(am->mVertices[v].x, am->mVertices[v].y, am->mVertices[v].z);
-    }
-    if (am->HasNormals()) {
-      mesh.normals.resize(am->mNumVertices);
-      for (unsigned v = 0; v < am->mNumVertices; ++v) {
-        mesh.normals[v] = glm::vec3(am->mNormals[v].x, am->mNormals[v].y, am->mNormals[v].z);
-      }
-    }
-    if (am->HasTextureCoords(0)) {
-      mesh.uvs.resize(am->mNumVertices);
-      for (unsigned v = 0; v < am->mNumVertices; ++v) {
-        mesh.uvs[v] = glm::vec2(am->mTextureCoords[0][v].x, am->mTextureCoords[0][v].y);
-      }
-    }
-    for (unsigned f = 0; f < am->mNumFaces; ++f) {
-      const aiFace& face = am->mFaces[f];
-      for (unsigned k = 0; k < face.mNumIndices; ++k) {
-        if (face.mIndices[k] >= am->mNumVertices) {
-          return inputError(path, fmt::format("face {}", faces_seen + f),
-                            fmt::format("vertex index {} is out of range ({} vertices)",
-                                        face.mIndices[k], am->mNumVertices));
-        }
-      }
-      for (unsigned k = 2; k < face.mNumIndices; ++k) {
-        mesh.triangles.emplace_back(face.mIndices[0], face.mIndices[k - 1], face.mIndices[k]);
-        mesh.material_ids.push_back(0);
-      }
-    }
-    faces_seen += am->mNumFaces;
-    if (!mesh.triangles.empty()) scene.meshes.push_back(std::move(mesh));
-  }
+  scan.mesh.name = std::filesystem::path(path).stem().string();
+  if (!scan.mesh.triangles.empty()) scene.meshes.push_back(std::move(scan.mesh));
   if (scan.points_and_lines > 0) {
     scene.warnings.push_back(
         fmt::format("{}: {} point or line face(s) are skipped", path, scan.points_and_lines));
   }
-  if (scene.triangleCount() != scan.triangles) {
-    return inputError(path, "",
-                      fmt::format("Assimp read {} triangles where the file has {}; the file "
-                                  "cannot be loaded in file order",
-                                  scene.triangleCount(), scan.triangles));
-  }
-
   PENUMBRA_TRY(validateScene(scene));
   return scene;
 }

@@ -16,7 +16,7 @@ Expected<Scene> loadObj(const std::string& path);
 // reflectance, emissive (times KHR_materials_emissive_strength) -> emission,
 // KHR_lights_punctual point/spot/directional lights, the first camera.
 Expected<Scene> loadGltf(const std::string& path);
-// PLY, ASCII and binary, through Assimp.
+// PLY, ASCII and binary (either byte order), read in file order.
 Expected<Scene> loadPly(const std::string& path);
 // Penumbra's JSON scene format (docs/scene-format.md); paths relative to the scene file.
 Expected<Scene> loadSceneJson(const std::string& path);
