@@ -3,12 +3,10 @@
 // 1M incoherent diffuse rays (cosine-distributed about the normal at random surface points).
 // Prints Mrays/s for each and the ratio Penumbra / Embree (best of rtcIntersect1 and
 // rtcIntersect8).
-#include "penumbra/core/rng.h"
 #include "penumbra/io/scene_io.h"
-#include "penumbra/kernels/sampling.h"
-#include "penumbra/raytrace/camera_rays.h"
 #include "penumbra/raytrace/ray_cache.h"
 #include "penumbra/raytrace/ray_engine.h"
+#include "penumbra/raytrace/ray_sets.h"
 
 #include <benchmark/benchmark.h>
 #include <embree3/rtcore.h>
@@ -60,32 +58,10 @@ Workload& workload() {
     rtcReleaseGeometry(g);
     rtcCommitScene(wl.scene);
 
-    // Coherent: a camera framing the bunny.
-    const Camera cam = defaultCamera(*s);
-    const CameraRays rays(cam, 1024, 1024);
-    wl.coherent.resize(1024 * 1024);
-    for (int y = 0; y < 1024; ++y) {
-      for (int x = 0; x < 1024; ++x) {
-        wl.coherent.set(size_t(y) * 1024 + size_t(x), rays.ray(float(x) + 0.5f, float(y) + 0.5f));
-      }
-    }
-    // Incoherent: diffuse bounces off random surface points.
-    Rng rng(7, 7);
-    const size_t n = 1 << 20;
-    wl.diffuse.resize(n);
-    for (size_t i = 0; i < n; ++i) {
-      const glm::uvec3 t = wl.mesh.triangles[rng.uniformInt(uint32_t(wl.mesh.triangles.size()))];
-      const glm::vec3 p0 = wl.mesh.positions[t.x], p1 = wl.mesh.positions[t.y],
-                      p2 = wl.mesh.positions[t.z];
-      glm::vec3 nrm = glm::cross(p1 - p0, p2 - p0);
-      const float len = glm::length(nrm);
-      nrm = len > 0.0f ? nrm / len : glm::vec3(0, 1, 0);
-      const glm::vec2 b = sampleTriangleBarycentrics(rng.uniform(), rng.uniform());
-      const glm::vec3 p = (1.0f - b.x - b.y) * p0 + b.x * p1 + b.y * p2;
-      const glm::vec3 d = Frame::fromNormal(rng.uniform() < 0.5f ? nrm : -nrm)
-                              .toWorld(sampleCosineHemisphere(rng.uniform(), rng.uniform()));
-      wl.diffuse.set(i, Ray{p, 1e-4f, d, 1e30f});
-    }
+    // Coherent: a camera framing the bunny. Incoherent: diffuse rays off random surface
+    // points (raytrace/ray_sets.h, as `penumbra rays` writes them).
+    wl.coherent = cameraRaySet(defaultCamera(*s), 1024, 1024);
+    wl.diffuse = diffuseRaySet(wl.mesh.positions, wl.mesh.triangles, 1 << 20, 7, 1e-4f);
     return wl;
   }();
   return w;

@@ -111,6 +111,7 @@ struct BakeProduct {
   nlohmann::json extras;  // method-specific asset.extras.penumbra entries
   nlohmann::json stats;   // method-specific --stats entries
   bool interrupted = false;
+  bool dry_run = false;  // --dry-run: planned and checked, nothing solved
 };
 
 Expected<BakeProduct> solveMatrix(const BakeOptions& options, const CommonOptions& common,
@@ -121,6 +122,12 @@ Expected<BakeProduct> solveMatrix(const BakeOptions& options, const CommonOption
   mo.lightmap.size = options.lightmap_size;
   if (options.ff_rays) mo.form_factors.rays = *options.ff_rays;
   mo.shading_normals = options.normals == "interpolated";
+  PENUMBRA_TRY(checkMatrixRadiosity(scene, mo));
+  if (common.dry_run) {
+    BakeProduct planned;
+    planned.dry_run = true;
+    return planned;
+  }
   const Timer build_timer;
   std::optional<Progress> ff_progress;
   std::once_flag ff_progress_once;
@@ -198,8 +205,12 @@ Expected<BakeProduct> solveProgressive(const CommonOptions& common, const Scene&
                                        const ProgressiveRunOptions& ro) {
   Expected<ProgressiveRun> run = runProgressive(scene, ro, common);
   if (!run) return run.error();
-  const ProgressiveRadiosity& pr = *run->solver;
   BakeProduct out;
+  if (run->dry_run) {
+    out.dry_run = true;
+    return out;
+  }
+  const ProgressiveRadiosity& pr = *run->solver;
   out.interrupted = run->interrupted;
   out.lightmap = *run->lightmap;
   out.mesh = buildLightmapMesh(scene, pr.atlas(), out.lightmap);
@@ -272,6 +283,7 @@ Status bake(const BakeOptions& options, const CommonOptions& common, bool* inter
   Expected<BakeProduct> product =
       progressive ? solveProgressive(common, *scene, ro) : solveMatrix(options, common, *scene);
   if (!product) return product.error();
+  if (product->dry_run) return {};
   if (product->interrupted) {
     *interrupted = true;
     // The checkpoint is part of what this run leaves, also if the outputs fail.
@@ -344,6 +356,7 @@ int runBake(const BakeOptions& options, const CommonOptions& common) {
   OutputTransaction transaction;
   bool interrupted = false;
   Status s = bake(options, common, &interrupted);
+  if (s.ok() && common.dry_run) return reportDryRun();  // the transaction removes what it made
   if (s.ok()) s = transaction.commit();
   if (!s.ok()) return reportError(s.error());
   return interrupted ? InterruptScope::exitCode() : 0;

@@ -22,6 +22,13 @@ int reportError(const Error& error) {
   return error.kind == ErrorKind::kInput ? 2 : 1;
 }
 
+int reportDryRun() {
+  std::printf(
+      "penumbra: dry run: options, inputs, output paths and memory are fine; nothing was "
+      "written\n");
+  return 0;
+}
+
 namespace {
 
 // Option values are checked here, where they are parsed, so that every command refuses the
@@ -77,6 +84,13 @@ void addCommon(CLI::App* app, CommonOptions& common) {
   app->add_option("--threads", common.threads, "worker threads (0 = all cores)")
       ->check(CLI::Range(0, 1024));
   app->add_flag("--quiet", common.quiet, "no progress or information, only warnings and errors");
+}
+
+// For the commands that do work and write files.
+void addDryRun(CLI::App* app, CommonOptions& common) {
+  app->add_flag("--dry-run", common.dry_run,
+                "check options, inputs, output paths and memory, then stop before the work "
+                "(nothing is written)");
 }
 
 int parseAndRun(int argc, char** argv) {
@@ -192,6 +206,7 @@ int parseAndRun(int argc, char** argv) {
                          "progressive: where Ctrl-C writes the checkpoint (default: the first "
                          "output with the extension .checkpoint)");
   addCommon(render_cmd, common);
+  addDryRun(render_cmd, common);
 
   TraceOptions trace;
   CLI::App* trace_cmd =
@@ -221,6 +236,7 @@ int parseAndRun(int argc, char** argv) {
                    "bucket (default 4 x --r-min)")
       ->check(CLI::Range(1u, 1u << 24));
   addCommon(trace_cmd, common);
+  addDryRun(trace_cmd, common);
 
   InfoOptions info;
   CLI::App* info_cmd = app.add_subcommand("info", "what a scene holds: sizes, lights, warnings");
@@ -293,22 +309,51 @@ int parseAndRun(int argc, char** argv) {
                        "progressive: where Ctrl-C writes the checkpoint (default: "
                        "DIR/SCENE.checkpoint)");
   addCommon(bake_cmd, common);
+  addDryRun(bake_cmd, common);
 
-  for (CLI::App* cmd : {render_cmd, trace_cmd, info_cmd, bake_cmd}) refuseEmptyValues(cmd);
+  RaysOptions rays;
+  CLI::App* rays_cmd = app.add_subcommand(
+      "rays", "write a ray file for trace: a camera's primary rays or diffuse surface rays");
+  rays_cmd->add_option("scene", rays.scene, "built-in scene name or file")->required();
+  rays_cmd->add_option("-o,--output", rays.output, "ray file (float32 ox oy oz tmin dx dy dz tmax)")
+      ->required();
+  rays_cmd
+      ->add_option("--kind", rays.kind,
+                   "camera (one ray per pixel through the scene's camera) or diffuse (from "
+                   "random surface points, cosine-distributed, either side)")
+      ->capture_default_str();
+  rays_cmd->add_option("--width", rays.width, "camera: image width (default 512)")
+      ->check(CLI::Range(1, 1 << 16));
+  rays_cmd->add_option("--height", rays.height, "camera: image height (default 512)")
+      ->check(CLI::Range(1, 1 << 16));
+  rays_cmd->add_option("--count", rays.count, "diffuse: number of rays (default 1048576)")
+      ->check(CLI::Range(uint64_t(1), uint64_t(1) << 34));
+  rays_cmd->add_option("--seed", rays.seed, "diffuse: random seed (default 0)")->check(kUnsigned);
+  rays_cmd
+      ->add_option("--tmin", rays.t_min,
+                   "diffuse: distance the rays start at (default 1e-4 of the scene's diagonal)")
+      ->check(finiteIn(0.0, 1e30));
+  addCommon(rays_cmd, common);
+  addDryRun(rays_cmd, common);
+
+  for (CLI::App* cmd : {render_cmd, trace_cmd, info_cmd, bake_cmd, rays_cmd}) {
+    refuseEmptyValues(cmd);
+  }
 
   const std::string first = argc > 1 ? argv[1] : "";
   if (first == "view") {
     std::fprintf(stderr,
                  "penumbra: error: '%s' is not available in this version (commands: "
-                 "render, bake, trace, info)\n",
+                 "render, bake, trace, rays, info)\n",
                  first.c_str());
     return 2;
   }
   if (!first.empty() && first[0] != '-' && first != "render" && first != "bake" &&
-      first != "trace" && first != "info") {
-    std::fprintf(stderr,
-                 "penumbra: error: unknown command '%s' (commands: render, bake, trace, info)\n",
-                 first.c_str());
+      first != "trace" && first != "rays" && first != "info") {
+    std::fprintf(
+        stderr,
+        "penumbra: error: unknown command '%s' (commands: render, bake, trace, rays, info)\n",
+        first.c_str());
     return 2;
   }
   try {
@@ -329,6 +374,7 @@ int parseAndRun(int argc, char** argv) {
   if (bake_cmd->parsed()) return runBake(bake, common);
   if (trace_cmd->parsed()) return runTrace(trace, common);
   if (info_cmd->parsed()) return runInfo(info, common);
+  if (rays_cmd->parsed()) return runRays(rays, common);
   return 2;
 }
 

@@ -14,6 +14,9 @@ namespace penumbra {
 struct CommonOptions {
   int threads = 0;  // 0 = all cores
   bool quiet = false;
+  // --dry-run: check the options, read the inputs, check every output path and the memory the
+  // plan needs, then stop before the work; nothing is written or left behind.
+  bool dry_run = false;
 };
 
 struct RenderOptions {
@@ -65,6 +68,17 @@ struct TraceOptions {
   std::string device = "auto";
 };
 
+// `penumbra rays`: a ray file from a scene (rays_command.cpp).
+struct RaysOptions {
+  std::string scene;
+  std::string kind = "camera";       // camera: one ray per pixel; diffuse: from the surface
+  std::optional<int> width, height;  // camera: image size (default 512 x 512)
+  std::optional<uint64_t> count;     // diffuse: number of rays (default 2^20)
+  uint64_t seed = 0;                 // diffuse
+  std::optional<float> t_min;        // diffuse: tmin (default 1e-4 of the scene's diagonal)
+  std::string output;
+};
+
 struct InfoOptions {
   std::string scene = "cornell";
   bool devices = false;  // list the OpenGL contexts that can be made instead
@@ -104,9 +118,12 @@ Status renderProgressive(const RenderOptions& options, const CommonOptions& comm
                          bool* interrupted);
 int runTrace(const TraceOptions& options, const CommonOptions& common);
 int runInfo(const InfoOptions& options, const CommonOptions& common);
+int runRays(const RaysOptions& options, const CommonOptions& common);
 
 // Prints "penumbra: error: <file: place: message>" and returns the exit code for its kind.
 int reportError(const Error& error);
+// Prints that a --dry-run found nothing wrong and returns 0.
+int reportDryRun();
 
 // Entry point of the executable.
 int runCli(int argc, char** argv);

@@ -116,6 +116,10 @@ Expected<ProgressiveRun> runProgressive(const Scene& scene, const ProgressiveRun
                       "was written by the CPU's hierarchical shooter; continue it with --device "
                       "cpu");
   }
+  if (common.dry_run) {
+    run.dry_run = true;
+    return run;
+  }
   if (gpu) {
     if (options.shading_normals) spdlog::info("--device gpu: form factors use the faces' normals");
     po = gpuProgressiveOptions(po);
@@ -159,13 +163,15 @@ Expected<ProgressiveRun> runProgressive(const Scene& scene, const ProgressiveRun
     gl.emplace(std::move(*g));
   }
   run.build_seconds = build_timer.seconds();
+  // From here Ctrl-C stops between two iterations and writes a checkpoint. The line below is
+  // printed once it does (scripts may wait for it before sending SIGINT).
+  const InterruptScope interrupt;
   spdlog::info("{}: {} lightmap texels in a {}x{} atlas ({:.1f} texels/m){}", scene.source,
                pr.elementCount(), pr.atlas().width, pr.atlas().height, pr.atlas().texel_density,
                gpu ? fmt::format(", on the GPU (shooter level {})", po.shooter_level) : "");
 
   // Progress: the fraction of the emitted power shot so far on a log scale down to the tolerance
   // (the iteration count is not known in advance), with the iteration and the unshot fraction.
-  const InterruptScope interrupt;
   Progress progress("shooting", 1000, !common.quiet && Progress::stderrIsTerminal());
   const double log_goal = std::log(std::max(options.tolerance, 1e-12));
   const auto after = [&](const ProgressiveIteration& it) {

@@ -42,6 +42,7 @@ struct ProgressiveRun {
   double build_seconds = 0.0;
   int resumed_iterations = 0;  // iterations the checkpoint had done
   bool interrupted = false;    // stopped by Ctrl-C; the checkpoint was written
+  bool dry_run = false;        // --dry-run: planned and checked, nothing built
 };
 
 // What `render` and `bake` pass on, from either command's options (the checkpoint path as

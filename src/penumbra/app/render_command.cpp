@@ -122,6 +122,7 @@ Status renderPathTrace(const RenderOptions& options, const CommonOptions& common
   Expected<DeviceChoice> device = chooseDevice(hybrid ? "gpu" : options.device);
   if (!device) return device.error();
   const std::string device_name = hybrid ? std::string("hybrid") : device->name();
+  if (common.dry_run) return {};
   spdlog::info("{}: {} triangles, {} emissive, {} lights; {}x{} at {} spp on {} threads",
                scene->source, tracer.geometry().triangles.size(), tracer.geometry().emitters.size(),
                scene->lights.size(), settings.width, settings.height, settings.spp, threadCount());
@@ -221,6 +222,7 @@ int runRender(const RenderOptions& options, const CommonOptions& common) {
                    fmt::format("unknown --method '{}' (available: pathtrace, matrix, progressive)",
                                options.method));
   }
+  if (s.ok() && common.dry_run) return reportDryRun();  // the transaction removes what it made
   if (s.ok()) s = transaction.commit();
   if (!s.ok()) return reportError(s.error());
   return interrupted ? InterruptScope::exitCode() : 0;

@@ -109,6 +109,7 @@ Status renderMatrix(const RenderOptions& options, const CommonOptions& common) {
                       "gauss-seidel is sequential and runs on the CPU only (use --device cpu, "
                       "or --solver jacobi on the GPU)");
   }
+  if (common.dry_run) return {};
 
   const Timer build_timer;
   std::optional<Progress> ff_progress;

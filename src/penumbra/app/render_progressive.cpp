@@ -66,6 +66,7 @@ Status renderProgressive(const RenderOptions& options, const CommonOptions& comm
   for (const std::string& w : scene->warnings) spdlog::warn("{}", w);
   Expected<ProgressiveRun> run = runProgressive(*scene, ro, common);
   if (!run) return run.error();
+  if (run->dry_run) return {};
   const ProgressiveRadiosity& pr = *run->solver;
   const ProgressiveStats& st = run->stats;
   if (run->interrupted) *interrupted = true;

@@ -19,7 +19,7 @@ namespace penumbra {
 
 namespace {
 
-Status trace(const TraceOptions& options) {
+Status trace(const TraceOptions& options, const CommonOptions& common) {
   if (options.device != "cpu" && options.device != "gpu" && options.device != "auto" &&
       options.device != "hybrid") {
     return inputError("", "",
@@ -58,6 +58,7 @@ Status trace(const TraceOptions& options) {
   const bool hybrid = options.device == "hybrid";
   Expected<DeviceChoice> device = chooseDevice(hybrid ? "gpu" : options.device);
   if (!device) return device.error();
+  if (common.dry_run) return {};
 
   HitBatch hits;
   double build_seconds = 0.0, trace_seconds = 0.0;
@@ -146,10 +147,11 @@ Status trace(const TraceOptions& options) {
 
 }  // namespace
 
-int runTrace(const TraceOptions& options, const CommonOptions&) {
+int runTrace(const TraceOptions& options, const CommonOptions& common) {
   // The hits and the stats are placed together at the end, or neither is.
   OutputTransaction transaction;
-  Status s = trace(options);
+  Status s = trace(options, common);
+  if (s.ok() && common.dry_run) return reportDryRun();
   if (s.ok()) s = transaction.commit();
   return s.ok() ? 0 : reportError(s.error());
 }
