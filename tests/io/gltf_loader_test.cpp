@@ -4,6 +4,7 @@
 // malformed files whose errors name the file and the accessor, vertex or extension.
 #include "penumbra/core/file_util.h"
 #include "penumbra/io/scene_io.h"
+#include "penumbra/kernels/dipole.h"
 #include "support/test_util.h"
 
 #include <gtest/gtest.h>
@@ -175,6 +176,52 @@ TEST(GltfLoad, DoubleSidedDecidesTwoSidedness) {
   Expected<Scene> two = loadGltf(writeGltf(dir, "two.gltf", g));
   ASSERT_TRUE(two.ok());
   EXPECT_TRUE(two->materials[0].two_sided);
+}
+
+TEST(GltfLoad, TranslucentMaterialsFromPenumbrasExtensionAndFromKhrVolume) {
+  TempDir dir;
+  TestGltf g = makeTestGltf();
+  g.doc["materials"][0]["extensions"]["PENUMBRA_materials_subsurface"] =
+      json::parse(R"({"preset": "marble", "eta": 1.5})");
+  g.doc["extensionsRequired"] = json::array({"PENUMBRA_materials_subsurface"});
+  Expected<Scene> own = loadGltf(writeGltf(dir, "own.gltf", g));
+  ASSERT_TRUE(own.ok()) << own.error().describe();
+  ASSERT_TRUE(own->materials[0].subsurface.has_value());
+  EXPECT_EQ(own->materials[0].subsurface->preset, "marble");
+  EXPECT_EQ(own->materials[0].subsurface->eta, 1.5);
+  // The base colour gives way to the medium's Lambertian stand-in.
+  EXPECT_GT(own->materials[0].reflectance.x, 0.6f);  // not the base colour 0.5
+
+  // KHR_materials_volume + transmission: base colour as albedo, distance x colour as the
+  // diffusion length (metres), KHR_materials_ior as eta.
+  g = makeTestGltf();
+  g.doc["materials"][0]["extensions"] = json::parse(R"({
+    "KHR_materials_transmission": {"transmissionFactor": 1},
+    "KHR_materials_volume": {"attenuationDistance": 0.01, "attenuationColor": [1, 0.5, 0.25]},
+    "KHR_materials_ior": {"ior": 1.4}})");
+  Expected<Scene> khr = loadGltf(writeGltf(dir, "khr.gltf", g));
+  ASSERT_TRUE(khr.ok()) << khr.error().describe();
+  const std::optional<Subsurface>& m = khr->materials[0].subsurface;
+  ASSERT_TRUE(m.has_value());
+  EXPECT_EQ(m->eta, 1.4);
+  const Dipole d(m->sigma_s_prime, m->sigma_a, m->eta);
+  EXPECT_NEAR(d.channel[0].totalReflectance(), 0.5, 1e-9);  // baseColorFactor 0.5 0.25 0.125
+  EXPECT_NEAR(d.channel[2].totalReflectance(), 0.125, 1e-9);
+  EXPECT_NEAR(1.0 / d.channel[1].sigma_tr, 0.005, 1e-12);
+  ASSERT_FALSE(khr->warnings.empty());
+  EXPECT_NE(khr->warnings.back().find("read as a scattering medium"), std::string::npos);
+
+  // A clear volume stays opaque; a bad medium names its place.
+  g.doc["materials"][0]["extensions"]["KHR_materials_volume"] = json::object();
+  Expected<Scene> clear = loadGltf(writeGltf(dir, "clear.gltf", g));
+  ASSERT_TRUE(clear.ok()) << clear.error().describe();
+  EXPECT_FALSE(clear->materials[0].subsurface.has_value());
+  g = makeTestGltf();
+  g.doc["materials"][0]["extensions"]["PENUMBRA_materials_subsurface"] =
+      json::parse(R"({"sigma_s": 1, "sigma_a": -1})");
+  const std::string bad = writeGltf(dir, "bad.gltf", g);
+  EXPECT_TRUE(test::errorNames(
+      loadGltf(bad), bad, "material 0.extensions.PENUMBRA_materials_subsurface: sigma_a -1000"));
 }
 
 TEST(GltfLoad, BinaryGlb) {

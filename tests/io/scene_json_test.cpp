@@ -3,6 +3,7 @@
 // docs/scene-format.md, strictness (unknown keys, types, lengths) and parse errors with line and
 // column; and the loadScene / loadSceneFile dispatchers.
 #include "penumbra/io/scene_io.h"
+#include "penumbra/kernels/dipole.h"
 #include "penumbra/scene/builtin.h"
 #include "support/test_util.h"
 
@@ -234,7 +235,7 @@ TEST(SceneJsonLoad, StrictErrorsNameTheKeyPath) {
        R"({"materials": {"w": {"reflectance": [0.5, 1.5, 0.5]}}, "meshes": [)" + mesh + "]}",
        "materials.w.reflectance[1]"},
       {"subsurface.json", R"({"materials": {"skin": {"subsurface": {"preset": "Skin1"}}}})",
-       "materials.skin.subsurface: subsurface scattering is not supported yet"},
+       "materials.skin.subsurface.preset: unknown measured material 'Skin1' (known: apple"},
       {"normalmap.json", R"({"materials": {"w": {"normal_map": "n.png"}}})",
        "materials.w.normal_map: normal mapping is not supported yet"},
       {"luminaire.json", R"({"lights": [{"type": "luminaire", "file": "a.ldt"}]})",
@@ -256,6 +257,81 @@ TEST(SceneJsonLoad, StrictErrorsNameTheKeyPath) {
     SCOPED_TRACE(c.name);
     const std::string path = dir.write(c.name, c.text);
     EXPECT_TRUE(errorNames(loadSceneJson(path), path, c.place));
+  }
+}
+
+TEST(SceneJsonLoad, SubsurfaceMaterialsInEveryForm) {
+  TempDir dir;
+  dir.write("tri.obj", kTriangleObj);
+  const std::string path = dir.write("sss.json", R"({
+    "materials": {
+      "a": {"subsurface": "marble"},
+      "b": {"subsurface": {"preset": "skin1", "eta": 1.4, "scale": 2}},
+      "c": {"subsurface": {"sigma_s": [1, 2, 3], "sigma_a": 0.01}},
+      "d": {"subsurface": {"albedo": [0.8, 0.5, 0.2], "distance_mm": [3, 2, 1]}},
+      "e": {"reflectance": [0.1, 0.1, 0.1], "subsurface": "ketchup"}
+    },
+    "meshes": [{"file": "tri.obj", "material": "a"}]
+  })");
+  Expected<Scene> s = loadSceneJson(path);
+  ASSERT_TRUE(s.ok()) << s.error().describe();
+  auto material = [&](const char* name) -> const Material& {
+    for (const Material& m : s->materials) {
+      if (m.name == name) return m;
+    }
+    ADD_FAILURE() << name;
+    return s->materials[0];
+  };
+  // Jensen et al. 2001's marble, per millimetre -> per metre.
+  const Subsurface& marble = *material("a").subsurface;
+  EXPECT_EQ(marble.preset, "marble");
+  EXPECT_NEAR(marble.sigma_s_prime.x, 2190.0, 1e-9);
+  EXPECT_NEAR(marble.sigma_a.z, 7.1, 1e-9);
+  EXPECT_EQ(marble.eta, 1.3);
+  // Its stand-in reflectance for the other methods: (1 - F_dr,ext)^2 R_d, between the dipole's
+  // R_d and 80% of it.
+  const glm::dvec3 rd = Dipole(marble.sigma_s_prime, marble.sigma_a, 1.3).totalReflectance();
+  EXPECT_LT(material("a").reflectance.x, rd.x);
+  EXPECT_GT(material("a").reflectance.x, 0.8 * rd.x);
+  const Subsurface& skin = *material("b").subsurface;
+  EXPECT_EQ(skin.eta, 1.4);
+  EXPECT_NEAR(skin.sigma_a.x, 2 * 32.0, 1e-9);
+  EXPECT_NEAR(material("c").subsurface->sigma_s_prime.z, 3000.0, 1e-9);
+  EXPECT_NEAR(material("c").subsurface->sigma_a.y, 10.0, 1e-9);
+  // The albedo form inverts the dipole: the medium shows that R_d and diffuses that far.
+  const Subsurface& wax = *material("d").subsurface;
+  const Dipole dw(wax.sigma_s_prime, wax.sigma_a, wax.eta);
+  const double want_rd[3] = {0.8, 0.5, 0.2}, want_d[3] = {3e-3, 2e-3, 1e-3};
+  for (int c = 0; c < 3; ++c) {
+    EXPECT_NEAR(dw.channel[c].totalReflectance(), want_rd[c], 1e-9);
+    EXPECT_NEAR(1.0 / dw.channel[c].sigma_tr, want_d[c], 1e-12);
+  }
+  // A reflectance given with the medium stays.
+  EXPECT_EQ(material("e").reflectance, glm::vec3(0.1f));
+
+  struct Case {
+    const char* block;
+    const char* place;
+  };
+  const Case bad[] = {
+      {R"({"sigma_s": [1, -1, 1], "sigma_a": 0.1})", "materials.m.subsurface: sigma_s' -1000"},
+      {R"({"sigma_s": 1, "sigma_a": [0.1, NaN, 0.1]})", "line"},  // not JSON: a syntax error
+      {R"({"sigma_s": 0, "sigma_a": 0})", "materials.m.subsurface: a channel with sigma_s'"},
+      {R"({"preset": "marble", "eta": 0.9})", "materials.m.subsurface: eta 0.9 is outside"},
+      {R"({"sigma_s": 1})", "materials.m.subsurface: needs sigma_a too"},
+      {R"({"preset": "marble", "sigma_s": 1, "sigma_a": 1})", "give exactly one of"},
+      {R"({"albedo": 1.2, "distance_mm": 1})", "albedo 1.2 is outside [0, 1)"},
+      {R"({"albedo": 0.5, "distance_mm": 0})", "distance 0 is not a positive number"},
+      {R"({"preset": "marble", "scale": -1})", "materials.m.subsurface.scale: must be a positive"},
+      {R"({"preset": "marble", "colour": 1})", "materials.m.subsurface.colour: unknown key"},
+      {R"(3)", "materials.m.subsurface: must be a preset name or an object"},
+  };
+  for (const Case& c : bad) {
+    SCOPED_TRACE(c.block);
+    const std::string p =
+        dir.write("bad.json", std::string(R"({"materials": {"m": {"subsurface": )") + c.block +
+                                  R"(}}, "meshes": [{"file": "tri.obj"}]})");
+    EXPECT_TRUE(errorNames(loadSceneJson(p), p, c.place));
   }
 }
 

@@ -6,6 +6,7 @@
 #include "penumbra/gpu/context.h"
 #include "penumbra/io/scene_io.h"
 
+#include <glm/exponential.hpp>
 #include <glm/trigonometric.hpp>
 
 #include <fmt/format.h>
@@ -67,6 +68,16 @@ int runInfo(const InfoOptions& options, const CommonOptions&) {
                  m.emission.z);
     }
     fmt::print("\n");
+    if (const std::optional<Subsurface>& ss = m.subsurface) {
+      // Per millimetre, as the scene gives them; the diffusion length 1 / sigma_tr in mm.
+      const glm::dvec3 s = ss->sigma_s_prime * 1e-3, a = ss->sigma_a * 1e-3;
+      const glm::dvec3 tr = glm::sqrt(3.0 * a * (s + a));
+      fmt::print(
+          "    subsurface{}: sigma_s' ({:.4g}, {:.4g}, {:.4g}) sigma_a ({:.4g}, {:.4g}, {:.4g}) "
+          "/mm, eta {:.3g}, diffusion length ({:.3g}, {:.3g}, {:.3g}) mm\n",
+          ss->preset.empty() ? "" : " " + ss->preset, s.x, s.y, s.z, a.x, a.y, a.z, ss->eta,
+          1.0 / tr.x, 1.0 / tr.y, 1.0 / tr.z);
+    }
   }
   fmt::print("lights     {}\n", s.lights.size());
   for (const Light& l : s.lights) {

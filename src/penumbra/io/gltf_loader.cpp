@@ -15,10 +15,13 @@
 #include "penumbra/core/memory.h"
 #include "penumbra/io/json_guard.h"
 #include "penumbra/io/scene_io.h"
+#include "penumbra/io/subsurface_json.h"
+#include "penumbra/scene/subsurface.h"
 
 #include <tiny_gltf.h>
 #include <nlohmann/json.hpp>
 
+#include <glm/common.hpp>
 #include <glm/geometric.hpp>
 #include <glm/gtc/quaternion.hpp>
 #include <glm/mat3x3.hpp>
@@ -29,6 +32,7 @@
 #include <cmath>
 #include <cstring>
 #include <filesystem>
+#include <limits>
 #include <numbers>
 #include <string>
 #include <string_view>
@@ -222,6 +226,9 @@ class GltfReader {
   Status addLight(int node_index, const glm::dmat4& world_from_light);
   Status addCamera(int node_index, int camera_index, const glm::dmat4& world_from_camera);
   Expected<uint32_t> materialFor(int gltf_material, const std::string& where);
+  // PENUMBRA_materials_subsurface, else KHR_materials_volume with KHR_materials_transmission read
+  // as a scattering medium (docs/scene-format.md).
+  Status readSubsurface(const tinygltf::Material& gm, const std::string& place, Material& m);
   Expected<glm::dmat4> localTransform(int node_index);
 
   const std::string& path_;
@@ -357,9 +364,107 @@ Expected<uint32_t> GltfReader::materialFor(int gltf_material, const std::string&
         fmt::format("{}: {} ('{}'): emissiveTexture is not used yet, only emissiveFactor", path_,
                     place, m.name));
   }
+  PENUMBRA_TRY(readSubsurface(gm, place, m));
   mapped = static_cast<int>(scene_.materials.size());
   scene_.materials.push_back(std::move(m));
   return static_cast<uint32_t>(mapped);
+}
+
+namespace {
+
+// A tinygltf value as JSON (extension objects are parsed by the same code as the JSON scene's).
+nlohmann::json toJson(const tinygltf::Value& v) {
+  if (v.IsBool()) return v.Get<bool>();
+  if (v.IsInt()) return v.GetNumberAsInt();
+  if (v.IsNumber()) return v.GetNumberAsDouble();
+  if (v.IsString()) return v.Get<std::string>();
+  if (v.IsArray()) {
+    nlohmann::json a = nlohmann::json::array();
+    for (size_t i = 0; i < v.ArrayLen(); ++i) a.push_back(toJson(v.Get(int(i))));
+    return a;
+  }
+  if (v.IsObject()) {
+    nlohmann::json o = nlohmann::json::object();
+    for (const std::string& k : v.Keys()) o[k] = toJson(v.Get(k));
+    return o;
+  }
+  return nullptr;
+}
+
+}  // namespace
+
+Status GltfReader::readSubsurface(const tinygltf::Material& gm, const std::string& place,
+                                  Material& m) {
+  auto own = gm.extensions.find("PENUMBRA_materials_subsurface");
+  if (own != gm.extensions.end()) {
+    Expected<Subsurface> s = parseSubsurface(toJson(own->second), path_,
+                                             place + ".extensions.PENUMBRA_materials_subsurface");
+    if (!s) return s.error();
+    m.subsurface = *s;
+  } else {
+    auto volume = gm.extensions.find("KHR_materials_volume");
+    if (volume == gm.extensions.end() ||
+        gm.extensions.find("KHR_materials_transmission") == gm.extensions.end()) {
+      return {};
+    }
+    // A transmissive volume read as a scattering medium: the base colour is the diffuse
+    // reflectance it shows, attenuationDistance x attenuationColor how far light diffuses per
+    // channel (a subsurface radius), KHR_materials_ior its index (glTF's default 1.5).
+    const nlohmann::json v = toJson(volume->second);
+    const std::string vplace = place + ".extensions.KHR_materials_volume";
+    double distance = std::numeric_limits<double>::infinity();
+    glm::dvec3 tint(1.0);
+    if (v.contains("attenuationDistance")) {
+      if (!v["attenuationDistance"].is_number() ||
+          !(v["attenuationDistance"].get<double>() > 0.0)) {
+        return inputError(path_, vplace + ".attenuationDistance", "must be a positive number");
+      }
+      distance = v["attenuationDistance"].get<double>();
+    }
+    if (v.contains("attenuationColor")) {
+      const nlohmann::json& c = v["attenuationColor"];
+      if (!c.is_array() || c.size() != 3) {
+        return inputError(path_, vplace + ".attenuationColor", "needs 3 numbers");
+      }
+      for (int i = 0; i < 3; ++i) {
+        if (!c[size_t(i)].is_number() || !(c[size_t(i)].get<double>() > 0.0)) {
+          return inputError(path_, vplace + ".attenuationColor", "must be positive numbers");
+        }
+        tint[i] = c[size_t(i)].get<double>();
+      }
+    }
+    if (!std::isfinite(distance)) {
+      scene_.warnings.push_back(fmt::format(
+          "{}: {} ('{}'): KHR_materials_volume without attenuationDistance is clear, not "
+          "translucent; read as an opaque surface",
+          path_, place, m.name));
+      return {};
+    }
+    double eta = 1.5;
+    auto ior = gm.extensions.find("KHR_materials_ior");
+    if (ior != gm.extensions.end()) {
+      const nlohmann::json i = toJson(ior->second);
+      if (i.contains("ior")) {
+        if (!i["ior"].is_number()) {
+          return inputError(path_, place + ".extensions.KHR_materials_ior.ior", "must be a number");
+        }
+        eta = i["ior"].get<double>();
+      }
+    }
+    const glm::dvec3 albedo = glm::min(glm::dvec3(m.reflectance), glm::dvec3(0.999));
+    Expected<Subsurface> s = subsurfaceFromAlbedo(albedo, distance * tint, eta);
+    if (!s) return inputError(path_, vplace, s.error().message);
+    m.subsurface = *s;
+    scene_.warnings.push_back(
+        fmt::format("{}: {} ('{}'): KHR_materials_volume + KHR_materials_transmission read as a "
+                    "scattering medium (base colour as its albedo, attenuation distance x colour "
+                    "as its diffusion length)",
+                    path_, place, m.name));
+    return {};
+  }
+  // Methods without subsurface transport see the Lambertian surface that returns as much light.
+  m.reflectance = glm::vec3(glm::clamp(lambertianAlbedo(*m.subsurface), 0.0, 1.0));
+  return {};
 }
 
 Expected<glm::dmat4> GltfReader::localTransform(int node_index) {
@@ -749,8 +854,9 @@ Status GltfReader::addCamera(int node_index, int camera_index,
   return {};
 }
 
-const char* const kSupportedExtensions[] = {"KHR_lights_punctual",
-                                            "KHR_materials_emissive_strength"};
+const char* const kSupportedExtensions[] = {
+    "KHR_lights_punctual",  "KHR_materials_emissive_strength", "PENUMBRA_materials_subsurface",
+    "KHR_materials_volume", "KHR_materials_transmission",      "KHR_materials_ior"};
 
 Status GltfReader::read() {
   for (const std::string& ext : model_.extensionsRequired) {

@@ -7,7 +7,9 @@
 #include "penumbra/core/file_util.h"
 #include "penumbra/io/json_guard.h"
 #include "penumbra/io/scene_io.h"
+#include "penumbra/io/subsurface_json.h"
 #include "penumbra/scene/builtin.h"
+#include "penumbra/scene/subsurface.h"
 
 #include <glm/geometric.hpp>
 #include <glm/mat3x3.hpp>
@@ -193,9 +195,8 @@ Status SceneJsonReader::readMaterials(const json& root, Scene& scene) {
     if (!it->is_object()) {
       return error(place, fmt::format("must be an object, not {}", jsonTypeName(*it)));
     }
-    PENUMBRA_TRY(
-        checkKeys(*it, place, {"reflectance", "emission", "two_sided"},
-                  {{"normal_map", "normal mapping"}, {"subsurface", "subsurface scattering"}}));
+    PENUMBRA_TRY(checkKeys(*it, place, {"reflectance", "emission", "two_sided", "subsurface"},
+                           {{"normal_map", "normal mapping"}}));
     Material m;
     m.name = it.key();
     if (it->contains("reflectance")) {
@@ -214,6 +215,16 @@ Status SceneJsonReader::readMaterials(const json& root, Scene& scene) {
                                                        jsonTypeName(it->at("two_sided"))));
       }
       m.two_sided = it->at("two_sided").get<bool>();
+    }
+    if (it->contains("subsurface")) {
+      Expected<Subsurface> s = parseSubsurface(it->at("subsurface"), path_, place + ".subsurface");
+      if (!s.ok()) return s.error();
+      m.subsurface = *s;
+      // Methods without subsurface transport see the medium as the Lambertian surface that
+      // returns as much diffuse light, unless the scene says otherwise.
+      if (!it->contains("reflectance")) {
+        m.reflectance = glm::vec3(glm::clamp(lambertianAlbedo(*s), 0.0, 1.0));
+      }
     }
     material_index_[m.name] = static_cast<uint32_t>(scene.materials.size());
     scene.materials.push_back(std::move(m));

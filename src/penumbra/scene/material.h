@@ -8,17 +8,33 @@
 
 #include <glm/vec3.hpp>
 
+#include <optional>
 #include <string>
 
 namespace penumbra {
+
+// A translucent, homogeneous medium filling the closed surface a material covers (subsurface
+// scattering, scene/subsurface.h): the reduced scattering and absorption coefficients of the
+// diffusion approximation (Jensen et al. 2001) and the index of refraction of its boundary.
+struct Subsurface {
+  glm::dvec3 sigma_s_prime{0.0};  // reduced scattering coefficient sigma_s' per metre
+  glm::dvec3 sigma_a{0.0};        // absorption coefficient per metre
+  double eta = 1.3;               // index of refraction relative to the outside
+  std::string preset;             // the measured material it comes from, if any ("marble")
+};
 
 struct Material {
   std::string name;
   glm::vec3 reflectance{0.8f};
   glm::vec3 emission{0.0f};
   bool two_sided = true;
+  // Set for translucent materials: light enters, scatters inside and leaves elsewhere (the
+  // `sss` method; the path tracer's random walk). `reflectance` is then the surface's own
+  // diffuse reflection on top, 0 unless the scene gives one.
+  std::optional<Subsurface> subsurface;
 
   bool isEmissive() const { return emission.x > 0.0f || emission.y > 0.0f || emission.z > 0.0f; }
+  bool isTranslucent() const { return subsurface.has_value(); }
 };
 
 }  // namespace penumbra

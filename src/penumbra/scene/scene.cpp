@@ -1,5 +1,7 @@
 #include "penumbra/scene/scene.h"
 
+#include "penumbra/scene/subsurface.h"
+
 #include <glm/geometric.hpp>
 
 #include <fmt/format.h>
@@ -95,6 +97,11 @@ Status validateScene(Scene& scene) {
       return inputError(scene.source, place,
                         fmt::format("emission ({}, {}, {}) must be finite and non-negative",
                                     m.emission.x, m.emission.y, m.emission.z));
+    }
+    if (m.subsurface) {
+      if (Status s = checkSubsurface(*m.subsurface); !s.ok()) {
+        return inputError(scene.source, place + ": subsurface", s.error().message);
+      }
     }
   }
   for (size_t k = 0; k < scene.meshes.size(); ++k) {
