@@ -218,7 +218,7 @@ TEST(GltfLoad, TranslucentMaterialsFromPenumbrasExtensionAndFromKhrVolume) {
   EXPECT_FALSE(clear->materials[0].subsurface.has_value());
   g = makeTestGltf();
   g.doc["materials"][0]["extensions"]["PENUMBRA_materials_subsurface"] =
-      json::parse(R"({"sigma_s": 1, "sigma_a": -1})");
+      json::parse(R"({"sigma_s_prime": 1, "sigma_a": -1})");
   const std::string bad = writeGltf(dir, "bad.gltf", g);
   EXPECT_TRUE(test::errorNames(
       loadGltf(bad), bad, "material 0.extensions.PENUMBRA_materials_subsurface: sigma_a -1000"));

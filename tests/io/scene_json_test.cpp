@@ -267,7 +267,7 @@ TEST(SceneJsonLoad, SubsurfaceMaterialsInEveryForm) {
     "materials": {
       "a": {"subsurface": "marble"},
       "b": {"subsurface": {"preset": "skin1", "eta": 1.4, "scale": 2}},
-      "c": {"subsurface": {"sigma_s": [1, 2, 3], "sigma_a": 0.01}},
+      "c": {"subsurface": {"sigma_s_prime": [1, 2, 3], "sigma_a": 0.01}},
       "d": {"subsurface": {"albedo": [0.8, 0.5, 0.2], "distance_mm": [3, 2, 1]}},
       "e": {"reflectance": [0.1, 0.1, 0.1], "subsurface": "ketchup"}
     },
@@ -314,12 +314,12 @@ TEST(SceneJsonLoad, SubsurfaceMaterialsInEveryForm) {
     const char* place;
   };
   const Case bad[] = {
-      {R"({"sigma_s": [1, -1, 1], "sigma_a": 0.1})", "materials.m.subsurface: sigma_s' -1000"},
-      {R"({"sigma_s": 1, "sigma_a": [0.1, NaN, 0.1]})", "line"},  // not JSON: a syntax error
-      {R"({"sigma_s": 0, "sigma_a": 0})", "materials.m.subsurface: a channel with sigma_s'"},
+      {R"({"sigma_s_prime": [1, -1, 1], "sigma_a": 0.1})", "materials.m.subsurface: sigma_s' -1000"},
+      {R"({"sigma_s_prime": 1, "sigma_a": [0.1, NaN, 0.1]})", "line"},  // not JSON: a syntax error
+      {R"({"sigma_s_prime": 0, "sigma_a": 0})", "materials.m.subsurface: a channel with sigma_s'"},
       {R"({"preset": "marble", "eta": 0.9})", "materials.m.subsurface: eta 0.9 is outside"},
-      {R"({"sigma_s": 1})", "materials.m.subsurface: needs sigma_a too"},
-      {R"({"preset": "marble", "sigma_s": 1, "sigma_a": 1})", "give exactly one of"},
+      {R"({"sigma_s_prime": 1})", "materials.m.subsurface: needs sigma_a too"},
+      {R"({"preset": "marble", "sigma_s_prime": 1, "sigma_a": 1})", "give exactly one of"},
       {R"({"albedo": 1.2, "distance_mm": 1})", "albedo 1.2 is outside [0, 1)"},
       {R"({"albedo": 0.5, "distance_mm": 0})", "distance 0 is not a positive number"},
       {R"({"preset": "marble", "scale": -1})", "materials.m.subsurface.scale: must be a positive"},

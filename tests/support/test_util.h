@@ -6,6 +6,7 @@
 #include "penumbra/scene/mesh.h"
 
 #include <glm/vec3.hpp>
+#include <glm/vec4.hpp>
 
 #include <gtest/gtest.h>
 
@@ -85,6 +86,29 @@ inline std::string base64(const std::string& in) {
     out += "=";
   }
   return out;
+}
+
+// A closed box [0, w] x [0, h] x [0, d] (metres), faces wound outwards, of one material.
+inline Mesh boxMesh(double w, double h, double d) {
+  Mesh m;
+  m.name = "box";
+  const glm::vec3 p[8] = {{0, 0, 0},
+                          {float(w), 0, 0},
+                          {float(w), float(h), 0},
+                          {0, float(h), 0},
+                          {0, 0, float(d)},
+                          {float(w), 0, float(d)},
+                          {float(w), float(h), float(d)},
+                          {0, float(h), float(d)}};
+  m.positions.assign(p, p + 8);
+  const glm::uvec4 quads[6] = {{0, 3, 2, 1}, {4, 5, 6, 7}, {0, 1, 5, 4},
+                               {3, 7, 6, 2}, {0, 4, 7, 3}, {1, 2, 6, 5}};
+  for (const glm::uvec4& q : quads) {
+    m.triangles.emplace_back(q.x, q.y, q.z);
+    m.triangles.emplace_back(q.x, q.z, q.w);
+  }
+  m.material_ids.assign(m.triangles.size(), 0);
+  return m;
 }
 
 inline std::string dataPath(const std::string& relative) {

@@ -109,8 +109,9 @@ int parseAndRun(int argc, char** argv) {
       ->capture_default_str();
   render_cmd
       ->add_option("--method", render.method,
-                   "pathtrace (the reference path tracer), matrix (matrix radiosity) or "
-                   "progressive (progressive radiosity in a lightmap)")
+                   "pathtrace (the reference path tracer), matrix (matrix radiosity), "
+                   "progressive (progressive radiosity in a lightmap) or sss (subsurface "
+                   "scattering through hierarchical links)")
       ->capture_default_str();
   render_cmd
       ->add_option("--device", render.device,
@@ -197,6 +198,25 @@ int parseAndRun(int argc, char** argv) {
                    "surfaces) or triangle (each triangle's own normal)")
       ->check(CLI::IsMember({"interpolated", "triangle"}))
       ->capture_default_str();
+  render_cmd
+      ->add_option("--lightmap-size", render.lightmap_size,
+                   "sss: atlas width and height (default 512, as the paper's real-time atlas)")
+      ->check(CLI::Range(8, 16384));
+  render_cmd
+      ->add_option("--links", render.links,
+                   "sss: links per texel, refined adaptively from the object's root (default "
+                   "16, as the paper)")
+      ->check(CLI::Range(1, 1024));
+  render_cmd
+      ->add_option("--links-level", render.links_level,
+                   "sss: the non-adaptive scheme instead: a link to every cluster of this "
+                   "hierarchy level")
+      ->check(CLI::Range(0, 30));
+  render_cmd
+      ->add_option("--frames", render.frames,
+                   "sss: render this many frames with the lights orbiting the scene once "
+                   "(-o out.png writes out_0000.png ...); the links are built once")
+      ->check(CLI::Range(0, 100000));
   render_cmd->add_option("--resume", render.resume,
                          "progressive: continue from this checkpoint (written on Ctrl-C)");
   render_cmd->add_flag("--keep-checkpoint", render.keep_checkpoint,

@@ -54,6 +54,13 @@ struct RenderOptions {
   // (interpolated or triangle).
   int shooter_points = 16;
   std::string normals = "interpolated";
+  // --method sss (Carr, Hall, Hart 2003, sec. 4): the atlas size (default kSssDefaultAtlas),
+  // links per texel (adaptive) or a hierarchy level for the non-adaptive scheme, and frames of
+  // a light orbit.
+  std::optional<int> lightmap_size;
+  std::optional<int> links;  // default SssLinkOptions::links
+  int links_level = -1;
+  int frames = 0;
 };
 
 struct TraceOptions {
@@ -116,6 +123,13 @@ Status renderMatrix(const RenderOptions& options, const CommonOptions& common);
 // Sets *interrupted when Ctrl-C stopped the solver (the outputs and a checkpoint were written).
 Status renderProgressive(const RenderOptions& options, const CommonOptions& common,
                          bool* interrupted);
+Status renderSss(const RenderOptions& options, const CommonOptions& common);
+// out.png -> out_0007.png: frame f of a sequence.
+std::string sequenceFrameName(const std::string& path, int frame);
+// The render's image outputs (SCENE.png when none is given), each checked before the work: a
+// known format and a writable place; for a sequence of `frames` > 1 its directory is made (and
+// removed again if the run fails) and frame 0's name checked. The stats file is checked too.
+Expected<std::vector<std::string>> checkRenderOutputs(const RenderOptions& options, int frames);
 int runTrace(const TraceOptions& options, const CommonOptions& common);
 int runInfo(const InfoOptions& options, const CommonOptions& common);
 int runRays(const RaysOptions& options, const CommonOptions& common);

@@ -184,14 +184,50 @@ Status renderPathTrace(const RenderOptions& options, const CommonOptions& common
 
 }  // namespace
 
+std::string sequenceFrameName(const std::string& path, int frame) {
+  const std::filesystem::path p(path);
+  std::filesystem::path out = p.parent_path();
+  out /= fmt::format("{}_{:04d}{}", p.stem().string(), frame, p.extension().string());
+  return out.string();
+}
+
+Expected<std::vector<std::string>> checkRenderOutputs(const RenderOptions& options, int frames) {
+  std::vector<std::string> outputs = options.outputs;
+  if (outputs.empty()) outputs.push_back(sceneStem(options.scene) + ".png");
+  for (const std::string& out : outputs) {
+    if (!isSupportedImageExtension(out)) {
+      return inputError(out, "",
+                        fmt::format("unsupported image format '{}' (use .exr, .hdr, .pfm or .png)",
+                                    extensionOf(out)));
+    }
+    if (frames > 1) {
+      const std::string dir = std::filesystem::path(out).parent_path().string();
+      if (!dir.empty()) PENUMBRA_TRY(OutputTransaction::current()->createDirectories(dir));
+    }
+    PENUMBRA_TRY(checkOutputPath(frames > 1 ? sequenceFrameName(out, 0) : out));
+  }
+  if (!options.stats.empty()) PENUMBRA_TRY(checkOutputPath(options.stats));
+  return outputs;
+}
+
 int runRender(const RenderOptions& options, const CommonOptions& common) {
   if (options.device != "cpu" && options.device != "gpu" && options.device != "auto" &&
       options.device != "hybrid") {
     return reportError(inputError(
         "", "", fmt::format("--device '{}': use cpu, gpu, hybrid or auto", options.device)));
   }
-  if (options.method != "progressive" && options.method != "matrix" && options.texel_density) {
-    return reportError(inputError("", "--texel-density", "applies to the radiosity methods only"));
+  if (options.method != "progressive" && options.method != "matrix" && options.method != "sss" &&
+      options.texel_density) {
+    return reportError(
+        inputError("", "--texel-density", "applies to the radiosity and sss methods only"));
+  }
+  if (options.method != "sss") {
+    const char* only = options.lightmap_size      ? "--lightmap-size"
+                       : options.frames > 0       ? "--frames"
+                       : options.links_level >= 0 ? "--links-level"
+                       : options.links            ? "--links"
+                                                  : nullptr;
+    if (only) return reportError(inputError("", only, "applies to --method sss only"));
   }
   if (options.method != "progressive") {
     const char* only = !options.resume.empty()       ? "--resume"
@@ -212,14 +248,17 @@ int runRender(const RenderOptions& options, const CommonOptions& common) {
     s = renderMatrix(options, common);
   } else if (options.method == "progressive") {
     s = renderProgressive(options, common, &interrupted);
-  } else if (options.method == "stochastic" || options.method == "sss" || options.method == "lpv") {
+  } else if (options.method == "sss") {
+    s = renderSss(options, common);
+  } else if (options.method == "stochastic" || options.method == "lpv") {
     s = inputError("", "",
                    fmt::format("--method {} is not available in this version (available: "
-                               "pathtrace, matrix, progressive)",
+                               "pathtrace, matrix, progressive, sss)",
                                options.method));
   } else {
     s = inputError("", "",
-                   fmt::format("unknown --method '{}' (available: pathtrace, matrix, progressive)",
+                   fmt::format("unknown --method '{}' (available: pathtrace, matrix, progressive, "
+                               "sss)",
                                options.method));
   }
   if (s.ok() && common.dry_run) return reportDryRun();  // the transaction removes what it made

@@ -27,14 +27,6 @@ namespace penumbra {
 
 namespace {
 
-// out.png -> out_0007.png
-std::string frameName(const std::string& path, int frame) {
-  const std::filesystem::path p(path);
-  std::filesystem::path out = p.parent_path();
-  out /= fmt::format("{}_{:04d}{}", p.stem().string(), frame, p.extension().string());
-  return out.string();
-}
-
 // The emitters' colour in frame f of n: a tint that goes once around the hue circle, with the
 // same mean over the sequence as the scene's own emission.
 glm::vec3 relightTint(int f, int n) {
@@ -46,26 +38,10 @@ glm::vec3 relightTint(int f, int n) {
 }  // namespace
 
 Status renderMatrix(const RenderOptions& options, const CommonOptions& common) {
-  std::vector<std::string> outputs = options.outputs;
-  if (outputs.empty()) {
-    const std::filesystem::path p(options.scene);
-    outputs.push_back((p.has_extension() ? p.stem().string() : options.scene) + ".png");
-  }
   const int frames = options.relight_frames > 1 ? options.relight_frames : 1;
-  for (const std::string& out : outputs) {
-    if (!isSupportedImageExtension(out)) {
-      return inputError(out, "",
-                        fmt::format("unsupported image format '{}' (use .exr, .hdr, .pfm or .png)",
-                                    extensionOf(out)));
-    }
-    if (frames > 1) {
-      // A sequence's directory is made for it (and removed again if the run fails).
-      const std::string dir = std::filesystem::path(out).parent_path().string();
-      if (!dir.empty()) PENUMBRA_TRY(OutputTransaction::current()->createDirectories(dir));
-    }
-    PENUMBRA_TRY(checkOutputPath(frames > 1 ? frameName(out, 0) : out));
-  }
-  if (!options.stats.empty()) PENUMBRA_TRY(checkOutputPath(options.stats));
+  Expected<std::vector<std::string>> checked = checkRenderOutputs(options, frames);
+  if (!checked) return checked.error();
+  const std::vector<std::string>& outputs = *checked;
   if (options.max_depth) {
     return inputError("", "--max-depth", "applies to --method pathtrace only");
   }
@@ -184,7 +160,8 @@ Status renderMatrix(const RenderOptions& options, const CommonOptions& common) {
                                            mr.surface.atlas, lightmap, camera, view);
     view_seconds += view_timer.seconds();
     for (const std::string& out : outputs) {
-      PENUMBRA_TRY(writeImage(frames > 1 ? frameName(out, f) : out, image, options.tonemap));
+      PENUMBRA_TRY(
+          writeImage(frames > 1 ? sequenceFrameName(out, f) : out, image, options.tonemap));
     }
     spdlog::info("{}{} iterations ({}), residual {:.3g}, {:.3f} s",
                  frames > 1 ? fmt::format("frame {}: ", f) : "", last.iterations,

@@ -16,7 +16,7 @@
 #include "penumbra/io/json_guard.h"
 #include "penumbra/io/scene_io.h"
 #include "penumbra/io/subsurface_json.h"
-#include "penumbra/scene/subsurface.h"
+#include "penumbra/subsurface/media.h"
 
 #include <tiny_gltf.h>
 #include <nlohmann/json.hpp>

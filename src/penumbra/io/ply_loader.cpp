@@ -504,8 +504,12 @@ Status scanPly(const std::string& path, const std::string& text, PlyScan* scan) 
 Expected<Scene> loadPly(const std::string& path) {
   Expected<std::string> text = readFile(path);
   if (!text.ok()) return text.error();
+  return loadPlyBytes(path, *text);
+}
+
+Expected<Scene> loadPlyBytes(const std::string& path, const std::string& bytes) {
   PlyScan scan;
-  PENUMBRA_TRY(scanPly(path, *text, &scan));
+  PENUMBRA_TRY(scanPly(path, bytes, &scan));
 
   Scene scene;
   scene.source = path;

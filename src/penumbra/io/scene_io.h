@@ -18,6 +18,8 @@ Expected<Scene> loadObj(const std::string& path);
 Expected<Scene> loadGltf(const std::string& path);
 // PLY, ASCII and binary (either byte order), read in file order.
 Expected<Scene> loadPly(const std::string& path);
+// The same from the file's bytes (`path` names it in messages and gives the mesh its name).
+Expected<Scene> loadPlyBytes(const std::string& path, const std::string& bytes);
 // Penumbra's JSON scene format (docs/scene-format.md); paths relative to the scene file.
 Expected<Scene> loadSceneJson(const std::string& path);
 
@@ -26,5 +28,8 @@ Expected<Scene> loadSceneFile(const std::string& path);
 
 // A built-in scene name or a file path.
 Expected<Scene> loadScene(const std::string& name_or_path);
+// The built-in `sss` scene (io/builtin_sss.cpp): the bunny in marble, lit from behind and the
+// side.
+Expected<Scene> sssBuiltinScene();
 
 }  // namespace penumbra

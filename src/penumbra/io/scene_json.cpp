@@ -9,7 +9,7 @@
 #include "penumbra/io/scene_io.h"
 #include "penumbra/io/subsurface_json.h"
 #include "penumbra/scene/builtin.h"
-#include "penumbra/scene/subsurface.h"
+#include "penumbra/subsurface/media.h"
 
 #include <glm/geometric.hpp>
 #include <glm/mat3x3.hpp>
@@ -639,6 +639,7 @@ Expected<Scene> loadScene(const std::string& name_or_path) {
   std::error_code ec;
   const bool is_file =
       std::filesystem::exists(name_or_path, ec) && !std::filesystem::is_directory(name_or_path, ec);
+  if (!is_file && name_or_path == "sss") return sssBuiltinScene();
   if (!is_file && extensionOf(name_or_path).empty()) return builtinScene(name_or_path);
   return loadSceneFile(name_or_path);
 }

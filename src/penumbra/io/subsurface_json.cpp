@@ -1,6 +1,6 @@
 #include "penumbra/io/subsurface_json.h"
 
-#include "penumbra/scene/subsurface.h"
+#include "penumbra/subsurface/media.h"
 
 #include <fmt/format.h>
 
@@ -57,19 +57,20 @@ Expected<Subsurface> parseSubsurface(const nlohmann::json& block, const std::str
   }
   for (auto it = block.begin(); it != block.end(); ++it) {
     const std::string& k = it.key();
-    if (k != "preset" && k != "sigma_s" && k != "sigma_a" && k != "eta" && k != "scale" &&
-        k != "albedo" && k != "distance_mm") {
+    if (k != "preset" && k != "sigma_s_prime" && k != "sigma_a" && k != "eta" && k != "g" &&
+        k != "scale" && k != "albedo" && k != "distance_mm") {
       return inputError(file, place + "." + k,
-                        "unknown key (known keys: preset, sigma_s, sigma_a, albedo, distance_mm, "
-                        "eta, scale)");
+                        "unknown key (known keys: preset, sigma_s_prime, sigma_a, albedo, "
+                        "distance_mm, eta, g, scale)");
     }
   }
   const bool preset = block.contains("preset");
-  const bool coefficients = block.contains("sigma_s") || block.contains("sigma_a");
+  const bool coefficients = block.contains("sigma_s_prime") || block.contains("sigma_a");
   const bool albedo = block.contains("albedo") || block.contains("distance_mm");
   if (int(preset) + int(coefficients) + int(albedo) != 1) {
-    return inputError(file, place,
-                      "give exactly one of: preset; sigma_s and sigma_a; albedo and distance_mm");
+    return inputError(
+        file, place,
+        "give exactly one of: preset; sigma_s_prime and sigma_a; albedo and distance_mm");
   }
   double eta = 1.3;
   if (block.contains("eta")) {
@@ -78,6 +79,14 @@ Expected<Subsurface> parseSubsurface(const nlohmann::json& block, const std::str
       return inputError(file, place + ".eta", "must be a finite number");
     }
     eta = e.get<double>();
+  }
+  double g = 0.0;
+  if (block.contains("g")) {
+    const nlohmann::json& e = block.at("g");
+    if (!e.is_number() || !(e.get<double>() > -1.0 && e.get<double>() < 1.0)) {
+      return inputError(file, place + ".g", "must be a number in (-1, 1)");
+    }
+    g = e.get<double>();
   }
   double scale = 1.0;
   if (block.contains("scale")) {
@@ -95,10 +104,10 @@ Expected<Subsurface> parseSubsurface(const nlohmann::json& block, const std::str
     medium = fromPreset(block.at("preset").get<std::string>(), place + ".preset");
     if (medium && block.contains("eta")) medium->eta = eta;
   } else if (coefficients) {
-    for (const char* k : {"sigma_s", "sigma_a"}) {
+    for (const char* k : {"sigma_s_prime", "sigma_a"}) {
       if (!block.contains(k)) return inputError(file, place, fmt::format("needs {} too", k));
     }
-    Expected<glm::dvec3> s = colour(block.at("sigma_s"), file, place + ".sigma_s");
+    Expected<glm::dvec3> s = colour(block.at("sigma_s_prime"), file, place + ".sigma_s_prime");
     if (!s) return s.error();
     Expected<glm::dvec3> a = colour(block.at("sigma_a"), file, place + ".sigma_a");
     if (!a) return a.error();
@@ -118,6 +127,7 @@ Expected<Subsurface> parseSubsurface(const nlohmann::json& block, const std::str
     const Error& e = medium.error();
     return e.file.empty() ? inputError(file, place, e.message) : e;
   }
+  medium->g = g;
   medium->sigma_s_prime *= scale;
   medium->sigma_a *= scale;
   if (Status s = checkSubsurface(*medium); !s.ok())

@@ -14,6 +14,8 @@ namespace penumbra {
 //   radiance and the Cornell camera.
 // "furnace": a closed 2 m cube seen from its centre; every surface has reflectance 0.5 and emits
 //   radiance 1 from its inner face, so the exact radiance everywhere is E / (1 - rho) = 2.
+// "sss": the Stanford bunny in marble lit from behind and the side (io/builtin_sss.cpp: loadScene
+//   resolves it, as it needs the PLY reader).
 std::vector<std::string> builtinSceneNames();
 Expected<Scene> builtinScene(const std::string& name);
 

@@ -7,7 +7,9 @@
 #include <algorithm>
 #include <cmath>
 
+#include <span>
 #include <variant>
+#include <vector>
 
 namespace penumbra {
 
@@ -45,5 +47,9 @@ struct DirectionalLight {
 };
 
 using Light = std::variant<PointLight, SpotLight, DirectionalLight>;
+
+// The lights turned by `angle` radians about the vertical (+y) axis through `centre`: positions
+// and directions alike (a light orbiting the scene, for relit sequences).
+std::vector<Light> orbitLights(std::span<const Light> lights, const glm::vec3& centre, float angle);
 
 }  // namespace penumbra

@@ -14,12 +14,13 @@
 namespace penumbra {
 
 // A translucent, homogeneous medium filling the closed surface a material covers (subsurface
-// scattering, scene/subsurface.h): the reduced scattering and absorption coefficients of the
+// scattering, subsurface/media.h): the reduced scattering and absorption coefficients of the
 // diffusion approximation (Jensen et al. 2001) and the index of refraction of its boundary.
 struct Subsurface {
   glm::dvec3 sigma_s_prime{0.0};  // reduced scattering coefficient sigma_s' per metre
   glm::dvec3 sigma_a{0.0};        // absorption coefficient per metre
   double eta = 1.3;               // index of refraction relative to the outside
+  double g = 0.0;                 // Henyey-Greenstein mean cosine (sigma_s' = sigma_s (1 - g))
   std::string preset;             // the measured material it comes from, if any ("marble")
 };
 

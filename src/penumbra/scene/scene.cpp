@@ -1,11 +1,13 @@
 #include "penumbra/scene/scene.h"
 
-#include "penumbra/scene/subsurface.h"
+#include "penumbra/subsurface/media.h"
 
+#include <glm/common.hpp>
 #include <glm/geometric.hpp>
 
 #include <fmt/format.h>
 #include <cmath>
+#include <limits>
 
 namespace penumbra {
 
@@ -82,6 +84,37 @@ std::string meshPlace(const Mesh& mesh, size_t mesh_index) {
 }
 
 }  // namespace
+
+glm::vec3 sceneCentre(const Scene& scene) {
+  glm::vec3 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
+  for (const Mesh& m : scene.meshes) {
+    for (const glm::vec3& p : m.positions) {
+      lo = glm::min(lo, p);
+      hi = glm::max(hi, p);
+    }
+  }
+  return lo.x <= hi.x ? 0.5f * (lo + hi) : glm::vec3(0.0f);
+}
+
+std::vector<Light> orbitLights(std::span<const Light> lights, const glm::vec3& centre,
+                               float angle) {
+  const float c = std::cos(angle), s = std::sin(angle);
+  const auto turn = [&](const glm::vec3& v) {
+    return glm::vec3(c * v.x + s * v.z, v.y, -s * v.x + c * v.z);
+  };
+  std::vector<Light> out;
+  for (const Light& light : lights) {
+    Light l = light;
+    if (auto* p = std::get_if<PointLight>(&l)) p->position = centre + turn(p->position - centre);
+    if (auto* sp = std::get_if<SpotLight>(&l)) {
+      sp->position = centre + turn(sp->position - centre);
+      sp->direction = turn(sp->direction);
+    }
+    if (auto* d = std::get_if<DirectionalLight>(&l)) d->direction = turn(d->direction);
+    out.push_back(l);
+  }
+  return out;
+}
 
 Status validateScene(Scene& scene) {
   for (size_t mi = 0; mi < scene.materials.size(); ++mi) {

@@ -44,6 +44,8 @@ struct FlatTriangles {
 FlatTriangles flattenScene(const Scene& scene);
 // The summed area of the triangles (m^2).
 double surfaceArea(const FlatTriangles& flat);
+// The centre of the bounding box of the scene's vertices.
+glm::vec3 sceneCentre(const Scene& scene);
 // The scene's UVs per flattened triangle corner (corner k of triangle t at 3 t + k, flattenScene
 // order), zeros for meshes without UVs; `any` says whether some mesh had them.
 std::vector<glm::vec2> flattenSceneUvs(const Scene& scene, bool& any);

@@ -1,4 +1,4 @@
-#include "penumbra/scene/subsurface.h"
+#include "penumbra/subsurface/media.h"
 
 #include "penumbra/kernels/dipole.h"
 
@@ -84,6 +84,9 @@ Status checkSubsurface(const Subsurface& medium) {
                       fmt::format("eta {} is outside [1, 4] (the index of refraction relative to "
                                   "the outside)",
                                   medium.eta));
+  }
+  if (!(medium.g > -1.0 && medium.g < 1.0)) {
+    return inputError("", "", fmt::format("g {} is outside (-1, 1)", medium.g));
   }
   return {};
 }

@@ -1,0 +1,162 @@
+// `penumbra render --method sss`: subsurface scattering through hierarchical links (Carr, Hall,
+// Hart 2003, sec. 4) on the CPU; with --frames N the scene's lights orbit the scene once while
+// the links stay, and every frame costs only the three passes (their times are in the stats).
+#include "penumbra/app/commands.h"
+#include "penumbra/app/stats_file.h"
+#include "penumbra/core/file_util.h"
+#include "penumbra/core/memory.h"
+#include "penumbra/core/parallel.h"
+#include "penumbra/core/progress.h"
+#include "penumbra/core/timer.h"
+#include "penumbra/io/image_io.h"
+#include "penumbra/io/scene_io.h"
+#include "penumbra/subsurface/sss.h"
+#include "penumbra/subsurface/sss_view.h"
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include <filesystem>
+#include <optional>
+
+namespace penumbra {
+
+Status renderSss(const RenderOptions& options, const CommonOptions& common) {
+  const int frames = options.frames > 1 ? options.frames : 1;
+  Expected<std::vector<std::string>> checked = checkRenderOutputs(options, frames);
+  if (!checked) return checked.error();
+  const std::vector<std::string>& outputs = *checked;
+  for (const auto& [set, name] : {std::pair{options.max_depth.has_value(), "--max-depth"},
+                                  std::pair{options.solver.has_value(), "--solver"},
+                                  std::pair{options.relight_frames > 0, "--relight-frames"},
+                                  std::pair{options.elements.has_value(), "--elements"}}) {
+    if (set) {
+      return inputError("", name,
+                        "does not apply to --method sss (size the atlas with --lightmap-size or "
+                        "--texel-density)");
+    }
+  }
+  if (options.device == "gpu" || options.device == "hybrid") {
+    return inputError(
+        "", "--device",
+        fmt::format("{}: --method sss runs on the cpu in this version", options.device));
+  }
+  const int width = options.width.value_or(512), height = options.height.value_or(512);
+  const int spp = options.spp.value_or(4);
+  if (width < 1 || width > (1 << 16) || height < 1 || height > (1 << 16)) {
+    return inputError("", "--width/--height", "must be in [1, 65536]");
+  }
+  if (spp < 1 || spp > 4096) return inputError("", "--spp", "must be in [1, 4096]");
+  // The image, its view samples (about 40 bytes each) and the files.
+  PENUMBRA_TRY(
+      checkMemory(uint64_t(width) * uint64_t(height) * (40 + 40 * uint64_t(spp)),
+                  fmt::format("a {}x{} image at {} samples per pixel", width, height, spp)));
+
+  const Timer total_timer;
+  Expected<Scene> scene = loadScene(options.scene);
+  if (!scene) return scene.error();
+  for (const std::string& w : scene->warnings) spdlog::warn("{}", w);
+  SssOptions so;
+  if (options.texel_density) {
+    so.resolution.texel_density = options.texel_density;
+  } else if (options.lightmap_size) {
+    so.resolution.size = options.lightmap_size;
+  }
+  if (options.links && options.links_level >= 0) {
+    return inputError("", "--links", "and --links-level exclude each other");
+  }
+  so.links.links = options.links.value_or(so.links.links);
+  so.links.level = options.links_level;
+  if (common.dry_run) {
+    bool any = false;
+    for (const Material& m : scene->materials) any |= m.isTranslucent();
+    if (!any) return inputError(scene->source, "", "no material has a subsurface block");
+    return {};
+  }
+
+  std::optional<Progress> progress;
+  Expected<SssSolver> built = SssSolver::build(*scene, so, [&](size_t done, size_t total) {
+    if (!progress) {
+      progress.emplace("subsurface links", uint64_t(total),
+                       !common.quiet && Progress::stderrIsTerminal());
+    }
+    progress->reach(done);
+  });
+  if (progress) progress->finish();
+  if (!built) return built.error();
+  const SssSolver& solver = *built;
+  const SssLinks& links = solver.links();
+  spdlog::info("{}: {} texels in a {}x{} atlas, {} links each, built in {:.2f} s (links {:.2f} s)",
+               scene->source, solver.surface().elementCount(), solver.surface().atlas.width,
+               solver.surface().atlas.height, links.per_element, solver.buildSeconds(),
+               links.seconds);
+
+  const Camera camera = scene->camera ? *scene->camera : defaultCamera(*scene);
+  SssViewSettings view;
+  view.width = width;
+  view.height = height;
+  view.spp = spp;
+  view.seed = options.seed.value_or(0);
+  const Timer view_timer;
+  const SssView sss_view = SssView::trace(solver, camera, view);
+  const double view_seconds = view_timer.seconds();
+
+  const glm::vec3 centre = sceneCentre(*scene);
+  nlohmann::json frame_stats = nlohmann::json::array();
+  double frame_sum = 0.0;
+  uint64_t rays = 0;
+  for (int f = 0; f < frames; ++f) {
+    const std::vector<Light> lights =
+        frames > 1
+            ? orbitLights(scene->lights, centre, 2.0f * 3.14159265f * float(f) / float(frames))
+            : scene->lights;
+    const Timer t1;
+    const std::vector<glm::vec3> e = solver.transmittedIrradiance(lights, &rays);
+    const double pass1 = t1.seconds();
+    const Timer t2;
+    const std::vector<glm::vec3> b = solver.scatter(e);
+    const double pass2 = t2.seconds();
+    const Timer t3;
+    const Image atlas = solver.scatteredRadianceAtlas(b);
+    const Image image = sss_view.render(solver, atlas, lights, &rays);
+    const double pass3 = t3.seconds();
+    frame_sum += pass1 + pass2 + pass3;
+    frame_stats.push_back({{"pass1_seconds", pass1},
+                           {"pass2_seconds", pass2},
+                           {"pass3_seconds", pass3},
+                           {"seconds", pass1 + pass2 + pass3}});
+    for (const std::string& out : outputs) {
+      PENUMBRA_TRY(
+          writeImage(frames > 1 ? sequenceFrameName(out, f) : out, image, options.tonemap));
+    }
+  }
+  spdlog::info("{} frame(s), {:.1f} ms each ({:.1f} frames per second); wrote {}", frames,
+               1e3 * frame_sum / frames, frames / frame_sum, fmt::join(outputs, ", "));
+  if (!options.stats.empty()) {
+    nlohmann::json j = {{"method", "sss"},
+                        {"device", "cpu"},
+                        {"scene", scene->source},
+                        {"seconds", total_timer.seconds()},
+                        {"build_seconds", solver.buildSeconds()},
+                        {"links_seconds", links.seconds},
+                        {"view_seconds", view_seconds},
+                        {"elements", solver.surface().elementCount()},
+                        {"atlas_width", solver.surface().atlas.width},
+                        {"atlas_height", solver.surface().atlas.height},
+                        {"texel_density", solver.surface().atlas.texel_density},
+                        {"links", links.per_element},
+                        {"adaptive", so.links.level < 0},
+                        {"threads", threadCount()},
+                        {"width", width},
+                        {"height", height},
+                        {"spp", spp},
+                        {"frames", frame_stats},
+                        {"frame_seconds", frame_sum / frames},
+                        {"frames_per_second", frames / frame_sum},
+                        {"rays", rays}};
+    PENUMBRA_TRY(writeStatsFile(options.stats, j));
+  }
+  return {};
+}
+
+}  // namespace penumbra

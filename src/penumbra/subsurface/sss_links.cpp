@@ -1,0 +1,426 @@
+#include "penumbra/subsurface/sss_links.h"
+
+#include "penumbra/core/check.h"
+#include "penumbra/core/parallel.h"
+#include "penumbra/core/timer.h"
+
+#include <glm/geometric.hpp>
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <map>
+
+namespace penumbra {
+
+namespace {
+
+// The texel's steps along atlas x and y on the surface: the affine map from the face's texel
+// coordinates to its positions, P(t) = P0 + [a b] (t - t0).
+void texelAxes(const RadiositySurface& s, uint32_t element, glm::dvec3& a, glm::dvec3& b) {
+  const ChartAtlas& atlas = s.atlas;
+  const uint32_t face = atlas.element_face[element];
+  const glm::uvec3 tri = s.flat.triangles[atlas.faces[face].triangle];
+  const glm::dvec3 p0(s.flat.positions[tri.x]), p1(s.flat.positions[tri.y]),
+      p2(s.flat.positions[tri.z]);
+  const glm::dvec2 t0 = atlas.corner_texel[3 * size_t(face)],
+                   t1 = atlas.corner_texel[3 * size_t(face) + 1],
+                   t2 = atlas.corner_texel[3 * size_t(face) + 2];
+  const glm::dvec2 u = t1 - t0, v = t2 - t0;
+  const double det = u.x * v.y - u.y * v.x;
+  if (std::abs(det) < 1e-12) {
+    a = b = glm::dvec3(0.0);
+    return;
+  }
+  // [p1 - p0, p2 - p0] = [a b] [u v]  =>  [a b] = [p1 - p0, p2 - p0] [u v]^-1.
+  const glm::dvec3 e1 = p1 - p0, e2 = p2 - p0;
+  a = (e1 * v.y - e2 * u.y) / det;
+  b = (e2 * u.x - e1 * v.x) / det;
+}
+
+}  // namespace
+
+SssTree buildSssTree(const RadiositySurface& surface, std::span<const Material> materials) {
+  SssTree t;
+  const SurfaceHierarchy& h = surface.hierarchy;
+  const size_t elements = surface.elementCount();
+
+  // Objects: one per translucent material that has elements.
+  std::map<uint32_t, int32_t> object_of_material;
+  std::vector<int32_t> element_object(elements, -1);
+  for (size_t e = 0; e < elements; ++e) {
+    const uint32_t m = surface.material[e];
+    if (!materials[m].subsurface) continue;
+    auto [it, added] = object_of_material.try_emplace(m, int32_t(t.object_material.size()));
+    if (added) t.object_material.push_back(m);
+    element_object[e] = it->second;
+  }
+
+  // Hierarchy nodes, level by level.
+  t.level_offset.push_back(0);
+  for (size_t l = 0; l < h.levelCount(); ++l) {
+    t.level_offset.push_back(t.level_offset.back() + uint32_t(h.level(l).size()));
+  }
+  const size_t hier_nodes = t.level_offset.back();
+  t.position.resize(hier_nodes);
+  t.area.resize(hier_nodes);
+  t.radius.resize(hier_nodes);
+  t.object.resize(hier_nodes);
+  t.axis_x.resize(elements);
+  t.axis_y.resize(elements);
+  parallelRange(elements, 4096, [&](size_t begin, size_t end) {
+    for (size_t e = begin; e < end; ++e) texelAxes(surface, uint32_t(e), t.axis_x[e], t.axis_y[e]);
+  });
+  for (size_t l = 0; l < h.levelCount(); ++l) {
+    const ClusterLevel& lv = h.level(l);
+    for (size_t k = 0; k < lv.size(); ++k) {
+      const size_t n = t.level_offset[l] + k;
+      t.position[n] = lv.position[k];
+      t.area[n] = lv.area[k];
+      t.object[n] = element_object[lv.first[k]];
+      if (l == 0) {
+        // Half the texel's diagonal on the surface.
+        t.radius[n] = 0.5 * (glm::length(t.axis_x[k]) + glm::length(t.axis_y[k]));
+        continue;
+      }
+      double r = 0.0;
+      for (uint32_t c = lv.child_first[k]; c < lv.child_first[k + 1]; ++c) {
+        const size_t cn = t.level_offset[l - 1] + c;
+        r = std::max(r, glm::length(t.position[cn] - t.position[n]) + t.radius[cn]);
+      }
+      t.radius[n] = r;
+    }
+  }
+
+  // Children, skipping single-child chains.
+  auto settle = [&](uint32_t level, uint32_t index) {
+    while (level > 0) {
+      const ClusterLevel& lv = h.level(level);
+      if (lv.child_first[index + 1] - lv.child_first[index] != 1) break;
+      index = lv.child_first[index];
+      --level;
+    }
+    return t.level_offset[level] + index;
+  };
+  t.child_first.assign(1, 0);
+  for (size_t l = 0; l < h.levelCount(); ++l) {
+    const ClusterLevel& lv = h.level(l);
+    for (size_t k = 0; k < lv.size(); ++k) {
+      if (l > 0) {
+        for (uint32_t c = lv.child_first[k]; c < lv.child_first[k + 1]; ++c) {
+          t.child_index.push_back(settle(uint32_t(l - 1), c));
+        }
+      }
+      t.child_first.push_back(uint32_t(t.child_index.size()));
+    }
+  }
+
+  // Top trees: median splits of each object's chart roots.
+  std::vector<std::vector<uint32_t>> roots(t.object_material.size());
+  for (uint32_t c = 0; c < h.chartCount(); ++c) {
+    const ClusterRef r = h.root(c);
+    const uint32_t node = settle(r.level, r.index);
+    if (t.object[node] >= 0) roots[size_t(t.object[node])].push_back(node);
+  }
+  auto addNode = [&](const glm::dvec3& p, double a, double r, int32_t object,
+                     std::span<const uint32_t> kids) {
+    t.position.push_back(p);
+    t.area.push_back(a);
+    t.radius.push_back(r);
+    t.object.push_back(object);
+    for (uint32_t k : kids) t.child_index.push_back(k);
+    t.child_first.push_back(uint32_t(t.child_index.size()));
+    return uint32_t(t.position.size() - 1);
+  };
+  std::function<uint32_t(std::span<uint32_t>, int32_t)> split = [&](std::span<uint32_t> nodes,
+                                                                    int32_t object) -> uint32_t {
+    if (nodes.size() == 1) return nodes[0];
+    glm::dvec3 lo(std::numeric_limits<double>::max()), hi(-std::numeric_limits<double>::max());
+    for (uint32_t n : nodes) {
+      lo = glm::min(lo, t.position[n]);
+      hi = glm::max(hi, t.position[n]);
+    }
+    const glm::dvec3 extent = hi - lo;
+    const int axis =
+        extent.x >= extent.y && extent.x >= extent.z ? 0 : (extent.y >= extent.z ? 1 : 2);
+    const size_t mid = nodes.size() / 2;
+    std::nth_element(
+        nodes.begin(), nodes.begin() + std::ptrdiff_t(mid), nodes.end(),
+        [&](uint32_t a, uint32_t b) { return t.position[a][axis] < t.position[b][axis]; });
+    const uint32_t left = split(nodes.subspan(0, mid), object);
+    const uint32_t right = split(nodes.subspan(mid), object);
+    const double a = t.area[left] + t.area[right];
+    const glm::dvec3 p = (t.position[left] * t.area[left] + t.position[right] * t.area[right]) / a;
+    const double r = std::max(glm::length(t.position[left] - p) + t.radius[left],
+                              glm::length(t.position[right] - p) + t.radius[right]);
+    const uint32_t kids[2] = {left, right};
+    return addNode(p, a, r, object, kids);
+  };
+  for (size_t o = 0; o < roots.size(); ++o) {
+    t.object_root.push_back(split(roots[o], int32_t(o)));
+  }
+  return t;
+}
+
+std::vector<Dipole> objectMedia(const SssTree& tree, std::span<const Material> materials) {
+  std::vector<Dipole> media;
+  for (uint32_t m : tree.object_material) {
+    const Subsurface& s = *materials[m].subsurface;
+    media.emplace_back(s.sigma_s_prime, s.sigma_a, s.eta);
+  }
+  return media;
+}
+
+namespace {
+
+// Eq. 10 between two texel squares by an m_i x m_i and m_j x m_j grid of points each:
+// (1 / A_i) sum_p sum_q (A_i / m_i^2) (A_j / m_j^2) R_d(|p - q|).
+glm::dvec3 texelPairFactor(const SssTree& t, const Dipole& medium, uint32_t i, uint32_t j, int mi,
+                           int mj) {
+  glm::dvec3 sum(0.0);
+  for (int yi = 0; yi < mi; ++yi) {
+    for (int xi = 0; xi < mi; ++xi) {
+      const glm::dvec3 p = t.position[i] + ((xi + 0.5) / mi - 0.5) * t.axis_x[i] +
+                           ((yi + 0.5) / mi - 0.5) * t.axis_y[i];
+      for (int yj = 0; yj < mj; ++yj) {
+        for (int xj = 0; xj < mj; ++xj) {
+          const glm::dvec3 q = t.position[j] + ((xj + 0.5) / mj - 0.5) * t.axis_x[j] +
+                               ((yj + 0.5) / mj - 0.5) * t.axis_y[j];
+          sum += medium.reflectance(glm::length(p - q));
+        }
+      }
+    }
+  }
+  return sum * (t.area[j] / double(mi * mi * mj * mj));
+}
+
+}  // namespace
+
+namespace {
+
+// throughputFactor with every node's value kept for the element being linked: a near node's
+// factor is the sum of its children's, which the queue then needs again when it refines it.
+class MemoThroughput {
+ public:
+  explicit MemoThroughput(const SssTree& t)
+      : t_(t), stamp_(t.nodeCount(), 0), value_(t.nodeCount()) {}
+  void start(uint32_t element, const Dipole* medium) {
+    element_ = element;
+    medium_ = medium;
+    if (++current_ == 0) {  // wrapped: forget everything
+      std::fill(stamp_.begin(), stamp_.end(), 0u);
+      current_ = 1;
+    }
+  }
+  glm::dvec3 operator()(uint32_t node) {
+    if (stamp_[node] == current_) return value_[node];
+    const double d = glm::length(t_.position[node] - t_.position[element_]);
+    const bool near = d < kNearFactor * (t_.radius[element_] + t_.radius[node]);
+    glm::dvec3 f;
+    if (node < t_.elementCount() || !near) {
+      f = throughputFactor(t_, *medium_, element_, node);
+    } else {
+      f = glm::dvec3(0.0);
+      for (uint32_t c : t_.children(node)) f += (*this)(c);
+    }
+    stamp_[node] = current_;
+    value_[node] = f;
+    return f;
+  }
+
+ private:
+  const SssTree& t_;
+  std::vector<uint32_t> stamp_;
+  std::vector<glm::dvec3> value_;
+  uint32_t current_ = 0;
+  uint32_t element_ = 0;
+  const Dipole* medium_ = nullptr;
+};
+
+}  // namespace
+
+glm::dvec3 throughputFactor(const SssTree& t, const Dipole& medium, uint32_t element,
+                            uint32_t node) {
+  const double d = glm::length(t.position[node] - t.position[element]);
+  const bool near = d < kNearFactor * (t.radius[element] + t.radius[node]);
+  if (node < t.elementCount()) {
+    if (node == element) return texelPairFactor(t, medium, element, node, 4, 4);
+    if (near) return texelPairFactor(t, medium, element, node, 2, 2);
+    return t.area[node] * medium.reflectance(d);
+  }
+  if (!near) return t.area[node] * medium.reflectance(d);
+  glm::dvec3 sum(0.0);
+  for (uint32_t c : t.children(node)) sum += throughputFactor(t, medium, element, c);
+  return sum;
+}
+
+SssLinks buildSssLinks(const SssTree& t, std::span<const Dipole> media,
+                       const SssLinkOptions& options, const std::function<void(size_t)>& progress) {
+  const Timer timer;
+  SssLinks links;
+  const size_t elements = t.elementCount();
+  // Non-adaptive: each object's nodes at the level (or its charts' roots below it).
+  std::vector<std::vector<uint32_t>> fixed(t.objectCount());
+  if (options.level >= 0) {
+    const uint32_t level =
+        std::min<uint32_t>(uint32_t(options.level), uint32_t(t.level_offset.size() - 2));
+    for (size_t o = 0; o < t.objectCount(); ++o) {
+      std::vector<uint32_t> stack = {t.object_root[o]};
+      while (!stack.empty()) {
+        const uint32_t n = stack.back();
+        stack.pop_back();
+        // Hierarchy nodes at or below the level stop the descent; top nodes always descend.
+        const bool hierarchy = n < t.level_offset.back();
+        const bool at_or_below = hierarchy && n < t.level_offset[level + 1];
+        if (at_or_below || t.children(n).empty()) {
+          fixed[o].push_back(n);
+          continue;
+        }
+        for (uint32_t c : t.children(n)) stack.push_back(c);
+      }
+    }
+    for (const auto& f : fixed) links.per_element = std::max(links.per_element, uint32_t(f.size()));
+  } else {
+    PENUMBRA_CHECK(options.links >= 1);
+    links.per_element = uint32_t(options.links);
+  }
+  links.node.assign(elements * links.per_element, 0);
+  links.factor.assign(elements * links.per_element, glm::vec3(0.0f));
+  std::atomic<size_t> done{0};
+
+  parallelRange(elements, 256, [&](size_t begin, size_t end) {
+    struct Candidate {
+      double key;
+      uint32_t node;
+      glm::dvec3 f;
+    };
+    const auto less = [](const Candidate& a, const Candidate& b) { return a.key < b.key; };
+    std::vector<Candidate> heap, leaves;
+    MemoThroughput throughput(t);
+    for (size_t e = begin; e < end; ++e) {
+      const int32_t o = t.object[e];
+      if (o < 0) continue;
+      const Dipole& medium = media[size_t(o)];
+      uint32_t* node_out = links.node.data() + e * links.per_element;
+      glm::vec3* f_out = links.factor.data() + e * links.per_element;
+      throughput.start(uint32_t(e), &medium);
+      if (options.level >= 0) {
+        const std::vector<uint32_t>& list = fixed[size_t(o)];
+        for (size_t k = 0; k < list.size(); ++k) {
+          node_out[k] = list[k];
+          f_out[k] = glm::vec3(throughput(list[k]));
+        }
+        continue;
+      }
+      heap.clear();
+      leaves.clear();
+      // The queue is ordered by the factors themselves (a near node's is the sum of its
+      // children's, kept for when the queue refines it). Nodes that hold less than kNegligible
+      // of the element's whole throughput (the far side of the object, met on the way down its
+      // top tree) take no link of their own: their factors go to one remainder link to the
+      // root, whose mean irradiance stands in for theirs (for uniform light the sum is exact),
+      // and the other L - 1 links refine the rest.
+      constexpr double kNegligible = 1e-4;
+      const uint32_t root = t.object_root[size_t(o)];
+      const glm::dvec3 total = throughput(root);
+      const double cut = links.per_element > 1 ? kNegligible * (total.x + total.y + total.z) : 0.0;
+      glm::dvec3 remainder(0.0);
+      auto push = [&](uint32_t n) {
+        const glm::dvec3 f = throughput(n);
+        const double sum = f.x + f.y + f.z;
+        if (sum < cut) {
+          remainder += f;
+          return;
+        }
+        heap.push_back({sum * t.radius[n], n, f});
+        std::push_heap(heap.begin(), heap.end(), less);
+      };
+      heap.push_back({(total.x + total.y + total.z) * t.radius[root], root, total});
+      const size_t cap = links.per_element > 1 ? links.per_element - 1 : 1;
+      while (!heap.empty() && heap.size() + leaves.size() < cap) {
+        std::pop_heap(heap.begin(), heap.end(), less);
+        const Candidate c = heap.back();
+        heap.pop_back();
+        const std::span<const uint32_t> kids = t.children(c.node);
+        if (kids.empty()) {
+          leaves.push_back(c);
+          continue;
+        }
+        if (heap.size() + leaves.size() + kids.size() > cap) {
+          heap.push_back(c);
+          std::push_heap(heap.begin(), heap.end(), less);
+          break;
+        }
+        for (uint32_t k : kids) push(k);
+      }
+      size_t k = 0;
+      for (const auto* list : {&heap, &leaves}) {
+        for (const Candidate& c : *list) {
+          node_out[k] = c.node;
+          f_out[k] = glm::vec3(c.f);
+          ++k;
+        }
+      }
+      if (remainder != glm::dvec3(0.0)) {
+        node_out[k] = root;
+        f_out[k] = glm::vec3(remainder);
+      }
+    }
+    const size_t now = done += end - begin;
+    if (progress) progress(now);
+  });
+  links.seconds = timer.seconds();
+  return links;
+}
+
+std::vector<glm::vec3> nodeMeans(const SssTree& t, std::span<const glm::vec3> element_values) {
+  std::vector<glm::vec3> v(t.nodeCount(), glm::vec3(0.0f));
+  const size_t elements = t.elementCount();
+  std::copy(element_values.begin(), element_values.begin() + std::ptrdiff_t(elements), v.begin());
+  // Level by level (children before parents), then the top trees (built children first).
+  // Every node's children (settled or not) cover its elements exactly once.
+  for (size_t n = elements; n < t.nodeCount(); ++n) {
+    glm::dvec3 sum(0.0);
+    for (uint32_t c : t.children(n)) sum += glm::dvec3(v[c]) * t.area[c];
+    v[n] = t.area[n] > 0.0 ? glm::vec3(sum / t.area[n]) : glm::vec3(0.0f);
+  }
+  return v;
+}
+
+void gatherScattered(const SssLinks& links, std::span<const glm::vec3> node_irradiance,
+                     std::span<glm::vec3> scattered) {
+  const size_t per = links.per_element;
+  parallelRange(scattered.size(), 4096, [&](size_t begin, size_t end) {
+    for (size_t e = begin; e < end; ++e) {
+      glm::vec3 b(0.0f);
+      for (size_t k = e * per; k < (e + 1) * per; ++k) {
+        b += links.factor[k] * node_irradiance[links.node[k]];
+      }
+      scattered[e] = b;
+    }
+  });
+}
+
+std::vector<glm::vec3> gatherAllPairs(const SssTree& t, std::span<const Dipole> media,
+                                      std::span<const glm::vec3> element_irradiance) {
+  const size_t elements = t.elementCount();
+  std::vector<std::vector<uint32_t>> members(t.objectCount());
+  for (size_t e = 0; e < elements; ++e) {
+    if (t.object[e] >= 0) members[size_t(t.object[e])].push_back(uint32_t(e));
+  }
+  std::vector<glm::vec3> out(elements, glm::vec3(0.0f));
+  parallelRange(elements, 64, [&](size_t begin, size_t end) {
+    for (size_t e = begin; e < end; ++e) {
+      if (t.object[e] < 0) continue;
+      const Dipole& medium = media[size_t(t.object[e])];
+      glm::dvec3 b(0.0);
+      for (uint32_t j : members[size_t(t.object[e])]) {
+        b += throughputFactor(t, medium, uint32_t(e), j) * glm::dvec3(element_irradiance[j]);
+      }
+      out[e] = glm::vec3(b);
+    }
+  });
+  return out;
+}
+
+}  // namespace penumbra
