@@ -103,6 +103,41 @@ TEST(Sss, TransmittedIrradianceFollowsTheFresnelWeightedCosineLaw) {
   }
 }
 
+TEST(Sss, LinksAreCachedAndADamagedCacheIsRebuilt) {
+  test::TempDir dir;
+  Scene scene = slabScene("marble");
+  SssOptions o;
+  o.resolution = LightmapResolution{400.0, std::nullopt};
+  o.links.links = 8;
+  o.cache_directory = (dir.path() / "cache").string();
+  Expected<SssSolver> first = SssSolver::build(scene, o);
+  ASSERT_TRUE(first.ok()) << first.error().describe();
+  EXPECT_FALSE(first->linksFromCache());
+  EXPECT_TRUE(first->cacheProblem().empty()) << first->cacheProblem();
+  Expected<SssSolver> second = SssSolver::build(scene, o);
+  ASSERT_TRUE(second.ok());
+  EXPECT_TRUE(second->linksFromCache());
+  EXPECT_EQ(second->links().node, first->links().node);
+  EXPECT_EQ(second->links().factor, first->links().factor);
+  // Other options, another fingerprint.
+  o.links.links = 9;
+  Expected<SssSolver> other = SssSolver::build(scene, o);
+  ASSERT_TRUE(other.ok());
+  EXPECT_FALSE(other->linksFromCache());
+  // A damaged file is ignored and written again.
+  o.links.links = 8;
+  for (const auto& f : std::filesystem::directory_iterator(o.cache_directory)) {
+    std::filesystem::resize_file(f.path(), std::filesystem::file_size(f.path()) - 7);
+  }
+  Expected<SssSolver> rebuilt = SssSolver::build(scene, o);
+  ASSERT_TRUE(rebuilt.ok());
+  EXPECT_FALSE(rebuilt->linksFromCache());
+  EXPECT_EQ(rebuilt->links().factor, first->links().factor);
+  Expected<SssSolver> again = SssSolver::build(scene, o);
+  ASSERT_TRUE(again.ok());
+  EXPECT_TRUE(again->linksFromCache());
+}
+
 TEST(Sss, SceneWithoutTranslucentMaterialsIsRefused) {
   Scene scene = slabScene("marble");
   scene.materials[0].subsurface.reset();
@@ -115,10 +150,12 @@ TEST(Sss, RenderWritesALightOrbitWithPerPassTimes) {
   test::TempDir dir;
   const std::string out = (dir.path() / "orbit" / "bunny.png").string();
   const std::string stats = (dir.path() / "s.json").string();
-  const test::CliResult r = test::runCli(
+  const std::string env = "PENUMBRA_CACHE_DIR=" + (dir.path() / "cache").string();
+  const std::string args =
       "render sss --method sss --lightmap-size 128 --links 8 --width 48 --height 48 --spp 1 "
       "--frames 3 -o " +
-      out + " --stats " + stats);
+      out + " --stats " + stats;
+  const test::CliResult r = test::runCli(args, env);
   ASSERT_EQ(r.exit_code, 0) << r.output;
   for (int f = 0; f < 3; ++f) {
     EXPECT_TRUE(std::filesystem::exists(dir.path() / "orbit" / fmt::format("bunny_{:04d}.png", f)));
@@ -134,6 +171,11 @@ TEST(Sss, RenderWritesALightOrbitWithPerPassTimes) {
     EXPECT_GT(f["pass3_seconds"].get<double>(), 0.0);
   }
   EXPECT_GT(j["elements"].get<int>(), 1000);
+  EXPECT_FALSE(j["links_cached"].get<bool>());
+  // The second run reads the links back.
+  ASSERT_EQ(test::runCli(args, env).exit_code, 0);
+  std::ifstream again(stats);
+  EXPECT_TRUE(nlohmann::json::parse(again)["links_cached"].get<bool>());
   // Options of other methods are refused, and so is a scene with nothing translucent.
   EXPECT_EQ(test::runCli("render sss --method sss --solver jacobi").exit_code, 2);
   EXPECT_EQ(

@@ -217,6 +217,9 @@ int parseAndRun(int argc, char** argv) {
                    "sss: render this many frames with the lights orbiting the scene once "
                    "(-o out.png writes out_0000.png ...); the links are built once")
       ->check(CLI::Range(0, 100000));
+  render_cmd->add_flag("--no-cache", render.no_cache,
+                       "sss: build the links even if the cache ($PENUMBRA_CACHE_DIR, else "
+                       "~/.cache/penumbra) holds them, and do not write them there");
   render_cmd->add_option("--resume", render.resume,
                          "progressive: continue from this checkpoint (written on Ctrl-C)");
   render_cmd->add_flag("--keep-checkpoint", render.keep_checkpoint,

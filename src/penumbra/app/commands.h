@@ -61,6 +61,7 @@ struct RenderOptions {
   std::optional<int> links;  // default SssLinkOptions::links
   int links_level = -1;
   int frames = 0;
+  bool no_cache = false;  // sss: build the links even when the cache holds them
 };
 
 struct TraceOptions {

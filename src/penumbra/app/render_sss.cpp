@@ -11,6 +11,7 @@
 #include "penumbra/io/image_io.h"
 #include "penumbra/io/scene_io.h"
 #include "penumbra/subsurface/sss.h"
+#include "penumbra/subsurface/sss_cache.h"
 #include "penumbra/subsurface/sss_view.h"
 
 #include <fmt/format.h>
@@ -67,6 +68,7 @@ Status renderSss(const RenderOptions& options, const CommonOptions& common) {
   }
   so.links.links = options.links.value_or(so.links.links);
   so.links.level = options.links_level;
+  if (!options.no_cache) so.cache_directory = defaultCacheDirectory();
   if (common.dry_run) {
     bool any = false;
     for (const Material& m : scene->materials) any |= m.isTranslucent();
@@ -86,10 +88,14 @@ Status renderSss(const RenderOptions& options, const CommonOptions& common) {
   if (!built) return built.error();
   const SssSolver& solver = *built;
   const SssLinks& links = solver.links();
-  spdlog::info("{}: {} texels in a {}x{} atlas, {} links each, built in {:.2f} s (links {:.2f} s)",
+  if (!solver.cacheProblem().empty()) {
+    spdlog::warn("the links could not be cached: {}", solver.cacheProblem());
+  }
+  spdlog::info("{}: {} texels in a {}x{} atlas, {} links each, built in {:.2f} s ({})",
                scene->source, solver.surface().elementCount(), solver.surface().atlas.width,
                solver.surface().atlas.height, links.per_element, solver.buildSeconds(),
-               links.seconds);
+               solver.linksFromCache() ? std::string("links from the cache")
+                                       : fmt::format("links {:.2f} s", links.seconds));
 
   const Camera camera = scene->camera ? *scene->camera : defaultCamera(*scene);
   SssViewSettings view;
@@ -139,6 +145,7 @@ Status renderSss(const RenderOptions& options, const CommonOptions& common) {
                         {"seconds", total_timer.seconds()},
                         {"build_seconds", solver.buildSeconds()},
                         {"links_seconds", links.seconds},
+                        {"links_cached", solver.linksFromCache()},
                         {"view_seconds", view_seconds},
                         {"elements", solver.surface().elementCount()},
                         {"atlas_width", solver.surface().atlas.width},

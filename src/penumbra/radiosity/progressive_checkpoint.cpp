@@ -1,6 +1,7 @@
 #include "penumbra/radiosity/progressive_checkpoint.h"
 
 #include "penumbra/core/file_util.h"
+#include "penumbra/core/hash.h"
 
 #include <fmt/format.h>
 
@@ -19,21 +20,6 @@ static_assert(std::endian::native == std::endian::little, "checkpoints are littl
 constexpr char kMagic[16] = {'P', 'E', 'N', 'U', 'M', 'B', 'R', 'A',
                              '-', 'P', 'R', 'G', 'R', 'S', 'V', '2'};
 constexpr size_t kHeaderBytes = 16 + 8 + 8 + 6 * 4 + 8 + 12 * 8;
-
-struct Fnv1a {
-  uint64_t h = 0xcbf29ce484222325ull;
-  void add(const void* data, size_t n) {
-    const auto* p = static_cast<const unsigned char*>(data);
-    for (size_t i = 0; i < n; ++i) {
-      h ^= p[i];
-      h *= 0x100000001b3ull;
-    }
-  }
-  template <typename T>
-  void addValue(const T& v) {
-    add(&v, sizeof(v));
-  }
-};
 
 // Appends raw bytes of trivially copyable values.
 struct Writer {

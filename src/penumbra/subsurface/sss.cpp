@@ -6,6 +6,7 @@
 #include "penumbra/kernels/dipole.h"
 #include "penumbra/kernels/form_factor.h"
 #include "penumbra/radiosity/lights.h"
+#include "penumbra/subsurface/sss_cache.h"
 
 #include <fmt/format.h>
 #include <glm/geometric.hpp>
@@ -13,6 +14,7 @@
 #include <atomic>
 #include <limits>
 #include <numbers>
+#include <optional>
 
 namespace penumbra {
 
@@ -54,9 +56,22 @@ Expected<SssSolver> SssSolver::build(const Scene& scene, const SssOptions& optio
       s.eta_[e] = float(s.scene_.materials[s.tree_.object_material[size_t(o)]].subsurface->eta);
   }
   s.emitter_irradiance_ = s.emitterIrradiance();
-  s.links_ = buildSssLinks(s.tree_, s.media_, options.links, [&](size_t done) {
-    if (progress) progress(done, elements);
-  });
+  const uint64_t fingerprint = sssLinksFingerprint(s.tree_, s.media_, options.links);
+  if (std::optional<SssLinks> cached =
+          readCachedSssLinks(options.cache_directory, fingerprint, s.tree_)) {
+    s.links_ = std::move(*cached);
+    s.links_from_cache_ = true;
+  } else {
+    s.links_ = buildSssLinks(s.tree_, s.media_, options.links, [&](size_t done) {
+      if (progress) progress(done, elements);
+    });
+    if (!options.cache_directory.empty()) {
+      if (Status w = writeCachedSssLinks(options.cache_directory, fingerprint, s.tree_, s.links_);
+          !w.ok()) {
+        s.cache_problem_ = w.error().describe();
+      }
+    }
+  }
   s.build_seconds_ = timer.seconds();
   return s;
 }

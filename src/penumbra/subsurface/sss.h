@@ -37,6 +37,8 @@ struct SssOptions {
   LightmapResolution resolution{std::nullopt, kSssDefaultAtlas};
   SssLinkOptions links;
   bool shadows = true;  // shadow rays in pass 1
+  // Where the links are cached (subsurface/sss_cache.h); empty: not cached.
+  std::string cache_directory;
 };
 
 struct SssPassTimes {
@@ -61,6 +63,10 @@ class SssSolver {
   float eta(size_t element) const { return eta_[element]; }
   bool translucent(size_t element) const { return tree_.object[element] >= 0; }
   double buildSeconds() const { return build_seconds_; }
+  // Whether the links came from the cache, and why they could not be written to it (empty when
+  // they were, or came from it).
+  bool linksFromCache() const { return links_from_cache_; }
+  const std::string& cacheProblem() const { return cache_problem_; }
 
   // Pass 1: E per element (W m^-2), zero on opaque elements. Adds the shadow rays to *rays.
   std::vector<glm::vec3> transmittedIrradiance(std::span<const Light> lights,
@@ -82,6 +88,8 @@ class SssSolver {
   std::vector<float> eta_;
   std::vector<glm::vec3> emitter_irradiance_;  // per element, transmitted, from emissive faces
   double build_seconds_ = 0.0;
+  bool links_from_cache_ = false;
+  std::string cache_problem_;
 };
 
 }  // namespace penumbra
