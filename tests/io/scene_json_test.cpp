@@ -314,7 +314,8 @@ TEST(SceneJsonLoad, SubsurfaceMaterialsInEveryForm) {
     const char* place;
   };
   const Case bad[] = {
-      {R"({"sigma_s_prime": [1, -1, 1], "sigma_a": 0.1})", "materials.m.subsurface: sigma_s' -1000"},
+      {R"({"sigma_s_prime": [1, -1, 1], "sigma_a": 0.1})",
+       "materials.m.subsurface: sigma_s' -1000"},
       {R"({"sigma_s_prime": 1, "sigma_a": [0.1, NaN, 0.1]})", "line"},  // not JSON: a syntax error
       {R"({"sigma_s_prime": 0, "sigma_a": 0})", "materials.m.subsurface: a channel with sigma_s'"},
       {R"({"preset": "marble", "eta": 0.9})", "materials.m.subsurface: eta 0.9 is outside"},
