@@ -13,6 +13,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <vector>
 
 namespace penumbra {
@@ -60,7 +61,7 @@ TEST(SssLinks, UniformlyLitSlabScattersTheDipolesTotalReflectance) {
     o.links = links;
     const SssLinks l = buildSssLinks(tree, media, o);
     std::vector<glm::vec3> b(e.size());
-    gatherScattered(l, nodeMeans(tree, e), b);
+    gatherScattered(l, mipMapIrradiance(tree, e), b);
     // The top face's elements within 3 mm of its centre.
     glm::dvec3 sum(0.0);
     int count = 0;
@@ -88,8 +89,11 @@ TEST(SssLinks, AgreeWithTheAllPairsGatherCloserAsLinksGrow) {
   ASSERT_TRUE(loaded.ok());
   Scene scene = translucentScene(loaded->meshes[0], "marble");
   // Texels of about 4 mm; marble's diffusion lengths are 8.5, 5.6 and 4 mm: light crosses a few
-  // texels and the hierarchy carries the rest.
-  const RadiositySurface surface = surfaceAt(scene, texelDensityFor(scene, 3000));
+  // texels and the hierarchy carries the rest. PENUMBRA_TEST_SSS_ELEMENTS asks for another
+  // resolution (the all-pairs gather is quadratic: 20000 takes a minute and a half).
+  const char* asked = std::getenv("PENUMBRA_TEST_SSS_ELEMENTS");
+  const uint32_t elements = asked ? uint32_t(std::strtoul(asked, nullptr, 10)) : 3000u;
+  const RadiositySurface surface = surfaceAt(scene, texelDensityFor(scene, elements));
   const SssTree tree = buildSssTree(surface, scene.materials);
   const std::vector<Dipole> media = objectMedia(tree, scene.materials);
   const glm::dvec3 light = glm::normalize(glm::dvec3(1, 0.3, 0.2));
@@ -104,7 +108,7 @@ TEST(SssLinks, AgreeWithTheAllPairsGatherCloserAsLinksGrow) {
   // RMS of the links' B against the all-pairs gather, relative to its mean.
   auto rmsError = [&](const SssLinks& l) {
     std::vector<glm::vec3> b(e.size());
-    gatherScattered(l, nodeMeans(tree, e), b);
+    gatherScattered(l, mipMapIrradiance(tree, e), b);
     double se = 0.0;
     for (size_t i = 0; i < b.size(); ++i) {
       const glm::dvec3 d = glm::dvec3(b[i]) - glm::dvec3(reference[i]);
@@ -121,8 +125,9 @@ TEST(SssLinks, AgreeWithTheAllPairsGatherCloserAsLinksGrow) {
     std::printf("bunny, %zu elements, L = %2d: RMS error %.2f%% of the mean (links %.2f s)\n",
                 e.size(), links, 100.0 * errors.back(), l.seconds);
   }
-  // More links, less error; at L = 64 within 2% of the all-pairs gather.
+  // More links, less error; at L = 16 within 5% of the all-pairs gather, at L = 64 within 2%.
   for (size_t k = 1; k < errors.size(); ++k) EXPECT_LT(errors[k], errors[k - 1]);
+  EXPECT_LT(errors[2], 0.05);
   EXPECT_LT(errors.back(), 0.02);
   // The non-adaptive scheme (every node of one level) needs many more links for less: the
   // adaptive links at L = 64 beat it with about a tenth of its links.

@@ -99,7 +99,9 @@ TEST(Sss, TransmittedIrradianceFollowsTheFresnelWeightedCosineLaw) {
   const std::vector<Light> down = {DirectionalLight{glm::vec3(0, -1, 0), glm::vec3(1.0f)}};
   const std::vector<glm::vec3> e = solver->transmittedIrradiance(down);
   for (size_t i = 0; i < e.size(); ++i) {
-    if (solver->surface().atlas.element_normal[i].y < -0.99) ASSERT_EQ(e[i], glm::vec3(0.0f));
+    if (solver->surface().atlas.element_normal[i].y < -0.99) {
+      ASSERT_EQ(e[i], glm::vec3(0.0f));
+    }
   }
 }
 
@@ -119,6 +121,7 @@ TEST(Sss, LinksAreCachedAndADamagedCacheIsRebuilt) {
   EXPECT_TRUE(second->linksFromCache());
   EXPECT_EQ(second->links().node, first->links().node);
   EXPECT_EQ(second->links().factor, first->links().factor);
+  EXPECT_EQ(second->links().offset, first->links().offset);
   // Other options, another fingerprint.
   o.links.links = 9;
   Expected<SssSolver> other = SssSolver::build(scene, o);

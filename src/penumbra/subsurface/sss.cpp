@@ -37,11 +37,11 @@ Expected<SssSolver> SssSolver::build(const Scene& scene, const SssOptions& optio
   }
   Expected<ChartAtlasOptions> atlas = lightmapAtlasOptions(s.scene_, options.resolution);
   if (!atlas) return atlas.error();
-  // The links dominate: a node index and an RGB factor per link.
+  // The links dominate: a node index, an RGB factor and an offset per link.
   const uint64_t texels = expectedLightmapElements(s.scene_, options.resolution);
   const uint64_t per = options.links.level >= 0 ? 256 : uint64_t(std::max(1, options.links.links));
   PENUMBRA_TRY(
-      checkMemory(texels * (per * 16 + 400),
+      checkMemory(texels * (per * 28 + 400),
                   fmt::format("subsurface links for about {} texels, {} each", texels, per)));
   Expected<RadiositySurface> surface = RadiositySurface::build(s.scene_, *atlas, true);
   if (!surface) return surface.error();
@@ -165,7 +165,7 @@ std::vector<glm::vec3> SssSolver::emitterIrradiance() const {
 
 std::vector<glm::vec3> SssSolver::scatter(std::span<const glm::vec3> irradiance) const {
   std::vector<glm::vec3> b(surface_.elementCount());
-  gatherScattered(links_, nodeMeans(tree_, irradiance), b);
+  gatherScattered(links_, mipMapIrradiance(tree_, irradiance), b);
   return b;
 }
 

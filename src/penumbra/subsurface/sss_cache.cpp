@@ -19,7 +19,7 @@ namespace {
 static_assert(std::endian::native == std::endian::little, "the cache is little-endian");
 
 constexpr char kMagic[16] = {'P', 'E', 'N', 'U', 'M', 'B', 'R', 'A',
-                             '-', 'S', 'S', 'S', 'L', 'N', 'K', '1'};
+                             '-', 'S', 'S', 'S', 'L', 'N', 'K', '2'};
 constexpr size_t kHeaderBytes = 16 + 8 + 8 + 4 + 8;
 
 std::string cacheFile(const std::string& directory, uint64_t fingerprint) {
@@ -94,20 +94,23 @@ std::optional<SssLinks> readCachedSssLinks(const std::string& directory, uint64_
     return std::nullopt;
   }
   const uint64_t count = elements * per;
-  const uint64_t expected = kHeaderBytes + count * (4 + 12);
+  const uint64_t expected = kHeaderBytes + count * (4 + 12 + 12);
   if (std::filesystem::file_size(path, ec) != expected || ec) return std::nullopt;
   SssLinks links;
   links.per_element = per;
   links.node.resize(count);
   links.factor.resize(count);
+  links.offset.resize(count);
   if (!in.read(reinterpret_cast<char*>(links.node.data()), std::streamsize(count * 4)) ||
-      !in.read(reinterpret_cast<char*>(links.factor.data()), std::streamsize(count * 12))) {
+      !in.read(reinterpret_cast<char*>(links.factor.data()), std::streamsize(count * 12)) ||
+      !in.read(reinterpret_cast<char*>(links.offset.data()), std::streamsize(count * 12))) {
     return std::nullopt;
   }
   for (uint64_t k = 0; k < count; ++k) {
     const glm::vec3& f = links.factor[k];
+    const glm::vec3& o = links.offset[k];
     if (links.node[k] >= nodes || !(f.x >= 0.0f && f.y >= 0.0f && f.z >= 0.0f) ||
-        !std::isfinite(f.x + f.y + f.z)) {
+        !std::isfinite(f.x + f.y + f.z) || !std::isfinite(o.x + o.y + o.z)) {
       return std::nullopt;
     }
   }
@@ -135,6 +138,8 @@ Status writeCachedSssLinks(const std::string& directory, uint64_t fingerprint, c
                   std::streamsize(links.node.size() * 4));
         out.write(reinterpret_cast<const char*>(links.factor.data()),
                   std::streamsize(links.factor.size() * 12));
+        out.write(reinterpret_cast<const char*>(links.offset.data()),
+                  std::streamsize(links.offset.size() * 12));
         out.close();
         if (!out) return runtimeError(tmp, "cannot write the link cache");
         return {};

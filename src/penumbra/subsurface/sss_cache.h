@@ -6,9 +6,9 @@
 // options, the format version); a file that does not match, or is damaged, is ignored and
 // rebuilt. Files are written whole (a temporary renamed into place).
 //
-// Layout, little-endian: "PENUMBRA-SSSLNK1" (16 bytes), fingerprint (u64), elements (u64), links
+// Layout, little-endian: "PENUMBRA-SSSLNK2" (16 bytes), fingerprint (u64), elements (u64), links
 // per element (u32), nodes (u64), then elements x L node indices (u32) and elements x L factors
-// (3 x f32).
+// (3 x f32), then elements x L offsets (3 x f32).
 #pragma once
 
 #include "penumbra/core/expected.h"

@@ -39,6 +39,7 @@
 #include "penumbra/kernels/dipole.h"
 #include "penumbra/radiosity/radiosity_surface.h"
 
+#include <glm/mat3x3.hpp>
 #include <glm/vec3.hpp>
 
 #include <cstdint>
@@ -68,6 +69,9 @@ struct SssTree {
   std::vector<uint32_t> object_material;  // per object: its Scene::materials index
   // Per element: a step of one texel along atlas x and y on the surface (m), for quadrature.
   std::vector<glm::dvec3> axis_x, axis_y;
+  // Per node with children: the inverse of sum_c a_c d_c d_c^T (d_c = child position - node
+  // position), regularised, for the least-squares gradient of the MIP-map (mipMapIrradiance).
+  std::vector<glm::mat3> moment_inverse;
 
   size_t nodeCount() const { return position.size(); }
   size_t elementCount() const { return level_offset.size() > 1 ? level_offset[1] : 0; }
@@ -97,7 +101,10 @@ struct SssLinks {
   uint32_t per_element = 0;       // slots per element; unused slots hold factor 0
   std::vector<uint32_t> node;     // element e's links: [e * per_element, (e + 1) * per_element)
   std::vector<glm::vec3> factor;  // F per link, RGB
-  double seconds = 0.0;           // time to build them
+  // Per link: where in the node the throughput falls, its F-weighted centroid relative to the
+  // node's position (m); the gather reads the node's irradiance there (see gatherScattered).
+  std::vector<glm::vec3> offset;
+  double seconds = 0.0;  // time to build them
 };
 
 // Links for every element of a translucent object (other elements get none). `progress` is
@@ -110,8 +117,19 @@ SssLinks buildSssLinks(const SssTree& tree, std::span<const Dipole> media,
 // elements (elements keep theirs).
 std::vector<glm::vec3> nodeMeans(const SssTree& tree, std::span<const glm::vec3> element_values);
 
-// Pass 2 (eq. 9): B_i = sum over element i's links of F E_node.
-void gatherScattered(const SssLinks& links, std::span<const glm::vec3> node_irradiance,
+// The MIP-map with a first-order term: per node its mean and the least-squares gradient of its
+// children's means about it (RGB per metre along each axis: gradient * d is the change over d;
+// zero for elements). This is what the paper's bilinear (u, v, LOD) lookups give a link: the
+// irradiance where in the cluster its throughput falls, not the cluster's average.
+struct SssNodeIrradiance {
+  std::vector<glm::vec3> mean;
+  std::vector<glm::mat3> gradient;
+};
+SssNodeIrradiance mipMapIrradiance(const SssTree& tree, std::span<const glm::vec3> element_values);
+
+// Pass 2 (eq. 9): B_i = sum over element i's links of F E_node, E_node read at the link's
+// offset (mean + gradient * offset, not below zero).
+void gatherScattered(const SssLinks& links, const SssNodeIrradiance& node_irradiance,
                      std::span<glm::vec3> scattered);
 
 // The reference: B_i = sum over every element j of i's object of F(i, j) E_j (O(N^2)).
