@@ -1,7 +1,9 @@
 // `penumbra render --method sss`: subsurface scattering through hierarchical links (Carr, Hall,
-// Hart 2003, sec. 4) on the CPU; with --frames N the scene's lights orbit the scene once while
-// the links stay, and every frame costs only the three passes (their times are in the stats).
+// Hart 2003, sec. 4) on the CPU or the GPU; with --frames N the scene's lights orbit the scene
+// once while the links stay, and every frame costs only the three passes (their times are in
+// the stats).
 #include "penumbra/app/commands.h"
+#include "penumbra/app/device.h"
 #include "penumbra/app/stats_file.h"
 #include "penumbra/core/file_util.h"
 #include "penumbra/core/memory.h"
@@ -12,7 +14,7 @@
 #include "penumbra/io/scene_io.h"
 #include "penumbra/subsurface/sss.h"
 #include "penumbra/subsurface/sss_cache.h"
-#include "penumbra/subsurface/sss_view.h"
+#include "penumbra/subsurface/sss_frames.h"
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
@@ -37,10 +39,8 @@ Status renderSss(const RenderOptions& options, const CommonOptions& common) {
                         "--texel-density)");
     }
   }
-  if (options.device == "gpu" || options.device == "hybrid") {
-    return inputError(
-        "", "--device",
-        fmt::format("{}: --method sss runs on the cpu in this version", options.device));
+  if (options.device == "hybrid") {
+    return inputError("", "--device", "hybrid: --method sss runs on the cpu or the gpu");
   }
   const int width = options.width.value_or(512), height = options.height.value_or(512);
   const int spp = options.spp.value_or(4);
@@ -76,6 +76,8 @@ Status renderSss(const RenderOptions& options, const CommonOptions& common) {
     return {};
   }
 
+  Expected<DeviceChoice> device = chooseDevice(options.device);
+  if (!device) return device.error();
   std::optional<Progress> progress;
   Expected<SssSolver> built = SssSolver::build(*scene, so, [&](size_t done, size_t total) {
     if (!progress) {
@@ -103,9 +105,9 @@ Status renderSss(const RenderOptions& options, const CommonOptions& common) {
   view.height = height;
   view.spp = spp;
   view.seed = options.seed.value_or(0);
-  const Timer view_timer;
-  const SssView sss_view = SssView::trace(solver, camera, view);
-  const double view_seconds = view_timer.seconds();
+  Expected<SssFrames> renderer =
+      SssFrames::create(solver, camera, view, device->device == Device::kGpu);
+  if (!renderer) return renderer.error();
 
   const glm::vec3 centre = sceneCentre(*scene);
   nlohmann::json frame_stats = nlohmann::json::array();
@@ -116,16 +118,11 @@ Status renderSss(const RenderOptions& options, const CommonOptions& common) {
         frames > 1
             ? orbitLights(scene->lights, centre, 2.0f * 3.14159265f * float(f) / float(frames))
             : scene->lights;
-    const Timer t1;
-    const std::vector<glm::vec3> e = solver.transmittedIrradiance(lights, &rays);
-    const double pass1 = t1.seconds();
-    const Timer t2;
-    const std::vector<glm::vec3> b = solver.scatter(e);
-    const double pass2 = t2.seconds();
-    const Timer t3;
-    const Image atlas = solver.scatteredRadianceAtlas(b);
-    const Image image = sss_view.render(solver, atlas, lights, &rays);
-    const double pass3 = t3.seconds();
+    Expected<SssFrame> frame = renderer->render(lights, &rays);
+    if (!frame) return frame.error();
+    const Image& image = frame->image;
+    const double pass1 = frame->times.irradiance, pass2 = frame->times.gather,
+                 pass3 = frame->times.image;
     frame_sum += pass1 + pass2 + pass3;
     frame_stats.push_back({{"pass1_seconds", pass1},
                            {"pass2_seconds", pass2},
@@ -140,13 +137,13 @@ Status renderSss(const RenderOptions& options, const CommonOptions& common) {
                1e3 * frame_sum / frames, frames / frame_sum, fmt::join(outputs, ", "));
   if (!options.stats.empty()) {
     nlohmann::json j = {{"method", "sss"},
-                        {"device", "cpu"},
+                        {"device", device->name()},
                         {"scene", scene->source},
                         {"seconds", total_timer.seconds()},
                         {"build_seconds", solver.buildSeconds()},
                         {"links_seconds", links.seconds},
                         {"links_cached", solver.linksFromCache()},
-                        {"view_seconds", view_seconds},
+                        {"view_seconds", renderer->viewSeconds()},
                         {"elements", solver.surface().elementCount()},
                         {"atlas_width", solver.surface().atlas.width},
                         {"atlas_height", solver.surface().atlas.height},

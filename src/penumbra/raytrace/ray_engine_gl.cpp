@@ -96,6 +96,28 @@ Status GlRayEngine::run(const RayBatch& rays, bool any_hit, std::vector<GpuHit>&
   return {};
 }
 
+Status GlRayEngine::traceResident(const gl::Buffer& rays, const gl::Buffer& hits, size_t count,
+                                  bool any_hit) const {
+  if (count == 0) return {};
+  if (count > size_t(65535) * kGroupSize || int64_t(count * sizeof(GpuRay)) > max_ssbo_bytes_ ||
+      rays.bytes() < count * sizeof(GpuRay) || hits.bytes() < count * sizeof(GpuHit)) {
+    return runtimeError("", fmt::format("{} rays exceed one dispatch of the GPU kernel", count));
+  }
+  glUseProgram(program_.id());
+  glUniform1ui(gl::uniformLocation(program_.id(), "any_hit"), any_hit ? 1u : 0u);
+  glUniform1ui(gl::uniformLocation(program_.id(), "ray_count"), GLuint(count));
+  nodes_.bindBase(GL_SHADER_STORAGE_BUFFER, RAY_ENGINE_SSBO_NODES);
+  triangles_.bindBase(GL_SHADER_STORAGE_BUFFER, RAY_ENGINE_SSBO_TRIANGLES);
+  rays.bindBase(GL_SHADER_STORAGE_BUFFER, RAY_ENGINE_SSBO_RAYS);
+  hits.bindBase(GL_SHADER_STORAGE_BUFFER, RAY_ENGINE_SSBO_HITS);
+  glDispatchCompute(GLuint((count + kGroupSize - 1) / kGroupSize), 1, 1);
+  glUseProgram(0);
+  const GLenum err = glGetError();
+  if (err != GL_NO_ERROR)
+    return runtimeError("", fmt::format("OpenGL error 0x{:x} while tracing", err));
+  return {};
+}
+
 Status GlRayEngine::intersect(const RayBatch& rays, HitBatch& hits) const {
   std::vector<GpuHit> out;
   PENUMBRA_TRY(run(rays, false, out));

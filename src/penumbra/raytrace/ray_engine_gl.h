@@ -31,6 +31,12 @@ class GlRayEngine {
   Status intersect(const RayBatch& rays, HitBatch& hits) const;
   // Occlusion answers in input order.
   Status occluded(const RayBatch& rays, std::vector<uint8_t>& occluded) const;
+  // Rays already on the device (`count` GpuRay in `rays`), answers left there (GpuHit in
+  // `hits`; any_hit: the first hit found, triangle >= 0 when occluded), for passes that make
+  // and use their rays on the GPU. A ray with tmin > tmax is skipped (no hit). Fails when
+  // `count` exceeds one dispatch (65535 x 64 rays) or the device's buffer limit.
+  Status traceResident(const gl::Buffer& rays, const gl::Buffer& hits, size_t count,
+                       bool any_hit) const;
 
   size_t triangleCount() const { return triangle_count_; }
 

@@ -55,7 +55,7 @@ Expected<SssSolver> SssSolver::build(const Scene& scene, const SssOptions& optio
     if (o >= 0)
       s.eta_[e] = float(s.scene_.materials[s.tree_.object_material[size_t(o)]].subsurface->eta);
   }
-  s.emitter_irradiance_ = s.emitterIrradiance();
+  s.emitter_irradiance_ = s.computeEmitterIrradiance();
   const uint64_t fingerprint = sssLinksFingerprint(s.tree_, s.media_, options.links);
   if (std::optional<SssLinks> cached =
           readCachedSssLinks(options.cache_directory, fingerprint, s.tree_)) {
@@ -112,7 +112,7 @@ std::vector<glm::vec3> SssSolver::transmittedIrradiance(std::span<const Light> l
   return out;
 }
 
-std::vector<glm::vec3> SssSolver::emitterIrradiance() const {
+std::vector<glm::vec3> SssSolver::computeEmitterIrradiance() const {
   const size_t n = surface_.elementCount();
   std::vector<glm::vec3> out(n, glm::vec3(0.0f));
   const FlatTriangles& flat = surface_.flat;

@@ -73,11 +73,13 @@ class SssSolver {
                                                uint64_t* rays = nullptr) const;
   // Pass 2 from pass 1 (the MIP-map included): B per element (W m^-2).
   std::vector<glm::vec3> scatter(std::span<const glm::vec3> irradiance) const;
+  // Pass 1's static share: the irradiance emissive surfaces send into each element, transmitted.
+  const std::vector<glm::vec3>& emitterIrradiance() const { return emitter_irradiance_; }
   // B / pi per atlas texel, the charts' gaps filled for bilinear lookups.
   Image scatteredRadianceAtlas(std::span<const glm::vec3> scattered) const;
 
  private:
-  std::vector<glm::vec3> emitterIrradiance() const;
+  std::vector<glm::vec3> computeEmitterIrradiance() const;
 
   Scene scene_;
   SssOptions options_;
