@@ -2,8 +2,8 @@
 #include "subsurface/sss_bindings.glsl"
 // Pass 1 of the subsurface method (Carr, Hall, Hart 2003, sec. 4.2.2) on the GPU: the irradiance
 // transmitted into each element of a translucent object, E = sum over lights of
-// F_t(eta, cos theta) E_light V (eq. 8) plus the emitters' static share. The GPU twin of
-// SssSolver::transmittedIrradiance (src/penumbra/subsurface/sss.cpp): the same light sample
+// F_t(eta, cos theta) E_light V (eq. 8) plus the static share (emitters, environment). The GPU
+// twin of SssSolver::transmittedIrradiance (src/penumbra/subsurface/sss.cpp): the same light sample
 // (common/lights.glsl), the same shadow ray, traced by the Ray Engine's BVH kernel
 // (raytrace/bvh_intersect.comp) between the two programs this file makes:
 //   SSS_PASS 0: per (element, light) the shadow ray and what it carries when unoccluded;
@@ -62,7 +62,7 @@ void main() {
     for (uint k = e * light_count; k < (e + 1u) * light_count; ++k) {
       if (hits[k].triangle < 0) sum += ray_values[k].xyz;
     }
-    sum += el.emitter_irradiance;
+    sum += el.static_irradiance;
   }
   irradiance[e] = vec4(sum, 0.0);
 }

@@ -8,7 +8,7 @@ struct GpuSssElement {  // 64 bytes
   float lift;   // shadow rays start this far off the surface along the normal
   vec3 shading_normal;
   float pad0;
-  vec3 emitter_irradiance;  // transmitted, from emissive surfaces (static)
+  vec3 static_irradiance;  // transmitted, from emissive surfaces and the environment
   float pad1;
 };
 

@@ -14,7 +14,9 @@ layout(std430, binding = SSS_SSBO_CHILDREN) readonly buffer Children { uint chil
 layout(std430, binding = SSS_SSBO_WAVE_NODES) readonly buffer WaveNodes { uint wave_nodes[]; };
 layout(std430, binding = SSS_SSBO_MEAN) buffer Mean { vec4 mean[]; };
 layout(std430, binding = SSS_SSBO_GRADIENT) writeonly buffer Gradient { GpuMat3 gradient[]; };
-layout(std430, binding = SSS_SSBO_MOMENT_INVERSE) readonly buffer MomentInverse { GpuMat3 moment_inverse[]; };
+layout(std430, binding = SSS_SSBO_MOMENT_INVERSE) readonly buffer MomentInverse {
+  GpuMat3 moment_inverse[];
+};
 
 uniform uint wave_begin;
 uniform uint wave_size;

@@ -38,8 +38,8 @@ TEST(Memory, AvailableIsAtMostPhysicalAndMemAvailable) {
 }
 
 TEST(Memory, TheAddressSpaceLimitIsCounted) {
-  // In a child: ulimit -v at what the process maps now plus 512 MiB. The guard then offers at
-  // most 512 MiB, says so, and refuses 1 GiB.
+  // In a child: ulimit -v at what the process maps now plus 512 MiB. The guard then offers about
+  // 512 MiB, says so, and refuses 1 GiB.
   const pid_t pid = ::fork();
   ASSERT_GE(pid, 0);
   if (pid == 0) {
@@ -49,7 +49,9 @@ TEST(Memory, TheAddressSpaceLimitIsCounted) {
     const rlimit rl{mapped + (uint64_t(512) << 20), RLIM_INFINITY};
     if (::setrlimit(RLIMIT_AS, &rl) != 0) ::_exit(10);
     const MemoryBudget b = availableMemory();
-    if (b.bytes > (uint64_t(512) << 20)) ::_exit(11);
+    // Within a MiB: the process may map a few pages more or less between the two reads (the
+    // stream buffers come and go).
+    if (b.bytes > (uint64_t(513) << 20)) ::_exit(11);
     if (std::string(b.limited_by) != "ulimit -v") ::_exit(12);
     const Status s = checkMemory(uint64_t(1) << 30, "a plan");
     if (s.ok() || s.error().message.find("limited by ulimit -v") == std::string::npos) ::_exit(13);

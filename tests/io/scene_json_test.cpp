@@ -133,6 +133,43 @@ TEST(SceneJsonLoad, TwoSidedIsTheDefaultAndCanBeTurnedOff) {
   EXPECT_TRUE(errorNames(loadSceneJson(bad), bad, "materials.sheet.two_sided"));
 }
 
+// "environment": a colour or one number for grey, 0 when absent; negative values and values a
+// float cannot hold are refused with the key path (JSON itself has no infinities).
+TEST(SceneJsonLoad, EnvironmentIsAColourOrOneGreyNumber) {
+  TempDir dir;
+  dir.write("tri.obj", kTriangleObj);
+  const auto scene = [&](const std::string& name, const std::string& env) {
+    return dir.write(name, R"({"meshes": [{"file": "tri.obj"}])" + env + "}");
+  };
+  Expected<Scene> none = loadSceneJson(scene("none.json", ""));
+  ASSERT_TRUE(none.ok()) << none.error().describe();
+  expectNear(none->environment, glm::vec3(0.0f), 0.0f);
+  Expected<Scene> rgb = loadSceneJson(scene("rgb.json", R"(, "environment": [0.1, 0.2, 3])"));
+  ASSERT_TRUE(rgb.ok()) << rgb.error().describe();
+  expectNear(rgb->environment, glm::vec3(0.1f, 0.2f, 3.0f), 0.0f);
+  Expected<Scene> grey = loadSceneJson(scene("grey.json", R"(, "environment": 2)"));
+  ASSERT_TRUE(grey.ok()) << grey.error().describe();
+  expectNear(grey->environment, glm::vec3(2.0f), 0.0f);
+
+  struct Case {
+    const char* name;
+    const char* env;
+    const char* place;
+  };
+  const Case cases[] = {
+      {"negative.json", R"(, "environment": -1)", "environment: -1 is outside [0, inf)"},
+      {"channel.json", R"(, "environment": [1, -2, 0])", "environment[1]: -2 is outside"},
+      {"length.json", R"(, "environment": [1, 2])", "environment: must be an array of 3 numbers"},
+      {"type.json", R"(, "environment": "sky")", "environment: must be a number or an array"},
+      {"float.json", R"(, "environment": [1e39, 0, 0])", "environment: (inf, 0, 0) must be finite"},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.name);
+    const std::string path = scene(c.name, c.env);
+    EXPECT_TRUE(errorNames(loadSceneJson(path), path, c.place));
+  }
+}
+
 TEST(SceneJsonLoad, TransformsLightsCameraSettings) {
   TempDir dir;
   dir.write("tri.obj", kTriangleObj);

@@ -3,6 +3,7 @@
 // the Fresnel-weighted cosine law as the light moves, and `render --method sss` writes a light
 // orbit with its per-pass times.
 #include "penumbra/subsurface/sss.h"
+#include "penumbra/io/scene_io.h"
 #include "penumbra/kernels/dipole.h"
 #include "penumbra/subsurface/media.h"
 #include "penumbra/subsurface/sss_view.h"
@@ -185,6 +186,35 @@ TEST(Sss, RenderWritesALightOrbitWithPerPassTimes) {
       test::runCli("render cornell --method sss -o " + (dir.path() / "c.png").string()).exit_code,
       2);
   EXPECT_EQ(test::runCli("render cornell --links 4").exit_code, 2);
+}
+
+}  // namespace
+}  // namespace penumbra
+
+namespace penumbra {
+namespace {
+
+TEST(Sss, WithoutShadowsPassOneOnlyGains) {
+  // --no-shadows (the paper's pass 1): no element loses light, and those in shadow gain it.
+  const Expected<Scene> scene = loadScene("sss");
+  ASSERT_TRUE(scene.ok());
+  SssOptions o;
+  o.resolution = LightmapResolution{std::nullopt, 96};
+  o.links.links = 2;
+  Expected<SssSolver> with = SssSolver::build(*scene, o);
+  o.shadows = false;
+  Expected<SssSolver> without = SssSolver::build(*scene, o);
+  ASSERT_TRUE(with.ok() && without.ok());
+  EXPECT_FALSE(without->shadows());
+  const std::vector<glm::vec3> e1 = with->transmittedIrradiance(scene->lights);
+  const std::vector<glm::vec3> e0 = without->transmittedIrradiance(scene->lights);
+  ASSERT_EQ(e0.size(), e1.size());
+  size_t gained = 0;
+  for (size_t i = 0; i < e0.size(); ++i) {
+    ASSERT_GE(e0[i].x, e1[i].x);
+    gained += e0[i].x > e1[i].x ? 1 : 0;
+  }
+  EXPECT_GT(gained, e0.size() / 20);
 }
 
 }  // namespace

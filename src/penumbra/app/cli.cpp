@@ -220,6 +220,10 @@ int parseAndRun(int argc, char** argv) {
   render_cmd->add_flag("--no-cache", render.no_cache,
                        "sss: build the links even if the cache ($PENUMBRA_CACHE_DIR, else "
                        "~/.cache/penumbra) holds them, and do not write them there");
+  render_cmd->add_flag("--no-shadows", render.no_shadows,
+                       "sss: light pass 1 without shadow rays, as the paper's vertex-program "
+                       "lighting did (faster; light then reaches surfaces that face it through "
+                       "the object)");
   render_cmd->add_option("--resume", render.resume,
                          "progressive: continue from this checkpoint (written on Ctrl-C)");
   render_cmd->add_flag("--keep-checkpoint", render.keep_checkpoint,

@@ -61,7 +61,8 @@ struct RenderOptions {
   std::optional<int> links;  // default SssLinkOptions::links
   int links_level = -1;
   int frames = 0;
-  bool no_cache = false;  // sss: build the links even when the cache holds them
+  bool no_cache = false;    // sss: build the links even when the cache holds them
+  bool no_shadows = false;  // sss: pass 1 without shadow rays (the paper's lighting)
 };
 
 struct TraceOptions {

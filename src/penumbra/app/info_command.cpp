@@ -70,12 +70,12 @@ int runInfo(const InfoOptions& options, const CommonOptions&) {
     fmt::print("\n");
     if (const std::optional<Subsurface>& ss = m.subsurface) {
       // Per millimetre, as the scene gives them; the diffusion length 1 / sigma_tr in mm.
-      const glm::dvec3 s = ss->sigma_s_prime * 1e-3, a = ss->sigma_a * 1e-3;
-      const glm::dvec3 tr = glm::sqrt(3.0 * a * (s + a));
+      const glm::dvec3 sp = ss->sigma_s_prime * 1e-3, a = ss->sigma_a * 1e-3;
+      const glm::dvec3 tr = glm::sqrt(3.0 * a * (sp + a));
       fmt::print(
           "    subsurface{}: sigma_s' ({:.4g}, {:.4g}, {:.4g}) sigma_a ({:.4g}, {:.4g}, {:.4g}) "
           "/mm, eta {:.3g}, diffusion length ({:.3g}, {:.3g}, {:.3g}) mm\n",
-          ss->preset.empty() ? "" : " " + ss->preset, s.x, s.y, s.z, a.x, a.y, a.z, ss->eta,
+          ss->preset.empty() ? "" : " " + ss->preset, sp.x, sp.y, sp.z, a.x, a.y, a.z, ss->eta,
           1.0 / tr.x, 1.0 / tr.y, 1.0 / tr.z);
     }
   }

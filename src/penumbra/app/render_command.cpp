@@ -226,6 +226,8 @@ int runRender(const RenderOptions& options, const CommonOptions& common) {
                        : options.frames > 0       ? "--frames"
                        : options.links_level >= 0 ? "--links-level"
                        : options.links            ? "--links"
+                       : options.no_cache         ? "--no-cache"
+                       : options.no_shadows       ? "--no-shadows"
                                                   : nullptr;
     if (only) return reportError(inputError("", only, "applies to --method sss only"));
   }

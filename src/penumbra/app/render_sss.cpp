@@ -69,6 +69,7 @@ Status renderSss(const RenderOptions& options, const CommonOptions& common) {
   so.links.links = options.links.value_or(so.links.links);
   so.links.level = options.links_level;
   if (!options.no_cache) so.cache_directory = defaultCacheDirectory();
+  so.shadows = !options.no_shadows;
   if (common.dry_run) {
     bool any = false;
     for (const Material& m : scene->materials) any |= m.isTranslucent();
@@ -150,6 +151,7 @@ Status renderSss(const RenderOptions& options, const CommonOptions& common) {
                         {"texel_density", solver.surface().atlas.texel_density},
                         {"links", links.per_element},
                         {"adaptive", so.links.level < 0},
+                        {"shadows", so.shadows},
                         {"threads", threadCount()},
                         {"width", width},
                         {"height", height},

@@ -891,36 +891,51 @@ std::vector<SurfaceFace> surfaceFaces(const Scene& scene, const FlatTriangles& f
   return faces;
 }
 
-void fillChartGaps(const ChartAtlas& a, Image& img, std::vector<uint8_t>& known) {
-  PENUMBRA_CHECK(img.width == a.width && img.height == a.height);
+ChartGapPlan planChartGaps(const ChartAtlas& a, std::vector<uint8_t> known) {
   PENUMBRA_CHECK(known.size() == a.texel_kind.size());
+  ChartGapPlan plan;
+  plan.first.push_back(0);
   for (int round = 0; round < 64; ++round) {
-    std::vector<std::pair<size_t, glm::vec3>> filled;
+    const size_t round_start = plan.texel.size();
     for (int y = 0; y < a.height; ++y) {
       for (int x = 0; x < a.width; ++x) {
         const size_t i = a.texelIndex(x, y);
         if (known[i] || a.texel_kind[i] == AtlasTexelKind::kEmpty) continue;
-        glm::vec3 sum(0.0f);
-        int k = 0;
+        const size_t before = plan.source.size();
         for (int dy = -1; dy <= 1; ++dy) {
           for (int dx = -1; dx <= 1; ++dx) {
             const int xx = x + dx, yy = y + dy;
             if (xx < 0 || yy < 0 || xx >= a.width || yy >= a.height) continue;
             const size_t j = a.texelIndex(xx, yy);
             if (!known[j] || a.texel_chart[j] != a.texel_chart[i]) continue;
-            sum += img.pixels[j];
-            ++k;
+            plan.source.push_back(uint32_t(j));
           }
         }
-        if (k > 0) filled.emplace_back(i, sum / float(k));
+        if (plan.source.size() == before) continue;
+        plan.texel.push_back(uint32_t(i));
+        plan.first.push_back(uint32_t(plan.source.size()));
       }
     }
-    if (filled.empty()) break;
-    for (const auto& [i, v] : filled) {
-      img.pixels[i] = v;
-      known[i] = 1;
-    }
+    if (plan.texel.size() == round_start) break;
+    // Texels filled in this round are sources from the next one on.
+    for (size_t k = round_start; k < plan.texel.size(); ++k) known[plan.texel[k]] = 1;
   }
+  return plan;
+}
+
+void applyChartGaps(const ChartGapPlan& plan, Image& img) {
+  for (size_t k = 0; k < plan.texel.size(); ++k) {
+    glm::vec3 sum(0.0f);
+    for (uint32_t s = plan.first[k]; s < plan.first[k + 1]; ++s) sum += img.pixels[plan.source[s]];
+    img.pixels[plan.texel[k]] = sum / float(plan.first[k + 1] - plan.first[k]);
+  }
+}
+
+void fillChartGaps(const ChartAtlas& a, Image& img, std::vector<uint8_t>& known) {
+  PENUMBRA_CHECK(img.width == a.width && img.height == a.height);
+  const ChartGapPlan plan = planChartGaps(a, known);
+  applyChartGaps(plan, img);
+  for (uint32_t t : plan.texel) known[t] = 1;
 }
 
 double faceArea(const Scene& scene) {

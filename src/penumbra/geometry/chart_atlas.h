@@ -178,6 +178,17 @@ std::vector<SurfaceFace> surfaceFaces(const Scene& scene, const FlatTriangles& f
 // values. `known` is updated.
 void fillChartGaps(const ChartAtlas& atlas, Image& image, std::vector<uint8_t>& known);
 
+// The same fill planned once for a fixed `known` and replayed on any image: the texels in the
+// order fillChartGaps fills them, each with its sources (for a solver that fills the same texels
+// every frame).
+struct ChartGapPlan {
+  std::vector<uint32_t> texel;   // filled texels, round by round
+  std::vector<uint32_t> first;   // texel k's sources: source[first[k] .. first[k + 1])
+  std::vector<uint32_t> source;  // texels known before texel k's round
+};
+ChartGapPlan planChartGaps(const ChartAtlas& atlas, std::vector<uint8_t> known);
+void applyChartGaps(const ChartGapPlan& plan, Image& image);
+
 // The summed area of the scene's faces (m^2): a two-sided triangle counts twice.
 double faceArea(const Scene& scene);
 

@@ -95,6 +95,8 @@ class SceneJsonReader {
   // A 3-vector that is a non-negative colour (reflectance in [0, 1] when `at_most_one`).
   Expected<glm::vec3> colour(const json& j, const std::string& place, bool at_most_one) const;
   Expected<glm::vec3> unitDirection(const json& j, const std::string& place) const;
+  // A radiance: one non-negative number (grey) or a non-negative colour.
+  Expected<glm::vec3> environment(const json& j, const std::string& place) const;
 
   Status readMaterials(const json& root, Scene& scene);
   Status readMesh(const json& entry, const std::string& place, Scene& scene);
@@ -184,6 +186,18 @@ Expected<glm::vec3> SceneJsonReader::unitDirection(const json& j, const std::str
   if (!v.ok()) return v.error();
   if (!(glm::length(*v) > 0.0)) return error(place, "a direction must not be zero");
   return glm::vec3(glm::normalize(*v));
+}
+
+Expected<glm::vec3> SceneJsonReader::environment(const json& j, const std::string& place) const {
+  if (j.is_array()) return colour(j, place, false);
+  if (!j.is_number()) {
+    return error(place,
+                 fmt::format("must be a number or an array of 3 numbers, not {}", jsonTypeName(j)));
+  }
+  Expected<double> v = number(j, place);
+  if (!v.ok()) return v.error();
+  if (*v < 0.0) return error(place, fmt::format("{} is outside [0, inf)", *v));
+  return glm::vec3(float(*v));
 }
 
 Status SceneJsonReader::readMaterials(const json& root, Scene& scene) {
@@ -554,7 +568,8 @@ Expected<Scene> SceneJsonReader::read(const json& root) {
   if (!root.is_object()) {
     return error("", fmt::format("the top level must be an object, not {}", jsonTypeName(root)));
   }
-  PENUMBRA_TRY(checkKeys(root, "", {"materials", "meshes", "lights", "camera", "settings"}));
+  PENUMBRA_TRY(
+      checkKeys(root, "", {"materials", "meshes", "lights", "camera", "settings", "environment"}));
   Scene scene;
   scene.source = path_;
   PENUMBRA_TRY(readMaterials(root, scene));
@@ -583,6 +598,11 @@ Expected<Scene> SceneJsonReader::read(const json& root) {
   Expected<const json*> settings = object(root, "settings", "", false);
   if (!settings.ok()) return settings.error();
   if (*settings) scene.settings = **settings;
+  if (root.contains("environment")) {
+    Expected<glm::vec3> env = environment(root.at("environment"), "environment");
+    if (!env.ok()) return env.error();
+    scene.environment = *env;
+  }
 
   // The mesh files were validated by their loaders, whose warnings (degenerate triangles) name
   // the mesh file; the merged scene's validation would repeat them, so its warnings are dropped.

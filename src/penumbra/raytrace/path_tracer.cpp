@@ -2,6 +2,7 @@
 
 #include "penumbra/core/parallel.h"
 #include "penumbra/core/timer.h"
+#include "penumbra/kernels/dipole.h"
 #include "penumbra/kernels/sampling.h"
 #include "penumbra/raytrace/camera_rays.h"
 
@@ -29,10 +30,27 @@ inline glm::vec3 offsetOrigin(const glm::vec3& p, float offset, const glm::vec3&
 // surface.
 constexpr float kShadowShorten = 1.0f - 1e-5f;
 
+// Russian roulette after a boundary or medium event (unbiased): survive with probability
+// max(beta) once the throughput has fallen below 1, as PBRT 4th ed. sec. 14.2.2 does in media.
+// Unlike the surfaces' rule this never caps survival below 1: a walk in a medium of albedo near
+// 1 takes thousands of events, and killing 1% of the paths at each would leave the few long
+// survivors with weights of 0.99^-1000; such a walk ends by leaving the medium instead (or by
+// absorption, which lowers beta). False when the path ends.
+inline bool surviveWalkRoulette(PathState& s, const PathTracerSettings& settings) {
+  if (s.depth + 1 < settings.rr_start_depth) return true;
+  const float m = std::max({s.beta.x, s.beta.y, s.beta.z});
+  if (!(m < 1.0f)) return true;
+  if (s.rng.uniform() >= m) return false;
+  s.beta /= m;
+  return true;
+}
+
 }  // namespace
 
 PathTracer::PathTracer(const Scene& scene)
-    : geometry_(SceneGeometry::build(scene)), lights_(scene.lights) {}
+    : geometry_(SceneGeometry::build(scene)),
+      lights_(scene.lights),
+      environment_(scene.environment) {}
 
 namespace {
 
@@ -107,10 +125,90 @@ int PathTracer::directQueries(const glm::vec3& p, float p_offset, const glm::vec
   return count;
 }
 
+bool PathTracer::mediumFlight(PathState& s, const Hit& hit,
+                              const PathTracerSettings& settings) const {
+  if (++s.medium_events > kMaxMediumEvents) {
+    s.alive = false;
+    return true;
+  }
+  const Subsurface& medium = *geometry_.materials[size_t(s.medium)].subsurface;
+  // The reduced problem the dipole solves: isotropic scattering with sigma_s = sigma_s'.
+  const glm::dvec3 sigma_s = medium.sigma_s_prime;
+  const glm::dvec3 sigma_t = sigma_s + medium.sigma_a;
+  // Walk rays have unit directions, so the hit distance is in metres. A miss (a ray that slipped
+  // through a crack of the mesh) is an unbounded medium: the flight scatters.
+  const double t_boundary = hit.hit() ? double(hit.t) : double(kInfinity);
+  if (s.hero < 0) s.hero = std::min(int(s.rng.uniform() * 3.0f), 2);
+  const FreeFlight f = sampleFreeFlight(sigma_t, sigma_s, t_boundary, s.hero, s.rng.uniform());
+  // beta stays the MIS-weighted throughput f_c(path) / (1/3 sum_k p_k(path)) of every channel.
+  s.beta *= glm::vec3(s.spectral.update(f.f, f.pdf));
+  if (!f.scattered) return false;  // the boundary: shade handles the hit
+
+  // A scattering event: a new direction from the isotropic phase function, whose value 1/(4 pi)
+  // and pdf cancel.
+  s.alive = false;
+  if (settings.max_depth > 0 && s.depth >= settings.max_depth) return true;
+  const glm::vec3 x = s.ray.origin + float(f.t) * s.ray.dir;
+  const float u1 = s.rng.uniform(), u2 = s.rng.uniform();
+  const glm::vec3 wi(sampleUniformSphere(u1, u2));
+  s.specular = true;
+  if (!surviveWalkRoulette(s, settings)) return true;
+  s.ray = Ray{x, 0.0f, wi, kInfinity};
+  ++s.depth;
+  s.alive = true;
+  return true;
+}
+
+void PathTracer::shadeBoundary(PathState& s, uint32_t tri, float cos_front, const glm::vec3& p,
+                               float p_offset, const PathTracerSettings& settings) const {
+  if (++s.medium_events > kMaxMediumEvents) return;
+  const uint32_t material = geometry_.material_ids[tri];
+  const double eta = geometry_.materials[material].subsurface->eta;
+  // The side the ray comes from: the medium is behind the front (counter-clockwise) face.
+  const bool from_outside = cos_front > 0.0f;
+  const glm::dvec3 ng(geometry_.normals[tri]);
+  const glm::dvec3 n = from_outside ? ng : -ng;  // faces the incoming ray
+  const glm::dvec3 d = glm::normalize(glm::dvec3(s.ray.dir));
+  const double n_i = from_outside ? 1.0 : eta, n_t = from_outside ? eta : 1.0;
+  // Exact unpolarised Fresnel reflectance, total internal reflection included (PBRT 4th ed.
+  // sec. 9.3; kernels/dipole.h).
+  const double f_r = fresnelReflectance(n_i, n_t, std::fabs(double(cos_front)));
+  bool reflect;
+  if (s.depth == 0 && from_outside && !settings.boundary_reflection_from_camera) {
+    reflect = false;
+    s.beta *= float(1.0 - f_r);  // only the transmitted share, F_t
+  } else {
+    // Reflect with probability F_r, refract otherwise: the weight F / probability is 1.
+    reflect = s.rng.uniform() < f_r;
+  }
+  glm::dvec3 wi;
+  if (reflect || !refractDirection(d, n, n_i / n_t, wi)) {
+    reflect = true;  // a refraction lost to rounding at the critical angle
+    wi = reflectDirection(d, n);
+  }
+  // Radiance is not scaled by eta^2 on crossing (PBRT 4th ed. sec. 9.5): every path starts at
+  // the camera and ends at an emitter or the environment, all outside (index 1), so the factors
+  // of its crossings cancel.
+  s.medium = (reflect != from_outside) ? int(material) : -1;
+  s.specular = true;
+  if (!surviveWalkRoulette(s, settings)) return;
+  const glm::vec3 wf(wi);
+  s.ray = Ray{offsetOrigin(p, p_offset, geometry_.normals[tri], wf), 0.0f, wf, kInfinity};
+  s.prev_point = p;
+  ++s.depth;
+  s.alive = true;
+}
+
 int PathTracer::shade(PathState& s, const Hit& hit, const PathTracerSettings& settings,
                       ShadowQuery* queries) const {
   s.alive = false;
-  if (!hit.hit()) return 0;
+  // Inside a medium the free flight comes first: it may scatter before the hit.
+  if (s.medium >= 0 && mediumFlight(s, hit, settings)) return 0;
+  if (!hit.hit()) {
+    // The ray left the scene: the uniform environment, found by BSDF sampling only.
+    s.result += s.beta * environment_;
+    return 0;
+  }
   const uint32_t tri = uint32_t(hit.triangle);
   const Material& mat = geometry_.materials[geometry_.material_ids[tri]];
   const glm::vec3 ng = geometry_.normals[tri];
@@ -119,10 +217,10 @@ int PathTracer::shade(PathState& s, const Hit& hit, const PathTracerSettings& se
   const float p_offset = geometry_.surfaceOffset(tri, hit.u, hit.v);
 
   // Emission reached by BSDF sampling (or seen directly), MIS-weighted against the emitter
-  // sample taken at the previous vertex.
+  // sample taken at the previous vertex; with full weight after a vertex that took none.
   if (mat.isEmissive() && cos_front > 0.0f) {
     float w = 1.0f;
-    if (s.prev_pdf > 0.0f && geometry_.emitter_pick_pdf[tri] > 0.0f) {
+    if (!s.specular && s.prev_pdf > 0.0f && geometry_.emitter_pick_pdf[tri] > 0.0f) {
       const glm::vec3 d = p - s.prev_point;
       const float pdf_light =
           geometry_.emitter_pick_pdf[tri] / geometry_.areas[tri] * glm::dot(d, d) / cos_front;
@@ -131,6 +229,11 @@ int PathTracer::shade(PathState& s, const Hit& hit, const PathTracerSettings& se
     s.result += s.beta * mat.emission * w;
   }
   if (settings.max_depth > 0 && s.depth >= settings.max_depth) return 0;
+  // Translucent: the smooth boundary of the medium; `reflectance` plays no part.
+  if (mat.isTranslucent()) {
+    shadeBoundary(s, tri, cos_front, p, p_offset, settings);
+    return 0;
+  }
   if (mat.reflectance == glm::vec3(0.0f)) return 0;
   // One-sided surfaces (Material::two_sided false) have a black back face.
   if (!mat.two_sided && !(cos_front > 0.0f)) return 0;
@@ -138,7 +241,11 @@ int PathTracer::shade(PathState& s, const Hit& hit, const PathTracerSettings& se
   // Surfaces reflect on both sides: shade with the normal facing the incoming ray.
   const glm::vec3 n = cos_front > 0.0f ? ng : -ng;
   s.vertex_beta = s.beta;
-  const int count = directQueries(p, p_offset, n, mat.reflectance, s.rng, queries);
+  // An opaque surface inside a medium (not a supported scene) takes no emitter sample: its
+  // shadow rays would ignore the medium's attenuation; its bounce finds the light unbiased.
+  const bool in_medium = s.medium >= 0;
+  const int count = in_medium ? 0 : directQueries(p, p_offset, n, mat.reflectance, s.rng, queries);
+  s.specular = in_medium;
 
   // Cosine-weighted bounce: f cos / pdf = rho.
   const glm::vec3 local = sampleCosineHemisphere(s.rng.uniform(), s.rng.uniform());

@@ -5,12 +5,28 @@
 // judged against it, so it favours being right over being fast: shading uses geometric
 // normals (interpolated normals are not physical), and nothing is clamped.
 //
+// Translucent materials (Material::subsurface) are the physical reference for the dipole method
+// (subsurface/): a smooth dielectric boundary (exact Fresnel, chosen stochastically) around a
+// homogeneous medium filling the closed mesh, crossed by a random walk with isotropic
+// scattering (medium_walk.h). The walk advances one event (a free flight ending in a scattering
+// event or at the boundary) per call of PathTracer::shade, its rays traced by the same
+// intersection queries as every bounce, so render() and renderWavefront() share it unchanged.
+// No emitter sample is taken at the boundary (a delta BSDF) or inside the medium: light reaches
+// the walk through its random continuation, and an emitter or the environment found after such
+// an event counts with full weight. Media do not nest: the side of the last translucent
+// boundary crossed says whether a path is inside.
+//
+// The uniform environment (Scene::environment) is gathered by rays that leave the scene, found
+// by BSDF sampling only (no emitter sample for it): unbiased, and noise-free enough for the
+// furnace and albedo tests it serves.
+//
 // Determinism: sample s of pixel p draws from its own PCG stream (sampleRng), so any thread count
 // and either way of advancing the paths (render, renderWavefront) gives the same image.
 #pragma once
 
 #include "penumbra/core/image.h"
 #include "penumbra/core/rng.h"
+#include "penumbra/raytrace/medium_walk.h"
 #include "penumbra/raytrace/scene_geometry.h"
 #include "penumbra/scene/scene.h"
 
@@ -24,9 +40,15 @@ struct PathTracerSettings {
   int width = 512;
   int height = 512;
   int spp = 64;
-  int max_depth = 0;       // bounces; 0 = unlimited (Russian roulette ends paths)
-  int rr_start_depth = 3;  // Russian roulette from this bounce on
+  // Path vertices: bounces, and in translucent materials boundary and medium events too;
+  // 0 = unlimited (Russian roulette ends paths).
+  int max_depth = 0;
+  int rr_start_depth = 3;  // Russian roulette from this vertex on
   uint64_t seed = 0;
+  // False: a camera ray hitting a translucent boundary always refracts, weighted by the Fresnel
+  // transmittance F_t, and never reflects, so the image shows only the light that left the
+  // medium: what the dipole method models, for comparing the two.
+  bool boundary_reflection_from_camera = true;
 };
 
 // A shadow ray and what it contributes (before the path throughput) when unoccluded; `trace`
@@ -47,7 +69,12 @@ struct PathState {
   glm::vec3 vertex_beta{0.0f};  // throughput at the vertex the pending shadow queries left
   glm::vec3 prev_point{0.0f};
   float prev_pdf = 0.0f;  // solid-angle pdf of the last bounce; 0 for the camera ray
-  int depth = 0;
+  int depth = 0;          // vertices so far: bounces, boundary events and medium events
+  int medium = -1;        // material index of the medium the ray travels in; -1 outside
+  int medium_events = 0;  // boundary and medium events (PathTracer::kMaxMediumEvents)
+  bool specular = false;  // the last vertex took no emitter sample (smooth boundary, medium)
+  int hero = -1;          // the channel that samples the free flights; drawn on entering a medium
+  SpectralPathWeight spectral;  // the free flights' per-channel pdfs (medium_walk.h)
   bool alive = true;
   Rng rng;
 };
@@ -89,15 +116,22 @@ class PathTracer {
                                   RayQueries& queries, PathTracerStats* stats = nullptr,
                                   const std::function<void(int)>& on_progress = {}) const;
 
-  // One step of a path: processes the hit of s.ray (emission with its MIS weight), writes the
-  // direct-light shadow queries of this vertex to `queries` (at most lightQueryCapacity(); the
-  // count is returned; resolve them with addDirect) and samples the continuation (s.alive is
-  // false when the path ends).
+  // One step of a path: processes the hit of s.ray (inside a medium, first the free flight,
+  // which may end in a scattering event before the hit; then emission with its MIS weight, or
+  // the environment on a miss), writes the direct-light shadow queries of this vertex to
+  // `queries` (at most lightQueryCapacity(); the count is returned; resolve them with addDirect)
+  // and samples the continuation (s.alive is false when the path ends).
   int shade(PathState& s, const Hit& hit, const PathTracerSettings& settings,
             ShadowQuery* queries) const;
   static void addDirect(PathState& s, const ShadowQuery* queries, const uint8_t* occluded,
                         int count);
   size_t lightQueryCapacity() const { return lights_.size() + 1; }
+
+  // A guard against endless walks: a path ends after this many boundary and medium events.
+  // Bias-free in practice: a walk of 10^5 events reaches about sqrt(10^5) = 300 mean free paths
+  // from where it entered, and the share of light doing so in any medium the sss method models
+  // is far below the noise of a render.
+  static constexpr int kMaxMediumEvents = 100000;
 
   // The generator of sample `sample` of pixel `pixel`: its own PCG stream, so that samples can
   // run in any order.
@@ -114,8 +148,15 @@ class PathTracer {
   int directQueries(const glm::vec3& p, float p_offset, const glm::vec3& n, const glm::vec3& rho,
                     Rng& rng, ShadowQuery* out) const;
 
+  // The walk's part of shade: the smooth boundary of a translucent material, and the free flight
+  // of a ray inside a medium.
+  void shadeBoundary(PathState& s, uint32_t tri, float cos_front, const glm::vec3& p,
+                     float p_offset, const PathTracerSettings& settings) const;
+  bool mediumFlight(PathState& s, const Hit& hit, const PathTracerSettings& settings) const;
+
   SceneGeometry geometry_;
   std::vector<Light> lights_;
+  glm::vec3 environment_{0.0f};
 };
 
 }  // namespace penumbra

@@ -29,9 +29,12 @@ struct Material {
   glm::vec3 reflectance{0.8f};
   glm::vec3 emission{0.0f};
   bool two_sided = true;
-  // Set for translucent materials: light enters, scatters inside and leaves elsewhere (the
-  // `sss` method; the path tracer's random walk). `reflectance` is then the surface's own
-  // diffuse reflection on top, 0 unless the scene gives one.
+  // Set for translucent materials: light enters, scatters inside and leaves elsewhere. The path
+  // tracer (a smooth Fresnel boundary around a random walk in the medium) and the `sss` method
+  // (the dipole) model the medium, and both ignore `reflectance` on such a surface; the other
+  // methods, which know no media, treat it as a Lambertian surface of `reflectance`.
+  // Emission, if any, still leaves the front face. The mesh must be closed and wound outwards:
+  // the medium is behind the front face.
   std::optional<Subsurface> subsurface;
 
   bool isEmissive() const { return emission.x > 0.0f || emission.y > 0.0f || emission.z > 0.0f; }

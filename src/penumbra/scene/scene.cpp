@@ -33,6 +33,7 @@ void Scene::append(Scene other) {
   for (Light& l : other.lights) lights.push_back(l);
   for (std::string& w : other.warnings) warnings.push_back(std::move(w));
   if (!camera && other.camera) camera = other.camera;
+  environment = glm::max(environment, other.environment);
 }
 
 FlatTriangles flattenScene(const Scene& scene) {
@@ -117,6 +118,11 @@ std::vector<Light> orbitLights(std::span<const Light> lights, const glm::vec3& c
 }
 
 Status validateScene(Scene& scene) {
+  if (!finite3(scene.environment) || glm::any(glm::lessThan(scene.environment, glm::vec3(0.0f)))) {
+    return inputError(scene.source, "environment",
+                      fmt::format("({}, {}, {}) must be finite and non-negative",
+                                  scene.environment.x, scene.environment.y, scene.environment.z));
+  }
   for (size_t mi = 0; mi < scene.materials.size(); ++mi) {
     const Material& m = scene.materials[mi];
     const std::string place = fmt::format("material '{}'", m.name);

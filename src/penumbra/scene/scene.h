@@ -21,6 +21,11 @@ struct Scene {
   std::vector<Material> materials;
   std::vector<Light> lights;
   std::optional<Camera> camera;
+  // Uniform environment: the radiance (W m^-2 sr^-1, RGB, finite and non-negative) arriving from
+  // every direction the scene does not block, as from an infinitely distant sphere around it.
+  // Zero (none) by default. The path tracer gathers it on rays that leave the scene; it is what
+  // furnace and albedo tests light a scene with.
+  glm::vec3 environment{0.0f};
   // Per-method settings from the scene file ("settings": {"pathtrace": {...}}), applied before
   // command-line options, which win.
   nlohmann::json settings = nlohmann::json::object();
@@ -30,7 +35,9 @@ struct Scene {
   size_t triangleCount() const;
   size_t vertexCount() const;
 
-  // Appends `other`'s meshes, materials, lights and warnings; material ids are re-based.
+  // Appends `other`'s meshes, materials, lights and warnings; material ids are re-based. The
+  // environment becomes the per-channel maximum of the two (so a mesh file, which has none,
+  // never removes the scene's).
   void append(Scene other);
 };
 
@@ -51,9 +58,10 @@ glm::vec3 sceneCentre(const Scene& scene);
 std::vector<glm::vec2> flattenSceneUvs(const Scene& scene, bool& any);
 
 // Checks what every consumer relies on: finite positions, normals and UVs, indices in range,
-// material ids in range, reflectance in [0, 1], non-negative finite emission. Degenerate
-// (zero-area) triangles are kept, so that triangle indices still follow the file, but are
-// counted in a warning; a mesh made only of degenerate triangles is an error.
+// material ids in range, reflectance in [0, 1], non-negative finite emission and environment,
+// valid subsurface media. Degenerate (zero-area) triangles are kept, so that triangle indices
+// still follow the file, but are counted in a warning; a mesh made only of degenerate triangles
+// is an error.
 Status validateScene(Scene& scene);
 
 // A camera that frames the scene's bounding box from the front (-z looking +z) when it has none.

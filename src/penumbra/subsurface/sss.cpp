@@ -2,9 +2,11 @@
 
 #include "penumbra/core/memory.h"
 #include "penumbra/core/parallel.h"
+#include "penumbra/core/rng.h"
 #include "penumbra/core/timer.h"
 #include "penumbra/kernels/dipole.h"
 #include "penumbra/kernels/form_factor.h"
+#include "penumbra/kernels/sampling.h"
 #include "penumbra/radiosity/lights.h"
 #include "penumbra/subsurface/sss_cache.h"
 
@@ -55,7 +57,13 @@ Expected<SssSolver> SssSolver::build(const Scene& scene, const SssOptions& optio
     if (o >= 0)
       s.eta_[e] = float(s.scene_.materials[s.tree_.object_material[size_t(o)]].subsurface->eta);
   }
-  s.emitter_irradiance_ = s.computeEmitterIrradiance();
+  {
+    std::vector<uint8_t> known(s.surface_.atlas.texel_kind.size(), 0);
+    for (size_t e = 0; e < elements; ++e) known[s.surface_.atlas.element_texel[e]] = 1;
+    s.gap_plan_ = planChartGaps(s.surface_.atlas, std::move(known));
+  }
+  s.static_irradiance_ = s.computeEmitterIrradiance();
+  s.addEnvironmentIrradiance(s.static_irradiance_);
   const uint64_t fingerprint = sssLinksFingerprint(s.tree_, s.media_, options.links);
   if (std::optional<SssLinks> cached =
           readCachedSssLinks(options.cache_directory, fingerprint, s.tree_)) {
@@ -104,7 +112,7 @@ std::vector<glm::vec3> SssSolver::transmittedIrradiance(std::span<const Light> l
         // Eq. 8: the light that crosses the boundary.
         sum += ls.irradiance * fresnelTransmittance(eta_[e], glm::dot(ls.direction, ns));
       }
-      out[e] = glm::vec3(sum) + emitter_irradiance_[e];
+      out[e] = glm::vec3(sum) + static_irradiance_[e];
     }
     traced += count;
   });
@@ -163,6 +171,36 @@ std::vector<glm::vec3> SssSolver::computeEmitterIrradiance() const {
   return out;
 }
 
+void SssSolver::addEnvironmentIrradiance(std::vector<glm::vec3>& out) const {
+  const glm::dvec3 env(scene_.environment);
+  if (env == glm::dvec3(0.0)) return;
+  // E = int L_env V F_t(cos) cos dw = pi L_env E_p[V F_t] with p = cos / pi: 8 x 8 strata of
+  // cosine-distributed directions about the shading normal, from a fixed stream per element.
+  constexpr int kStrata = 8;
+  parallelRange(out.size(), 256, [&](size_t begin, size_t end) {
+    for (size_t e = begin; e < end; ++e) {
+      if (eta_[e] == 0.0f) continue;
+      const glm::vec3 x(surface_.atlas.element_position[e]);
+      const glm::vec3 ng(surface_.atlas.element_normal[e]);
+      const glm::vec3 ns(surface_.shading_normal[e]);
+      const Frame frame = Frame::fromNormal(ns);
+      const glm::vec3 from = x + ng * float(surface_.lift);
+      Rng rng(0x5eed, e);
+      double sum = 0.0;
+      for (int k = 0; k < kStrata * kStrata; ++k) {
+        const float u1 = (float(k % kStrata) + rng.uniform()) / kStrata;
+        const float u2 = (float(k / kStrata) + rng.uniform()) / kStrata;
+        const glm::vec3 d = frame.toWorld(sampleCosineHemisphere(u1, u2));
+        if (glm::dot(d, ng) <= 0.0f) continue;  // below the face: the surface blocks it
+        const Ray ray{from, 1e-4f, d, std::numeric_limits<float>::max()};
+        if (surface_.engine.occluded(ray)) continue;
+        sum += fresnelTransmittance(eta_[e], double(glm::dot(d, ns)));
+      }
+      out[e] += glm::vec3(std::numbers::pi * env * sum / double(kStrata * kStrata));
+    }
+  });
+}
+
 std::vector<glm::vec3> SssSolver::scatter(std::span<const glm::vec3> irradiance) const {
   std::vector<glm::vec3> b(surface_.elementCount());
   gatherScattered(links_, mipMapIrradiance(tree_, irradiance), b);
@@ -170,9 +208,14 @@ std::vector<glm::vec3> SssSolver::scatter(std::span<const glm::vec3> irradiance)
 }
 
 Image SssSolver::scatteredRadianceAtlas(std::span<const glm::vec3> scattered) const {
-  std::vector<glm::dvec3> b(scattered.size());
-  for (size_t i = 0; i < b.size(); ++i) b[i] = glm::dvec3(scattered[i]);
-  return surface_.radianceImage(b);
+  // As RadiositySurface::radianceImage, with the charts' gap fill planned once (build()).
+  const ChartAtlas& atlas = surface_.atlas;
+  Image img(atlas.width, atlas.height);
+  for (size_t e = 0; e < scattered.size(); ++e) {
+    img.pixels[atlas.element_texel[e]] = glm::vec3(glm::dvec3(scattered[e]) / std::numbers::pi);
+  }
+  applyChartGaps(gap_plan_, img);
+  return img;
 }
 
 }  // namespace penumbra

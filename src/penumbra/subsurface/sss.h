@@ -8,6 +8,8 @@
 //    (eq. 8, one shadow ray per element and light), plus what emissive surfaces send (static, so
 //    computed once with the links: per emitting triangle pi L_e times Lambert's point-to-polygon
 //    form factor, times F_t towards its centroid and the visible fraction of four points on it),
+//    plus what the scene's uniform environment sends (also static: pi L_env times the mean of
+//    V F_t over 64 stratified cosine-distributed directions per element),
 //    MIP-mapped up the hierarchy (nodeMeans).
 //  - Pass 2, the scattered irradiance map (sec. 4.2.3): B_i = sum_links F E_node (eq. 9).
 //  - Pass 3, the image (sec. 4.2.4): a translucent surface point shows L = F_t(eta, cos theta_o)
@@ -36,7 +38,9 @@ inline constexpr int kSssDefaultAtlas = 512;
 struct SssOptions {
   LightmapResolution resolution{std::nullopt, kSssDefaultAtlas};
   SssLinkOptions links;
-  bool shadows = true;  // shadow rays in pass 1
+  // Shadow rays in pass 1. Without them pass 1 is the paper's (sec. 4.2.2: the OpenGL lighting
+  // model in a vertex program), and light reaches surfaces that face it through the object.
+  bool shadows = true;
   // Where the links are cached (subsurface/sss_cache.h); empty: not cached.
   std::string cache_directory;
 };
@@ -63,6 +67,8 @@ class SssSolver {
   float eta(size_t element) const { return eta_[element]; }
   bool translucent(size_t element) const { return tree_.object[element] >= 0; }
   double buildSeconds() const { return build_seconds_; }
+  // Whether pass 1 traces shadow rays (SssOptions::shadows).
+  bool shadows() const { return options_.shadows; }
   // Whether the links came from the cache, and why they could not be written to it (empty when
   // they were, or came from it).
   bool linksFromCache() const { return links_from_cache_; }
@@ -73,13 +79,15 @@ class SssSolver {
                                                uint64_t* rays = nullptr) const;
   // Pass 2 from pass 1 (the MIP-map included): B per element (W m^-2).
   std::vector<glm::vec3> scatter(std::span<const glm::vec3> irradiance) const;
-  // Pass 1's static share: the irradiance emissive surfaces send into each element, transmitted.
-  const std::vector<glm::vec3>& emitterIrradiance() const { return emitter_irradiance_; }
+  // Pass 1's static share: the irradiance emissive surfaces and the scene's environment send
+  // into each element, transmitted.
+  const std::vector<glm::vec3>& staticIrradiance() const { return static_irradiance_; }
   // B / pi per atlas texel, the charts' gaps filled for bilinear lookups.
   Image scatteredRadianceAtlas(std::span<const glm::vec3> scattered) const;
 
  private:
   std::vector<glm::vec3> computeEmitterIrradiance() const;
+  void addEnvironmentIrradiance(std::vector<glm::vec3>& out) const;
 
   Scene scene_;
   SssOptions options_;
@@ -88,7 +96,9 @@ class SssSolver {
   std::vector<Dipole> media_;
   SssLinks links_;
   std::vector<float> eta_;
-  std::vector<glm::vec3> emitter_irradiance_;  // per element, transmitted, from emissive faces
+  ChartGapPlan gap_plan_;  // the atlas's gap fill for scatteredRadianceAtlas
+  // Per element, transmitted, from emissive faces and the environment.
+  std::vector<glm::vec3> static_irradiance_;
   double build_seconds_ = 0.0;
   bool links_from_cache_ = false;
   std::string cache_problem_;

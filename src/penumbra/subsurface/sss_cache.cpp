@@ -71,6 +71,7 @@ uint64_t sssLinksFingerprint(const SssTree& tree, std::span<const Dipole> media,
   h.addValue(options.links);
   h.addValue(options.level);
   h.addValue(kNearFactor);
+  h.addValue(kTouchFactor);
   return h.h;
 }
 

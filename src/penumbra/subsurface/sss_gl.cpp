@@ -84,6 +84,7 @@ Expected<GlSss> GlSss::create(const SssSolver& solver) {
   const size_t n = s.elementCount();
   g.elements_count_ = n;
   g.links_per_element_ = links.per_element;
+  g.shadows_ = solver.shadows();
 
   for (auto [program, pass] : {std::pair{&g.irradiance_rays_, 0}, {&g.irradiance_sum_, 1}}) {
     Expected<gl::Program> p =
@@ -102,14 +103,14 @@ Expected<GlSss> GlSss::create(const SssSolver& solver) {
   g.engine_ = std::move(*engine);
 
   // Elements: what pass 1 reads (the CPU's values, in float).
-  const std::vector<glm::vec3>& emitter = solver.emitterIrradiance();
+  const std::vector<glm::vec3>& emitter = solver.staticIrradiance();
   std::vector<GpuSssElement> elements(n);
   for (size_t e = 0; e < n; ++e) {
     GpuSssElement& el = elements[e];
     copy3(el.position, s.atlas.element_position[e]);
     copy3(el.normal, s.atlas.element_normal[e]);
     copy3(el.shading_normal, s.shading_normal[e]);
-    copy3(el.emitter_irradiance, glm::dvec3(emitter[e]));
+    copy3(el.static_irradiance, glm::dvec3(emitter[e]));
     el.eta = solver.eta(e);
     el.lift = float(s.lift);
   }
@@ -198,7 +199,12 @@ Status GlSss::frame(std::span<const Light> lights, std::vector<glm::vec3>& scatt
     glUniform1ui(gl::uniformLocation(irradiance_rays_.id(), "light_count"), GLuint(lights.size()));
     glDispatchCompute(groups(rays), 1, 1);
     glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
-    PENUMBRA_TRY(engine_->traceResident(rays_, hits_, rays, true));
+    if (shadows_) {
+      PENUMBRA_TRY(engine_->traceResident(rays_, hits_, rays, true));
+    } else {
+      const int32_t none = -1;  // every GpuHit's triangle: unoccluded
+      glClearNamedBufferData(hits_.id(), GL_R32I, GL_RED_INTEGER, GL_INT, &none);
+    }
     glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
   }
   glUseProgram(irradiance_sum_.id());

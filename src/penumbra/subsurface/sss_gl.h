@@ -5,7 +5,7 @@
 //    on the device from the same light sample as the CPU's (shaders/common/lights.glsl, the twin
 //    of sampleLight) and traced there by the Ray Engine's BVH kernel (GlRayEngine::
 //    traceResident); the unoccluded values times F_t (shaders/common/dipole.glsl) summed per
-//    element, plus the emitters' static share;
+//    element, plus the static share of emitters and the environment;
 //  - the MIP-map (shaders/subsurface/sss_mipmap.comp): node means and gradients, one dispatch
 //    per wave of nodes whose children are done;
 //  - pass 2 (shaders/subsurface/sss_gather.comp): the links, B_i = sum F max(0, E + G offset).
@@ -41,12 +41,12 @@ struct GpuSssElement {  // 64 bytes
   float lift;
   float shading_normal[3];
   float pad0;
-  float emitter_irradiance[3];
+  float static_irradiance[3];
   float pad1;
 };
 static_assert(sizeof(GpuSssElement) == 64 && offsetof(GpuSssElement, normal) == 16 &&
               offsetof(GpuSssElement, shading_normal) == 32 &&
-              offsetof(GpuSssElement, emitter_irradiance) == 48);
+              offsetof(GpuSssElement, static_irradiance) == 48);
 
 struct GpuSssNode {  // 32 bytes
   float position[3];
@@ -109,6 +109,7 @@ class GlSss {
   std::vector<uint32_t> wave_offset_;  // wave w is wave_nodes[wave_offset[w] .. [w + 1])
   size_t elements_count_ = 0, light_capacity_ = 0;
   uint32_t links_per_element_ = 0;
+  bool shadows_ = true;
 };
 
 }  // namespace penumbra

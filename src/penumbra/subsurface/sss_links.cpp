@@ -10,7 +10,10 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <limits>
 #include <map>
+#include <numbers>
+#include <utility>
 
 namespace penumbra {
 
@@ -193,25 +196,98 @@ std::vector<Dipole> objectMedia(const SssTree& tree, std::span<const Material> m
 
 namespace {
 
-// Eq. 10 between two texel squares by an m_i x m_i and m_j x m_j grid of points each:
-// (1 / A_i) sum_p sum_q (A_i / m_i^2) (A_j / m_j^2) R_d(|p - q|).
-glm::dvec3 texelPairFactor(const SssTree& t, const Dipole& medium, uint32_t i, uint32_t j, int mi,
-                           int mj) {
+// The integral of R_d over texel square j (centre c, sides a and b: the parallelogram
+// c + s a + t b, |s|, |t| <= 1/2) seen from point p, in polar coordinates about p in the square's
+// plane: int_0^2pi (W(r1(theta)) - W(r0(theta))) / (2 pi) dtheta, with W(r) = int_0^r R_d 2 pi r dr
+// in closed form (DipoleChannel::reflectanceWithin) and [r0, r1] where the ray from p in
+// direction theta crosses the square (r0 = 0 from inside). A point at height h off the plane
+// sees R_d(sqrt(r^2 + h^2)), whose integral over the disc of radius r is W(sqrt(r^2 + h^2)) -
+// W(h) (substitute u^2 = r^2 + h^2). Exact in r however sharply R_d peaks within a texel (a
+// point quadrature is not: a medium whose diffusion length is a texel or less puts most of R_d
+// within the nearest quadrature point's cell); the angle by the midpoint rule on kAngles
+// directions.
+constexpr int kAngles = 32;
+glm::dvec3 squareIntegral(const Dipole& medium, const glm::dvec3& p, const glm::dvec3& c,
+                          const glm::dvec3& a, const glm::dvec3& b) {
+  // An orthonormal basis of the plane, and the square's sides and p in it.
+  const double la = glm::length(a);
+  if (!(la > 0.0)) return glm::dvec3(0.0);
+  const glm::dvec3 e1 = a / la;
+  glm::dvec3 e2 = b - glm::dot(b, e1) * e1;
+  const double l2 = glm::length(e2);
+  if (!(l2 > 0.0)) return glm::dvec3(0.0);
+  e2 /= l2;
+  // [a b] in the basis is [[la, b1], [0, b2]]; (s, t) of a plane point (x, y) by its inverse.
+  const double b1 = glm::dot(b, e1), b2 = l2;
+  const glm::dvec3 q = p - c;
+  const double x = glm::dot(q, e1), y = glm::dot(q, e2);
+  const double h2 = std::max(0.0, glm::dot(q, q) - x * x - y * y);
+  const double s0 = (x - b1 * y / b2) / la, t0 = y / b2;
   glm::dvec3 sum(0.0);
-  for (int yi = 0; yi < mi; ++yi) {
-    for (int xi = 0; xi < mi; ++xi) {
-      const glm::dvec3 p = t.position[i] + ((xi + 0.5) / mi - 0.5) * t.axis_x[i] +
-                           ((yi + 0.5) / mi - 0.5) * t.axis_y[i];
-      for (int yj = 0; yj < mj; ++yj) {
-        for (int xj = 0; xj < mj; ++xj) {
-          const glm::dvec3 q = t.position[j] + ((xj + 0.5) / mj - 0.5) * t.axis_x[j] +
-                               ((yj + 0.5) / mj - 0.5) * t.axis_y[j];
+  for (int k = 0; k < kAngles; ++k) {
+    const double theta = (k + 0.5) * (2.0 * std::numbers::pi / kAngles);
+    const double dx = std::cos(theta), dy = std::sin(theta);
+    const double ds = (dx - b1 * dy / b2) / la, dt = dy / b2;
+    // Slabs |s0 + r ds| <= 1/2 and |t0 + r dt| <= 1/2 for r >= 0.
+    double r0 = 0.0, r1 = std::numeric_limits<double>::infinity();
+    bool empty = false;
+    for (const auto& [o, d] : {std::pair{s0, ds}, std::pair{t0, dt}}) {
+      if (std::abs(d) < 1e-300) {
+        if (std::abs(o) > 0.5) empty = true;
+        continue;
+      }
+      double lo = (-0.5 - o) / d, hi = (0.5 - o) / d;
+      if (lo > hi) std::swap(lo, hi);
+      r0 = std::max(r0, lo);
+      r1 = std::min(r1, hi);
+    }
+    if (empty || !(r1 > r0)) continue;
+    for (int ch = 0; ch < 3; ++ch) {
+      const DipoleChannel& dc = medium.channel[ch];
+      sum[ch] += dc.reflectanceWithin(std::sqrt(r1 * r1 + h2)) -
+                 dc.reflectanceWithin(std::sqrt(r0 * r0 + h2));
+    }
+  }
+  return sum / double(kAngles);
+}
+
+// Eq. 10 between two texel squares: the mean over m x m points p of square i of R_d
+// integrated over square j from p (squareIntegral), times the share of square j its element
+// covers (a texel on a chart's border holds only part of a face; the rest of its square belongs
+// to the neighbouring chart's texels, which must not count it twice).
+glm::dvec3 texelPairFactor(const SssTree& t, const Dipole& medium, uint32_t i, uint32_t j, int m) {
+  const double square = glm::length(glm::cross(t.axis_x[j], t.axis_y[j]));
+  const double covered = square > 0.0 ? std::min(1.0, t.area[j] / square) : 0.0;
+  glm::dvec3 sum(0.0);
+  for (int yi = 0; yi < m; ++yi) {
+    for (int xi = 0; xi < m; ++xi) {
+      const glm::dvec3 p = t.position[i] + ((xi + 0.5) / m - 0.5) * t.axis_x[i] +
+                           ((yi + 0.5) / m - 0.5) * t.axis_y[i];
+      sum += squareIntegral(medium, p, t.position[j], t.axis_x[j], t.axis_y[j]);
+    }
+  }
+  return sum * (covered / double(m * m));
+}
+
+// Eq. 10 between two texel squares further apart by an m x m grid of points on each:
+// (1 / A_i) sum_p sum_q (A_i / m^2) (A_j / m^2) R_d(|p - q|).
+glm::dvec3 texelPointPairFactor(const SssTree& t, const Dipole& medium, uint32_t i, uint32_t j,
+                                int m) {
+  glm::dvec3 sum(0.0);
+  for (int yi = 0; yi < m; ++yi) {
+    for (int xi = 0; xi < m; ++xi) {
+      const glm::dvec3 p = t.position[i] + ((xi + 0.5) / m - 0.5) * t.axis_x[i] +
+                           ((yi + 0.5) / m - 0.5) * t.axis_y[i];
+      for (int yj = 0; yj < m; ++yj) {
+        for (int xj = 0; xj < m; ++xj) {
+          const glm::dvec3 q = t.position[j] + ((xj + 0.5) / m - 0.5) * t.axis_x[j] +
+                               ((yj + 0.5) / m - 0.5) * t.axis_y[j];
           sum += medium.reflectance(glm::length(p - q));
         }
       }
     }
   }
-  return sum * (t.area[j] / double(mi * mi * mj * mj));
+  return sum * (t.area[j] / double(m * m * m * m));
 }
 
 }  // namespace
@@ -274,8 +350,12 @@ glm::dvec3 throughputFactor(const SssTree& t, const Dipole& medium, uint32_t ele
   const double d = glm::length(t.position[node] - t.position[element]);
   const bool near = d < kNearFactor * (t.radius[element] + t.radius[node]);
   if (node < t.elementCount()) {
-    if (node == element) return texelPairFactor(t, medium, element, node, 4, 4);
-    if (near) return texelPairFactor(t, medium, element, node, 2, 2);
+    if (node == element) return texelPairFactor(t, medium, element, node, 4);
+    // Touching texels (within about two texels): R_d may peak inside them, so integrate it.
+    if (d < kTouchFactor * (t.radius[element] + t.radius[node])) {
+      return texelPairFactor(t, medium, element, node, 2);
+    }
+    if (near) return texelPointPairFactor(t, medium, element, node, 2);
     return t.area[node] * medium.reflectance(d);
   }
   if (!near) return t.area[node] * medium.reflectance(d);

@@ -24,9 +24,11 @@
 //
 // Throughput F(i, n) from element i to node n: the point form A_n R_d(d) with d the distance
 // between their centres when n is far (d > kNearFactor (r_i + r_n), r the bounding radii), else
-// the sum over n's children; between two near elements a quadrature of m x m points on each
-// texel square (m = 2, and 4 for the element with itself), laid out with the texel's own axes on
-// the surface.
+// the sum over n's children. Between an element and itself or a touching one (kTouchFactor), R_d
+// integrated over the other's texel square in polar coordinates (exact in r, however sharply it
+// peaks) from 4 x 4 (2 x 2) points of the first, weighted by the share of the square the element
+// covers; between other near elements a quadrature of 2 x 2 points on each texel square. The
+// squares are laid out with the texel's own axes on the surface.
 //
 // Links (sec. 4.2.1): adaptive, per element, top down from the object's root by a priority queue
 // on the throughput (summed over RGB): the node with the largest throughput is replaced by its
@@ -52,6 +54,9 @@ namespace penumbra {
 // Far-field test: nodes whose centres are further apart than this many times the sum of their
 // bounding radii exchange by the point form.
 inline constexpr double kNearFactor = 4.0;
+// Texels closer than this many times the sum of their radii touch: their factor integrates R_d
+// over the square exactly in r (it may peak within one texel); further near texels use points.
+inline constexpr double kTouchFactor = 1.5;
 
 struct SssTree {
   // Per node.

@@ -51,7 +51,10 @@ SssView SssView::trace(const SssSolver& solver, const Camera& camera,
           const float jy = settings.spp == 1 ? 0.5f : rng.uniform();
           const Ray ray = rays.ray(float(x) + jx, float(y) + jy);
           const Hit hit = s.engine.intersect(ray);
-          if (!hit.hit()) continue;
+          if (!hit.hit()) {
+            v.emitted_[pixel] += solver.scene().environment * w;  // the sky
+            continue;
+          }
           const size_t t = size_t(hit.triangle);
           const glm::uvec3 tri = triangles[t];
           const glm::vec3 n = glm::normalize(

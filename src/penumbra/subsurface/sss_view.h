@@ -7,7 +7,7 @@
 //    bilinearly in the atlas (which never mixes charts), theta_o from the shading normal;
 //  - an opaque one: its direct light, rho / pi sum_lights E V (one shadow ray per light), plus
 //    its emission;
-//  - the back of a one-sided surface, and misses: black.
+//  - the back of a one-sided surface: black; misses: the scene's environment.
 #pragma once
 
 #include "penumbra/core/image.h"
