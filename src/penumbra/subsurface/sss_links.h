@@ -31,10 +31,13 @@
 // squares are laid out with the texel's own axes on the surface.
 //
 // Links (sec. 4.2.1): adaptive, per element, top down from the object's root by a priority queue
-// on the throughput (summed over RGB): the node with the largest throughput is replaced by its
-// children while the links fit in L; or non-adaptive: every node of the object at one level
-// (its charts' roots where a chart ends below that level). F is stored per colour channel (the
-// paper kept one scalar to save space; channels of one medium differ by factors of ten).
+// on the throughput (summed over RGB) times the node's radius: the first node is replaced by its
+// children while the links fit in L, and nodes under a share of 0.6 / L^2 of the element's
+// throughput go to one remainder link to the root; or non-adaptive: every node of the object at
+// one level (its charts' roots where a chart ends below that level). F is stored per colour
+// channel (the paper kept one scalar to save space; channels of one medium differ by factors of
+// ten), with the F-weighted centroid of the node, where the gather reads the node's irradiance
+// (mipMapIrradiance: mean plus gradient, the first-order form of the paper's bilinear lookups).
 #pragma once
 
 #include "penumbra/core/expected.h"
