@@ -98,6 +98,9 @@ Expected<RadiositySurface> RadiositySurface::build(const Scene& scene,
     s.total_area += s.atlas.element_area[e];
   }
   s.applyMaterials(scene.materials);
+  std::vector<uint8_t> known(s.atlas.texel_kind.size(), 0);
+  for (size_t e = 0; e < s.elementCount(); ++e) known[s.atlas.element_texel[e]] = 1;
+  s.gap_plan = planChartGaps(s.atlas, std::move(known));
   return s;
 }
 
@@ -196,16 +199,27 @@ bool RadiositySurface::seesOnlyElements(uint32_t first, uint32_t last, int count
   return allHitElements(rays);
 }
 
-Image RadiositySurface::radianceImage(std::span<const glm::dvec3> radiosity) const {
-  PENUMBRA_CHECK(radiosity.size() == elementCount());
-  Image img(atlas.width, atlas.height);
-  std::vector<uint8_t> known(atlas.texel_kind.size(), 0);
-  for (size_t e = 0; e < elementCount(); ++e) {
-    img.pixels[atlas.element_texel[e]] = glm::vec3(radiosity[e] / std::numbers::pi);
-    known[atlas.element_texel[e]] = 1;
+namespace {
+
+template <typename Vec>
+Image radianceImageOf(const RadiositySurface& s, std::span<const Vec> radiosity) {
+  PENUMBRA_CHECK(radiosity.size() == s.elementCount());
+  Image img(s.atlas.width, s.atlas.height);
+  for (size_t e = 0; e < s.elementCount(); ++e) {
+    img.pixels[s.atlas.element_texel[e]] = glm::vec3(glm::dvec3(radiosity[e]) / std::numbers::pi);
   }
-  fillChartGaps(atlas, img, known);
+  applyChartGaps(s.gap_plan, img);
   return img;
+}
+
+}  // namespace
+
+Image RadiositySurface::radianceImage(std::span<const glm::dvec3> radiosity) const {
+  return radianceImageOf(*this, radiosity);
+}
+
+Image RadiositySurface::radianceImage(std::span<const glm::vec3> radiosity) const {
+  return radianceImageOf(*this, radiosity);
 }
 
 }  // namespace penumbra

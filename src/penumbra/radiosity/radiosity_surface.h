@@ -59,6 +59,8 @@ struct RadiositySurface {
   RayEngine engine;
   Bounds3 bounds;
   double lift = 0.0;  // shadow-ray end points are lifted off their surfaces by this (m)
+  // The charts' gap fill around the elements' texels, planned once for radianceImage.
+  ChartGapPlan gap_plan;
   // Which sides of the flattened triangles have elements: has_side[2 t + back].
   std::vector<uint8_t> has_side;
   // Per element.
@@ -94,6 +96,7 @@ struct RadiositySurface {
   // element's value, the chart's other footprint and padding texels the mean of filled
   // neighbours of the same chart (in rounds, fillChartGaps), kEmpty texels zero.
   Image radianceImage(std::span<const glm::dvec3> radiosity) const;
+  Image radianceImage(std::span<const glm::vec3> radiosity) const;
 };
 
 }  // namespace penumbra

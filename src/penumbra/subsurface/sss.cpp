@@ -57,11 +57,6 @@ Expected<SssSolver> SssSolver::build(const Scene& scene, const SssOptions& optio
     if (o >= 0)
       s.eta_[e] = float(s.scene_.materials[s.tree_.object_material[size_t(o)]].subsurface->eta);
   }
-  {
-    std::vector<uint8_t> known(s.surface_.atlas.texel_kind.size(), 0);
-    for (size_t e = 0; e < elements; ++e) known[s.surface_.atlas.element_texel[e]] = 1;
-    s.gap_plan_ = planChartGaps(s.surface_.atlas, std::move(known));
-  }
   s.static_irradiance_ = s.computeEmitterIrradiance();
   s.addEnvironmentIrradiance(s.static_irradiance_);
   const uint64_t fingerprint = sssLinksFingerprint(s.tree_, s.media_, options.links);
@@ -208,14 +203,7 @@ std::vector<glm::vec3> SssSolver::scatter(std::span<const glm::vec3> irradiance)
 }
 
 Image SssSolver::scatteredRadianceAtlas(std::span<const glm::vec3> scattered) const {
-  // As RadiositySurface::radianceImage, with the charts' gap fill planned once (build()).
-  const ChartAtlas& atlas = surface_.atlas;
-  Image img(atlas.width, atlas.height);
-  for (size_t e = 0; e < scattered.size(); ++e) {
-    img.pixels[atlas.element_texel[e]] = glm::vec3(glm::dvec3(scattered[e]) / std::numbers::pi);
-  }
-  applyChartGaps(gap_plan_, img);
-  return img;
+  return surface_.radianceImage(scattered);
 }
 
 }  // namespace penumbra

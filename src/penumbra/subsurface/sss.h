@@ -96,7 +96,6 @@ class SssSolver {
   std::vector<Dipole> media_;
   SssLinks links_;
   std::vector<float> eta_;
-  ChartGapPlan gap_plan_;  // the atlas's gap fill for scatteredRadianceAtlas
   // Per element, transmitted, from emissive faces and the environment.
   std::vector<glm::vec3> static_irradiance_;
   double build_seconds_ = 0.0;
