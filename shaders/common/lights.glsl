@@ -1,7 +1,7 @@
 // THE GLSL TWIN of sampleLight() in src/penumbra/radiosity/lights.h: direct irradiance from a
 // point, spot or directional light at a surface point, before visibility. Same operations in
-// the same order, in single precision; change both together (SssGl.PassesAgreeWithTheCpu checks
-// the pass that uses it against the CPU's).
+// the same order, in single precision; change both together (Lights.GlslTwinAgreesWithCpp checks
+// that they agree).
 #ifndef PENUMBRA_LIGHTS_GLSL
 #define PENUMBRA_LIGHTS_GLSL
 
@@ -9,7 +9,7 @@
 #define LIGHT_SPOT 1u
 #define LIGHT_DIRECTIONAL 2u
 
-struct GpuLight {  // 48 bytes, mirrored by penumbra::GpuLight (src/penumbra/subsurface/sss_gl.h)
+struct GpuLight {  // 48 bytes, mirrored by penumbra::GpuLight (radiosity/lights.h)
   vec3 position;    // point and spot
   uint type;        // LIGHT_*
   vec3 direction;   // unit: a spot's axis, the way a directional light travels

@@ -3,10 +3,12 @@
 // (subsurface/sss_gl.h) against SssSolver's on the bunny with a point, a spot and a directional
 // light.
 #include "penumbra/subsurface/sss_gl.h"
+#include "penumbra/core/rng.h"
 #include "penumbra/gpu/program.h"
 #include "penumbra/io/image_io.h"
 #include "penumbra/io/scene_io.h"
 #include "penumbra/kernels/dipole.h"
+#include "penumbra/radiosity/lights.h"
 #include "penumbra/subsurface/media.h"
 #include "penumbra/subsurface/sss.h"
 #include "support/test_util.h"
@@ -98,6 +100,90 @@ TEST(Dipole, GlslTwinAgreesWithCpp) {
     EXPECT_NEAR(results[i].y / rd, 1.0, 2e-5) << "r " << c.z << " channel " << c.w;
     EXPECT_NEAR(rd / ch_cpu.reflectance(double(c.z)), 1.0, 1e-5);
   }
+}
+
+TEST(Lights, GlslTwinAgreesWithCpp) {
+  // shaders/common/lights.glsl's sampleLight against radiosity/lights.h's, for point, spot and
+  // directional lights at random points, normals facing towards and away from them.
+  PENUMBRA_GL_OR_SKIP();
+  const std::string source =
+      "#version 450\n"
+      "#include \"common/lights.glsl\"\n"
+      "layout(local_size_x = 64) in;\n"
+      "layout(std430, binding = 0) readonly buffer Lights { GpuLight lights[]; };\n"
+      "layout(std430, binding = 1) readonly buffer Points { vec4 points[]; };\n"
+      "layout(std430, binding = 2) writeonly buffer Out { vec4 results[]; };\n"
+      "uniform uint count;\n"
+      "void main() {\n"
+      "  uint i = gl_GlobalInvocationID.x;\n"
+      "  if (i >= count) return;\n"
+      "  vec3 p = points[3u * i].xyz, ng = points[3u * i + 1u].xyz, ns = points[3u * i + 2u].xyz;\n"
+      "  LightSample s = sampleLight(lights[i % 3u], p, ng, ns);\n"
+      "  results[2u * i] = vec4(s.irradiance, s.distance);\n"
+      "  results[2u * i + 1u] = vec4(s.direction, 0.0);\n"
+      "}\n";
+  Expected<gl::Program> program = gl::computeProgramFromSource("test/lights.comp", source);
+  ASSERT_TRUE(program.ok()) << program.error().describe();
+  const std::vector<Light> lights = {
+      PointLight{glm::vec3(0.3f, 1.2f, -0.4f), glm::vec3(2.0f, 1.5f, 1.0f)},
+      SpotLight{glm::vec3(-0.5f, 1.0f, 0.2f), glm::normalize(glm::vec3(0.3f, -1.0f, 0.1f)),
+                glm::vec3(3.0f), 0.2f, 0.7f},
+      DirectionalLight{glm::normalize(glm::vec3(0.2f, -1.0f, -0.3f)), glm::vec3(0.8f)}};
+  std::vector<GpuLight> gpu_lights;
+  for (const Light& l : lights) gpu_lights.push_back(gpuLight(l));
+  constexpr size_t kCount = 3 * 2048;
+  Rng rng(5, 2);
+  std::vector<glm::vec4> points;
+  for (size_t i = 0; i < kCount; ++i) {
+    const glm::vec3 p(2.0f * rng.uniform() - 1.0f, 0.5f * rng.uniform(),
+                      2.0f * rng.uniform() - 1.0f);
+    const glm::vec3 ng =
+        glm::normalize(glm::vec3(rng.uniform() - 0.5f, rng.uniform() - 0.3f, rng.uniform() - 0.5f));
+    const glm::vec3 ns =
+        glm::normalize(ng + 0.2f * glm::vec3(rng.uniform() - 0.5f, 0.0f, rng.uniform() - 0.5f));
+    points.emplace_back(p, 0.0f);
+    points.emplace_back(ng, 0.0f);
+    points.emplace_back(ns, 0.0f);
+  }
+  gl::Buffer light_buf(gpu_lights.size() * sizeof(GpuLight), gpu_lights.data());
+  gl::Buffer point_buf(points.size() * 16, points.data());
+  gl::Buffer out(kCount * 32, nullptr);
+  glUseProgram(program->id());
+  glUniform1ui(gl::uniformLocation(program->id(), "count"), GLuint(kCount));
+  light_buf.bindBase(GL_SHADER_STORAGE_BUFFER, 0);
+  point_buf.bindBase(GL_SHADER_STORAGE_BUFFER, 1);
+  out.bindBase(GL_SHADER_STORAGE_BUFFER, 2);
+  glDispatchCompute(GLuint(kCount / 64), 1, 1);
+  glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
+  std::vector<glm::vec4> results(2 * kCount);
+  out.download(results.data(), results.size() * 16);
+  glUseProgram(0);
+  ASSERT_EQ(glGetError(), GLenum(GL_NO_ERROR));
+  size_t lit = 0;
+  for (size_t i = 0; i < kCount; ++i) {
+    const LightSample cpu =
+        sampleLight(lights[i % 3], glm::dvec3(points[3 * i]), glm::dvec3(points[3 * i + 1]),
+                    glm::dvec3(points[3 * i + 2]));
+    const glm::vec3 e(results[2 * i]);
+    const double scale =
+        std::max(1e-6, std::max({cpu.irradiance.x, cpu.irradiance.y, cpu.irradiance.z}));
+    for (int c = 0; c < 3; ++c) {
+      // Single against double precision; a point at a cone's or a face's edge may fall either
+      // side, so those cases are told apart by the value itself (zero on one side).
+      EXPECT_NEAR(double(e[c]), cpu.irradiance[c], 1e-4 * scale + 1e-6) << "case " << i;
+    }
+    if (cpu.irradiance != glm::dvec3(0.0)) {
+      ++lit;
+      EXPECT_NEAR(glm::length(glm::dvec3(glm::vec3(results[2 * i + 1])) - cpu.direction), 0.0,
+                  1e-5);
+      if (i % 3 == 2) {
+        EXPECT_LT(results[2 * i].w, 0.0f);  // directional: infinitely far
+      } else {
+        EXPECT_NEAR(double(results[2 * i].w), cpu.distance, 1e-5 * cpu.distance);
+      }
+    }
+  }
+  EXPECT_GT(lit, kCount / 4);  // the cases exercise lit points, not only the early outs
 }
 
 TEST(SssGl, PassesAgreeWithTheCpu) {

@@ -43,6 +43,10 @@ void frame(const glm::dvec3& n, glm::dvec3& t, glm::dvec3& b) {
   b = glm::cross(n, t);
 }
 
+void copyFloat3(float* out, const glm::dvec3& v) {
+  for (int c = 0; c < 3; ++c) out[c] = float(v[c]);
+}
+
 }  // namespace
 
 LightSample sampleLight(const Light& light, const glm::dvec3& p, const glm::dvec3& ng,
@@ -77,6 +81,30 @@ LightSample sampleLight(const Light& light, const glm::dvec3& p, const glm::dvec
   }
   s.irradiance = intensity * cos_s / d2;
   return s;
+}
+
+GpuLight gpuLight(const Light& light) {
+  GpuLight g{};
+  if (const auto* dl = std::get_if<DirectionalLight>(&light)) {
+    g.type = GpuLightType::kDirectional;
+    copyFloat3(g.direction, glm::normalize(glm::dvec3(dl->direction)));
+    copyFloat3(g.value, glm::dvec3(dl->irradiance));
+  } else if (const auto* sl = std::get_if<SpotLight>(&light)) {
+    g.type = GpuLightType::kSpot;
+    copyFloat3(g.position, glm::dvec3(sl->position));
+    copyFloat3(g.direction, glm::normalize(glm::dvec3(sl->direction)));
+    copyFloat3(g.value, glm::dvec3(sl->intensity));
+    // scene/light.h spotFalloff's constants.
+    const double cos_outer = std::cos(double(sl->outer_angle));
+    g.cos_outer = float(cos_outer);
+    g.spot_scale = float(1.0 / std::max(1e-3, std::cos(double(sl->inner_angle)) - cos_outer));
+  } else {
+    const PointLight& pl = std::get<PointLight>(light);
+    g.type = GpuLightType::kPoint;
+    copyFloat3(g.position, glm::dvec3(pl.position));
+    copyFloat3(g.value, glm::dvec3(pl.intensity));
+  }
+  return g;
 }
 
 glm::dvec3 lightPower(const Light& light, const Bounds3& bounds) {

@@ -20,6 +20,8 @@
 
 #include <glm/vec3.hpp>
 
+#include <cstddef>
+#include <cstdint>
 #include <span>
 
 namespace penumbra {
@@ -33,6 +35,24 @@ struct LightSample {
 // Direct irradiance from `light` at `p` (geometric normal `ng`, shading normal `ns`).
 LightSample sampleLight(const Light& light, const glm::dvec3& p, const glm::dvec3& ng,
                         const glm::dvec3& ns);
+
+// ---- The GPU twin (shaders/common/lights.glsl): a light as its sampleLight reads it, std430 ----
+// LIGHT_POINT, LIGHT_SPOT, LIGHT_DIRECTIONAL of shaders/common/lights.glsl.
+enum class GpuLightType : uint32_t { kPoint = 0, kSpot = 1, kDirectional = 2 };
+
+struct GpuLight {  // 48 bytes
+  float position[3];
+  GpuLightType type;
+  float direction[3];  // unit
+  float cos_outer;
+  float value[3];  // intensity (point, spot) or irradiance (directional)
+  float spot_scale;
+};
+static_assert(sizeof(GpuLight) == 48 && offsetof(GpuLight, direction) == 16 &&
+              offsetof(GpuLight, value) == 32);
+
+// A scene light as the GPU twin reads it (the parameters sampleLight uses, in float).
+GpuLight gpuLight(const Light& light);
 
 // The power `light` sends into a scene within `bounds` (W per channel).
 glm::dvec3 lightPower(const Light& light, const Bounds3& bounds);

@@ -51,30 +51,6 @@ Status glCheck(const char* what) {
 
 }  // namespace
 
-GpuLight gpuLight(const Light& light) {
-  GpuLight g{};
-  if (const auto* dl = std::get_if<DirectionalLight>(&light)) {
-    g.type = GpuLightType::kDirectional;
-    copy3(g.direction, glm::normalize(glm::dvec3(dl->direction)));
-    copy3(g.value, glm::dvec3(dl->irradiance));
-  } else if (const auto* sl = std::get_if<SpotLight>(&light)) {
-    g.type = GpuLightType::kSpot;
-    copy3(g.position, glm::dvec3(sl->position));
-    copy3(g.direction, glm::normalize(glm::dvec3(sl->direction)));
-    copy3(g.value, glm::dvec3(sl->intensity));
-    // scene/light.h spotFalloff's constants.
-    const double cos_outer = std::cos(double(sl->outer_angle));
-    g.cos_outer = float(cos_outer);
-    g.spot_scale = float(1.0 / std::max(1e-3, std::cos(double(sl->inner_angle)) - cos_outer));
-  } else {
-    const PointLight& pl = std::get<PointLight>(light);
-    g.type = GpuLightType::kPoint;
-    copy3(g.position, glm::dvec3(pl.position));
-    copy3(g.value, glm::dvec3(pl.intensity));
-  }
-  return g;
-}
-
 Expected<GlSss> GlSss::create(const SssSolver& solver) {
   while (glGetError() != GL_NO_ERROR) continue;  // earlier errors are not ours to report
   GlSss g;

@@ -20,6 +20,7 @@
 
 #include "penumbra/core/expected.h"
 #include "penumbra/gpu/objects.h"
+#include "penumbra/radiosity/lights.h"
 #include "penumbra/raytrace/ray_engine_gl.h"
 #include "penumbra/subsurface/sss.h"
 
@@ -31,8 +32,8 @@
 
 namespace penumbra {
 
-// ---- GPU layouts (std430), mirrored in shaders/subsurface/sss_layout.glsl and
-// shaders/common/lights.glsl ----
+// ---- GPU layouts (std430), mirrored in shaders/subsurface/sss_layout.glsl; the lights'
+// (GpuLight) are in radiosity/lights.h ----
 
 struct GpuSssElement {  // 64 bytes
   float position[3];
@@ -70,23 +71,6 @@ struct GpuSssLink {  // 32 bytes
 };
 static_assert(sizeof(GpuSssLink) == 32 && offsetof(GpuSssLink, node) == 12 &&
               offsetof(GpuSssLink, offset) == 16);
-
-// LIGHT_POINT, LIGHT_SPOT, LIGHT_DIRECTIONAL of shaders/common/lights.glsl.
-enum class GpuLightType : uint32_t { kPoint = 0, kSpot = 1, kDirectional = 2 };
-
-struct GpuLight {  // 48 bytes
-  float position[3];
-  GpuLightType type;
-  float direction[3];  // unit
-  float cos_outer;
-  float value[3];  // intensity (point, spot) or irradiance (directional)
-  float spot_scale;
-};
-static_assert(sizeof(GpuLight) == 48 && offsetof(GpuLight, direction) == 16 &&
-              offsetof(GpuLight, value) == 32);
-
-// A scene light as the GPU reads it (the parameters sampleLight uses, in float).
-GpuLight gpuLight(const Light& light);
 
 class GlSss {
  public:
