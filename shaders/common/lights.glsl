@@ -1,5 +1,5 @@
 // THE GLSL TWIN of sampleLight() in src/penumbra/radiosity/lights.h: direct irradiance from a
-// point, spot or directional light at a surface point, before visibility. Same operations in
+// point, spot, directional light or luminaire at a surface point, before visibility. Same operations in
 // the same order, in single precision; change both together (Lights.GlslTwinAgreesWithCpp checks
 // that they agree).
 #ifndef PENUMBRA_LIGHTS_GLSL
@@ -8,14 +8,20 @@
 #define LIGHT_POINT 0u
 #define LIGHT_SPOT 1u
 #define LIGHT_DIRECTIONAL 2u
+#define LIGHT_LUMINAIRE 3u
 
-struct GpuLight {  // 48 bytes, mirrored by penumbra::GpuLight (radiosity/lights.h)
-  vec3 position;    // point and spot
+#include "common/luminaire.glsl"
+
+struct GpuLight {  // 64 bytes, mirrored by penumbra::GpuLight (radiosity/lights.h)
+  vec3 position;    // point, spot and luminaire
   uint type;        // LIGHT_*
-  vec3 direction;   // unit: a spot's axis, the way a directional light travels
+  vec3 direction;   // unit: a spot's axis, a directional light's travel, a luminaire's nadir
   float cos_outer;  // spot: cos of the outer cone angle
-  vec3 value;       // intensity I (W/sr) for point and spot, irradiance E (W/m^2) for directional
+  vec3 value;       // intensity I (W/sr) for point and spot, irradiance E (W/m^2) for directional,
+                    // the LDT's scale (W/sr per unit) for a luminaire
   float spot_scale; // spot: 1 / max(1e-3, cos inner - cos outer)
+  vec3 c0;          // luminaire: the C = 0 direction
+  uint table;       // luminaire: its LDT in the tables buffer (common/luminaire.glsl)
 };
 
 struct LightSample {
@@ -48,6 +54,10 @@ LightSample sampleLight(GpuLight light, vec3 p, vec3 ng, vec3 ns) {
     float a = clamp((dot(light.direction, -s.direction) - light.cos_outer) * light.spot_scale,
                     0.0, 1.0);
     intensity *= a * a;
+  } else if (light.type == LIGHT_LUMINAIRE) {
+    // Wallner eq. 15: the LDT's intensity towards the receiver.
+    intensity *= sampleLuminaireTable(light.table,
+                                      luminaireTexCoords(-s.direction, light.direction, light.c0));
   }
   s.irradiance = intensity * cos_s / d2;
   return s;

@@ -18,6 +18,9 @@ layout(local_size_x = 64) in;
 layout(std430, binding = SSS_SSBO_ELEMENTS) readonly buffer Elements { GpuSssElement elements[]; };
 layout(std430, binding = SSS_SSBO_RAY_VALUES) buffer RayValues { vec4 ray_values[]; };
 
+layout(std430, binding = SSS_SSBO_LIGHT_TABLES) readonly buffer LightTables { float tables[]; };
+float luminaireTable(uint index) { return tables[index]; }
+
 uniform uint element_count;
 uniform uint light_count;
 

@@ -6,9 +6,42 @@
 #include <array>
 #include <cstdio>
 #include <fstream>
+#include <numbers>
 #include <random>
 
+#include <glm/geometric.hpp>
+#include <glm/trigonometric.hpp>
+
 namespace penumbra::test {
+
+double testLuminaireCandela(double c_degrees, double gamma_degrees) {
+  const double c = glm::radians(c_degrees), g = glm::radians(gamma_degrees);
+  if (gamma_degrees <= 90.0) {
+    return 1000.0 * (1.0 + 0.5 * std::cos(c) * std::sin(g)) * std::pow(std::cos(g), 1.5);
+  }
+  return 150.0 * std::sin(g - 0.5 * std::numbers::pi);
+}
+
+LuminaireLight testLuminaire(glm::vec3 position, glm::vec3 nadir, glm::vec3 c0) {
+  static const std::shared_ptr<const LuminaireDistribution> distribution = [] {
+    constexpr int kC = 36, kG = 37;
+    std::vector<double> cd;
+    for (int c = 0; c < kC; ++c) {
+      for (int g = 0; g < kG; ++g) cd.push_back(testLuminaireCandela(10.0 * c, 5.0 * g));
+    }
+    auto t = std::make_shared<LuminaireDistribution>();
+    std::string why;
+    if (!LuminaireDistribution::fromCandela(kC, kG, cd, "test", *t, why)) std::abort();
+    return t;
+  }();
+  LuminaireLight l;
+  l.position = position;
+  l.nadir = glm::normalize(nadir);
+  l.c0 = glm::normalize(c0 - glm::dot(c0, l.nadir) * l.nadir);
+  l.scale = glm::vec3(float(distribution->max_candela / kLumensPerWatt));
+  l.distribution = distribution;
+  return l;
+}
 
 TempDir::TempDir() {
   std::random_device rd;

@@ -3,6 +3,7 @@
 
 #include "penumbra/core/expected.h"
 #include "penumbra/core/rng.h"
+#include "penumbra/scene/luminaire.h"
 #include "penumbra/scene/mesh.h"
 
 #include <glm/vec3.hpp>
@@ -51,6 +52,16 @@ inline glm::vec3 randomDirection(Rng& rng) {
   const float phi = 6.2831853f * rng.uniform();
   return glm::vec3(r * std::cos(phi), r * std::sin(phi), z);
 }
+
+// A made-up luminaire distribution, asymmetric in C and with an upward part, in cd:
+//   I(C, g) = 1000 (1 + 0.5 cos C sin g) cos(g)^1.5 below the horizon, 150 sin(g - 90 deg) above
+// it (one value at each pole, as a real distribution has).
+double testLuminaireCandela(double c_degrees, double gamma_degrees);
+// Its LDT on a 10-degree C by 5-degree gamma grid (36 x 37), aimed along `nadir` with C0 along
+// `c0`, radiometric scale I_max / 683 (scene/luminaire.h).
+LuminaireLight testLuminaire(glm::vec3 position = glm::vec3(0.1f, 1.3f, -0.2f),
+                             glm::vec3 nadir = glm::vec3(0.0f, -1.0f, 0.0f),
+                             glm::vec3 c0 = glm::vec3(1.0f, 0.0f, 0.0f));
 
 // Path of a file under tests/data.
 // Appends a quad (two triangles) with corners o, o + u, o + u + v, o + v to `m`, front face

@@ -81,23 +81,40 @@ int runInfo(const InfoOptions& options, const CommonOptions&) {
   }
   fmt::print("lights     {}\n", s.lights.size());
   for (const Light& l : s.lights) {
-    if (const auto* p = std::get_if<PointLight>(&l)) {
-      fmt::print("  point at ({:.4g}, {:.4g}, {:.4g}), intensity ({:.4g}, {:.4g}, {:.4g}) W/sr\n",
-                 p->position.x, p->position.y, p->position.z, p->intensity.x, p->intensity.y,
-                 p->intensity.z);
-    } else if (const auto* sp = std::get_if<SpotLight>(&l)) {
-      fmt::print(
-          "  spot at ({:.4g}, {:.4g}, {:.4g}), intensity ({:.4g}, {:.4g}, {:.4g}) W/sr, "
-          "cone {:.1f}-{:.1f} deg\n",
-          sp->position.x, sp->position.y, sp->position.z, sp->intensity.x, sp->intensity.y,
-          sp->intensity.z, glm::degrees(sp->inner_angle), glm::degrees(sp->outer_angle));
-    } else if (const auto* d = std::get_if<DirectionalLight>(&l)) {
-      fmt::print(
-          "  directional towards ({:.3g}, {:.3g}, {:.3g}), irradiance ({:.4g}, {:.4g}, "
-          "{:.4g}) W/m^2\n",
-          d->direction.x, d->direction.y, d->direction.z, d->irradiance.x, d->irradiance.y,
-          d->irradiance.z);
-    }
+    std::visit(
+        Overloaded{
+            [](const PointLight& p) {
+              fmt::print(
+                  "  point at ({:.4g}, {:.4g}, {:.4g}), intensity ({:.4g}, {:.4g}, {:.4g}) W/sr\n",
+                  p.position.x, p.position.y, p.position.z, p.intensity.x, p.intensity.y,
+                  p.intensity.z);
+            },
+            [](const SpotLight& sp) {
+              fmt::print(
+                  "  spot at ({:.4g}, {:.4g}, {:.4g}), intensity ({:.4g}, {:.4g}, {:.4g}) W/sr, "
+                  "cone {:.1f}-{:.1f} deg\n",
+                  sp.position.x, sp.position.y, sp.position.z, sp.intensity.x, sp.intensity.y,
+                  sp.intensity.z, glm::degrees(sp.inner_angle), glm::degrees(sp.outer_angle));
+            },
+            [](const DirectionalLight& d) {
+              fmt::print(
+                  "  directional towards ({:.3g}, {:.3g}, {:.3g}), irradiance ({:.4g}, {:.4g}, "
+                  "{:.4g}) W/m^2\n",
+                  d.direction.x, d.direction.y, d.direction.z, d.irradiance.x, d.irradiance.y,
+                  d.irradiance.z);
+            },
+            [](const LuminaireLight& lu) {
+              const LuminaireDistribution& t = *lu.distribution;
+              const glm::dvec3 lumens = luminairePower(lu) * kLumensPerWatt;
+              fmt::print(
+                  "  luminaire {} at ({:.4g}, {:.4g}, {:.4g}) aimed ({:.3g}, {:.3g}, {:.3g}), "
+                  "C0 ({:.3g}, {:.3g}, {:.3g}), {:.0f} lm (G channel), I_max {:.4g} cd, LDT "
+                  "{} x {}\n",
+                  t.source, lu.position.x, lu.position.y, lu.position.z, lu.nadir.x, lu.nadir.y,
+                  lu.nadir.z, lu.c0.x, lu.c0.y, lu.c0.z, lumens.y,
+                  double(lu.scale.y) * kLumensPerWatt, t.gamma_count, t.c_count);
+            }},
+        l);
   }
   if (s.camera) {
     fmt::print(

@@ -407,17 +407,19 @@ Status SceneJsonReader::readMesh(const json& entry, const std::string& place, Sc
   }
   for (Light& light : sub.lights) {
     std::visit(
-        [&](auto& l) {
-          using T = std::decay_t<decltype(l)>;
-          if constexpr (std::is_same_v<T, PointLight>) {
-            l.position = placement.point(l.position);
-          } else if constexpr (std::is_same_v<T, SpotLight>) {
-            l.position = placement.point(l.position);
-            l.direction = placement.direction(l.direction);
-          } else {
-            l.direction = placement.direction(l.direction);
-          }
-        },
+        Overloaded{[&](PointLight& l) { l.position = placement.point(l.position); },
+                   [&](SpotLight& l) {
+                     l.position = placement.point(l.position);
+                     l.direction = placement.direction(l.direction);
+                   },
+                   [&](DirectionalLight& l) { l.direction = placement.direction(l.direction); },
+                   [&](LuminaireLight& l) {
+                     l.position = placement.point(l.position);
+                     l.nadir = placement.direction(l.nadir);
+                     // C0 kept perpendicular to the nadir under any linear map.
+                     const glm::vec3 c0 = placement.direction(l.c0);
+                     l.c0 = glm::normalize(c0 - glm::dot(c0, l.nadir) * l.nadir);
+                   }},
         light);
     scene.lights.push_back(light);
   }

@@ -52,77 +52,131 @@ void copyFloat3(float* out, const glm::dvec3& v) {
 LightSample sampleLight(const Light& light, const glm::dvec3& p, const glm::dvec3& ng,
                         const glm::dvec3& ns) {
   LightSample s;
-  if (const auto* dl = std::get_if<DirectionalLight>(&light)) {
-    s.direction = -glm::normalize(glm::dvec3(dl->direction));
-    s.distance = std::numeric_limits<double>::infinity();
-    if (glm::dot(ng, s.direction) <= 0.0) return s;
+  // Point-like lights: the inverse-square cosine law with the intensity towards p.
+  const auto point_like = [&](const glm::vec3& position, auto&& intensity_towards) {
+    const glm::dvec3 d = glm::dvec3(position) - p;
+    const double d2 = glm::dot(d, d);
+    if (!(d2 > 0.0)) return;
+    s.distance = std::sqrt(d2);
+    s.direction = d / s.distance;
+    if (glm::dot(ng, s.direction) <= 0.0) return;
     const double cos_s = glm::dot(ns, s.direction);
-    if (cos_s > 0.0) s.irradiance = glm::dvec3(dl->irradiance) * cos_s;
-    return s;
-  }
-  const bool spot = std::holds_alternative<SpotLight>(light);
-  const glm::dvec3 pos = spot ? glm::dvec3(std::get<SpotLight>(light).position)
-                              : glm::dvec3(std::get<PointLight>(light).position);
-  const glm::dvec3 d = pos - p;
-  const double d2 = glm::dot(d, d);
-  if (!(d2 > 0.0)) return s;
-  s.distance = std::sqrt(d2);
-  s.direction = d / s.distance;
-  if (glm::dot(ng, s.direction) <= 0.0) return s;
-  const double cos_s = glm::dot(ns, s.direction);
-  if (cos_s <= 0.0) return s;
-  glm::dvec3 intensity;
-  if (spot) {
-    const SpotLight& sl = std::get<SpotLight>(light);
-    intensity = glm::dvec3(sl.intensity) *
-                spotFalloff(sl, glm::dot(glm::normalize(glm::dvec3(sl.direction)), -s.direction));
-  } else {
-    intensity = glm::dvec3(std::get<PointLight>(light).intensity);
-  }
-  s.irradiance = intensity * cos_s / d2;
+    if (cos_s <= 0.0) return;
+    s.irradiance = intensity_towards(-s.direction) * cos_s / d2;
+  };
+  std::visit(Overloaded{[&](const DirectionalLight& dl) {
+                          s.direction = -glm::normalize(glm::dvec3(dl.direction));
+                          s.distance = std::numeric_limits<double>::infinity();
+                          if (glm::dot(ng, s.direction) <= 0.0) return;
+                          const double cos_s = glm::dot(ns, s.direction);
+                          if (cos_s > 0.0) s.irradiance = glm::dvec3(dl.irradiance) * cos_s;
+                        },
+                        [&](const PointLight& pl) {
+                          point_like(pl.position,
+                                     [&](const glm::dvec3&) { return glm::dvec3(pl.intensity); });
+                        },
+                        [&](const SpotLight& sl) {
+                          point_like(sl.position, [&](const glm::dvec3& out) {
+                            return glm::dvec3(sl.intensity) *
+                                   spotFalloff(
+                                       sl, glm::dot(glm::normalize(glm::dvec3(sl.direction)), out));
+                          });
+                        },
+                        [&](const LuminaireLight& lu) {
+                          // Wallner eq. 15: the LDT's intensity towards the receiver (eq. 13-14
+                          // lookup).
+                          point_like(lu.position, [&](const glm::dvec3& out) {
+                            return glm::dvec3(luminaireIntensity(lu, glm::vec3(out)));
+                          });
+                        }},
+             light);
   return s;
 }
 
-GpuLight gpuLight(const Light& light) {
+GpuLight gpuLight(const Light& light, uint32_t table_offset) {
   GpuLight g{};
-  if (const auto* dl = std::get_if<DirectionalLight>(&light)) {
-    g.type = GpuLightType::kDirectional;
-    copyFloat3(g.direction, glm::normalize(glm::dvec3(dl->direction)));
-    copyFloat3(g.value, glm::dvec3(dl->irradiance));
-  } else if (const auto* sl = std::get_if<SpotLight>(&light)) {
-    g.type = GpuLightType::kSpot;
-    copyFloat3(g.position, glm::dvec3(sl->position));
-    copyFloat3(g.direction, glm::normalize(glm::dvec3(sl->direction)));
-    copyFloat3(g.value, glm::dvec3(sl->intensity));
-    // scene/light.h spotFalloff's constants.
-    const double cos_outer = std::cos(double(sl->outer_angle));
-    g.cos_outer = float(cos_outer);
-    g.spot_scale = float(1.0 / std::max(1e-3, std::cos(double(sl->inner_angle)) - cos_outer));
-  } else {
-    const PointLight& pl = std::get<PointLight>(light);
-    g.type = GpuLightType::kPoint;
-    copyFloat3(g.position, glm::dvec3(pl.position));
-    copyFloat3(g.value, glm::dvec3(pl.intensity));
-  }
+  std::visit(Overloaded{[&](const DirectionalLight& dl) {
+                          g.type = GpuLightType::kDirectional;
+                          copyFloat3(g.direction, glm::normalize(glm::dvec3(dl.direction)));
+                          copyFloat3(g.value, glm::dvec3(dl.irradiance));
+                        },
+                        [&](const SpotLight& sl) {
+                          g.type = GpuLightType::kSpot;
+                          copyFloat3(g.position, glm::dvec3(sl.position));
+                          copyFloat3(g.direction, glm::normalize(glm::dvec3(sl.direction)));
+                          copyFloat3(g.value, glm::dvec3(sl.intensity));
+                          // scene/light.h spotFalloff's constants.
+                          const double cos_outer = std::cos(double(sl.outer_angle));
+                          g.cos_outer = float(cos_outer);
+                          g.spot_scale = float(spotScale(sl));
+                        },
+                        [&](const PointLight& pl) {
+                          g.type = GpuLightType::kPoint;
+                          copyFloat3(g.position, glm::dvec3(pl.position));
+                          copyFloat3(g.value, glm::dvec3(pl.intensity));
+                        },
+                        [&](const LuminaireLight& lu) {
+                          g.type = GpuLightType::kLuminaire;
+                          for (int c = 0; c < 3; ++c) {
+                            g.position[c] = lu.position[c];
+                            g.direction[c] = lu.nadir[c];
+                            g.value[c] = lu.scale[c];
+                            g.c0[c] = lu.c0[c];
+                          }
+                          g.table = table_offset;
+                        }},
+             light);
   return g;
 }
 
+std::vector<GpuLight> gpuLights(std::span<const Light> lights, std::vector<float>& tables) {
+  std::vector<GpuLight> out;
+  tables.clear();
+  std::vector<const LuminaireDistribution*> seen;
+  std::vector<uint32_t> offsets;
+  for (const Light& light : lights) {
+    uint32_t offset = 0;
+    if (const auto* lu = std::get_if<LuminaireLight>(&light)) {
+      const LuminaireDistribution* t = lu->distribution.get();
+      const auto it = std::find(seen.begin(), seen.end(), t);
+      if (it != seen.end()) {
+        offset = offsets[size_t(it - seen.begin())];
+      } else {
+        // Two header floats (the counts, exact in float) and the rows.
+        offset = uint32_t(tables.size());
+        tables.push_back(float(t->gamma_count));
+        tables.push_back(float(t->c_count));
+        tables.insert(tables.end(), t->table.begin(), t->table.end());
+        seen.push_back(t);
+        offsets.push_back(offset);
+      }
+    }
+    out.push_back(gpuLight(light, offset));
+  }
+  if (tables.empty()) tables.push_back(0.0f);  // a buffer cannot be empty
+  return out;
+}
+
 glm::dvec3 lightPower(const Light& light, const Bounds3& bounds) {
-  if (const auto* pl = std::get_if<PointLight>(&light)) {
-    return 4.0 * kPi * glm::dvec3(pl->intensity);
-  }
-  if (const auto* sl = std::get_if<SpotLight>(&light)) {
-    // 2 pi I integral over x = cos a in [cos outer, 1] of clamp((x - cos outer) k, 0, 1)^2.
-    const double co = std::cos(double(sl->outer_angle)), k = spotScale(*sl);
-    const double t = std::min(1.0 - co, 1.0 / k);
-    const double integral = k * k * t * t * t / 3.0 + std::max(0.0, 1.0 - co - 1.0 / k);
-    return 2.0 * kPi * integral * glm::dvec3(sl->intensity);
-  }
-  const DirectionalLight& dl = std::get<DirectionalLight>(light);
-  glm::dvec3 centre;
-  double radius = 0.0;
-  boundingSphere(bounds, centre, radius);
-  return kPi * radius * radius * glm::dvec3(dl.irradiance);
+  return std::visit(
+      Overloaded{[&](const PointLight& pl) { return 4.0 * kPi * glm::dvec3(pl.intensity); },
+                 [&](const SpotLight& sl) {
+                   // 2 pi I integral over x = cos a in [cos outer, 1] of
+                   // clamp((x - cos outer) k, 0, 1)^2.
+                   const double co = std::cos(double(sl.outer_angle)), k = spotScale(sl);
+                   const double t = std::min(1.0 - co, 1.0 / k);
+                   const double integral =
+                       k * k * t * t * t / 3.0 + std::max(0.0, 1.0 - co - 1.0 / k);
+                   return 2.0 * kPi * integral * glm::dvec3(sl.intensity);
+                 },
+                 [&](const DirectionalLight& dl) {
+                   glm::dvec3 centre;
+                   double radius = 0.0;
+                   boundingSphere(bounds, centre, radius);
+                   return kPi * radius * radius * glm::dvec3(dl.irradiance);
+                 },
+                 [&](const LuminaireLight& lu) { return luminairePower(lu); }},
+      light);
 }
 
 bool lightProbeRay(std::span<const Light> lights, const Bounds3& bounds, Rng& rng, Ray& ray) {
@@ -139,41 +193,49 @@ bool lightProbeRay(std::span<const Light> lights, const Bounds3& bounds, Rng& rn
   const Light& light = lights[i];
   ray.tmin = 0.0f;
   ray.tmax = std::numeric_limits<float>::max();
-  if (const auto* pl = std::get_if<PointLight>(&light)) {
-    ray.origin = pl->position;
-    ray.dir = glm::vec3(uniformSphere(rng));
-    return true;
-  }
-  if (const auto* sl = std::get_if<SpotLight>(&light)) {
-    // Uniform within the outer cone, kept with probability fall-off (rejection).
-    const glm::dvec3 axis = glm::normalize(glm::dvec3(sl->direction));
-    glm::dvec3 t, b;
-    frame(axis, t, b);
-    const double co = std::cos(double(sl->outer_angle));
-    for (int attempt = 0; attempt < 1000; ++attempt) {
-      const double x = co + (1.0 - co) * double(rng.uniform());
-      const double phi = 2.0 * kPi * double(rng.uniform());
-      const double r = std::sqrt(std::max(0.0, 1.0 - x * x));
-      if (double(rng.uniform()) > spotFalloff(*sl, x)) continue;
-      ray.origin = sl->position;
-      ray.dir = glm::vec3(x * axis + r * std::cos(phi) * t + r * std::sin(phi) * b);
-      return true;
-    }
-    return false;
-  }
-  const DirectionalLight& dl = std::get<DirectionalLight>(light);
-  glm::dvec3 centre;
-  double radius = 0.0;
-  boundingSphere(bounds, centre, radius);
-  const glm::dvec3 dir = glm::normalize(glm::dvec3(dl.direction));
-  glm::dvec3 t, b;
-  frame(dir, t, b);
-  const double r = radius * std::sqrt(double(rng.uniform()));
-  const double phi = 2.0 * kPi * double(rng.uniform());
-  ray.origin = glm::vec3(centre - dir * (2.0 * radius + 1e-3) + r * std::cos(phi) * t +
-                         r * std::sin(phi) * b);
-  ray.dir = glm::vec3(dir);
-  return true;
+  return std::visit(
+      Overloaded{[&](const PointLight& pl) {
+                   ray.origin = pl.position;
+                   ray.dir = glm::vec3(uniformSphere(rng));
+                   return true;
+                 },
+                 [&](const SpotLight& sl) {
+                   // Uniform within the outer cone, kept with probability fall-off (rejection).
+                   const glm::dvec3 axis = glm::normalize(glm::dvec3(sl.direction));
+                   glm::dvec3 t, b;
+                   frame(axis, t, b);
+                   const double co = std::cos(double(sl.outer_angle));
+                   for (int attempt = 0; attempt < 1000; ++attempt) {
+                     const double x = co + (1.0 - co) * double(rng.uniform());
+                     const double phi = 2.0 * kPi * double(rng.uniform());
+                     const double r = std::sqrt(std::max(0.0, 1.0 - x * x));
+                     if (double(rng.uniform()) > spotFalloff(sl, x)) continue;
+                     ray.origin = sl.position;
+                     ray.dir = glm::vec3(x * axis + r * std::cos(phi) * t + r * std::sin(phi) * b);
+                     return true;
+                   }
+                   return false;
+                 },
+                 [&](const DirectionalLight& dl) {
+                   glm::dvec3 centre;
+                   double radius = 0.0;
+                   boundingSphere(bounds, centre, radius);
+                   const glm::dvec3 dir = glm::normalize(glm::dvec3(dl.direction));
+                   glm::dvec3 t, b;
+                   frame(dir, t, b);
+                   const double r = radius * std::sqrt(double(rng.uniform()));
+                   const double phi = 2.0 * kPi * double(rng.uniform());
+                   ray.origin = glm::vec3(centre - dir * (2.0 * radius + 1e-3) +
+                                          r * std::cos(phi) * t + r * std::sin(phi) * b);
+                   ray.dir = glm::vec3(dir);
+                   return true;
+                 },
+                 [&](const LuminaireLight& lu) {
+                   ray.origin = lu.position;
+                   ray.dir = sampleLuminaireDirection(lu, [&] { return rng.uniform(); });
+                   return true;
+                 }},
+      light);
 }
 
 }  // namespace penumbra

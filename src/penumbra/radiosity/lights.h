@@ -1,12 +1,14 @@
-// Point, spot and directional lights for the radiosity methods: the direct irradiance they give
-// a surface point, the power they send into the scene, and rays from them (for the check that a
-// shot is closed). Radiometric units (scene/light.h): intensity I in W sr^-1, directional
+// Point, spot, directional lights and luminaires for the radiosity methods: the direct irradiance
+// they give a surface point, the power they send into the scene, and rays from them (for the check
+// that a shot is closed). Radiometric units (scene/light.h): intensity I in W sr^-1, directional
 // irradiance E in W m^-2.
 //
 //  - Point: E = I cos(theta) / d^2 (the inverse-square cosine law), power 4 pi I.
 //  - Spot: the same times the glTF KHR_lights_punctual cone fall-off
 //      s(a) = clamp((cos a - cos outer) / (cos inner - cos outer), 0, 1)^2,
 //    power 2 pi I integral_0^outer s(a) sin(a) da (integrated in closed form below).
+//  - Luminaire: E = I(d) cos(theta) / d^2 with I(d) from its light distribution texture
+//    (Wallner eq. 15, scene/luminaire.h), power the LDT's integral over the sphere.
 //  - Directional: E cos(theta) for surfaces facing it, power E pi R^2 with R the radius of the
 //    scene's bounding sphere (what crosses a disc that covers the scene).
 // theta is measured from the receiver's shading normal; a receiver whose face (geometric
@@ -23,6 +25,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <span>
+#include <vector>
 
 namespace penumbra {
 
@@ -37,22 +40,30 @@ LightSample sampleLight(const Light& light, const glm::dvec3& p, const glm::dvec
                         const glm::dvec3& ns);
 
 // ---- The GPU twin (shaders/common/lights.glsl): a light as its sampleLight reads it, std430 ----
-// LIGHT_POINT, LIGHT_SPOT, LIGHT_DIRECTIONAL of shaders/common/lights.glsl.
-enum class GpuLightType : uint32_t { kPoint = 0, kSpot = 1, kDirectional = 2 };
+// LIGHT_POINT, LIGHT_SPOT, LIGHT_DIRECTIONAL, LIGHT_LUMINAIRE of shaders/common/lights.glsl.
+enum class GpuLightType : uint32_t { kPoint = 0, kSpot = 1, kDirectional = 2, kLuminaire = 3 };
 
-struct GpuLight {  // 48 bytes
+struct GpuLight {  // 64 bytes
   float position[3];
   GpuLightType type;
-  float direction[3];  // unit
+  float direction[3];  // unit: a spot's axis, a directional light's travel, a luminaire's nadir
   float cos_outer;
-  float value[3];  // intensity (point, spot) or irradiance (directional)
+  float value[3];  // intensity (point, spot), irradiance (directional), LDT scale (luminaire)
   float spot_scale;
+  float c0[3];     // a luminaire's C = 0 direction
+  uint32_t table;  // a luminaire's LDT: its offset in the tables buffer (gpuLights)
 };
-static_assert(sizeof(GpuLight) == 48 && offsetof(GpuLight, direction) == 16 &&
-              offsetof(GpuLight, value) == 32);
+static_assert(sizeof(GpuLight) == 64 && offsetof(GpuLight, direction) == 16 &&
+              offsetof(GpuLight, value) == 32 && offsetof(GpuLight, c0) == 48);
 
-// A scene light as the GPU twin reads it (the parameters sampleLight uses, in float).
-GpuLight gpuLight(const Light& light);
+// A scene light as the GPU twin reads it (the parameters sampleLight uses, in float); a
+// luminaire's LDT at `table_offset` of the tables buffer.
+GpuLight gpuLight(const Light& light, uint32_t table_offset = 0);
+
+// All `lights` for the GPU, and in `tables` the LDTs of their luminaires (each distribution
+// once): at a light's `table`, gamma_count and c_count as floats, then the LDT's rows. Never
+// empty (one 0 when there is no luminaire), so it can always be bound as a buffer.
+std::vector<GpuLight> gpuLights(std::span<const Light> lights, std::vector<float>& tables);
 
 // The power `light` sends into a scene within `bounds` (W per channel).
 glm::dvec3 lightPower(const Light& light, const Bounds3& bounds);

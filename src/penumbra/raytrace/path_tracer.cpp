@@ -73,31 +73,43 @@ int PathTracer::directQueries(const glm::vec3& p, float p_offset, const glm::vec
   int count = 0;
   // Delta lights: one shadow ray each. Geometric terms are taken at the surface point p; the
   // shadow ray starts from p lifted off the surface.
-  for (const Light& light : lights_) {
-    if (const auto* dl = std::get_if<DirectionalLight>(&light)) {
-      const glm::vec3 wi = -dl->direction;
-      const float cos_s = glm::dot(n, wi);
-      if (cos_s <= 0.0f) continue;
-      out[count++] = ShadowQuery{Ray{offsetOrigin(p, p_offset, n, wi), 0.0f, wi, kInfinity},
-                                 f * dl->irradiance * cos_s, true};
-      continue;
-    }
-    const glm::vec3 pos = std::holds_alternative<PointLight>(light)
-                              ? std::get<PointLight>(light).position
-                              : std::get<SpotLight>(light).position;
+  const auto point_like = [&](const glm::vec3& pos, auto&& intensity_towards) {
     const glm::vec3 d = pos - p;
     const float d2 = glm::dot(d, d);
+    if (!(d2 > 0.0f)) return;
     const glm::vec3 wi = d / std::sqrt(d2);
     const float cos_s = glm::dot(n, wi);
-    if (cos_s <= 0.0f || !(d2 > 0.0f)) continue;
-    glm::vec3 intensity;
-    if (const auto* sl = std::get_if<SpotLight>(&light)) {
-      intensity = sl->intensity * float(spotFalloff(*sl, double(glm::dot(sl->direction, -wi))));
-    } else {
-      intensity = std::get<PointLight>(light).intensity;
-    }
-    if (intensity == glm::vec3(0.0f)) continue;
+    if (cos_s <= 0.0f) return;
+    const glm::vec3 intensity = intensity_towards(-wi);
+    if (intensity == glm::vec3(0.0f)) return;
     out[count++] = shadowTo(p, p_offset, n, pos, f * intensity * cos_s / d2);
+  };
+  for (const Light& light : lights_) {
+    std::visit(
+        Overloaded{[&](const DirectionalLight& dl) {
+                     const glm::vec3 wi = -dl.direction;
+                     const float cos_s = glm::dot(n, wi);
+                     if (cos_s <= 0.0f) return;
+                     out[count++] =
+                         ShadowQuery{Ray{offsetOrigin(p, p_offset, n, wi), 0.0f, wi, kInfinity},
+                                     f * dl.irradiance * cos_s, true};
+                   },
+                   [&](const PointLight& pl) {
+                     point_like(pl.position, [&](const glm::vec3&) { return pl.intensity; });
+                   },
+                   [&](const SpotLight& sl) {
+                     point_like(sl.position, [&](const glm::vec3& out_dir) {
+                       return sl.intensity *
+                              float(spotFalloff(sl, double(glm::dot(sl.direction, out_dir))));
+                     });
+                   },
+                   [&](const LuminaireLight& lu) {
+                     // Its light distribution towards p (scene/luminaire.h, Wallner eq. 15).
+                     point_like(lu.position, [&](const glm::vec3& out_dir) {
+                       return luminaireIntensity(lu, out_dir);
+                     });
+                   }},
+        light);
   }
   // One sample of the emissive triangles, MIS-weighted against cosine sampling.
   if (!geometry_.emitters.empty()) {

@@ -2,6 +2,8 @@
 // emission on a mesh.
 #pragma once
 
+#include "penumbra/scene/luminaire.h"
+
 #include <glm/vec3.hpp>
 
 #include <algorithm>
@@ -46,7 +48,18 @@ struct DirectionalLight {
   glm::vec3 irradiance{1.0f};
 };
 
-using Light = std::variant<PointLight, SpotLight, DirectionalLight>;
+// Every kind of light. Code that treats kinds differently dispatches with std::visit and
+// `Overloaded` (below), one handler per kind, so that a new kind cannot fall through unnoticed: a
+// visitor without a handler for it does not compile.
+using Light = std::variant<PointLight, SpotLight, DirectionalLight, LuminaireLight>;
+
+// A visitor from one lambda per kind: std::visit(Overloaded{[](const PointLight&) {...}, ...}, l).
+template <typename... Handlers>
+struct Overloaded : Handlers... {
+  using Handlers::operator()...;
+};
+template <typename... Handlers>
+Overloaded(Handlers...) -> Overloaded<Handlers...>;
 
 // The lights turned by `angle` radians about the vertical (+y) axis through `centre`: positions
 // and directions alike (a light orbiting the scene, for relit sequences).

@@ -106,12 +106,18 @@ std::vector<Light> orbitLights(std::span<const Light> lights, const glm::vec3& c
   std::vector<Light> out;
   for (const Light& light : lights) {
     Light l = light;
-    if (auto* p = std::get_if<PointLight>(&l)) p->position = centre + turn(p->position - centre);
-    if (auto* sp = std::get_if<SpotLight>(&l)) {
-      sp->position = centre + turn(sp->position - centre);
-      sp->direction = turn(sp->direction);
-    }
-    if (auto* d = std::get_if<DirectionalLight>(&l)) d->direction = turn(d->direction);
+    std::visit(Overloaded{[&](PointLight& p) { p.position = centre + turn(p.position - centre); },
+                          [&](SpotLight& sp) {
+                            sp.position = centre + turn(sp.position - centre);
+                            sp.direction = turn(sp.direction);
+                          },
+                          [&](DirectionalLight& d) { d.direction = turn(d.direction); },
+                          [&](LuminaireLight& lu) {
+                            lu.position = centre + turn(lu.position - centre);
+                            lu.nadir = turn(lu.nadir);
+                            lu.c0 = turn(lu.c0);
+                          }},
+               l);
     out.push_back(l);
   }
   return out;

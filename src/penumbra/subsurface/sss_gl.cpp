@@ -162,10 +162,16 @@ Status GlSss::frame(std::span<const Light> lights, std::vector<glm::vec3>& scatt
   };
 
   // Pass 1.
-  std::vector<GpuLight> staged;
-  for (const Light& l : lights) staged.push_back(gpuLight(l));
+  std::vector<float> tables;
+  const std::vector<GpuLight> staged = gpuLights(lights, tables);
   if (!staged.empty()) lights_.upload(staged.data(), staged.size() * sizeof(GpuLight));
+  if (tables != light_tables_data_) {  // the luminaires' LDTs go up when they change
+    light_tables_data_ = std::move(tables);
+    light_tables_ =
+        gl::Buffer(light_tables_data_.size() * sizeof(float), light_tables_data_.data());
+  }
   elements_.bindBase(GL_SHADER_STORAGE_BUFFER, SSS_SSBO_ELEMENTS);
+  light_tables_.bindBase(GL_SHADER_STORAGE_BUFFER, SSS_SSBO_LIGHT_TABLES);
   if (rays > 0) {
     lights_.bindBase(GL_SHADER_STORAGE_BUFFER, SSS_SSBO_LIGHTS);
     rays_.bindBase(GL_SHADER_STORAGE_BUFFER, SSS_SSBO_RAYS);

@@ -10,7 +10,7 @@
 //    per wave of nodes whose children are done;
 //  - pass 2 (shaders/subsurface/sss_gather.comp): the links, B_i = sum F max(0, E + G offset).
 //
-// The links, the tree and the elements go up once; a frame uploads its lights (48 bytes each)
+// The links, the tree and the elements go up once; a frame uploads its lights (64 bytes each)
 // and reads back B (16 bytes per element) for the view (pass 3 stays on the CPU: SssView's
 // lookups). Both devices agree within float rounding, but for shadow rays that graze an edge
 // (tests/subsurface/sss_gl_test.cpp).
@@ -88,7 +88,8 @@ class GlSss {
  private:
   gl::Program irradiance_rays_, irradiance_sum_, mipmap_, gather_;
   std::optional<GlRayEngine> engine_;
-  gl::Buffer elements_, lights_, rays_, hits_, ray_values_;
+  gl::Buffer elements_, lights_, rays_, hits_, ray_values_, light_tables_;
+  std::vector<float> light_tables_data_;  // what light_tables_ holds
   gl::Buffer nodes_, children_, wave_nodes_, moment_inverse_, mean_, gradient_, links_, scattered_;
   std::vector<uint32_t> wave_offset_;  // wave w is wave_nodes[wave_offset[w] .. [w + 1])
   size_t elements_count_ = 0, light_capacity_ = 0;
