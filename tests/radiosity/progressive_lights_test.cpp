@@ -2,12 +2,14 @@
 // Engine shadows) and two-sided surfaces (elements on both sides): the inverse-square cosine
 // law on a large floor, the glTF spot fall-off, a directional light's E cos, and a closed room
 // whose wall is wound outwards losing nothing.
+#include "penumbra/io/luminaire_io.h"
 #include "penumbra/radiosity/lights.h"
 #include "penumbra/radiosity/progressive.h"
 #include "support/test_util.h"
 
 #include <gtest/gtest.h>
 #include <glm/geometric.hpp>
+#include <glm/trigonometric.hpp>
 
 #include <cmath>
 #include <numbers>
@@ -119,6 +121,44 @@ TEST(ProgressiveLights, SpotLightFollowsTheGltfFallOff) {
   }
   const glm::dvec3 power = lightPower(spot, Bounds3{});
   EXPECT_NEAR(power.x, 2.0 * std::numbers::pi * 80.0 * integral, 1e-6 * power.x);
+}
+
+TEST(ProgressiveLights, LuminaireFollowsItsPhotometricFile) {
+  // A manufacturer's downlight (EULUMDAT, 24 C planes x 91 gamma angles) 2.8 m over the floor,
+  // turned 30 degrees: every element's irradiance is I(C, gamma) cos(theta) / d^2 with I read
+  // from the file (Photometry::intensity, independent of the LDT) and Wallner eq. 12's 683 lm/W.
+  // It lights only downwards, so every probe ray finds the floor: the shot is closed.
+  const std::string file = test::dataPath("photometry/ledvance_biolux_dn150.ldt");
+  Expected<Photometry> photometry = readPhotometry(file);
+  ASSERT_TRUE(photometry.ok()) << photometry.error().describe();
+  Expected<std::shared_ptr<const LuminaireDistribution>> ldt = loadLuminaireDistribution(file);
+  ASSERT_TRUE(ldt.ok()) << ldt.error().describe();
+  LuminaireLight l;
+  l.position = glm::vec3(0.4f, 2.8f, -0.3f);
+  l.nadir = glm::vec3(0.0f, -1.0f, 0.0f);
+  const double turn = glm::radians(30.0);
+  l.c0 = glm::vec3(float(std::cos(turn)), 0.0f, float(std::sin(turn)));
+  l.distribution = *ldt;
+  l.scale = glm::vec3(float((*ldt)->max_candela / kLumensPerWatt));
+  const Scene scene = floorScene(l);
+  const glm::dvec3 c0(l.c0), c90(l.c90()), nadir(l.nadir), pos(l.position);
+  size_t count = 0;
+  const double peak = photometry->intensity(0.0, 0.0) / kLumensPerWatt / (2.8 * 2.8);
+  const double worst = worstIrradianceError(
+      scene,
+      [&](const glm::dvec3& p) {
+        const glm::dvec3 d = p - pos;
+        const double r = glm::length(d);
+        // The direction in the file's photometric frame (nadir -z, C0 +x, C90 +y).
+        const glm::dvec3 local(glm::dot(d, c0), glm::dot(d, c90), -glm::dot(d, nadir));
+        return photometry->intensity(local) / kLumensPerWatt * 2.8 / (r * r * r);
+      },
+      0.02 * peak, &count, /*closed=*/true, /*density=*/6.0);
+  EXPECT_GT(count, 300u);
+  EXPECT_LT(worst, 0.01) << "over " << count << " elements";
+  // The light's power is the file's flux over 683 lm/W.
+  EXPECT_NEAR(lightPower(Light(l), Bounds3{}).x * kLumensPerWatt / photometry->integratedFlux(),
+              1.0, 2e-3);
 }
 
 TEST(ProgressiveLights, DirectionalLightGivesEcos) {

@@ -232,6 +232,31 @@ int parseAndRun(int argc, char** argv) {
   render_cmd->add_option("--checkpoint", render.checkpoint,
                          "progressive: where Ctrl-C writes the checkpoint (default: the first "
                          "output with the extension .checkpoint)");
+  render_cmd
+      ->add_option("--output-quantity", render.output_quantity,
+                   "radiance (default) or illuminance: lux on the surfaces the camera sees "
+                   "(pathtrace, progressive, matrix)")
+      ->check(CLI::IsMember({"radiance", "illuminance"}));
+  render_cmd->add_flag("--false-colour", render.false_colour,
+                       "illuminance: PNG outputs in false colour, blue to red, with a legend "
+                       "in lux");
+  render_cmd->add_option("--lux-max", render.lux_max,
+                         "illuminance: the lux at the top of the false-colour scale (default: a "
+                         "round number above the 99th percentile)");
+  render_cmd->add_option("--work-plane", render.work_plane,
+                         "a horizontal grid of calculation points this many metres above the "
+                         "scene's lowest point: average, minimum, maximum lux and uniformity U0 "
+                         "in the log and the stats");
+  render_cmd->add_option("--grid-spacing", render.grid_spacing,
+                         "work plane: metres between points (default 0.25)");
+  render_cmd->add_option("--grid-margin", render.grid_margin,
+                         "work plane: metres left out along the walls (default 0)");
+  render_cmd->add_option("--grid-csv", render.grid_csv,
+                         "work plane: write x, y, z, direct and total lux per point to this CSV");
+  render_cmd
+      ->add_option("--illuminance-rays", render.illuminance_rays,
+                   "hemisphere rays per work-plane point (default 256; a quarter per pixel)")
+      ->check(CLI::Range(1, 65536));
   addCommon(render_cmd, common);
   addDryRun(render_cmd, common);
 

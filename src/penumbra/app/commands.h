@@ -63,6 +63,15 @@ struct RenderOptions {
   int frames = 0;
   bool no_cache = false;    // sss: build the links even when the cache holds them
   bool no_shadows = false;  // sss: pass 1 without shadow rays (the paper's lighting)
+  // Lighting design (render/illuminance.h, app/illuminance_output.h): images of lux instead of
+  // radiance, false colour with a legend, and a work plane's grid of calculation points.
+  std::string output_quantity = "radiance";  // or illuminance
+  bool false_colour = false;
+  std::optional<double> lux_max;
+  std::optional<double> work_plane;  // height above the scene's lowest point, m
+  std::optional<double> grid_spacing, grid_margin;
+  std::string grid_csv;
+  int illuminance_rays = 256;  // per grid point (a quarter of it per pixel)
 };
 
 struct TraceOptions {

@@ -1,6 +1,7 @@
 // `penumbra render`: loads a scene, runs the chosen method, writes images and stats.
 #include "penumbra/app/commands.h"
 #include "penumbra/app/device.h"
+#include "penumbra/app/illuminance_output.h"
 #include "penumbra/app/stats_file.h"
 #include "penumbra/core/file_util.h"
 #include "penumbra/core/interrupt.h"
@@ -112,6 +113,12 @@ Status renderPathTrace(const RenderOptions& options, const CommonOptions& common
                            fmt::format("a {}x{} image", settings.width, settings.height)));
 
   const Camera camera = scene->camera ? *scene->camera : defaultCamera(*scene);
+  std::optional<IlluminanceRequest> lux;
+  if (wantsIlluminance(options)) {
+    Expected<IlluminanceRequest> r = illuminanceRequest(options, settings.width, settings.height);
+    if (!r) return r.error();
+    lux = *r;
+  }
   const double load_seconds = load_timer.seconds();
   Timer build_timer;
   const PathTracer tracer(*scene);
@@ -157,7 +164,22 @@ Status renderPathTrace(const RenderOptions& options, const CommonOptions& common
   }
   progress.finish();
 
-  for (const std::string& out : outputs) PENUMBRA_TRY(writeImage(out, image, options.tonemap));
+  // Lux: the path tracer's radiance gathered over each point's hemisphere.
+  std::optional<IlluminanceReport> report;
+  if (lux) {
+    const FlatTriangles flat = flattenScene(*scene);
+    const RayEngine engine = RayEngine::build(flat.positions, flat.triangles);
+    Expected<IlluminanceReport> r = illuminanceReport(
+        *scene, engine, flat, camera, *lux, [&](const Ray& ray, const Hit&, Rng& rng) {
+          uint64_t rays = 0;
+          return tracer.radiance(ray, rng, settings, rays);
+        });
+    if (!r) return r.error();
+    report = std::move(*r);
+  }
+  nlohmann::json lux_stats;
+  PENUMBRA_TRY(
+      writeRenderOutputs(options, outputs, image, report ? &*report : nullptr, &lux_stats));
   const double mrays = stats.seconds > 0.0 ? double(stats.rays) / stats.seconds * 1e-6 : 0.0;
   spdlog::info("rendered in {:.2f} s ({:.2f} Mrays/s); wrote {}", stats.seconds, mrays,
                fmt::join(outputs, ", "));
@@ -177,6 +199,7 @@ Status renderPathTrace(const RenderOptions& options, const CommonOptions& common
                         {"triangles", tracer.geometry().triangles.size()},
                         {"rays", stats.rays},
                         {"mrays_per_s", mrays}};
+    j.update(lux_stats);
     PENUMBRA_TRY(writeStatsFile(options.stats, j));
   }
   return {};
@@ -251,7 +274,10 @@ int runRender(const RenderOptions& options, const CommonOptions& common) {
   } else if (options.method == "progressive") {
     s = renderProgressive(options, common, &interrupted);
   } else if (options.method == "sss") {
-    s = renderSss(options, common);
+    s = wantsIlluminance(options)
+            ? Status(inputError("", options.work_plane ? "--work-plane" : "--output-quantity",
+                                "lux are computed by pathtrace, progressive and matrix"))
+            : renderSss(options, common);
   } else if (options.method == "stochastic" || options.method == "lpv") {
     s = inputError("", "",
                    fmt::format("--method {} is not available in this version (available: "

@@ -3,6 +3,7 @@
 // of relit frames (dynamic relighting: the form factors are computed once).
 #include "penumbra/app/commands.h"
 #include "penumbra/app/device.h"
+#include "penumbra/app/illuminance_output.h"
 #include "penumbra/app/stats_file.h"
 #include "penumbra/core/file_util.h"
 #include "penumbra/core/memory.h"
@@ -51,6 +52,15 @@ Status renderMatrix(const RenderOptions& options, const CommonOptions& common) {
     return inputError("", "--width/--height", "must be in [1, 65536]");
   }
   if (spp < 1 || spp > 4096) return inputError("", "--spp", "must be in [1, 4096]");
+  std::optional<IlluminanceRequest> lux;
+  if (frames > 1 && !options.grid_csv.empty()) {
+    return inputError("", "--grid-csv", "writes one frame's table: not with --relight-frames");
+  }
+  if (wantsIlluminance(options)) {
+    Expected<IlluminanceRequest> r = illuminanceRequest(options, width, height);
+    if (!r) return r.error();
+    lux = *r;
+  }
   PENUMBRA_TRY(checkMemory(uint64_t(width) * uint64_t(height) * 40,
                            fmt::format("a {}x{} image", width, height)));
 
@@ -123,6 +133,7 @@ Status renderMatrix(const RenderOptions& options, const CommonOptions& common) {
   view.seed = options.seed.value_or(0);
   std::vector<Material> materials = scene->materials;
   nlohmann::json frame_stats = nlohmann::json::array();
+  nlohmann::json lux_stats;  // the last frame's
   SolveStats last;
   double solve_seconds = 0.0, view_seconds = 0.0;
   for (int f = 0; f < frames; ++f) {
@@ -159,9 +170,27 @@ Status renderMatrix(const RenderOptions& options, const CommonOptions& common) {
     const Image image = renderLightmapView(mr.surface.flat.positions, mr.surface.flat.triangles,
                                            mr.surface.atlas, lightmap, camera, view);
     view_seconds += view_timer.seconds();
-    for (const std::string& out : outputs) {
+    // Lux: the lightmap's radiance gathered over each point's hemisphere (each frame's).
+    std::optional<IlluminanceReport> report;
+    if (lux) {
+      const LightmapLookup lookup(mr.surface.flat.positions, mr.surface.flat.triangles,
+                                  mr.surface.atlas, lightmap);
+      Expected<IlluminanceReport> r =
+          illuminanceReport(*scene, mr.surface.engine, mr.surface.flat, camera, *lux,
+                            [&](const Ray& ray, const Hit& hit, Rng&) {
+                              return lookup.radiance(ray.dir, hit.triangle, hit.u, hit.v);
+                            });
+      if (!r) return r.error();
+      report = std::move(*r);
+    }
+    if (frames == 1) {
       PENUMBRA_TRY(
-          writeImage(frames > 1 ? sequenceFrameName(out, f) : out, image, options.tonemap));
+          writeRenderOutputs(options, outputs, image, report ? &*report : nullptr, &lux_stats));
+    } else {
+      for (const std::string& out : outputs) {
+        PENUMBRA_TRY(writeRenderOutputs(options, {out}, image, report ? &*report : nullptr,
+                                        &lux_stats, sequenceFrameName(out, f)));
+      }
     }
     spdlog::info("{}{} iterations ({}), residual {:.3g}, {:.3f} s",
                  frames > 1 ? fmt::format("frame {}: ", f) : "", last.iterations,
@@ -204,6 +233,7 @@ Status renderMatrix(const RenderOptions& options, const CommonOptions& common) {
                         {"height", height},
                         {"spp", spp}};
     if (frames > 1) j["frames"] = frame_stats;
+    j.update(lux_stats);
     PENUMBRA_TRY(writeStatsFile(options.stats, j));
   }
   return {};

@@ -3,6 +3,7 @@
 // filtering, as a lightmapped scene is displayed.
 #include "penumbra/app/commands.h"
 #include "penumbra/app/device.h"
+#include "penumbra/app/illuminance_output.h"
 #include "penumbra/app/progressive_run.h"
 #include "penumbra/app/stats_file.h"
 #include "penumbra/core/file_util.h"
@@ -57,6 +58,12 @@ Status renderProgressive(const RenderOptions& options, const CommonOptions& comm
     return inputError("", "--width/--height", "must be in [1, 65536]");
   }
   if (spp < 1 || spp > 4096) return inputError("", "--spp", "must be in [1, 4096]");
+  std::optional<IlluminanceRequest> lux;
+  if (wantsIlluminance(options)) {
+    Expected<IlluminanceRequest> r = illuminanceRequest(options, width, height);
+    if (!r) return r.error();
+    lux = *r;
+  }
   PENUMBRA_TRY(checkMemory(uint64_t(width) * uint64_t(height) * 40,
                            fmt::format("a {}x{} image", width, height)));
 
@@ -82,7 +89,22 @@ Status renderProgressive(const RenderOptions& options, const CommonOptions& comm
   const Image image = renderLightmapView(pr.triangles().positions, pr.triangles().triangles,
                                          pr.atlas(), lightmap, camera, view);
   const double view_seconds = view_timer.seconds();
-  for (const std::string& out : outputs) PENUMBRA_TRY(writeImage(out, image, options.tonemap));
+  // Lux: the lightmap's radiance gathered over each point's hemisphere.
+  std::optional<IlluminanceReport> report;
+  if (lux) {
+    const LightmapLookup lookup(pr.triangles().positions, pr.triangles().triangles, pr.atlas(),
+                                lightmap);
+    Expected<IlluminanceReport> r =
+        illuminanceReport(*scene, pr.surface().engine, pr.triangles(), camera, *lux,
+                          [&](const Ray& ray, const Hit& hit, Rng&) {
+                            return lookup.radiance(ray.dir, hit.triangle, hit.u, hit.v);
+                          });
+    if (!r) return r.error();
+    report = std::move(*r);
+  }
+  nlohmann::json lux_stats;
+  PENUMBRA_TRY(
+      writeRenderOutputs(options, outputs, image, report ? &*report : nullptr, &lux_stats));
   spdlog::info("{} iterations, {:.3g} of the emitted power unshot, {:.2f} s; wrote {}",
                st.total_iterations, st.unshot_fraction, st.seconds, fmt::join(outputs, ", "));
 
@@ -96,6 +118,7 @@ Status renderProgressive(const RenderOptions& options, const CommonOptions& comm
                         {"height", height},
                         {"spp", spp}};
     j.update(progressiveStatsJson(*run, ro.tolerance));
+    j.update(lux_stats);
     PENUMBRA_TRY(writeStatsFile(options.stats, j));
   }
   return {};

@@ -6,6 +6,7 @@
 // in their errors), transformed to world space and merged.
 #include "penumbra/core/file_util.h"
 #include "penumbra/io/json_guard.h"
+#include "penumbra/io/luminaire_io.h"
 #include "penumbra/io/scene_io.h"
 #include "penumbra/io/subsurface_json.h"
 #include "penumbra/scene/builtin.h"
@@ -102,6 +103,7 @@ class SceneJsonReader {
   Status readMesh(const json& entry, const std::string& place, Scene& scene);
   Expected<Placement> readTransform(const json& t, const std::string& place) const;
   Status readLight(const json& entry, const std::string& place, Scene& scene) const;
+  Status readLuminaire(const json& entry, const std::string& place, Scene& scene) const;
   Status readCamera(const json& cam, const std::string& place, Scene& scene) const;
 
   const std::string& path_;
@@ -521,11 +523,144 @@ Status SceneJsonReader::readLight(const json& entry, const std::string& place, S
     l.irradiance = *e;
     scene.lights.push_back(l);
   } else if (*type == "luminaire") {
-    return error(place + ".type", "luminaire lights (LDT, IES files) are not supported yet");
+    return readLuminaire(entry, place, scene);
   } else {
     return error(place + ".type", fmt::format("unknown light type '{}' (known: point, spot, "
-                                              "directional)",
+                                              "directional, luminaire)",
                                               *type));
+  }
+  return {};
+}
+
+Status SceneJsonReader::readLuminaire(const json& entry, const std::string& place,
+                                      Scene& scene) const {
+  PENUMBRA_TRY(checkKeys(entry, place,
+                         {"type", "file", "position", "aim", "rotation_deg", "dimming", "flux_lm",
+                          "lamps", "colour", "tilt_deg", "array"}));
+  if (!entry.contains("file")) return error(place + ".file", "missing");
+  if (!entry.contains("position")) return error(place + ".position", "missing");
+  Expected<std::string> file = string(entry.at("file"), place + ".file");
+  if (!file) return file.error();
+  const std::string resolved = resolveRelativeTo(path_, *file);
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(resolved, ec)) {
+    return error(place + ".file",
+                 fmt::format("'{}' does not exist (looked for {})", *file, resolved));
+  }
+  auto optional_number = [&](const char* key, double fallback) -> Expected<double> {
+    if (!entry.contains(key)) return fallback;
+    return number(entry.at(key), keyPath(place, key));
+  };
+  Expected<double> tilt = optional_number("tilt_deg", 0.0);
+  if (!tilt) return tilt.error();
+  Expected<Photometry> photometry = readPhotometry(resolved);
+  if (!photometry) return photometry.error();
+  Expected<std::shared_ptr<const LuminaireDistribution>> distribution =
+      loadLuminaireDistribution(resolved, *tilt);
+  if (!distribution) return distribution.error();
+
+  Expected<glm::dvec3> position = vec3(entry.at("position"), place + ".position");
+  if (!position) return position.error();
+  glm::vec3 aim(0.0f, -1.0f, 0.0f);
+  if (entry.contains("aim")) {
+    Expected<glm::vec3> a = unitDirection(entry.at("aim"), place + ".aim");
+    if (!a) return a.error();
+    aim = *a;
+  }
+  // C0: world +x made perpendicular to the aim (+z when the aim is along x), turned by
+  // rotation_deg anticlockwise seen from behind the luminaire (towards C90).
+  const glm::vec3 ref =
+      std::abs(aim.x) > 0.99f ? glm::vec3(0.0f, 0.0f, 1.0f) : glm::vec3(1.0f, 0.0f, 0.0f);
+  glm::vec3 c0 = glm::normalize(ref - glm::dot(ref, aim) * aim);
+  Expected<double> rotation = optional_number("rotation_deg", 0.0);
+  if (!rotation) return rotation.error();
+  const double r = glm::radians(*rotation);
+  c0 = glm::normalize(float(std::cos(r)) * c0 + float(std::sin(r)) * glm::cross(c0, aim));
+
+  // Scale: I_max / 683 W/sr per LDT unit (Wallner eq. 12), times what the user changes.
+  double factor = 1.0;
+  Expected<double> dimming = optional_number("dimming", 1.0);
+  if (!dimming) return dimming.error();
+  if (!(*dimming >= 0.0 && *dimming <= 1.0)) {
+    return error(place + ".dimming", fmt::format("{} is outside [0, 1]", *dimming));
+  }
+  factor *= *dimming;
+  if (entry.contains("lamps")) {
+    Expected<double> lamps = number(entry.at("lamps"), place + ".lamps");
+    if (!lamps) return lamps.error();
+    const int stated =
+        photometry->lamps.empty() ? photometry->lamp_count : photometry->lamps.front().count;
+    if (!(*lamps >= 1.0 && *lamps == std::floor(*lamps) && *lamps <= 1000.0)) {
+      return error(place + ".lamps",
+                   fmt::format("{} is not a whole number from 1 to 1000", *lamps));
+    }
+    if (stated <= 0 || photometry->lamp_flux < 0.0) {
+      return error(
+          place + ".lamps",
+          fmt::format("{} gives absolute photometry (no lamp count to scale from)", *file));
+    }
+    factor *= *lamps / stated;
+  }
+  if (entry.contains("flux_lm")) {
+    Expected<double> flux = number(entry.at("flux_lm"), place + ".flux_lm");
+    if (!flux) return flux.error();
+    if (!(*flux > 0.0 && *flux < 1e9)) {
+      return error(place + ".flux_lm", fmt::format("{} lm must be positive and below 1e9", *flux));
+    }
+    factor *= *flux / (*distribution)->flux_lumens;
+  }
+  glm::vec3 tint(1.0f);
+  if (entry.contains("colour")) {
+    Expected<glm::vec3> c = colour(entry.at("colour"), place + ".colour", false);
+    if (!c) return c.error();
+    tint = *c;
+  }
+  LuminaireLight l;
+  l.nadir = aim;
+  l.c0 = c0;
+  l.distribution = *distribution;
+  l.scale = tint * float((*distribution)->max_candela / kLumensPerWatt * factor);
+
+  // An array: count [nx, nz] luminaires spacing [dx, dz] apart along world x and z, centred on
+  // the position.
+  int nx = 1, nz = 1;
+  double dx = 0.0, dz = 0.0;
+  if (entry.contains("array")) {
+    const json& a = entry.at("array");
+    const std::string ap = place + ".array";
+    PENUMBRA_TRY(checkKeys(a, ap, {"count", "spacing"}));
+    if (!a.contains("count") || !a.at("count").is_array() || a.at("count").size() != 2) {
+      return error(ap + ".count", "must be [nx, nz]");
+    }
+    if (!a.contains("spacing") || !a.at("spacing").is_array() || a.at("spacing").size() != 2) {
+      return error(ap + ".spacing", "must be [dx, dz] in metres");
+    }
+    for (int k = 0; k < 2; ++k) {
+      Expected<double> n = number(a.at("count")[size_t(k)], fmt::format("{}.count[{}]", ap, k));
+      if (!n) return n.error();
+      if (!(*n >= 1.0 && *n <= 1000.0 && *n == std::floor(*n))) {
+        return error(fmt::format("{}.count[{}]", ap, k),
+                     fmt::format("{} is not a whole number from 1 to 1000", *n));
+      }
+      Expected<double> d = number(a.at("spacing")[size_t(k)], fmt::format("{}.spacing[{}]", ap, k));
+      if (!d) return d.error();
+      if (!(*d >= 0.0)) {
+        return error(fmt::format("{}.spacing[{}]", ap, k), "must not be negative");
+      }
+      (k == 0 ? nx : nz) = int(*n);
+      (k == 0 ? dx : dz) = *d;
+    }
+    if (size_t(nx) * size_t(nz) > 10000) {
+      return error(ap + ".count", fmt::format("{} x {} luminaires: at most 10000", nx, nz));
+    }
+  }
+  for (int i = 0; i < nx; ++i) {
+    for (int k = 0; k < nz; ++k) {
+      LuminaireLight li = l;
+      li.position = glm::vec3(
+          *position + glm::dvec3((i - 0.5 * (nx - 1)) * dx, 0.0, (k - 0.5 * (nz - 1)) * dz));
+      scene.lights.push_back(li);
+    }
   }
   return {};
 }

@@ -28,18 +28,39 @@ glm::vec3 sampleBilinear(const Image& lightmap, glm::vec2 uv) {
          ty * ((1.0f - tx) * at(x0, y0 + 1) + tx * at(x0 + 1, y0 + 1));
 }
 
+LightmapLookup::LightmapLookup(std::span<const glm::vec3> positions,
+                               std::span<const glm::uvec3> triangles, const ChartAtlas& atlas,
+                               const Image& lightmap)
+    : positions_(positions), triangles_(triangles), atlas_(&atlas), lightmap_(&lightmap) {
+  PENUMBRA_CHECK(atlas.uvs.size() == 3 * atlas.faces.size());
+  PENUMBRA_CHECK(lightmap.width == atlas.width && lightmap.height == atlas.height);
+  face_of_.assign(2 * triangles.size(), -1);
+  for (size_t f = 0; f < atlas.faces.size(); ++f) {
+    if (atlas.charts.face_chart[f] < 0) continue;
+    face_of_[2 * size_t(atlas.faces[f].triangle) + (atlas.faces[f].back ? 1 : 0)] = int32_t(f);
+  }
+}
+
+glm::vec3 LightmapLookup::radiance(const glm::vec3& ray_dir, int32_t triangle, float u,
+                                   float v) const {
+  if (triangle < 0) return glm::vec3(0.0f);
+  const size_t t = size_t(triangle);
+  const glm::uvec3 tri = triangles_[t];
+  const glm::vec3 n =
+      glm::cross(positions_[tri.y] - positions_[tri.x], positions_[tri.z] - positions_[tri.x]);
+  const int32_t f = face_of_[2 * t + (glm::dot(ray_dir, n) >= 0.0f ? 1 : 0)];
+  if (f < 0) return glm::vec3(0.0f);  // a side without elements: black
+  const size_t c = 3 * size_t(f);
+  const glm::vec2 uv =
+      (1.0f - u - v) * atlas_->uvs[c] + u * atlas_->uvs[c + 1] + v * atlas_->uvs[c + 2];
+  return sampleBilinear(*lightmap_, uv);
+}
+
 Image renderLightmapView(std::span<const glm::vec3> positions,
                          std::span<const glm::uvec3> triangles, const ChartAtlas& atlas,
                          const Image& lightmap, const Camera& camera,
                          const LightmapViewSettings& settings) {
-  PENUMBRA_CHECK(atlas.uvs.size() == 3 * atlas.faces.size());
-  // The face of each side of each triangle, -1 where the side has none.
-  std::vector<int32_t> face_of(2 * triangles.size(), -1);
-  for (size_t f = 0; f < atlas.faces.size(); ++f) {
-    if (atlas.charts.face_chart[f] < 0) continue;
-    face_of[2 * size_t(atlas.faces[f].triangle) + (atlas.faces[f].back ? 1 : 0)] = int32_t(f);
-  }
-  PENUMBRA_CHECK(lightmap.width == atlas.width && lightmap.height == atlas.height);
+  const LightmapLookup lookup(positions, triangles, atlas, lightmap);
   const RayEngine engine = RayEngine::build(positions, triangles);
   const CameraRays rays(camera, settings.width, settings.height);
   Image image(settings.width, settings.height);
@@ -53,17 +74,7 @@ Image renderLightmapView(std::span<const glm::vec3> positions,
           const float jy = settings.spp == 1 ? 0.5f : rng.uniform();
           const Ray ray = rays.ray(float(x) + jx, float(y) + jy);
           const Hit hit = engine.intersect(ray);
-          if (!hit.hit()) continue;
-          const size_t t = size_t(hit.triangle);
-          const glm::uvec3 tri = triangles[t];
-          const glm::vec3 n =
-              glm::cross(positions[tri.y] - positions[tri.x], positions[tri.z] - positions[tri.x]);
-          const int32_t f = face_of[2 * t + (glm::dot(ray.dir, n) >= 0.0f ? 1 : 0)];
-          if (f < 0) continue;  // a side without elements: black
-          const size_t c = 3 * size_t(f);
-          const glm::vec2 uv = (1.0f - hit.u - hit.v) * atlas.uvs[c] + hit.u * atlas.uvs[c + 1] +
-                               hit.v * atlas.uvs[c + 2];
-          sum += sampleBilinear(lightmap, uv);
+          sum += lookup.radiance(ray.dir, hit.triangle, hit.u, hit.v);
         }
         image.at(x, int(y)) = sum / float(settings.spp);
       }

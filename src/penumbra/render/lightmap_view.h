@@ -11,6 +11,7 @@
 
 #include <cstdint>
 #include <span>
+#include <vector>
 
 namespace penumbra {
 
@@ -24,6 +25,22 @@ struct LightmapViewSettings {
 // Bilinear lookup of `lightmap` (the atlas' size) at UV (0, 0 = the top-left corner of the
 // image, as ChartAtlas::uvs), clamped to the image.
 glm::vec3 sampleBilinear(const Image& lightmap, glm::vec2 uv);
+
+// The radiance a ray sees in a lightmap: its hit read through the face on the side the ray sees
+// (bilinear at the hit's lightmap UV); black where that side has no face and for misses.
+class LightmapLookup {
+ public:
+  LightmapLookup(std::span<const glm::vec3> positions, std::span<const glm::uvec3> triangles,
+                 const ChartAtlas& atlas, const Image& lightmap);
+  glm::vec3 radiance(const glm::vec3& ray_dir, int32_t triangle, float u, float v) const;
+
+ private:
+  std::span<const glm::vec3> positions_;
+  std::span<const glm::uvec3> triangles_;
+  const ChartAtlas* atlas_;
+  const Image* lightmap_;
+  std::vector<int32_t> face_of_;  // the face of each side of each triangle, -1 where none
+};
 
 // `triangles` over `positions` are the atlas' triangles (its faces refer to them); a hit reads
 // the lightmap through the face on the side the ray sees, and is black where that side has no

@@ -167,6 +167,13 @@ Image toneMap(const Image& linear, const ToneMapSettings& settings) {
       return exposureOperator(linear, scale);
     case ToneMapOperator::kReinhard:
       return reinhardOperator(linear, settings, scale);
+    case ToneMapOperator::kNone: {
+      Image out = linear;
+      for (glm::vec3& c : out.pixels) {
+        for (int k = 0; k < 3; ++k) c[k] = c[k] > 0.0f ? std::min(c[k], 1.0f) : 0.0f;  // NaN: 0
+      }
+      return out;
+    }
   }
   return reinhardOperator(linear, settings, scale);
 }

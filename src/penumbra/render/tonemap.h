@@ -13,6 +13,7 @@ namespace penumbra {
 enum class ToneMapOperator {
   kExposure,  // L_d = 1 - exp(-2^stops * L): simple exposure
   kReinhard,  // global photographic operator with automatic key and white point
+  kNone,      // the values are display-linear already (plots, false colour): clamped to [0, 1]
 };
 
 struct ToneMapSettings {

@@ -1,0 +1,32 @@
+// `render --output-quantity illuminance` and `--work-plane`: the command line's side of
+// render/illuminance.h (what to compute from the options, what to write and report).
+#pragma once
+
+#include "penumbra/app/commands.h"
+#include "penumbra/render/illuminance.h"
+
+#include <nlohmann/json.hpp>
+
+#include <string>
+#include <vector>
+
+namespace penumbra {
+
+// Whether the options ask for lux at all.
+bool wantsIlluminance(const RenderOptions& options);
+
+// The request from the options for a width x height view; refuses bad values and options that
+// need another one (--false-colour without --output-quantity illuminance, --grid-* without
+// --work-plane).
+Expected<IlluminanceRequest> illuminanceRequest(const RenderOptions& options, int width,
+                                                int height);
+
+// With --output-quantity illuminance, the images: lux in every channel for .exr/.hdr/.pfm, and
+// for .png the false-colour picture with its legend (--false-colour, --lux-max) or the lux
+// tone-mapped in grey. Else `radiance` as usual. Then the grid's CSV (--grid-csv), and the
+// figures into `stats` ("illuminance": {"work_plane": ..., "image": ...}) and the log.
+Status writeRenderOutputs(const RenderOptions& options, const std::vector<std::string>& outputs,
+                          const Image& radiance, const IlluminanceReport* report,
+                          nlohmann::json* stats, const std::string& frame_name = "");
+
+}  // namespace penumbra

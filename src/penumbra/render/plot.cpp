@@ -1,0 +1,106 @@
+#include "penumbra/render/plot.h"
+
+#include <stb/stb_easy_font.h>
+
+#include <glm/common.hpp>
+#include <glm/geometric.hpp>
+
+#include <algorithm>
+#include <cmath>
+
+namespace penumbra {
+
+Canvas::Canvas(int width, int height, glm::vec3 background) : image_(width, height) {
+  std::fill(image_.pixels.begin(), image_.pixels.end(), background);
+}
+
+void Canvas::blend(int x, int y, glm::vec3 colour, float coverage) {
+  if (x < 0 || y < 0 || x >= image_.width || y >= image_.height || !(coverage > 0.0f)) return;
+  glm::vec3& p = image_.at(x, y);
+  p = glm::mix(p, colour, std::min(coverage, 1.0f));
+}
+
+void Canvas::line(glm::vec2 a, glm::vec2 b, glm::vec3 colour, float width) {
+  // Coverage from the distance of each pixel centre to the segment: 1 within half the width,
+  // falling to 0 over one pixel beyond it.
+  const float r = 0.5f * width;
+  const int x0 = int(std::floor(std::min(a.x, b.x) - r - 1.0f));
+  const int x1 = int(std::ceil(std::max(a.x, b.x) + r + 1.0f));
+  const int y0 = int(std::floor(std::min(a.y, b.y) - r - 1.0f));
+  const int y1 = int(std::ceil(std::max(a.y, b.y) + r + 1.0f));
+  const glm::vec2 ab = b - a;
+  const float len2 = glm::dot(ab, ab);
+  for (int y = std::max(0, y0); y <= std::min(image_.height - 1, y1); ++y) {
+    for (int x = std::max(0, x0); x <= std::min(image_.width - 1, x1); ++x) {
+      const glm::vec2 p(float(x) + 0.5f, float(y) + 0.5f);
+      const float t = len2 > 0.0f ? std::clamp(glm::dot(p - a, ab) / len2, 0.0f, 1.0f) : 0.0f;
+      const float d = glm::length(p - (a + t * ab));
+      blend(x, y, colour, std::clamp(r + 0.5f - d, 0.0f, 1.0f));
+    }
+  }
+}
+
+void Canvas::polyline(const std::vector<glm::vec2>& points, glm::vec3 colour, float width,
+                      bool closed) {
+  for (size_t i = 0; i + 1 < points.size(); ++i) line(points[i], points[i + 1], colour, width);
+  if (closed && points.size() > 2) line(points.back(), points.front(), colour, width);
+}
+
+void Canvas::fillRect(int x0, int y0, int x1, int y1, glm::vec3 colour) {
+  for (int y = std::max(0, y0); y < std::min(image_.height, y1); ++y) {
+    for (int x = std::max(0, x0); x < std::min(image_.width, x1); ++x) image_.at(x, y) = colour;
+  }
+}
+
+int Canvas::text(int x, int y, const std::string& s, glm::vec3 colour, int scale) {
+  // stb_easy_font emits quads (4 vertices of x, y, z floats and 4 colour bytes) on a grid of
+  // whole font pixels; each quad is a filled rectangle.
+  std::vector<char> buffer(s.size() * 300 + 64);
+  std::string copy = s;
+  const int quads =
+      stb_easy_font_print(0.0f, 0.0f, copy.data(), nullptr, buffer.data(), int(buffer.size()));
+  const float* v = reinterpret_cast<const float*>(buffer.data());
+  for (int q = 0; q < quads; ++q) {
+    const float* quad = v + size_t(q) * 16;  // 4 vertices x 4 floats (16 bytes each)
+    float qx0 = quad[0], qy0 = quad[1], qx1 = quad[0], qy1 = quad[1];
+    for (int k = 1; k < 4; ++k) {
+      qx0 = std::min(qx0, quad[4 * k]);
+      qx1 = std::max(qx1, quad[4 * k]);
+      qy0 = std::min(qy0, quad[4 * k + 1]);
+      qy1 = std::max(qy1, quad[4 * k + 1]);
+    }
+    fillRect(x + int(qx0) * scale, y + int(qy0) * scale, x + int(qx1) * scale, y + int(qy1) * scale,
+             colour);
+  }
+  return textWidth(s, scale);
+}
+
+int Canvas::textWidth(const std::string& s, int scale) {
+  std::string copy = s;
+  return stb_easy_font_width(copy.data()) * scale;
+}
+
+glm::vec3 falseColour(float t) {
+  // Piecewise linear through blue, cyan, green, yellow, red (the lighting designers' scale).
+  static const glm::vec3 stops[5] = {{0.0f, 0.0f, 1.0f},
+                                     {0.0f, 1.0f, 1.0f},
+                                     {0.0f, 1.0f, 0.0f},
+                                     {1.0f, 1.0f, 0.0f},
+                                     {1.0f, 0.0f, 0.0f}};
+  if (!(t > 0.0f)) return stops[0];
+  if (t >= 1.0f) return stops[4];
+  const float x = t * 4.0f;
+  const int i = std::min(int(x), 3);
+  return glm::mix(stops[i], stops[i + 1], x - float(i));
+}
+
+double niceCeiling(double value) {
+  if (!(value > 0.0) || !std::isfinite(value)) return 1.0;
+  const double p = std::pow(10.0, std::floor(std::log10(value)));
+  for (double m : {1.0, 2.0, 2.5, 5.0, 10.0}) {
+    if (m * p >= value * (1.0 - 1e-12)) return m * p;
+  }
+  return 10.0 * p;
+}
+
+}  // namespace penumbra

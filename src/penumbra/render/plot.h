@@ -1,0 +1,49 @@
+// A small canvas for the figures Penumbra writes next to its images: the polar plot of a
+// luminaire's light distribution (`penumbra info FILE.ldt --plot`) and the legend of false-colour
+// illuminance images. Display-linear colours in [0, 1], written as PNG without tone mapping
+// (ToneMapOperator::kNone); text in stb_easy_font's built-in font (Debian's libstb).
+#pragma once
+
+#include "penumbra/core/image.h"
+
+#include <glm/vec2.hpp>
+#include <glm/vec3.hpp>
+
+#include <string>
+#include <vector>
+
+namespace penumbra {
+
+class Canvas {
+ public:
+  Canvas(int width, int height, glm::vec3 background = glm::vec3(1.0f));
+
+  // An antialiased line `width` pixels wide (pixel centres at x + 0.5).
+  void line(glm::vec2 a, glm::vec2 b, glm::vec3 colour, float width = 1.0f);
+  // A polyline through `points`, closed when `closed`.
+  void polyline(const std::vector<glm::vec2>& points, glm::vec3 colour, float width = 1.0f,
+                bool closed = false);
+  // A filled axis-aligned rectangle [x0, x1) x [y0, y1).
+  void fillRect(int x0, int y0, int x1, int y1, glm::vec3 colour);
+  // Text with its top-left corner at (x, y), each font pixel `scale` pixels wide; returns its
+  // width in pixels.
+  int text(int x, int y, const std::string& s, glm::vec3 colour, int scale = 2);
+  // The width of `s` in pixels at `scale`.
+  static int textWidth(const std::string& s, int scale = 2);
+
+  const Image& image() const { return image_; }
+  Image& image() { return image_; }
+
+ private:
+  void blend(int x, int y, glm::vec3 colour, float coverage);
+  Image image_;
+};
+
+// The false-colour scale of illuminance images: blue (0) through cyan, green, yellow to red (1),
+// display-linear; `t` is clamped to [0, 1].
+glm::vec3 falseColour(float t);
+
+// A "nice" upper end for a scale reaching `value` (1, 2, 2.5 or 5 times a power of ten).
+double niceCeiling(double value);
+
+}  // namespace penumbra
