@@ -246,6 +246,8 @@ TEST(SceneJsonLoad, StrictErrorsNameTheKeyPath) {
   TempDir dir;
   dir.write("tri.obj", kTriangleObj);
   const std::string mesh = R"({"file": "tri.obj"})";
+  const std::string ldt = test::dataPath("photometry/ledvance_biolux_dn150.ldt");
+  const std::string bega = test::dataPath("photometry/bega_50988_lm63_1995.ies");
   struct Case {
     const char* name;
     std::string text;
@@ -275,8 +277,27 @@ TEST(SceneJsonLoad, StrictErrorsNameTheKeyPath) {
        "materials.skin.subsurface.preset: unknown measured material 'Skin1' (known: apple"},
       {"normalmap.json", R"({"materials": {"w": {"normal_map": "n.png"}}})",
        "materials.w.normal_map: normal mapping is not supported yet"},
-      {"luminaire.json", R"({"lights": [{"type": "luminaire", "file": "a.ldt"}]})",
-       "lights[0].type: luminaire lights (LDT, IES files) are not supported yet"},
+      {"luminaire.json",
+       R"({"lights": [{"type": "luminaire", "file": "a.ldt", "position": [0, 2, 0]}]})",
+       "lights[0].file: 'a.ldt' does not exist"},
+      {"lumpos.json", R"({"lights": [{"type": "luminaire", "file": "a.ldt"}]})",
+       "lights[0].position: missing"},
+      {"dimming.json",
+       R"({"lights": [{"type": "luminaire", "file": ")" + ldt +
+           R"(", "position": [0, 2, 0], "dimming": 1.5}]})",
+       "lights[0].dimming: 1.5 is outside [0, 1]"},
+      {"lamps.json",
+       R"({"lights": [{"type": "luminaire", "file": ")" + bega +
+           R"(", "position": [0, 2, 0], "lamps": 2}]})",
+       "lights[0].lamps:"},
+      {"lumarray.json",
+       R"({"lights": [{"type": "luminaire", "file": ")" + ldt +
+           R"(", "position": [0, 2, 0], "array": {"count": [2, 0.5], "spacing": [1, 1]}}]})",
+       "lights[0].array.count[1]: 0.5 is not a whole number"},
+      {"lumaim.json",
+       R"({"lights": [{"type": "luminaire", "file": ")" + ldt +
+           R"(", "position": [0, 2, 0], "aim": [0, 0, 0]}]})",
+       "lights[0].aim"},
       {"lightkey.json",
        R"({"lights": [{"type": "point", "position": [0, 0, 0], "intensity": [1, 1, 1], "power": 3}]})",
        "lights[0].power: unknown key"},
@@ -295,6 +316,35 @@ TEST(SceneJsonLoad, StrictErrorsNameTheKeyPath) {
     const std::string path = dir.write(c.name, c.text);
     EXPECT_TRUE(errorNames(loadSceneJson(path), path, c.place));
   }
+}
+
+TEST(SceneJsonLoad, LuminairesWithTheirFrameScaleAndArrays) {
+  TempDir dir;
+  dir.write("tri.obj", kTriangleObj);
+  const std::string ldt = test::dataPath("photometry/ledvance_biolux_dn150.ldt");
+  const std::string path =
+      dir.write("lum.json",
+                R"({"meshes": [{"file": "tri.obj"}], "lights": [{"type": "luminaire", "file": ")" +
+                    ldt + R"(", "position": [1, 3, 2], "aim": [1, 0, 0], "rotation_deg": 90,
+      "dimming": 0.5, "flux_lm": 3000, "colour": [1, 0.5, 1],
+      "array": {"count": [3, 2], "spacing": [1.5, 2]}}]})");
+  Expected<Scene> s = loadSceneJson(path);
+  ASSERT_TRUE(s.ok()) << s.error().describe();
+  ASSERT_EQ(s->lights.size(), 6u);
+  const LuminaireLight& first = std::get<LuminaireLight>(s->lights[0]);
+  const LuminaireLight& last = std::get<LuminaireLight>(s->lights[5]);
+  // The array is centred on the position, along world x and z.
+  EXPECT_NEAR(glm::length(first.position - glm::vec3(-0.5f, 3.0f, 1.0f)), 0.0f, 1e-6f);
+  EXPECT_NEAR(glm::length(last.position - glm::vec3(2.5f, 3.0f, 3.0f)), 0.0f, 1e-6f);
+  // Aimed along +x: C0 from +z (x is the aim), turned 90 degrees towards C90 = c0 x aim.
+  EXPECT_NEAR(glm::length(first.nadir - glm::vec3(1, 0, 0)), 0.0f, 1e-6f);
+  EXPECT_NEAR(glm::length(first.c0 - glm::cross(glm::vec3(0, 0, 1), glm::vec3(1, 0, 0))), 0.0f,
+              1e-6f);
+  // 3000 lm dimmed to half is 1500 lm (over 683 lm/W), tinted per channel.
+  const glm::dvec3 power = luminairePower(first) * kLumensPerWatt;
+  EXPECT_NEAR(power.x, 1500.0, 1e-3);
+  EXPECT_NEAR(power.y, 750.0, 1e-3);
+  EXPECT_EQ(first.distribution, last.distribution);  // one texture for the array
 }
 
 TEST(SceneJsonLoad, SubsurfaceMaterialsInEveryForm) {

@@ -292,7 +292,13 @@ int parseAndRun(int argc, char** argv) {
 
   InfoOptions info;
   CLI::App* info_cmd = app.add_subcommand("info", "what a scene holds: sizes, lights, warnings");
-  info_cmd->add_option("scene", info.scene, "built-in scene name or file")->capture_default_str();
+  info_cmd
+      ->add_option("scene", info.scene,
+                   "built-in scene name or file; a luminaire's .ldt or .ies file shows its "
+                   "photometry")
+      ->capture_default_str();
+  info_cmd->add_option("--plot", info.plot,
+                       "luminaire: write its polar light distribution curve to this PNG");
   info_cmd->add_flag("--devices", info.devices,
                      "list the OpenGL 4.5 contexts that can be made, with their limits");
   addCommon(info_cmd, common);

@@ -100,6 +100,7 @@ struct RaysOptions {
 struct InfoOptions {
   std::string scene = "cornell";
   bool devices = false;  // list the OpenGL contexts that can be made instead
+  std::string plot;      // a photometric file's polar plot (PNG)
 };
 
 // `penumbra bake`: a radiosity solution as files (bake_command.cpp).

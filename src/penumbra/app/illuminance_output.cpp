@@ -20,7 +20,10 @@ nlohmann::json statsJson(const IlluminanceStats& s) {
 }  // namespace
 
 bool wantsIlluminance(const RenderOptions& options) {
-  return options.output_quantity == "illuminance" || options.work_plane.has_value();
+  // Any of the options: illuminanceRequest then checks that they go together.
+  return options.output_quantity != "radiance" || options.work_plane || options.false_colour ||
+         options.lux_max || options.grid_spacing || options.grid_margin ||
+         !options.grid_csv.empty();
 }
 
 Expected<IlluminanceRequest> illuminanceRequest(const RenderOptions& options, int width,

@@ -12,7 +12,7 @@
 
 namespace penumbra {
 
-// Whether the options ask for lux at all.
+// Whether any lighting-design option is given (then illuminanceRequest checks them).
 bool wantsIlluminance(const RenderOptions& options);
 
 // The request from the options for a width x height view; refuses bad values and options that

@@ -1,15 +1,20 @@
 // `penumbra info`: what a scene holds.
 #include "penumbra/accel/bounds.h"
 #include "penumbra/app/commands.h"
+#include "penumbra/core/file_util.h"
 #include "penumbra/core/memory.h"
 #include "penumbra/core/parallel.h"
 #include "penumbra/gpu/context.h"
+#include "penumbra/io/image_io.h"
+#include "penumbra/io/photometry.h"
 #include "penumbra/io/scene_io.h"
+#include "penumbra/render/plot.h"
 
 #include <glm/exponential.hpp>
 #include <glm/trigonometric.hpp>
 
 #include <fmt/format.h>
+#include <algorithm>
 #include <cstdio>
 #include <variant>
 
@@ -38,10 +43,76 @@ int printDevices() {
   return 0;
 }
 
+// A luminaire's photometric file: what it states, the flux integrated from its distribution
+// next to the stated one, and its polar plot (--plot).
+int printPhotometry(const InfoOptions& options) {
+  if (!options.plot.empty()) {
+    if (extensionOf(options.plot) != ".png") {
+      return reportError(inputError(options.plot, "", "--plot writes a .png"));
+    }
+    if (Status s = checkOutputPath(options.plot); !s.ok()) return reportError(s.error());
+  }
+  Expected<Photometry> loaded = readPhotometry(options.scene);
+  if (!loaded) return reportError(loaded.error());
+  const Photometry& p = *loaded;
+  const char* types[] = {"C", "B", "A"};
+  fmt::print("file         {}\nformat       {}\n", p.file, p.format);
+  if (!p.manufacturer.empty()) fmt::print("manufacturer {}\n", p.manufacturer);
+  if (!p.luminaire.empty()) fmt::print("luminaire    {}\n", p.luminaire);
+  if (!p.lamp.empty()) fmt::print("lamp         {}\n", p.lamp);
+  fmt::print(
+      "photometry   type {}, symmetry {}, {} planes x {} angles ({:g}..{:g} x {:g}..{:g} "
+      "deg)\n",
+      types[int(p.type)], p.symmetry, p.planes.size(), p.angles.size(), p.planes.front(),
+      p.planes.back(), p.angles.front(), p.angles.back());
+  fmt::print("opening      {:.4g} x {:.4g} x {:.4g} m{}\n", p.length, p.width, p.height,
+             p.circular ? " (round)" : "");
+  if (p.watts > 0.0) fmt::print("power        {:.4g} W\n", p.watts);
+  double peak = 0.0;
+  for (double v : p.candela) peak = std::max(peak, v);
+  fmt::print("intensity    {:.5g} cd at most, {:.5g} cd at the nadir\n", peak,
+             p.intensity(0.0, 0.0));
+  const double integrated = p.integratedFlux();
+  if (p.lamp_flux >= 0.0) {
+    fmt::print("lamp flux    {:.6g} lm\n", p.lamp_flux);
+  } else {
+    fmt::print("lamp flux    none stated (absolute photometry)\n");
+  }
+  if (p.stated_flux >= 0.0 && p.format.starts_with("IES")) {
+    // LM-63 states the lamps' flux only: the ratio is the luminaire's efficiency.
+    fmt::print(
+        "flux         {:.6g} lm integrated from the distribution: {:.1f}% of the lamps' "
+        "{:.6g} lm (LM-63 states no luminaire flux)\n",
+        integrated, 100.0 * integrated / p.stated_flux, p.stated_flux);
+  } else if (p.stated_flux >= 0.0) {
+    fmt::print(
+        "flux         {:.6g} lm integrated from the distribution, {:.6g} lm stated "
+        "({:+.2f}%)\n",
+        integrated, p.stated_flux, 100.0 * (integrated / p.stated_flux - 1.0));
+  } else {
+    fmt::print("flux         {:.6g} lm integrated from the distribution\n", integrated);
+  }
+  if (!options.plot.empty()) {
+    ToneMapSettings none;
+    none.op = ToneMapOperator::kNone;
+    OutputTransaction transaction;
+    Status s = writeImage(options.plot, luminairePolarPlot(p), none);
+    if (s.ok()) s = transaction.commit();
+    if (!s.ok()) return reportError(s.error());
+    fmt::print("plot         {}\n", options.plot);
+  }
+  return 0;
+}
+
 }  // namespace
 
 int runInfo(const InfoOptions& options, const CommonOptions&) {
   if (options.devices) return printDevices();
+  const std::string ext = extensionOf(options.scene);
+  if (ext == ".ldt" || ext == ".ies") return printPhotometry(options);
+  if (!options.plot.empty()) {
+    return reportError(inputError("", "--plot", "applies to photometric files (.ldt, .ies)"));
+  }
   Expected<Scene> loaded = loadScene(options.scene);
   if (!loaded) return reportError(loaded.error());
   const Scene& s = *loaded;

@@ -1,5 +1,8 @@
 #include "penumbra/render/plot.h"
 
+#include "penumbra/io/photometry.h"
+
+#include <fmt/format.h>
 #include <stb/stb_easy_font.h>
 
 #include <glm/common.hpp>
@@ -55,7 +58,7 @@ void Canvas::fillRect(int x0, int y0, int x1, int y1, glm::vec3 colour) {
 int Canvas::text(int x, int y, const std::string& s, glm::vec3 colour, int scale) {
   // stb_easy_font emits quads (4 vertices of x, y, z floats and 4 colour bytes) on a grid of
   // whole font pixels; each quad is a filled rectangle.
-  std::vector<char> buffer(s.size() * 300 + 64);
+  std::vector<char> buffer(s.size() * 1024 + 64);  // stb: about 270 bytes a character
   std::string copy = s;
   const int quads =
       stb_easy_font_print(0.0f, 0.0f, copy.data(), nullptr, buffer.data(), int(buffer.size()));
@@ -94,10 +97,79 @@ glm::vec3 falseColour(float t) {
   return glm::mix(stops[i], stops[i + 1], x - float(i));
 }
 
+Image luminairePolarPlot(const Photometry& p, int size) {
+  constexpr double kPi = 3.14159265358979323846;
+  const bool relative = p.lamp_flux > 0.0;
+  const double unit = relative ? 1000.0 / p.lamp_flux : 1.0;  // cd -> cd/klm
+  // The planes' curves, sampled every half degree of gamma.
+  struct Curve {
+    double c_right, c_left;
+    glm::vec3 colour;
+  };
+  const Curve curves[2] = {{0.0, 180.0, {0.85f, 0.1f, 0.1f}}, {90.0, 270.0, {0.1f, 0.25f, 0.85f}}};
+  double peak = 0.0;
+  for (const Curve& c : curves) {
+    for (int g = 0; g <= 360; ++g) {
+      peak = std::max(
+          {peak, p.intensity(c.c_right, 0.5 * g) * unit, p.intensity(c.c_left, 0.5 * g) * unit});
+    }
+  }
+  const double top = niceCeiling(peak);
+  const int caption = 56;
+  Canvas canvas(size, size + caption);
+  const glm::vec2 centre(0.5f * float(size), 0.5f * float(size));
+  const float radius = 0.42f * float(size);
+  const glm::vec3 grid(0.75f), ink(0.0f);
+  // Circles at quarters of the scale, radial lines every 30 degrees.
+  for (int k = 1; k <= 4; ++k) {
+    std::vector<glm::vec2> circle;
+    for (int a = 0; a < 360; ++a) {
+      const double t = a * kPi / 180.0;
+      circle.emplace_back(centre.x + float(k) / 4.0f * radius * float(std::cos(t)),
+                          centre.y + float(k) / 4.0f * radius * float(std::sin(t)));
+    }
+    canvas.polyline(circle, grid, 1.0f, true);
+    canvas.text(int(centre.x) + 3, int(centre.y - float(k) / 4.0f * radius) + 2,
+                fmt::format("{:g}", top * k / 4.0), glm::vec3(0.4f), 1);
+  }
+  for (int a = 0; a < 360; a += 30) {
+    const double t = a * kPi / 180.0;
+    canvas.line(centre, centre + radius * glm::vec2(float(std::sin(t)), float(std::cos(t))), grid);
+    const int g = a <= 180 ? a : 360 - a;
+    const glm::vec2 at = centre + 1.1f * radius * glm::vec2(float(std::sin(t)), float(std::cos(t)));
+    const std::string label = fmt::format("{}", g);
+    canvas.text(int(at.x) - Canvas::textWidth(label, 1) / 2, int(at.y) - 4, label, ink, 1);
+  }
+  // The curves: gamma from the nadir (down), C_right on the right half, C_left on the left.
+  for (const Curve& c : curves) {
+    for (int side = 0; side < 2; ++side) {
+      std::vector<glm::vec2> points;
+      for (int g = 0; g <= 360; ++g) {
+        const double gamma = 0.5 * g, t = gamma * kPi / 180.0;
+        const double v = p.intensity(side == 0 ? c.c_right : c.c_left, gamma) * unit;
+        const float r = float(v / top) * radius;
+        points.emplace_back(centre.x + (side == 0 ? 1.0f : -1.0f) * r * float(std::sin(t)),
+                            centre.y + r * float(std::cos(t)));
+      }
+      canvas.polyline(points, c.colour, 2.0f);
+    }
+  }
+  // Caption: the luminaire, the planes' colours, the unit.
+  const int y0 = size + 4;
+  std::string name = p.luminaire.empty() ? p.file : p.luminaire;
+  if (name.size() > 70) name = name.substr(0, 67) + "...";
+  canvas.text(8, y0, name, ink, 2);
+  int x = 8;
+  x += canvas.text(x, y0 + 26, "C0-C180", curves[0].colour, 2) + 16;
+  x += canvas.text(x, y0 + 26, "C90-C270", curves[1].colour, 2) + 16;
+  canvas.text(x, y0 + 26, relative ? "cd/klm" : "cd", ink, 2);
+  return canvas.image();
+}
+
 double niceCeiling(double value) {
   if (!(value > 0.0) || !std::isfinite(value)) return 1.0;
   const double p = std::pow(10.0, std::floor(std::log10(value)));
-  for (double m : {1.0, 2.0, 2.5, 5.0, 10.0}) {
+  for (double m : {1.0, 1.2, 1.5, 2.0, 2.5, 3.0, 4.0, 5.0, 6.0, 8.0, 10.0}) {
     if (m * p >= value * (1.0 - 1e-12)) return m * p;
   }
   return 10.0 * p;

@@ -43,7 +43,16 @@ class Canvas {
 // display-linear; `t` is clamped to [0, 1].
 glm::vec3 falseColour(float t);
 
-// A "nice" upper end for a scale reaching `value` (1, 2, 2.5 or 5 times a power of ten).
+struct Photometry;
+
+// The light distribution curve of a luminaire as lighting catalogues draw it: intensity against
+// gamma in the C0-C180 plane (red, C0 on the right) and the C90-C270 plane (blue, C90 on the
+// right), the nadir down, in cd/klm of lamp flux (cd for absolute photometry), on a polar grid
+// with round-numbered circles; `size` pixels square plus a caption.
+Image luminairePolarPlot(const Photometry& photometry, int size = 640);
+
+// A round upper end for a scale reaching `value`: 1, 1.2, 1.5, 2, 2.5, 3, 4, 5, 6 or 8 times a
+// power of ten.
 double niceCeiling(double value);
 
 }  // namespace penumbra
