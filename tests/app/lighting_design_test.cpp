@@ -1,7 +1,7 @@
 // The lighting designer's side of the command line: `penumbra info` on a manufacturer's file
 // (its flux against the stated one, the polar plot), and `render --work-plane` /
 // `--output-quantity illuminance` on the office scene (six luminaires in an array), where the
-// work plane's figures from progressive radiosity and from the path tracer agree.
+// work plane's figures from progressive and matrix radiosity and from the path tracer agree.
 #include "penumbra/io/image_io.h"
 #include "support/test_util.h"
 
@@ -78,10 +78,14 @@ TEST(LightingDesign, OfficeWorkPlaneAgreesBetweenRadiosityAndThePathTracer) {
   };
   const nlohmann::json radiosity = work_plane("progressive", "");
   const nlohmann::json traced = work_plane("pathtrace", "");
+  const nlohmann::json matrix = work_plane("matrix", "--elements 2000");
   const double e_r = radiosity["total"]["average_lux"], e_p = traced["total"]["average_lux"];
   const double u0 = radiosity["total"]["uniformity_u0"];
   std::printf("office work plane: radiosity %.1f lx, path tracer %.1f lx, U0 %.2f\n", e_r, e_p, u0);
+  const double e_m = matrix["total"]["average_lux"];
+  std::printf("office work plane: matrix radiosity %.1f lx\n", e_m);
   EXPECT_NEAR(e_r / e_p, 1.0, 0.03);
+  EXPECT_NEAR(e_m / e_p, 1.0, 0.03);  // the luminaires enter matrix radiosity as its direct term
   // The same delta-light term on both.
   EXPECT_NEAR(double(radiosity["direct"]["average_lux"]), double(traced["direct"]["average_lux"]),
               1e-6 * e_r);

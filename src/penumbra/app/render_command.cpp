@@ -177,7 +177,7 @@ Status renderPathTrace(const RenderOptions& options, const CommonOptions& common
     if (!r) return r.error();
     report = std::move(*r);
   }
-  nlohmann::json lux_stats;
+  nlohmann::json lux_stats = nlohmann::json::object();
   PENUMBRA_TRY(
       writeRenderOutputs(options, outputs, image, report ? &*report : nullptr, &lux_stats));
   const double mrays = stats.seconds > 0.0 ? double(stats.rays) / stats.seconds * 1e-6 : 0.0;

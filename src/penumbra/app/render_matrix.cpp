@@ -133,7 +133,7 @@ Status renderMatrix(const RenderOptions& options, const CommonOptions& common) {
   view.seed = options.seed.value_or(0);
   std::vector<Material> materials = scene->materials;
   nlohmann::json frame_stats = nlohmann::json::array();
-  nlohmann::json lux_stats;  // the last frame's
+  nlohmann::json lux_stats = nlohmann::json::object();  // the last frame's
   SolveStats last;
   double solve_seconds = 0.0, view_seconds = 0.0;
   for (int f = 0; f < frames; ++f) {

@@ -102,7 +102,7 @@ Status renderProgressive(const RenderOptions& options, const CommonOptions& comm
     if (!r) return r.error();
     report = std::move(*r);
   }
-  nlohmann::json lux_stats;
+  nlohmann::json lux_stats = nlohmann::json::object();
   PENUMBRA_TRY(
       writeRenderOutputs(options, outputs, image, report ? &*report : nullptr, &lux_stats));
   spdlog::info("{} iterations, {:.3g} of the emitted power unshot, {:.2f} s; wrote {}",

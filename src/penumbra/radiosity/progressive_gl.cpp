@@ -135,9 +135,10 @@ Expected<GlProgressive> GlProgressive::create(const ProgressiveRadiosity& cpu,
   while (glGetError() != GL_NO_ERROR) continue;
   const char* place = "progressive radiosity on the GPU";
   if (!cpu.lightsShot()) {
-    return inputError("", place,
-                      "the point, spot and directional lights shoot first, on the CPU (shoot "
-                      "ProgressiveRadiosity::kLights before creating the GPU solver)");
+    return inputError(
+        "", place,
+        "the lights (point, spot, directional, luminaires) shoot first, on the CPU (shoot "
+        "ProgressiveRadiosity::kLights before creating the GPU solver)");
   }
   if (gl_options.visibility_resolution < 16) {
     return inputError("", place, "the visibility resolution must be at least 16 texels");
