@@ -94,6 +94,33 @@ TEST(LightingDesign, OfficeWorkPlaneAgreesBetweenRadiosityAndThePathTracer) {
   EXPECT_LE(u0, 1.0);
 }
 
+TEST(LightingDesign, DeskSurfaceGridAgreesBetweenRadiosityAndThePathTracer) {
+  // --grid-surface: points on the desk's faces (a 1.2 x 0.75 x 0.72 m box; its bottom face lies
+  // on the floor, in the dark), area-weighted.
+  TempDir dir;
+  const std::string scene = std::string(PENUMBRA_SOURCE_DIR) + "/scenes/office.json";
+  auto desk = [&](const std::string& method) {
+    const std::string stats = dir.file(method + "-desk.json");
+    const test::CliResult r =
+        runCli("render " + scene + " --method " + method +
+               " --width 32 --height 32 --spp 1 --grid-surface desk --grid-spacing 0.2 --stats " +
+               stats + " -o " + dir.file(method + "-desk.png"));
+    EXPECT_EQ(r.exit_code, 0) << r.output;
+    return readJson(stats)["illuminance"]["surface"];
+  };
+  const nlohmann::json radiosity = desk("progressive"), traced = desk("pathtrace");
+  const double e_r = radiosity["total"]["average_lux"], e_p = traced["total"]["average_lux"];
+  std::printf("desk: radiosity %.1f lx, path tracer %.1f lx, minimum %.1f lx\n", e_r, e_p,
+              double(radiosity["total"]["minimum_lux"]));
+  EXPECT_NEAR(e_r / e_p, 1.0, 0.03);
+  EXPECT_GT(int(radiosity["points"]), 100);
+  EXPECT_LT(double(radiosity["total"]["minimum_lux"]), 0.05 * e_r);  // the face on the floor
+  const test::CliResult bad = runCli(
+      "render " + scene + " --method progressive --grid-surface chair -o " + dir.file("x.png"));
+  EXPECT_EQ(bad.exit_code, 2) << bad.output;
+  EXPECT_NE(bad.output.find("no mesh is named 'chair'"), std::string::npos) << bad.output;
+}
+
 TEST(LightingDesign, FalseColourImageHasALegendAndLuxInExr) {
   TempDir dir;
   const std::string png = dir.file("lux.png"), exr = dir.file("lux.exr");

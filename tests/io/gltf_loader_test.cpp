@@ -3,6 +3,7 @@
 // KHR_materials_emissive_strength, KHR_lights_punctual point and spot lights and a camera; and
 // malformed files whose errors name the file and the accessor, vertex or extension.
 #include "penumbra/core/file_util.h"
+#include "penumbra/io/image_io.h"
 #include "penumbra/io/scene_io.h"
 #include "penumbra/kernels/dipole.h"
 #include "support/test_util.h"
@@ -456,6 +457,44 @@ TEST(GltfLoad, TexturesAndUnsupportedThingsWarn) {
   for (const std::string& w : s->warnings) {
     warned = warned || w.find("baseColorTexture") != std::string::npos;
   }
+  EXPECT_TRUE(warned);
+}
+
+TEST(GltfLoad, NormalTextureIsReadAsDataWithItsScale) {
+  // A 2 x 2 PNG whose stored bytes are (200, 128, 255): the normal map holds 200/255, not the
+  // sRGB-decoded value; normalTexture.scale becomes the material's normal_scale.
+  TempDir dir;
+  Image png(2, 2);
+  for (glm::vec3& p : png.pixels) {
+    // Display-linear values that encode to the bytes wanted (IEC 61966-2-1 inverse).
+    auto linear = [](double b) {
+      const double e = b / 255.0;
+      return float(e <= 0.04045 ? e / 12.92 : std::pow((e + 0.055) / 1.055, 2.4));
+    };
+    p = glm::vec3(linear(200), linear(128), linear(255));
+  }
+  ToneMapSettings none;
+  none.op = ToneMapOperator::kNone;
+  ASSERT_TRUE(writeImage(dir.file("n.png"), png, none).ok());
+  TestGltf g = makeTestGltf();
+  g.doc["materials"][0]["normalTexture"] = {{"index", 0}, {"scale", 0.5}};
+  g.doc["textures"] = json::array({{{"source", 0}}});
+  g.doc["images"] = json::array({{{"uri", "n.png"}}});
+  Expected<Scene> s = loadGltf(writeGltf(dir, "normal.gltf", g));
+  ASSERT_TRUE(s.ok()) << s.error().describe();
+  const Material& m = s->materials[0];
+  ASSERT_TRUE(m.normal_map);
+  EXPECT_EQ(m.normal_map->width, 2);
+  EXPECT_NEAR(m.normal_map->pixels[0].x, 200.0f / 255.0f, 1e-6f);
+  EXPECT_NEAR(m.normal_map->pixels[0].y, 128.0f / 255.0f, 1e-6f);
+  EXPECT_FLOAT_EQ(m.normal_scale, 0.5f);
+  // On another UV set: kept out, with a warning.
+  g.doc["materials"][0]["normalTexture"]["texCoord"] = 1;
+  Expected<Scene> other = loadGltf(writeGltf(dir, "normal1.gltf", g));
+  ASSERT_TRUE(other.ok()) << other.error().describe();
+  EXPECT_FALSE(other->materials[0].normal_map);
+  bool warned = false;
+  for (const std::string& w : other->warnings) warned |= w.find("TEXCOORD_1") != std::string::npos;
   EXPECT_TRUE(warned);
 }
 

@@ -247,15 +247,19 @@ int parseAndRun(int argc, char** argv) {
                          "a horizontal grid of calculation points this many metres above the "
                          "scene's lowest point: average, minimum, maximum lux and uniformity U0 "
                          "in the log and the stats");
+  render_cmd->add_option("--grid-surface", render.grid_surface,
+                         "calculation points on the front of the mesh of this name (a JSON "
+                         "scene's mesh \"name\"): lux figures as for --work-plane, area-weighted");
   render_cmd->add_option("--grid-spacing", render.grid_spacing,
-                         "work plane: metres between points (default 0.25)");
+                         "work plane or surface: metres between points (default 0.25)");
   render_cmd->add_option("--grid-margin", render.grid_margin,
                          "work plane: metres left out along the walls (default 0)");
-  render_cmd->add_option("--grid-csv", render.grid_csv,
-                         "work plane: write x, y, z, direct and total lux per point to this CSV");
+  render_cmd->add_option(
+      "--grid-csv", render.grid_csv,
+      "work plane or surface: write x, y, z, direct and total lux per point to this CSV");
   render_cmd
       ->add_option("--illuminance-rays", render.illuminance_rays,
-                   "hemisphere rays per work-plane point (default 256; a quarter per pixel)")
+                   "hemisphere rays per grid point (default 256; a quarter of it per pixel)")
       ->check(CLI::Range(1, 65536));
   addCommon(render_cmd, common);
   addDryRun(render_cmd, common);

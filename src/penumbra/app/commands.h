@@ -69,6 +69,7 @@ struct RenderOptions {
   bool false_colour = false;
   std::optional<double> lux_max;
   std::optional<double> work_plane;  // height above the scene's lowest point, m
+  std::string grid_surface;          // or points on the mesh of this name
   std::optional<double> grid_spacing, grid_margin;
   std::string grid_csv;
   int illuminance_rays = 256;  // per grid point (a quarter of it per pixel)

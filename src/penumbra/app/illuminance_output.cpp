@@ -21,9 +21,9 @@ nlohmann::json statsJson(const IlluminanceStats& s) {
 
 bool wantsIlluminance(const RenderOptions& options) {
   // Any of the options: illuminanceRequest then checks that they go together.
-  return options.output_quantity != "radiance" || options.work_plane || options.false_colour ||
-         options.lux_max || options.grid_spacing || options.grid_margin ||
-         !options.grid_csv.empty();
+  return options.output_quantity != "radiance" || options.work_plane ||
+         !options.grid_surface.empty() || options.false_colour || options.lux_max ||
+         options.grid_spacing || options.grid_margin || !options.grid_csv.empty();
 }
 
 Expected<IlluminanceRequest> illuminanceRequest(const RenderOptions& options, int width,
@@ -37,13 +37,16 @@ Expected<IlluminanceRequest> illuminanceRequest(const RenderOptions& options, in
     return inputError("", options.false_colour ? "--false-colour" : "--lux-max",
                       "applies to --output-quantity illuminance only");
   }
-  if (!options.work_plane &&
-      (options.grid_spacing || options.grid_margin || !options.grid_csv.empty())) {
-    return inputError("",
-                      options.grid_spacing  ? "--grid-spacing"
-                      : options.grid_margin ? "--grid-margin"
-                                            : "--grid-csv",
-                      "applies with --work-plane only");
+  const bool surface = !options.grid_surface.empty();
+  if (options.work_plane && surface) {
+    return inputError("", "--grid-surface", "one grid at a time: not with --work-plane");
+  }
+  if (!options.work_plane && !surface && (options.grid_spacing || !options.grid_csv.empty())) {
+    return inputError("", options.grid_spacing ? "--grid-spacing" : "--grid-csv",
+                      "applies with --work-plane or --grid-surface only");
+  }
+  if (!options.work_plane && options.grid_margin) {
+    return inputError("", "--grid-margin", "applies with --work-plane only");
   }
   if (!options.grid_csv.empty()) PENUMBRA_TRY(checkOutputPath(options.grid_csv));
   if (options.lux_max && !(*options.lux_max > 0.0 && *options.lux_max < 1e9)) {
@@ -58,6 +61,7 @@ Expected<IlluminanceRequest> illuminanceRequest(const RenderOptions& options, in
   r.width = width;
   r.height = height;
   r.work_plane = options.work_plane;
+  r.surface = options.grid_surface;
   r.spacing = options.grid_spacing.value_or(0.25);
   r.margin = options.grid_margin.value_or(0.0);
   r.grid_rays = options.illuminance_rays;
@@ -95,15 +99,16 @@ Status writeRenderOutputs(const RenderOptions& options, const std::vector<std::s
   if (report->grid) {
     const CalculationGrid& g = *report->grid;
     const IlluminanceResult& r = report->grid_result;
-    j["work_plane"] = {{"name", g.name},
-                       {"height_m", *options.work_plane},
-                       {"columns", g.columns},
-                       {"rows", g.rows},
-                       {"points", g.points.size()},
-                       {"spacing_m", g.spacing},
-                       {"rays_per_point", r.rays},
-                       {"total", statsJson(r.total_stats)},
-                       {"direct", statsJson(r.direct_stats)}};
+    nlohmann::json& out = j[options.work_plane ? "work_plane" : "surface"];
+    out = {{"name", g.name},
+           {"columns", g.columns},
+           {"rows", g.rows},
+           {"points", g.points.size()},
+           {"spacing_m", g.spacing},
+           {"rays_per_point", r.rays},
+           {"total", statsJson(r.total_stats)},
+           {"direct", statsJson(r.direct_stats)}};
+    if (options.work_plane) out["height_m"] = *options.work_plane;
     spdlog::info(
         "{}: {} points, E_avg {:.1f} lx (direct {:.1f}), E_min {:.1f}, E_max {:.1f}, "
         "U0 {:.2f}",

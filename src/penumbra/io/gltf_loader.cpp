@@ -13,6 +13,7 @@
 //   - lights and cameras look down their node's local -Z; a camera's up is the node's local +Y.
 #include "penumbra/core/file_util.h"
 #include "penumbra/core/memory.h"
+#include "penumbra/io/image_io.h"
 #include "penumbra/io/json_guard.h"
 #include "penumbra/io/scene_io.h"
 #include "penumbra/io/subsurface_json.h"
@@ -33,6 +34,7 @@
 #include <cstring>
 #include <filesystem>
 #include <limits>
+#include <map>
 #include <numbers>
 #include <string>
 #include <string_view>
@@ -52,9 +54,15 @@ constexpr uint64_t kLoadedBytesPerTriangle = 64;
 // implementations use between photometric and radiometric quantities.
 constexpr double kLumensPerWatt = 683.0;
 
-// Textures are not used yet: images are not decoded (and a missing image is not an error).
-bool skipImage(tinygltf::Image*, const int, std::string*, std::string*, int, int,
-               const unsigned char*, int, void*) {
+// Textures: normalTexture is read (a PNG normal map on TEXCOORD_0); the others are not used yet
+// (a missing image is not an error).
+// Images are not decoded by tinygltf: their bytes are kept (by image index) for the textures
+// Penumbra reads (normalTexture), and decoded there as data (io/image_io.h).
+bool keepImageBytes(tinygltf::Image*, const int image_index, std::string*, std::string*, int, int,
+                    const unsigned char* bytes, int size, void* user) {
+  auto* kept = static_cast<std::map<int, std::string>*>(user);
+  if (bytes && size > 0)
+    (*kept)[image_index] = std::string(reinterpret_cast<const char*>(bytes), size_t(size));
   return true;
 }
 
@@ -206,8 +214,9 @@ Status checkGltfJson(const std::string& path, std::string_view text, const std::
 
 class GltfReader {
  public:
-  GltfReader(const std::string& path, const tinygltf::Model& model, Scene& scene)
-      : path_(path), model_(model), scene_(scene) {}
+  GltfReader(const std::string& path, const tinygltf::Model& model,
+             const std::map<int, std::string>& image_bytes, Scene& scene)
+      : path_(path), model_(model), image_bytes_(image_bytes), scene_(scene) {}
 
   Status read();
 
@@ -233,6 +242,7 @@ class GltfReader {
 
   const std::string& path_;
   const tinygltf::Model& model_;
+  const std::map<int, std::string>& image_bytes_;  // undecoded, by image index
   Scene& scene_;
   std::vector<int> material_map_;  // glTF material -> scene material, -1 until used
   int default_material_ = -1;
@@ -363,6 +373,31 @@ Expected<uint32_t> GltfReader::materialFor(int gltf_material, const std::string&
     scene_.warnings.push_back(
         fmt::format("{}: {} ('{}'): emissiveTexture is not used yet, only emissiveFactor", path_,
                     place, m.name));
+  }
+  if (gm.normalTexture.index >= 0) {
+    // Wallner sec. 3.3: a tangent-space normal map on TEXCOORD_0 (scene/material.h).
+    const std::string where = place + ".normalTexture";
+    const int tex = gm.normalTexture.index;
+    if (size_t(tex) >= model_.textures.size()) {
+      return inputError(path_, where, fmt::format("texture {} does not exist", tex));
+    }
+    const int source = model_.textures[size_t(tex)].source;
+    const auto bytes = image_bytes_.find(source);
+    if (gm.normalTexture.texCoord != 0) {
+      scene_.warnings.push_back(fmt::format(
+          "{}: {} ('{}'): normalTexture on TEXCOORD_{} is not used (only TEXCOORD_0 is read)",
+          path_, place, m.name, gm.normalTexture.texCoord));
+    } else if (bytes == image_bytes_.end()) {
+      scene_.warnings.push_back(
+          fmt::format("{}: {} ('{}'): normalTexture's image {} could not be read: not used", path_,
+                      place, m.name, source));
+    } else {
+      Expected<Image> map = decodePngData(fmt::format("{} image {}", path_, source), bytes->second);
+      if (!map) return map.error();
+      m.normal_map = std::make_shared<const Image>(std::move(*map));
+      m.normal_map_source = fmt::format("{} image {}", path_, source);
+      m.normal_scale = float(gm.normalTexture.scale);
+    }
   }
   PENUMBRA_TRY(readSubsurface(gm, place, m));
   mapped = static_cast<int>(scene_.materials.size());
@@ -702,6 +737,7 @@ Status GltfReader::addPrimitive(const tinygltf::Node& node, int mesh_index, size
                         fmt::format("count {} differs from POSITION's {}", uv->count, nv));
     }
     mesh.uvs.resize(nv);
+    mesh.uv_origin_top = true;  // glTF: (0, 0) is the top-left of an image
     for (size_t i = 0; i < nv; ++i) {
       mesh.uvs[i] = glm::vec2(uv->component(i, 0), uv->component(i, 1));
     }
@@ -949,11 +985,12 @@ Expected<Scene> loadGltf(const std::string& path) {
   PENUMBRA_TRY(checkGltfJson(path, json_text, base_dir));
 
   tinygltf::Model model;
+  std::map<int, std::string> image_bytes;
   std::string err, warn;
   bool ok = false;
   try {
     tinygltf::TinyGLTF loader;
-    loader.SetImageLoader(&skipImage, nullptr);
+    loader.SetImageLoader(&keepImageBytes, &image_bytes);
     if (binary) {
       ok = loader.LoadBinaryFromMemory(&model, &err, &warn,
                                        reinterpret_cast<const unsigned char*>(bytes->data()),
@@ -981,7 +1018,7 @@ Expected<Scene> loadGltf(const std::string& path) {
   }
   if (!warn.empty()) scene.warnings.push_back(fmt::format("{}: tinygltf: {}", path, oneLine(warn)));
 
-  GltfReader reader(path, model, scene);
+  GltfReader reader(path, model, image_bytes, scene);
   PENUMBRA_TRY(reader.read());
   PENUMBRA_TRY(validateScene(scene));
   return scene;

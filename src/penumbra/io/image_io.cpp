@@ -407,9 +407,18 @@ Expected<Image> readHdr(const std::string& path) {
   return image;
 }
 
-Expected<Image> readPng(const std::string& path) {
+// `srgb`: decode the sRGB transfer function (colour); false: the stored values over 255 or 65535
+// (data such as normal maps).
+Expected<Image> decodePng(const std::string& path, const std::string* bytes, bool srgb);
+
+Expected<Image> readPng(const std::string& path, bool srgb) {
   Expected<std::string> bytes = readWholeFile(path);
   if (!bytes) return bytes.error();
+  return decodePng(path, &*bytes, srgb);
+}
+
+// `path` names the bytes in messages.
+Expected<Image> decodePng(const std::string& path, const std::string* bytes, bool srgb) {
   const auto* data = reinterpret_cast<const stbi_uc*>(bytes->data());
   const int len = int(bytes->size());
   // stb_image would also decode a Radiance file here; insist on the PNG signature.
@@ -439,7 +448,8 @@ Expected<Image> readPng(const std::string& path) {
     }
     for (size_t i = 0; i < image.pixels.size(); ++i) {
       for (int c = 0; c < 3; ++c) {
-        image.pixels[i][c] = decodeSrgb(pixels.get()[3 * i + size_t(c)] / 65535.0);
+        const double v = pixels.get()[3 * i + size_t(c)] / 65535.0;
+        image.pixels[i][c] = srgb ? decodeSrgb(v) : float(v);
       }
     }
     return image;
@@ -449,7 +459,7 @@ Expected<Image> readPng(const std::string& path) {
     return inputError(path, "", std::string("malformed PNG file: ") + stbi_failure_reason());
   }
   std::array<float, 256> linear;
-  for (int k = 0; k < 256; ++k) linear[size_t(k)] = decodeSrgb(k / 255.0);
+  for (int k = 0; k < 256; ++k) linear[size_t(k)] = srgb ? decodeSrgb(k / 255.0) : float(k / 255.0);
   for (size_t i = 0; i < image.pixels.size(); ++i) {
     for (int c = 0; c < 3; ++c) image.pixels[i][c] = linear[pixels.get()[3 * i + size_t(c)]];
   }
@@ -611,8 +621,25 @@ Expected<Image> readImage(const std::string& path) {
     if (ext == ".exr") return readExr(path);
     if (ext == ".hdr") return readHdr(path);
     if (ext == ".pfm") return readPfm(path);
-    return readPng(path);
+    return readPng(path, true);
   } catch (const std::exception& e) {  // std::bad_alloc and the like
+    return runtimeError(path, std::string("cannot read: ") + e.what());
+  }
+}
+
+Expected<Image> decodePngData(const std::string& name, const std::string& bytes) {
+  try {
+    return decodePng(name, &bytes, false);
+  } catch (const std::exception& e) {
+    return runtimeError(name, std::string("cannot decode: ") + e.what());
+  }
+}
+
+Expected<Image> readImageData(const std::string& path) {
+  if (extensionOf(path) != ".png") return readImage(path);
+  try {
+    return readPng(path, false);
+  } catch (const std::exception& e) {
     return runtimeError(path, std::string("cannot read: ") + e.what());
   }
 }

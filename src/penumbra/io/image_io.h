@@ -21,4 +21,10 @@ Status writeImage(const std::string& path, const Image& linear,
 // Reads .exr, .hdr, .pfm (linear) and .png (decoded from sRGB to linear).
 Expected<Image> readImage(const std::string& path);
 
+// Reads an image that holds data rather than colour (a normal map): .png values as stored,
+// scaled to [0, 1], without sRGB decoding; the other formats as readImage.
+Expected<Image> readImageData(const std::string& path);
+// The same for PNG bytes in memory (an image embedded in a glTF file); `name` for messages.
+Expected<Image> decodePngData(const std::string& name, const std::string& bytes);
+
 }  // namespace penumbra

@@ -5,6 +5,7 @@
 // silently changes a scene. Mesh files are loaded by their own loaders (which name the mesh file
 // in their errors), transformed to world space and merged.
 #include "penumbra/core/file_util.h"
+#include "penumbra/io/image_io.h"
 #include "penumbra/io/json_guard.h"
 #include "penumbra/io/luminaire_io.h"
 #include "penumbra/io/scene_io.h"
@@ -211,8 +212,9 @@ Status SceneJsonReader::readMaterials(const json& root, Scene& scene) {
     if (!it->is_object()) {
       return error(place, fmt::format("must be an object, not {}", jsonTypeName(*it)));
     }
-    PENUMBRA_TRY(checkKeys(*it, place, {"reflectance", "emission", "two_sided", "subsurface"},
-                           {{"normal_map", "normal mapping"}}));
+    PENUMBRA_TRY(checkKeys(
+        *it, place,
+        {"reflectance", "emission", "two_sided", "subsurface", "normal_map", "normal_scale"}));
     Material m;
     m.name = it.key();
     if (it->contains("reflectance")) {
@@ -231,6 +233,29 @@ Status SceneJsonReader::readMaterials(const json& root, Scene& scene) {
                                                        jsonTypeName(it->at("two_sided"))));
       }
       m.two_sided = it->at("two_sided").get<bool>();
+    }
+    if (it->contains("normal_map")) {
+      Expected<std::string> file = string(it->at("normal_map"), place + ".normal_map");
+      if (!file) return file.error();
+      const std::string resolved = resolveRelativeTo(path_, *file);
+      std::error_code ec;
+      if (!std::filesystem::is_regular_file(resolved, ec)) {
+        return error(place + ".normal_map",
+                     fmt::format("'{}' does not exist (looked for {})", *file, resolved));
+      }
+      Expected<Image> map = readImageData(resolved);
+      if (!map) return map.error();
+      if (map->width < 1 || map->height < 1) return error(place + ".normal_map", "empty image");
+      m.normal_map = std::make_shared<const Image>(std::move(*map));
+      m.normal_map_source = resolved;
+    }
+    if (it->contains("normal_scale")) {
+      Expected<double> scale = number(it->at("normal_scale"), place + ".normal_scale");
+      if (!scale) return scale.error();
+      if (!(*scale >= 0.0 && *scale <= 100.0)) {
+        return error(place + ".normal_scale", fmt::format("{} is outside [0, 100]", *scale));
+      }
+      m.normal_scale = float(*scale);
     }
     if (it->contains("subsurface")) {
       Expected<Subsurface> s = parseSubsurface(it->at("subsurface"), path_, place + ".subsurface");

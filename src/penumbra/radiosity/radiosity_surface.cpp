@@ -3,6 +3,7 @@
 #include "penumbra/core/check.h"
 #include "penumbra/core/parallel.h"
 #include "penumbra/geometry/shading_normals.h"
+#include "penumbra/geometry/tangents.h"
 #include "penumbra/kernels/sampling.h"
 #include "penumbra/radiosity/lights.h"
 
@@ -97,11 +98,54 @@ Expected<RadiositySurface> RadiositySurface::build(const Scene& scene,
     }
     s.total_area += s.atlas.element_area[e];
   }
+  if (shading_normals) s.applyNormalMaps(scene, corner_normals);
   s.applyMaterials(scene.materials);
   std::vector<uint8_t> known(s.atlas.texel_kind.size(), 0);
   for (size_t e = 0; e < s.elementCount(); ++e) known[s.atlas.element_texel[e]] = 1;
   s.gap_plan = planChartGaps(s.atlas, std::move(known));
   return s;
+}
+
+void RadiositySurface::applyNormalMaps(const Scene& scene,
+                                       std::span<const glm::vec3> corner_normals) {
+  bool any = false;
+  for (const Material& m : scene.materials) any |= m.normal_map != nullptr;
+  if (!any) return;
+  // Wallner sec. 3.3: the receiver's cosine takes the normal the map gives at the element's
+  // point, in the tangent frame of its triangle's corners (geometry/tangents.h).
+  bool has_uvs = false;
+  const std::vector<glm::vec2> uvs = flattenSceneUvs(scene, has_uvs);
+  const std::vector<glm::vec4> tangents = cornerTangents(scene, corner_normals);
+  std::vector<uint8_t> origin_top;
+  std::vector<uint8_t> mesh_has_uvs;
+  for (const Mesh& mesh : scene.meshes) {
+    origin_top.insert(origin_top.end(), mesh.triangles.size(), mesh.uv_origin_top ? 1 : 0);
+    mesh_has_uvs.insert(mesh_has_uvs.end(), mesh.triangles.size(), mesh.uvs.empty() ? 0 : 1);
+  }
+  for (size_t e = 0; e < elementCount(); ++e) {
+    const Material& m = scene.materials[material[e]];
+    if (!m.normal_map) continue;
+    const uint32_t tf = atlas.element_face[e];
+    if (atlas.faces[size_t(tf)].back) continue;  // the map is on the front of the surface
+    const uint32_t t = atlas.faces[size_t(tf)].triangle;
+    if (!mesh_has_uvs[t]) continue;
+    const glm::vec2 w = clampBarycentric(atlas.element_barycentric[e]);
+    const float w0 = 1.0f - w.x - w.y;
+    const glm::vec2 uv = w0 * uvs[3 * t] + w.x * uvs[3 * t + 1] + w.y * uvs[3 * t + 2];
+    const glm::vec4 tan =
+        w0 * tangents[3 * t] + w.x * tangents[3 * t + 1] + w.y * tangents[3 * t + 2];
+    glm::vec3 txyz(tan);
+    const glm::dvec3 n = shading_normal[e];
+    glm::dvec3 tt = glm::dvec3(txyz) - n * glm::dot(n, glm::dvec3(txyz));
+    if (!(glm::length(tt) > 1e-9)) continue;
+    tt = glm::normalize(tt);
+    const glm::vec3 rgb = sampleNormalMap(*m.normal_map, uv, origin_top[t] != 0);
+    const glm::dvec3 p =
+        perturbedNormal(n, glm::vec4(glm::vec3(tt), tangents[3 * t].w), rgb, m.normal_scale);
+    // A map may not turn the normal below the face: such a receiver would face away from what
+    // lights it.
+    if (glm::dot(p, atlas.element_normal[e]) > 1e-3) shading_normal[e] = p;
+  }
 }
 
 void RadiositySurface::applyMaterials(std::span<const Material> materials) {

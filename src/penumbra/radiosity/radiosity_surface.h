@@ -77,6 +77,9 @@ struct RadiositySurface {
   size_t elementCount() const { return atlas.elementCount(); }
   // Sets reflectance and emission from the materials (relighting: the geometry stays).
   void applyMaterials(std::span<const Material> materials);
+  // Perturbs the shading normals of the elements on the front of materials with a normal map
+  // (Wallner sec. 3.3; scene/material.h); `corner_normals` as cornerShadingNormals gives them.
+  void applyNormalMaps(const Scene& scene, std::span<const glm::vec3> corner_normals);
 
   // Direct irradiance from the lights at each element's point (W m^-2, radiosity/lights.h),
   // with one Ray Engine shadow ray per element and light when `visibility`; rays traced are

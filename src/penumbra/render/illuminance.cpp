@@ -71,18 +71,86 @@ Expected<CalculationGrid> workPlaneGrid(const Scene& scene, double height, doubl
   return g;
 }
 
-IlluminanceStats illuminanceStats(std::span<const double> lux) {
+Expected<CalculationGrid> surfaceGrid(const Scene& scene, const std::string& name, double spacing) {
+  if (!(spacing > 0.0) || !std::isfinite(spacing)) {
+    return inputError("", "--grid-spacing", fmt::format("{} must be a positive length", spacing));
+  }
+  CalculationGrid g;
+  g.name = fmt::format("surface '{}'", name);
+  g.spacing = spacing;
+  std::string known;
+  bool found = false;
+  double points = 0.0;
+  for (const Mesh& m : scene.meshes) {
+    if (m.name != name) {
+      if (known.find("'" + m.name + "'") == std::string::npos) {
+        known += (known.empty() ? "'" : ", '") + m.name + "'";
+      }
+      continue;
+    }
+    found = true;
+    for (const glm::uvec3& t : m.triangles) {
+      const glm::dvec3 a(m.positions[t.x]), b(m.positions[t.y]), c(m.positions[t.z]);
+      const double edge = std::max({glm::length(b - a), glm::length(c - b), glm::length(a - c)});
+      points += std::pow(std::ceil(edge / spacing), 2.0);
+    }
+  }
+  if (!found) {
+    return inputError(scene.source, "--grid-surface",
+                      fmt::format("no mesh is named '{}' (the meshes: {})", name, known));
+  }
+  if (points > 4e6) {
+    return inputError(
+        "", "--grid-spacing",
+        fmt::format("{} m on '{}' makes {:.0f} points (at most 4 million)", spacing, name, points));
+  }
+  for (const Mesh& m : scene.meshes) {
+    if (m.name != name) continue;
+    for (const glm::uvec3& t : m.triangles) {
+      const glm::dvec3 a(m.positions[t.x]), b(m.positions[t.y]), c(m.positions[t.z]);
+      const glm::dvec3 cr = glm::cross(b - a, c - a);
+      const double area2 = glm::length(cr);
+      if (!(area2 > 0.0)) continue;  // degenerate: no area, no point
+      const glm::dvec3 n = cr / area2;
+      const int k = int(std::ceil(
+          std::max({glm::length(b - a), glm::length(c - b), glm::length(a - c)}) / spacing));
+      const glm::dvec3 u = (b - a) / double(k), v = (c - a) / double(k);
+      const double share = 0.5 * area2 / double(k * k);
+      // The k^2 similar triangles: k(k+1)/2 upright ones and k(k-1)/2 inverted.
+      for (int i = 0; i < k; ++i) {
+        for (int j = 0; i + j < k; ++j) {
+          const glm::dvec3 o = a + double(i) * u + double(j) * v;
+          g.points.push_back(o + (u + v) / 3.0);
+          g.normals.push_back(n);
+          g.areas.push_back(share);
+          if (i + j + 1 < k) {
+            g.points.push_back(o + 2.0 * (u + v) / 3.0);
+            g.normals.push_back(n);
+            g.areas.push_back(share);
+          }
+        }
+      }
+    }
+  }
+  g.columns = int(g.points.size());
+  g.rows = 1;
+  return g;
+}
+
+IlluminanceStats illuminanceStats(std::span<const double> lux, std::span<const double> areas) {
   IlluminanceStats s;
   if (lux.empty()) return s;
-  double sum = 0.0;
+  double sum = 0.0, weight = 0.0;
   s.minimum = std::numeric_limits<double>::infinity();
   s.maximum = -s.minimum;
-  for (double v : lux) {
-    sum += v;
-    s.minimum = std::min(s.minimum, v);
-    s.maximum = std::max(s.maximum, v);
+  for (size_t i = 0; i < lux.size(); ++i) {
+    const double w = areas.empty() ? 1.0 : areas[i];
+    sum += w * lux[i];
+    weight += w;
+    s.minimum = std::min(s.minimum, lux[i]);
+    s.maximum = std::max(s.maximum, lux[i]);
   }
-  s.average = sum / double(lux.size());
+  s.average = weight > 0.0 ? sum / weight : 0.0;
   s.uniformity = s.average > 0.0 ? s.minimum / s.average : 0.0;
   return s;
 }
@@ -148,8 +216,8 @@ IlluminanceResult gatherIlluminance(const Scene& scene, const RayEngine& engine,
     traced += count;
   });
   out.rays_traced = traced.load();
-  out.direct_stats = illuminanceStats(out.direct);
-  out.total_stats = illuminanceStats(out.total);
+  out.direct_stats = illuminanceStats(out.direct, grid.areas);
+  out.total_stats = illuminanceStats(out.total, grid.areas);
   return out;
 }
 
@@ -159,9 +227,11 @@ Expected<IlluminanceReport> illuminanceReport(const Scene& scene, const RayEngin
                                               const IncidentRadiance& incident) {
   const Timer timer;
   IlluminanceReport report;
-  if (request.work_plane) {
+  if (request.work_plane || !request.surface.empty()) {
     Expected<CalculationGrid> g =
-        workPlaneGrid(scene, *request.work_plane, request.spacing, request.margin);
+        request.work_plane
+            ? workPlaneGrid(scene, *request.work_plane, request.spacing, request.margin)
+            : surfaceGrid(scene, request.surface, request.spacing);
     if (!g) return g.error();
     report.grid = std::move(*g);
     report.grid_result = gatherIlluminance(scene, engine, flat, *report.grid, incident,

@@ -42,6 +42,9 @@ struct CalculationGrid {
   std::vector<glm::dvec3> points;
   std::vector<glm::dvec3> normals;
   double spacing = 0.0;  // metres between neighbouring points of a plane
+  // The area each point stands for, m^2, when the points are not evenly spread (a surface's);
+  // empty: equal shares. The figures' average is weighted by it.
+  std::vector<double> areas;
 };
 
 // A horizontal work plane facing up, `height` metres above the scene's lowest point, over the
@@ -51,12 +54,19 @@ struct CalculationGrid {
 Expected<CalculationGrid> workPlaneGrid(const Scene& scene, double height, double spacing,
                                         double margin);
 
-// The figures of a set of illuminance values, lux; uniformity U0 = minimum / average (0 when
-// the average is 0).
+// The front faces of the meshes named `name` (a JSON scene's mesh "name", or a file's own
+// mesh names), each triangle split into n^2 similar triangles with n = its longest edge /
+// `spacing` rounded up: a point at each one's centroid, facing out of the front, standing for
+// its area. Refuses an unknown name (listing the known ones), a bad spacing and more than 4
+// million points.
+Expected<CalculationGrid> surfaceGrid(const Scene& scene, const std::string& name, double spacing);
+
+// The figures of a set of illuminance values, lux: the average (weighted by `areas` when given),
+// minimum, maximum, and the uniformity U0 = minimum / average (0 when the average is 0).
 struct IlluminanceStats {
   double average = 0.0, minimum = 0.0, maximum = 0.0, uniformity = 0.0;
 };
-IlluminanceStats illuminanceStats(std::span<const double> lux);
+IlluminanceStats illuminanceStats(std::span<const double> lux, std::span<const double> areas = {});
 
 // Radiance (W m^-2 sr^-1) arriving along `ray` whose closest hit is `hit` (a miss: triangle -1),
 // from the method's solution; `rng` for estimators that need random numbers.
@@ -81,6 +91,7 @@ struct IlluminanceRequest {
   int width = 512, height = 512;
   int image_rays = 64;               // hemisphere rays per pixel
   std::optional<double> work_plane;  // height, m: the grid of workPlaneGrid
+  std::string surface;               // or the points of surfaceGrid on this mesh
   double spacing = 0.25, margin = 0.0;
   int grid_rays = 256;  // hemisphere rays per grid point
   uint64_t seed = 0;

@@ -6,8 +6,11 @@
 // radiosity methods give it no elements.
 #pragma once
 
+#include "penumbra/core/image.h"
+
 #include <glm/vec3.hpp>
 
+#include <memory>
 #include <optional>
 #include <string>
 
@@ -36,6 +39,14 @@ struct Material {
   // Emission, if any, still leaves the front face. The mesh must be closed and wound outwards:
   // the medium is behind the front face.
   std::optional<Subsurface> subsurface;
+  // A tangent-space normal map (Wallner sec. 3.3; glTF normalTexture) on the mesh's UVs, its
+  // values as stored (no sRGB decoding): n = normalize((2 r - 1) s, (2 g - 1) s, 2 b - 1) with
+  // s = normal_scale, in the frame of the corner tangents (geometry/tangents.h). The radiosity
+  // methods take the perturbed normal for the receiver's cosine; the path tracer keeps the
+  // geometric normal (see docs/algorithms.md). Null: none.
+  std::shared_ptr<const Image> normal_map;
+  std::string normal_map_source;  // the file, for messages
+  float normal_scale = 1.0f;
 
   bool isEmissive() const { return emission.x > 0.0f || emission.y > 0.0f || emission.z > 0.0f; }
   bool isTranslucent() const { return subsurface.has_value(); }
