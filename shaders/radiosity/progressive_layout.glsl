@@ -1,16 +1,18 @@
 // std430 buffer layouts of the GPU progressive radiosity solver, shared with
 // src/penumbra/radiosity/progressive_gl.h (sizes and offsets checked there with static_assert).
 
-struct GpuProgressiveElement {  // 64 bytes: one kInside atlas texel (ProgressiveRadiosity order)
+struct GpuProgressiveElement {  // 80 bytes: one kInside atlas texel (ProgressiveRadiosity order)
   vec3 position;                // the CPU's element point: centroid of its exact coverage (m)
   float area;                   // the CPU's exact-coverage area (m^2)
   vec3 reflectance;             // rho per channel
   uint texel;                   // atlas texel index y * width + x
-  vec3 normal;                  // unit, its faces' (the side it is on)
+  vec3 normal;                  // unit, its faces' (the side it is on): culling
   uint piece_count;             // its pieces: polygons[8 * piece_first ..], 8 corners each
   vec2 barycentric;             // (w1, w2) of `position` on `triangle`
   uint triangle;                // the scene triangle whose face holds its texel's centre
   uint piece_first;
+  vec3 shading_normal;          // unit: the receiver's cosine (a normal map's, else `normal`)
+  uint pad;
 };
 
 struct GpuProgressiveTriangle {  // 48 bytes: a scene triangle as an occluder

@@ -169,10 +169,12 @@ void main() {
     const uint k = uint(findLSB(pairs));
     pairs &= pairs - 1u;
     if (!seenFrom(r, rt, k)) continue;
+    // Culling took the face's normal; the cosine takes the shading normal (a normal map's,
+    // Wallner sec. 3.3), as the CPU solver does.
 #if NEAR_PASS
-    sum += gatherNear(r, r.normal, k);
+    sum += gatherNear(r, r.shading_normal, k);
 #else
-    sum += gatherFar(r, r.normal, k);
+    sum += gatherFar(r, r.shading_normal, k);
 #endif
   }
   if (sum == vec3(0.0)) discard;  // nothing to add

@@ -3,7 +3,9 @@
 // follow the UVs (geometry/tangents.h) whichever way they run and in either UV convention.
 #include "penumbra/geometry/shading_normals.h"
 #include "penumbra/geometry/tangents.h"
+#include "penumbra/io/scene_io.h"
 #include "penumbra/radiosity/progressive.h"
+#include "penumbra/radiosity/radiosity_surface.h"
 #include "support/test_util.h"
 
 #include <gtest/gtest.h>
@@ -107,6 +109,27 @@ TEST(NormalMap, TangentsFollowTheUvsInEitherConvention) {
   EXPECT_LT(lean({0, 1}, {1, 1}, {0, 0}, true, green).z, -0.2);
   // A flat (0.5, 0.5, 1) map leaves the normal alone.
   EXPECT_NEAR(lean({0, 0}, {1, 0}, {0, 1}, false, {0.5f, 0.5f, 1.0f}).y, 1.0, 1e-9);
+}
+
+TEST(NormalMap, LightmapDensityFollowsTheMap) {
+  // The brick wall: a 256 x 256 map repeated twice each way over 2 x 2 m is 256 texels per
+  // metre; the automatic lightmap density rises towards it, by at most a factor of 2.
+  Expected<Scene> s = loadScene(std::string(PENUMBRA_SOURCE_DIR) + "/scenes/brick_wall.json");
+  ASSERT_TRUE(s.ok()) << s.error().describe();
+  EXPECT_NEAR(normalMapTexelDensity(*s), 256.0, 1e-6);
+  LightmapResolution r;
+  r.elements = 40000;
+  Expected<ChartAtlasOptions> o = lightmapAtlasOptions(*s, r);
+  ASSERT_TRUE(o.ok());
+  EXPECT_NEAR(o->texel_density, 2.0 * texelDensityFor(*s, 40000), 1e-9);
+  EXPECT_NEAR(double(expectedLightmapElements(*s, r)), 4.0 * 40000.0, 1.0);
+  r.elements = 4000000;  // finer than the map already: unchanged
+  Expected<ChartAtlasOptions> fine = lightmapAtlasOptions(*s, r);
+  ASSERT_TRUE(fine.ok());
+  EXPECT_NEAR(fine->texel_density, texelDensityFor(*s, 4000000), 1e-9);
+  Scene plain = *s;
+  for (Material& m : plain.materials) m.normal_map.reset();
+  EXPECT_EQ(normalMapTexelDensity(plain), 0.0);
 }
 
 }  // namespace

@@ -122,14 +122,6 @@ Expected<ProgressiveRun> runProgressive(const Scene& scene, const ProgressiveRun
   }
   if (gpu) {
     if (options.shading_normals) spdlog::info("--device gpu: form factors use the faces' normals");
-    for (const Material& m : scene.materials) {
-      if (m.normal_map) {
-        spdlog::warn(
-            "--device gpu: material '{}': its normal map is not applied on the GPU "
-            "(use --device cpu)",
-            m.name);
-      }
-    }
     po = gpuProgressiveOptions(po);
   }
 

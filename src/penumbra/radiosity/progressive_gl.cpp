@@ -447,6 +447,7 @@ Expected<GlProgressive> GlProgressive::create(const ProgressiveRadiosity& cpu,
       g.position[c] = float(pos[c]);
       g.reflectance[c] = float(cpu.reflectance(e)[c]);
       g.normal[c] = float(cpu.elementNormal(e)[c]);
+      g.shading_normal[c] = float(cpu.surface().shading_normal[e][c]);
     }
     g.area = float(cpu.elementArea(e));
     g.texel = texel;

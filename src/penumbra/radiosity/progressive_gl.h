@@ -104,22 +104,25 @@ int gpuShooterLevel(const ProgressiveRadiosity& cpu, int points);
 
 // ---- GPU layouts (std430), mirrored in shaders/radiosity/progressive_layout.glsl ----
 
-struct GpuProgressiveElement {  // 64 bytes
+struct GpuProgressiveElement {  // 80 bytes
   float position[3];
   float area;
   float reflectance[3];
   uint32_t texel;
-  float normal[3];       // unit, its faces' (the side it is on)
+  float normal[3];       // unit, its faces' (the side it is on): culling
   uint32_t piece_count;  // its pieces: polygons[8 * piece_first ..], 8 corners each
   float barycentric[2];  // of `position` on `triangle` (for the back projection)
   uint32_t triangle;     // the scene triangle whose face holds its texel's centre
   uint32_t piece_first;
+  float shading_normal[3];  // unit: the receiver's cosine (its normal map's, else `normal`)
+  uint32_t pad;
 };
-static_assert(sizeof(GpuProgressiveElement) == 64 &&
+static_assert(sizeof(GpuProgressiveElement) == 80 &&
               offsetof(GpuProgressiveElement, reflectance) == 16 &&
               offsetof(GpuProgressiveElement, normal) == 32 &&
               offsetof(GpuProgressiveElement, barycentric) == 48 &&
-              offsetof(GpuProgressiveElement, piece_first) == 60);
+              offsetof(GpuProgressiveElement, piece_first) == 60 &&
+              offsetof(GpuProgressiveElement, shading_normal) == 64);
 
 // A scene triangle as an occluder of the depth pass (and the back projection): 48 bytes.
 struct GpuProgressiveTriangle {

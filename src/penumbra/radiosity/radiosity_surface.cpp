@@ -22,6 +22,42 @@ double texelDensityFor(const Scene& scene, uint32_t elements) {
   return area > 0.0 ? std::sqrt(double(elements) / area) : 0.0;
 }
 
+double normalMapTexelDensity(const Scene& scene) {
+  // Per mapped triangle: sqrt(its UV area x the map's W x H / its area), area-weighted.
+  double weighted = 0.0, area = 0.0;
+  for (const Mesh& m : scene.meshes) {
+    if (m.uvs.empty()) continue;
+    for (size_t t = 0; t < m.triangles.size(); ++t) {
+      const Material& mat = scene.materials[m.material_ids[t]];
+      if (!mat.normal_map) continue;
+      const glm::uvec3 tri = m.triangles[t];
+      const double a =
+          0.5 * glm::length(glm::cross(glm::dvec3(m.positions[tri.y] - m.positions[tri.x]),
+                                       glm::dvec3(m.positions[tri.z] - m.positions[tri.x])));
+      const glm::dvec2 d1(m.uvs[tri.y] - m.uvs[tri.x]), d2(m.uvs[tri.z] - m.uvs[tri.x]);
+      const double uv_area = 0.5 * std::abs(d1.x * d2.y - d2.x * d1.y);
+      if (!(a > 0.0) || !(uv_area > 0.0)) continue;
+      const double texels = uv_area * mat.normal_map->width * mat.normal_map->height;
+      weighted += std::sqrt(texels / a) * a;
+      area += a;
+    }
+  }
+  return area > 0.0 ? weighted / area : 0.0;
+}
+
+namespace {
+
+// The automatic texel density for `elements`, raised towards the normal maps' own density
+// (Wallner sec. 3.3 warns that a lightmap coarser than its normal map loses the map's detail)
+// by at most a factor of 2 (4 times the elements).
+double automaticDensity(const Scene& scene, uint32_t elements) {
+  const double density = texelDensityFor(scene, elements);
+  const double maps = normalMapTexelDensity(scene);
+  return maps > density ? std::min(maps, 2.0 * density) : density;
+}
+
+}  // namespace
+
 Expected<ChartAtlasOptions> lightmapAtlasOptions(const Scene& scene, const LightmapResolution& r) {
   ChartAtlasOptions o;
   if (r.texel_density) {
@@ -34,7 +70,7 @@ Expected<ChartAtlasOptions> lightmapAtlasOptions(const Scene& scene, const Light
     o.resolution = *r.size;
   } else {
     if (r.elements == 0) return inputError("", "--elements", "must be at least 1");
-    o.texel_density = texelDensityFor(scene, r.elements);
+    o.texel_density = automaticDensity(scene, r.elements);
     if (!(o.texel_density > 0.0)) {
       return inputError(scene.source, "", "the scene has no surface area");
     }
@@ -48,7 +84,9 @@ uint64_t expectedLightmapElements(const Scene& scene, const LightmapResolution& 
     return std::isfinite(n) && n < 1e18 ? uint64_t(n) : uint64_t(1e18);
   }
   if (r.size) return uint64_t(*r.size) * uint64_t(*r.size) / 2;
-  return r.elements;
+  const double plain = texelDensityFor(scene, r.elements);
+  const double raised = plain > 0.0 ? automaticDensity(scene, r.elements) / plain : 1.0;
+  return uint64_t(double(r.elements) * raised * raised);
 }
 
 Expected<RadiositySurface> RadiositySurface::build(const Scene& scene,
@@ -98,7 +136,20 @@ Expected<RadiositySurface> RadiositySurface::build(const Scene& scene,
     }
     s.total_area += s.atlas.element_area[e];
   }
-  if (shading_normals) s.applyNormalMaps(scene, corner_normals);
+  // Normal maps apply with or without interpolated normals (the GPU solver's faces' normals).
+  if (shading_normals) {
+    s.applyNormalMaps(scene, corner_normals);
+  } else {
+    std::vector<glm::vec3> face_normals(3 * s.flat.triangles.size());
+    for (size_t t = 0; t < s.flat.triangles.size(); ++t) {
+      const glm::uvec3 tri = s.flat.triangles[t];
+      const glm::vec3 n = glm::cross(s.flat.positions[tri.y] - s.flat.positions[tri.x],
+                                     s.flat.positions[tri.z] - s.flat.positions[tri.x]);
+      const float len = glm::length(n);
+      for (int k = 0; k < 3; ++k) face_normals[3 * t + size_t(k)] = len > 0.0f ? n / len : n;
+    }
+    s.applyNormalMaps(scene, face_normals);
+  }
   s.applyMaterials(scene.materials);
   std::vector<uint8_t> known(s.atlas.texel_kind.size(), 0);
   for (size_t e = 0; e < s.elementCount(); ++e) known[s.atlas.element_texel[e]] = 1;

@@ -46,6 +46,12 @@ struct LightmapResolution {
   uint32_t elements = kDefaultLightmapElements;  // otherwise about this many texels
 };
 
+// The texel density of the scene's normal maps on their surfaces (texels per metre, the mean
+// over the mapped triangles weighted by area); 0 without normal maps. The automatic lightmap
+// density (LightmapResolution::elements) rises towards it, by at most a factor of 2, so the
+// lightmap follows its normal maps (Wallner sec. 3.3).
+double normalMapTexelDensity(const Scene& scene);
+
 // The atlas options for a resolution (the charts' own options at their defaults). Fails for a
 // density that is not a positive number or a scene without area.
 Expected<ChartAtlasOptions> lightmapAtlasOptions(const Scene& scene, const LightmapResolution& r);
