@@ -119,6 +119,14 @@ TEST(LightingDesign, DeskSurfaceGridAgreesBetweenRadiosityAndThePathTracer) {
       "render " + scene + " --method progressive --grid-surface chair -o " + dir.file("x.png"));
   EXPECT_EQ(bad.exit_code, 2) << bad.output;
   EXPECT_NE(bad.output.find("no mesh is named 'chair'"), std::string::npos) << bad.output;
+  // Refused before the work: no lightmap was built.
+  EXPECT_EQ(bad.output.find("lightmap texels"), std::string::npos) << bad.output;
+  const test::CliResult dense =
+      runCli("render " + scene + " --method matrix --work-plane 0.75 --grid-spacing 1e-9 -o " +
+             dir.file("y.png"));
+  EXPECT_EQ(dense.exit_code, 2) << dense.output;
+  EXPECT_NE(dense.output.find("at most 4 million"), std::string::npos) << dense.output;
+  EXPECT_EQ(dense.output.find("form factors"), std::string::npos) << dense.output;
 }
 
 TEST(LightingDesign, FalseColourImageHasALegendAndLuxInExr) {

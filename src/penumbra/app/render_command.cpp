@@ -118,6 +118,7 @@ Status renderPathTrace(const RenderOptions& options, const CommonOptions& common
     Expected<IlluminanceRequest> r = illuminanceRequest(options, settings.width, settings.height);
     if (!r) return r.error();
     lux = *r;
+    PENUMBRA_TRY(checkIlluminanceRequest(*scene, *lux));
   }
   const double load_seconds = load_timer.seconds();
   Timer build_timer;

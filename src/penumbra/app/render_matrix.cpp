@@ -68,6 +68,7 @@ Status renderMatrix(const RenderOptions& options, const CommonOptions& common) {
   Expected<Scene> scene = loadScene(options.scene);
   if (!scene) return scene.error();
   for (const std::string& w : scene->warnings) spdlog::warn("{}", w);
+  if (lux) PENUMBRA_TRY(checkIlluminanceRequest(*scene, *lux));
   bool any_emitter = !scene->lights.empty();
   for (const Material& m : scene->materials) any_emitter |= m.isEmissive();
   if (!any_emitter) {

@@ -71,6 +71,7 @@ Status renderProgressive(const RenderOptions& options, const CommonOptions& comm
   Expected<Scene> scene = loadScene(options.scene);
   if (!scene) return scene.error();
   for (const std::string& w : scene->warnings) spdlog::warn("{}", w);
+  if (lux) PENUMBRA_TRY(checkIlluminanceRequest(*scene, *lux));
   Expected<ProgressiveRun> run = runProgressive(*scene, ro, common);
   if (!run) return run.error();
   if (run->dry_run) return {};

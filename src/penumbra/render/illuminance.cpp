@@ -221,6 +221,18 @@ IlluminanceResult gatherIlluminance(const Scene& scene, const RayEngine& engine,
   return out;
 }
 
+Status checkIlluminanceRequest(const Scene& scene, const IlluminanceRequest& request) {
+  if (request.work_plane) {
+    Expected<CalculationGrid> g =
+        workPlaneGrid(scene, *request.work_plane, request.spacing, request.margin);
+    if (!g) return g.error();
+  } else if (!request.surface.empty()) {
+    Expected<CalculationGrid> g = surfaceGrid(scene, request.surface, request.spacing);
+    if (!g) return g.error();
+  }
+  return {};
+}
+
 Expected<IlluminanceReport> illuminanceReport(const Scene& scene, const RayEngine& engine,
                                               const FlatTriangles& flat, const Camera& camera,
                                               const IlluminanceRequest& request,

@@ -105,6 +105,10 @@ struct IlluminanceReport {
   double seconds = 0.0;
 };
 
+// Before the work: the request's grid can be made for `scene` (a bad height, spacing, margin or
+// surface name is refused here, not after a solve).
+Status checkIlluminanceRequest(const Scene& scene, const IlluminanceRequest& request);
+
 // The request's figures for the solution `incident`; the camera's pixels measure the side of the
 // surface they see.
 Expected<IlluminanceReport> illuminanceReport(const Scene& scene, const RayEngine& engine,
