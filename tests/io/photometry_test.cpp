@@ -758,6 +758,13 @@ std::string replaceLine(const std::string& text, int line, const std::string& wi
   return out;
 }
 
+// goodLdt() with line `line` replaced by `with`: refused, the error naming the file and that
+// line.
+bool ldtLineFails(int line, const std::string& with) {
+  return errorNames(parseEulumdat(replaceLine(goodLdt(), line, with), "n.ldt"), "n.ldt",
+                    "line " + std::to_string(line) + ":");
+}
+
 std::string firstLines(const std::string& text, int count) {
   std::istringstream in(text);
   std::string out, l;
@@ -780,34 +787,32 @@ TEST(EulumdatErrors, MoreValuesThanTheSymmetryCallsForNameTheFirstExtra) {
 }
 
 TEST(EulumdatErrors, NonNumericFieldsNameTheirLine) {
-  EXPECT_TRUE(
-      errorNames(parseEulumdat(replaceLine(goodLdt(), 4, "eight"), "n.ldt"), "n.ldt", "line 4:"));
-  EXPECT_TRUE(
-      errorNames(parseEulumdat(replaceLine(goodLdt(), 29, "12 lm"), "n.ldt"), "n.ldt", "line 29:"));
-  EXPECT_TRUE(
-      errorNames(parseEulumdat(replaceLine(goodLdt(), 55, "nan"), "n.ldt"), "n.ldt", "line 55:"));
-  EXPECT_TRUE(
-      errorNames(parseEulumdat(replaceLine(goodLdt(), 3, "5"), "n.ldt"), "n.ldt", "line 3:"));
+  EXPECT_TRUE(ldtLineFails(4, "eight"));
+  EXPECT_TRUE(ldtLineFails(29, "12 lm"));
+  EXPECT_TRUE(ldtLineFails(55, "nan"));
+  EXPECT_TRUE(ldtLineFails(3, "5"));
 }
 
 TEST(EulumdatErrors, AnglesOutOfOrderOrRangeAndNegativeIntensities) {
   // Lines 43-50 C angles, 51-53 gamma angles, 54-62 intensities.
-  EXPECT_TRUE(
-      errorNames(parseEulumdat(replaceLine(goodLdt(), 52, "0"), "m.ldt"), "m.ldt", "line 52:"));
-  EXPECT_TRUE(
-      errorNames(parseEulumdat(replaceLine(goodLdt(), 50, "360"), "m.ldt"), "m.ldt", "line 50:"));
-  EXPECT_TRUE(
-      errorNames(parseEulumdat(replaceLine(goodLdt(), 57, "-3"), "m.ldt"), "m.ldt", "line 57:"));
-  EXPECT_TRUE(
-      errorNames(parseEulumdat(replaceLine(goodLdt(), 4, "20000"), "m.ldt"), "m.ldt", "line 4:"));
-  EXPECT_TRUE(errorNames(parseEulumdat(replaceLine(goodLdt(), 4, "6"), "m.ldt"), "m.ldt",
-                         "line 4:"));  // Isym 4 needs a multiple of 4
+  EXPECT_TRUE(ldtLineFails(52, "0"));
+  EXPECT_TRUE(ldtLineFails(50, "360"));
+  EXPECT_TRUE(ldtLineFails(57, "-3"));
+  EXPECT_TRUE(ldtLineFails(4, "20000"));
+  EXPECT_TRUE(ldtLineFails(4, "6"));  // Isym 4 needs a multiple of 4
 }
 
 std::string goodIes() {
   return iesC("IESNA:LM-63-2002", kVertical, {0, 90}, hTable({0, 90}, 4));
   // Lines: 1 header, 2-5 keywords, 6 TILT, 7 counts, 8 ballast, 9 vertical, 10 horizontal,
   // 11-12 candela.
+}
+
+// goodIes() with line `line` replaced by `with`: refused, the error naming the file and line
+// `at`.
+bool iesLineFails(int line, const std::string& with, int at) {
+  return errorNames(parseIes(replaceLine(goodIes(), line, with), "c.ies"), "c.ies",
+                    "line " + std::to_string(at) + ":");
 }
 
 TEST(IesErrors, TruncatedAndMissingTilt) {
@@ -821,33 +826,21 @@ TEST(IesErrors, TruncatedAndMissingTilt) {
 TEST(IesErrors, WrongCounts) {
   // Five vertical angles announced, four given: the horizontal angle 0 comes fifth and is not
   // above 90.
-  EXPECT_TRUE(
-      errorNames(parseIes(replaceLine(goodIes(), 7, "1 1000 1 5 2 1 2 0.2 0.4 0.05"), "c.ies"),
-                 "c.ies", "line 10:"));
+  EXPECT_TRUE(iesLineFails(7, "1 1000 1 5 2 1 2 0.2 0.4 0.05", 10));
   // One horizontal angle announced, two given: the second (line 10) is read as a candela value
   // and the last 5 values, from line 11 on, are left over.
-  EXPECT_TRUE(
-      errorNames(parseIes(replaceLine(goodIes(), 7, "1 1000 1 4 1 1 2 0.2 0.4 0.05"), "c.ies"),
-                 "c.ies", "line 11:"));
-  EXPECT_TRUE(errorNames(parseIes(replaceLine(goodIes(), 7, "1 1000 1 20000 2 1 2 0 0 0"), "c.ies"),
-                         "c.ies", "line 7:"));
-  EXPECT_TRUE(errorNames(parseIes(replaceLine(goodIes(), 7, "1 1000 1 4 2 4 2 0 0 0"), "c.ies"),
-                         "c.ies", "line 7:"));  // photometric type 4
+  EXPECT_TRUE(iesLineFails(7, "1 1000 1 4 1 1 2 0.2 0.4 0.05", 11));
+  EXPECT_TRUE(iesLineFails(7, "1 1000 1 20000 2 1 2 0 0 0", 7));
+  EXPECT_TRUE(iesLineFails(7, "1 1000 1 4 2 4 2 0 0 0", 7));  // photometric type 4
 }
 
 TEST(IesErrors, NonNumericNonMonotonicNegativeAndNonFinite) {
-  EXPECT_TRUE(
-      errorNames(parseIes(replaceLine(goodIes(), 8, "1 1 sixty"), "n.ies"), "n.ies", "line 8:"));
-  EXPECT_TRUE(
-      errorNames(parseIes(replaceLine(goodIes(), 9, "0 60 30 90"), "n.ies"), "n.ies", "line 9:"));
-  EXPECT_TRUE(errorNames(parseIes(replaceLine(goodIes(), 12, "1180 1080 -980 880"), "n.ies"),
-                         "n.ies", "line 12:"));
-  EXPECT_TRUE(errorNames(parseIes(replaceLine(goodIes(), 11, "1000 inf 800 700"), "n.ies"), "n.ies",
-                         "line 11:"));
-  EXPECT_TRUE(
-      errorNames(parseIes(replaceLine(goodIes(), 9, "0 30 60 190"), "n.ies"), "n.ies", "line 9:"));
-  EXPECT_TRUE(errorNames(parseIes(replaceLine(goodIes(), 7, "1 -5 1 4 2 1 2 0 0 0"), "n.ies"),
-                         "n.ies", "line 7:"));
+  EXPECT_TRUE(iesLineFails(8, "1 1 sixty", 8));
+  EXPECT_TRUE(iesLineFails(9, "0 60 30 90", 9));
+  EXPECT_TRUE(iesLineFails(12, "1180 1080 -980 880", 12));
+  EXPECT_TRUE(iesLineFails(11, "1000 inf 800 700", 11));
+  EXPECT_TRUE(iesLineFails(9, "0 30 60 190", 9));
+  EXPECT_TRUE(iesLineFails(7, "1 -5 1 4 2 1 2 0 0 0", 7));
 }
 
 TEST(PhotometryRead, ByExtensionAndMissingFiles) {

@@ -4,10 +4,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <filesystem>
-#include <map>
-#include <mutex>
-#include <tuple>
 
 namespace penumbra {
 
@@ -60,27 +56,9 @@ Expected<std::shared_ptr<const LuminaireDistribution>> luminaireDistribution(
 
 Expected<std::shared_ptr<const LuminaireDistribution>> loadLuminaireDistribution(
     const std::string& path, double tilt_degrees) {
-  static std::mutex mutex;
-  // Keyed by the file's modification time too, so an edited file is read again.
-  static std::map<std::tuple<std::string, double, int64_t>,
-                  std::shared_ptr<const LuminaireDistribution>>
-      cache;
-  std::error_code ec;
-  const auto modified = std::filesystem::last_write_time(path, ec);
-  const std::tuple<std::string, double, int64_t> key{
-      path, tilt_degrees, ec ? 0 : int64_t(modified.time_since_epoch().count())};
-  {
-    std::lock_guard<std::mutex> lock(mutex);
-    if (auto it = cache.find(key); it != cache.end()) return it->second;
-  }
   Expected<Photometry> p = readPhotometry(path);
   if (!p) return p.error();
-  Expected<std::shared_ptr<const LuminaireDistribution>> t =
-      luminaireDistribution(*p, tilt_degrees);
-  if (!t) return t.error();
-  std::lock_guard<std::mutex> lock(mutex);
-  cache[key] = *t;
-  return *t;
+  return luminaireDistribution(*p, tilt_degrees);
 }
 
 }  // namespace penumbra

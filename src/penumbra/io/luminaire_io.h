@@ -18,8 +18,7 @@ namespace penumbra {
 Expected<std::shared_ptr<const LuminaireDistribution>> luminaireDistribution(
     const Photometry& photometry, double tilt_degrees = 0.0);
 
-// Reads the file and makes its LDT; the same path (and tilt) gives the same shared distribution
-// for the life of the process, so an array of luminaires holds one texture.
+// Reads the file and makes its LDT.
 Expected<std::shared_ptr<const LuminaireDistribution>> loadLuminaireDistribution(
     const std::string& path, double tilt_degrees = 0.0);
 

@@ -28,6 +28,11 @@ namespace penumbra {
 
 namespace {
 
+// IES angle ranges per photometric type: vertical lo, hi, horizontal lo, hi (degrees).
+constexpr double kRangesC[4] = {0.0, 180.0, 0.0, 360.0};
+constexpr double kRangesA[4] = {-90.0, 90.0, -180.0, 180.0};
+constexpr double kRangesB[4] = {-180.0, 180.0, -90.0, 90.0};
+
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kRadians = kPi / 180.0;
 constexpr double kDegrees = 180.0 / kPi;
@@ -761,20 +766,12 @@ Expected<Photometry> parseIesWith(std::string_view text, const std::string& name
   p.type = *type == 1   ? PhotometricType::kC
            : *type == 2 ? PhotometricType::kB
                         : PhotometricType::kA;
-  // Ranges: type C vertical (gamma) 0..180, horizontal (C) 0..360; type A horizontal is a
-  // longitude, vertical a latitude; type B horizontal a latitude, vertical a plane angle.
-  const double v_lo = p.type == PhotometricType::kC   ? 0.0
-                      : p.type == PhotometricType::kA ? -90.0
-                                                      : -180.0;
-  const double v_hi = p.type == PhotometricType::kC   ? 180.0
-                      : p.type == PhotometricType::kA ? 90.0
-                                                      : 180.0;
-  const double h_lo = p.type == PhotometricType::kC   ? 0.0
-                      : p.type == PhotometricType::kA ? -180.0
-                                                      : -90.0;
-  const double h_hi = p.type == PhotometricType::kC   ? 360.0
-                      : p.type == PhotometricType::kA ? 180.0
-                                                      : 90.0;
+  // Ranges {vertical lo, hi, horizontal lo, hi}: type C gamma 0..180 and C 0..360; type A a
+  // latitude and a longitude; type B a plane angle and a latitude.
+  const double(&range)[4] = p.type == PhotometricType::kC   ? kRangesC
+                            : p.type == PhotometricType::kA ? kRangesA
+                                                            : kRangesB;
+  const double v_lo = range[0], v_hi = range[1], h_lo = range[2], h_hi = range[3];
   std::vector<double> vertical, horizontal;
   PENUMBRA_TRY(readAngles(in, nv, v_lo, v_hi, "vertical angle", vertical));
   PENUMBRA_TRY(readAngles(in, nh, h_lo, h_hi, "horizontal angle", horizontal));

@@ -94,6 +94,9 @@ class SceneJsonReader {
   Expected<double> number(const json& j, const std::string& place) const;
   Expected<glm::dvec3> vec3(const json& j, const std::string& place) const;
   Expected<std::string> string(const json& j, const std::string& place) const;
+  // `file` resolved against the scene file's directory; an error at `place` when it is not a
+  // regular file.
+  Expected<std::string> existingFile(const std::string& file, const std::string& place) const;
   // A 3-vector that is a non-negative colour (reflectance in [0, 1] when `at_most_one`).
   Expected<glm::vec3> colour(const json& j, const std::string& place, bool at_most_one) const;
   Expected<glm::vec3> unitDirection(const json& j, const std::string& place) const;
@@ -103,12 +106,16 @@ class SceneJsonReader {
   Status readMaterials(const json& root, Scene& scene);
   Status readMesh(const json& entry, const std::string& place, Scene& scene);
   Expected<Placement> readTransform(const json& t, const std::string& place) const;
-  Status readLight(const json& entry, const std::string& place, Scene& scene) const;
-  Status readLuminaire(const json& entry, const std::string& place, Scene& scene) const;
+  Status readLight(const json& entry, const std::string& place, Scene& scene);
+  Status readLuminaire(const json& entry, const std::string& place, Scene& scene);
   Status readCamera(const json& cam, const std::string& place, Scene& scene) const;
 
   const std::string& path_;
   std::map<std::string, uint32_t> material_index_;
+  // The luminaire files read so far (resolved path, tilt): their photometry and LDT.
+  std::map<std::pair<std::string, double>,
+           std::pair<Photometry, std::shared_ptr<const LuminaireDistribution>>>
+      luminaires_;
 };
 
 Status SceneJsonReader::checkKeys(
@@ -169,6 +176,16 @@ Expected<glm::dvec3> SceneJsonReader::vec3(const json& j, const std::string& pla
 Expected<std::string> SceneJsonReader::string(const json& j, const std::string& place) const {
   if (!j.is_string()) return error(place, fmt::format("must be a string, not {}", jsonTypeName(j)));
   return j.get<std::string>();
+}
+
+Expected<std::string> SceneJsonReader::existingFile(const std::string& file,
+                                                    const std::string& place) const {
+  const std::string resolved = resolveRelativeTo(path_, file);
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(resolved, ec)) {
+    return error(place, fmt::format("'{}' does not exist (looked for {})", file, resolved));
+  }
+  return resolved;
 }
 
 Expected<glm::vec3> SceneJsonReader::colour(const json& j, const std::string& place,
@@ -237,17 +254,13 @@ Status SceneJsonReader::readMaterials(const json& root, Scene& scene) {
     if (it->contains("normal_map")) {
       Expected<std::string> file = string(it->at("normal_map"), place + ".normal_map");
       if (!file) return file.error();
-      const std::string resolved = resolveRelativeTo(path_, *file);
-      std::error_code ec;
-      if (!std::filesystem::is_regular_file(resolved, ec)) {
-        return error(place + ".normal_map",
-                     fmt::format("'{}' does not exist (looked for {})", *file, resolved));
-      }
-      Expected<Image> map = readImageData(resolved);
+      Expected<std::string> resolved = existingFile(*file, place + ".normal_map");
+      if (!resolved) return resolved.error();
+      Expected<Image> map = readImageData(*resolved);
       if (!map) return map.error();
       if (map->width < 1 || map->height < 1) return error(place + ".normal_map", "empty image");
       m.normal_map = std::make_shared<const Image>(std::move(*map));
-      m.normal_map_source = resolved;
+      m.normal_map_source = *resolved;
     }
     if (it->contains("normal_scale")) {
       Expected<double> scale = number(it->at("normal_scale"), place + ".normal_scale");
@@ -371,11 +384,7 @@ Status SceneJsonReader::readMesh(const json& entry, const std::string& place, Sc
     return error(place + ".file",
                  fmt::format("'{}': a mesh file must be .obj, .gltf, .glb or .ply", *file));
   }
-  std::error_code ec;
-  if (!std::filesystem::is_regular_file(resolved, ec)) {
-    return error(place + ".file",
-                 fmt::format("'{}' does not exist (looked for {})", *file, resolved));
-  }
+  PENUMBRA_TRY(existingFile(*file, place + ".file"));
   std::optional<uint32_t> material;
   if (entry.contains("material")) {
     Expected<std::string> name = string(entry.at("material"), place + ".material");
@@ -463,7 +472,7 @@ Status SceneJsonReader::readMesh(const json& entry, const std::string& place, Sc
   return {};
 }
 
-Status SceneJsonReader::readLight(const json& entry, const std::string& place, Scene& scene) const {
+Status SceneJsonReader::readLight(const json& entry, const std::string& place, Scene& scene) {
   if (!entry.is_object()) {
     return error(place, fmt::format("must be an object, not {}", jsonTypeName(entry)));
   }
@@ -557,8 +566,7 @@ Status SceneJsonReader::readLight(const json& entry, const std::string& place, S
   return {};
 }
 
-Status SceneJsonReader::readLuminaire(const json& entry, const std::string& place,
-                                      Scene& scene) const {
+Status SceneJsonReader::readLuminaire(const json& entry, const std::string& place, Scene& scene) {
   PENUMBRA_TRY(checkKeys(entry, place,
                          {"type", "file", "position", "aim", "rotation_deg", "dimming", "flux_lm",
                           "lamps", "colour", "tilt_deg", "array"}));
@@ -566,23 +574,28 @@ Status SceneJsonReader::readLuminaire(const json& entry, const std::string& plac
   if (!entry.contains("position")) return error(place + ".position", "missing");
   Expected<std::string> file = string(entry.at("file"), place + ".file");
   if (!file) return file.error();
-  const std::string resolved = resolveRelativeTo(path_, *file);
-  std::error_code ec;
-  if (!std::filesystem::is_regular_file(resolved, ec)) {
-    return error(place + ".file",
-                 fmt::format("'{}' does not exist (looked for {})", *file, resolved));
-  }
+  Expected<std::string> found = existingFile(*file, place + ".file");
+  if (!found) return found.error();
+  const std::string resolved = *found;
   auto optional_number = [&](const char* key, double fallback) -> Expected<double> {
     if (!entry.contains(key)) return fallback;
     return number(entry.at(key), keyPath(place, key));
   };
   Expected<double> tilt = optional_number("tilt_deg", 0.0);
   if (!tilt) return tilt.error();
-  Expected<Photometry> photometry = readPhotometry(resolved);
-  if (!photometry) return photometry.error();
-  Expected<std::shared_ptr<const LuminaireDistribution>> distribution =
-      loadLuminaireDistribution(resolved, *tilt);
-  if (!distribution) return distribution.error();
+  // One read and one LDT per file and tilt, whatever number of entries and arrays use them.
+  const auto key = std::make_pair(resolved, *tilt);
+  auto known = luminaires_.find(key);
+  if (known == luminaires_.end()) {
+    Expected<Photometry> read = readPhotometry(resolved);
+    if (!read) return read.error();
+    Expected<std::shared_ptr<const LuminaireDistribution>> ldt =
+        luminaireDistribution(*read, *tilt);
+    if (!ldt) return ldt.error();
+    known = luminaires_.emplace(key, std::make_pair(std::move(*read), *ldt)).first;
+  }
+  const Photometry* photometry = &known->second.first;
+  const std::shared_ptr<const LuminaireDistribution>* distribution = &known->second.second;
 
   Expected<glm::dvec3> position = vec3(entry.at("position"), place + ".position");
   if (!position) return position.error();
