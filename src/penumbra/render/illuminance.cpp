@@ -188,7 +188,11 @@ IlluminanceResult gatherIlluminance(const Scene& scene, const RayEngine& engine,
         ++count;
         if (!engine.occluded(ray)) delta += s.irradiance;
       }
+      // The directions from one stream, the solution's estimator (a path tracer) from another:
+      // every method gathers along the same rays, so their direct parts are equal and their
+      // totals differ only by what the solutions differ by.
       Rng rng(mixBits(seed), i);
+      Rng incident_rng(mixBits(seed ^ 0x1a5eed), i);
       const Frame frame = Frame::fromNormal(glm::vec3(nrm));
       glm::dvec3 gathered(0.0), emitted(0.0);
       for (int k = 0; k < out.rays; ++k) {
@@ -200,7 +204,7 @@ IlluminanceResult gatherIlluminance(const Scene& scene, const RayEngine& engine,
         const Ray ray{glm::vec3(from), float(lift), d, std::numeric_limits<float>::max()};
         const Hit hit = engine.intersect(ray);
         ++count;
-        gathered += glm::dvec3(incident(ray, hit, rng));
+        gathered += glm::dvec3(incident(ray, hit, incident_rng));
         if (hit.hit()) {
           const glm::uvec3 t = flat.triangles[size_t(hit.triangle)];
           const glm::vec3 ng = glm::cross(flat.positions[t.y] - flat.positions[t.x],
