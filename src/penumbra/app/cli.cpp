@@ -53,6 +53,33 @@ CLI::Validator finiteIn(double lo, double hi, bool open_lo = false, bool open_hi
       fmt::format("{}{}, {}{}", open_lo ? '(' : '[', lo, hi, open_hi ? ')' : ']'));
 }
 
+// Progressive radiosity's receivers and adaptive subdivision (Wallner sec. 4), for render and
+// bake alike.
+template <typename Options>
+void addReceiverOptions(CLI::App* cmd, Options& o) {
+  cmd->add_flag("--adaptive", o.adaptive,
+                "progressive: receivers start coarse (--receiver-level, default 2) and are "
+                "split at shadow boundaries before each shooter first shoots");
+  cmd->add_option("--receiver-level", o.receiver_level,
+                  "progressive: receivers are blocks of 2^L x 2^L lightmap texels, gathering at "
+                  "one point each (default 0: every texel; 2 with --adaptive)")
+      ->check(CLI::Range(0, 16));
+  cmd->add_option("--boundary", o.boundary,
+                  "progressive --adaptive: LOW,HIGH: a receiver whose visible share of samples "
+                  "lies in [LOW, HIGH] holds a shadow boundary (default 0.05,0.95)")
+      ->delimiter(',')
+      ->expected(2)
+      ->check(finiteIn(0.0, 1.0));
+  cmd->add_option("--finest-level", o.finest_level,
+                  "progressive --adaptive: receivers are split down to this level at most")
+      ->check(CLI::Range(0, 16))
+      ->capture_default_str();
+  cmd->add_option("--min-share", o.min_share,
+                  "progressive --adaptive: split only where the shooter brings at least this "
+                  "share of a receiver's irradiance (default 0.25; 0: the paper's test alone)")
+      ->check(finiteIn(0.0, 1.0));
+}
+
 // An unsigned integer written in decimal digits (no sign: "-1" would wrap to 2^64 - 1).
 const CLI::Validator kUnsigned(
     [](std::string& value) -> std::string {
@@ -192,6 +219,7 @@ int parseAndRun(int argc, char** argv) {
                    "nearer receivers refine them); more resolve soft shadows finer")
       ->check(CLI::Range(1, 4096))
       ->capture_default_str();
+  addReceiverOptions(render_cmd, render);
   render_cmd
       ->add_option("--normals", render.normals,
                    "progressive: interpolated (shading normals across triangles, smooth curved "
@@ -359,6 +387,7 @@ int parseAndRun(int argc, char** argv) {
                    "progressive: points a shooter starts from (see render)")
       ->check(CLI::Range(1, 4096))
       ->capture_default_str();
+  addReceiverOptions(bake_cmd, bake);
   bake_cmd
       ->add_option("--normals", bake.normals, "progressive: interpolated or triangle (see render)")
       ->check(CLI::IsMember({"interpolated", "triangle"}))

@@ -54,6 +54,14 @@ struct RenderOptions {
   // (interpolated or triangle).
   int shooter_points = 16;
   std::string normals = "interpolated";
+  // progressive: receivers (Wallner sec. 4): adaptive subdivision at shadow boundaries, the
+  // receivers' level (default 0, or 2 with --adaptive), the thresholds b_l and b_u, the finest
+  // level and the minimum share of the contrast test (radiosity/progressive_receivers.h).
+  bool adaptive = false;
+  std::optional<int> receiver_level;
+  std::vector<double> boundary;
+  int finest_level = 0;
+  std::optional<double> min_share;
   // --method sss (Carr, Hall, Hart 2003, sec. 4): the atlas size (default kSssDefaultAtlas),
   // links per texel (adaptive) or a hierarchy level for the non-adaptive scheme, and frames of
   // a light orbit.
@@ -127,6 +135,14 @@ struct BakeOptions {
   bool keep_checkpoint = false;  // progressive: keep --resume's file after the run completes
   int shooter_points = 16;       // progressive: top-level points per shooter
   std::string normals = "interpolated";  // progressive: interpolated or triangle
+  // progressive: receivers (Wallner sec. 4): adaptive subdivision at shadow boundaries, the
+  // receivers' level (default 0, or 2 with --adaptive), the thresholds b_l and b_u, the finest
+  // level and the minimum share of the contrast test (radiosity/progressive_receivers.h).
+  bool adaptive = false;
+  std::optional<int> receiver_level;
+  std::vector<double> boundary;
+  int finest_level = 0;
+  std::optional<double> min_share;
 };
 
 int runRender(const RenderOptions& options, const CommonOptions& common);

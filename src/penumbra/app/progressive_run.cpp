@@ -42,6 +42,9 @@ Status checkProgressiveRunOptions(const ProgressiveRunOptions& o) {
                       "the checkpoint fixes the lightmap: leave out --lightmap-size");
   }
   if (!o.checkpoint.empty()) PENUMBRA_TRY(checkOutputPath(o.checkpoint));
+  if (Status s = checkSubdivisionOptions(o.subdivision); !s.ok()) {
+    return inputError("", "--boundary/--finest-level/--min-share", s.error().message);
+  }
   return {};
 }
 
@@ -56,6 +59,9 @@ Expected<ProgressiveRun> runProgressive(const Scene& scene, const ProgressiveRun
   po.convergence = options.tolerance;
   po.shooter_top_points = options.shooter_points;
   po.shading_normals = options.shading_normals;
+  po.adaptive = options.adaptive;
+  po.receiver_level = options.receiver_level;
+  po.subdivision = options.subdivision;
   std::optional<ProgressiveCheckpointInfo> info;
   if (!options.resume.empty()) {
     Expected<ProgressiveCheckpointInfo> i = readProgressiveCheckpointInfo(options.resume);
@@ -66,6 +72,9 @@ Expected<ProgressiveRun> runProgressive(const Scene& scene, const ProgressiveRun
     // the interrupted one would have).
     po.shooter_level = info->shooter_level;
     po.shooter_top_points = info->shooter_top_points;
+    po.receiver_level = info->receiver_level;
+    po.adaptive = info->adaptive != 0;
+    po.subdivision = info->subdivision;
     if (options.texel_density &&
         std::abs(*options.texel_density / info->texel_density - 1.0) > 1e-9) {
       return inputError(options.resume, "",
@@ -116,6 +125,7 @@ Expected<ProgressiveRun> runProgressive(const Scene& scene, const ProgressiveRun
                       "was written by the CPU's hierarchical shooter; continue it with --device "
                       "cpu");
   }
+  if (gpu) PENUMBRA_TRY(gpuProgressiveSupports(po));
   if (common.dry_run) {
     run.dry_run = true;
     return run;
@@ -246,6 +256,18 @@ nlohmann::json progressiveStatsJson(const ProgressiveRun& run, double tolerance)
           {"shooters", run.shooters},
           {"iteration_seconds", run.iteration_seconds},
           {"rays", run.stats.rays},
+          {"receivers",
+           {{"count", pr.receivers().size()},
+            {"level", pr.receiverLevel()},
+            {"adaptive", pr.options().adaptive},
+            {"boundary",
+             {pr.options().subdivision.boundary_low, pr.options().subdivision.boundary_high}},
+            {"finest_level", pr.options().subdivision.finest_level},
+            {"min_share", pr.options().subdivision.min_share},
+            {"refined", run.stats.refined},
+            {"subdivision_seconds", run.stats.subdivision_seconds},
+            {"subdivision_share",
+             run.stats.seconds > 0.0 ? run.stats.subdivision_seconds / run.stats.seconds : 0.0}}},
           {"emitted_w", {b.emitted.x, b.emitted.y, b.emitted.z}},
           {"absorbed_w", {b.absorbed.x, b.absorbed.y, b.absorbed.z}},
           {"unshot_w", {b.unshot.x, b.unshot.y, b.unshot.z}},

@@ -29,6 +29,10 @@ struct ProgressiveRunOptions {
   int shooter_points = 16;           // ProgressiveOptions::shooter_top_points
   std::string device = "cpu";        // cpu, gpu or auto (design doc sec. 3)
   bool shading_normals = true;       // ProgressiveOptions::shading_normals (CPU only)
+  // ProgressiveOptions' receivers and adaptive subdivision (sec. 4).
+  bool adaptive = false;
+  int receiver_level = -1;
+  SubdivisionOptions subdivision;
 };
 
 struct ProgressiveRun {
@@ -61,6 +65,14 @@ ProgressiveRunOptions progressiveRunOptions(const CommandOptions& o) {
   ro.shooter_points = o.shooter_points;
   ro.device = o.device;
   ro.shading_normals = o.normals == "interpolated";
+  ro.adaptive = o.adaptive;
+  ro.receiver_level = o.receiver_level.value_or(-1);
+  if (o.boundary.size() == 2) {
+    ro.subdivision.boundary_low = o.boundary[0];
+    ro.subdivision.boundary_high = o.boundary[1];
+  }
+  ro.subdivision.finest_level = o.finest_level;
+  if (o.min_share) ro.subdivision.min_share = *o.min_share;
   return ro;
 }
 

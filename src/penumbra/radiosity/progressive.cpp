@@ -93,6 +93,10 @@ Expected<ProgressiveRadiosity> ProgressiveRadiosity::build(const Scene& scene,
   if (options.probe_rays < 0 || options.probe_rays > (1 << 24)) {
     return inputError("", "progressive radiosity", "probe_rays must be in [0, 2^24]");
   }
+  if (options.receiver_level < -1 || options.receiver_level > 16) {
+    return inputError("", "progressive radiosity", "receiver_level must be in [0, 16] (or -1)");
+  }
+  if (options.adaptive) PENUMBRA_TRY(checkSubdivisionOptions(options.subdivision));
   ProgressiveRadiosity pr;
   pr.options_ = options;
   Expected<RadiositySurface> surface =
@@ -139,6 +143,11 @@ Expected<ProgressiveRadiosity> ProgressiveRadiosity::build(const Scene& scene,
   pr.db_ = pr.surface_.emission;
   pr.shooter_power_.assign(pr.shooters_.size(), 0.0);
   pr.refreshShooterPowers();
+  pr.receiver_level_ = options.receiver_level >= 0 ? options.receiver_level
+                       : options.adaptive          ? kAdaptiveReceiverLevel
+                                                   : 0;
+  pr.receivers_ = ProgressiveReceivers::uniform(pr.surface_, pr.receiver_level_);
+  pr.subdivided_.assign(pr.shooters_.size() + 1, 0);
   pr.balance_.unshot = pr.balance_.emitted;
   return pr;
 }
@@ -280,14 +289,72 @@ bool ProgressiveRadiosity::shotClosed(uint32_t shooter, uint64_t* traced) const 
   return true;
 }
 
+template <typename Sample>
+void ProgressiveRadiosity::subdivideFor(uint32_t slot, Sample&& sample, ProgressiveIteration& it) {
+  if (!options_.adaptive || subdivided_[slot]) return;
+  subdivided_[slot] = 1;
+  const Timer timer;
+  const size_t n = elementCount();
+  std::vector<uint16_t> counted(n, 0), visible(n, 0);
+  std::vector<float> share(n, 0.0f);
+  std::atomic<uint64_t> rays{0};
+  parallelRange(n, 1024, [&](size_t begin, size_t end) {
+    uint64_t traced = 0;
+    for (size_t e = begin; e < end; ++e) {
+      if (!receivers_.samples(e, options_.subdivision.finest_level)) continue;
+      // The sample's irradiance from the shooter (unoccluded) against what the element has
+      // received so far (B / rho: its irradiance, as luminance).
+      double shooter_e = 0.0;
+      sample(e, counted[e], visible[e], shooter_e);
+      traced += counted[e];
+      const double rho = residualLuminance(surface_.reflectance[e]);
+      const double before = rho > 0.0 ? residualLuminance(b_[e] - surface_.emission[e]) / rho : 0.0;
+      if (shooter_e > 0.0)
+        share[e] = float(counted[e] * shooter_e / (std::max(before, 0.0) + shooter_e));
+    }
+    rays += traced;
+  });
+  it.refined = receivers_.subdivide(surface_, counted, visible, share, options_.subdivision);
+  it.rays += rays.load();
+  it.subdivision_seconds = timer.seconds();
+}
+
 ProgressiveIteration ProgressiveRadiosity::shootLights() {
   const Timer timer;
   ProgressiveIteration it;
   it.iteration = ++iterations_;
   it.shooter = kLights;
   it.shooter_points = uint32_t(lights_.size());
+  // Sec. 4 with the lights as the shooter: each sample counts once per light in front of it.
+  subdivideFor(
+      uint32_t(shooterCount()),
+      [&](size_t e, uint16_t& counted, uint16_t& visible, double& irradiance) {
+        const glm::dvec3 p = surface_.atlas.element_position[e],
+                         ng = surface_.atlas.element_normal[e];
+        double sum = 0.0;
+        for (const Light& light : lights_) {
+          const LightSample s = sampleLight(light, p, ng, surface_.shading_normal[e]);
+          if (s.irradiance == glm::dvec3(0.0)) continue;
+          ++counted;
+          sum += residualLuminance(s.irradiance);
+          if (!options_.visibility ||
+              !surface_.engine.occluded(surface_.shadowRayToLight(s, p, ng)))
+            ++visible;
+        }
+        irradiance = sum;
+      },
+      it);
   uint64_t traced = 0;
-  incident_ = surface_.lightIrradiance(lights_, options_.visibility, &traced);
+  std::vector<glm::dvec3> positions(receivers_.size()), normals(receivers_.size()),
+      shading(receivers_.size());
+  for (size_t k = 0; k < receivers_.size(); ++k) {
+    positions[k] = receivers_.position(k);
+    normals[k] = receivers_.normal(k);
+    shading[k] = receivers_.shadingNormal(k);
+  }
+  incident_ = receivers_.toElements(
+      surface_, surface_.lightIrradianceAt(lights_, options_.visibility, positions, normals,
+                                           shading, &traced));
   uint64_t probes = 0;
   glm::dvec3 scale(1.0);
   it.closed = shotClosed(kLights, &probes);
@@ -299,7 +366,7 @@ ProgressiveIteration ProgressiveRadiosity::shootLights() {
   balance_.escaped += shot - got;
   it.shot_power = residualLuminance(shot);
   it.unshot_fraction = unshotFraction();
-  it.rays = traced + probes;
+  it.rays += traced + probes;
   it.seconds = timer.seconds();
   return it;
 }
@@ -385,6 +452,51 @@ ProgressiveIteration ProgressiveRadiosity::shoot(uint32_t shooter) {
     for (uint32_t k = level_first[l]; k < level_end[l]; ++k) roots.push_back(k);
     it.shooter_points = uint32_t(roots.size());
   }
+  // Sec. 4 before the shooter's first shot: element e's sample is the pair of it and the
+  // shooting point e mod P (the top level's points, or the flat level's), so that the samples of
+  // a block spread over the whole shooter and a penumbra counts as a boundary too.
+  {
+    std::vector<uint32_t> sample_points;
+    if (hierarchical) {
+      for (uint32_t k = level_first[top_level]; k < level_end[top_level]; ++k) {
+        sample_points.push_back(k);
+      }
+    } else {
+      sample_points = roots;
+    }
+    subdivideFor(
+        shooter,
+        [&](size_t e, uint16_t& counted, uint16_t& visible, double& irradiance) {
+          const ShooterPoint& s = points[sample_points[e % sample_points.size()]];
+          const glm::dvec3 pe = surface_.atlas.element_position[e],
+                           ne = surface_.atlas.element_normal[e];
+          const glm::dvec3 d = s.position - pe;
+          if (s.residual == glm::dvec3(0.0) || glm::dot(ne, d) <= 0.0 ||
+              glm::dot(s.geometric, d) >= 0.0) {
+            return;
+          }
+          counted = 1;
+          // The whole shooter's irradiance here, as one disc (eq. 2): for the contrast test.
+          const ShooterPoint& whole = points[0];
+          const glm::dvec3 dw = whole.position - pe;
+          const double d2 = glm::dot(dw, dw);
+          if (d2 > 0.0) {
+            const double inv = 1.0 / std::sqrt(d2);
+            const double cos_r = std::max(glm::dot(ne, dw) * inv, 0.0),
+                         cos_s = std::max(-glm::dot(whole.normal, dw) * inv, 0.0);
+            irradiance =
+                residualLuminance(whole.residual) * discFormFactor(whole.area, cos_s, cos_r, d2);
+          }
+          const glm::dvec3 from = pe + ne * surface_.lift,
+                           to = s.position + s.geometric * surface_.lift;
+          if (!options_.visibility ||
+              !surface_.engine.occluded(
+                  Ray{glm::vec3(from), 1e-4f, glm::vec3(to - from), 1.0f - 1e-4f})) {
+            visible = 1;
+          }
+        },
+        it);
+  }
   // The clusters' pieces (for Lambert's form factor to a cluster): its chart's faces clipped to
   // its texels; candidate faces merged up from the elements.
   std::vector<std::vector<std::pair<std::array<glm::dvec3, 8>, int>>> pieces;
@@ -467,9 +579,15 @@ ProgressiveIteration ProgressiveRadiosity::shoot(uint32_t shooter) {
       const double margin = radius + 0.02 * glm::length(centre - p0);
       if (glm::dot(chart.normal, centre - p0) <= -margin) skip[c] = 1;
     }
+    // A planar chart does not light itself: its points see its other faces edge-on (the
+    // Cornell box's walls bend by half a degree), where a receiver's point a hair behind a
+    // neighbouring face would see that face fill half its hemisphere.
+    const uint32_t own = surface_.hierarchy.level(root.level).chart[root.index];
+    if (surface_.atlas.charts.charts[own].planar) skip[own] = 1;
   }
 
-  // Gather at every receiver element the irradiance sum_s dB_s F_rs (W m^-2); in parallel over
+  // Gather at every receiver (an element, or a cluster standing for its elements: sec. 4) the
+  // irradiance sum_s dB_s F_rs (W m^-2); in parallel over
   // chunks of receivers, each writing only its own entries. A receiver's pairs come from the
   // roots: a point farther than kNear of its sizes is one pair; a nearer one descends to its
   // children (hierarchical mode) or, at the elements or in flat mode, is a near pair whose
@@ -487,13 +605,8 @@ ProgressiveIteration ProgressiveRadiosity::shoot(uint32_t shooter) {
     uint32_t point;
     Kernel kernel;
   };
-  const size_t n = elementCount();
-  std::vector<glm::dvec3>& incident = incident_;
-  incident.resize(n);
-  parallelRange(n, 1 << 16, [&](size_t b, size_t e) {
-    std::fill(incident.begin() + std::ptrdiff_t(b), incident.begin() + std::ptrdiff_t(e),
-              glm::dvec3(0.0));
-  });
+  const size_t n = receivers_.size();
+  std::vector<glm::dvec3> incident(n, glm::dvec3(0.0));
   std::atomic<uint64_t> rays{0};
   parallelRange(n, 256, [&](size_t begin, size_t end) {
     std::vector<Pair> pairs;
@@ -505,9 +618,8 @@ ProgressiveIteration ProgressiveRadiosity::shoot(uint32_t shooter) {
     for (size_t block = begin; block < end; block += kReceiverBlock) {
       pairs.clear();
       for (size_t r = block; r < std::min(end, block + kReceiverBlock); ++r) {
-        if (skip[surface_.atlas.element_chart[r]]) continue;
-        const glm::dvec3 nr = surface_.atlas.element_normal[r],
-                         pr = surface_.atlas.element_position[r];
+        if (skip[receivers_.chart(r)]) continue;
+        const glm::dvec3 nr = receivers_.normal(r), pr = receivers_.position(r);
         stack.assign(roots.rbegin(), roots.rend());
         while (!stack.empty()) {
           const uint32_t k = stack.back();
@@ -545,8 +657,8 @@ ProgressiveIteration ProgressiveRadiosity::shoot(uint32_t shooter) {
         for (size_t k = 0; k < pairs.size(); ++k) {
           const Pair& pair = pairs[uint32_t(order[k])];
           const ShooterPoint& s = points[pair.point];
-          const glm::dvec3 from = surface_.atlas.element_position[pair.receiver] +
-                                  surface_.atlas.element_normal[pair.receiver] * surface_.lift,
+          const glm::dvec3 from = receivers_.position(pair.receiver) +
+                                  receivers_.normal(pair.receiver) * surface_.lift,
                            to = s.position + s.geometric * surface_.lift;
           batch.set(k, Ray{glm::vec3(from), 1e-4f, glm::vec3(to - from), 1.0f - 1e-4f});
         }
@@ -561,7 +673,7 @@ ProgressiveIteration ProgressiveRadiosity::shoot(uint32_t shooter) {
         const size_t r = pairs[k].receiver;
         const ShooterPoint& s = points[pairs[k].point];
         // Form factors take the shading normals; culling and shadow rays the faces' own.
-        const glm::dvec3 nr = surface_.shading_normal[r], pr = surface_.atlas.element_position[r];
+        const glm::dvec3 nr = receivers_.shadingNormal(r), pr = receivers_.position(r);
         if (pairs[k].kernel == Kernel::kPolygon) {
           double f = 0.0;
           for (const auto& [poly, count] : pieces[size_t(s.pieces)]) {
@@ -595,6 +707,8 @@ ProgressiveIteration ProgressiveRadiosity::shoot(uint32_t shooter) {
     }
   });
 
+  incident_ = receivers_.toElements(surface_, std::move(incident));
+
   // Closed shot: the power arriving equals the power shot (the form factors' sum rule).
   uint64_t probes = 0;
   glm::dvec3 scale(1.0);
@@ -607,7 +721,7 @@ ProgressiveIteration ProgressiveRadiosity::shoot(uint32_t shooter) {
 
   it.shot_power = residualLuminance(shot);
   it.unshot_fraction = unshotFraction();
-  it.rays = rays.load() + probes;
+  it.rays += rays.load() + probes;
   it.seconds = timer.seconds();
   return it;
 }
@@ -637,7 +751,10 @@ Status ProgressiveRadiosity::setShooterLevel(int level) {
 }
 
 ProgressiveState ProgressiveRadiosity::state() const {
-  return ProgressiveState{b_, db_, balance_, iterations_, lights_shot_};
+  ProgressiveState state{b_, db_, balance_, iterations_, lights_shot_};
+  state.receiver_levels = receivers_.elementLevels();
+  state.subdivided = subdivided_;
+  return state;
 }
 
 Status ProgressiveRadiosity::setState(ProgressiveState state) {
@@ -656,6 +773,18 @@ Status ProgressiveRadiosity::setState(ProgressiveState state) {
       }
     }
   }
+  if (!state.subdivided.empty() && state.subdivided.size() != subdivided_.size()) {
+    return inputError("", "progressive radiosity",
+                      fmt::format("the state has {} subdivision flags, the solver {}",
+                                  state.subdivided.size(), subdivided_.size()));
+  }
+  if (!state.receiver_levels.empty()) {
+    Expected<ProgressiveReceivers> receivers =
+        ProgressiveReceivers::fromElementLevels(surface_, state.receiver_levels);
+    if (!receivers) return receivers.error();
+    receivers_ = std::move(*receivers);
+  }
+  if (!state.subdivided.empty()) subdivided_ = std::move(state.subdivided);
   b_ = std::move(state.radiosity);
   db_ = std::move(state.residual);
   refreshShooterPowers();

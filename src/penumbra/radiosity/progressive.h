@@ -49,6 +49,11 @@
 //    counted as escaped (through openings, or onto black back faces). After every iteration
 //      emitted = absorbed + unshot + escaped
 //    holds up to rounding; in a closed scene of two-sided surfaces escaped stays 0.
+//  - Receivers and adaptive subdivision (sec. 4, radiosity/progressive_receivers.h): receivers
+//    are clusters of the hierarchy, each gathering at one point, the elements under them taking
+//    interpolated values; by default every element receives on its own (receiver level 0). With
+//    `adaptive`, receivers start as clusters of a coarser level and are split at shadow
+//    boundaries before each shooter (and the lights) shoots for the first time.
 //  - Ambient term (eq. 4-6, Cohen et al. 1988): A = R sum_j dB_j A_j / sum_k A_k with
 //    R = 1 / (1 - sum_k rho_k A_k / sum_k A_k); displayed radiosity B + rho A during early
 //    iterations, never added to B.
@@ -59,6 +64,7 @@
 #include "penumbra/core/timer.h"
 #include "penumbra/geometry/chart_atlas.h"
 #include "penumbra/geometry/surface_hierarchy.h"
+#include "penumbra/radiosity/progressive_receivers.h"
 #include "penumbra/radiosity/radiosity_surface.h"
 #include "penumbra/raytrace/ray_engine.h"
 #include "penumbra/scene/scene.h"
@@ -106,6 +112,15 @@ struct ProgressiveOptions {
   bool shading_normals = true;
   // Rays per shot that decide whether it is closed (see the file comment); 0: never normalise.
   int probe_rays = 1024;
+  // Receivers (radiosity/progressive_receivers.h): clusters of this level of the hierarchy
+  // (2^l x 2^l texels of a chart) gather, each at one point, and the elements under them take
+  // interpolated values. -1: 0 (every element receives), or kAdaptiveReceiverLevel when
+  // `adaptive`.
+  int receiver_level = -1;
+  // Adaptive subdivision at shadow boundaries (sec. 4): receivers are split where a shooter's
+  // shadow boundaries cross them, before it first shoots.
+  bool adaptive = false;
+  SubdivisionOptions subdivision;
 };
 
 // Power totals in W per RGB channel.
@@ -123,8 +138,12 @@ struct ProgressiveIteration {
   double shot_power = 0.0;       // luminance of the power shot (W)
   double unshot_fraction = 0.0;  // unshot / emitted power (luminance) after the iteration
   bool closed = false;           // every probe ray found a face with elements: normalised
-  uint64_t rays = 0;
+  uint64_t rays = 0;             // shadow, probe and subdivision rays
   double seconds = 0.0;
+  // Adaptive subdivision before the shot (sec. 4): receivers split, and the time it took (part
+  // of `seconds`, the bracketed times of the paper's Table 1).
+  uint32_t refined = 0;
+  double subdivision_seconds = 0.0;
 };
 
 // The solver's state between iterations: what a checkpoint holds and what another device hands
@@ -135,6 +154,11 @@ struct ProgressiveState {
   EnergyBalance balance;
   int iterations = 0;
   bool lights_shot = true;  // the point, spot and directional lights have shot
+  // Per element, the level of the receiver over it (ProgressiveReceivers::elementLevels), and
+  // per shooter and then the lights whether subdivision has run for it (adaptive only); empty:
+  // the solver's own.
+  std::vector<uint8_t> receiver_levels;
+  std::vector<uint8_t> subdivided;
 };
 
 struct ProgressiveStats {
@@ -145,6 +169,8 @@ struct ProgressiveStats {
   bool interrupted = false;  // `stop` asked to stop before convergence or the cap
   uint64_t rays = 0;
   double seconds = 0.0;
+  uint32_t refined = 0;              // receivers split by adaptive subdivision
+  double subdivision_seconds = 0.0;  // of `seconds`
 };
 
 // Luminance weights of Wallner sec. 3 (I = 0.3 R + 0.59 G + 0.11 B).
@@ -176,6 +202,8 @@ Expected<ProgressiveStats> solveProgressively(
     if (it->iteration == 0) break;  // nothing left to shoot
     ++st.iterations;
     st.rays += it->rays;
+    st.refined += it->refined;
+    st.subdivision_seconds += it->subdivision_seconds;
     st.unshot_fraction = it->unshot_fraction;
     if (after_iteration) after_iteration(*it);
   }
@@ -270,6 +298,9 @@ class ProgressiveRadiosity {
   const FlatTriangles& triangles() const { return surface_.flat; }
   const std::vector<Light>& lights() const { return lights_; }
   double totalArea() const { return surface_.total_area; }
+  // The receivers (sec. 4) and the level they started from.
+  const ProgressiveReceivers& receivers() const { return receivers_; }
+  int receiverLevel() const { return receiver_level_; }
 
   // Outgoing radiance B / pi (W m^-2 sr^-1) per atlas texel, the size of the atlas: kInside
   // texels hold their element's value (plus rho * ambient when `with_ambient`), kBorder and
@@ -284,6 +315,9 @@ class ProgressiveRadiosity {
   bool lights_shot_ = true;
   glm::dvec3 light_power_{0.0};
   std::vector<ClusterRef> shooters_;
+  ProgressiveReceivers receivers_;
+  int receiver_level_ = 0;
+  std::vector<uint8_t> subdivided_;  // per shooter, then the lights
   // Per element.
   std::vector<glm::dvec3> b_, db_;
   std::vector<double> shooter_power_;  // residualPower per shooter, for selectShooter
@@ -294,6 +328,11 @@ class ProgressiveRadiosity {
 
   mutable std::vector<int8_t> closed_;  // per shooter, then the lights: -1 not probed yet
   ProgressiveIteration shootLights();
+  // Sec. 4 before a first shot: `sample(e, counted, visible)` gives element e's visibility
+  // samples (called for the elements under receivers coarser than the finest level, in
+  // parallel); splits the receivers and records the split count, the time and the rays in *it.
+  template <typename Sample>
+  void subdivideFor(uint32_t slot, Sample&& sample, ProgressiveIteration& it);
   void refreshShooterPowers();
   // Per channel, the power shot over the power the iteration's incident irradiance brings.
   glm::dvec3 closedScale(const glm::dvec3& shot) const;

@@ -18,8 +18,14 @@ namespace {
 static_assert(std::endian::native == std::endian::little, "checkpoints are little-endian");
 
 constexpr char kMagic[16] = {'P', 'E', 'N', 'U', 'M', 'B', 'R', 'A',
-                             '-', 'P', 'R', 'G', 'R', 'S', 'V', '2'};
-constexpr size_t kHeaderBytes = 16 + 8 + 8 + 6 * 4 + 8 + 12 * 8;
+                             '-', 'P', 'R', 'G', 'R', 'S', 'V', '3'};
+constexpr size_t kHeaderBytes = 16 + 8 + 8 + 6 * 4 + 8 + 12 * 8 + 3 * 4 + 3 * 8 + 8;
+
+// Body bytes: B and dB per element (48), its receiver's level (1), then a flag per shooter and
+// the lights.
+uint64_t bodyBytes(uint64_t elements, uint64_t flags) {
+  return 49 * elements + flags;
+}
 
 // Appends raw bytes of trivially copyable values.
 struct Writer {
@@ -57,6 +63,10 @@ Expected<ProgressiveCheckpointInfo> parseHeader(const std::string& path, const s
   for (glm::dvec3* v : {&b.emitted, &b.absorbed, &b.unshot, &b.escaped}) {
     for (int c = 0; c < 3; ++c) ok = ok && r.get((*v)[c]);
   }
+  ok = ok && r.get(info.receiver_level) && r.get(info.adaptive) &&
+       r.get(info.subdivision.finest_level) && r.get(info.subdivision.boundary_low) &&
+       r.get(info.subdivision.boundary_high) && r.get(info.subdivision.min_share) &&
+       r.get(info.flags);
   if (!ok) return inputError(path, "header", "truncated");
   // What a checkpoint of this version can hold (the atlas at most 16384 texels a side, the
   // shooter options' ranges): a forged or corrupt header is refused here, naming the file,
@@ -66,7 +76,10 @@ Expected<ProgressiveCheckpointInfo> parseHeader(const std::string& path, const s
       info.shooter_level < 0 || info.shooter_level > 16 || info.shooter_top_points < 0 ||
       info.shooter_top_points > 4096 || info.iterations < 0 || info.lights_shot < 0 ||
       info.lights_shot > 1 || info.elements == 0 ||
-      info.elements > uint64_t(info.atlas_width) * uint64_t(info.atlas_height)) {
+      info.elements > uint64_t(info.atlas_width) * uint64_t(info.atlas_height) ||
+      info.receiver_level < 0 || info.receiver_level > 16 || info.adaptive < 0 ||
+      info.adaptive > 1 || !checkSubdivisionOptions(info.subdivision).ok() ||
+      info.flags > info.elements + 1) {
     return inputError(path, "header", "values out of range");
   }
   if (balance) *balance = b;
@@ -101,7 +114,7 @@ Status writeProgressiveCheckpoint(const std::string& path, const Scene& scene,
                                   const ProgressiveRadiosity& solver) {
   const ProgressiveState state = solver.state();
   Writer w;
-  w.bytes.reserve(kHeaderBytes + 48 * solver.elementCount() + 8);
+  w.bytes.reserve(kHeaderBytes + 49 * solver.elementCount() + 8 + solver.shooterCount() + 1);
   w.bytes.append(kMagic, 16);
   w.put(progressiveFingerprint(scene, solver));
   w.put(solver.atlas().texel_density);
@@ -116,10 +129,21 @@ Status writeProgressiveCheckpoint(const std::string& path, const Scene& scene,
                               &state.balance.unshot, &state.balance.escaped}) {
     for (int c = 0; c < 3; ++c) w.put((*v)[c]);
   }
+  const ProgressiveOptions& o = solver.options();
+  w.put(int32_t(solver.receiverLevel()));
+  w.put(int32_t(o.adaptive ? 1 : 0));
+  w.put(int32_t(o.subdivision.finest_level));
+  w.put(o.subdivision.boundary_low);
+  w.put(o.subdivision.boundary_high);
+  w.put(o.subdivision.min_share);
+  w.put(uint64_t(state.subdivided.size()));
   for (size_t e = 0; e < solver.elementCount(); ++e) {
     for (int c = 0; c < 3; ++c) w.put(state.radiosity[e][c]);
     for (int c = 0; c < 3; ++c) w.put(state.residual[e][c]);
   }
+  w.bytes.append(reinterpret_cast<const char*>(state.receiver_levels.data()),
+                 state.receiver_levels.size());
+  w.bytes.append(reinterpret_cast<const char*>(state.subdivided.data()), state.subdivided.size());
   Fnv1a h;
   h.add(w.bytes.data(), w.bytes.size());
   w.put(h.h);
@@ -142,12 +166,12 @@ Expected<ProgressiveCheckpointInfo> readProgressiveCheckpointInfo(const std::str
   bytes.resize(std::fread(bytes.data(), 1, bytes.size(), f.get()));
   Expected<ProgressiveCheckpointInfo> info = parseHeader(path, bytes, nullptr);
   if (!info) return info;
-  // The body holds 48 bytes per element and a checksum: the element count is checked against
-  // the file's size before anything is built for it.
+  // The body holds 49 bytes per element, the flags and a checksum: the element count is checked
+  // against the file's size before anything is built for it.
   std::error_code ec;
   const uint64_t size = std::filesystem::file_size(path, ec);
-  if (ec || info->elements > (size - std::min<uint64_t>(size, kHeaderBytes)) / 48 ||
-      size != kHeaderBytes + 48 * info->elements + 8) {
+  if (ec || info->elements > (size - std::min<uint64_t>(size, kHeaderBytes)) / 49 ||
+      size != kHeaderBytes + bodyBytes(info->elements, info->flags) + 8) {
     return inputError(path, "",
                       fmt::format("truncated or padded: {} bytes for {} elements", ec ? 0 : size,
                                   info->elements));
@@ -163,7 +187,8 @@ Status resumeProgressiveCheckpoint(const std::string& path, const Scene& scene,
   Expected<ProgressiveCheckpointInfo> info = parseHeader(path, *bytes, &balance);
   if (!info) return info.error();
   const uint64_t n = info->elements;
-  if (n > (bytes->size() - kHeaderBytes) / 48 || bytes->size() != kHeaderBytes + 48 * n + 8) {
+  if (n > (bytes->size() - kHeaderBytes) / 49 ||
+      bytes->size() != kHeaderBytes + bodyBytes(n, info->flags) + 8) {
     return inputError(
         path, "", fmt::format("truncated or padded: {} bytes for {} elements", bytes->size(), n));
   }
@@ -183,6 +208,15 @@ Status resumeProgressiveCheckpoint(const std::string& path, const Scene& scene,
       info->shooter_top_points != solver.options().shooter_top_points) {
     return inputError(path, "", "was written with other substructuring options");
   }
+  const SubdivisionOptions& sub = solver.options().subdivision;
+  if (info->receiver_level != solver.receiverLevel() ||
+      (info->adaptive != 0) != solver.options().adaptive ||
+      info->subdivision.finest_level != sub.finest_level ||
+      info->subdivision.boundary_low != sub.boundary_low ||
+      info->subdivision.boundary_high != sub.boundary_high ||
+      info->subdivision.min_share != sub.min_share) {
+    return inputError(path, "", "was written with other receiver or subdivision options");
+  }
   ProgressiveState state;
   state.balance = balance;
   state.iterations = info->iterations;
@@ -194,6 +228,11 @@ Status resumeProgressiveCheckpoint(const std::string& path, const Scene& scene,
     for (int c = 0; c < 3; ++c) (void)r.get(state.radiosity[e][c]);
     for (int c = 0; c < 3; ++c) (void)r.get(state.residual[e][c]);
   }
+  state.receiver_levels.assign(bytes->begin() + std::ptrdiff_t(r.at),
+                               bytes->begin() + std::ptrdiff_t(r.at + n));
+  r.at += n;
+  state.subdivided.assign(bytes->begin() + std::ptrdiff_t(r.at),
+                          bytes->begin() + std::ptrdiff_t(r.at + info->flags));
   Status s = solver.setState(std::move(state));
   if (!s.ok()) return inputError(path, "", s.error().message);
   return {};

@@ -118,6 +118,15 @@ ProgressiveOptions gpuProgressiveOptions(ProgressiveOptions options) {
   return options;
 }
 
+Status gpuProgressiveSupports(const ProgressiveOptions& options) {
+  if (options.adaptive || options.receiver_level > 0) {
+    return inputError("", "--device gpu",
+                      "receivers coarser than texels and adaptive subdivision run on the CPU "
+                      "(--device cpu)");
+  }
+  return {};
+}
+
 int gpuShooterLevel(const ProgressiveRadiosity& cpu, int points) {
   const double per_shooter =
       double(cpu.elementCount()) / double(std::max<size_t>(1, cpu.shooterCount()));
@@ -134,6 +143,7 @@ Expected<GlProgressive> GlProgressive::create(const ProgressiveRadiosity& cpu,
   // Errors left by earlier work are not ours to report.
   while (glGetError() != GL_NO_ERROR) continue;
   const char* place = "progressive radiosity on the GPU";
+  PENUMBRA_TRY(gpuProgressiveSupports(options));
   if (!cpu.lightsShot()) {
     return inputError(
         "", place,

@@ -98,6 +98,10 @@ struct GlProgressiveOptions {
 // chosen once the elements are known (gpuShooterLevel).
 ProgressiveOptions gpuProgressiveOptions(ProgressiveOptions options);
 
+// Whether the GPU path runs these options: it receives at every texel, so coarser receivers and
+// adaptive subdivision (sec. 4, radiosity/progressive_receivers.h) run on the CPU only.
+Status gpuProgressiveSupports(const ProgressiveOptions& options);
+
 // The flat substructuring's level for the GPU: the coarsest at which an average shooter of
 // `cpu` still has at least `points` clusters (sec. 3: one mip level for every shooter), at most 8.
 int gpuShooterLevel(const ProgressiveRadiosity& cpu, int points);

@@ -143,10 +143,10 @@ Expected<RadiositySurface> RadiositySurface::build(const Scene& scene,
     std::vector<glm::vec3> face_normals(3 * s.flat.triangles.size());
     for (size_t t = 0; t < s.flat.triangles.size(); ++t) {
       const glm::uvec3 tri = s.flat.triangles[t];
-      const glm::vec3 n = glm::cross(s.flat.positions[tri.y] - s.flat.positions[tri.x],
-                                     s.flat.positions[tri.z] - s.flat.positions[tri.x]);
-      const float len = glm::length(n);
-      for (int k = 0; k < 3; ++k) face_normals[3 * t + size_t(k)] = len > 0.0f ? n / len : n;
+      const glm::vec3 fn = glm::cross(s.flat.positions[tri.y] - s.flat.positions[tri.x],
+                                      s.flat.positions[tri.z] - s.flat.positions[tri.x]);
+      const float len = glm::length(fn);
+      for (int k = 0; k < 3; ++k) face_normals[3 * t + size_t(k)] = len > 0.0f ? fn / len : fn;
     }
     s.applyNormalMaps(scene, face_normals);
   }
@@ -213,27 +213,39 @@ void RadiositySurface::applyMaterials(std::span<const Material> materials) {
 
 std::vector<glm::dvec3> RadiositySurface::lightIrradiance(std::span<const Light> lights,
                                                           bool visibility, uint64_t* rays) const {
-  const size_t n = elementCount();
+  return lightIrradianceAt(lights, visibility, atlas.element_position, atlas.element_normal,
+                           shading_normal, rays);
+}
+
+Ray RadiositySurface::shadowRayToLight(const LightSample& s, const glm::dvec3& p,
+                                       const glm::dvec3& ng) const {
+  // To the light's position, or far out for a directional one.
+  const glm::dvec3 from = p + ng * lift;
+  Ray ray{glm::vec3(from), 1e-4f, glm::vec3(s.direction * s.distance),
+          s.distance > 1e30 ? std::numeric_limits<float>::max() : 1.0f - 1e-4f};
+  if (s.distance > 1e30) ray.dir = glm::vec3(s.direction);
+  return ray;
+}
+
+std::vector<glm::dvec3> RadiositySurface::lightIrradianceAt(
+    std::span<const Light> lights, bool visibility, std::span<const glm::dvec3> positions,
+    std::span<const glm::dvec3> normals, std::span<const glm::dvec3> shading_normals,
+    uint64_t* rays) const {
+  const size_t n = positions.size();
+  PENUMBRA_CHECK(normals.size() == n && shading_normals.size() == n);
   std::vector<glm::dvec3> out(n, glm::dvec3(0.0));
   if (lights.empty()) return out;
   std::atomic<uint64_t> traced{0};
   parallelRange(n, 1024, [&](size_t begin, size_t end) {
     uint64_t count = 0;
     for (size_t r = begin; r < end; ++r) {
-      const glm::dvec3 p = atlas.element_position[r];
-      const glm::dvec3 ng = atlas.element_normal[r];
       glm::dvec3 sum(0.0);
       for (const Light& light : lights) {
-        const LightSample s = sampleLight(light, p, ng, shading_normal[r]);
+        const LightSample s = sampleLight(light, positions[r], normals[r], shading_normals[r]);
         if (s.irradiance == glm::dvec3(0.0)) continue;
         if (visibility) {
-          // Shadow ray towards the light (to its position, or far out for a directional one).
-          const glm::dvec3 from = p + ng * lift;
-          Ray ray{glm::vec3(from), 1e-4f, glm::vec3(s.direction * s.distance),
-                  s.distance > 1e30 ? std::numeric_limits<float>::max() : 1.0f - 1e-4f};
-          if (s.distance > 1e30) ray.dir = glm::vec3(s.direction);
           ++count;
-          if (engine.occluded(ray)) continue;
+          if (engine.occluded(shadowRayToLight(s, positions[r], normals[r]))) continue;
         }
         sum += s.irradiance;
       }

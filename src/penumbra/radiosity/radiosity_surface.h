@@ -17,6 +17,7 @@
 #include "penumbra/core/rng.h"
 #include "penumbra/geometry/chart_atlas.h"
 #include "penumbra/geometry/surface_hierarchy.h"
+#include "penumbra/radiosity/lights.h"
 #include "penumbra/raytrace/ray_engine.h"
 #include "penumbra/scene/scene.h"
 
@@ -92,6 +93,15 @@ struct RadiositySurface {
   // added to *rays.
   std::vector<glm::dvec3> lightIrradiance(std::span<const Light> lights, bool visibility,
                                           uint64_t* rays = nullptr) const;
+  // The same at any points on the surface (receivers: radiosity/progressive_receivers.h), with
+  // their face and shading normals.
+  std::vector<glm::dvec3> lightIrradianceAt(std::span<const Light> lights, bool visibility,
+                                            std::span<const glm::dvec3> positions,
+                                            std::span<const glm::dvec3> normals,
+                                            std::span<const glm::dvec3> shading_normals,
+                                            uint64_t* rays = nullptr) const;
+  // The shadow ray from `p` (face normal `ng`, lifted off the surface) towards a light sample.
+  Ray shadowRayToLight(const LightSample& sample, const glm::dvec3& p, const glm::dvec3& ng) const;
 
   // Whether every ray of `rays` hits a face that has elements (none escapes to the outside or
   // reaches a black back face of a one-sided surface).
