@@ -41,7 +41,7 @@ struct GpuBatchPoint {
   dvec4 position;   // xyz (m, double: the near-pair test in the CPU's precision), w = area (m^2)
   vec4 position_f;  // xyz as float (the hemisphere's origin), w = area
   vec4 residual;    // area-weighted mean dB of its elements (W m^-2)
-  uvec4 members;    // x: first element, y: count
+  uvec4 members;    // x: first element, y: count, z: its index among the shooter's points
 };
 
 #define MAX_BATCH_POINTS 16

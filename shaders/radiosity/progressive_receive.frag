@@ -16,17 +16,29 @@
 // form factor, drawn only for the charts that can be that close to the shooter
 // (progressive_gl.cpp), so that the heavy polygon code runs only where it is needed. VISIBILITY
 // (ProgressiveOptions::visibility) compiles the depth test in or out.
+//
+// Receivers are the elements, or clusters of them (Wallner sec. 4, radiosity/progressive_receivers.h)
+// in the same layout, each drawn at one texel. SAMPLE_PASS 1 is sec. 4's test before a shooter's
+// first shot, drawn over the elements: element e pairs with the shooter's point e mod
+// sample_points (the CPU's pairing) and, if that point is in the batch, records in samples[e]
+// bit 0 when the two face each other (the fragments the paper's first pass counts, n_r) and
+// bit 1 when the depth test finds it visible too (its third pass, n_v).
 #include "radiosity/progressive_layout.glsl"
 #include "radiosity/progressive_hemisphere.glsl"
 #include "radiosity/progressive_form_factor.glsl"
 
 layout(std430, binding = PROGRESSIVE_SSBO_TRIANGLES) readonly buffer Triangles { GpuProgressiveTriangle triangles[]; };
 layout(std430, binding = PROGRESSIVE_SSBO_ELEMENTS) readonly buffer Elements { GpuProgressiveElement elements[]; };
+layout(std430, binding = PROGRESSIVE_SSBO_RECEIVERS) readonly buffer Receivers { GpuProgressiveElement receivers[]; };
+#if SAMPLE_PASS
+layout(std430, binding = PROGRESSIVE_SSBO_SAMPLES) buffer Samples { uint samples[]; };
+uniform uint sample_points;  // the shooter's points
+#endif
 // Element pieces (its faces clipped to its texel, in world space), 8 corners each (xyz, padded
 // by repeating the last corner).
 layout(std430, binding = PROGRESSIVE_SSBO_POLYGONS) readonly buffer Polygons { vec4 polygons[]; };
-// Element points in double, for the near-pair test in the CPU's precision.
-layout(std430, binding = PROGRESSIVE_SSBO_ELEMENT_POSITION_D) readonly buffer ElementPositionD { double element_position[]; };
+// Receiver points in double, for the near-pair test in the CPU's precision.
+layout(std430, binding = PROGRESSIVE_SSBO_ELEMENT_POSITION_D) readonly buffer ReceiverPositionD { double receiver_position[]; };
 layout(std140, binding = PROGRESSIVE_UBO_BATCH) uniform Batch { GpuBatchPoint batch[MAX_BATCH_POINTS]; };
 
 layout(binding = PROGRESSIVE_TEXTURE_DEPTH_MAP) uniform sampler2D depth_map;     // tiles of linear depth, Algorithm 1
@@ -153,10 +165,22 @@ void main() {
     incident = vec4(1.0, 0.0, 0.0, 0.0);
     return;
   }
-  const GpuProgressiveElement r = elements[e];
+  const GpuProgressiveElement r = receivers[e];
   const GpuProgressiveTriangle rt = triangles[r.triangle];
-  const dvec3 pr = dvec3(element_position[3 * e], element_position[3 * e + 1],
-                         element_position[3 * e + 2]);
+#if SAMPLE_PASS
+  incident = vec4(0.0);
+  const uint j = e % sample_points;
+  for (uint k = 0u; k < batch_count; ++k) {
+    if (batch[k].members.z != j) continue;
+    const vec3 d = batch[k].position_f.xyz - r.position;
+    if (dot(d, d) > 0.0 && dot(r.normal, d) > 0.0 && dot(hemisphere.normal, d) < 0.0) {
+      samples[e] = seenFrom(r, rt, k) ? 3u : 1u;
+    }
+  }
+  return;
+#endif
+  const dvec3 pr = dvec3(receiver_position[3 * e], receiver_position[3 * e + 1],
+                         receiver_position[3 * e + 2]);
   // This pass's pairs of the batch as a bit mask, then a loop over its set bits. A SIMD
   // rasteriser (llvmpipe) runs both sides of every branch under lane masks, but leaves a loop
   // as soon as no lane has work: the expensive part costs only what the pairs need.

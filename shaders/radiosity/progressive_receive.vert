@@ -9,7 +9,9 @@
 // flip is needed.
 #include "radiosity/progressive_layout.glsl"
 
-layout(std430, binding = PROGRESSIVE_SSBO_ELEMENTS) readonly buffer Elements { GpuProgressiveElement elements[]; };
+// The receivers (Wallner sec. 4, radiosity/progressive_receivers.h): the elements themselves, or
+// clusters of them, each written at the texel of its element nearest its point.
+layout(std430, binding = PROGRESSIVE_SSBO_RECEIVERS) readonly buffer Receivers { GpuProgressiveElement receivers[]; };
 
 uniform int atlas_width;
 uniform int atlas_height;
@@ -18,7 +20,7 @@ flat out uint v_element;
 
 void main() {
   const uint e = uint(gl_VertexID);  // glDrawArrays' first is included
-  const uint texel = elements[e].texel;
+  const uint texel = receivers[e].texel;
   const vec2 centre = vec2(float(texel % uint(atlas_width)) + 0.5,
                            float(texel / uint(atlas_width)) + 0.5);
   v_element = e;

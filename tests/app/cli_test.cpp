@@ -130,6 +130,40 @@ TEST(Cli, ProgressiveRadiosityRendersTheFurnace) {
   }
 }
 
+// Adaptive subdivision from the command line (Wallner sec. 4): the receivers' statistics, the
+// books closed, and thresholds out of order refused with one line naming the options.
+TEST(Cli, AdaptiveSubdivisionReportsItsReceivers) {
+  TempDir dir;
+  const std::string scene = std::string(PENUMBRA_TEST_DATA) + "/../../scenes/slats.json";
+  const auto r = runCli("render " + scene +
+                        " --method progressive --texel-density 32 --adaptive --receiver-level 3 "
+                        "--width 16 --height 16 --quiet -o " +
+                        dir.file("p.pfm") + " --stats " + dir.file("s.json"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const nlohmann::json stats = readJson(dir.file("s.json"));
+  const nlohmann::json& rec = stats["receivers"];
+  EXPECT_TRUE(rec["adaptive"].get<bool>());
+  EXPECT_EQ(rec["level"].get<int>(), 3);
+  EXPECT_GT(rec["refined"].get<int>(), 20);
+  EXPECT_LT(rec["count"].get<int>(), stats["elements"].get<int>() / 4);
+  EXPECT_GT(rec["subdivision_share"].get<double>(), 0.0);
+  EXPECT_LT(rec["subdivision_share"].get<double>(), 1.0);
+  const auto emitted = stats["emitted_w"].get<std::vector<double>>();
+  const auto absorbed = stats["absorbed_w"].get<std::vector<double>>();
+  const auto unshot = stats["unshot_w"].get<std::vector<double>>();
+  const auto escaped = stats["escaped_w"].get<std::vector<double>>();
+  EXPECT_NEAR(absorbed[1] + unshot[1] + escaped[1], emitted[1], 1e-9 * emitted[1]);
+
+  const auto bad = runCli("render " + scene +
+                          " --method progressive --adaptive --boundary 0.7,0.2 "
+                          "--quiet -o " +
+                          dir.file("q.pfm"));
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_NE(bad.output.find("--boundary"), std::string::npos) << bad.output;
+  EXPECT_EQ(std::count(bad.output.begin(), bad.output.end(), '\n'), 1) << bad.output;
+  EXPECT_FALSE(std::filesystem::exists(dir.file("q.pfm")));
+}
+
 // Runs the executable with `args` (split on spaces), sends it SIGINT after `delay_s` seconds, and
 // returns its exit code (-1 when it did not exit normally). Output goes to /dev/null.
 // Runs the CLI and sends it `signal` after `delay_s` seconds; the exit status as a shell gives

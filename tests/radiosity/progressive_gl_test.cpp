@@ -378,6 +378,62 @@ TEST(ProgressiveGl, MatchesTheCpuOnTheCornellBox) {
   EXPECT_LE(back_gpu / (back_gpu + front_gpu), 0.01);
 }
 
+// Adaptive subdivision (Wallner sec. 4) on both devices: the GPU's samples pass (per texel,
+// through the shooter's depth maps) and the CPU's shadow rays split the same receivers before
+// the light's first shot up to the texels where depth maps and rays part, and the solutions
+// along the CPU's shooter sequence agree as the per-element solutions do.
+TEST(ProgressiveGl, AdaptiveSubdivisionMatchesTheCpu) {
+  PENUMBRA_GL_OR_SKIP();
+  ProgressiveOptions o = cornellOptions();
+  o.atlas.texel_density = 50.0;
+  o.adaptive = true;
+  o.receiver_level = 2;
+  ProgressiveRadiosity cpu = buildCpu("cornell", o);
+  GlProgressive gpu = createGpu(cpu);
+  const uint32_t first = cpu.selectShooter();
+  ASSERT_NE(first, ProgressiveRadiosity::kLights);  // the Cornell box's light is a surface
+  const ProgressiveIteration c = cpu.shoot(first);
+  Expected<ProgressiveIteration> g = gpu.shoot(first);
+  ASSERT_TRUE(g.ok()) << g.error().describe();
+  Expected<ProgressiveState> st = gpu.download();
+  ASSERT_TRUE(st.ok());
+  // Texels under receivers of the same level on both devices, on the front faces (the room's
+  // inside and the boxes' outsides). On the back faces the GPU splits receivers the CPU leaves
+  // whole: inside the closed boxes its depth test lets the light through along the edges (the
+  // leak the test above measures), and the contrast test finds that light all there is.
+  const std::vector<uint8_t> cpu_levels = cpu.receivers().elementLevels();
+  size_t same = 0, front = 0, cpu_fine = 0, gpu_fine = 0;
+  for (size_t e = 0; e < cpu.elementCount(); ++e) {
+    if (cpu.atlas().faces[cpu.atlas().element_face[e]].back) continue;
+    ++front;
+    same += cpu_levels[e] == st->receiver_levels[e];
+    cpu_fine += cpu_levels[e] < 2;
+    gpu_fine += st->receiver_levels[e] < 2;
+  }
+  const double agree = double(same) / double(front);
+  std::printf(
+      "cornell adaptive, first shot: CPU split %u receivers (%zu in all), GPU %u; front faces: "
+      "%zu texels under split receivers on the CPU, %zu on the GPU, %.4f of the texels under "
+      "receivers of the same level; GPU subdivision %.3f of %.3f s\n",
+      c.refined, cpu.receivers().size(), g->refined, cpu_fine, gpu_fine, agree,
+      g->subdivision_seconds, g->seconds);
+  EXPECT_GT(c.refined, 100u);
+  EXPECT_NEAR(double(gpu_fine), double(cpu_fine), 0.1 * double(cpu_fine));
+  EXPECT_GE(agree, 0.97);
+  // Then 14 more shots along the CPU's sequence.
+  const Agreement a = runBoth(cpu, gpu, 14, nullptr);
+  std::printf("cornell adaptive, 15 iterations: relative RMS %.2e\n", a.rms);
+  EXPECT_LE(a.rms, 0.03);
+  // The state round-trips with its receivers.
+  Expected<ProgressiveState> after = gpu.download();
+  ASSERT_TRUE(after.ok());
+  EXPECT_EQ(after->subdivided.size(), cpu.shooterCount() + 1);
+  ASSERT_TRUE(gpu.upload(*after).ok());
+  Expected<ProgressiveState> again = gpu.download();
+  ASSERT_TRUE(again.ok());
+  EXPECT_EQ(again->receiver_levels, after->receiver_levels);
+}
+
 TEST(ProgressiveGl, NormalMapsTurnTheReceiversCosineAsOnTheCpu) {
   // A floor whose normal map leans every normal 30 degrees towards +x, lit by an emissive panel
   // off to one side: the GPU's receiver pass takes the mapped normal for the cosine as the CPU

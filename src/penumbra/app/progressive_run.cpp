@@ -125,7 +125,6 @@ Expected<ProgressiveRun> runProgressive(const Scene& scene, const ProgressiveRun
                       "was written by the CPU's hierarchical shooter; continue it with --device "
                       "cpu");
   }
-  if (gpu) PENUMBRA_TRY(gpuProgressiveSupports(po));
   if (common.dry_run) {
     run.dry_run = true;
     return run;

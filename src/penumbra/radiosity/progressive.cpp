@@ -307,16 +307,34 @@ void ProgressiveRadiosity::subdivideFor(uint32_t slot, Sample&& sample, Progress
       double shooter_e = 0.0;
       sample(e, counted[e], visible[e], shooter_e);
       traced += counted[e];
-      const double rho = residualLuminance(surface_.reflectance[e]);
-      const double before = rho > 0.0 ? residualLuminance(b_[e] - surface_.emission[e]) / rho : 0.0;
-      if (shooter_e > 0.0)
-        share[e] = float(counted[e] * shooter_e / (std::max(before, 0.0) + shooter_e));
+      share[e] = float(counted[e] * subdivisionShare(shooter_e, b_[e], surface_.emission[e],
+                                                     surface_.reflectance[e]));
     }
     rays += traced;
   });
   it.refined = receivers_.subdivide(surface_, counted, visible, share, options_.subdivision);
   it.rays += rays.load();
   it.subdivision_seconds = timer.seconds();
+}
+
+double shooterDiscIrradiance(const glm::dvec3& residual, double area, const glm::dvec3& position,
+                             const glm::dvec3& normal, const glm::dvec3& p, const glm::dvec3& n) {
+  const glm::dvec3 d = position - p;
+  const double d2 = glm::dot(d, d);
+  if (!(d2 > 0.0)) return 0.0;
+  const double inv = 1.0 / std::sqrt(d2);
+  const double cos_r = std::max(glm::dot(n, d) * inv, 0.0),
+               cos_s = std::max(-glm::dot(normal, d) * inv, 0.0);
+  return residualLuminance(residual) * discFormFactor(area, cos_s, cos_r, d2);
+}
+
+double subdivisionShare(double shooter_irradiance, const glm::dvec3& radiosity,
+                        const glm::dvec3& emission, const glm::dvec3& reflectance) {
+  if (!(shooter_irradiance > 0.0)) return 0.0;
+  const double rho = residualLuminance(reflectance);
+  const double before =
+      rho > 0.0 ? std::max(residualLuminance(radiosity - emission) / rho, 0.0) : 0.0;
+  return shooter_irradiance / (before + shooter_irradiance);
 }
 
 ProgressiveIteration ProgressiveRadiosity::shootLights() {
@@ -476,17 +494,9 @@ ProgressiveIteration ProgressiveRadiosity::shoot(uint32_t shooter) {
             return;
           }
           counted = 1;
-          // The whole shooter's irradiance here, as one disc (eq. 2): for the contrast test.
           const ShooterPoint& whole = points[0];
-          const glm::dvec3 dw = whole.position - pe;
-          const double d2 = glm::dot(dw, dw);
-          if (d2 > 0.0) {
-            const double inv = 1.0 / std::sqrt(d2);
-            const double cos_r = std::max(glm::dot(ne, dw) * inv, 0.0),
-                         cos_s = std::max(-glm::dot(whole.normal, dw) * inv, 0.0);
-            irradiance =
-                residualLuminance(whole.residual) * discFormFactor(whole.area, cos_s, cos_r, d2);
-          }
+          irradiance = shooterDiscIrradiance(whole.residual, whole.area, whole.position,
+                                             whole.normal, pe, ne);
           const glm::dvec3 from = pe + ne * surface_.lift,
                            to = s.position + s.geometric * surface_.lift;
           if (!options_.visibility ||

@@ -178,6 +178,15 @@ inline double residualLuminance(const glm::dvec3& c) {
   return 0.3 * c.x + 0.59 * c.y + 0.11 * c.z;
 }
 
+// Adaptive subdivision's contrast test (radiosity/progressive_receivers.h), on every device:
+// a whole shooter's unoccluded irradiance at a sample (point p, face normal n) as one disc of
+// eq. 2 (luminance, W m^-2), and the share E_s / (E_before + E_s) the sample counts with,
+// E_before = (B - E) / rho from its radiosity, emission and reflectance (luminances).
+double shooterDiscIrradiance(const glm::dvec3& residual, double area, const glm::dvec3& position,
+                             const glm::dvec3& normal, const glm::dvec3& p, const glm::dvec3& n);
+double subdivisionShare(double shooter_irradiance, const glm::dvec3& radiosity,
+                        const glm::dvec3& emission, const glm::dvec3& reflectance);
+
 // The iteration loop of solve() on every device: iterates until the unshot fraction reaches
 // options.convergence, the solver's iteration count reaches options.max_iterations (counted
 // over its whole life) or `stop` says so. `step()` gives Expected<ProgressiveIteration>

@@ -118,15 +118,6 @@ ProgressiveOptions gpuProgressiveOptions(ProgressiveOptions options) {
   return options;
 }
 
-Status gpuProgressiveSupports(const ProgressiveOptions& options) {
-  if (options.adaptive || options.receiver_level > 0) {
-    return inputError("", "--device gpu",
-                      "receivers coarser than texels and adaptive subdivision run on the CPU "
-                      "(--device cpu)");
-  }
-  return {};
-}
-
 int gpuShooterLevel(const ProgressiveRadiosity& cpu, int points) {
   const double per_shooter =
       double(cpu.elementCount()) / double(std::max<size_t>(1, cpu.shooterCount()));
@@ -143,7 +134,6 @@ Expected<GlProgressive> GlProgressive::create(const ProgressiveRadiosity& cpu,
   // Errors left by earlier work are not ours to report.
   while (glGetError() != GL_NO_ERROR) continue;
   const char* place = "progressive radiosity on the GPU";
-  PENUMBRA_TRY(gpuProgressiveSupports(options));
   if (!cpu.lightsShot()) {
     return inputError(
         "", place,
@@ -363,6 +353,9 @@ Expected<GlProgressive> GlProgressive::create(const ProgressiveRadiosity& cpu,
       {"sub-triangle", uint64_t(subs.size()) * 8},
       {"shooter power", uint64_t(ns) * 32},
       {"resolve sums", groups * sizeof(GpuResolveSums)},
+      // Coarse receivers (at most one per element) and the samples of subdivision.
+      {"receiver", uint64_t(n) * (sizeof(GpuProgressiveElement) + 24)},
+      {"subdivision sample", uint64_t(n) * 4},
   };
   uint64_t buffer_bytes = sizeof(GpuBatchPoint) * 16;
   for (const auto& b : buffers) buffer_bytes += b.bytes;
@@ -430,12 +423,20 @@ Expected<GlProgressive> GlProgressive::create(const ProgressiveRadiosity& cpu,
     if (!p) return p.error();
     s.depth_ = std::move(*p);
     for (int near = 0; near < 2; ++near) {
-      p = gl::renderProgram("radiosity/progressive_receive.vert",
-                            "radiosity/progressive_receive.frag",
-                            {fmt::format("NEAR_PASS {}", near),
-                             fmt::format("VISIBILITY {}", options.visibility ? 1 : 0)});
+      p = gl::renderProgram(
+          "radiosity/progressive_receive.vert", "radiosity/progressive_receive.frag",
+          {fmt::format("NEAR_PASS {}", near),
+           fmt::format("VISIBILITY {}", options.visibility ? 1 : 0), "SAMPLE_PASS 0"});
       if (!p) return p.error();
       (near ? s.receive_near_ : s.receive_far_) = std::move(*p);
+    }
+    if (options.adaptive) {
+      p = gl::renderProgram(
+          "radiosity/progressive_receive.vert", "radiosity/progressive_receive.frag",
+          {"NEAR_PASS 0", fmt::format("VISIBILITY {}", options.visibility ? 1 : 0),
+           "SAMPLE_PASS 1"});
+      if (!p) return p.error();
+      s.sample_ = std::move(*p);
     }
   }
 
@@ -510,6 +511,9 @@ Expected<GlProgressive> GlProgressive::create(const ProgressiveRadiosity& cpu,
   s.shooter_power_ = gl::Buffer(std::max<size_t>(ns, 1) * 32, nullptr, 0);
   s.selection_ = gl::Buffer(sizeof(GpuSelection), nullptr, 0);
   s.sums_ = gl::Buffer(size_t(groups) * sizeof(GpuResolveSums), nullptr, 0);
+  s.samples_ = gl::Buffer(std::max<size_t>(n, 1) * 4, nullptr, GL_DYNAMIC_STORAGE_BIT);
+  s.surface_ = &cpu.surface();
+  s.receivers_ = cpu.receivers();
 
   // ---- Textures and framebuffers ----
   s.radiosity_ = makeTexture(GL_RGBA32F, atlas.width, atlas.height);
@@ -585,6 +589,22 @@ Status GlProgressive::upload(const ProgressiveState& state) {
     b[element_texel_[e]] = glm::vec4(glm::vec3(be), 1.0f);
     db[element_texel_[e]] = glm::vec4(glm::vec3(dbe), 1.0f);
   }
+  if (!state.receiver_levels.empty()) {
+    Expected<ProgressiveReceivers> r =
+        ProgressiveReceivers::fromElementLevels(*surface_, state.receiver_levels);
+    if (!r) return r.error();
+    receivers_ = std::move(*r);
+  }
+  if (!state.subdivided.empty()) {
+    if (state.subdivided.size() != size_t(shooter_count_) + 1) {
+      return inputError("", "progressive radiosity on the GPU",
+                        fmt::format("the state has {} subdivision flags, the solver {}",
+                                    state.subdivided.size(), shooter_count_ + 1));
+    }
+    subdivided_ = state.subdivided;
+  }
+  if (subdivided_.size() != size_t(shooter_count_) + 1) subdivided_.assign(shooter_count_ + 1, 0);
+  uploadReceivers();
   glTextureSubImage2D(radiosity_.id(), 0, 0, 0, width_, height_, GL_RGBA, GL_FLOAT, b.data());
   glTextureSubImage2D(residual_.id(), 0, 0, 0, width_, height_, GL_RGBA, GL_FLOAT, db.data());
   balance_ = state.balance;
@@ -608,6 +628,8 @@ Expected<ProgressiveState> GlProgressive::download() const {
   st.balance = balance_;
   st.iterations = iterations_;
   st.lights_shot = true;
+  st.receiver_levels = receivers_.elementLevels();
+  st.subdivided = subdivided_;
   return st;
 }
 
@@ -656,7 +678,65 @@ Expected<uint32_t> GlProgressive::selectShooter() {
   return sel.power > 0.0 ? sel.shooter : kNoShooter;
 }
 
-void GlProgressive::drawReceivers(const gl::Program& program, uint32_t first, uint32_t count) {
+void GlProgressive::uploadReceivers() {
+  const size_t m = receivers_.size();
+  const size_t nc = chart_elements_.size();
+  chart_receivers_.assign(nc, glm::uvec2(0));
+  if (receivers_.perElement()) {
+    chart_receivers_ = chart_elements_;
+    return;
+  }
+  const ChartAtlas& atlas = surface_->atlas;
+  std::vector<GpuProgressiveElement> r(m);
+  std::vector<double> position(3 * m);
+  for (size_t k = 0; k < m; ++k) {
+    GpuProgressiveElement& g = r[k];
+    const glm::dvec3 p = receivers_.position(k);
+    for (int c = 0; c < 3; ++c) {
+      g.position[c] = float(p[c]);
+      position[3 * k + size_t(c)] = p[c];
+      g.reflectance[c] = 0.0f;  // receivers gather; the elements reflect (resolve pass)
+      g.normal[c] = float(receivers_.normal(k)[c]);
+      g.shading_normal[c] = float(receivers_.shadingNormal(k)[c]);
+    }
+    const ClusterRef cl = receivers_.cluster(k);
+    g.area = float(surface_->hierarchy.level(cl.level).area[cl.index]);
+    g.texel = element_texel_[receivers_.texelElement(k)];
+    g.triangle = atlas.faces[receivers_.face(k)].triangle;
+    g.barycentric[0] = receivers_.barycentric(k).x;
+    g.barycentric[1] = receivers_.barycentric(k).y;
+    g.piece_first = 0;
+    g.piece_count = 0;
+    g.pad = 0;
+    // Receivers are in element order: each chart's are one range.
+    glm::uvec2& range = chart_receivers_[receivers_.chart(k)];
+    if (range.y == 0) range.x = uint32_t(k);
+    ++range.y;
+  }
+  receivers_buf_ = makeBuffer(r);
+  receiver_position_d_ = makeBuffer(position);
+}
+
+Status GlProgressive::spreadIncident() {
+  if (receivers_.perElement()) return {};
+  std::vector<glm::vec4> rgba;
+  glMemoryBarrier(GL_TEXTURE_UPDATE_BARRIER_BIT);
+  readTexture(incident_.id(), width_, height_, rgba);
+  std::vector<glm::dvec3> gathered(receivers_.size());
+  for (size_t k = 0; k < receivers_.size(); ++k) {
+    gathered[k] = glm::dvec3(glm::vec3(rgba[element_texel_[receivers_.texelElement(k)]]));
+  }
+  const std::vector<glm::dvec3> spread = receivers_.toElements(*surface_, std::move(gathered));
+  std::fill(rgba.begin(), rgba.end(), glm::vec4(0.0f));
+  for (size_t e = 0; e < element_count_; ++e) {
+    rgba[element_texel_[e]] = glm::vec4(glm::vec3(spread[e]), 0.0f);
+  }
+  glTextureSubImage2D(incident_.id(), 0, 0, 0, width_, height_, GL_RGBA, GL_FLOAT, rgba.data());
+  return glStatus("interpolating the receivers' irradiance");
+}
+
+void GlProgressive::drawReceivers(const gl::Program& program, uint32_t first, uint32_t count,
+                                  bool elements) {
   if (count == 0) return;
   glBindFramebuffer(GL_FRAMEBUFFER, atlas_fbo_.id());
   glViewport(0, 0, width_, height_);
@@ -672,7 +752,11 @@ void GlProgressive::drawReceivers(const gl::Program& program, uint32_t first, ui
   glProgramUniform1i(program.id(), uniform(program, "atlas_height"), height_);
   elements_.bindBase(GL_SHADER_STORAGE_BUFFER, PROGRESSIVE_SSBO_ELEMENTS);
   triangles_.bindBase(GL_SHADER_STORAGE_BUFFER, PROGRESSIVE_SSBO_TRIANGLES);
-  element_position_d_.bindBase(GL_SHADER_STORAGE_BUFFER, PROGRESSIVE_SSBO_ELEMENT_POSITION_D);
+  const bool own = elements || receivers_.perElement();
+  (own ? elements_ : receivers_buf_).bindBase(GL_SHADER_STORAGE_BUFFER, PROGRESSIVE_SSBO_RECEIVERS);
+  (own ? element_position_d_ : receiver_position_d_)
+      .bindBase(GL_SHADER_STORAGE_BUFFER, PROGRESSIVE_SSBO_ELEMENT_POSITION_D);
+  samples_.bindBase(GL_SHADER_STORAGE_BUFFER, PROGRESSIVE_SSBO_SAMPLES);
   polygons_.bindBase(GL_SHADER_STORAGE_BUFFER, PROGRESSIVE_SSBO_POLYGONS);
   batch_.bindBase(GL_UNIFORM_BUFFER, PROGRESSIVE_UBO_BATCH);
   glBindTextureUnit(PROGRESSIVE_TEXTURE_DEPTH_MAP, depth_map_.id());
@@ -730,6 +814,104 @@ Expected<GpuResolveSums> GlProgressive::resolve(uint32_t shooter, const glm::dve
   return total;
 }
 
+void GlProgressive::prepareBatch(const std::vector<uint32_t>& active,
+                                 const std::vector<glm::dvec3>& active_residual,
+                                 uint32_t point_first, uint32_t first, uint32_t count) {
+  // The batch's points, as uniforms of the passes.
+  std::array<GpuBatchPoint, kMaxTiles * kMaxTiles> points{};
+  for (uint32_t k = 0; k < count; ++k) {
+    const uint32_t p = active[first + k];
+    GpuBatchPoint& b = points[k];
+    for (int c = 0; c < 3; ++c) {
+      b.position[c] = point_position_[p][c];
+      b.position_f[c] = float(point_position_[p][c]);
+      b.residual[c] = float(active_residual[first + k][c]);
+    }
+    b.position[3] = point_area_[p];
+    b.position_f[3] = float(point_area_[p]);
+    b.members[0] = point_members_[p].x;
+    b.members[1] = point_members_[p].y;
+    b.members[2] = p - point_first;
+  }
+  batch_.upload(points.data(), count * sizeof(GpuBatchPoint));
+  batch_.bindBase(GL_UNIFORM_BUFFER, PROGRESSIVE_UBO_BATCH);
+  if (!options_.visibility) return;
+  // Algorithm 1: the scene's depth from each point of the batch, hemispherical projection, one
+  // instance (and one tile of the depth texture) per point.
+  const GLint d = gl_options_.visibility_resolution * GLint(tiles_);
+  glBindFramebuffer(GL_FRAMEBUFFER, depth_fbo_.id());
+  glViewport(0, 0, d, d);
+  glDisable(GL_BLEND);
+  glDisable(GL_STENCIL_TEST);
+  glDisable(GL_CULL_FACE);
+  glEnable(GL_DEPTH_TEST);
+  glDepthFunc(GL_LESS);
+  glDepthMask(GL_TRUE);
+  for (int c = 0; c < 4; ++c) glEnable(GLenum(GL_CLIP_DISTANCE0 + c));
+  const GLfloat far_depth = 1.0f;
+  glClearNamedFramebufferfv(depth_fbo_.id(), GL_DEPTH, 0, &far_depth);
+  const GLuint no_triangle[4] = {0xffffffffu, 0u, 0u, 0u};
+  glClearNamedFramebufferuiv(depth_fbo_.id(), GL_COLOR, 0, no_triangle);
+  glUseProgram(depth_.id());
+  triangles_.bindBase(GL_SHADER_STORAGE_BUFFER, PROGRESSIVE_SSBO_TRIANGLES);
+  sub_triangles_.bindBase(GL_SHADER_STORAGE_BUFFER, PROGRESSIVE_SSBO_SUB_TRIANGLES);
+  glBindVertexArray(vao_.id());
+  glDrawArraysInstanced(GL_TRIANGLES, 0, GLsizei(6 * sub_triangle_count_), GLsizei(count));
+  glBindVertexArray(0);
+  for (int c = 0; c < 4; ++c) glDisable(GLenum(GL_CLIP_DISTANCE0 + c));
+  glDisable(GL_DEPTH_TEST);
+}
+
+Status GlProgressive::subdivide(uint32_t shooter, const std::vector<uint32_t>& active,
+                                const std::vector<glm::dvec3>& active_residual,
+                                const glm::dvec3& shot, ProgressiveIteration& it) {
+  const Timer timer;
+  subdivided_[shooter] = 1;
+  const uint32_t point_first = point_first_[shooter];
+  const uint32_t point_count = point_first_[shooter + 1] - point_first;
+  const size_t n = element_count_;
+  // The samples pass, once per batch: each element records its sample when its point is in
+  // the batch (its point e mod point_count; points with nothing to shoot are in none, as on the
+  // CPU, whose samples skip them).
+  const uint32_t zero = 0;
+  glClearNamedBufferData(samples_.id(), GL_R32UI, GL_RED_INTEGER, GL_UNSIGNED_INT, &zero);
+  glProgramUniform1ui(sample_.id(), uniform(sample_, "sample_points"), point_count);
+  const uint32_t batch = tiles_ * tiles_;
+  for (uint32_t first = 0; first < uint32_t(active.size()); first += batch) {
+    const uint32_t count = std::min(batch, uint32_t(active.size()) - first);
+    prepareBatch(active, active_residual, point_first, first, count);
+    glProgramUniform1ui(sample_.id(), uniform(sample_, "batch_count"), count);
+    drawReceivers(sample_, 0, uint32_t(n), /*elements=*/true);
+  }
+  glUseProgram(0);
+  glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT | GL_SHADER_STORAGE_BARRIER_BIT);
+  std::vector<uint32_t> bits(n);
+  if (n > 0) samples_.download(bits.data(), n * 4);
+  std::vector<glm::vec4> b;
+  readTexture(radiosity_.id(), width_, height_, b);
+  PENUMBRA_TRY(glStatus("counting the subdivision samples"));
+  // The contrast test's shares, as the CPU solver computes them (the whole shooter as one disc).
+  double area = 0.0;
+  for (uint32_t p = point_first; p < point_first + point_count; ++p) area += point_area_[p];
+  const glm::dvec3 mean_residual = area > 0.0 ? shot / area : glm::dvec3(0.0);
+  std::vector<uint16_t> counted(n, 0), visible(n, 0);
+  std::vector<float> share(n, 0.0f);
+  for (size_t e = 0; e < n; ++e) {
+    if (!receivers_.samples(e, options_.subdivision.finest_level) || !(bits[e] & 1u)) continue;
+    counted[e] = 1;
+    visible[e] = uint16_t((bits[e] >> 1) & 1u);
+    const double irradiance = shooterDiscIrradiance(
+        mean_residual, area, shooter_centre_[shooter], shooter_normal_[shooter],
+        surface_->atlas.element_position[e], surface_->atlas.element_normal[e]);
+    share[e] = float(subdivisionShare(irradiance, glm::dvec3(glm::vec3(b[element_texel_[e]])),
+                                      surface_->emission[e], surface_->reflectance[e]));
+  }
+  it.refined = receivers_.subdivide(*surface_, counted, visible, share, options_.subdivision);
+  uploadReceivers();
+  it.subdivision_seconds = timer.seconds();
+  return glStatus("uploading the receivers");
+}
+
 Expected<ProgressiveIteration> GlProgressive::shoot(uint32_t shooter) {
   PENUMBRA_CHECK_MSG(shooter < shooter_count_, "shooter {} of {}", shooter, shooter_count_);
   const Timer timer;
@@ -770,6 +952,29 @@ Expected<ProgressiveIteration> GlProgressive::shoot(uint32_t shooter) {
   }
   it.shooter_points = uint32_t(active.size());
 
+  if (!active.empty()) {
+    const glm::dvec3 ns = shooter_normal_[shooter];
+    setHemisphere(depth_, ns, far_);
+    glProgramUniform1ui(depth_.id(), uniform(depth_, "tiles"), tiles_);
+    for (const gl::Program* r : {&receive_far_, &receive_near_, &sample_}) {
+      if (r->id() == 0) continue;
+      const GLuint rid = r->id();
+      setHemisphere(*r, ns, far_);
+      glProgramUniform1ui(rid, uniform(*r, "tiles"), tiles_);
+      if (options_.visibility) {
+        glProgramUniform1f(rid, uniform(*r, "depth_tolerance"), gl_options_.depth_tolerance);
+      }
+      if (r == &sample_) continue;  // the samples pass has no pairs
+      glProgramUniform1f(rid, uniform(*r, "near_factor"), float(kProgressiveNear));
+      glProgramUniform1i(rid, uniform(*r, "count_mode"), 0);
+    }
+  }
+  // Sec. 4 before the shooter's first shot: receivers split at its shadow boundaries, so that
+  // the shot below gathers at the new ones.
+  if (options_.adaptive && !subdivided_[shooter]) {
+    PENUMBRA_TRY(subdivide(shooter, active, active_residual, shot, it));
+  }
+
   const GLfloat zero4[4] = {0.0f, 0.0f, 0.0f, 0.0f};
   glClearTexImage(incident_.id(), 0, GL_RGBA, GL_FLOAT, zero4);
   // Near pairs need d^2 < kNear^2 A for some point of the shooter: charts whose bounding
@@ -779,78 +984,25 @@ Expected<ProgressiveIteration> GlProgressive::shoot(uint32_t shooter) {
   for (size_t c = 0; c < chart_elements_.size(); ++c) {
     const double gap = glm::length(chart_centre_[c] - shooter_centre_[shooter]) - chart_radius_[c] -
                        shooter_radius_[shooter];
-    if (gap < reach * (1.0 + 1e-6) && chart_elements_[c].y > 0) {
-      near_charts.push_back(chart_elements_[c]);
+    if (gap < reach * (1.0 + 1e-6) && chart_receivers_[c].y > 0) {
+      near_charts.push_back(chart_receivers_[c]);
     }
   }
   if (!active.empty()) {
-    const glm::dvec3 ns = shooter_normal_[shooter];
-    const GLuint did = depth_.id();
-    setHemisphere(depth_, ns, far_);
-    glProgramUniform1ui(did, uniform(depth_, "tiles"), tiles_);
-    for (const gl::Program* r : {&receive_far_, &receive_near_}) {
-      const GLuint rid = r->id();
-      setHemisphere(*r, ns, far_);
-      glProgramUniform1f(rid, uniform(*r, "depth_tolerance"), gl_options_.depth_tolerance);
-      glProgramUniform1f(rid, uniform(*r, "near_factor"), float(kProgressiveNear));
-      glProgramUniform1i(rid, uniform(*r, "count_mode"), 0);
-      glProgramUniform1ui(rid, uniform(*r, "tiles"), tiles_);
-    }
     const uint32_t batch = tiles_ * tiles_;
-    const GLint d = gl_options_.visibility_resolution * GLint(tiles_);
     for (uint32_t first = 0; first < uint32_t(active.size()); first += batch) {
       const uint32_t count = std::min(batch, uint32_t(active.size()) - first);
-      // The batch's points, as uniforms of both passes.
-      std::array<GpuBatchPoint, kMaxTiles * kMaxTiles> points{};
-      for (uint32_t k = 0; k < count; ++k) {
-        const uint32_t p = active[first + k];
-        GpuBatchPoint& b = points[k];
-        for (int c = 0; c < 3; ++c) {
-          b.position[c] = point_position_[p][c];
-          b.position_f[c] = float(point_position_[p][c]);
-          b.residual[c] = float(active_residual[first + k][c]);
-        }
-        b.position[3] = point_area_[p];
-        b.position_f[3] = float(point_area_[p]);
-        b.members[0] = point_members_[p].x;
-        b.members[1] = point_members_[p].y;
-      }
-      batch_.upload(points.data(), count * sizeof(GpuBatchPoint));
-      batch_.bindBase(GL_UNIFORM_BUFFER, PROGRESSIVE_UBO_BATCH);
-      if (options_.visibility) {
-        // Algorithm 1: the scene's depth from each point of the batch, hemispherical
-        // projection, one instance (and one tile of the depth texture) per point.
-        glBindFramebuffer(GL_FRAMEBUFFER, depth_fbo_.id());
-        glViewport(0, 0, d, d);
-        glDisable(GL_BLEND);
-        glDisable(GL_STENCIL_TEST);
-        glDisable(GL_CULL_FACE);
-        glEnable(GL_DEPTH_TEST);
-        glDepthFunc(GL_LESS);
-        glDepthMask(GL_TRUE);
-        for (int c = 0; c < 4; ++c) glEnable(GLenum(GL_CLIP_DISTANCE0 + c));
-        const GLfloat far_depth = 1.0f;
-        glClearNamedFramebufferfv(depth_fbo_.id(), GL_DEPTH, 0, &far_depth);
-        const GLuint no_triangle[4] = {0xffffffffu, 0u, 0u, 0u};
-        glClearNamedFramebufferuiv(depth_fbo_.id(), GL_COLOR, 0, no_triangle);
-        glUseProgram(did);
-        triangles_.bindBase(GL_SHADER_STORAGE_BUFFER, PROGRESSIVE_SSBO_TRIANGLES);
-        sub_triangles_.bindBase(GL_SHADER_STORAGE_BUFFER, PROGRESSIVE_SSBO_SUB_TRIANGLES);
-        glBindVertexArray(vao_.id());
-        glDrawArraysInstanced(GL_TRIANGLES, 0, GLsizei(6 * sub_triangle_count_), GLsizei(count));
-        glBindVertexArray(0);
-        for (int c = 0; c < 4; ++c) glDisable(GLenum(GL_CLIP_DISTANCE0 + c));
-        glDisable(GL_DEPTH_TEST);
-      }
-      // Far pairs over every element, near pairs over the charts that can have them.
+      prepareBatch(active, active_residual, point_first, first, count);
+      // Far pairs over every receiver, near pairs over the charts that can have them.
       for (const gl::Program* r : {&receive_far_, &receive_near_}) {
         glProgramUniform1ui(r->id(), uniform(*r, "batch_count"), count);
       }
-      drawReceivers(receive_far_, 0, uint32_t(element_count_));
+      drawReceivers(receive_far_, 0, uint32_t(receivers_.size()));
       for (const glm::uvec2& c : near_charts) drawReceivers(receive_near_, c.x, c.y);
     }
     glUseProgram(0);
   }
+  PENUMBRA_TRY(spreadIncident());
 
   // Closed shots arrive whole (ProgressiveRadiosity::shotClosed): the gathered irradiance
   // scaled so that the power arriving equals the power shot.
@@ -957,7 +1109,7 @@ Expected<std::vector<uint32_t>> GlProgressive::receiverCoverage() {
   glClearTexImage(incident_.id(), 0, GL_RGBA, GL_FLOAT, zero4);
   const gl::Program& r = receive_far_;
   glProgramUniform1i(r.id(), uniform(r, "count_mode"), 1);
-  drawReceivers(r, 0, uint32_t(element_count_));
+  drawReceivers(r, 0, uint32_t(element_count_), /*elements=*/true);
   glProgramUniform1i(r.id(), uniform(r, "count_mode"), 0);
   glUseProgram(0);
   std::vector<glm::vec4> rgba;

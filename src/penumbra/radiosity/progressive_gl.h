@@ -60,9 +60,18 @@
 // The shaders avoid variable-length arrays and put work behind loops rather than branches where
 // a SIMD rasteriser would otherwise run both sides (llvmpipe, which the tests run on, does).
 //
+//  - Receivers and adaptive subdivision (sec. 4, radiosity/progressive_receivers.h), as on the
+//    CPU: the receiver pass draws the receivers (clusters of elements in the element layout, at
+//    a point on the surface) at one texel each; their irradiance is read back, interpolated to
+//    the elements and written to every element's texel before the resolve pass. Before a
+//    shooter's first shot the samples pass draws every element once per batch against the
+//    batch's depth maps: the visibility counts n_r, n_v the paper's three occlusion-query passes
+//    give per triangle, here per texel and read back (4 bytes per element) for the split, which
+//    runs on the CPU on the same hierarchy and criteria as the CPU solver's.
+//
 // Limitations: no occlusion queries (sec. 3 uses them to skip receivers that see nothing of the
-// shooter; every element is drawn, with the same result); the iteration's `rays` is 0 (no rays
-// are traced); needs a current OpenGL 4.5 context on the calling thread.
+// shooter, sec. 4 to count fragments; the depth maps answer both, per texel); the iteration's
+// `rays` is 0 (no rays are traced); needs a current OpenGL 4.5 context on the calling thread.
 #pragma once
 
 #include "penumbra/core/expected.h"
@@ -97,10 +106,6 @@ struct GlProgressiveOptions {
 // (shooter_top_points = 0) with the faces' own normals (shading_normals = false); the level is
 // chosen once the elements are known (gpuShooterLevel).
 ProgressiveOptions gpuProgressiveOptions(ProgressiveOptions options);
-
-// Whether the GPU path runs these options: it receives at every texel, so coarser receivers and
-// adaptive subdivision (sec. 4, radiosity/progressive_receivers.h) run on the CPU only.
-Status gpuProgressiveSupports(const ProgressiveOptions& options);
 
 // The flat substructuring's level for the GPU: the coarsest at which an average shooter of
 // `cpu` still has at least `points` clusters (sec. 3: one mip level for every shooter), at most 8.
@@ -191,8 +196,10 @@ class GlProgressive {
   static constexpr uint32_t kNoShooter = ProgressiveRadiosity::kNoShooter;
 
   // Uploads the atlas, the elements and the CPU solver's current state (B, dB, books,
-  // iterations), and takes its options (shooter_level, visibility, convergence,
-  // max_iterations). Fails, as an input error naming the bytes, before allocating
+  // iterations, receivers), and takes its options (shooter_level, visibility, convergence,
+  // max_iterations, receivers and adaptive subdivision). With coarse receivers or `adaptive`
+  // the GPU solver keeps a reference to `cpu`'s surface (the hierarchy it splits receivers in):
+  // `cpu` must outlive it, unmoved. Fails, as an input error naming the bytes, before allocating
   // when a texture exceeds the device's maximum texture or renderbuffer size (or
   // `gl_options.max_texture_size`), a buffer its shader storage block size, or the whole does
   // not fit in memory; as a run-time error when a shader does not compile.
@@ -247,9 +254,26 @@ class GlProgressive {
   GlProgressive() = default;
   // Runs the per-shooter power pass (pass 0).
   void dispatchPower();
-  // One receiver pass of `program`: the elements [first, first + count) drawn as points at
-  // their texels' centres.
-  void drawReceivers(const gl::Program& program, uint32_t first, uint32_t count);
+  // One receiver pass of `program`: the receivers [first, first + count) (or, with `elements`,
+  // the elements) drawn as points at their texels' centres.
+  void drawReceivers(const gl::Program& program, uint32_t first, uint32_t count,
+                     bool elements = false);
+  // The batch of shooter points [first, first + count) of `active` as the passes' uniforms,
+  // and their depth maps (Algorithm 1).
+  void prepareBatch(const std::vector<uint32_t>& active,
+                    const std::vector<glm::dvec3>& active_residual, uint32_t point_first,
+                    uint32_t first, uint32_t count);
+  // Sec. 4 before a shooter's first shot (adaptive): the samples pass over every batch, the
+  // split on the CPU (ProgressiveReceivers::subdivide) and the new receivers uploaded.
+  Status subdivide(uint32_t shooter, const std::vector<uint32_t>& active,
+                   const std::vector<glm::dvec3>& active_residual, const glm::dvec3& shot,
+                   ProgressiveIteration& it);
+  // The receivers' buffers (the elements' own when every receiver is one element) and each
+  // chart's receivers.
+  void uploadReceivers();
+  // Coarse receivers wrote their irradiance at one texel each: read back, interpolated to the
+  // elements (ProgressiveReceivers::toElements) and written to every element's texel.
+  Status spreadIncident();
   // Applies the incident atlas (times `scale`) in the resolve pass, or only sums it; returns
   // the energy sums.
   Expected<GpuResolveSums> resolve(uint32_t shooter, const glm::dvec3& scale, bool apply);
@@ -284,16 +308,23 @@ class GlProgressive {
   std::vector<double> chart_radius_;
   std::vector<uint32_t> element_texel_;
   uint32_t sub_triangle_count_ = 0;
+  // Receivers (sec. 4): the CPU solver's surface (for the hierarchy), the receivers, whether
+  // each shooter has subdivided, and each chart's receivers.
+  const RadiositySurface* surface_ = nullptr;
+  ProgressiveReceivers receivers_;
+  std::vector<uint8_t> subdivided_;
+  std::vector<glm::uvec2> chart_receivers_;
 
   EnergyBalance balance_;
   int iterations_ = 0;
   uint32_t tiles_ = 1;  // a batch of tiles^2 shooter points shares the depth texture
 
   gl::Program power_, select_, points_, resolve_, radiance_, fill_, depth_, receive_far_,
-      receive_near_;
+      receive_near_, sample_;
   gl::Buffer triangles_, shooters_, elements_, texel_element_, texel_chart_, element_area_,
       points_buf_, point_power_, sub_triangles_, shooter_power_, selection_, sums_,
-      element_position_d_, batch_, polygons_, chart_adjacency_first_, chart_adjacency_;
+      element_position_d_, batch_, polygons_, chart_adjacency_first_, chart_adjacency_,
+      receivers_buf_, receiver_position_d_, samples_;
   gl::Texture radiosity_, residual_, incident_, depth_map_, id_map_;
   std::array<gl::Texture, 2> radiance_maps_;
   gl::Framebuffer atlas_fbo_, depth_fbo_;
