@@ -353,6 +353,98 @@ TEST(Cli, ProgressiveInterruptWritesACheckpointThatResumesExactly) {
   EXPECT_FALSE(std::filesystem::exists(dir.file("cut.checkpoint")));
 }
 
+// Stochastic radiosity from the command line: the furnace's closed form (B / pi = 2) on average
+// over the view, a time limit that stops the iterations, and the stats it reports.
+TEST(Cli, StochasticRadiosityRendersTheFurnace) {
+  TempDir dir;
+  const auto r = runCli(
+      "render furnace --method stochastic --texel-density 6 --iterations 400 --width 16 "
+      "--height 16 --quiet -o " +
+      dir.file("s.pfm") + " --stats " + dir.file("s.json"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  Expected<Image> img = readImage(dir.file("s.pfm"));
+  ASSERT_TRUE(img.ok());
+  double mean = 0.0;
+  for (const glm::vec3& p : img->pixels) mean += p.y;
+  mean /= double(img->pixels.size());
+  EXPECT_NEAR(mean, 2.0, 0.04);
+  const nlohmann::json stats = readJson(dir.file("s.json"));
+  EXPECT_EQ(stats["method"], "stochastic");
+  EXPECT_EQ(stats["iterations"].get<int>(), 400);
+  EXPECT_EQ(stats["averaged_iterations"].get<int>(), 400 - stats["burn_in"].get<int>());
+  EXPECT_GT(stats["error_estimate"].get<double>(), 0.0);
+  EXPECT_LT(stats["error_estimate"].get<double>(), 0.2);
+  EXPECT_EQ(stats["history"].size(), 400u);
+
+  const auto timed = runCli(
+      "render furnace --method stochastic --texel-density 6 --iterations 1000000 --time-limit 0.5 "
+      "--width 8 --height 8 --quiet -o " +
+      dir.file("t.pfm") + " --stats " + dir.file("t.json"));
+  ASSERT_EQ(timed.exit_code, 0) << timed.output;
+  const nlohmann::json t = readJson(dir.file("t.json"));
+  EXPECT_TRUE(t["timed_out"].get<bool>());
+  EXPECT_LT(t["iterations"].get<int>(), 1000000);
+  EXPECT_LT(t["solve_seconds"].get<double>(), 1.5);
+
+  const auto bad =
+      runCli("render furnace --method progressive --shooters 2 -o " + dir.file("x.pfm"));
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_NE(bad.output.find("--shooters"), std::string::npos) << bad.output;
+}
+
+// Ctrl-C keeps the estimate so far (the image and a checkpoint), and --resume continues it to
+// exactly the image of the uninterrupted run.
+TEST(Cli, StochasticInterruptWritesACheckpointThatResumesExactly) {
+  TempDir dir;
+  const std::string common =
+      "render cornell --method stochastic --iterations 1200 --width 16 --height 16 --spp 1 ";
+  const auto full = runCli(common + "--quiet -o " + dir.file("full.pfm"));
+  ASSERT_EQ(full.exit_code, 0) << full.output;
+  const int code = runCliInterrupted(
+      common + "-o " + dir.file("cut.pfm") + " --stats " + dir.file("cut.json"), 2.5);
+  ASSERT_EQ(code, 130) << "the run should have been interrupted before its 1200 iterations";
+  const nlohmann::json cut = readJson(dir.file("cut.json"));
+  EXPECT_TRUE(cut["interrupted"].get<bool>());
+  const int done = cut["iterations"].get<int>();
+  EXPECT_LT(done, 1200);
+  ASSERT_TRUE(std::filesystem::exists(dir.file("cut.pfm")));
+  ASSERT_TRUE(std::filesystem::exists(dir.file("cut.checkpoint")));
+  const auto resumed = runCli(common + "--quiet --resume " + dir.file("cut.checkpoint") + " -o " +
+                              dir.file("resumed.pfm") + " --stats " + dir.file("resumed.json"));
+  ASSERT_EQ(resumed.exit_code, 0) << resumed.output;
+  EXPECT_FALSE(std::filesystem::exists(dir.file("cut.checkpoint")));
+  const nlohmann::json rs = readJson(dir.file("resumed.json"));
+  EXPECT_EQ(rs["resumed_iterations"].get<int>(), done);
+  EXPECT_EQ(rs["iterations"].get<int>(), 1200);
+  Expected<Image> a = readImage(dir.file("full.pfm"));
+  Expected<Image> b = readImage(dir.file("resumed.pfm"));
+  ASSERT_TRUE(a.ok() && b.ok());
+  EXPECT_EQ(std::memcmp(a->pixels.data(), b->pixels.data(), a->pixels.size() * sizeof(glm::vec3)),
+            0);
+  // A progressive checkpoint is not a stochastic one.
+  const auto wrong = runCli("render cornell --method stochastic --resume " +
+                            dir.file("resumed.json") + " -o " + dir.file("w.pfm"));
+  EXPECT_EQ(wrong.exit_code, 2);
+  EXPECT_NE(wrong.output.find("not a Penumbra stochastic radiosity checkpoint"), std::string::npos)
+      << wrong.output;
+}
+
+TEST(Cli, BakeStochasticWritesTheAverageAsALightmap) {
+  TempDir dir;
+  const auto r = runCli("bake cornell --method stochastic --iterations 60 --seed 3 --quiet -o " +
+                        dir.file("out") + " --stats " + dir.file("s.json"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_TRUE(std::filesystem::exists(dir.file("out/cornell.gltf")));
+  EXPECT_TRUE(std::filesystem::exists(dir.file("out/cornell_lightmap.exr")));
+  const nlohmann::json stats = readJson(dir.file("s.json"));
+  EXPECT_EQ(stats["method"], "stochastic");
+  EXPECT_EQ(stats["seed"].get<uint64_t>(), 3u);
+  EXPECT_EQ(stats["iterations"].get<int>(), 60);
+  const auto bad = runCli("bake cornell --method matrix --seed 3 -o " + dir.file("m"));
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_NE(bad.output.find("--seed"), std::string::npos) << bad.output;
+}
+
 TEST(Cli, SceneSettingsApplyAndCommandLineWins) {
   TempDir dir;
   const std::string cornell = std::string(PENUMBRA_TEST_DATA) + "/../../scenes/cornell.json";

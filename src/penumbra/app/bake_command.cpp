@@ -12,6 +12,7 @@
 #include "penumbra/app/commands.h"
 #include "penumbra/app/progressive_run.h"
 #include "penumbra/app/stats_file.h"
+#include "penumbra/app/stochastic_run.h"
 #include "penumbra/core/file_util.h"
 #include "penumbra/core/interrupt.h"
 #include "penumbra/core/parallel.h"
@@ -199,6 +200,45 @@ Expected<BakeProduct> solveMatrix(const BakeOptions& options, const CommonOption
   return out;
 }
 
+// A method whose lightmap is the solution itself (progressive and stochastic radiosity): the
+// baked mesh and the colour scale from the lightmap and the radiosity per element.
+void fillFromLightmap(const Scene& scene, const RadiositySurface& surface, const Image& lightmap,
+                      const std::vector<glm::dvec3>& radiosity, BakeProduct& out) {
+  out.lightmap = lightmap;
+  out.mesh = buildLightmapMesh(scene, surface.atlas, out.lightmap);
+  std::vector<glm::vec3> radiance(radiosity.size());
+  std::vector<uint8_t> emissive(radiosity.size());
+  for (size_t e = 0; e < radiosity.size(); ++e) {
+    radiance[e] = glm::vec3(radiosity[e] / 3.14159265358979323846);
+    emissive[e] = surface.emission[e] != glm::dvec3(0.0) ? 1 : 0;
+  }
+  out.color_scale = colorScale(radiance, emissive);
+  out.atlas_width = surface.atlas.width;
+  out.atlas_height = surface.atlas.height;
+  out.texel_density = surface.atlas.texel_density;
+  out.triangles = surface.flat.triangles.size();
+}
+
+// Stochastic radiosity (Barsi and Jakab): the running average in the lightmap.
+Expected<BakeProduct> solveStochastic(const CommonOptions& common, const Scene& scene,
+                                      const StochasticRunOptions& so) {
+  Expected<StochasticRun> run = runStochastic(scene, so, common);
+  if (!run) return run.error();
+  BakeProduct out;
+  if (run->dry_run) {
+    out.dry_run = true;
+    return out;
+  }
+  const StochasticRadiosity& sr = *run->solver;
+  out.interrupted = run->interrupted;
+  fillFromLightmap(scene, sr.surface(), *run->lightmap, sr.radiosity(), out);
+  out.extras = {{"elements", sr.elementCount()},
+                {"iterations", run->stats.total_iterations},
+                {"error_estimate", run->stats.error}};
+  out.stats = stochasticStatsJson(*run);
+  return out;
+}
+
 // Progressive radiosity (Wallner sec. 2-3): the lightmap is the solution itself, its occupied
 // texels the elements; border texels are filled for bilinear lookups (sec. 3.1).
 Expected<BakeProduct> solveProgressive(const CommonOptions& common, const Scene& scene,
@@ -212,19 +252,7 @@ Expected<BakeProduct> solveProgressive(const CommonOptions& common, const Scene&
   }
   const ProgressiveRadiosity& pr = *run->solver;
   out.interrupted = run->interrupted;
-  out.lightmap = *run->lightmap;
-  out.mesh = buildLightmapMesh(scene, pr.atlas(), out.lightmap);
-  std::vector<glm::vec3> radiance(pr.elementCount());
-  std::vector<uint8_t> emissive(pr.elementCount());
-  for (size_t e = 0; e < pr.elementCount(); ++e) {
-    radiance[e] = glm::vec3(pr.radiosity(e) / 3.14159265358979323846);
-    emissive[e] = pr.emission(e) != glm::dvec3(0.0) ? 1 : 0;
-  }
-  out.color_scale = colorScale(radiance, emissive);
-  out.atlas_width = pr.atlas().width;
-  out.atlas_height = pr.atlas().height;
-  out.texel_density = pr.atlas().texel_density;
-  out.triangles = pr.triangles().triangles.size();
+  fillFromLightmap(scene, pr.surface(), *run->lightmap, pr.state().radiosity, out);
   out.extras = {{"elements", pr.elementCount()},
                 {"iterations", run->stats.total_iterations},
                 {"unshot_fraction", run->stats.unshot_fraction}};
@@ -234,20 +262,25 @@ Expected<BakeProduct> solveProgressive(const CommonOptions& common, const Scene&
 
 Status bake(const BakeOptions& options, const CommonOptions& common, bool* interrupted) {
   // Everything is checked before any work or output.
-  const bool progressive = options.method == "progressive";
+  const bool stochastic = options.method == "stochastic";
+  const bool progressive = options.method == "progressive" || stochastic;
   if (options.texel_density &&
       !(*options.texel_density > 0.0 && std::isfinite(*options.texel_density))) {
     return inputError("", "--texel-density", "must be a positive number of texels per metre");
   }
   if (!progressive) {
-    if (!options.resume.empty())
-      return inputError("", "--resume", "applies to --method progressive only");
-    if (!options.checkpoint.empty()) {
-      return inputError("", "--checkpoint", "applies to --method progressive only");
-    }
-    if (options.keep_checkpoint) {
-      return inputError("", "--keep-checkpoint", "applies to --method progressive only");
-    }
+    const char* only = !options.resume.empty()       ? "--resume"
+                       : !options.checkpoint.empty() ? "--checkpoint"
+                       : options.keep_checkpoint     ? "--keep-checkpoint"
+                                                     : nullptr;
+    if (only) return inputError("", only, "applies to --method progressive and stochastic only");
+  }
+  if (!stochastic && (options.time_limit || options.shooters != 1 || options.seed)) {
+    return inputError("",
+                      options.time_limit ? "--time-limit"
+                      : options.seed     ? "--seed"
+                                         : "--shooters",
+                      "applies to --method stochastic only");
   }
   Expected<std::vector<fs::path>> missing = checkOutputDirectory(options.output);
   if (!missing) return missing.error();
@@ -259,7 +292,12 @@ Status bake(const BakeOptions& options, const CommonOptions& common, bool* inter
   OutputTransaction& transaction = *OutputTransaction::current();
   PENUMBRA_TRY(transaction.createDirectories(out_dir.string()));
   ProgressiveRunOptions ro;
-  if (progressive) {
+  StochasticRunOptions so;
+  if (stochastic) {
+    so = stochasticRunOptions(options);
+    if (so.checkpoint.empty()) so.checkpoint = (out_dir / (stem + ".checkpoint")).string();
+    PENUMBRA_TRY(checkStochasticRunOptions(so));
+  } else if (progressive) {
     ro = progressiveRunOptions(options);
     if (ro.checkpoint.empty()) ro.checkpoint = (out_dir / (stem + ".checkpoint")).string();
     PENUMBRA_TRY(checkProgressiveRunOptions(ro));
@@ -280,8 +318,9 @@ Status bake(const BakeOptions& options, const CommonOptions& common, bool* inter
   if (!any_emitter && !progressive) {
     spdlog::warn("{}: no emissive material: the solution is black", scene->source);
   }
-  Expected<BakeProduct> product =
-      progressive ? solveProgressive(common, *scene, ro) : solveMatrix(options, common, *scene);
+  Expected<BakeProduct> product = stochastic    ? solveStochastic(common, *scene, so)
+                                  : progressive ? solveProgressive(common, *scene, ro)
+                                                : solveMatrix(options, common, *scene);
   if (!product) return product.error();
   if (product->dry_run) return {};
   if (product->interrupted) {
@@ -347,11 +386,12 @@ Status bake(const BakeOptions& options, const CommonOptions& common, bool* inter
 }  // namespace
 
 int runBake(const BakeOptions& options, const CommonOptions& common) {
-  if (options.method != "matrix" && options.method != "progressive") {
-    const std::string why = options.method == "stochastic"
-                                ? "stochastic is not available in this version"
-                                : fmt::format("unknown method '{}'", options.method);
-    return reportError(inputError("", "--method", why + " (available: matrix, progressive)"));
+  if (options.method != "matrix" && options.method != "progressive" &&
+      options.method != "stochastic") {
+    return reportError(
+        inputError("", "--method",
+                   fmt::format("unknown method '{}' (available: matrix, progressive, stochastic)",
+                               options.method)));
   }
   OutputTransaction transaction;
   bool interrupted = false;

@@ -80,6 +80,19 @@ void addReceiverOptions(CLI::App* cmd, Options& o) {
       ->check(finiteIn(0.0, 1.0));
 }
 
+// Stochastic radiosity's options (Barsi and Jakab), for render and bake alike.
+template <typename Options>
+void addStochasticOptions(CLI::App* cmd, Options& o) {
+  cmd->add_option("--time-limit", o.time_limit,
+                  "stochastic: stop after this many seconds of iterating (--iterations still "
+                  "caps them)")
+      ->check(finiteIn(0.0, 1e9, /*open_lo=*/true));
+  cmd->add_option("--shooters", o.shooters,
+                  "stochastic: independent shooters per iteration, averaged")
+      ->check(CLI::Range(1, 4096))
+      ->capture_default_str();
+}
+
 // An unsigned integer written in decimal digits (no sign: "-1" would wrap to 2^64 - 1).
 const CLI::Validator kUnsigned(
     [](std::string& value) -> std::string {
@@ -137,8 +150,9 @@ int parseAndRun(int argc, char** argv) {
   render_cmd
       ->add_option("--method", render.method,
                    "pathtrace (the reference path tracer), matrix (matrix radiosity), "
-                   "progressive (progressive radiosity in a lightmap) or sss (subsurface "
-                   "scattering through hierarchical links)")
+                   "progressive (progressive radiosity in a lightmap), stochastic (stochastic "
+                   "radiosity by ray-bundle shooting) or sss (subsurface scattering through "
+                   "hierarchical links)")
       ->capture_default_str();
   render_cmd
       ->add_option("--device", render.device,
@@ -177,7 +191,8 @@ int parseAndRun(int argc, char** argv) {
       ->check(CLI::Range(1u, 1u << 28));
   render_cmd
       ->add_option("--iterations", render.iterations,
-                   "iteration cap (progressive: shooters, counted over resumed runs)")
+                   "iteration cap (progressive: shooters; stochastic: random operators; counted "
+                   "over resumed runs)")
       ->check(CLI::Range(1, 1 << 20))
       ->capture_default_str();
   render_cmd
@@ -220,6 +235,7 @@ int parseAndRun(int argc, char** argv) {
       ->check(CLI::Range(1, 4096))
       ->capture_default_str();
   addReceiverOptions(render_cmd, render);
+  addStochasticOptions(render_cmd, render);
   render_cmd
       ->add_option("--normals", render.normals,
                    "progressive: interpolated (shading normals across triangles, smooth curved "
@@ -341,7 +357,8 @@ int parseAndRun(int argc, char** argv) {
   bake_cmd->add_option("scene", bake.scene, "built-in scene name or file")->required();
   bake_cmd
       ->add_option("--method", bake.method,
-                   "matrix (matrix radiosity) or progressive (progressive radiosity)")
+                   "matrix (matrix radiosity), progressive (progressive radiosity) or "
+                   "stochastic (stochastic radiosity)")
       ->capture_default_str();
   bake_cmd
       ->add_option("--device", bake.device,
@@ -388,6 +405,9 @@ int parseAndRun(int argc, char** argv) {
       ->check(CLI::Range(1, 4096))
       ->capture_default_str();
   addReceiverOptions(bake_cmd, bake);
+  addStochasticOptions(bake_cmd, bake);
+  bake_cmd->add_option("--seed", bake.seed, "stochastic: random seed (default 0)")
+      ->check(kUnsigned);
   bake_cmd
       ->add_option("--normals", bake.normals, "progressive: interpolated or triangle (see render)")
       ->check(CLI::IsMember({"interpolated", "triangle"}))

@@ -62,6 +62,10 @@ struct RenderOptions {
   std::vector<double> boundary;
   int finest_level = 0;
   std::optional<double> min_share;
+  // --method stochastic (Barsi and Jakab): a time limit (seconds; the iteration cap still
+  // applies) and independent shooters per iteration.
+  std::optional<double> time_limit;
+  int shooters = 1;
   // --method sss (Carr, Hall, Hart 2003, sec. 4): the atlas size (default kSssDefaultAtlas),
   // links per texel (adaptive) or a hierarchy level for the non-adaptive scheme, and frames of
   // a light orbit.
@@ -135,6 +139,7 @@ struct BakeOptions {
   bool keep_checkpoint = false;  // progressive: keep --resume's file after the run completes
   int shooter_points = 16;       // progressive: top-level points per shooter
   std::string normals = "interpolated";  // progressive: interpolated or triangle
+  std::optional<uint64_t> seed;          // stochastic: random seed (default 0)
   // progressive: receivers (Wallner sec. 4): adaptive subdivision at shadow boundaries, the
   // receivers' level (default 0, or 2 with --adaptive), the thresholds b_l and b_u, the finest
   // level and the minimum share of the contrast test (radiosity/progressive_receivers.h).
@@ -143,15 +148,20 @@ struct BakeOptions {
   std::vector<double> boundary;
   int finest_level = 0;
   std::optional<double> min_share;
+  // --method stochastic (Barsi and Jakab): a time limit (seconds; the iteration cap still
+  // applies) and independent shooters per iteration.
+  std::optional<double> time_limit;
+  int shooters = 1;
 };
 
 int runRender(const RenderOptions& options, const CommonOptions& common);
 int runBake(const BakeOptions& options, const CommonOptions& common);
 // The methods behind `render` (render_*.cpp).
 Status renderMatrix(const RenderOptions& options, const CommonOptions& common);
-// Sets *interrupted when Ctrl-C stopped the solver (the outputs and a checkpoint were written).
-Status renderProgressive(const RenderOptions& options, const CommonOptions& common,
-                         bool* interrupted);
+// --method progressive and stochastic. Sets *interrupted when Ctrl-C stopped the solver (the
+// outputs and a checkpoint were written).
+Status renderLightmapRadiosity(const RenderOptions& options, const CommonOptions& common,
+                               bool* interrupted);
 Status renderSss(const RenderOptions& options, const CommonOptions& common);
 // out.png -> out_0007.png: frame f of a sequence.
 std::string sequenceFrameName(const std::string& path, int frame);

@@ -240,8 +240,8 @@ int runRender(const RenderOptions& options, const CommonOptions& common) {
     return reportError(inputError(
         "", "", fmt::format("--device '{}': use cpu, gpu, hybrid or auto", options.device)));
   }
-  if (options.method != "progressive" && options.method != "matrix" && options.method != "sss" &&
-      options.texel_density) {
+  if (options.method != "progressive" && options.method != "stochastic" &&
+      options.method != "matrix" && options.method != "sss" && options.texel_density) {
     return reportError(
         inputError("", "--texel-density", "applies to the radiosity and sss methods only"));
   }
@@ -255,13 +255,16 @@ int runRender(const RenderOptions& options, const CommonOptions& common) {
                                                   : nullptr;
     if (only) return reportError(inputError("", only, "applies to --method sss only"));
   }
-  if (options.method != "progressive") {
+  if (options.method != "progressive" && options.method != "stochastic") {
     const char* only = !options.resume.empty()       ? "--resume"
                        : !options.checkpoint.empty() ? "--checkpoint"
                        : options.keep_checkpoint     ? "--keep-checkpoint"
+                       : options.time_limit          ? "--time-limit"
+                       : options.shooters != 1       ? "--shooters"
                                                      : nullptr;
     if (only) {
-      return reportError(inputError("", only, "applies to --method progressive only"));
+      return reportError(
+          inputError("", only, "applies to --method progressive and stochastic only"));
     }
   }
   // Every output is placed at the end, together, or none is (core/file_util.h).
@@ -272,22 +275,22 @@ int runRender(const RenderOptions& options, const CommonOptions& common) {
     s = renderPathTrace(options, common);
   } else if (options.method == "matrix") {
     s = renderMatrix(options, common);
-  } else if (options.method == "progressive") {
-    s = renderProgressive(options, common, &interrupted);
+  } else if (options.method == "progressive" || options.method == "stochastic") {
+    s = renderLightmapRadiosity(options, common, &interrupted);
   } else if (options.method == "sss") {
     s = wantsIlluminance(options)
             ? Status(inputError("", options.work_plane ? "--work-plane" : "--output-quantity",
                                 "lux are computed by pathtrace, progressive and matrix"))
             : renderSss(options, common);
-  } else if (options.method == "stochastic" || options.method == "lpv") {
+  } else if (options.method == "lpv") {
     s = inputError("", "",
                    fmt::format("--method {} is not available in this version (available: "
-                               "pathtrace, matrix, progressive, sss)",
+                               "pathtrace, matrix, progressive, stochastic, sss)",
                                options.method));
   } else {
     s = inputError("", "",
                    fmt::format("unknown --method '{}' (available: pathtrace, matrix, progressive, "
-                               "sss)",
+                               "stochastic, sss)",
                                options.method));
   }
   if (s.ok() && common.dry_run) return reportDryRun();  // the transaction removes what it made

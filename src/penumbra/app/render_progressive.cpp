@@ -1,11 +1,13 @@
-// `penumbra render --method progressive`: progressive refinement radiosity in a lightmap atlas
-// (Wallner, sec. 2-3) on the CPU, viewed from the camera through the lightmap with bilinear
-// filtering, as a lightmapped scene is displayed.
+// `penumbra render --method progressive|stochastic`: the radiosity methods whose solution is the
+// lightmap itself, progressive refinement radiosity (Wallner, sec. 2-3) and stochastic radiosity
+// (Barsi and Jakab), viewed from the camera through the lightmap with bilinear filtering, as a
+// lightmapped scene is displayed.
 #include "penumbra/app/commands.h"
 #include "penumbra/app/device.h"
 #include "penumbra/app/illuminance_output.h"
 #include "penumbra/app/progressive_run.h"
 #include "penumbra/app/stats_file.h"
+#include "penumbra/app/stochastic_run.h"
 #include "penumbra/core/file_util.h"
 #include "penumbra/core/memory.h"
 #include "penumbra/core/parallel.h"
@@ -25,8 +27,9 @@
 
 namespace penumbra {
 
-Status renderProgressive(const RenderOptions& options, const CommonOptions& common,
-                         bool* interrupted) {
+Status renderLightmapRadiosity(const RenderOptions& options, const CommonOptions& common,
+                               bool* interrupted) {
+  const bool stochastic = options.method == "stochastic";
   std::vector<std::string> outputs = options.outputs;
   if (outputs.empty()) {
     const std::filesystem::path p(options.scene);
@@ -46,12 +49,22 @@ Status renderProgressive(const RenderOptions& options, const CommonOptions& comm
   if (options.relight_frames > 0) {
     return inputError("", "--relight-frames", "applies to --method matrix only");
   }
-  ProgressiveRunOptions ro = progressiveRunOptions(options);
-  if (ro.checkpoint.empty()) {
-    ro.checkpoint =
-        std::filesystem::path(outputs.front()).replace_extension(".checkpoint").string();
+  if (!stochastic && (options.time_limit || options.shooters != 1)) {
+    return inputError("", options.time_limit ? "--time-limit" : "--shooters",
+                      "applies to --method stochastic only");
   }
-  PENUMBRA_TRY(checkProgressiveRunOptions(ro));
+  if (stochastic && (options.adaptive || options.receiver_level)) {
+    return inputError("", options.adaptive ? "--adaptive" : "--receiver-level",
+                      "applies to --method progressive only");
+  }
+  const std::string checkpoint =
+      !options.checkpoint.empty()
+          ? options.checkpoint
+          : std::filesystem::path(outputs.front()).replace_extension(".checkpoint").string();
+  ProgressiveRunOptions ro = progressiveRunOptions(options);
+  StochasticRunOptions so = stochasticRunOptions(options);
+  ro.checkpoint = so.checkpoint = checkpoint;
+  PENUMBRA_TRY(stochastic ? checkStochasticRunOptions(so) : checkProgressiveRunOptions(ro));
   const int width = options.width.value_or(512), height = options.height.value_or(512);
   const int spp = options.spp.value_or(4);
   if (width < 1 || width > (1 << 16) || height < 1 || height > (1 << 16)) {
@@ -72,12 +85,23 @@ Status renderProgressive(const RenderOptions& options, const CommonOptions& comm
   if (!scene) return scene.error();
   for (const std::string& w : scene->warnings) spdlog::warn("{}", w);
   if (lux) PENUMBRA_TRY(checkIlluminanceRequest(*scene, *lux));
-  Expected<ProgressiveRun> run = runProgressive(*scene, ro, common);
-  if (!run) return run.error();
-  if (run->dry_run) return {};
-  const ProgressiveRadiosity& pr = *run->solver;
-  const ProgressiveStats& st = run->stats;
-  if (run->interrupted) *interrupted = true;
+  // The solution: a lightmap over the surface's atlas, the stats and a summary line.
+  std::optional<ProgressiveRun> progressive;
+  std::optional<StochasticRun> stoch;
+  if (stochastic) {
+    Expected<StochasticRun> run = runStochastic(*scene, so, common);
+    if (!run) return run.error();
+    if (run->dry_run) return {};
+    stoch.emplace(std::move(*run));
+  } else {
+    Expected<ProgressiveRun> run = runProgressive(*scene, ro, common);
+    if (!run) return run.error();
+    if (run->dry_run) return {};
+    progressive.emplace(std::move(*run));
+  }
+  const RadiositySurface& surface =
+      stochastic ? stoch->solver->surface() : progressive->solver->surface();
+  if (stochastic ? stoch->interrupted : progressive->interrupted) *interrupted = true;
 
   const Timer view_timer;
   const Camera camera = scene->camera ? *scene->camera : defaultCamera(*scene);
@@ -86,17 +110,17 @@ Status renderProgressive(const RenderOptions& options, const CommonOptions& comm
   view.height = height;
   view.spp = spp;
   view.seed = options.seed.value_or(0);
-  const Image& lightmap = *run->lightmap;
-  const Image image = renderLightmapView(pr.triangles().positions, pr.triangles().triangles,
-                                         pr.atlas(), lightmap, camera, view);
+  const Image& lightmap = stochastic ? *stoch->lightmap : *progressive->lightmap;
+  const Image image = renderLightmapView(surface.flat.positions, surface.flat.triangles,
+                                         surface.atlas, lightmap, camera, view);
   const double view_seconds = view_timer.seconds();
   // Lux: the lightmap's radiance gathered over each point's hemisphere.
   std::optional<IlluminanceReport> report;
   if (lux) {
-    const LightmapLookup lookup(pr.triangles().positions, pr.triangles().triangles, pr.atlas(),
+    const LightmapLookup lookup(surface.flat.positions, surface.flat.triangles, surface.atlas,
                                 lightmap);
     Expected<IlluminanceReport> r =
-        illuminanceReport(*scene, pr.surface().engine, pr.triangles(), camera, *lux,
+        illuminanceReport(*scene, surface.engine, surface.flat, camera, *lux,
                           [&](const Ray& ray, const Hit& hit, Rng&) {
                             return lookup.radiance(ray.dir, hit.triangle, hit.u, hit.v);
                           });
@@ -106,11 +130,18 @@ Status renderProgressive(const RenderOptions& options, const CommonOptions& comm
   nlohmann::json lux_stats = nlohmann::json::object();
   PENUMBRA_TRY(
       writeRenderOutputs(options, outputs, image, report ? &*report : nullptr, &lux_stats));
-  spdlog::info("{} iterations, {:.3g} of the emitted power unshot, {:.2f} s; wrote {}",
-               st.total_iterations, st.unshot_fraction, st.seconds, fmt::join(outputs, ", "));
+  if (stochastic) {
+    spdlog::info("{} iterations, estimated error {:.3g}, {:.2f} s; wrote {}",
+                 stoch->stats.total_iterations, stoch->stats.error, stoch->stats.seconds,
+                 fmt::join(outputs, ", "));
+  } else {
+    spdlog::info("{} iterations, {:.3g} of the emitted power unshot, {:.2f} s; wrote {}",
+                 progressive->stats.total_iterations, progressive->stats.unshot_fraction,
+                 progressive->stats.seconds, fmt::join(outputs, ", "));
+  }
 
   if (!options.stats.empty()) {
-    nlohmann::json j = {{"method", "progressive"},
+    nlohmann::json j = {{"method", options.method},
                         {"scene", scene->source},
                         {"seconds", total_timer.seconds()},
                         {"view_seconds", view_seconds},
@@ -118,7 +149,8 @@ Status renderProgressive(const RenderOptions& options, const CommonOptions& comm
                         {"width", width},
                         {"height", height},
                         {"spp", spp}};
-    j.update(progressiveStatsJson(*run, ro.tolerance));
+    j.update(stochastic ? stochasticStatsJson(*stoch)
+                        : progressiveStatsJson(*progressive, ro.tolerance));
     j.update(lux_stats);
     PENUMBRA_TRY(writeStatsFile(options.stats, j));
   }

@@ -1,5 +1,7 @@
 #include "penumbra/radiosity/progressive_checkpoint.h"
 
+#include "penumbra/radiosity/checkpoint_io.h"
+
 #include "penumbra/core/file_util.h"
 #include "penumbra/core/hash.h"
 
@@ -15,8 +17,6 @@ namespace penumbra {
 
 namespace {
 
-static_assert(std::endian::native == std::endian::little, "checkpoints are little-endian");
-
 constexpr char kMagic[16] = {'P', 'E', 'N', 'U', 'M', 'B', 'R', 'A',
                              '-', 'P', 'R', 'G', 'R', 'S', 'V', '3'};
 constexpr size_t kHeaderBytes = 16 + 8 + 8 + 6 * 4 + 8 + 12 * 8 + 3 * 4 + 3 * 8 + 8;
@@ -27,26 +27,8 @@ uint64_t bodyBytes(uint64_t elements, uint64_t flags) {
   return 49 * elements + flags;
 }
 
-// Appends raw bytes of trivially copyable values.
-struct Writer {
-  std::string bytes;
-  template <typename T>
-  void put(const T& v) {
-    bytes.append(reinterpret_cast<const char*>(&v), sizeof(v));
-  }
-};
-
-struct Reader {
-  const std::string& bytes;
-  size_t at = 0;
-  template <typename T>
-  bool get(T& v) {
-    if (bytes.size() - at < sizeof(v)) return false;
-    std::memcpy(&v, bytes.data() + at, sizeof(v));
-    at += sizeof(v);
-    return true;
-  }
-};
+using Writer = CheckpointWriter;
+using Reader = CheckpointReader;
 
 Expected<ProgressiveCheckpointInfo> parseHeader(const std::string& path, const std::string& bytes,
                                                 EnergyBalance* balance) {
@@ -89,25 +71,7 @@ Expected<ProgressiveCheckpointInfo> parseHeader(const std::string& path, const s
 }  // namespace
 
 uint64_t progressiveFingerprint(const Scene& scene, const ProgressiveRadiosity& solver) {
-  Fnv1a h;
-  const FlatTriangles& flat = solver.triangles();
-  h.add(flat.positions.data(), flat.positions.size() * sizeof(glm::vec3));
-  h.add(flat.triangles.data(), flat.triangles.size() * sizeof(glm::uvec3));
-  h.add(flat.material_ids.data(), flat.material_ids.size() * sizeof(uint32_t));
-  for (const Material& m : scene.materials) {
-    h.addValue(m.reflectance);
-    h.addValue(m.emission);
-    h.addValue(uint8_t(m.two_sided ? 1 : 0));
-  }
-  for (const Light& light : scene.lights) {
-    h.addValue(uint32_t(light.index()));
-    std::visit([&](const auto& l) { h.addValue(l); }, light);
-  }
-  h.addValue(solver.atlas().width);
-  h.addValue(solver.atlas().height);
-  h.addValue(uint64_t(solver.elementCount()));
-  h.addValue(uint8_t(solver.options().shading_normals ? 1 : 0));
-  return h.h;
+  return radiosityFingerprint(scene, solver.surface(), solver.options().shading_normals);
 }
 
 Status writeProgressiveCheckpoint(const std::string& path, const Scene& scene,
@@ -144,18 +108,7 @@ Status writeProgressiveCheckpoint(const std::string& path, const Scene& scene,
   w.bytes.append(reinterpret_cast<const char*>(state.receiver_levels.data()),
                  state.receiver_levels.size());
   w.bytes.append(reinterpret_cast<const char*>(state.subdivided.data()), state.subdivided.size());
-  Fnv1a h;
-  h.add(w.bytes.data(), w.bytes.size());
-  w.put(h.h);
-  return writeAtomicallyNow(path, [&](const std::string& tmp) -> Status {
-    std::unique_ptr<FILE, int (*)(FILE*)> f(std::fopen(tmp.c_str(), "wb"), &std::fclose);
-    if (!f) return runtimeError(path, "cannot write the checkpoint");
-    if (std::fwrite(w.bytes.data(), 1, w.bytes.size(), f.get()) != w.bytes.size() ||
-        std::fflush(f.get()) != 0) {
-      return runtimeError(path, "cannot write the checkpoint (disk full?)");
-    }
-    return {};
-  });
+  return writeCheckpointFile(path, w);
 }
 
 Expected<ProgressiveCheckpointInfo> readProgressiveCheckpointInfo(const std::string& path) {
@@ -192,11 +145,9 @@ Status resumeProgressiveCheckpoint(const std::string& path, const Scene& scene,
     return inputError(
         path, "", fmt::format("truncated or padded: {} bytes for {} elements", bytes->size(), n));
   }
-  Fnv1a h;
-  h.add(bytes->data(), bytes->size() - 8);
-  uint64_t stored = 0;
-  std::memcpy(&stored, bytes->data() + bytes->size() - 8, 8);
-  if (stored != h.h) return inputError(path, "", "corrupt (checksum mismatch)");
+  if (!checkpointChecksumMatches(*bytes)) {
+    return inputError(path, "", "corrupt (checksum mismatch)");
+  }
   if (info->fingerprint != progressiveFingerprint(scene, solver) || n != solver.elementCount()) {
     return inputError(path, "",
                       fmt::format("was written for another scene, lightmap or --normals setting "

@@ -166,6 +166,75 @@ Image luminairePolarPlot(const Photometry& p, int size) {
   return canvas.image();
 }
 
+Image logLogPlot(const std::vector<PlotSeries>& series, const std::string& title,
+                 const std::string& x_label, const std::string& y_label, int width, int height) {
+  // The decades that hold every point.
+  double x0 = INFINITY, x1 = 0.0, y0 = INFINITY, y1 = 0.0;
+  for (const PlotSeries& s : series) {
+    for (const glm::dvec2& p : s.points) {
+      if (!(p.x > 0.0 && p.y > 0.0 && std::isfinite(p.x) && std::isfinite(p.y))) continue;
+      x0 = std::min(x0, p.x);
+      x1 = std::max(x1, p.x);
+      y0 = std::min(y0, p.y);
+      y1 = std::max(y1, p.y);
+    }
+  }
+  if (!(x1 > 0.0)) x0 = 1.0, x1 = 10.0, y0 = 1.0, y1 = 10.0;
+  const double lx0 = std::floor(std::log10(x0)), lx1 = std::max(std::ceil(std::log10(x1)), lx0 + 1);
+  const double ly0 = std::floor(std::log10(y0)), ly1 = std::max(std::ceil(std::log10(y1)), ly0 + 1);
+  Canvas canvas(width, height);
+  const glm::vec3 grid(0.85f), ink(0.0f);
+  const float left = 90.0f, right = float(width) - 20.0f, top = 40.0f,
+              bottom = float(height) - 60.0f;
+  const auto at = [&](glm::dvec2 p) {
+    return glm::vec2(left + float((std::log10(p.x) - lx0) / (lx1 - lx0)) * (right - left),
+                     bottom - float((std::log10(p.y) - ly0) / (ly1 - ly0)) * (bottom - top));
+  };
+  // Decade grid lines and their labels, with the 2..9 lines fainter.
+  for (double d = lx0; d <= lx1 + 1e-9; d += 1.0) {
+    for (int m = 1; m <= 9 && d + std::log10(double(m)) <= lx1 + 1e-9; ++m) {
+      const float x = at(glm::dvec2(double(m) * std::pow(10.0, d), std::pow(10.0, ly0))).x;
+      canvas.line({x, top}, {x, bottom}, m == 1 ? grid * 0.9f : grid, 1.0f);
+    }
+    const std::string label = fmt::format("{:g}", std::pow(10.0, d));
+    const float x = at(glm::dvec2(std::pow(10.0, d), std::pow(10.0, ly0))).x;
+    canvas.text(int(x) - Canvas::textWidth(label) / 2, int(bottom) + 8, label, ink);
+  }
+  for (double d = ly0; d <= ly1 + 1e-9; d += 1.0) {
+    for (int m = 1; m <= 9 && d + std::log10(double(m)) <= ly1 + 1e-9; ++m) {
+      const float y = at(glm::dvec2(std::pow(10.0, lx0), double(m) * std::pow(10.0, d))).y;
+      canvas.line({left, y}, {right, y}, m == 1 ? grid * 0.9f : grid, 1.0f);
+    }
+    const std::string label = fmt::format("{:g}", std::pow(10.0, d));
+    const float y = at(glm::dvec2(std::pow(10.0, lx0), std::pow(10.0, d))).y;
+    canvas.text(int(left) - 8 - Canvas::textWidth(label), int(y) - 6, label, ink);
+  }
+  canvas.polyline({{left, top}, {right, top}, {right, bottom}, {left, bottom}}, ink, 1.0f, true);
+  canvas.text((width - Canvas::textWidth(title)) / 2, 10, title, ink);
+  canvas.text((width - Canvas::textWidth(x_label)) / 2, int(bottom) + 32, x_label, ink);
+  canvas.text(8, int(top) - 30 + 12, y_label, ink);
+  // The curves, and the legend in the top right corner.
+  int legend_y = int(top) + 10;
+  for (const PlotSeries& s : series) {
+    std::vector<glm::vec2> pts;
+    for (const glm::dvec2& p : s.points) {
+      if (p.x > 0.0 && p.y > 0.0 && std::isfinite(p.x) && std::isfinite(p.y)) pts.push_back(at(p));
+    }
+    if (s.dashed) {
+      for (size_t k = 0; k + 1 < pts.size(); k += 2)
+        canvas.line(pts[k], pts[k + 1], s.colour, 2.0f);
+    } else {
+      canvas.polyline(pts, s.colour, 2.0f);
+    }
+    const int w = Canvas::textWidth(s.name);
+    canvas.line({right - float(w) - 50.0f, float(legend_y) + 6.0f},
+                {right - float(w) - 20.0f, float(legend_y) + 6.0f}, s.colour, 2.0f);
+    canvas.text(int(right) - w - 12, legend_y, s.name, ink);
+    legend_y += 20;
+  }
+  return canvas.image();
+}
+
 double niceCeiling(double value) {
   if (!(value > 0.0) || !std::isfinite(value)) return 1.0;
   const double p = std::pow(10.0, std::floor(std::log10(value)));

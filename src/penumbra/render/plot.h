@@ -51,6 +51,21 @@ struct Photometry;
 // with round-numbered circles; `size` pixels square plus a caption.
 Image luminairePolarPlot(const Photometry& photometry, int size = 640);
 
+// A curve of a log-log plot: its name in the legend, colour and points (x, y > 0; others are
+// left out).
+struct PlotSeries {
+  std::string name;
+  glm::vec3 colour{0.0f};
+  std::vector<glm::dvec2> points;
+  bool dashed = false;
+};
+
+// Curves on log-log axes with a decade grid, axis labels, a title and a legend: how the docs
+// show error against iterations or time. `width` x `height` pixels.
+Image logLogPlot(const std::vector<PlotSeries>& series, const std::string& title,
+                 const std::string& x_label, const std::string& y_label, int width = 720,
+                 int height = 480);
+
 // A round upper end for a scale reaching `value`: 1, 1.2, 1.5, 2, 2.5, 3, 4, 5, 6 or 8 times a
 // power of ten.
 double niceCeiling(double value);

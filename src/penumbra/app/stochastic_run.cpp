@@ -1,0 +1,194 @@
+#include "penumbra/app/stochastic_run.h"
+
+#include "penumbra/app/device.h"
+#include "penumbra/core/file_util.h"
+#include "penumbra/core/interrupt.h"
+#include "penumbra/core/memory.h"
+#include "penumbra/core/progress.h"
+#include "penumbra/core/timer.h"
+#include "penumbra/radiosity/stochastic_checkpoint.h"
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <cmath>
+
+namespace penumbra {
+
+namespace {
+
+// Bytes per element at the peak: the atlas and hierarchy (about 180, as progressive radiosity
+// counts them), the surface's per-element data (4 x 24), E', the iterate, the next iterate and
+// the two sums (5 x 24), the element's pieces (about 2 x 200) and the level sums (about 11).
+constexpr uint64_t kBytesPerElement = 900;
+
+}  // namespace
+
+Status checkStochasticRunOptions(const StochasticRunOptions& o) {
+  if (o.texel_density && !(*o.texel_density > 0.0 && std::isfinite(*o.texel_density))) {
+    return inputError("", "--texel-density", "must be a positive number of texels per metre");
+  }
+  if (!(o.time_limit >= 0.0 && std::isfinite(o.time_limit))) {
+    return inputError("", "--time-limit", "must be a number of seconds >= 0");
+  }
+  if (o.shooters < 1 || o.shooters > 4096) {
+    return inputError("", "--shooters", "must be in [1, 4096]");
+  }
+  if (!o.resume.empty() && o.lightmap_size) {
+    return inputError("", "--resume",
+                      "the checkpoint fixes the lightmap: leave out --lightmap-size");
+  }
+  if (!o.checkpoint.empty()) PENUMBRA_TRY(checkOutputPath(o.checkpoint));
+  return {};
+}
+
+Expected<StochasticRun> runStochastic(const Scene& scene, const StochasticRunOptions& options,
+                                      const CommonOptions& common) {
+  StochasticRun run;
+  if (options.device == "hybrid") {
+    return inputError("", "--device", "hybrid applies to the Ray Engine (trace, pathtrace)");
+  }
+  StochasticOptions so;
+  so.iterations = options.iterations;
+  so.time_limit = options.time_limit;
+  so.shooters = options.shooters;
+  so.seed = options.seed;
+  so.shading_normals = options.shading_normals;
+  std::optional<StochasticCheckpointInfo> info;
+  LightmapResolution resolution;
+  resolution.texel_density = options.texel_density;
+  resolution.size = options.lightmap_size;
+  resolution.elements = options.elements;
+  if (!options.resume.empty()) {
+    Expected<StochasticCheckpointInfo> i = readStochasticCheckpointInfo(options.resume);
+    if (!i) return i.error();
+    info = *i;
+    // The checkpoint fixes the lightmap and the random numbers (so that the resumed run
+    // continues exactly as the interrupted one would have).
+    so.atlas.texel_density = info->texel_density;
+    so.seed = info->seed;
+    so.shooters = info->shooters;
+    so.burn_in = info->burn_in;
+    if (options.texel_density &&
+        std::abs(*options.texel_density / info->texel_density - 1.0) > 1e-9) {
+      return inputError(options.resume, "",
+                        fmt::format("was written with --texel-density {}, not {}",
+                                    info->texel_density, *options.texel_density));
+    }
+  } else {
+    Expected<ChartAtlasOptions> atlas = lightmapAtlasOptions(scene, resolution);
+    if (!atlas) return atlas.error();
+    so.atlas = *atlas;
+  }
+  const uint64_t expected_elements =
+      info ? info->elements : expectedLightmapElements(scene, resolution);
+  const char* sized_by = info                    ? "the checkpoint's lightmap"
+                         : options.texel_density ? "--texel-density"
+                         : options.lightmap_size ? "--lightmap-size"
+                                                 : "--elements";
+  if (expected_elements > uint64_t(UINT32_MAX)) {
+    return inputError("", sized_by,
+                      fmt::format("stochastic radiosity with {} lightmap texels: more than a "
+                                  "lightmap can index",
+                                  expected_elements));
+  }
+  PENUMBRA_TRY(checkMemory(expected_elements * kBytesPerElement,
+                           fmt::format("stochastic radiosity with {} lightmap texels ({})",
+                                       expected_elements, sized_by)));
+  Expected<DeviceChoice> device = chooseDevice(options.device);
+  if (!device) return device.error();
+  if (device->device == Device::kGpu) {
+    return inputError("", "--device gpu",
+                      "stochastic radiosity runs on the CPU in this version (--device cpu)");
+  }
+  run.device = device->name();
+  if (common.dry_run) {
+    run.dry_run = true;
+    return run;
+  }
+
+  const Timer build_timer;
+  Expected<StochasticRadiosity> built = StochasticRadiosity::build(scene, so);
+  if (!built) {
+    if (info && built.error().file.empty()) {
+      return inputError(options.resume, "",
+                        fmt::format("its lightmap ({} texels per metre) cannot be built: {}",
+                                    info->texel_density, built.error().message));
+    }
+    return built.error();
+  }
+  run.solver.emplace(std::move(*built));
+  StochasticRadiosity& sr = *run.solver;
+  if (info) {
+    PENUMBRA_TRY(resumeStochasticCheckpoint(options.resume, scene, sr));
+    run.resumed_iterations = sr.iterations();
+    spdlog::info("{}: resumed after {} iterations, estimated error {:.3g}", options.resume,
+                 sr.iterations(), sr.errorEstimate());
+  }
+  run.build_seconds = build_timer.seconds();
+  // From here Ctrl-C stops between two iterations and writes a checkpoint. The line below is
+  // printed once it does (scripts may wait for it before sending SIGINT).
+  const InterruptScope interrupt;
+  spdlog::info("{}: {} lightmap texels in a {}x{} atlas ({:.1f} texels/m), burn-in {} iterations",
+               scene.source, sr.elementCount(), sr.atlas().width, sr.atlas().height,
+               sr.atlas().texel_density, sr.burnIn());
+
+  // Progress: iterations against the cap (or the time against the limit), with the iteration
+  // and the running error estimate.
+  const bool by_time = options.time_limit > 0.0;
+  Progress progress("iterating", by_time ? 1000 : uint64_t(std::max(so.iterations, 1)),
+                    !common.quiet && Progress::stderrIsTerminal());
+  const Timer solve_timer;
+  const auto after = [&](const StochasticIteration& it) {
+    const double error = sr.averaged() >= 2 ? sr.errorEstimate() : 1.0;
+    run.history.push_back(error);
+    progress.setNote(fmt::format("iteration {}, error ~{:.3g}", it.iteration, error));
+    progress.reach(
+        by_time ? uint64_t(std::min(solve_timer.seconds() / options.time_limit, 1.0) * 1000.0)
+                : uint64_t(it.iteration));
+  };
+  const auto stop = [] { return InterruptScope::requested(); };
+  run.stats = sr.solve(after, stop);
+  progress.finish();
+  if (run.stats.interrupted) {
+    run.interrupted = true;
+    PENUMBRA_TRY(writeStochasticCheckpoint(options.checkpoint, scene, sr));
+    spdlog::warn(
+        "interrupted after {} iterations (estimated error {:.3g}): checkpoint written to {}; "
+        "continue with --resume {}",
+        run.stats.total_iterations, run.stats.error, options.checkpoint, options.checkpoint);
+  } else if (!options.resume.empty() && !options.keep_checkpoint) {
+    if (OutputTransaction* t = OutputTransaction::current()) t->removeOnCommit(options.resume);
+  }
+  if (sr.averaged() == 0) {
+    spdlog::warn("stopped within the burn-in ({} of {} iterations): the estimate is one iterate",
+                 sr.iterations(), sr.burnIn());
+  }
+  run.lightmap = sr.radianceImage();
+  return run;
+}
+
+nlohmann::json stochasticStatsJson(const StochasticRun& run) {
+  const StochasticRadiosity& sr = *run.solver;
+  return {{"device", run.device},
+          {"build_seconds", run.build_seconds},
+          {"solve_seconds", run.stats.seconds},
+          {"elements", sr.elementCount()},
+          {"atlas_width", sr.atlas().width},
+          {"atlas_height", sr.atlas().height},
+          {"texel_density", sr.atlas().texel_density},
+          {"iterations", run.stats.total_iterations},
+          {"resumed_iterations", run.resumed_iterations},
+          {"burn_in", sr.burnIn()},
+          {"averaged_iterations", sr.averaged()},
+          {"shooters_per_iteration", sr.options().shooters},
+          {"seed", sr.options().seed},
+          {"error_estimate", run.stats.error},
+          {"interrupted", run.interrupted},
+          {"timed_out", run.stats.timed_out},
+          {"history", run.history},
+          {"rays", run.stats.rays}};
+}
+
+}  // namespace penumbra

@@ -1,0 +1,59 @@
+#include "penumbra/radiosity/checkpoint_io.h"
+
+#include "penumbra/core/file_util.h"
+#include "penumbra/core/hash.h"
+
+#include <cstdio>
+#include <memory>
+#include <variant>
+
+namespace penumbra {
+
+Status writeCheckpointFile(const std::string& path, CheckpointWriter& w) {
+  Fnv1a h;
+  h.add(w.bytes.data(), w.bytes.size());
+  w.put(h.h);
+  return writeAtomicallyNow(path, [&](const std::string& tmp) -> Status {
+    std::unique_ptr<FILE, int (*)(FILE*)> f(std::fopen(tmp.c_str(), "wb"), &std::fclose);
+    if (!f) return runtimeError(path, "cannot write the checkpoint");
+    if (std::fwrite(w.bytes.data(), 1, w.bytes.size(), f.get()) != w.bytes.size() ||
+        std::fflush(f.get()) != 0) {
+      return runtimeError(path, "cannot write the checkpoint (disk full?)");
+    }
+    return {};
+  });
+}
+
+bool checkpointChecksumMatches(const std::string& bytes) {
+  if (bytes.size() < 8) return false;
+  Fnv1a h;
+  h.add(bytes.data(), bytes.size() - 8);
+  uint64_t stored = 0;
+  std::memcpy(&stored, bytes.data() + bytes.size() - 8, 8);
+  return stored == h.h;
+}
+
+uint64_t radiosityFingerprint(const Scene& scene, const RadiositySurface& surface,
+                              bool shading_normals) {
+  Fnv1a h;
+  const FlatTriangles& flat = surface.flat;
+  h.add(flat.positions.data(), flat.positions.size() * sizeof(glm::vec3));
+  h.add(flat.triangles.data(), flat.triangles.size() * sizeof(glm::uvec3));
+  h.add(flat.material_ids.data(), flat.material_ids.size() * sizeof(uint32_t));
+  for (const Material& m : scene.materials) {
+    h.addValue(m.reflectance);
+    h.addValue(m.emission);
+    h.addValue(uint8_t(m.two_sided ? 1 : 0));
+  }
+  for (const Light& light : scene.lights) {
+    h.addValue(uint32_t(light.index()));
+    std::visit([&](const auto& l) { h.addValue(l); }, light);
+  }
+  h.addValue(surface.atlas.width);
+  h.addValue(surface.atlas.height);
+  h.addValue(uint64_t(surface.elementCount()));
+  h.addValue(uint8_t(shading_normals ? 1 : 0));
+  return h.h;
+}
+
+}  // namespace penumbra

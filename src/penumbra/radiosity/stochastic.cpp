@@ -1,0 +1,379 @@
+#include "penumbra/radiosity/stochastic.h"
+
+#include "penumbra/core/check.h"
+#include "penumbra/core/parallel.h"
+#include "penumbra/core/rng.h"
+#include "penumbra/core/timer.h"
+#include "penumbra/kernels/form_factor.h"
+#include "penumbra/radiosity/progressive.h"
+
+#include <fmt/format.h>
+#include <glm/geometric.hpp>
+#include <glm/vec2.hpp>
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+
+namespace penumbra {
+
+namespace {
+
+// Receivers gathered together: their rays traced as one serial batch (progressive.cpp's size).
+constexpr size_t kReceiverBlock = 256;
+
+double luminance(const glm::dvec3& c) {
+  return residualLuminance(c);
+}
+
+}  // namespace
+
+Expected<StochasticRadiosity> StochasticRadiosity::build(const Scene& scene,
+                                                         const StochasticOptions& options) {
+  const char* place = "stochastic radiosity";
+  if (options.iterations < 0) return inputError("", place, "iterations must not be negative");
+  if (!(options.time_limit >= 0.0)) {
+    return inputError("", place, "the time limit must be a number of seconds >= 0");
+  }
+  if (options.shooters < 1 || options.shooters > 4096) {
+    return inputError("", place, "shooters per iteration must be in [1, 4096]");
+  }
+  if (options.burn_in < -1 || options.burn_in > 1000000) {
+    return inputError("", place, "burn_in must be in [0, 10^6] (or -1: automatic)");
+  }
+  StochasticRadiosity sr;
+  sr.options_ = options;
+  Expected<RadiositySurface> surface =
+      RadiositySurface::build(scene, options.atlas, options.shading_normals);
+  if (!surface) return surface.error();
+  sr.surface_ = std::move(*surface);
+  const size_t n = sr.surface_.elementCount();
+  // E' = E + rho E_direct: the lights' direct light reflected once, deterministic.
+  sr.source_ = sr.surface_.emission;
+  if (!scene.lights.empty()) {
+    const std::vector<glm::dvec3> direct =
+        sr.surface_.lightIrradiance(scene.lights, options.visibility);
+    for (size_t e = 0; e < n; ++e) sr.source_[e] += sr.surface_.reflectance[e] * direct[e];
+  }
+  double power = 0.0;
+  for (size_t e = 0; e < n; ++e) {
+    power += luminance(sr.source_[e]) * sr.surface_.atlas.element_area[e];
+  }
+  if (!(power > 0.0)) {
+    return inputError(scene.source, place,
+                      "the scene emits no light that reaches a surface (no emissive surface, or "
+                      "lights that light nothing)");
+  }
+  sr.b_ = sr.source_;
+  // Burn-in: E[B_i] - B = -T^(i+1) B falls at least as fast as the largest reflectance's powers;
+  // averaging from the iterate where that is below 1e-3 leaves a bias under 1e-3 / (1 - rho).
+  if (options.burn_in >= 0) {
+    sr.burn_in_ = options.burn_in;
+  } else {
+    double rho = 0.0;
+    for (size_t e = 0; e < n; ++e) {
+      rho = std::max(rho, std::max({sr.surface_.reflectance[e].x, sr.surface_.reflectance[e].y,
+                                    sr.surface_.reflectance[e].z}));
+    }
+    sr.burn_in_ =
+        rho > 0.0
+            ? int(std::clamp(std::ceil(std::log(1e-3) / std::log(std::min(rho, 0.98))), 0.0, 64.0))
+            : 0;
+  }
+  sr.sum_[0].assign(n, glm::dvec3(0.0));
+  sr.sum_[1].assign(n, glm::dvec3(0.0));
+  // Each element's pieces, for the near pairs' exact form factor.
+  sr.piece_first_.assign(n + 1, 0);
+  {
+    std::vector<std::array<glm::dvec3, 8>> polys;
+    std::vector<int> counts;
+    for (size_t e = 0; e < n; ++e) {
+      sr.surface_.atlas.elementPieces(e, sr.surface_.flat.positions, sr.surface_.flat.triangles,
+                                      polys, counts);
+      for (size_t q = 0; q < polys.size(); ++q) {
+        if (counts[q] >= 3) sr.pieces_.emplace_back(polys[q], counts[q]);
+      }
+      sr.piece_first_[e + 1] = uint32_t(sr.pieces_.size());
+    }
+  }
+  sr.buildSums();
+  return sr;
+}
+
+void StochasticRadiosity::buildSums() {
+  // Sec. 3.1's mipmap: lum(B) A per element, then each level's clusters as sums of their
+  // children, then the running sum over the charts' roots.
+  const SurfaceHierarchy& h = surface_.hierarchy;
+  const size_t n = elementCount();
+  level_sums_.resize(h.levelCount());
+  level_sums_[0].resize(n);
+  parallelRange(n, 1 << 14, [&](size_t b, size_t e) {
+    for (size_t i = b; i < e; ++i) {
+      level_sums_[0][i] = std::max(luminance(b_[i]), 0.0) * surface_.atlas.element_area[i];
+    }
+  });
+  for (size_t l = 1; l < h.levelCount(); ++l) {
+    const ClusterLevel& lv = h.level(l);
+    std::vector<double>& sums = level_sums_[l];
+    sums.assign(lv.size(), 0.0);
+    parallelRange(lv.size(), 1 << 12, [&](size_t b, size_t e) {
+      for (size_t k = b; k < e; ++k) {
+        double s = 0.0;
+        for (uint32_t c = lv.child_first[k]; c < lv.child_first[k + 1]; ++c) {
+          s += level_sums_[l - 1][c];
+        }
+        sums[k] = s;
+      }
+    });
+  }
+  root_cdf_.resize(h.chartCount());
+  double running = 0.0;
+  for (uint32_t c = 0; c < h.chartCount(); ++c) {
+    const ClusterRef r = h.root(c);
+    running += level_sums_[r.level][r.index];
+    root_cdf_[c] = running;
+  }
+  total_ = running;
+}
+
+uint32_t StochasticRadiosity::select(double u, double* probability) const {
+  PENUMBRA_CHECK(total_ > 0.0);
+  const SurfaceHierarchy& h = surface_.hierarchy;
+  // The root whose running sum passes u Phi, then down the levels (the paper's descent: the
+  // remaining value compared with the running sum of the four texels below).
+  double x = std::clamp(u, 0.0, 1.0) * total_;
+  size_t c = size_t(std::upper_bound(root_cdf_.begin(), root_cdf_.end(), x) - root_cdf_.begin());
+  // u = 1 or rounding at the top end: the last chart with weight.
+  const auto weight = [&](size_t chart) {
+    const ClusterRef r = h.root(uint32_t(chart));
+    return level_sums_[r.level][r.index];
+  };
+  if (c >= root_cdf_.size()) {
+    c = root_cdf_.size() - 1;
+    while (c > 0 && weight(c) <= 0.0) --c;
+    x = std::min(x, root_cdf_[c] * (1.0 - 1e-16));
+  }
+  x -= c == 0 ? 0.0 : root_cdf_[c - 1];
+  ClusterRef k = h.root(uint32_t(c));
+  while (k.level > 0) {
+    const ClusterLevel& lv = h.level(k.level);
+    const std::vector<double>& below = level_sums_[k.level - 1];
+    uint32_t pick = lv.child_first[k.index + 1] - 1;
+    // The last child with weight takes what rounding leaves over.
+    while (pick > lv.child_first[k.index] && below[pick] <= 0.0) --pick;
+    for (uint32_t ch = lv.child_first[k.index]; ch < lv.child_first[k.index + 1]; ++ch) {
+      if (below[ch] <= 0.0) continue;
+      if (x < below[ch]) {
+        pick = ch;
+        break;
+      }
+      x -= below[ch];
+    }
+    k = ClusterRef{k.level - 1, pick};
+  }
+  if (probability) *probability = level_sums_[0][k.index] / total_;
+  return k.index;
+}
+
+uint64_t StochasticRadiosity::shoot(uint32_t j, double p, double weight,
+                                    const std::vector<glm::dvec3>& from,
+                                    std::vector<glm::dvec3>& out) const {
+  // Eq. 3: rho_r B_j F_rj v / P_j, times `weight` (1 / shooters).
+  const ChartAtlas& atlas = surface_.atlas;
+  const glm::dvec3 pj = atlas.element_position[j], nj = atlas.element_normal[j];
+  const double aj = atlas.element_area[j];
+  const glm::dvec3 sent = from[j] * (weight / p);
+  const double near2 = kStochasticNear * kStochasticNear * aj;
+  const uint32_t own_chart = atlas.element_chart[j];
+  const bool own_planar = atlas.charts.charts[own_chart].planar;
+  const size_t n = elementCount();
+  std::atomic<uint64_t> rays{0};
+  parallelRange(n, kReceiverBlock, [&](size_t begin, size_t end) {
+    std::vector<uint32_t> receivers;
+    std::vector<double> factors;
+    RayBatch batch;
+    HitBatch hits;
+    receivers.reserve(end - begin);
+    factors.reserve(end - begin);
+    for (size_t r = begin; r < end; ++r) {
+      if (r == j) continue;
+      // A planar chart does not light itself (progressive.cpp: its texels see each other
+      // edge-on).
+      if (own_planar && atlas.element_chart[r] == own_chart) continue;
+      const glm::dvec3 pr = atlas.element_position[r], nr = atlas.element_normal[r];
+      const glm::dvec3 d = pj - pr;
+      const double d2 = glm::dot(d, d);
+      if (!(d2 > 0.0) || glm::dot(nr, d) <= 0.0 || glm::dot(nj, d) >= 0.0) continue;
+      const glm::dvec3 ns = surface_.shading_normal[r];
+      double f = 0.0;
+      if (d2 < near2) {
+        for (uint32_t q = piece_first_[j]; q < piece_first_[j + 1]; ++q) {
+          f += pointToPolygonFormFactor<true>(pr, ns, pieces_[q].first.data(), pieces_[q].second);
+        }
+      } else {
+        const double inv = 1.0 / std::sqrt(d2);
+        const double cos_r = glm::dot(ns, d) * inv, cos_s = -glm::dot(nj, d) * inv;
+        if (cos_r <= 0.0 || cos_s <= 0.0) continue;
+        f = discFormFactor(aj, cos_s, cos_r, d2);
+      }
+      if (!(f > 0.0)) continue;
+      receivers.push_back(uint32_t(r));
+      factors.push_back(f);
+    }
+    if (receivers.empty()) return;
+    if (options_.visibility) {
+      batch.resize(receivers.size());
+      const glm::dvec3 to = pj + nj * surface_.lift;
+      for (size_t k = 0; k < receivers.size(); ++k) {
+        const uint32_t r = receivers[k];
+        const glm::dvec3 fr = atlas.element_position[r] + atlas.element_normal[r] * surface_.lift;
+        batch.set(k, Ray{glm::vec3(fr), 1e-4f, glm::vec3(to - fr), 1.0f - 1e-4f});
+      }
+      surface_.engine.intersectSerial(batch, hits);
+      rays += receivers.size();
+    }
+    for (size_t k = 0; k < receivers.size(); ++k) {
+      if (options_.visibility && hits.triangle[k] >= 0) continue;
+      const uint32_t r = receivers[k];
+      out[r] += surface_.reflectance[r] * sent * factors[k];
+    }
+  });
+  return rays.load();
+}
+
+StochasticIteration StochasticRadiosity::step() {
+  const Timer timer;
+  StochasticIteration it;
+  it.iteration = ++iterations_;
+  it.power = total_;
+  // B_m = E' + T* B_{m-1}: the shooters chosen from B_{m-1} (its sums are current).
+  std::vector<glm::dvec3> next(source_.size());
+  parallelRange(next.size(), 1 << 14, [&](size_t b, size_t e) {
+    std::copy(source_.begin() + std::ptrdiff_t(b), source_.begin() + std::ptrdiff_t(e),
+              next.begin() + std::ptrdiff_t(b));
+  });
+  // A generator per (seed, iteration), started at a well-mixed state. Taking (seed, iteration)
+  // as PCG's (start, stream) made runs with neighbouring seeds pick correlated shooters at each
+  // iteration: 32 "independent" runs spread less than their means differed (furnace charts at
+  // z = 9).
+  Rng rng(mixBits(mixBits(options_.seed) ^ uint64_t(iterations_)), 0x5eedu);
+  const double weight = 1.0 / double(options_.shooters);
+  for (int s = 0; s < options_.shooters; ++s) {
+    const double u = double(rng.nextU32()) * 0x1p-32 + double(rng.nextU32()) * 0x1p-64;
+    double p = 0.0;
+    const uint32_t j = select(u, &p);
+    if (s == 0) it.shooter = j;
+    it.rays += shoot(j, p, weight, b_, next);
+  }
+  b_ = std::move(next);
+  // Eq. 2: the running average after the burn-in, kept as sums by parity (for the error
+  // estimate).
+  if (averaged() > 0) {
+    std::vector<glm::dvec3>& sum = sum_[averaged() & 1];
+    parallelRange(b_.size(), 1 << 14, [&](size_t b, size_t e) {
+      for (size_t i = b; i < e; ++i) sum[i] += b_[i];
+    });
+  }
+  buildSums();
+  it.seconds = timer.seconds();
+  return it;
+}
+
+StochasticStats StochasticRadiosity::solve(
+    const std::function<void(const StochasticIteration&)>& after,
+    const std::function<bool()>& stop) {
+  const Timer timer;
+  StochasticStats st;
+  while (iterations_ < options_.iterations) {
+    if (stop && stop()) {
+      st.interrupted = true;
+      break;
+    }
+    if (options_.time_limit > 0.0 && timer.seconds() >= options_.time_limit) {
+      st.timed_out = true;
+      break;
+    }
+    const StochasticIteration it = step();
+    ++st.iterations;
+    st.rays += it.rays;
+    if (after) after(it);
+  }
+  st.total_iterations = iterations_;
+  st.error = errorEstimate();
+  st.seconds = timer.seconds();
+  return st;
+}
+
+glm::dvec3 StochasticRadiosity::radiosity(size_t e) const {
+  if (averaged() == 0) return b_[e];
+  return (sum_[0][e] + sum_[1][e]) / double(averaged());
+}
+
+std::vector<glm::dvec3> StochasticRadiosity::radiosity() const {
+  std::vector<glm::dvec3> out(elementCount());
+  for (size_t e = 0; e < out.size(); ++e) out[e] = radiosity(e);
+  return out;
+}
+
+double StochasticRadiosity::errorEstimate() const {
+  // Half the difference of the odd and even iterations' means estimates the standard error of
+  // the mean of all (each half has half the samples). Summed in fixed blocks, then in order, so
+  // that the estimate does not depend on the threads.
+  const int odd = (averaged() + 1) / 2, even = averaged() / 2;
+  if (odd == 0 || even == 0) return 1.0;
+  constexpr size_t kBlock = 4096;
+  const size_t n = elementCount(), blocks = (n + kBlock - 1) / kBlock;
+  std::vector<glm::dvec2> part(blocks, glm::dvec2(0.0));
+  parallelRange(blocks, 1, [&](size_t b0, size_t b1) {
+    for (size_t b = b0; b < b1; ++b) {
+      for (size_t e = b * kBlock; e < std::min(n, (b + 1) * kBlock); ++e) {
+        const double a = surface_.atlas.element_area[e];
+        const double d = 0.5 * luminance(sum_[1][e] / double(odd) - sum_[0][e] / double(even));
+        const double m = luminance(radiosity(e));
+        part[b] += glm::dvec2(a * d * d, a * m * m);
+      }
+    }
+  });
+  glm::dvec2 sum(0.0);
+  for (const glm::dvec2& p : part) sum += p;
+  return sum.y > 0.0 ? std::sqrt(sum.x / sum.y) : 0.0;
+}
+
+StochasticState StochasticRadiosity::state() const {
+  return StochasticState{b_, sum_[1], sum_[0], iterations_};
+}
+
+Status StochasticRadiosity::setState(StochasticState state) {
+  const size_t n = elementCount();
+  if (state.iterate.size() != n || state.sum_odd.size() != n || state.sum_even.size() != n) {
+    return inputError(
+        "", "stochastic radiosity",
+        fmt::format("the state has {} elements, the solver {}", state.iterate.size(), n));
+  }
+  if (state.iterations < 0) return inputError("", "stochastic radiosity", "negative iterations");
+  for (size_t e = 0; e < n; ++e) {
+    for (const glm::dvec3* v : {&state.iterate[e], &state.sum_odd[e], &state.sum_even[e]}) {
+      for (int c = 0; c < 3; ++c) {
+        if (!std::isfinite((*v)[c]) || (*v)[c] < 0.0) {
+          return inputError("", "stochastic radiosity",
+                            fmt::format("element {}: radiosity must be finite and >= 0", e));
+        }
+      }
+    }
+  }
+  b_ = std::move(state.iterate);
+  sum_[1] = std::move(state.sum_odd);
+  sum_[0] = std::move(state.sum_even);
+  iterations_ = state.iterations;
+  buildSums();
+  if (!(total_ > 0.0)) {
+    return inputError("", "stochastic radiosity", "the state's iterate holds no light");
+  }
+  return {};
+}
+
+Image StochasticRadiosity::radianceImage() const {
+  return surface_.radianceImage(radiosity());
+}
+
+}  // namespace penumbra

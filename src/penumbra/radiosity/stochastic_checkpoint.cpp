@@ -1,0 +1,132 @@
+#include "penumbra/radiosity/stochastic_checkpoint.h"
+
+#include "penumbra/core/file_util.h"
+#include "penumbra/radiosity/checkpoint_io.h"
+
+#include <fmt/format.h>
+
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <memory>
+
+namespace penumbra {
+
+namespace {
+
+constexpr char kMagic[16] = {'P', 'E', 'N', 'U', 'M', 'B', 'R', 'A',
+                             '-', 'S', 'T', 'O', 'C', 'H', 'V', '1'};
+constexpr size_t kHeaderBytes = 16 + 8 + 8 + 2 * 4 + 8 + 4 * 4 + 8;
+constexpr size_t kElementBytes = 9 * 8;
+
+Expected<StochasticCheckpointInfo> parseHeader(const std::string& path, const std::string& bytes) {
+  if (bytes.size() < kHeaderBytes + 8 || std::memcmp(bytes.data(), kMagic, 16) != 0) {
+    return inputError(path, "", "not a Penumbra stochastic radiosity checkpoint");
+  }
+  CheckpointReader r{bytes, 16};
+  StochasticCheckpointInfo info;
+  int32_t zero = 0;
+  const bool ok = r.get(info.fingerprint) && r.get(info.texel_density) && r.get(info.atlas_width) &&
+                  r.get(info.atlas_height) && r.get(info.seed) && r.get(info.shooters) &&
+                  r.get(info.burn_in) && r.get(info.iterations) && r.get(zero) &&
+                  r.get(info.elements);
+  if (!ok) return inputError(path, "header", "truncated");
+  if (!(info.texel_density > 0.0 && info.texel_density < 1e9) || info.atlas_width <= 0 ||
+      info.atlas_height <= 0 || info.atlas_width > 16384 || info.atlas_height > 16384 ||
+      info.shooters < 1 || info.shooters > 4096 || info.burn_in < 0 || info.burn_in > 1000000 ||
+      info.iterations < 0 || zero != 0 || info.elements == 0 ||
+      info.elements > uint64_t(info.atlas_width) * uint64_t(info.atlas_height)) {
+    return inputError(path, "header", "values out of range");
+  }
+  return info;
+}
+
+}  // namespace
+
+Status writeStochasticCheckpoint(const std::string& path, const Scene& scene,
+                                 const StochasticRadiosity& solver) {
+  const StochasticState state = solver.state();
+  CheckpointWriter w;
+  w.bytes.reserve(kHeaderBytes + kElementBytes * solver.elementCount() + 8);
+  w.bytes.append(kMagic, 16);
+  w.put(radiosityFingerprint(scene, solver.surface(), solver.options().shading_normals));
+  w.put(solver.atlas().texel_density);
+  w.put(int32_t(solver.atlas().width));
+  w.put(int32_t(solver.atlas().height));
+  w.put(uint64_t(solver.options().seed));
+  w.put(int32_t(solver.options().shooters));
+  w.put(int32_t(solver.burnIn()));
+  w.put(int32_t(state.iterations));
+  w.put(int32_t(0));
+  w.put(uint64_t(solver.elementCount()));
+  for (size_t e = 0; e < solver.elementCount(); ++e) {
+    for (const glm::dvec3* v : {&state.iterate[e], &state.sum_odd[e], &state.sum_even[e]}) {
+      for (int c = 0; c < 3; ++c) w.put((*v)[c]);
+    }
+  }
+  return writeCheckpointFile(path, w);
+}
+
+Expected<StochasticCheckpointInfo> readStochasticCheckpointInfo(const std::string& path) {
+  std::unique_ptr<FILE, int (*)(FILE*)> f(std::fopen(path.c_str(), "rb"), &std::fclose);
+  if (!f) return inputError(path, "", "cannot open the checkpoint");
+  std::string bytes(kHeaderBytes + 8, '\0');
+  bytes.resize(std::fread(bytes.data(), 1, bytes.size(), f.get()));
+  Expected<StochasticCheckpointInfo> info = parseHeader(path, bytes);
+  if (!info) return info;
+  std::error_code ec;
+  const uint64_t size = std::filesystem::file_size(path, ec);
+  if (ec || info->elements > (size - std::min<uint64_t>(size, kHeaderBytes)) / kElementBytes ||
+      size != kHeaderBytes + kElementBytes * info->elements + 8) {
+    return inputError(path, "",
+                      fmt::format("truncated or padded: {} bytes for {} elements", ec ? 0 : size,
+                                  info->elements));
+  }
+  return info;
+}
+
+Status resumeStochasticCheckpoint(const std::string& path, const Scene& scene,
+                                  StochasticRadiosity& solver) {
+  Expected<std::string> bytes = readFile(path);
+  if (!bytes) return bytes.error();
+  Expected<StochasticCheckpointInfo> info = parseHeader(path, *bytes);
+  if (!info) return info.error();
+  const uint64_t n = info->elements;
+  if (n > (bytes->size() - kHeaderBytes) / kElementBytes ||
+      bytes->size() != kHeaderBytes + kElementBytes * n + 8) {
+    return inputError(
+        path, "", fmt::format("truncated or padded: {} bytes for {} elements", bytes->size(), n));
+  }
+  if (!checkpointChecksumMatches(*bytes)) {
+    return inputError(path, "", "corrupt (checksum mismatch)");
+  }
+  if (info->fingerprint !=
+          radiosityFingerprint(scene, solver.surface(), solver.options().shading_normals) ||
+      n != solver.elementCount()) {
+    return inputError(path, "",
+                      fmt::format("was written for another scene, lightmap or --normals setting "
+                                  "({} elements in a {}x{} atlas; this run has {} in {}x{})",
+                                  n, info->atlas_width, info->atlas_height, solver.elementCount(),
+                                  solver.atlas().width, solver.atlas().height));
+  }
+  if (info->seed != solver.options().seed || info->shooters != solver.options().shooters ||
+      info->burn_in != solver.burnIn()) {
+    return inputError(path, "", "was written with another seed, --shooters or burn-in");
+  }
+  StochasticState state;
+  state.iterations = info->iterations;
+  state.iterate.resize(n);
+  state.sum_odd.resize(n);
+  state.sum_even.resize(n);
+  CheckpointReader r{*bytes, kHeaderBytes};
+  for (uint64_t e = 0; e < n; ++e) {
+    for (glm::dvec3* v : {&state.iterate[e], &state.sum_odd[e], &state.sum_even[e]}) {
+      for (int c = 0; c < 3; ++c) (void)r.get((*v)[c]);
+    }
+  }
+  Status s = solver.setState(std::move(state));
+  if (!s.ok()) return inputError(path, "", s.error().message);
+  return {};
+}
+
+}  // namespace penumbra
