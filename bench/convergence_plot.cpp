@@ -79,8 +79,10 @@ int main(int argc, char** argv) {
       pr->solve(
           [&](const ProgressiveIteration&) {
             clock += t.seconds();
-            const double err = relativeRms(pr->surface(), reference,
-                                           [&](size_t e) { return pr->displayRadiosity(e); });
+            const glm::dvec3 ambient = pr->ambient();  // eq. 4-6, once per evaluation
+            const double err = relativeRms(pr->surface(), reference, [&](size_t e) {
+              return pr->radiosity(e) + pr->reflectance(e) * ambient;
+            });
             prog.points.emplace_back(clock, err);
             std::printf("%s,progressive,%d,%.4f,%.6f\n", c.name.c_str(), pr->iterations(), clock,
                         err);

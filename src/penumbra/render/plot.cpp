@@ -184,7 +184,7 @@ Image logLogPlot(const std::vector<PlotSeries>& series, const std::string& title
   const double ly0 = std::floor(std::log10(y0)), ly1 = std::max(std::ceil(std::log10(y1)), ly0 + 1);
   Canvas canvas(width, height);
   const glm::vec3 grid(0.85f), ink(0.0f);
-  const float left = 90.0f, right = float(width) - 20.0f, top = 40.0f,
+  const float left = 90.0f, right = float(width) - 20.0f, top = 48.0f,
               bottom = float(height) - 60.0f;
   const auto at = [&](glm::dvec2 p) {
     return glm::vec2(left + float((std::log10(p.x) - lx0) / (lx1 - lx0)) * (right - left),
@@ -210,9 +210,9 @@ Image logLogPlot(const std::vector<PlotSeries>& series, const std::string& title
     canvas.text(int(left) - 8 - Canvas::textWidth(label), int(y) - 6, label, ink);
   }
   canvas.polyline({{left, top}, {right, top}, {right, bottom}, {left, bottom}}, ink, 1.0f, true);
-  canvas.text((width - Canvas::textWidth(title)) / 2, 10, title, ink);
+  canvas.text((width - Canvas::textWidth(title)) / 2, 4, title, ink);
   canvas.text((width - Canvas::textWidth(x_label)) / 2, int(bottom) + 32, x_label, ink);
-  canvas.text(8, int(top) - 30 + 12, y_label, ink);
+  canvas.text(int(left), int(top) - 18, y_label, ink);
   // The curves, and the legend in the top right corner.
   int legend_y = int(top) + 10;
   for (const PlotSeries& s : series) {
