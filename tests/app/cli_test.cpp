@@ -397,16 +397,16 @@ TEST(Cli, StochasticRadiosityRendersTheFurnace) {
 TEST(Cli, StochasticInterruptWritesACheckpointThatResumesExactly) {
   TempDir dir;
   const std::string common =
-      "render cornell --method stochastic --iterations 1200 --width 16 --height 16 --spp 1 ";
+      "render cornell --method stochastic --iterations 4000 --width 16 --height 16 --spp 1 ";
   const auto full = runCli(common + "--quiet -o " + dir.file("full.pfm"));
   ASSERT_EQ(full.exit_code, 0) << full.output;
   const int code = runCliInterrupted(
       common + "-o " + dir.file("cut.pfm") + " --stats " + dir.file("cut.json"), 2.5);
-  ASSERT_EQ(code, 130) << "the run should have been interrupted before its 1200 iterations";
+  ASSERT_EQ(code, 130) << "the run should have been interrupted before its 4000 iterations";
   const nlohmann::json cut = readJson(dir.file("cut.json"));
   EXPECT_TRUE(cut["interrupted"].get<bool>());
   const int done = cut["iterations"].get<int>();
-  EXPECT_LT(done, 1200);
+  EXPECT_LT(done, 4000);
   ASSERT_TRUE(std::filesystem::exists(dir.file("cut.pfm")));
   ASSERT_TRUE(std::filesystem::exists(dir.file("cut.checkpoint")));
   const auto resumed = runCli(common + "--quiet --resume " + dir.file("cut.checkpoint") + " -o " +
@@ -415,7 +415,7 @@ TEST(Cli, StochasticInterruptWritesACheckpointThatResumesExactly) {
   EXPECT_FALSE(std::filesystem::exists(dir.file("cut.checkpoint")));
   const nlohmann::json rs = readJson(dir.file("resumed.json"));
   EXPECT_EQ(rs["resumed_iterations"].get<int>(), done);
-  EXPECT_EQ(rs["iterations"].get<int>(), 1200);
+  EXPECT_EQ(rs["iterations"].get<int>(), 4000);
   Expected<Image> a = readImage(dir.file("full.pfm"));
   Expected<Image> b = readImage(dir.file("resumed.pfm"));
   ASSERT_TRUE(a.ok() && b.ok());
@@ -506,7 +506,11 @@ TEST(Cli, BadInputGivesOneErrorLineExitTwoAndNoOutput) {
       {"render cornell --width 0 -o " + out, "--width 0"},
       {"render cornell --width 60000 --height 60000 -o " + out, "needs"},
       {"render cornell --spp many -o " + out, "spp"},
-      {"render cornell --method stochastic -o " + out, "--method stochastic"},
+      {"render cornell --method lpv -o " + out, "--method lpv"},
+      {"render cornell --method stochastic --elements 268435456 -o " + out,
+       "stochastic radiosity with 268435456 lightmap texels"},
+      {"render cornell --method stochastic --device gpu -o " + out, "--device gpu"},
+      {"render cornell --method pathtrace --shooters 2 -o " + out, "--shooters"},
       {"render cornell --method progressive --tolerance 2 -o " + out, "--tolerance"},
       {"render cornell --method progressive --elements 268435456 -o " + out,
        "progressive radiosity with 268435456 lightmap texels"},

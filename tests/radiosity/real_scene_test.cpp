@@ -8,6 +8,7 @@
 #include "penumbra/io/scene_io.h"
 #include "penumbra/radiosity/matrix_radiosity.h"
 #include "penumbra/radiosity/progressive.h"
+#include "penumbra/radiosity/stochastic.h"
 #include "support/image_compare.h"
 #include "support/test_util.h"
 
@@ -158,8 +159,16 @@ TEST(RealScenes, GltfRoomFromBlenderAgreesWithThePathTracerWithEveryRadiosityMet
   const Image progressive = test::lightmapView(pr->triangles(), pr->atlas(), pr->radianceImage(),
                                                camera, kWidth, kHeight, 16);
   const Image matrix = matrixView(*scene, camera, 3000);
-  for (const auto& [name, image] :
-       std::map<std::string, const Image*>{{"progressive", &progressive}, {"matrix", &matrix}}) {
+  StochasticOptions so;
+  so.atlas.texel_density = po.atlas.texel_density;
+  so.iterations = 5000;
+  Expected<StochasticRadiosity> sr = StochasticRadiosity::build(*scene, so);
+  ASSERT_TRUE(sr.ok()) << sr.error().describe();
+  sr->solve();
+  const Image stochastic = test::lightmapView(sr->triangles(), sr->atlas(), sr->radianceImage(),
+                                              camera, kWidth, kHeight, 16);
+  for (const auto& [name, image] : std::map<std::string, const Image*>{
+           {"progressive", &progressive}, {"matrix", &matrix}, {"stochastic", &stochastic}}) {
     const test::BlockComparison b = test::compareBlocks(*image, reference, 4, 3.0);
     std::printf("glTF room, %s: mean / path tracer's (%.4f %.4f %.4f), block RMS %.4f\n",
                 name.c_str(), b.mean_ratio.x, b.mean_ratio.y, b.mean_ratio.z, b.block_rms);

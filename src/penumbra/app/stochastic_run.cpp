@@ -1,6 +1,5 @@
 #include "penumbra/app/stochastic_run.h"
 
-#include "penumbra/app/device.h"
 #include "penumbra/core/file_util.h"
 #include "penumbra/core/interrupt.h"
 #include "penumbra/core/memory.h"
@@ -49,6 +48,10 @@ Expected<StochasticRun> runStochastic(const Scene& scene, const StochasticRunOpt
   if (options.device == "hybrid") {
     return inputError("", "--device", "hybrid applies to the Ray Engine (trace, pathtrace)");
   }
+  if (options.device == "gpu") {
+    return inputError("", "--device gpu",
+                      "stochastic radiosity runs on the CPU in this version (--device cpu)");
+  }
   StochasticOptions so;
   so.iterations = options.iterations;
   so.time_limit = options.time_limit;
@@ -96,13 +99,7 @@ Expected<StochasticRun> runStochastic(const Scene& scene, const StochasticRunOpt
   PENUMBRA_TRY(checkMemory(expected_elements * kBytesPerElement,
                            fmt::format("stochastic radiosity with {} lightmap texels ({})",
                                        expected_elements, sized_by)));
-  Expected<DeviceChoice> device = chooseDevice(options.device);
-  if (!device) return device.error();
-  if (device->device == Device::kGpu) {
-    return inputError("", "--device gpu",
-                      "stochastic radiosity runs on the CPU in this version (--device cpu)");
-  }
-  run.device = device->name();
+  run.device = "cpu";  // the CPU path only in this version: `auto` means the CPU
   if (common.dry_run) {
     run.dry_run = true;
     return run;
