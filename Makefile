@@ -70,9 +70,12 @@ bench: build
 	$(BUILD)/bin/hybrid_bench --benchmark_out=bench-out/hybrid_bench.json --benchmark_out_format=json
 	$(BUILD)/bin/radiosity_bench --benchmark_out=bench-out/radiosity_bench.json --benchmark_out_format=json
 	$(BUILD)/bin/progressive_bench --benchmark_out=bench-out/progressive_bench.json --benchmark_out_format=json
+	$(BUILD)/bin/stochastic_bench --benchmark_out=bench-out/stochastic_bench.json --benchmark_out_format=json
 
-plots:
+plots: build
+	mkdir -p bench-out
 	/usr/bin/python3 scripts/plot_matrix_bench.py bench-out/radiosity_bench.json docs/images/matrix_fig4.png
+	$(BUILD)/bin/convergence_plot docs/images > bench-out/convergence.csv
 
 format:
 	clang-format -i $$(git ls-files '*.cpp' '*.h' '*.hpp')
