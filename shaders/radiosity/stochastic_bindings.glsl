@@ -1,0 +1,13 @@
+// Binding points of the stochastic radiosity shaders: the one definition that the shaders
+// (#include) and src/penumbra/radiosity/stochastic_gl.cpp both use. Valid GLSL and C++.
+#ifndef PENUMBRA_STOCHASTIC_BINDINGS
+#define PENUMBRA_STOCHASTIC_BINDINGS
+
+#define STOCHASTIC_SSBO_ITERATE 0
+#define STOCHASTIC_SSBO_AREA 1
+#define STOCHASTIC_SSBO_SUMS 2
+#define STOCHASTIC_SSBO_CHILD_FIRST 3
+#define STOCHASTIC_SSBO_ROOTS 4
+#define STOCHASTIC_SSBO_SELECTION 5
+
+#endif
