@@ -397,7 +397,9 @@ TEST(Cli, StochasticRadiosityRendersTheFurnace) {
 TEST(Cli, StochasticInterruptWritesACheckpointThatResumesExactly) {
   TempDir dir;
   const std::string common =
-      "render cornell --method stochastic --iterations 2000 --width 16 --height 16 --spp 1 ";
+      "render cornell --method stochastic --elements 10000 --iterations 4000 --width 16 --height "
+      "16 "
+      "--spp 1 ";
   const auto start = std::chrono::steady_clock::now();
   const auto full = runCli(common + "--quiet -o " + dir.file("full.pfm"));
   ASSERT_EQ(full.exit_code, 0) << full.output;
@@ -407,11 +409,11 @@ TEST(Cli, StochasticInterruptWritesACheckpointThatResumesExactly) {
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   const int code = runCliInterrupted(
       common + "-o " + dir.file("cut.pfm") + " --stats " + dir.file("cut.json"), 0.6 * whole);
-  ASSERT_EQ(code, 130) << "the run should have been interrupted before its 2000 iterations";
+  ASSERT_EQ(code, 130) << "the run should have been interrupted before its 4000 iterations";
   const nlohmann::json cut = readJson(dir.file("cut.json"));
   EXPECT_TRUE(cut["interrupted"].get<bool>());
   const int done = cut["iterations"].get<int>();
-  EXPECT_LT(done, 2000);
+  EXPECT_LT(done, 4000);
   ASSERT_TRUE(std::filesystem::exists(dir.file("cut.pfm")));
   ASSERT_TRUE(std::filesystem::exists(dir.file("cut.checkpoint")));
   const auto resumed = runCli(common + "--quiet --resume " + dir.file("cut.checkpoint") + " -o " +
@@ -420,7 +422,7 @@ TEST(Cli, StochasticInterruptWritesACheckpointThatResumesExactly) {
   EXPECT_FALSE(std::filesystem::exists(dir.file("cut.checkpoint")));
   const nlohmann::json rs = readJson(dir.file("resumed.json"));
   EXPECT_EQ(rs["resumed_iterations"].get<int>(), done);
-  EXPECT_EQ(rs["iterations"].get<int>(), 2000);
+  EXPECT_EQ(rs["iterations"].get<int>(), 4000);
   Expected<Image> a = readImage(dir.file("full.pfm"));
   Expected<Image> b = readImage(dir.file("resumed.pfm"));
   ASSERT_TRUE(a.ok() && b.ok());
