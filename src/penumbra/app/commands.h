@@ -19,7 +19,24 @@ struct CommonOptions {
   bool dry_run = false;
 };
 
-struct RenderOptions {
+// What `render` and `bake` both take for the lightmap methods (addReceiverOptions and
+// addStochasticOptions in cli.cpp bind them for both commands).
+struct LightmapMethodOptions {
+  // progressive: receivers (Wallner sec. 4): adaptive subdivision at shadow boundaries, the
+  // receivers' level (default 0, or 2 with --adaptive), the thresholds b_l and b_u, the finest
+  // level and the minimum share of the contrast test (radiosity/progressive_receivers.h).
+  bool adaptive = false;
+  std::optional<int> receiver_level;
+  std::vector<double> boundary;
+  int finest_level = 0;
+  std::optional<double> min_share;
+  // --method stochastic (Barsi and Jakab): a time limit (seconds; the iteration cap still
+  // applies) and independent shooters per iteration.
+  std::optional<double> time_limit;
+  int shooters = 1;
+};
+
+struct RenderOptions : LightmapMethodOptions {
   std::string scene = "cornell";
   std::string method = "pathtrace";
   std::string device = "auto";
@@ -54,18 +71,6 @@ struct RenderOptions {
   // (interpolated or triangle).
   int shooter_points = 16;
   std::string normals = "interpolated";
-  // progressive: receivers (Wallner sec. 4): adaptive subdivision at shadow boundaries, the
-  // receivers' level (default 0, or 2 with --adaptive), the thresholds b_l and b_u, the finest
-  // level and the minimum share of the contrast test (radiosity/progressive_receivers.h).
-  bool adaptive = false;
-  std::optional<int> receiver_level;
-  std::vector<double> boundary;
-  int finest_level = 0;
-  std::optional<double> min_share;
-  // --method stochastic (Barsi and Jakab): a time limit (seconds; the iteration cap still
-  // applies) and independent shooters per iteration.
-  std::optional<double> time_limit;
-  int shooters = 1;
   // --method sss (Carr, Hall, Hart 2003, sec. 4): the atlas size (default kSssDefaultAtlas),
   // links per texel (adaptive) or a hierarchy level for the non-adaptive scheme, and frames of
   // a light orbit.
@@ -117,7 +122,7 @@ struct InfoOptions {
 };
 
 // `penumbra bake`: a radiosity solution as files (bake_command.cpp).
-struct BakeOptions {
+struct BakeOptions : LightmapMethodOptions {
   std::string scene;
   std::string method = "matrix";
   std::string device = "cpu";  // progressive: cpu, gpu or auto; matrix: cpu
@@ -140,18 +145,6 @@ struct BakeOptions {
   int shooter_points = 16;       // progressive: top-level points per shooter
   std::string normals = "interpolated";  // progressive: interpolated or triangle
   std::optional<uint64_t> seed;          // stochastic: random seed (default 0)
-  // progressive: receivers (Wallner sec. 4): adaptive subdivision at shadow boundaries, the
-  // receivers' level (default 0, or 2 with --adaptive), the thresholds b_l and b_u, the finest
-  // level and the minimum share of the contrast test (radiosity/progressive_receivers.h).
-  bool adaptive = false;
-  std::optional<int> receiver_level;
-  std::vector<double> boundary;
-  int finest_level = 0;
-  std::optional<double> min_share;
-  // --method stochastic (Barsi and Jakab): a time limit (seconds; the iteration cap still
-  // applies) and independent shooters per iteration.
-  std::optional<double> time_limit;
-  int shooters = 1;
 };
 
 int runRender(const RenderOptions& options, const CommonOptions& common);

@@ -30,6 +30,26 @@ constexpr uint64_t kBytesPerElement = 700;
 
 }  // namespace
 
+Status checkLightmapPlan(const Scene& scene, const LightmapResolution& resolution,
+                         std::optional<uint64_t> checkpoint_elements, const std::string& method,
+                         uint64_t bytes_per_element) {
+  // The texels the plan asks for, from the option that sizes the lightmap, counted before
+  // anything is built.
+  const uint64_t expected =
+      checkpoint_elements ? *checkpoint_elements : expectedLightmapElements(scene, resolution);
+  const char* sized_by = checkpoint_elements        ? "the checkpoint's lightmap"
+                         : resolution.texel_density ? "--texel-density"
+                         : resolution.size          ? "--lightmap-size"
+                                                    : "--elements";
+  if (expected > uint64_t(UINT32_MAX)) {
+    return inputError("", sized_by,
+                      fmt::format("{} with {} lightmap texels: more than a lightmap can index",
+                                  method, expected));
+  }
+  return checkMemory(expected * bytes_per_element,
+                     fmt::format("{} with {} lightmap texels ({})", method, expected, sized_by));
+}
+
 Status checkProgressiveRunOptions(const ProgressiveRunOptions& o) {
   if (o.texel_density && !(*o.texel_density > 0.0 && std::isfinite(*o.texel_density))) {
     return inputError("", "--texel-density", "must be a positive number of texels per metre");
@@ -94,27 +114,13 @@ Expected<ProgressiveRun> runProgressive(const Scene& scene, const ProgressiveRun
       return inputError(scene.source, "", "the scene has no surface area");
     }
   }
-  // The texels the plan asks for, from the option that sizes the lightmap, counted before
-  // anything is built.
   LightmapResolution resolution;
   resolution.texel_density = options.texel_density;
   resolution.size = options.lightmap_size;
   resolution.elements = options.elements;
-  const uint64_t expected_elements =
-      info ? info->elements : expectedLightmapElements(scene, resolution);
-  const char* sized_by = info                    ? "the checkpoint's lightmap"
-                         : options.texel_density ? "--texel-density"
-                         : options.lightmap_size ? "--lightmap-size"
-                                                 : "--elements";
-  if (expected_elements > uint64_t(UINT32_MAX)) {
-    return inputError("", sized_by,
-                      fmt::format("progressive radiosity with {} lightmap texels: more than a "
-                                  "lightmap can index",
-                                  expected_elements));
-  }
-  PENUMBRA_TRY(checkMemory(expected_elements * kBytesPerElement,
-                           fmt::format("progressive radiosity with {} lightmap texels ({})",
-                                       expected_elements, sized_by)));
+  PENUMBRA_TRY(checkLightmapPlan(scene, resolution,
+                                 info ? std::optional<uint64_t>(info->elements) : std::nullopt,
+                                 "progressive radiosity", kBytesPerElement));
 
   Expected<DeviceChoice> device = chooseDevice(options.device);
   if (!device) return device.error();

@@ -76,6 +76,13 @@ ProgressiveRunOptions progressiveRunOptions(const CommandOptions& o) {
   return ro;
 }
 
+// Before any work, for the methods whose solution is a lightmap: the texels `resolution` (or a
+// checkpoint's element count) asks for fit a lightmap's index and, at `bytes_per_element`, the
+// memory; errors name the option that sized the lightmap and `method`.
+Status checkLightmapPlan(const Scene& scene, const LightmapResolution& resolution,
+                         std::optional<uint64_t> checkpoint_elements, const std::string& method,
+                         uint64_t bytes_per_element);
+
 // Checks the options that do not need the scene (call before any work).
 Status checkProgressiveRunOptions(const ProgressiveRunOptions& options);
 

@@ -1,5 +1,7 @@
 #include "penumbra/app/stochastic_run.h"
 
+#include "penumbra/app/progressive_run.h"
+
 #include "penumbra/core/file_util.h"
 #include "penumbra/core/interrupt.h"
 #include "penumbra/core/memory.h"
@@ -84,21 +86,9 @@ Expected<StochasticRun> runStochastic(const Scene& scene, const StochasticRunOpt
     if (!atlas) return atlas.error();
     so.atlas = *atlas;
   }
-  const uint64_t expected_elements =
-      info ? info->elements : expectedLightmapElements(scene, resolution);
-  const char* sized_by = info                    ? "the checkpoint's lightmap"
-                         : options.texel_density ? "--texel-density"
-                         : options.lightmap_size ? "--lightmap-size"
-                                                 : "--elements";
-  if (expected_elements > uint64_t(UINT32_MAX)) {
-    return inputError("", sized_by,
-                      fmt::format("stochastic radiosity with {} lightmap texels: more than a "
-                                  "lightmap can index",
-                                  expected_elements));
-  }
-  PENUMBRA_TRY(checkMemory(expected_elements * kBytesPerElement,
-                           fmt::format("stochastic radiosity with {} lightmap texels ({})",
-                                       expected_elements, sized_by)));
+  PENUMBRA_TRY(checkLightmapPlan(scene, resolution,
+                                 info ? std::optional<uint64_t>(info->elements) : std::nullopt,
+                                 "stochastic radiosity", kBytesPerElement));
   run.device = "cpu";  // the CPU path only in this version: `auto` means the CPU
   if (common.dry_run) {
     run.dry_run = true;
