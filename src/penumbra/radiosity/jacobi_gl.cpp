@@ -5,12 +5,12 @@
 #include "penumbra/core/memory.h"
 #include "penumbra/core/timer.h"
 #include "penumbra/gpu/program.h"
+#include "penumbra/gpu/storage.h"
 
 #include <fmt/format.h>
 
 #include <algorithm>
 #include <cstdint>
-#include <cstring>
 #include <string>
 #include <utility>
 
@@ -32,11 +32,6 @@ std::vector<std::string> shaderDefines(int pass, bool fp16) {
 
 uint32_t ceilDiv(uint32_t a, uint32_t b) {
   return (a + b - 1) / b;
-}
-
-bool softwareRenderer() {
-  const auto* renderer = reinterpret_cast<const char*>(glGetString(GL_RENDERER));
-  return renderer && (std::strstr(renderer, "llvmpipe") || std::strstr(renderer, "softpipe"));
 }
 
 }  // namespace
@@ -90,7 +85,7 @@ Expected<GlJacobi> GlJacobi::create(const RadiositySystem& system, int64_t max_b
   // renderer; everywhere else, GL_OUT_OF_MEMORY after allocating.
   const uint64_t total_bytes = matrix_bytes + partial_bytes +
                                uint64_t(n) * (sizeof(GpuJacobiElement) + 2 * sizeof(GpuRgb) + 8);
-  if (softwareRenderer()) {
+  if (gl::softwareRenderer()) {
     PENUMBRA_TRY(checkMemory(total_bytes, "matrix radiosity on a software OpenGL device"));
   } else if (epoxy_has_gl_extension("GL_NVX_gpu_memory_info")) {
     GLint free_kib = 0;

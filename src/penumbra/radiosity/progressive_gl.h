@@ -77,6 +77,7 @@
 #include "penumbra/core/expected.h"
 #include "penumbra/core/image.h"
 #include "penumbra/gpu/objects.h"
+#include "penumbra/radiosity/hemisphere_gl.h"
 #include "penumbra/radiosity/progressive.h"
 
 #include <glm/vec2.hpp>
@@ -90,18 +91,6 @@
 
 namespace penumbra {
 
-struct GlProgressiveOptions {
-  // Each shooter point's depth map's side (texels); one texture holds up to 4 x 4 of them.
-  int visibility_resolution = 512;
-  // Sub-triangle legs of the depth pass, in atlas texels: k = ceil(longest edge / this), in
-  // [1, 64].
-  int tessellation_texels = 2;
-  float depth_tolerance = 1e-4f;  // relative depth tolerance of the visibility test
-  int gap_fill_passes = 2;        // sec. 3.1: two ping-pong passes
-  // A smaller maximum texture size than the device's (0: the device's), to test the refusal.
-  int max_texture_size = 0;
-};
-
 // What the GPU path runs, from a caller's options: the paper's flat substructuring
 // (shooter_top_points = 0) with the faces' own normals (shading_normals = false); the level is
 // chosen once the elements are known (gpuShooterLevel).
@@ -111,40 +100,8 @@ ProgressiveOptions gpuProgressiveOptions(ProgressiveOptions options);
 // `cpu` still has at least `points` clusters (sec. 3: one mip level for every shooter), at most 8.
 int gpuShooterLevel(const ProgressiveRadiosity& cpu, int points);
 
-// ---- GPU layouts (std430), mirrored in shaders/radiosity/progressive_layout.glsl ----
-
-struct GpuProgressiveElement {  // 80 bytes
-  float position[3];
-  float area;
-  float reflectance[3];
-  uint32_t texel;
-  float normal[3];       // unit, its faces' (the side it is on): culling
-  uint32_t piece_count;  // its pieces: polygons[8 * piece_first ..], 8 corners each
-  float barycentric[2];  // of `position` on `triangle` (for the back projection)
-  uint32_t triangle;     // the scene triangle whose face holds its texel's centre
-  uint32_t piece_first;
-  float shading_normal[3];  // unit: the receiver's cosine (its normal map's, else `normal`)
-  uint32_t pad;
-};
-static_assert(sizeof(GpuProgressiveElement) == 80 &&
-              offsetof(GpuProgressiveElement, reflectance) == 16 &&
-              offsetof(GpuProgressiveElement, normal) == 32 &&
-              offsetof(GpuProgressiveElement, barycentric) == 48 &&
-              offsetof(GpuProgressiveElement, piece_first) == 60 &&
-              offsetof(GpuProgressiveElement, shading_normal) == 64);
-
-// A scene triangle as an occluder of the depth pass (and the back projection): 48 bytes.
-struct GpuProgressiveTriangle {
-  float p0[3];
-  int32_t front_chart;  // the charts of its front and back faces, -1 for none
-  float p1[3];
-  uint32_t tessellation;  // the depth pass's sub-triangle grid: k x k sub-triangles
-  float p2[3];
-  int32_t back_chart;
-};
-static_assert(sizeof(GpuProgressiveTriangle) == 48 &&
-              offsetof(GpuProgressiveTriangle, tessellation) == 28 &&
-              offsetof(GpuProgressiveTriangle, p2) == 32);
+// ---- GPU layouts (std430), mirrored in shaders/radiosity/progressive_layout.glsl (the
+// elements', triangles' and batch points' in hemisphere_gl.h) ----
 
 // A shooter (ProgressiveRadiosity's): its elements [element_first, + element_count), 8 bytes.
 struct GpuShooter {
@@ -160,20 +117,6 @@ struct GpuShooterPoint {
   uint32_t member_count;
 };
 static_assert(sizeof(GpuShooterPoint) == 8);
-
-// One shooter point of a batch, std140 (the uniform block Batch): 96 bytes.
-struct GpuBatchPoint {
-  double position[4];  // xyz, w = area
-  float position_f[4];
-  float residual[4];
-  uint32_t members[4];  // first element, count
-  uint32_t pad[4];      // std140 array stride: a multiple of the dvec4 alignment (32)
-};
-static_assert(sizeof(GpuBatchPoint) == 96 && offsetof(GpuBatchPoint, position_f) == 32 &&
-              offsetof(GpuBatchPoint, residual) == 48 && offsetof(GpuBatchPoint, members) == 64);
-// Shooter points per receiver pass (MAX_BATCH_POINTS in progressive_layout.glsl): a 4 x 4 grid
-// of depth maps in one texture.
-inline constexpr int kProgressiveBatchTiles = 4;
 
 struct GpuSelection {  // 16 bytes
   double power;
@@ -254,12 +197,12 @@ class GlProgressive {
   GlProgressive() = default;
   // Runs the per-shooter power pass (pass 0).
   void dispatchPower();
-  // One receiver pass of `program`: the receivers [first, first + count) (or, with `elements`,
-  // the elements) drawn as points at their texels' centres.
-  void drawReceivers(const gl::Program& program, uint32_t first, uint32_t count,
+  // One receiver pass over the receivers [first, first + count) (or, with `elements`, the
+  // elements).
+  void drawReceivers(GlHemisphereGather::Pass pass, uint32_t first, uint32_t count,
                      bool elements = false);
-  // The batch of shooter points [first, first + count) of `active` as the passes' uniforms,
-  // and their depth maps (Algorithm 1).
+  // The batch of shooter points [first, first + count) of `active` (the shooter's points from
+  // point_first on) to the gather: uniforms and depth maps.
   void prepareBatch(const std::vector<uint32_t>& active,
                     const std::vector<glm::dvec3>& active_residual, uint32_t point_first,
                     uint32_t first, uint32_t count);
@@ -283,10 +226,8 @@ class GlProgressive {
   GlProgressiveOptions gl_options_;
   size_t element_count_ = 0;
   uint32_t shooter_count_ = 0;
-  uint32_t triangle_count_ = 0;
   int width_ = 0, height_ = 0;
   uint64_t device_bytes_ = 0;
-  float far_ = 1.0f;
   double total_area_ = 0.0;
   glm::dvec3 ambient_factor_{1.0};  // R of eq. 6, per channel
   // Per shooter (CPU side): its elements, mean normal (the hemisphere's pole), whether its
@@ -302,12 +243,6 @@ class GlProgressive {
   std::vector<glm::dvec3> point_position_;
   std::vector<double> point_area_;
   std::vector<glm::uvec2> point_members_;  // first element, count
-  // Per chart: its elements and bounding sphere (the near pass draws the charts in reach).
-  std::vector<glm::uvec2> chart_elements_;
-  std::vector<glm::dvec3> chart_centre_;
-  std::vector<double> chart_radius_;
-  std::vector<uint32_t> element_texel_;
-  uint32_t sub_triangle_count_ = 0;
   // Receivers (sec. 4): the CPU solver's surface (for the hierarchy), the receivers, whether
   // each shooter has subdivided, and each chart's receivers.
   const RadiositySurface* surface_ = nullptr;
@@ -317,18 +252,13 @@ class GlProgressive {
 
   EnergyBalance balance_;
   int iterations_ = 0;
-  uint32_t tiles_ = 1;  // a batch of tiles^2 shooter points shares the depth texture
 
-  gl::Program power_, select_, points_, resolve_, radiance_, fill_, depth_, receive_far_,
-      receive_near_, sample_;
-  gl::Buffer triangles_, shooters_, elements_, texel_element_, texel_chart_, element_area_,
-      points_buf_, point_power_, sub_triangles_, shooter_power_, selection_, sums_,
-      element_position_d_, batch_, polygons_, chart_adjacency_first_, chart_adjacency_,
-      receivers_buf_, receiver_position_d_, samples_;
-  gl::Texture radiosity_, residual_, incident_, depth_map_, id_map_;
+  GlHemisphereGather gather_;  // depth maps and receiver passes (Algorithm 1, Fig. 3)
+  gl::Program power_, select_, points_, resolve_, radiance_, fill_;
+  gl::Buffer shooters_, texel_element_, element_area_, points_buf_, point_power_, shooter_power_,
+      selection_, sums_, receivers_buf_, receiver_position_d_, samples_;
+  gl::Texture radiosity_, residual_;
   std::array<gl::Texture, 2> radiance_maps_;
-  gl::Framebuffer atlas_fbo_, depth_fbo_;
-  gl::VertexArray vao_;
 };
 
 }  // namespace penumbra

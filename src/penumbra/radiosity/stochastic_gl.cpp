@@ -2,6 +2,7 @@
 #include "radiosity/stochastic_bindings.glsl"
 
 #include "penumbra/gpu/program.h"
+#include "penumbra/gpu/storage.h"
 
 #include <fmt/format.h>
 #include <glm/vec4.hpp>
@@ -21,12 +22,6 @@ void dispatchCount(uint32_t count) {
   const uint32_t groups = (count + kGroup - 1) / kGroup;
   if (groups == 0) return;
   glDispatchCompute(std::min(groups, kMaxGroups), (groups + kMaxGroups - 1) / kMaxGroups, 1);
-}
-
-template <typename T>
-gl::Buffer storage(const std::vector<T>& data) {
-  return gl::Buffer(std::max<size_t>(data.size(), 1) * sizeof(T),
-                    data.empty() ? nullptr : data.data(), GL_DYNAMIC_STORAGE_BIT);
 }
 
 }  // namespace
@@ -58,9 +53,9 @@ Expected<GlStochasticSelection> GlStochasticSelection::create(const StochasticRa
     roots[c] = glm::uvec2(r.level, r.index);
   }
   std::vector<double> area(cpu.atlas().element_area.begin(), cpu.atlas().element_area.end());
-  s.area_ = storage(area);
-  s.child_first_ = storage(child_first);
-  s.roots_ = storage(roots);
+  s.area_ = gl::storageBuffer(area);
+  s.child_first_ = gl::storageBuffer(child_first);
+  s.roots_ = gl::storageBuffer(roots);
   s.sums_ = gl::Buffer(std::max<size_t>(sums, 1) * sizeof(double), nullptr, GL_DYNAMIC_STORAGE_BIT);
   s.iterate_ = gl::Buffer(std::max<size_t>(s.elements_, 1) * 32, nullptr, GL_DYNAMIC_STORAGE_BIT);
   s.selection_ = gl::Buffer(sizeof(GpuStochasticSelection), nullptr, GL_DYNAMIC_STORAGE_BIT);
