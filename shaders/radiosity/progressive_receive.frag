@@ -26,6 +26,7 @@
 #include "radiosity/progressive_layout.glsl"
 #include "radiosity/progressive_hemisphere.glsl"
 #include "radiosity/progressive_form_factor.glsl"
+#include "common/watertight.glsl"
 
 layout(std430, binding = PROGRESSIVE_SSBO_TRIANGLES) readonly buffer Triangles { GpuProgressiveTriangle triangles[]; };
 layout(std430, binding = PROGRESSIVE_SSBO_ELEMENTS) readonly buffer Elements { GpuProgressiveElement elements[]; };
@@ -80,26 +81,43 @@ bool nextTo(int seen, int chart) {
 // angles; asking that the centre see a connected surface keeps it from letting light past an
 // unconnected occluder's silhouette (the inner faces of a box lit from outside, the ceiling
 // 0.8 mm above the Cornell box's light).
-bool visibleFromShooter(vec3 image, uint k, int chart) {
+// Either way, a triangle that one of the nine texels sees nearer than the element and that the
+// segment from the element to the point crosses (the watertight ray-triangle test) occludes:
+// next to an edge, neighbouring triangles' sub-triangle tessellations part by up to a texel, so
+// the texel may show the element's own (two-sided) wall where the face over the edge blocks it,
+// and light would reach the inside of a closed box past its edges.
+bool visibleFromShooter(vec3 image, uint k, int chart, vec3 receiver, vec3 normal) {
   const int size = textureSize(depth_map, 0).x / int(tiles);
   const ivec2 origin = ivec2(tileOrigin(k, tiles)) * size;
   const ivec2 px = clamp(ivec2(floor((image.xy * 0.5 + 0.5) * float(size))), ivec2(0),
                          ivec2(size - 1));
   const float threshold = image.z * (1.0 - depth_tolerance) - 1e-7;
-  if (texelFetch(depth_map, origin + px, 0).r >= threshold) return true;
-  const uint seen = texelFetch(id_map, origin + px, 0).r;
-  if (seen == 0xffffffffu ||
-      !(nextTo(triangles[seen].front_chart, chart) || nextTo(triangles[seen].back_chart, chart))) {
-    return false;
+  const bool clear = texelFetch(depth_map, origin + px, 0).r >= threshold;
+  if (!clear) {
+    const uint seen = texelFetch(id_map, origin + px, 0).r;
+    if (seen == 0xffffffffu ||
+        !(nextTo(triangles[seen].front_chart, chart) || nextTo(triangles[seen].back_chart, chart))) {
+      return false;
+    }
   }
+  // The segment's ends lifted off their surfaces, as the CPU's shadow rays are.
+  const vec3 from = receiver + normal * hemisphere.on_plane;
+  const vec3 to = batch[k].position_f.xyz + hemisphere.normal * hemisphere.on_plane;
+  const WatertightRay segment = makeWatertightRay(from, to - from);
   float farthest = 0.0;
   for (int dy = -1; dy <= 1; ++dy) {
     for (int dx = -1; dx <= 1; ++dx) {
       const ivec2 q = clamp(px + ivec2(dx, dy), ivec2(0), ivec2(size - 1));
-      farthest = max(farthest, texelFetch(depth_map, origin + q, 0).r);
+      const float depth = texelFetch(depth_map, origin + q, 0).r;
+      farthest = max(farthest, depth);
+      if (depth >= threshold) continue;
+      const uint id = texelFetch(id_map, origin + q, 0).r;
+      const GpuProgressiveTriangle t = triangles[id];
+      float hit, u, v;
+      if (intersectTriangle(segment, t.p0, t.p1, t.p2, 1e-4, 1.0 - 1e-4, hit, u, v)) return false;
     }
   }
-  return farthest >= threshold;
+  return clear || farthest >= threshold;
 }
 
 // Whether receiver r (its point in double: pr) and batch point k make a pair of this pass:
@@ -123,7 +141,7 @@ bool seenFrom(GpuProgressiveElement r, GpuProgressiveTriangle rt, uint k) {
   h.origin = batch[k].position_f.xyz;
   vec3 image;
   return backProject(h, rt, r.barycentric, image) &&
-         visibleFromShooter(image, k, texel_chart[r.texel]);
+         visibleFromShooter(image, k, texel_chart[r.texel], r.position, r.normal);
 #else
   return true;
 #endif

@@ -1,6 +1,6 @@
 #version 450
 #include "radiosity/stochastic_bindings.glsl"
-// Shooter selection of stochastic radiosity on the GPU (Barsi and Jakab sec. 3.1): the mipmap
+// Stochastic radiosity on the GPU (Barsi and Jakab). Shooter selection (sec. 3.1): the mipmap
 // of lum(B) A built and descended on the device, so that only the chosen texel (32 bytes) is read
 // back, never the radiosity (the paper names that readback as its bottleneck). The twin of
 // StochasticRadiosity::buildSums and ::select (src/penumbra/radiosity/stochastic.cpp): the same
@@ -10,7 +10,16 @@
 //  1 level:   each cluster of one level: the sum of its children's, in order;
 //  2 descent: one invocation: the chart root whose running sum passes u Phi, then at each level
 //             the child whose running sum passes the remaining value, down to a texel; writes
-//             the texel, its probability and Phi.
+//             the texel, its probability, Phi and the texel's radiosity.
+// The shot itself is the hemispherical gather's (radiosity/hemisphere_gl.h); then
+//  3 update:  eq. 3's new iterate B_m = E' + rho E_in per element (E_in the gathered
+//             irradiance), in double, and eq. 2's running sums (by the iterate's parity);
+//  4 error:   the error estimate's sums, per work group: area-weighted squares of half the
+//             difference of the odd and even means and of the mean (luminance).
+
+#include "radiosity/progressive_layout.glsl"
+
+double luminance(dvec3 b) { return 0.3LF * b.x + 0.59LF * b.y + 0.11LF * b.z; }
 
 #if STOCHASTIC_PASS == 0
 layout(local_size_x = 256) in;
@@ -23,9 +32,7 @@ void main() {
   const uint e = gl_WorkGroupID.y * gl_NumWorkGroups.x * gl_WorkGroupSize.x +
                  gl_GlobalInvocationID.x;
   if (e >= count) return;
-  const dvec3 b = iterate[e].xyz;
-  const double lum = 0.3LF * b.x + 0.59LF * b.y + 0.11LF * b.z;
-  sums[e] = max(lum, 0.0LF) * area[e];
+  sums[e] = max(luminance(iterate[e].xyz), 0.0LF) * area[e];
 }
 
 #elif STOCHASTIC_PASS == 1
@@ -60,7 +67,9 @@ struct GpuStochasticSelection {
   double probability;
   double power;
   double pad;
+  dvec4 value;  // the texel's radiosity B_j (W m^-2)
 };
+layout(std430, binding = STOCHASTIC_SSBO_ITERATE) readonly buffer Iterate { dvec4 iterate[]; };
 layout(std430, binding = STOCHASTIC_SSBO_SELECTION) writeonly buffer Selection { GpuStochasticSelection selection; };
 uniform uint chart_count;
 uniform double u;
@@ -125,5 +134,61 @@ void main() {
   selection.found = 1u;
   selection.probability = sums[index] / total;
   selection.power = total;
+  selection.value = iterate[index];
+}
+
+#elif STOCHASTIC_PASS == 3
+layout(local_size_x = 256) in;
+layout(std430, binding = STOCHASTIC_SSBO_ELEMENTS) readonly buffer Elements { GpuProgressiveElement elements[]; };
+layout(std430, binding = STOCHASTIC_SSBO_SOURCE) readonly buffer Source { dvec4 source[]; };
+layout(std430, binding = STOCHASTIC_SSBO_ITERATE) writeonly buffer Iterate { dvec4 iterate[]; };
+// Sums of the averaged iterates: [0, count) even, [count, 2 count) odd.
+layout(std430, binding = STOCHASTIC_SSBO_AVERAGE) buffer Average { dvec4 sums[]; };
+layout(binding = STOCHASTIC_TEXTURE_INCIDENT) uniform sampler2D incident;
+uniform uint count;
+uniform int atlas_width;
+uniform int sum_index;  // the parity of the iterate's number among the averaged; -1: burn-in
+
+void main() {
+  const uint e = gl_WorkGroupID.y * gl_NumWorkGroups.x * gl_WorkGroupSize.x +
+                 gl_GlobalInvocationID.x;
+  if (e >= count) return;
+  const GpuProgressiveElement el = elements[e];
+  const ivec2 t = ivec2(int(el.texel % uint(atlas_width)), int(el.texel / uint(atlas_width)));
+  // Eq. 3: B_m = E' + T* B_{m-1}, T* B_{m-1} = rho E_in.
+  const dvec3 next =
+      source[e].xyz + dvec3(el.reflectance) * dvec3(texelFetch(incident, t, 0).rgb);
+  iterate[e] = dvec4(next, 0.0LF);
+  if (sum_index >= 0) sums[uint(sum_index) * count + e] += dvec4(next, 0.0LF);
+}
+
+#elif STOCHASTIC_PASS == 4
+layout(local_size_x = 256) in;
+layout(std430, binding = STOCHASTIC_SSBO_AREA) readonly buffer Area { double area[]; };
+layout(std430, binding = STOCHASTIC_SSBO_AVERAGE) readonly buffer Average { dvec4 sums[]; };
+layout(std430, binding = STOCHASTIC_SSBO_PARTIAL) writeonly buffer Partial { dvec2 partial[]; };
+uniform uint count;
+uniform double odd;   // averaged iterates with odd numbers
+uniform double even;  // and with even ones
+shared dvec2 part[256];
+
+void main() {
+  const uint e = gl_WorkGroupID.y * gl_NumWorkGroups.x * gl_WorkGroupSize.x +
+                 gl_GlobalInvocationID.x;
+  dvec2 v = dvec2(0.0LF);
+  if (e < count) {
+    const dvec3 se = sums[e].xyz, so = sums[count + e].xyz;
+    const double d = 0.5LF * luminance(so / odd - se / even);
+    const double m = luminance((so + se) / (odd + even));
+    v = area[e] * dvec2(d * d, m * m);
+  }
+  const uint l = gl_LocalInvocationIndex;
+  part[l] = v;
+  barrier();
+  for (uint stride = 128u; stride > 0u; stride >>= 1) {
+    if (l < stride) part[l] += part[l + stride];
+    barrier();
+  }
+  if (l == 0u) partial[gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x] = part[0];
 }
 #endif

@@ -279,29 +279,42 @@ StochasticIteration StochasticRadiosity::step() {
   return it;
 }
 
-StochasticStats StochasticRadiosity::solve(
+Expected<StochasticStats> iterateStochastic(
+    const StochasticOptions& options, const std::function<int()>& iterations,
+    const std::function<Expected<StochasticIteration>()>& step,
     const std::function<void(const StochasticIteration&)>& after,
     const std::function<bool()>& stop) {
   const Timer timer;
   StochasticStats st;
-  while (iterations_ < options_.iterations) {
+  while (iterations() < options.iterations) {
     if (stop && stop()) {
       st.interrupted = true;
       break;
     }
-    if (options_.time_limit > 0.0 && timer.seconds() >= options_.time_limit) {
+    if (options.time_limit > 0.0 && timer.seconds() >= options.time_limit) {
       st.timed_out = true;
       break;
     }
-    const StochasticIteration it = step();
+    Expected<StochasticIteration> it = step();
+    if (!it) return it.error();
     ++st.iterations;
-    st.rays += it.rays;
-    if (after) after(it);
+    st.rays += it->rays;
+    if (after) after(*it);
   }
-  st.total_iterations = iterations_;
-  st.error = errorEstimate();
+  st.total_iterations = iterations();
   st.seconds = timer.seconds();
   return st;
+}
+
+StochasticStats StochasticRadiosity::solve(
+    const std::function<void(const StochasticIteration&)>& after,
+    const std::function<bool()>& stop) {
+  Expected<StochasticStats> st = iterateStochastic(
+      options_, [&] { return iterations_; },
+      [&]() -> Expected<StochasticIteration> { return step(); }, after, stop);
+  PENUMBRA_CHECK(bool(st));  // the CPU's iterations do not fail
+  st->error = errorEstimate();
+  return *st;
 }
 
 glm::dvec3 StochasticRadiosity::radiosity(size_t e) const {

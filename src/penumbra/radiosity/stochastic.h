@@ -93,6 +93,15 @@ struct StochasticState {
   int iterations = 0;
 };
 
+// The iteration loop both devices' solve() run: iterations until `options.iterations` (counted
+// by `iterations`, a resumed run's included) or the time limit; `stop` before each (true: return
+// now, interrupted), `after` after each. The error estimate is the caller's to fill in.
+Expected<StochasticStats> iterateStochastic(
+    const StochasticOptions& options, const std::function<int()>& iterations,
+    const std::function<Expected<StochasticIteration>()>& step,
+    const std::function<void(const StochasticIteration&)>& after,
+    const std::function<bool()>& stop);
+
 class StochasticRadiosity {
  public:
   // Builds the atlas over the scene's faces (the scene must have passed validateScene) and
