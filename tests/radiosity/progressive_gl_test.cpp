@@ -367,15 +367,16 @@ TEST(ProgressiveGl, MatchesTheCpuOnTheCornellBox) {
       "%.3f of the mean (element %zu at %.3f %.3f %.3f); %zu of %zu elements differ by more than "
       "5%%; the back faces hold %.2e of the GPU's radiosity power\n",
       seconds, rms, worst, worst_e, p.x, p.y, p.z, over, front, back_gpu / (back_gpu + front_gpu));
-  // Measured (512^2 depth maps, sub-triangles of 2 texels): RMS 5.1e-3; largest difference 0.48
+  // Measured (512^2 depth maps, sub-triangles of 2 texels): RMS 3.5e-3; largest difference 0.29
   // of the mean, where the depth test and the CPU's rays part (floor at a box's base corner,
-  // the red wall by the tall box); 390 of 1439 elements over 5% after 30 shots (differences at
-  // shadow boundaries spread with each bounce); 4.8e-3 of the power on back faces (the ceiling
-  // 0.8 mm over the light, the boxes' insides along their top edges).
+  // the red wall by the tall box); 352 of 1439 elements over 5% after 30 shots (differences at
+  // shadow boundaries spread with each bounce); 1.1e-3 of the power on back faces (4.8e-3 before
+  // the segment test against the triangles nearer in the 3 x 3 texels stopped the light that
+  // reached the boxes' insides along their edges).
   EXPECT_LE(rms, 0.01);
   EXPECT_LE(worst, 0.6);
   EXPECT_LE(over, front / 3);
-  EXPECT_LE(back_gpu / (back_gpu + front_gpu), 0.01);
+  EXPECT_LE(back_gpu / (back_gpu + front_gpu), 0.003);
 }
 
 // Adaptive subdivision (Wallner sec. 4) on both devices: the GPU's samples pass (per texel,
@@ -398,9 +399,9 @@ TEST(ProgressiveGl, AdaptiveSubdivisionMatchesTheCpu) {
   Expected<ProgressiveState> st = gpu.download();
   ASSERT_TRUE(st.ok());
   // Texels under receivers of the same level on both devices, on the front faces (the room's
-  // inside and the boxes' outsides). On the back faces the GPU splits receivers the CPU leaves
-  // whole: inside the closed boxes its depth test lets the light through along the edges (the
-  // leak the test above measures), and the contrast test finds that light all there is.
+  // inside and the boxes' outsides). On the back faces the GPU may split receivers the CPU
+  // leaves whole where the depth test lets light into the closed boxes (the leak the test above
+  // measures; 166 splits against the CPU's 165 since the segment test closed most of it).
   const std::vector<uint8_t> cpu_levels = cpu.receivers().elementLevels();
   size_t same = 0, front = 0, cpu_fine = 0, gpu_fine = 0;
   for (size_t e = 0; e < cpu.elementCount(); ++e) {

@@ -6,13 +6,14 @@
 #include "penumbra/core/parallel.h"
 #include "penumbra/radiosity/progressive.h"
 #include "penumbra/scene/builtin.h"
+#include "support/stochastic_runs.h"
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 #include <glm/geometric.hpp>
 
 #include <cmath>
 #include <cstdio>
-#include <numbers>
 #include <vector>
 
 namespace penumbra {
@@ -60,39 +61,13 @@ TEST(StochasticRadiosity, MipmapDescentPicksTexelsByTheirShareOfThePower) {
   EXPECT_EQ(off, 0);
 }
 
-// Per chart, the area-weighted mean luminance of the average radiosity of `runs` independent
-// runs (seeds 1..runs) of `averaged` iterations after the burn-in: their mean and its standard
-// error.
-struct ChartMeans {
-  std::vector<double> mean, standard_error;
-};
+// Per chart, the mean over `runs` independent CPU runs (seeds 1..runs) of `averaged`
+// iterations after the burn-in.
 ChartMeans chartMeans(const std::string& scene, StochasticOptions o, int runs, int averaged) {
-  const StochasticRadiosity probe = buildStochastic(scene, o);
-  o.iterations = probe.burnIn() + averaged;
-  const size_t nc = probe.atlas().chartCount();
-  std::vector<std::vector<double>> per_run(nc);
-  for (int seed = 1; seed <= runs; ++seed) {
-    o.seed = uint64_t(seed);
-    StochasticRadiosity sr = buildStochastic(scene, o);
+  return stochasticChartMeans(scene, std::move(o), 1, runs, averaged, [](StochasticRadiosity& sr) {
     sr.solve();
-    std::vector<double> sum(nc, 0.0), area(nc, 0.0);
-    for (size_t e = 0; e < sr.elementCount(); ++e) {
-      const uint32_t c = sr.atlas().element_chart[e];
-      sum[c] += residualLuminance(sr.radiosity(e)) * sr.atlas().element_area[e];
-      area[c] += sr.atlas().element_area[e];
-    }
-    for (size_t c = 0; c < nc; ++c) per_run[c].push_back(sum[c] / area[c]);
-  }
-  ChartMeans m;
-  for (size_t c = 0; c < nc; ++c) {
-    double mean = 0.0, var = 0.0;
-    for (double x : per_run[c]) mean += x;
-    mean /= runs;
-    for (double x : per_run[c]) var += (x - mean) * (x - mean);
-    m.mean.push_back(mean);
-    m.standard_error.push_back(std::sqrt(var / (runs - 1) / runs));
-  }
-  return m;
+    return sr.radiosity();
+  });
 }
 
 // Unbiasedness, in the furnace (emission and reflectance 0.5 everywhere inside a closed cube:
@@ -109,21 +84,9 @@ TEST(StochasticRadiosity, FurnaceRunsAverageToTheClosedForm) {
     o.atlas.texel_density = 6.0;
     o.shooters = shooters;
     const ChartMeans m = chartMeans("furnace", o, 32, 32);
-    const double want = 2.0 * std::numbers::pi;
-    int inside = 0;
-    for (size_t c = 0; c < m.mean.size(); ++c) {
-      if (m.mean[c] < 1.0) continue;  // the cube's outside: nothing reaches it
-      ++inside;
-      const double z = (m.mean[c] - want) / m.standard_error[c];
-      std::printf(
-          "furnace, %d shooters, face %zu: %.4f (2 pi = %.4f), standard error %.4f, "
-          "z %.2f\n",
-          shooters, c, m.mean[c], want, m.standard_error[c], z);
-      EXPECT_LT(std::abs(z), 4.0) << c;
-      // The test sees a bias of 4 standard errors: 6% (one shooter), 3% (four).
-      EXPECT_LT(m.standard_error[c], 0.015 / std::sqrt(double(shooters)) * want);
-    }
-    EXPECT_EQ(inside, 6);
+    // The test sees a bias of 4 standard errors: 6% (one shooter), 3% (four).
+    expectFurnaceClosedForm(m, 0.015 / std::sqrt(double(shooters)),
+                            fmt::format("furnace, {} shooters", shooters));
   }
 }
 

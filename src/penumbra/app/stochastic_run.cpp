@@ -1,5 +1,6 @@
 #include "penumbra/app/stochastic_run.h"
 
+#include "penumbra/app/device.h"
 #include "penumbra/app/progressive_run.h"
 
 #include "penumbra/core/file_util.h"
@@ -8,12 +9,14 @@
 #include "penumbra/core/progress.h"
 #include "penumbra/core/timer.h"
 #include "penumbra/radiosity/stochastic_checkpoint.h"
+#include "penumbra/radiosity/stochastic_gl.h"
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 
 namespace penumbra {
 
@@ -50,10 +53,6 @@ Expected<StochasticRun> runStochastic(const Scene& scene, const StochasticRunOpt
   if (options.device == "hybrid") {
     return inputError("", "--device", "hybrid applies to the Ray Engine (trace, pathtrace)");
   }
-  if (options.device == "gpu") {
-    return inputError("", "--device gpu",
-                      "stochastic radiosity runs on the CPU in this version (--device cpu)");
-  }
   StochasticOptions so;
   so.iterations = options.iterations;
   so.time_limit = options.time_limit;
@@ -89,7 +88,9 @@ Expected<StochasticRun> runStochastic(const Scene& scene, const StochasticRunOpt
   PENUMBRA_TRY(checkLightmapPlan(scene, resolution,
                                  info ? std::optional<uint64_t>(info->elements) : std::nullopt,
                                  "stochastic radiosity", kBytesPerElement));
-  run.device = "cpu";  // the CPU path only in this version: `auto` means the CPU
+  Expected<DeviceChoice> device = chooseDevice(options.device);
+  if (!device) return device.error();
+  run.device = device->name();
   if (common.dry_run) {
     run.dry_run = true;
     return run;
@@ -113,13 +114,22 @@ Expected<StochasticRun> runStochastic(const Scene& scene, const StochasticRunOpt
     spdlog::info("{}: resumed after {} iterations, estimated error {:.3g}", options.resume,
                  sr.iterations(), sr.errorEstimate());
   }
+  // On the GPU the iterate and the average live on the device from here
+  // (radiosity/stochastic_gl.h); the CPU solver takes the state back for checkpoints and the
+  // lightmap.
+  std::optional<GlStochastic> gl;
+  if (device->device == Device::kGpu) {
+    Expected<GlStochastic> g = GlStochastic::create(sr);
+    if (!g) return g.error();
+    gl.emplace(std::move(*g));
+  }
   run.build_seconds = build_timer.seconds();
   // From here Ctrl-C stops between two iterations and writes a checkpoint. The line below is
   // printed once it does (scripts may wait for it before sending SIGINT).
   const InterruptScope interrupt;
-  spdlog::info("{}: {} lightmap texels in a {}x{} atlas ({:.1f} texels/m), burn-in {} iterations",
+  spdlog::info("{}: {} lightmap texels in a {}x{} atlas ({:.1f} texels/m), burn-in {} iterations{}",
                scene.source, sr.elementCount(), sr.atlas().width, sr.atlas().height,
-               sr.atlas().texel_density, sr.burnIn());
+               sr.atlas().texel_density, sr.burnIn(), gl ? ", on the GPU" : "");
 
   // Progress: iterations against the cap (or the time against the limit), with the iteration
   // and the running error estimate.
@@ -127,16 +137,37 @@ Expected<StochasticRun> runStochastic(const Scene& scene, const StochasticRunOpt
   Progress progress("iterating", by_time ? 1000 : uint64_t(std::max(so.iterations, 1)),
                     !common.quiet && Progress::stderrIsTerminal());
   const Timer solve_timer;
+  Status device_error;
   const auto after = [&](const StochasticIteration& it) {
-    const double error = sr.averaged() >= 2 ? sr.errorEstimate() : 1.0;
+    double error = 1.0;
+    if (gl && gl->averaged() >= 2) {
+      Expected<double> e = gl->errorEstimate();
+      if (e) {
+        error = *e;
+      } else if (device_error) {
+        device_error = e.error();
+      }
+    } else if (!gl && sr.averaged() >= 2) {
+      error = sr.errorEstimate();
+    }
     run.history.push_back(error);
     progress.setNote(fmt::format("iteration {}, error ~{:.3g}", it.iteration, error));
     progress.reach(
         by_time ? uint64_t(std::min(solve_timer.seconds() / options.time_limit, 1.0) * 1000.0)
                 : uint64_t(it.iteration));
   };
-  const auto stop = [] { return InterruptScope::requested(); };
-  run.stats = sr.solve(after, stop);
+  const auto stop = [&] { return InterruptScope::requested() || !device_error; };
+  if (gl) {
+    Expected<StochasticStats> st = gl->solve(after, stop);
+    if (!st) return st.error();
+    PENUMBRA_TRY(device_error);
+    run.stats = *st;
+    Expected<StochasticState> state = gl->download();
+    if (!state) return state.error();
+    PENUMBRA_TRY(sr.setState(std::move(*state)));
+  } else {
+    run.stats = sr.solve(after, stop);
+  }
   progress.finish();
   if (run.stats.interrupted) {
     run.interrupted = true;

@@ -20,7 +20,8 @@
 //    one work group; only the winner (16 bytes) is read back, so the two pick the same shooter
 //    from the same state (ProgressiveGl.SelectsTheSameShootersAsTheCpu).
 //  - Shooting, per batch of shooter points (the CPU's clusters of one level, with summed area
-//    and area-weighted mean position; their dB sums by a compute pass, read back for the books):
+//    and area-weighted mean position; their dB sums by a compute pass, read back for the books),
+//    through the hemispherical gather it shares with stochastic radiosity (hemisphere_gl.h):
 //     1. depth pass (Algorithm 1): the scene's triangles through each point's hemispherical
 //        stereographic projection (around the shooter's mean normal) into its tile of the depth
 //        texture, with the nearest triangle's id; triangles are drawn as k x k sub-triangles
@@ -52,9 +53,9 @@
 //  - furnace, 24 iterations from the same sequence: per-element relative RMS 2.7e-7; one shot:
 //    gains within 1.7e-6; converged on the GPU: every element within 0.17% of E / (1 - rho).
 //  - Cornell box (25 texels/m, level 1, 512^2 depth maps), 30 iterations along the CPU's
-//    sequence: relative RMS 5.1e-3 over the front faces, the largest differences on the floor
+//    sequence: relative RMS 3.5e-3 over the front faces, the largest differences on the floor
 //    at the corner of a box's base and the ceiling over the light (0.8 mm gap), where the depth
-//    maps and the CPU's rays part; a rendered image (1,500 elements) 8.7% RMS from the CPU's
+//    maps and the CPU's rays part; a rendered image (1,500 elements) 8.6% RMS from the CPU's
 //    (tests/app/cli_test.cpp).
 //
 // The shaders avoid variable-length arrays and put work behind loops rather than branches where
