@@ -151,8 +151,8 @@ int parseAndRun(int argc, char** argv) {
       ->add_option("--method", render.method,
                    "pathtrace (the reference path tracer), matrix (matrix radiosity), "
                    "progressive (progressive radiosity in a lightmap), stochastic (stochastic "
-                   "radiosity by ray-bundle shooting) or sss (subsurface scattering through "
-                   "hierarchical links)")
+                   "radiosity by ray-bundle shooting), sss (subsurface scattering through "
+                   "hierarchical links) or lpv (subsurface light propagation volumes)")
       ->capture_default_str();
   render_cmd
       ->add_option("--device", render.device,
@@ -258,9 +258,28 @@ int parseAndRun(int argc, char** argv) {
       ->check(CLI::Range(0, 30));
   render_cmd
       ->add_option("--frames", render.frames,
-                   "sss: render this many frames with the lights orbiting the scene once "
-                   "(-o out.png writes out_0000.png ...); the links are built once")
+                   "sss, lpv: render this many frames with the lights orbiting the scene once "
+                   "(-o out.png writes out_0000.png ...); sss builds its links once, lpv needs "
+                   "nothing built")
       ->check(CLI::Range(0, 100000));
+  render_cmd
+      ->add_option("--grid", render.grid,
+                   "lpv: light propagation volume cells along each translucent object's longest "
+                   "side (default 32, the paper's; at most 128)")
+      ->check(CLI::Range(4, 128));
+  render_cmd
+      ->add_option("--steps", render.steps,
+                   "lpv: propagation steps (default 8; the paper's Table 1 runs 8 and 32)")
+      ->check(CLI::Range(1, 4096));
+  render_cmd
+      ->add_option("--skip-steps", render.skip_steps,
+                   "lpv: first steps left out of the accumulation (default 2, the paper's)")
+      ->check(CLI::Range(0, 4095));
+  render_cmd
+      ->add_option("--rsm-resolution", render.rsm_resolution,
+                   "lpv: injection texels per side of each light's reflective shadow map "
+                   "(default 256, the paper's)")
+      ->check(CLI::Range(1, 4096));
   render_cmd->add_flag("--no-cache", render.no_cache,
                        "sss: build the links even if the cache ($PENUMBRA_CACHE_DIR, else "
                        "~/.cache/penumbra) holds them, and do not write them there");

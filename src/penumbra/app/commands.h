@@ -80,6 +80,9 @@ struct RenderOptions : LightmapMethodOptions {
   int frames = 0;
   bool no_cache = false;    // sss: build the links even when the cache holds them
   bool no_shadows = false;  // sss: pass 1 without shadow rays (the paper's lighting)
+  // --method lpv (Børlum et al. 2011): grid cells along each object's longest side, propagation
+  // steps, steps left out of the accumulation, injection texels per side of each light's map.
+  std::optional<int> grid, steps, skip_steps, rsm_resolution;
   // Lighting design (render/illuminance.h, app/illuminance_output.h): images of lux instead of
   // radiance, false colour with a legend, and a work plane's grid of calculation points.
   std::string output_quantity = "radiance";  // or illuminance
@@ -156,6 +159,7 @@ Status renderMatrix(const RenderOptions& options, const CommonOptions& common);
 Status renderLightmapRadiosity(const RenderOptions& options, const CommonOptions& common,
                                bool* interrupted);
 Status renderSss(const RenderOptions& options, const CommonOptions& common);
+Status renderLpv(const RenderOptions& options, const CommonOptions& common);
 // out.png -> out_0007.png: frame f of a sequence.
 std::string sequenceFrameName(const std::string& path, int frame);
 // The render's image outputs (SCENE.png when none is given), each checked before the work: a

@@ -245,9 +245,19 @@ int runRender(const RenderOptions& options, const CommonOptions& common) {
     return reportError(
         inputError("", "--texel-density", "applies to the radiosity and sss methods only"));
   }
+  if (options.method != "sss" && options.method != "lpv" && options.frames > 0) {
+    return reportError(inputError("", "--frames", "applies to --method sss and lpv only"));
+  }
+  if (options.method != "lpv") {
+    const char* only = options.grid             ? "--grid"
+                       : options.steps          ? "--steps"
+                       : options.skip_steps     ? "--skip-steps"
+                       : options.rsm_resolution ? "--rsm-resolution"
+                                                : nullptr;
+    if (only) return reportError(inputError("", only, "applies to --method lpv only"));
+  }
   if (options.method != "sss") {
     const char* only = options.lightmap_size      ? "--lightmap-size"
-                       : options.frames > 0       ? "--frames"
                        : options.links_level >= 0 ? "--links-level"
                        : options.links            ? "--links"
                        : options.no_cache         ? "--no-cache"
@@ -283,14 +293,14 @@ int runRender(const RenderOptions& options, const CommonOptions& common) {
                                 "lux are computed by pathtrace, progressive and matrix"))
             : renderSss(options, common);
   } else if (options.method == "lpv") {
-    s = inputError("", "",
-                   fmt::format("--method {} is not available in this version (available: "
-                               "pathtrace, matrix, progressive, stochastic, sss)",
-                               options.method));
+    s = wantsIlluminance(options)
+            ? Status(inputError("", options.work_plane ? "--work-plane" : "--output-quantity",
+                                "lux are computed by pathtrace, progressive and matrix"))
+            : renderLpv(options, common);
   } else {
     s = inputError("", "",
                    fmt::format("unknown --method '{}' (available: pathtrace, matrix, progressive, "
-                               "stochastic, sss)",
+                               "stochastic, sss, lpv)",
                                options.method));
   }
   if (s.ok() && common.dry_run) return reportDryRun();  // the transaction removes what it made

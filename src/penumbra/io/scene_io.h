@@ -31,5 +31,7 @@ Expected<Scene> loadScene(const std::string& name_or_path);
 // The built-in `sss` scene (io/builtin_sss.cpp): the bunny in marble, lit from behind and the
 // side.
 Expected<Scene> sssBuiltinScene();
+// The built-in `lpv` scene: the same bunny in marble lit from behind by one point light.
+Expected<Scene> lpvBuiltinScene();
 
 }  // namespace penumbra

@@ -835,6 +835,7 @@ Expected<Scene> loadScene(const std::string& name_or_path) {
   const bool is_file =
       std::filesystem::exists(name_or_path, ec) && !std::filesystem::is_directory(name_or_path, ec);
   if (!is_file && name_or_path == "sss") return sssBuiltinScene();
+  if (!is_file && name_or_path == "lpv") return lpvBuiltinScene();
   if (!is_file && extensionOf(name_or_path).empty()) return builtinScene(name_or_path);
   return loadSceneFile(name_or_path);
 }

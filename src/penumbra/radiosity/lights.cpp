@@ -1,5 +1,7 @@
 #include "penumbra/radiosity/lights.h"
 
+#include "penumbra/raytrace/ray_engine.h"
+
 #include <glm/geometric.hpp>
 
 #include <algorithm>
@@ -236,6 +238,24 @@ bool lightProbeRay(std::span<const Light> lights, const Bounds3& bounds, Rng& rn
                    return true;
                  }},
       light);
+}
+
+glm::dvec3 visibleIrradiance(const RayEngine& engine, double lift, std::span<const Light> lights,
+                             const glm::dvec3& p, const glm::dvec3& n, uint64_t* rays) {
+  glm::dvec3 e(0.0);
+  for (const Light& light : lights) {
+    const LightSample ls = sampleLight(light, p, n, n);
+    if (ls.irradiance == glm::dvec3(0.0)) continue;
+    const bool far = ls.distance > 1e30;
+    const glm::dvec3 from = p + n * lift;
+    const Ray ray{glm::vec3(from), 1e-4f,
+                  far ? glm::vec3(ls.direction) : glm::vec3(ls.direction * ls.distance),
+                  far ? std::numeric_limits<float>::max() : 1.0f - 1e-4f};
+    if (rays) ++*rays;
+    if (engine.occluded(ray)) continue;
+    e += ls.irradiance;
+  }
+  return e;
 }
 
 }  // namespace penumbra

@@ -39,6 +39,14 @@ struct LightSample {
 LightSample sampleLight(const Light& light, const glm::dvec3& p, const glm::dvec3& ng,
                         const glm::dvec3& ns);
 
+class RayEngine;
+
+// The direct irradiance at `p` (unit normal `n`, the side lit) from every light, each times its
+// visibility by one shadow ray through `engine`, the ends lifted off the surface by `lift`;
+// adds the rays traced to *rays.
+glm::dvec3 visibleIrradiance(const RayEngine& engine, double lift, std::span<const Light> lights,
+                             const glm::dvec3& p, const glm::dvec3& n, uint64_t* rays = nullptr);
+
 // ---- The GPU twin (shaders/common/lights.glsl): a light as its sampleLight reads it, std430 ----
 // LIGHT_POINT, LIGHT_SPOT, LIGHT_DIRECTIONAL, LIGHT_LUMINAIRE of shaders/common/lights.glsl.
 enum class GpuLightType : uint32_t { kPoint = 0, kSpot = 1, kDirectional = 2, kLuminaire = 3 };

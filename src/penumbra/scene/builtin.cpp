@@ -111,7 +111,7 @@ Scene furnace() {
 }  // namespace
 
 std::vector<std::string> builtinSceneNames() {
-  return {"cornell", "furnace", "sss"};
+  return {"cornell", "furnace", "sss", "lpv"};
 }
 
 Expected<Scene> builtinScene(const std::string& name) {
@@ -122,7 +122,7 @@ Expected<Scene> builtinScene(const std::string& name) {
     s = furnace();
   } else {
     return inputError("", "",
-                      fmt::format("unknown scene '{}' (built-in scenes: cornell, furnace, sss; "
+                      fmt::format("unknown scene '{}' (built-in scenes: cornell, furnace, sss, lpv; "
                                   "or give a .json, .obj, .gltf, .glb or .ply file)",
                                   name));
   }

@@ -12,7 +12,6 @@
 
 #include <algorithm>
 #include <atomic>
-#include <limits>
 #include <numbers>
 
 namespace penumbra {
@@ -110,20 +109,8 @@ Image SssView::render(const SssSolver& solver, const Image& scattered_atlas,
                                [](const Opaque& o, uint32_t p) { return o.pixel < p; });
     uint64_t count = 0;
     for (auto it = lo; it != opaque_.end() && it->pixel < last; ++it) {
-      const glm::dvec3 p(it->point), n(it->normal);
-      glm::dvec3 e(0.0);
-      for (const Light& light : lights) {
-        const LightSample ls = sampleLight(light, p, n, n);
-        if (ls.irradiance == glm::dvec3(0.0)) continue;
-        const bool far = ls.distance > 1e30;
-        const glm::dvec3 from = p + n * double(lift_);
-        Ray ray{glm::vec3(from), 1e-4f,
-                far ? glm::vec3(ls.direction) : glm::vec3(ls.direction * ls.distance),
-                far ? std::numeric_limits<float>::max() : 1.0f - 1e-4f};
-        ++count;
-        if (s.engine.occluded(ray)) continue;
-        e += ls.irradiance;
-      }
+      const glm::dvec3 e = visibleIrradiance(s.engine, double(lift_), lights, glm::dvec3(it->point),
+                                             glm::dvec3(it->normal), &count);
       image.pixels[it->pixel] += it->reflectance * glm::vec3(e / std::numbers::pi);
     }
     traced += count;

@@ -1,0 +1,343 @@
+#include "penumbra/subsurface/lpv.h"
+
+#include "penumbra/core/memory.h"
+#include "penumbra/core/parallel.h"
+#include "penumbra/core/rng.h"
+#include "penumbra/core/timer.h"
+#include "penumbra/kernels/dipole.h"
+#include "penumbra/radiosity/lights.h"
+#include "penumbra/raytrace/camera_rays.h"
+#include "penumbra/subsurface/lpv_sh.h"
+
+#include <fmt/format.h>
+#include <glm/geometric.hpp>
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <variant>
+
+namespace penumbra {
+
+namespace {
+
+// Bytes per cell: the injected, propagation (two) and accumulation fields (3 channels x 16
+// bytes each), the propagation step's scratch, the medium (28) and the cell's kind.
+constexpr uint64_t kBytesPerCell = 5 * 48 + 28 + 1;
+
+// The refracted direction of `d` (unit, travelling into the surface of outward unit normal n)
+// entering a medium of relative index eta (Snell's law; eta >= 1, so no total reflection).
+glm::dvec3 refractInto(const glm::dvec3& d, const glm::dvec3& n, double eta) {
+  const double cos_i = std::clamp(-glm::dot(d, n), 0.0, 1.0);
+  const double sin2_t = (1.0 - cos_i * cos_i) / (eta * eta);
+  const double cos_t = std::sqrt(std::max(0.0, 1.0 - sin2_t));
+  return glm::normalize(d / eta + (cos_i / eta - cos_t) * n);
+}
+
+Bounds3 meshBounds(const Mesh& mesh) {
+  Bounds3 b;
+  for (const glm::vec3& p : mesh.positions) b.extend(p);
+  return b;
+}
+
+}  // namespace
+
+Expected<LpvSolver> LpvSolver::build(const Scene& scene, const LpvOptions& options) {
+  if (options.grid < 4 || options.grid > kLpvMaxGrid) {
+    return inputError("", "--grid", fmt::format("must be in [4, {}]", kLpvMaxGrid));
+  }
+  if (options.steps < 1 || options.steps > 4096) {
+    return inputError("", "--steps", "must be in [1, 4096]");
+  }
+  if (options.skip_steps < 0 || options.skip_steps >= options.steps) {
+    return inputError("", "--skip-steps", "must be at least 0 and below --steps");
+  }
+  if (options.rsm_resolution < 1 || options.rsm_resolution > 4096) {
+    return inputError("", "--rsm-resolution", "must be in [1, 4096]");
+  }
+  LpvSolver s;
+  s.options_ = options;
+  uint64_t cells = 0;
+  for (size_t m = 0; m < scene.meshes.size(); ++m) {
+    const Mesh& mesh = scene.meshes[m];
+    // One volume per mesh with a translucent material (its first such material's medium).
+    for (uint32_t id : mesh.material_ids) {
+      if (!scene.materials[id].subsurface) continue;
+      LpvObject o;
+      o.mesh = uint32_t(m);
+      o.material = id;
+      o.medium = *scene.materials[id].subsurface;
+      o.grid = LpvGrid::around(meshBounds(mesh), options.grid);
+      cells += o.grid.cellCount();
+      s.objects_.push_back(std::move(o));
+      break;
+    }
+  }
+  if (s.objects_.empty()) {
+    return inputError(scene.source, "",
+                      "no translucent material (a `subsurface` block) for --method lpv");
+  }
+  PENUMBRA_TRY(checkMemory(cells * kBytesPerCell,
+                           fmt::format("light propagation volumes of {} cells", cells)));
+  return s;
+}
+
+uint64_t LpvSolver::gridBytes() const {
+  uint64_t cells = 0;
+  for (const LpvObject& o : objects_) cells += o.grid.cellCount();
+  return cells * kBytesPerCell;
+}
+
+LpvFrameTimes LpvSolver::update(const Scene& scene) {
+  LpvFrameTimes times;
+  // Voxelisation, and the geometry as it is now for the maps and the view.
+  Timer timer;
+  flat_ = flattenScene(scene);
+  engine_ = RayEngine::build(flat_.positions, flat_.triangles);
+  Bounds3 bounds;
+  for (const glm::vec3& p : flat_.positions) bounds.extend(p);
+  lift_ = 1e-5 * double(glm::length(bounds.hi - bounds.lo));
+  triangle_object_.assign(flat_.triangles.size(), 0);
+  std::vector<size_t> first(scene.meshes.size() + 1, 0);
+  for (size_t m = 0; m < scene.meshes.size(); ++m) {
+    first[m + 1] = first[m] + scene.meshes[m].triangles.size();
+  }
+  for (size_t k = 0; k < objects_.size(); ++k) {
+    LpvObject& o = objects_[k];
+    const Mesh& mesh = scene.meshes[o.mesh];
+    for (size_t t = first[o.mesh]; t < first[o.mesh + 1]; ++t) {
+      if (flat_.material_ids[t] == o.material) triangle_object_[t] = uint32_t(k + 1);
+    }
+    // The grid follows the mesh (the same resolution along its longest side).
+    o.grid = LpvGrid::around(meshBounds(mesh), options_.grid);
+    o.cells = lpvVoxelise(o.grid, mesh.positions, mesh.triangles);
+    o.cell_medium = lpvHomogeneousMedium(o.grid, o.medium);
+  }
+  times.voxelise = timer.seconds();
+
+  timer = Timer();
+  for (size_t k = 0; k < objects_.size(); ++k) {
+    inject(scene, objects_[k], uint32_t(k), &times.rsm_texels);
+  }
+  times.inject = timer.seconds();
+
+  timer = Timer();
+  for (LpvObject& o : objects_) {
+    LpvField a = o.injected, b;
+    b.resize(o.grid.cellCount());
+    o.accumulated.resize(o.grid.cellCount());
+    for (int step = 1; step <= options_.steps; ++step) {
+      lpvPropagate(o.grid, o.cells, o.cell_medium, a, b);
+      std::swap(a, b);
+      if (step <= options_.skip_steps) continue;
+      for (int ch = 0; ch < 3; ++ch) {
+        std::vector<glm::vec4>& acc = o.accumulated.c[size_t(ch)];
+        const std::vector<glm::vec4>& cur = a.c[size_t(ch)];
+        parallelRange(acc.size(), 1 << 14, [&](size_t b0, size_t b1) {
+          for (size_t i = b0; i < b1; ++i) acc[i] += cur[i];
+        });
+      }
+    }
+  }
+  times.propagate = timer.seconds();
+  return times;
+}
+
+void LpvSolver::inject(const Scene& scene, LpvObject& o, uint32_t index, uint64_t* texels) {
+  o.injected.resize(o.grid.cellCount());
+  const Mesh& mesh = scene.meshes[o.mesh];
+  const Bounds3 bounds = meshBounds(mesh);
+  const glm::dvec3 centre(bounds.center());
+  const double radius = 0.5 * double(glm::length(bounds.extent())) * 1.001 + 1e-9;
+  const int n = options_.rsm_resolution;
+  const double eta = o.medium.eta;
+  // Per row of the map, the virtual point lights found, summed into the grid in row order so that
+  // the result does not depend on the threads.
+  struct Vpl {
+    size_t cell;
+    glm::dvec3 flux;       // T Phi_p per channel
+    glm::dvec3 direction;  // w_t
+  };
+  for (const Light& light : scene.lights) {
+    // The map's frame: a perspective frustum from the light around the object's bounding sphere,
+    // or, for a directional light, an orthographic square across it.
+    glm::dvec3 axis, origin;
+    bool ortho = false;
+    std::visit(Overloaded{[&](const DirectionalLight& d) {
+                            ortho = true;
+                            axis = glm::normalize(glm::dvec3(d.direction));
+                          },
+                          [&](const auto& l) {
+                            origin = glm::dvec3(l.position);
+                            axis = centre - origin;
+                          }},
+               light);
+    const double distance = ortho ? 0.0 : glm::length(axis);
+    if (!ortho) {
+      if (!(distance > radius)) continue;  // a light inside the object's bounds: no map
+      axis /= distance;
+    }
+    const glm::dvec3 helper =
+        std::abs(axis.x) < 0.9 ? glm::dvec3(1.0, 0.0, 0.0) : glm::dvec3(0.0, 1.0, 0.0);
+    const glm::dvec3 right = glm::normalize(glm::cross(axis, helper));
+    const glm::dvec3 up = glm::cross(right, axis);
+    // Half-extent of the map's plane: tan(FOV / 2) at unit distance, or the sphere's radius.
+    const double half = ortho ? radius : radius / std::sqrt(distance * distance - radius * radius);
+    if (ortho) origin = centre - axis * (2.0 * radius);
+    std::vector<std::vector<Vpl>> rows(static_cast<size_t>(n));
+    std::atomic<uint64_t> count{0};
+    parallelRange(size_t(n), 1, [&](size_t y0, size_t y1) {
+      for (size_t y = y0; y < y1; ++y) {
+        for (int x = 0; x < n; ++x) {
+          const double u = half * (2.0 * (x + 0.5) / n - 1.0);
+          const double v = half * (2.0 * (double(y) + 0.5) / n - 1.0);
+          Ray ray;
+          glm::dvec3 dir;
+          double solid_angle = 0.0, texel_area = 0.0;
+          if (ortho) {
+            dir = axis;
+            ray.origin = glm::vec3(origin + u * right + v * up);
+            texel_area = (2.0 * half / n) * (2.0 * half / n);
+          } else {
+            const glm::dvec3 through = axis + u * right + v * up;
+            dir = glm::normalize(through);
+            ray.origin = glm::vec3(origin);
+            // Sec. 3.1: Delta w_p = 4 alpha tan^2(FOV / 2) cos^3 theta_p / (N_x N_y).
+            const double cos_p = glm::dot(dir, axis);
+            solid_angle = 4.0 * half * half * cos_p * cos_p * cos_p / (double(n) * double(n));
+          }
+          ray.dir = glm::vec3(dir);
+          ray.tmin = 0.0f;
+          ray.tmax = std::numeric_limits<float>::max();
+          const Hit hit = engine_.intersect(ray);
+          if (!hit.hit() || triangle_object_[size_t(hit.triangle)] != index + 1) continue;
+          const glm::uvec3 tri = flat_.triangles[size_t(hit.triangle)];
+          const glm::dvec3 a(flat_.positions[tri.x]), b(flat_.positions[tri.y]),
+              c(flat_.positions[tri.z]);
+          glm::dvec3 normal = glm::normalize(glm::cross(b - a, c - a));
+          if (glm::dot(normal, dir) >= 0.0) continue;  // the inside of the surface
+          const glm::dvec3 p = glm::dvec3(ray.origin) + double(hit.t) * dir;
+          // The flux through the texel: the light's irradiance across the ray times the
+          // texel's area there (I Delta w_p for lights at a point).
+          const LightSample ls = sampleLight(light, p, -dir, -dir);
+          const glm::dvec3 flux = ortho ? ls.irradiance * texel_area
+                                        : ls.irradiance * ls.distance * ls.distance * solid_angle;
+          if (flux == glm::dvec3(0.0)) continue;
+          const double cos_i = -glm::dot(dir, normal);
+          const double t = fresnelTransmittance(eta, cos_i);
+          glm::ivec3 cell = o.grid.cellOf(p);
+          if (o.cells[o.grid.index(cell)] == LpvCell::kOutside) {
+            cell = o.grid.cellOf(p - normal * (0.5 * o.grid.cell));
+          }
+          rows[y].push_back({o.grid.index(cell), t * flux, refractInto(dir, normal, eta)});
+        }
+        count += rows[y].size();
+      }
+    });
+    for (const std::vector<Vpl>& row : rows) {
+      for (const Vpl& vpl : row) {
+        // Eq. 1: (1 / pi) T Phi_p max(0, w_t . w), on the two bands.
+        const glm::dvec4 lobe = lpvCosineLobe(vpl.direction) / std::numbers::pi;
+        for (int ch = 0; ch < 3; ++ch) {
+          o.injected.c[size_t(ch)][vpl.cell] += glm::vec4(lobe * vpl.flux[ch]);
+        }
+      }
+    }
+    if (texels) *texels += count.load();
+  }
+}
+
+glm::dvec3 LpvSolver::incidentRadiance(size_t k, const glm::dvec3& p, const glm::dvec3& n) const {
+  const LpvObject& o = objects_[k];
+  // The accumulated coefficients at p, trilinear over the eight nearest cell centres that belong
+  // to the object (weights renormalised; the paper takes the one cell holding p, which shows
+  // the cells as blocks); the cell holding p when none of the eight does.
+  const glm::dvec3 f = (p - o.grid.origin) / o.grid.cell - 0.5;
+  const glm::ivec3 base(glm::floor(f));
+  const glm::dvec3 t = f - glm::dvec3(base);
+  glm::dvec4 c[3] = {glm::dvec4(0.0), glm::dvec4(0.0), glm::dvec4(0.0)};
+  double weight = 0.0;
+  for (int corner = 0; corner < 8; ++corner) {
+    const glm::ivec3 offset(corner & 1, (corner >> 1) & 1, (corner >> 2) & 1);
+    const glm::ivec3 cell = base + offset;
+    if (!o.grid.contains(cell)) continue;
+    const size_t i = o.grid.index(cell);
+    if (o.cells[i] == LpvCell::kOutside) continue;
+    const double w =
+        (offset.x ? t.x : 1.0 - t.x) * (offset.y ? t.y : 1.0 - t.y) * (offset.z ? t.z : 1.0 - t.z);
+    for (int ch = 0; ch < 3; ++ch) c[ch] += w * glm::dvec4(o.accumulated.c[size_t(ch)][i]);
+    weight += w;
+  }
+  if (!(weight > 0.0)) {
+    const size_t i = o.grid.index(o.grid.cellOf(p - n * (0.5 * o.grid.cell)));
+    for (int ch = 0; ch < 3; ++ch) c[ch] = glm::dvec4(o.accumulated.c[size_t(ch)][i]);
+    weight = 1.0;
+  }
+  const double area = o.grid.cell * o.grid.cell;
+  glm::dvec3 l(0.0);
+  for (int ch = 0; ch < 3; ++ch) {
+    l[ch] = std::max(0.0, lpvAreaLightRadiance(c[ch] / weight, n, area));
+  }
+  return l;
+}
+
+Image LpvSolver::render(const Scene& scene, const Camera& camera, int width, int height, int spp,
+                        uint64_t seed, LpvFrameTimes* times) const {
+  const Timer timer;
+  Image image(width, height);
+  const CameraRays rays(camera, width, height);
+  const float w = 1.0f / float(std::max(spp, 1));
+  std::atomic<uint64_t> traced{0};
+  parallelRange(size_t(height), 1, [&](size_t y0, size_t y1) {
+    for (size_t y = y0; y < y1; ++y) {
+      for (int x = 0; x < width; ++x) {
+        const uint32_t pixel = uint32_t(y * size_t(width) + size_t(x));
+        Rng rng(mixBits(seed), pixel);
+        glm::dvec3 sum(0.0);
+        for (int s = 0; s < spp; ++s) {
+          const float jx = spp == 1 ? 0.5f : rng.uniform();
+          const float jy = spp == 1 ? 0.5f : rng.uniform();
+          const Ray ray = rays.ray(float(x) + jx, float(y) + jy);
+          const Hit hit = engine_.intersect(ray);
+          if (!hit.hit()) {
+            sum += glm::dvec3(scene.environment);
+            continue;
+          }
+          const size_t t = size_t(hit.triangle);
+          const glm::uvec3 tri = flat_.triangles[t];
+          const glm::dvec3 a(flat_.positions[tri.x]), b(flat_.positions[tri.y]),
+              c(flat_.positions[tri.z]);
+          const glm::dvec3 n = glm::normalize(glm::cross(b - a, c - a));
+          const glm::dvec3 d(ray.dir);
+          const bool back = glm::dot(d, n) >= 0.0;
+          const Material& m = scene.materials[flat_.material_ids[t]];
+          const glm::dvec3 p = glm::dvec3(ray.origin) + double(hit.t) * d;
+          const uint32_t object = triangle_object_[t];
+          if (object != 0) {
+            if (back) continue;  // inside the object: black
+            // Sec. 3.3: T(w_o) L_i.
+            const double cos_o = std::max(0.0, -glm::dot(d, n));
+            sum +=
+                fresnelTransmittance(m.subsurface->eta, cos_o) * incidentRadiance(object - 1, p, n);
+            continue;
+          }
+          if (!back && m.isEmissive()) sum += glm::dvec3(m.emission);
+          if (back && !m.two_sided) continue;
+          if (m.reflectance == glm::vec3(0.0f)) continue;
+          const glm::dvec3 ns = back ? -n : n;
+          uint64_t count = 0;
+          const glm::dvec3 e = visibleIrradiance(engine_, lift_, scene.lights, p, ns, &count);
+          traced += count;
+          sum += glm::dvec3(m.reflectance) * e / std::numbers::pi;
+        }
+        image.pixels[pixel] = glm::vec3(sum) * w;
+      }
+    }
+  });
+  if (times) times->shade += timer.seconds();
+  return image;
+}
+
+}  // namespace penumbra
