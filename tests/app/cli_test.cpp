@@ -467,6 +467,31 @@ TEST(Cli, StochasticRadiosityOnTheGpu) {
   EXPECT_LT(devices, seeds);
 }
 
+// Subsurface light propagation volumes from the command line: a light orbit of two frames, each
+// with its stages' milliseconds (Table 1's columns), and the bunny lit through its thin parts.
+TEST(Cli, LpvRendersFramesWithTheirStageTimes) {
+  TempDir dir;
+  const auto r = runCli("render lpv --method lpv --frames 2 --width 48 --height 48 --spp 1 "
+                        "--quiet -o " +
+                        dir.file("f.png") + " --stats " + dir.file("s.json"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_TRUE(std::filesystem::exists(dir.file("f_0000.png")));
+  EXPECT_TRUE(std::filesystem::exists(dir.file("f_0001.png")));
+  const nlohmann::json s = readJson(dir.file("s.json"));
+  EXPECT_EQ(s["method"], "lpv");
+  EXPECT_EQ(s["grid"].get<int>(), 32);
+  ASSERT_EQ(s["frames"].size(), 2u);
+  for (const nlohmann::json& f : s["frames"]) {
+    for (const char* stage : {"voxelise_ms", "inject_ms", "propagate_ms", "shade_ms"}) {
+      EXPECT_GT(f[stage].get<double>(), 0.0) << stage;
+    }
+    EXPECT_GT(f["rsm_texels"].get<int>(), 1000);
+  }
+  ASSERT_EQ(s["objects"].size(), 1u);
+  EXPECT_GT(s["objects"][0]["inside_cells"].get<int>(), 1000);
+  EXPECT_GT(s["objects"][0]["boundary_cells"].get<int>(), 1000);
+}
+
 // Ctrl-C keeps the estimate so far (the image and a checkpoint), and --resume continues it to
 // exactly the image of the uninterrupted run.
 TEST(Cli, StochasticInterruptWritesACheckpointThatResumesExactly) {
@@ -588,7 +613,11 @@ TEST(Cli, BadInputGivesOneErrorLineExitTwoAndNoOutput) {
       {"render cornell --width 0 -o " + out, "--width 0"},
       {"render cornell --width 60000 --height 60000 -o " + out, "needs"},
       {"render cornell --spp many -o " + out, "spp"},
-      {"render cornell --method lpv -o " + out, "--method lpv"},
+      {"render cornell --method lpv -o " + out, "no translucent material"},
+      {"render lpv --method lpv --skip-steps 8 --steps 8 -o " + out, "--skip-steps"},
+      {"render lpv --method lpv --device gpu -o " + out, "--device"},
+      {"render cornell --method pathtrace --grid 32 -o " + out, "--grid"},
+      {"render cornell --method matrix --frames 3 -o " + out, "--frames"},
       {"render cornell --method stochastic --elements 268435456 -o " + out,
        "stochastic radiosity with 268435456 lightmap texels"},
       {"render cornell --method stochastic --device hybrid -o " + out, "hybrid"},
