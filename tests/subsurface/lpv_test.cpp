@@ -111,11 +111,12 @@ TEST(Lpv, PropagationConservesFluxAndAbsorbsBeersLaw) {
         a.c[size_t(ch)][centre] =
             glm::vec4(lpvCosineLobe(glm::normalize(glm::dvec3(1.0, 0.5 + ch, -0.3))) * 2.0);
       }
+      const LpvTransfer transfer = lpvTransfer(grid, cells, medium);
       double worst = 0.0;
       const double per_step = std::exp(-sigma_a * grid.cell);
       for (int step = 0; step < 8; ++step) {
         const glm::dvec3 before = a.flux();
-        lpvPropagate(grid, cells, medium, a, b2);
+        lpvPropagate(grid, cells, transfer, a, b2);
         std::swap(a, b2);
         const glm::dvec3 after = a.flux();
         for (int ch = 0; ch < 3; ++ch) {

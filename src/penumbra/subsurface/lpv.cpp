@@ -125,20 +125,20 @@ LpvFrameTimes LpvSolver::update(const Scene& scene) {
 
   timer = Timer();
   for (LpvObject& o : objects_) {
+    const LpvTransfer transfer = lpvTransfer(o.grid, o.cells, o.cell_medium);
     LpvField a = o.injected, b;
     b.resize(o.grid.cellCount());
     o.accumulated.resize(o.grid.cellCount());
     for (int step = 1; step <= options_.steps; ++step) {
-      lpvPropagate(o.grid, o.cells, o.cell_medium, a, b);
+      lpvPropagate(o.grid, o.cells, transfer, a, b);
       std::swap(a, b);
       if (step <= options_.skip_steps) continue;
-      for (int ch = 0; ch < 3; ++ch) {
-        std::vector<glm::vec4>& acc = o.accumulated.c[size_t(ch)];
-        const std::vector<glm::vec4>& cur = a.c[size_t(ch)];
-        parallelRange(acc.size(), 1 << 14, [&](size_t b0, size_t b1) {
-          for (size_t i = b0; i < b1; ++i) acc[i] += cur[i];
-        });
-      }
+      parallelRange(transfer.cells.size(), 4096, [&](size_t b0, size_t b1) {
+        for (size_t k = b0; k < b1; ++k) {
+          const size_t i = transfer.cells[k];
+          for (int ch = 0; ch < 3; ++ch) o.accumulated.c[size_t(ch)][i] += a.c[size_t(ch)][i];
+        }
+      });
     }
   }
   times.propagate = timer.seconds();

@@ -157,48 +157,71 @@ glm::dvec3 LpvField::flux() const {
   return sum;
 }
 
-void lpvPropagate(const LpvGrid& grid, std::span<const LpvCell> cells, const LpvMedium& medium,
-                  const LpvField& from, LpvField& to) {
-  const size_t n = grid.cellCount();
-  std::array<glm::mat4, 6> m;
-  for (size_t k = 0; k < 6; ++k) m[k] = glm::mat4(lpvPropagationMatrices()[k]);
-  // What each cell of the object sends: its intensity scattered (eq. 3) and attenuated over the
-  // transfer (sec. 3.2.1), the same for all six neighbours.
-  LpvField sent;
-  sent.resize(n);
-  parallelRange(n, 4096, [&](size_t begin, size_t end) {
-    for (size_t i = begin; i < end; ++i) {
-      if (cells[i] == LpvCell::kOutside) continue;
-      const float g = medium.g[i];
+LpvTransfer lpvTransfer(const LpvGrid& grid, std::span<const LpvCell> cells,
+                        const LpvMedium& medium) {
+  LpvTransfer t;
+  for (size_t i = 0; i < cells.size(); ++i) {
+    if (cells[i] != LpvCell::kOutside) t.cells.push_back(uint32_t(i));
+  }
+  for (std::vector<glm::vec4>& v : t.scale) v.assign(cells.size(), glm::vec4(0.0f));
+  parallelRange(t.cells.size(), 4096, [&](size_t begin, size_t end) {
+    for (size_t k = begin; k < end; ++k) {
+      const size_t i = t.cells[k];
       for (int ch = 0; ch < 3; ++ch) {
-        const float s = medium.scattering[i][ch];
-        const float band1 = (1.0f - s) + s * g;
-        const float att = std::exp(-medium.extinction[i][ch] * float(grid.cell));
-        const glm::vec4 c = from.c[size_t(ch)][i];
-        sent.c[size_t(ch)][i] = att * glm::vec4(c.x, band1 * c.y, band1 * c.z, band1 * c.w);
+        const double att = std::exp(-double(medium.extinction[i][ch]) * grid.cell);
+        const double s = medium.scattering[i][ch];
+        const double band1 = att * ((1.0 - s) + s * double(medium.g[i]));
+        t.scale[size_t(ch)][i] = glm::vec4(float(att), float(band1), float(band1), float(band1));
       }
     }
   });
-  const size_t slices = size_t(grid.size.z);
-  parallelRange(slices, 1, [&](size_t begin, size_t end) {
-    for (size_t z = begin; z < end; ++z) {
-      for (int y = 0; y < grid.size.y; ++y) {
-        for (int x = 0; x < grid.size.x; ++x) {
-          const glm::ivec3 d(x, y, int(z));
-          const size_t di = grid.index(d);
-          glm::vec4 sum[3] = {glm::vec4(0.0f), glm::vec4(0.0f), glm::vec4(0.0f)};
-          if (cells[di] != LpvCell::kOutside) {
-            for (size_t k = 0; k < 6; ++k) {
-              const glm::ivec3 s = d - kLpvDirections[k];
-              if (!grid.contains(s)) continue;
-              const size_t si = grid.index(s);
-              if (cells[si] == LpvCell::kOutside) continue;
-              for (int ch = 0; ch < 3; ++ch) sum[ch] += m[k] * sent.c[size_t(ch)][si];
-            }
+  return t;
+}
+
+void lpvPropagate(const LpvGrid& grid, std::span<const LpvCell> cells, const LpvTransfer& transfer,
+                  const LpvField& from, LpvField& to) {
+  // The matrices' six non-zero entries (lpv_sh.h): for light travelling along axis a with sign
+  // sigma, band 0 takes m00 c0 + sigma m0a c_a, the band-1 coefficient along a takes
+  // sigma ma0 c0 + maa c_a, the two across it mbb times their own.
+  static const struct Entries {
+    float m00, m0a, ma0, maa, mbb;
+  } e = [] {
+    const glm::dmat4& m = lpvPropagationMatrices()[0];  // +x: a is y11 (index 3)
+    return Entries{float(m[0][0]), float(m[3][0]), float(m[0][3]), float(m[3][3]), float(m[1][1])};
+  }();
+  // The SH index coupled to each axis: y11 ~ x, y1-1 ~ y, y10 ~ z.
+  constexpr int kCoupled[3] = {3, 1, 2};
+  const std::array<int64_t, 3> stride = {1, int64_t(grid.size.x),
+                                         int64_t(grid.size.x) * int64_t(grid.size.y)};
+  parallelRange(transfer.cells.size(), 512, [&](size_t begin, size_t end) {
+    for (size_t k = begin; k < end; ++k) {
+      const uint32_t d = transfer.cells[k];
+      const int x = int(d % uint32_t(grid.size.x));
+      const int y = int((d / uint32_t(grid.size.x)) % uint32_t(grid.size.y));
+      const int z = int(d / (uint32_t(grid.size.x) * uint32_t(grid.size.y)));
+      const int coord[3] = {x, y, z};
+      glm::vec4 sum[3] = {glm::vec4(0.0f), glm::vec4(0.0f), glm::vec4(0.0f)};
+      for (int axis = 0; axis < 3; ++axis) {
+        const int a = kCoupled[axis];
+        for (int side = 0; side < 2; ++side) {
+          // Light travelling +axis comes from the cell at -axis (side 0), and the other way.
+          const float sigma = side == 0 ? 1.0f : -1.0f;
+          const int sc = coord[axis] + (side == 0 ? -1 : 1);
+          if (sc < 0 || sc >= grid.size[axis]) continue;
+          const size_t s =
+              size_t(int64_t(d) + (side == 0 ? -stride[size_t(axis)] : stride[size_t(axis)]));
+          if (cells[s] == LpvCell::kOutside) continue;
+          for (int ch = 0; ch < 3; ++ch) {
+            const glm::vec4 c = from.c[size_t(ch)][s] * transfer.scale[size_t(ch)][s];
+            glm::vec4 out(0.0f);
+            out = c * e.mbb;
+            out.x = e.m00 * c.x + sigma * e.m0a * c[a];
+            out[a] = sigma * e.ma0 * c.x + e.maa * c[a];
+            sum[ch] += out;
           }
-          for (int ch = 0; ch < 3; ++ch) to.c[size_t(ch)][di] = sum[ch];
         }
       }
+      for (int ch = 0; ch < 3; ++ch) to.c[size_t(ch)][d] = sum[ch];
     }
   });
 }

@@ -87,11 +87,23 @@ struct LpvField {
   glm::dvec3 flux() const;
 };
 
+// What a frame's propagation needs of the medium, computed once per frame: the object's cells
+// (the indices of the inside and boundary cells, in order) and, per channel and cell, the
+// factors a cell's coefficients are sent with: exp(-sigma dx) for band 0 and
+// exp(-sigma dx) ((1 - s) + s g) for band 1 (sec. 3.2.1 and eq. 3).
+struct LpvTransfer {
+  std::vector<uint32_t> cells;
+  std::array<std::vector<glm::vec4>, 3> scale;
+};
+LpvTransfer lpvTransfer(const LpvGrid& grid, std::span<const LpvCell> cells,
+                        const LpvMedium& medium);
+
 // One propagation step (sec. 3.2): every cell of the object gathers from its six axial
-// neighbours their intensity, scattered by eq. 3 and attenuated by exp(-sigma dx) with the
-// source cell's medium, through the propagation matrices; cells outside get nothing. Runs on all
-// threads (oneTBB), the same result for any thread count.
-void lpvPropagate(const LpvGrid& grid, std::span<const LpvCell> cells, const LpvMedium& medium,
+// neighbours of the object their coefficients times the transfer's factors, through the
+// propagation matrices (whose structure, six non-zero entries each, it uses); the other cells of
+// `to` are left as they are (zero when `to` started zero). Runs on all threads (oneTBB), the same
+// result for any thread count.
+void lpvPropagate(const LpvGrid& grid, std::span<const LpvCell> cells, const LpvTransfer& transfer,
                   const LpvField& from, LpvField& to);
 
 }  // namespace penumbra
