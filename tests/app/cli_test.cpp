@@ -468,12 +468,13 @@ TEST(Cli, StochasticRadiosityOnTheGpu) {
 }
 
 // Subsurface light propagation volumes from the command line: a light orbit of two frames, each
-// with its stages' milliseconds (Table 1's columns), and the bunny lit through its thin parts.
+// with its stages' milliseconds (Table 1's columns), and an animated mesh that changes topology.
 TEST(Cli, LpvRendersFramesWithTheirStageTimes) {
   TempDir dir;
-  const auto r = runCli("render lpv --method lpv --frames 2 --width 48 --height 48 --spp 1 "
-                        "--quiet -o " +
-                        dir.file("f.png") + " --stats " + dir.file("s.json"));
+  const auto r = runCli(
+      "render lpv --method lpv --frames 2 --width 48 --height 48 --spp 1 "
+      "--quiet -o " +
+      dir.file("f.png") + " --stats " + dir.file("s.json"));
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_TRUE(std::filesystem::exists(dir.file("f_0000.png")));
   EXPECT_TRUE(std::filesystem::exists(dir.file("f_0001.png")));
@@ -490,6 +491,18 @@ TEST(Cli, LpvRendersFramesWithTheirStageTimes) {
   ASSERT_EQ(s["objects"].size(), 1u);
   EXPECT_GT(s["objects"][0]["inside_cells"].get<int>(), 1000);
   EXPECT_GT(s["objects"][0]["boundary_cells"].get<int>(), 1000);
+
+  // The animated `blobs` remesh every frame (two blobs merging): nothing is precomputed, so
+  // the method follows the changing mesh.
+  const auto b = runCli(
+      "render blobs --method lpv --frames 3 --width 32 --height 24 --spp 1 "
+      "--quiet -o " +
+      dir.file("b.png") + " --stats " + dir.file("b.json"));
+  ASSERT_EQ(b.exit_code, 0) << b.output;
+  const nlohmann::json bs = readJson(dir.file("b.json"));
+  ASSERT_EQ(bs["frames"].size(), 3u);
+  EXPECT_NE(bs["frames"][0]["triangles"], bs["frames"][2]["triangles"]);
+  EXPECT_TRUE(std::filesystem::exists(dir.file("b_0002.png")));
 }
 
 // Ctrl-C keeps the estimate so far (the image and a checkpoint), and --resume continues it to

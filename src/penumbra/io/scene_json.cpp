@@ -10,6 +10,7 @@
 #include "penumbra/io/luminaire_io.h"
 #include "penumbra/io/scene_io.h"
 #include "penumbra/io/subsurface_json.h"
+#include "penumbra/scene/animation.h"
 #include "penumbra/scene/builtin.h"
 #include "penumbra/subsurface/media.h"
 
@@ -836,6 +837,9 @@ Expected<Scene> loadScene(const std::string& name_or_path) {
       std::filesystem::exists(name_or_path, ec) && !std::filesystem::is_directory(name_or_path, ec);
   if (!is_file && name_or_path == "sss") return sssBuiltinScene();
   if (!is_file && name_or_path == "lpv") return lpvBuiltinScene();
+  if (!is_file) {
+    if (const std::optional<SceneAnimation> a = builtinAnimation(name_or_path)) return (*a)(0.0);
+  }
   if (!is_file && extensionOf(name_or_path).empty()) return builtinScene(name_or_path);
   return loadSceneFile(name_or_path);
 }

@@ -111,7 +111,7 @@ Scene furnace() {
 }  // namespace
 
 std::vector<std::string> builtinSceneNames() {
-  return {"cornell", "furnace", "sss", "lpv"};
+  return {"cornell", "furnace", "sss", "lpv", "blobs"};
 }
 
 Expected<Scene> builtinScene(const std::string& name) {
@@ -122,7 +122,7 @@ Expected<Scene> builtinScene(const std::string& name) {
     s = furnace();
   } else {
     return inputError("", "",
-                      fmt::format("unknown scene '{}' (built-in scenes: cornell, furnace, sss, lpv; "
+                      fmt::format("unknown scene '{}' (built-in scenes: cornell, furnace, sss, lpv, blobs; "
                                   "or give a .json, .obj, .gltf, .glb or .ply file)",
                                   name));
   }
