@@ -94,7 +94,23 @@ LpvFrameTimes LpvSolver::update(const Scene& scene) {
   LpvFrameTimes times;
   // Voxelisation, and the geometry as it is now for the maps and the view.
   Timer timer;
-  flat_ = flattenScene(scene);
+  FlatTriangles flat = flattenScene(scene);
+  const bool same = geometry_ > 0 && flat.positions == flat_.positions &&
+                    flat.triangles == flat_.triangles && flat.material_ids == flat_.material_ids;
+  if (same) {
+    times.voxelise = timer.seconds();
+    timer = Timer();
+    for (size_t k = 0; k < objects_.size(); ++k) {
+      inject(scene, objects_[k], uint32_t(k), &times.rsm_texels);
+    }
+    times.inject = timer.seconds();
+    timer = Timer();
+    propagate();
+    times.propagate = timer.seconds();
+    return times;
+  }
+  ++geometry_;
+  flat_ = std::move(flat);
   engine_ = RayEngine::build(flat_.positions, flat_.triangles);
   Bounds3 bounds;
   for (const glm::vec3& p : flat_.positions) bounds.extend(p);
@@ -124,13 +140,19 @@ LpvFrameTimes LpvSolver::update(const Scene& scene) {
   times.inject = timer.seconds();
 
   timer = Timer();
+  propagate();
+  times.propagate = timer.seconds();
+  return times;
+}
+
+void LpvSolver::propagate() {
   for (LpvObject& o : objects_) {
     const LpvTransfer transfer = lpvTransfer(o.grid, o.cells, o.cell_medium);
-    LpvField a = o.injected, b;
+    LpvField a = o.injected, b, sent;
     b.resize(o.grid.cellCount());
     o.accumulated.resize(o.grid.cellCount());
     for (int step = 1; step <= options_.steps; ++step) {
-      lpvPropagate(o.grid, o.cells, transfer, a, b);
+      lpvPropagate(o.grid, o.cells, transfer, a, b, sent);
       std::swap(a, b);
       if (step <= options_.skip_steps) continue;
       parallelRange(transfer.cells.size(), 4096, [&](size_t b0, size_t b1) {
@@ -141,8 +163,6 @@ LpvFrameTimes LpvSolver::update(const Scene& scene) {
       });
     }
   }
-  times.propagate = timer.seconds();
-  return times;
 }
 
 void LpvSolver::inject(const Scene& scene, LpvObject& o, uint32_t index, uint64_t* texels) {
@@ -284,56 +304,83 @@ glm::dvec3 LpvSolver::incidentRadiance(size_t k, const glm::dvec3& p, const glm:
 }
 
 Image LpvSolver::render(const Scene& scene, const Camera& camera, int width, int height, int spp,
-                        uint64_t seed, LpvFrameTimes* times) const {
+                        uint64_t seed, LpvFrameTimes* times) {
   const Timer timer;
-  Image image(width, height);
-  const CameraRays rays(camera, width, height);
-  const float w = 1.0f / float(std::max(spp, 1));
-  std::atomic<uint64_t> traced{0};
-  parallelRange(size_t(height), 1, [&](size_t y0, size_t y1) {
-    for (size_t y = y0; y < y1; ++y) {
-      for (int x = 0; x < width; ++x) {
-        const uint32_t pixel = uint32_t(y * size_t(width) + size_t(x));
-        Rng rng(mixBits(seed), pixel);
-        glm::dvec3 sum(0.0);
-        for (int s = 0; s < spp; ++s) {
-          const float jx = spp == 1 ? 0.5f : rng.uniform();
-          const float jy = spp == 1 ? 0.5f : rng.uniform();
-          const Ray ray = rays.ray(float(x) + jx, float(y) + jy);
-          const Hit hit = engine_.intersect(ray);
-          if (!hit.hit()) {
-            sum += glm::dvec3(scene.environment);
-            continue;
+  spp = std::max(spp, 1);
+  const bool cached = view_.valid && view_.geometry == geometry_ && view_.width == width &&
+                      view_.height == height && view_.spp == spp && view_.seed == seed &&
+                      view_.camera.position == camera.position &&
+                      view_.camera.look_at == camera.look_at && view_.camera.up == camera.up &&
+                      view_.camera.vertical_fov == camera.vertical_fov;
+  if (!cached) {
+    view_ = ViewCache{};
+    const CameraRays rays(camera, width, height);
+    const float w = 1.0f / float(spp);
+    view_.emitted.assign(size_t(width) * size_t(height), glm::vec3(0.0f));
+    // Rows in parallel, each with its own list, joined in row order.
+    std::vector<std::vector<ViewSample>> rows(static_cast<size_t>(height));
+    parallelRange(size_t(height), 1, [&](size_t y0, size_t y1) {
+      for (size_t y = y0; y < y1; ++y) {
+        for (int x = 0; x < width; ++x) {
+          const uint32_t pixel = uint32_t(y * size_t(width) + size_t(x));
+          Rng rng(mixBits(seed), pixel);
+          for (int k = 0; k < spp; ++k) {
+            const float jx = spp == 1 ? 0.5f : rng.uniform();
+            const float jy = spp == 1 ? 0.5f : rng.uniform();
+            const Ray ray = rays.ray(float(x) + jx, float(y) + jy);
+            const Hit hit = engine_.intersect(ray);
+            if (!hit.hit()) {
+              view_.emitted[pixel] += scene.environment * w;
+              continue;
+            }
+            const size_t t = size_t(hit.triangle);
+            const glm::uvec3 tri = flat_.triangles[t];
+            const glm::vec3 n =
+                glm::normalize(glm::cross(flat_.positions[tri.y] - flat_.positions[tri.x],
+                                          flat_.positions[tri.z] - flat_.positions[tri.x]));
+            const bool back = glm::dot(ray.dir, n) >= 0.0f;
+            const Material& m = scene.materials[flat_.material_ids[t]];
+            const glm::vec3 p = ray.origin + hit.t * ray.dir;
+            const uint32_t object = triangle_object_[t];
+            if (object != 0) {
+              if (back) continue;  // inside the object: black
+              // Sec. 3.3: T(w_o) L_i, L_i looked up at each frame.
+              const double cos_o = std::max(0.0f, -glm::dot(ray.dir, n));
+              const float ft = float(fresnelTransmittance(m.subsurface->eta, cos_o));
+              rows[y].push_back({pixel, object, p, n, glm::vec3(ft * w)});
+              continue;
+            }
+            if (!back && m.isEmissive()) view_.emitted[pixel] += m.emission * w;
+            if ((back && !m.two_sided) || m.reflectance == glm::vec3(0.0f)) continue;
+            rows[y].push_back({pixel, 0, p, back ? -n : n, m.reflectance * w});
           }
-          const size_t t = size_t(hit.triangle);
-          const glm::uvec3 tri = flat_.triangles[t];
-          const glm::dvec3 a(flat_.positions[tri.x]), b(flat_.positions[tri.y]),
-              c(flat_.positions[tri.z]);
-          const glm::dvec3 n = glm::normalize(glm::cross(b - a, c - a));
-          const glm::dvec3 d(ray.dir);
-          const bool back = glm::dot(d, n) >= 0.0;
-          const Material& m = scene.materials[flat_.material_ids[t]];
-          const glm::dvec3 p = glm::dvec3(ray.origin) + double(hit.t) * d;
-          const uint32_t object = triangle_object_[t];
-          if (object != 0) {
-            if (back) continue;  // inside the object: black
-            // Sec. 3.3: T(w_o) L_i.
-            const double cos_o = std::max(0.0, -glm::dot(d, n));
-            sum +=
-                fresnelTransmittance(m.subsurface->eta, cos_o) * incidentRadiance(object - 1, p, n);
-            continue;
-          }
-          if (!back && m.isEmissive()) sum += glm::dvec3(m.emission);
-          if (back && !m.two_sided) continue;
-          if (m.reflectance == glm::vec3(0.0f)) continue;
-          const glm::dvec3 ns = back ? -n : n;
-          uint64_t count = 0;
-          const glm::dvec3 e = visibleIrradiance(engine_, lift_, scene.lights, p, ns, &count);
-          traced += count;
-          sum += glm::dvec3(m.reflectance) * e / std::numbers::pi;
         }
-        image.pixels[pixel] = glm::vec3(sum) * w;
       }
+    });
+    for (const std::vector<ViewSample>& r : rows) {
+      view_.samples.insert(view_.samples.end(), r.begin(), r.end());
+    }
+    view_.valid = true;
+    view_.geometry = geometry_;
+    view_.camera = camera;
+    view_.width = width;
+    view_.height = height;
+    view_.spp = spp;
+    view_.seed = seed;
+  }
+  Image image(width, height);
+  image.pixels = view_.emitted;
+  // Samples are in pixel order; each thread takes whole rows, so no pixel is written by two.
+  parallelRange(size_t(height), 4, [&](size_t y0, size_t y1) {
+    const uint32_t first = uint32_t(y0 * size_t(width)), last = uint32_t(y1 * size_t(width));
+    auto it = std::lower_bound(view_.samples.begin(), view_.samples.end(), first,
+                               [](const ViewSample& v, uint32_t p) { return v.pixel < p; });
+    for (; it != view_.samples.end() && it->pixel < last; ++it) {
+      const glm::dvec3 p(it->point), n(it->normal);
+      const glm::dvec3 l = it->object != 0 ? incidentRadiance(it->object - 1, p, n)
+                                           : visibleIrradiance(engine_, lift_, scene.lights, p, n) /
+                                                 std::numbers::pi;
+      image.pixels[it->pixel] += it->factor * glm::vec3(l);
     }
   });
   if (times) times->shade += timer.seconds();

@@ -72,14 +72,18 @@ class LpvSolver {
   static Expected<LpvSolver> build(const Scene& scene, const LpvOptions& options);
 
   // One frame for the scene as it is now (same meshes, positions and lights may have moved):
-  // voxelisation, injection, propagation. Refuses (an input error) a mesh that moved to where its
-  // grid no longer fits the options' memory plan, which cannot happen for the same mesh sizes.
+  // voxelisation, injection, propagation. When the geometry is the last frame's (the same
+  // vertices and triangles), its voxelisation and Ray Engine are kept: only the lights moved.
+  // Refuses (an input error) a mesh that moved to where its grid no longer fits the options' memory
+  // plan, which cannot happen for the same mesh sizes.
   LpvFrameTimes update(const Scene& scene);
 
   // The image of the last update's state from `camera` (w x h, spp jittered samples per pixel
   // from `seed`); adds its seconds to times->shade when given.
+  // The camera's samples are traced once and kept while the geometry, the camera and the image
+  // settings stay (a moving light costs only the lookups and the opaque surfaces' shadow rays).
   Image render(const Scene& scene, const Camera& camera, int width, int height, int spp,
-               uint64_t seed, LpvFrameTimes* times = nullptr) const;
+               uint64_t seed, LpvFrameTimes* times = nullptr);
 
   // Eq. 7 at a surface point of object k with outward normal n: the incident area-light
   // radiance per channel (W m^-2 sr^-1) before the view's Fresnel transmittance.
@@ -91,7 +95,26 @@ class LpvSolver {
   uint64_t gridBytes() const;
 
  private:
+  // A camera sample of the view: a translucent point (object + 1, outward normal, F_t(w_o) /
+  // spp), or an opaque one (object 0, the normal of the side seen, rho / spp in `factor`).
+  struct ViewSample {
+    uint32_t pixel;
+    uint32_t object;
+    glm::vec3 point, normal, factor;
+  };
+  struct ViewCache {
+    bool valid = false;
+    uint64_t geometry = 0;
+    Camera camera;
+    int width = 0, height = 0, spp = 0;
+    uint64_t seed = 0;
+    std::vector<ViewSample> samples;  // in pixel order
+    std::vector<glm::vec3> emitted;   // per pixel: emitters and the environment, / spp
+  };
+
   LpvOptions options_;
+  uint64_t geometry_ = 0;  // counts changes of the geometry
+  ViewCache view_;
   std::vector<LpvObject> objects_;
   FlatTriangles flat_;
   std::vector<uint32_t> triangle_object_;  // per flattened triangle: its object + 1, 0 for none
@@ -99,6 +122,8 @@ class LpvSolver {
   double lift_ = 0.0;
 
   void inject(const Scene& scene, LpvObject& object, uint32_t index, uint64_t* texels);
+  // Sec. 3.2: the steps and the accumulation for every object.
+  void propagate();
 };
 
 }  // namespace penumbra

@@ -126,6 +126,18 @@ std::vector<LpvCell> lpvVoxelise(const LpvGrid& grid, std::span<const glm::vec3>
       }
     }
   });
+  // The outer layer of cells stays outside (a triangle can only touch it, at the bounds' faces):
+  // every cell of the object then has its six neighbours in the grid.
+  for (int z = 0; z < grid.size.z; ++z) {
+    for (int y = 0; y < grid.size.y; ++y) {
+      for (int x = 0; x < grid.size.x; ++x) {
+        if (x == 0 || y == 0 || z == 0 || x == grid.size.x - 1 || y == grid.size.y - 1 ||
+            z == grid.size.z - 1) {
+          cells[grid.index(glm::ivec3(x, y, z))] = LpvCell::kOutside;
+        }
+      }
+    }
+  }
   return cells;
 }
 
@@ -160,8 +172,14 @@ glm::dvec3 LpvField::flux() const {
 LpvTransfer lpvTransfer(const LpvGrid& grid, std::span<const LpvCell> cells,
                         const LpvMedium& medium) {
   LpvTransfer t;
-  for (size_t i = 0; i < cells.size(); ++i) {
-    if (cells[i] != LpvCell::kOutside) t.cells.push_back(uint32_t(i));
+  // The object's cells, but not the grid's outer layer (whose neighbours would leave the grid).
+  for (int z = 1; z + 1 < grid.size.z; ++z) {
+    for (int y = 1; y + 1 < grid.size.y; ++y) {
+      for (int x = 1; x + 1 < grid.size.x; ++x) {
+        const size_t i = grid.index(glm::ivec3(x, y, z));
+        if (cells[i] != LpvCell::kOutside) t.cells.push_back(uint32_t(i));
+      }
+    }
   }
   for (std::vector<glm::vec4>& v : t.scale) v.assign(cells.size(), glm::vec4(0.0f));
   parallelRange(t.cells.size(), 4096, [&](size_t begin, size_t end) {
@@ -179,49 +197,48 @@ LpvTransfer lpvTransfer(const LpvGrid& grid, std::span<const LpvCell> cells,
 }
 
 void lpvPropagate(const LpvGrid& grid, std::span<const LpvCell> cells, const LpvTransfer& transfer,
-                  const LpvField& from, LpvField& to) {
+                  const LpvField& from, LpvField& to, LpvField& sent) {
+  (void)cells;
   // The matrices' six non-zero entries (lpv_sh.h): for light travelling along axis a with sign
   // sigma, band 0 takes m00 c0 + sigma m0a c_a, the band-1 coefficient along a takes
-  // sigma ma0 c0 + maa c_a, the two across it mbb times their own.
+  // sigma ma0 c0 + maa c_a, the two across it mbb times their own. The two neighbours along an
+  // axis are summed together: their sigma differ.
   static const struct Entries {
     float m00, m0a, ma0, maa, mbb;
   } e = [] {
     const glm::dmat4& m = lpvPropagationMatrices()[0];  // +x: a is y11 (index 3)
     return Entries{float(m[0][0]), float(m[3][0]), float(m[0][3]), float(m[3][3]), float(m[1][1])};
   }();
-  // The SH index coupled to each axis: y11 ~ x, y1-1 ~ y, y10 ~ z.
-  constexpr int kCoupled[3] = {3, 1, 2};
-  const std::array<int64_t, 3> stride = {1, int64_t(grid.size.x),
-                                         int64_t(grid.size.x) * int64_t(grid.size.y)};
+  const size_t n = grid.cellCount();
+  if (sent.c[0].size() != n) sent.resize(n);
+  // What each object cell sends (outside cells stay zero: they send nothing).
+  parallelRange(transfer.cells.size(), 2048, [&](size_t begin, size_t end) {
+    for (size_t k = begin; k < end; ++k) {
+      const uint32_t i = transfer.cells[k];
+      for (size_t ch = 0; ch < 3; ++ch) sent.c[ch][i] = from.c[ch][i] * transfer.scale[ch][i];
+    }
+  });
+  const size_t sx = 1, sy = size_t(grid.size.x), sz = size_t(grid.size.x) * size_t(grid.size.y);
   parallelRange(transfer.cells.size(), 512, [&](size_t begin, size_t end) {
     for (size_t k = begin; k < end; ++k) {
-      const uint32_t d = transfer.cells[k];
-      const int x = int(d % uint32_t(grid.size.x));
-      const int y = int((d / uint32_t(grid.size.x)) % uint32_t(grid.size.y));
-      const int z = int(d / (uint32_t(grid.size.x) * uint32_t(grid.size.y)));
-      const int coord[3] = {x, y, z};
-      glm::vec4 sum[3] = {glm::vec4(0.0f), glm::vec4(0.0f), glm::vec4(0.0f)};
-      for (int axis = 0; axis < 3; ++axis) {
-        const int a = kCoupled[axis];
-        for (int side = 0; side < 2; ++side) {
-          // Light travelling +axis comes from the cell at -axis (side 0), and the other way.
-          const float sigma = side == 0 ? 1.0f : -1.0f;
-          const int sc = coord[axis] + (side == 0 ? -1 : 1);
-          if (sc < 0 || sc >= grid.size[axis]) continue;
-          const size_t s =
-              size_t(int64_t(d) + (side == 0 ? -stride[size_t(axis)] : stride[size_t(axis)]));
-          if (cells[s] == LpvCell::kOutside) continue;
-          for (int ch = 0; ch < 3; ++ch) {
-            const glm::vec4 c = from.c[size_t(ch)][s] * transfer.scale[size_t(ch)][s];
-            glm::vec4 out(0.0f);
-            out = c * e.mbb;
-            out.x = e.m00 * c.x + sigma * e.m0a * c[a];
-            out[a] = sigma * e.ma0 * c.x + e.maa * c[a];
-            sum[ch] += out;
-          }
-        }
+      // Object cells are never on the grid's outer layer (lpvVoxelise): all six neighbours exist.
+      const size_t d = transfer.cells[k];
+      for (size_t ch = 0; ch < 3; ++ch) {
+        const glm::vec4* c = sent.c[ch].data();
+        // x: the coupled coefficient is y11 (w); y: y1-1 (y); z: y10 (z). Lower neighbour's
+        // light travels +axis (sigma = +1), the upper's -axis.
+        const glm::vec4 xl = c[d - sx], xu = c[d + sx];
+        const glm::vec4 yl = c[d - sy], yu = c[d + sy];
+        const glm::vec4 zl = c[d - sz], zu = c[d + sz];
+        const glm::vec4 xs = xl + xu, ys = yl + yu, zs = zl + zu;
+        const glm::vec4 xd = xl - xu, yd = yl - yu, zd = zl - zu;
+        glm::vec4 out;
+        out.x = e.m00 * (xs.x + ys.x + zs.x) + e.m0a * (xd.w + yd.y + zd.z);
+        out.y = e.ma0 * yd.x + e.maa * ys.y + e.mbb * (xs.y + zs.y);
+        out.z = e.ma0 * zd.x + e.maa * zs.z + e.mbb * (xs.z + ys.z);
+        out.w = e.ma0 * xd.x + e.maa * xs.w + e.mbb * (ys.w + zs.w);
+        to.c[ch][d] = out;
       }
-      for (int ch = 0; ch < 3; ++ch) to.c[size_t(ch)][d] = sum[ch];
     }
   });
 }

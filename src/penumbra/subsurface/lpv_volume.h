@@ -56,7 +56,8 @@ enum class LpvCell : uint8_t { kOutside = 0, kInside = 1, kBoundary = 2 };
 
 // Sec. 3 / Fig. 2, every frame: boundary cells overlap a triangle of the mesh (the separating
 // axis test of a triangle against the cell's box), inside cells are the others whose centre lies
-// inside the mesh (an odd number of crossings along +x from the centre, row by row). The mesh
+// inside the mesh (an odd number of crossings along +x from the centre, row by row). The grid's
+// outer layer stays outside (LpvGrid::around keeps the mesh a cell away from it). The mesh
 // should be closed; open meshes give boundary cells along the surface and whatever inside the
 // parity finds.
 std::vector<LpvCell> lpvVoxelise(const LpvGrid& grid, std::span<const glm::vec3> positions,
@@ -88,9 +89,9 @@ struct LpvField {
 };
 
 // What a frame's propagation needs of the medium, computed once per frame: the object's cells
-// (the indices of the inside and boundary cells, in order) and, per channel and cell, the
-// factors a cell's coefficients are sent with: exp(-sigma dx) for band 0 and
-// exp(-sigma dx) ((1 - s) + s g) for band 1 (sec. 3.2.1 and eq. 3).
+// (the indices of the inside and boundary cells, in order, less any on the grid's outer layer) and,
+// per channel and cell, the factors a cell's coefficients are sent with: exp(-sigma dx) for band 0
+// and exp(-sigma dx) ((1 - s) + s g) for band 1 (sec. 3.2.1 and eq. 3).
 struct LpvTransfer {
   std::vector<uint32_t> cells;
   std::array<std::vector<glm::vec4>, 3> scale;
@@ -101,9 +102,10 @@ LpvTransfer lpvTransfer(const LpvGrid& grid, std::span<const LpvCell> cells,
 // One propagation step (sec. 3.2): every cell of the object gathers from its six axial
 // neighbours of the object their coefficients times the transfer's factors, through the
 // propagation matrices (whose structure, six non-zero entries each, it uses); the other cells of
-// `to` are left as they are (zero when `to` started zero). Runs on all threads (oneTBB), the same
-// result for any thread count.
+// `to` are left as they are (zero when `to` started zero). `sent` is scratch space (the factors
+// applied), zero outside the object. Runs on all threads (oneTBB), the same result for any
+// thread count.
 void lpvPropagate(const LpvGrid& grid, std::span<const LpvCell> cells, const LpvTransfer& transfer,
-                  const LpvField& from, LpvField& to);
+                  const LpvField& from, LpvField& to, LpvField& sent);
 
 }  // namespace penumbra
