@@ -130,6 +130,12 @@ LpvFrameTimes LpvSolver::update(const Scene& scene) {
     o.grid = LpvGrid::around(meshBounds(mesh), options_.grid);
     o.cells = lpvVoxelise(o.grid, mesh.positions, mesh.triangles);
     o.cell_medium = lpvHomogeneousMedium(o.grid, o.medium);
+    o.transfer = lpvTransfer(o.grid, o.cells, o.cell_medium);
+    const size_t n = o.grid.cellCount();
+    for (LpvField* f :
+         {&o.injected, &o.accumulated, &o.propagation[0], &o.propagation[1], &o.sent}) {
+      f->resize(n);
+    }
   }
   times.voxelise = timer.seconds();
 
@@ -147,18 +153,27 @@ LpvFrameTimes LpvSolver::update(const Scene& scene) {
 
 void LpvSolver::propagate() {
   for (LpvObject& o : objects_) {
-    const LpvTransfer transfer = lpvTransfer(o.grid, o.cells, o.cell_medium);
-    LpvField a = o.injected, b, sent;
-    b.resize(o.grid.cellCount());
-    o.accumulated.resize(o.grid.cellCount());
+    const std::vector<uint32_t>& cells = o.transfer.cells;
+    LpvField* a = &o.propagation[0];
+    LpvField* b = &o.propagation[1];
+    // The fields are zero outside the object's cells; only those change.
+    parallelRange(cells.size(), 4096, [&](size_t b0, size_t b1) {
+      for (size_t k = b0; k < b1; ++k) {
+        const size_t i = cells[k];
+        for (size_t ch = 0; ch < 3; ++ch) {
+          a->c[ch][i] = o.injected.c[ch][i];
+          o.accumulated.c[ch][i] = glm::vec4(0.0f);
+        }
+      }
+    });
     for (int step = 1; step <= options_.steps; ++step) {
-      lpvPropagate(o.grid, o.cells, transfer, a, b, sent);
+      lpvPropagate(o.grid, o.cells, o.transfer, *a, *b, o.sent);
       std::swap(a, b);
       if (step <= options_.skip_steps) continue;
-      parallelRange(transfer.cells.size(), 4096, [&](size_t b0, size_t b1) {
+      parallelRange(cells.size(), 4096, [&](size_t b0, size_t b1) {
         for (size_t k = b0; k < b1; ++k) {
-          const size_t i = transfer.cells[k];
-          for (int ch = 0; ch < 3; ++ch) o.accumulated.c[size_t(ch)][i] += a.c[size_t(ch)][i];
+          const size_t i = cells[k];
+          for (size_t ch = 0; ch < 3; ++ch) o.accumulated.c[ch][i] += a->c[ch][i];
         }
       });
     }
@@ -166,7 +181,10 @@ void LpvSolver::propagate() {
 }
 
 void LpvSolver::inject(const Scene& scene, LpvObject& o, uint32_t index, uint64_t* texels) {
-  o.injected.resize(o.grid.cellCount());
+  // Injection reaches only the object's cells: clearing them clears the field.
+  for (const uint32_t i : o.transfer.cells) {
+    for (size_t ch = 0; ch < 3; ++ch) o.injected.c[ch][i] = glm::vec4(0.0f);
+  }
   const Mesh& mesh = scene.meshes[o.mesh];
   const Bounds3 bounds = meshBounds(mesh);
   const glm::dvec3 centre(bounds.center());
@@ -251,6 +269,9 @@ void LpvSolver::inject(const Scene& scene, LpvObject& o, uint32_t index, uint64_
           if (o.cells[o.grid.index(cell)] == LpvCell::kOutside) {
             cell = o.grid.cellOf(p - normal * (0.5 * o.grid.cell));
           }
+          // A point whose cells are both outside (the surface grazing a cell's corner) injects
+          // nothing: its light would not propagate.
+          if (o.cells[o.grid.index(cell)] == LpvCell::kOutside) continue;
           rows[y].push_back({o.grid.index(cell), t * flux, refractInto(dir, normal, eta)});
         }
         count += rows[y].size();

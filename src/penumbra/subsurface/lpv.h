@@ -63,6 +63,10 @@ struct LpvObject {
   LpvMedium cell_medium;
   LpvField injected;     // the virtual point lights of this frame
   LpvField accumulated;  // the accumulation grid
+  // Kept from frame to frame while the geometry stays: the cells and factors of the
+  // propagation, and its fields (zero outside the object's cells).
+  LpvTransfer transfer;
+  LpvField propagation[2], sent;
 };
 
 class LpvSolver {
