@@ -1,10 +1,13 @@
 #include "penumbra/io/subsurface_json.h"
 
+#include "penumbra/subsurface/heterogeneous.h"
 #include "penumbra/subsurface/media.h"
 
 #include <fmt/format.h>
 
 #include <cmath>
+#include <filesystem>
+#include <memory>
 
 namespace penumbra {
 
@@ -58,10 +61,10 @@ Expected<Subsurface> parseSubsurface(const nlohmann::json& block, const std::str
   for (auto it = block.begin(); it != block.end(); ++it) {
     const std::string& k = it.key();
     if (k != "preset" && k != "sigma_s_prime" && k != "sigma_a" && k != "eta" && k != "g" &&
-        k != "scale" && k != "albedo" && k != "distance_mm") {
+        k != "scale" && k != "albedo" && k != "distance_mm" && k != "pattern" && k != "grid") {
       return inputError(file, place + "." + k,
                         "unknown key (known keys: preset, sigma_s_prime, sigma_a, albedo, "
-                        "distance_mm, eta, g, scale)");
+                        "distance_mm, eta, g, scale, pattern, grid)");
     }
   }
   const bool preset = block.contains("preset");
@@ -132,6 +135,30 @@ Expected<Subsurface> parseSubsurface(const nlohmann::json& block, const std::str
   medium->sigma_a *= scale;
   if (Status s = checkSubsurface(*medium); !s.ok())
     return inputError(file, place, s.error().message);
+  // Heterogeneity (subsurface/heterogeneous.h): a pattern over these coefficients, or a grid
+  // file (relative to the scene file).
+  if (block.contains("pattern") && block.contains("grid")) {
+    return inputError(file, place, "give pattern or grid, not both");
+  }
+  if (block.contains("pattern")) {
+    const nlohmann::json& p = block.at("pattern");
+    if (!p.is_string() || !isMediumPattern(p.get<std::string>())) {
+      return inputError(file, place + ".pattern",
+                        fmt::format("must be one of: {}", mediumPatternNames()));
+    }
+    medium->pattern = p.get<std::string>();
+  }
+  if (block.contains("grid")) {
+    const nlohmann::json& p = block.at("grid");
+    if (!p.is_string() || p.get<std::string>().empty()) {
+      return inputError(file, place + ".grid", "must be the path of a medium grid file");
+    }
+    std::filesystem::path path(p.get<std::string>());
+    if (path.is_relative()) path = std::filesystem::path(file).parent_path() / path;
+    Expected<MediumGrid> grid = readMediumGrid(path.string());
+    if (!grid) return grid.error();
+    medium->grid = std::make_shared<const MediumGrid>(std::move(*grid));
+  }
   return *medium;
 }
 

@@ -129,7 +129,7 @@ LpvFrameTimes LpvSolver::update(const Scene& scene) {
     // The grid follows the mesh (the same resolution along its longest side).
     o.grid = LpvGrid::around(meshBounds(mesh), options_.grid);
     o.cells = lpvVoxelise(o.grid, mesh.positions, mesh.triangles);
-    o.cell_medium = lpvHomogeneousMedium(o.grid, o.medium);
+    o.cell_medium = lpvMedium(o.grid, o.medium, meshBounds(mesh));
     o.transfer = lpvTransfer(o.grid, o.cells, o.cell_medium);
     const size_t n = o.grid.cellCount();
     for (LpvField* f :

@@ -2,6 +2,7 @@
 
 #include "penumbra/core/parallel.h"
 #include "penumbra/geometry/triangle_box.h"
+#include "penumbra/subsurface/heterogeneous.h"
 #include "penumbra/subsurface/lpv_sh.h"
 
 #include <glm/mat4x4.hpp>
@@ -150,6 +151,33 @@ LpvMedium lpvHomogeneousMedium(const LpvGrid& grid, const Subsurface& medium) {
   m.extinction.assign(n, glm::vec3(medium.sigma_a));
   m.scattering.assign(n, s);
   m.g.assign(n, float(g));
+  return m;
+}
+
+LpvMedium lpvMedium(const LpvGrid& grid, const Subsurface& medium, const Bounds3& box) {
+  if (!medium.grid && medium.pattern.empty()) return lpvHomogeneousMedium(grid, medium);
+  const size_t n = grid.cellCount();
+  LpvMedium m;
+  m.extinction.resize(n);
+  m.scattering.resize(n);
+  m.g.resize(n);
+  const glm::dvec3 lo(box.lo), extent = glm::max(glm::dvec3(box.hi) - lo, glm::dvec3(1e-12));
+  parallelRange(size_t(grid.size.z), 1, [&](size_t z0, size_t z1) {
+    for (int z = int(z0); z < int(z1); ++z) {
+      for (int y = 0; y < grid.size.y; ++y) {
+        for (int x = 0; x < grid.size.x; ++x) {
+          const glm::ivec3 c(x, y, z);
+          const glm::dvec3 u = glm::clamp((grid.centre(c) - lo) / extent, 0.0, 1.0);
+          const MediumSample s = mediumAt(medium, u);
+          const double g = std::clamp(s.g, -0.999, 0.999);
+          const size_t i = grid.index(c);
+          m.extinction[i] = glm::vec3(s.sigma_a);
+          m.scattering[i] = glm::vec3(1.0 - glm::exp(-s.sigma_s_prime / (1.0 - g) * grid.cell));
+          m.g[i] = float(g);
+        }
+      }
+    }
+  });
   return m;
 }
 
