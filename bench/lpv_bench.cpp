@@ -133,7 +133,7 @@ void BM_LpvPropagate(benchmark::State& state) {
   const int steps = int(state.range(1));
   for (auto _ : state) {
     for (int s = 0; s < steps; ++s) {
-      lpvPropagate(object.grid, object.cells, transfer, a, b, sent);
+      lpvPropagate(object.grid, transfer, a, b, sent);
       std::swap(a, b);
     }
     benchmark::DoNotOptimize(a.c[0].data());

@@ -123,7 +123,7 @@ TEST(Lpv, PropagationConservesFluxAndAbsorbsBeersLaw) {
       const double per_step = std::exp(-sigma_a * grid.cell);
       for (int step = 0; step < 8; ++step) {
         const glm::dvec3 before = a.flux();
-        lpvPropagate(grid, cells, transfer, a, b2, sent);
+        lpvPropagate(grid, transfer, a, b2, sent);
         std::swap(a, b2);
         const glm::dvec3 after = a.flux();
         for (int ch = 0; ch < 3; ++ch) {

@@ -70,7 +70,8 @@ Expected<LpvSolver> LpvSolver::build(const Scene& scene, const LpvOptions& optio
       o.material = id;
       o.medium = *scene.materials[id].subsurface;
       o.grid = LpvGrid::around(meshBounds(mesh), options.grid);
-      cells += o.grid.cellCount();
+      // Any shape the mesh takes later: at most grid^3 cells.
+      cells += uint64_t(options.grid) * uint64_t(options.grid) * uint64_t(options.grid);
       s.objects_.push_back(std::move(o));
       break;
     }
@@ -167,7 +168,7 @@ void LpvSolver::propagate() {
       }
     });
     for (int step = 1; step <= options_.steps; ++step) {
-      lpvPropagate(o.grid, o.cells, o.transfer, *a, *b, o.sent);
+      lpvPropagate(o.grid, o.transfer, *a, *b, o.sent);
       std::swap(a, b);
       if (step <= options_.skip_steps) continue;
       parallelRange(cells.size(), 4096, [&](size_t b0, size_t b1) {

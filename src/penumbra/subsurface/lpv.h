@@ -72,14 +72,14 @@ struct LpvObject {
 class LpvSolver {
  public:
   // Checks the options and that some mesh has a translucent material (an input error naming
-  // the scene otherwise). The scene must have passed validateScene.
+  // the scene otherwise), and that the grids fit in memory whatever shape the meshes take later
+  // (grid^3 cells each at most). The scene must have passed validateScene.
   static Expected<LpvSolver> build(const Scene& scene, const LpvOptions& options);
 
   // One frame for the scene as it is now (same meshes, positions and lights may have moved):
   // voxelisation, injection, propagation. When the geometry is the last frame's (the same
   // vertices and triangles), its voxelisation and Ray Engine are kept: only the lights moved.
-  // Refuses (an input error) a mesh that moved to where its grid no longer fits the options' memory
-  // plan, which cannot happen for the same mesh sizes.
+  // Each grid follows its mesh: `grid` cells along the mesh's longest side.
   LpvFrameTimes update(const Scene& scene);
 
   // The image of the last update's state from `camera` (w x h, spp jittered samples per pixel

@@ -224,9 +224,8 @@ LpvTransfer lpvTransfer(const LpvGrid& grid, std::span<const LpvCell> cells,
   return t;
 }
 
-void lpvPropagate(const LpvGrid& grid, std::span<const LpvCell> cells, const LpvTransfer& transfer,
-                  const LpvField& from, LpvField& to, LpvField& sent) {
-  (void)cells;
+void lpvPropagate(const LpvGrid& grid, const LpvTransfer& transfer, const LpvField& from,
+                  LpvField& to, LpvField& sent) {
   // The matrices' six non-zero entries (lpv_sh.h): for light travelling along axis a with sign
   // sigma, band 0 takes m00 c0 + sigma m0a c_a, the band-1 coefficient along a takes
   // sigma ma0 c0 + maa c_a, the two across it mbb times their own. The two neighbours along an

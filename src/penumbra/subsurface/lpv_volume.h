@@ -108,7 +108,7 @@ LpvTransfer lpvTransfer(const LpvGrid& grid, std::span<const LpvCell> cells,
 // `to` are left as they are (zero when `to` started zero). `sent` is scratch space (the factors
 // applied), zero outside the object. Runs on all threads (oneTBB), the same result for any
 // thread count.
-void lpvPropagate(const LpvGrid& grid, std::span<const LpvCell> cells, const LpvTransfer& transfer,
-                  const LpvField& from, LpvField& to, LpvField& sent);
+void lpvPropagate(const LpvGrid& grid, const LpvTransfer& transfer, const LpvField& from,
+                  LpvField& to, LpvField& sent);
 
 }  // namespace penumbra
