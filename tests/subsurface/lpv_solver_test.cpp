@@ -2,9 +2,9 @@
 // flux the boundary transmits; against the dipole (the sss method's model, the closed form on a
 // slab and the method on the bunny) the volumes' exitant radiance is measured and stated (the
 // paper claims plausibility, not agreement: docs/algorithms.md gives the figures).
-#include "penumbra/subsurface/lpv.h"
 #include "penumbra/io/scene_io.h"
 #include "penumbra/kernels/dipole.h"
+#include "penumbra/subsurface/lpv.h"
 #include "penumbra/subsurface/media.h"
 #include "penumbra/subsurface/sss.h"
 #include "penumbra/subsurface/sss_frames.h"

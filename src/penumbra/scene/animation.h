@@ -14,9 +14,9 @@ namespace penumbra {
 
 using SceneAnimation = std::function<Expected<Scene>(double t)>;
 
-// The built-in animations: "blobs" (two translucent (jade-like) blobs that move together and merge, one
-// mesh whose topology changes from two components to one, over a floor, lit from the side). None
-// for another name.
+// The built-in animations: "blobs" (two translucent (jade-like) blobs that move together and merge,
+// one mesh whose topology changes from two components to one, over a floor, lit from the side).
+// None for another name.
 std::optional<SceneAnimation> builtinAnimation(const std::string& name);
 
 }  // namespace penumbra

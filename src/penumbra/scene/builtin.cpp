@@ -121,10 +121,11 @@ Expected<Scene> builtinScene(const std::string& name) {
   } else if (name == "furnace") {
     s = furnace();
   } else {
-    return inputError("", "",
-                      fmt::format("unknown scene '{}' (built-in scenes: cornell, furnace, sss, lpv, blobs; "
-                                  "or give a .json, .obj, .gltf, .glb or .ply file)",
-                                  name));
+    return inputError(
+        "", "",
+        fmt::format("unknown scene '{}' (built-in scenes: cornell, furnace, sss, lpv, blobs; "
+                    "or give a .json, .obj, .gltf, .glb or .ply file)",
+                    name));
   }
   Status st = validateScene(s);
   if (!st.ok()) return st.error();
