@@ -49,6 +49,18 @@ void report(benchmark::State& state, const LpvFrameTimes& sum, double frames, ui
   state.counters["grid_MB"] = double(bytes) / 1e6;
 }
 
+// One frame of `scene` (update and a 512 x 512 image at one sample per pixel), its stage times
+// added to `sum`.
+void frame(LpvSolver& solver, const Scene& scene, LpvFrameTimes& sum) {
+  LpvFrameTimes t = solver.update(scene);
+  const Image image = solver.render(scene, *scene.camera, 512, 512, 1, 0, &t);
+  benchmark::DoNotOptimize(image.pixels.data());
+  sum.voxelise += t.voxelise;
+  sum.inject += t.inject;
+  sum.propagate += t.propagate;
+  sum.shade += t.shade;
+}
+
 void BM_LpvFrame(benchmark::State& state) {
   Scene scene = bunny(int(state.range(2)));
   LpvOptions o;
@@ -62,19 +74,13 @@ void BM_LpvFrame(benchmark::State& state) {
   solver->update(scene);
   solver->render(scene, *scene.camera, 512, 512, 1, 0);
   LpvFrameTimes sum;
-  int frame = 0;
+  int count = 0;
   for (auto _ : state) {
     scene.lights =
-        orbitLights(lights, centre, 2.0f * std::numbers::pi_v<float> * float(frame++ % 64) / 64.0f);
-    LpvFrameTimes t = solver->update(scene);
-    const Image image = solver->render(scene, *scene.camera, 512, 512, 1, 0, &t);
-    benchmark::DoNotOptimize(image.pixels.data());
-    sum.voxelise += t.voxelise;
-    sum.inject += t.inject;
-    sum.propagate += t.propagate;
-    sum.shade += t.shade;
+        orbitLights(lights, centre, 2.0f * std::numbers::pi_v<float> * float(count++ % 64) / 64.0f);
+    frame(*solver, scene, sum);
   }
-  report(state, sum, double(frame), solver->gridBytes());
+  report(state, sum, double(count), solver->gridBytes());
 }
 BENCHMARK(BM_LpvFrame)
     ->ArgNames({"grid", "steps", "lights"})
@@ -97,21 +103,15 @@ void BM_LpvBlobsFrame(benchmark::State& state) {
   Expected<LpvSolver> solver = LpvSolver::build(*first, o);
   if (!solver) std::abort();
   LpvFrameTimes sum;
-  int frame = 0;
+  int count = 0;
   for (auto _ : state) {
     state.PauseTiming();  // remeshing is the animation's, not the method's
-    Expected<Scene> scene = blobs(double(frame++ % 32) / 32.0);
+    Expected<Scene> scene = blobs(double(count++ % 32) / 32.0);
     if (!scene) std::abort();
     state.ResumeTiming();
-    LpvFrameTimes t = solver->update(*scene);
-    const Image image = solver->render(*scene, *scene->camera, 512, 512, 1, 0, &t);
-    benchmark::DoNotOptimize(image.pixels.data());
-    sum.voxelise += t.voxelise;
-    sum.inject += t.inject;
-    sum.propagate += t.propagate;
-    sum.shade += t.shade;
+    frame(*solver, *scene, sum);
   }
-  report(state, sum, double(frame), solver->gridBytes());
+  report(state, sum, double(count), solver->gridBytes());
 }
 BENCHMARK(BM_LpvBlobsFrame)
     ->ArgNames({"grid", "steps"})
@@ -162,10 +162,10 @@ void BM_SssFramePeer(benchmark::State& state) {
   Expected<SssFrames> frames = SssFrames::create(*solver, *scene.camera, view, false);
   if (!frames) std::abort();
   const glm::vec3 centre = sceneCentre(scene);
-  int frame = 0;
+  int count = 0;
   for (auto _ : state) {
     const std::vector<Light> lights = orbitLights(
-        scene.lights, centre, 2.0f * std::numbers::pi_v<float> * float(frame++ % 64) / 64.0f);
+        scene.lights, centre, 2.0f * std::numbers::pi_v<float> * float(count++ % 64) / 64.0f);
     Expected<SssFrame> f = frames->render(lights);
     if (!f) std::abort();
     benchmark::DoNotOptimize(f->image.pixels.data());

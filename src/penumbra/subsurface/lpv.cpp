@@ -98,18 +98,22 @@ LpvFrameTimes LpvSolver::update(const Scene& scene) {
   FlatTriangles flat = flattenScene(scene);
   const bool same = geometry_ > 0 && flat.positions == flat_.positions &&
                     flat.triangles == flat_.triangles && flat.material_ids == flat_.material_ids;
-  if (same) {
-    times.voxelise = timer.seconds();
-    timer = Timer();
-    for (size_t k = 0; k < objects_.size(); ++k) {
-      inject(scene, objects_[k], uint32_t(k), &times.rsm_texels);
-    }
-    times.inject = timer.seconds();
-    timer = Timer();
-    propagate();
-    times.propagate = timer.seconds();
-    return times;
+  if (!same) rebuild(scene, std::move(flat));
+  times.voxelise = timer.seconds();
+
+  timer = Timer();
+  for (size_t k = 0; k < objects_.size(); ++k) {
+    inject(scene, objects_[k], uint32_t(k), &times.rsm_texels);
   }
+  times.inject = timer.seconds();
+
+  timer = Timer();
+  propagate();
+  times.propagate = timer.seconds();
+  return times;
+}
+
+void LpvSolver::rebuild(const Scene& scene, FlatTriangles flat) {
   ++geometry_;
   flat_ = std::move(flat);
   engine_ = RayEngine::build(flat_.positions, flat_.triangles);
@@ -138,18 +142,6 @@ LpvFrameTimes LpvSolver::update(const Scene& scene) {
       f->resize(n);
     }
   }
-  times.voxelise = timer.seconds();
-
-  timer = Timer();
-  for (size_t k = 0; k < objects_.size(); ++k) {
-    inject(scene, objects_[k], uint32_t(k), &times.rsm_texels);
-  }
-  times.inject = timer.seconds();
-
-  timer = Timer();
-  propagate();
-  times.propagate = timer.seconds();
-  return times;
 }
 
 void LpvSolver::propagate() {

@@ -126,6 +126,9 @@ class LpvSolver {
   double lift_ = 0.0;
 
   void inject(const Scene& scene, LpvObject& object, uint32_t index, uint64_t* texels);
+  // The geometry changed: the Ray Engine, the triangles' objects, every object's grid,
+  // voxelisation, medium and fields.
+  void rebuild(const Scene& scene, FlatTriangles flat);
   // Sec. 3.2: the steps and the accumulation for every object.
   void propagate();
 };
