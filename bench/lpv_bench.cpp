@@ -8,6 +8,7 @@
 // rasterised pipeline redraws them; its Table 1 does not count a voxelisation). The `blobs`
 // animation remeshes every frame and pays for everything. BM_LpvPropagate times the propagation
 // alone on the bunny's cells (the goal: 32^3, 8 steps, at most 2 ms on two cores).
+// BM_LpvSurroundings times the injection of a sky's light through gathered surface points.
 //
 // The peer in the same run is the other real-time subsurface method on the same scene and image:
 // the dipole through hierarchical links (Carr et al. 2003, subsurface/sss.h), whose frames cost
@@ -52,7 +53,9 @@ void report(benchmark::State& state, const LpvFrameTimes& sum, double frames, ui
 // One frame of `scene` (update and a 512 x 512 image at one sample per pixel), its stage times
 // added to `sum`.
 void frame(LpvSolver& solver, const Scene& scene, LpvFrameTimes& sum) {
-  LpvFrameTimes t = solver.update(scene);
+  Expected<LpvFrameTimes> updated = solver.update(scene);
+  if (!updated) std::abort();
+  LpvFrameTimes t = *updated;
   const Image image = solver.render(scene, *scene.camera, 512, 512, 1, 0, &t);
   benchmark::DoNotOptimize(image.pixels.data());
   sum.voxelise += t.voxelise;
@@ -71,7 +74,7 @@ void BM_LpvFrame(benchmark::State& state) {
   const std::vector<Light> lights = scene.lights;
   const glm::vec3 centre = sceneCentre(scene);
   // The first frame voxelises and traces the camera: not part of the moving-light frames.
-  solver->update(scene);
+  if (!solver->update(scene)) std::abort();
   solver->render(scene, *scene.camera, 512, 512, 1, 0);
   LpvFrameTimes sum;
   int count = 0;
@@ -126,7 +129,7 @@ void BM_LpvPropagate(benchmark::State& state) {
   o.grid = int(state.range(0));
   Expected<LpvSolver> solver = LpvSolver::build(scene, o);
   if (!solver) std::abort();
-  solver->update(scene);
+  if (!solver->update(scene)) std::abort();
   const LpvObject& object = solver->objects()[0];
   const LpvTransfer transfer = lpvTransfer(object.grid, object.cells, object.cell_medium);
   LpvField a = object.injected, b = object.injected, sent;
@@ -145,6 +148,31 @@ BENCHMARK(BM_LpvPropagate)
     ->Args({32, 8})
     ->Args({64, 8})
     ->Args({32, 32})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+
+// The injection of emitters and the environment (subsurface/lpv_inject.cpp: 16384 surface points
+// x 16 rays by default) on the bunny under a sky whose radiance changes every frame, so that it
+// is redone each time (a moving light alone keeps it).
+void BM_LpvSurroundings(benchmark::State& state) {
+  Scene scene = bunny(1);
+  LpvOptions o;
+  o.surface_samples = int(state.range(0));
+  o.surface_rays = int(state.range(1));
+  Expected<LpvSolver> solver = LpvSolver::build(scene, o);
+  if (!solver) std::abort();
+  LpvFrameTimes sum;
+  int count = 0;
+  for (auto _ : state) {
+    scene.environment = glm::vec3(0.02f + 0.001f * float(count++ % 2));
+    frame(*solver, scene, sum);
+  }
+  report(state, sum, double(count), solver->gridBytes());
+}
+BENCHMARK(BM_LpvSurroundings)
+    ->ArgNames({"points", "rays"})
+    ->Args({16384, 16})
+    ->Args({65536, 16})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 

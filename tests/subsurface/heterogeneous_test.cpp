@@ -108,7 +108,7 @@ Image lpvImage(const std::string& path) {
   EXPECT_TRUE(scene.ok()) << scene.error().describe();
   Expected<LpvSolver> solver = LpvSolver::build(*scene, LpvOptions{});
   EXPECT_TRUE(solver.ok());
-  solver->update(*scene);
+  EXPECT_TRUE(solver->update(*scene).ok());
   return solver->render(*scene, *scene->camera, 48, 48, 1, 0);
 }
 

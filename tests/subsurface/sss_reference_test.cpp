@@ -11,6 +11,7 @@
 #include "penumbra/raytrace/path_tracer.h"
 #include "penumbra/subsurface/sss.h"
 #include "penumbra/subsurface/sss_frames.h"
+#include "support/sss_scenes.h"
 #include "support/test_util.h"
 
 #include <gtest/gtest.h>
@@ -24,42 +25,8 @@
 namespace penumbra {
 namespace {
 
-// The built-in sss scene with its point lights replaced by a 0.3 m square emitter behind and
-// to the side of the bunny, facing it, and a sky of radiance 0.02.
-Scene areaLitBunny() {
-  Expected<Scene> loaded = loadScene("sss");
-  EXPECT_TRUE(loaded.ok());
-  Scene s = std::move(*loaded);
-  s.lights.clear();
-  s.environment = glm::vec3(0.02f);
-  Material light;
-  light.name = "light";
-  light.reflectance = glm::vec3(0.0f);
-  light.emission = glm::vec3(4.0f);
-  light.two_sided = false;
-  s.materials.push_back(light);
-  const glm::vec3 centre(-0.017f, 0.11f, 0.0f);
-  const glm::vec3 at(0.25f, 0.2f, -0.3f);
-  const glm::vec3 n = glm::normalize(centre - at);  // the emitting side faces the bunny
-  const glm::vec3 u = glm::normalize(glm::cross(n, glm::vec3(0, 1, 0))) * 0.15f;
-  const glm::vec3 v = glm::cross(u, n);
-  Mesh quad;
-  quad.name = "light";
-  quad.positions = {at - u - v, at + u - v, at + u + v, at - u + v};
-  // Counter-clockwise seen from the side n points to.
-  const bool ccw = glm::dot(glm::cross(quad.positions[1] - quad.positions[0],
-                                       quad.positions[2] - quad.positions[0]),
-                            n) > 0.0f;
-  quad.triangles = ccw ? std::vector<glm::uvec3>{{0, 1, 2}, {0, 2, 3}}
-                       : std::vector<glm::uvec3>{{0, 2, 1}, {0, 3, 2}};
-  quad.material_ids = {uint32_t(s.materials.size() - 1), uint32_t(s.materials.size() - 1)};
-  s.meshes.push_back(quad);
-  EXPECT_TRUE(validateScene(s).ok());
-  return s;
-}
-
 TEST(SssReference, BunnyAgreesWithThePathTracersRandomWalk) {
-  const Scene scene = areaLitBunny();
+  const Scene scene = test::areaLitBunny();
   const char* output = std::getenv("PENUMBRA_TEST_OUTPUT_DIR");
   const int kSize = output ? 160 : 48;
   SssOptions o;

@@ -5,6 +5,7 @@
 #include <glm/vec3.hpp>
 
 #include <limits>
+#include <span>
 
 namespace penumbra {
 
@@ -28,6 +29,12 @@ struct Bounds3 {
     if (empty()) return 0.0f;
     const glm::vec3 e = hi - lo;
     return 2.0f * (e.x * e.y + e.y * e.z + e.z * e.x);
+  }
+  // The box around `points`.
+  static Bounds3 of(std::span<const glm::vec3> points) {
+    Bounds3 b;
+    for (const glm::vec3& p : points) b.extend(p);
+    return b;
   }
 };
 

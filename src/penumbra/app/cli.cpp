@@ -280,6 +280,15 @@ int parseAndRun(int argc, char** argv) {
                    "lpv: injection texels per side of each light's reflective shadow map "
                    "(default 256, the paper's)")
       ->check(CLI::Range(1, 4096));
+  render_cmd
+      ->add_option("--surface-samples", render.surface_samples,
+                   "lpv: points of each translucent surface that gather the light of emitting "
+                   "surfaces and the environment (default 16384; 0: none)")
+      ->check(CLI::Range(0, 1 << 20));
+  render_cmd
+      ->add_option("--surface-rays", render.surface_rays,
+                   "lpv: rays per surface point (default 16)")
+      ->check(CLI::Range(0, 256));
   render_cmd->add_flag("--no-cache", render.no_cache,
                        "sss: build the links even if the cache ($PENUMBRA_CACHE_DIR, else "
                        "~/.cache/penumbra) holds them, and do not write them there");

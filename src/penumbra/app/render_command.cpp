@@ -249,11 +249,13 @@ int runRender(const RenderOptions& options, const CommonOptions& common) {
     return reportError(inputError("", "--frames", "applies to --method sss and lpv only"));
   }
   if (options.method != "lpv") {
-    const char* only = options.grid             ? "--grid"
-                       : options.steps          ? "--steps"
-                       : options.skip_steps     ? "--skip-steps"
-                       : options.rsm_resolution ? "--rsm-resolution"
-                                                : nullptr;
+    const char* only = options.grid              ? "--grid"
+                       : options.steps           ? "--steps"
+                       : options.skip_steps      ? "--skip-steps"
+                       : options.rsm_resolution  ? "--rsm-resolution"
+                       : options.surface_samples ? "--surface-samples"
+                       : options.surface_rays    ? "--surface-rays"
+                                                 : nullptr;
     if (only) return reportError(inputError("", only, "applies to --method lpv only"));
   }
   if (options.method != "sss") {

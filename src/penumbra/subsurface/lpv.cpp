@@ -7,6 +7,7 @@
 #include "penumbra/kernels/dipole.h"
 #include "penumbra/radiosity/lights.h"
 #include "penumbra/raytrace/camera_rays.h"
+#include "penumbra/subsurface/lpv_gl.h"
 #include "penumbra/subsurface/lpv_sh.h"
 
 #include <fmt/format.h>
@@ -23,24 +24,9 @@ namespace penumbra {
 
 namespace {
 
-// Bytes per cell: the injected, propagation (two) and accumulation fields (3 channels x 16
-// bytes each), the propagation step's scratch, the medium (28) and the cell's kind.
-constexpr uint64_t kBytesPerCell = 5 * 48 + 28 + 1;
-
-// The refracted direction of `d` (unit, travelling into the surface of outward unit normal n)
-// entering a medium of relative index eta (Snell's law; eta >= 1, so no total reflection).
-glm::dvec3 refractInto(const glm::dvec3& d, const glm::dvec3& n, double eta) {
-  const double cos_i = std::clamp(-glm::dot(d, n), 0.0, 1.0);
-  const double sin2_t = (1.0 - cos_i * cos_i) / (eta * eta);
-  const double cos_t = std::sqrt(std::max(0.0, 1.0 - sin2_t));
-  return glm::normalize(d / eta + (cos_i / eta - cos_t) * n);
-}
-
-Bounds3 meshBounds(const Mesh& mesh) {
-  Bounds3 b;
-  for (const glm::vec3& p : mesh.positions) b.extend(p);
-  return b;
-}
+// Bytes per cell: the surroundings', injected, propagation (two) and accumulation fields (3
+// channels x 16 bytes each), the propagation step's scratch, the medium (28) and the cell's kind.
+constexpr uint64_t kBytesPerCell = 6 * 48 + 28 + 1;
 
 }  // namespace
 
@@ -57,6 +43,13 @@ Expected<LpvSolver> LpvSolver::build(const Scene& scene, const LpvOptions& optio
   if (options.rsm_resolution < 1 || options.rsm_resolution > 4096) {
     return inputError("", "--rsm-resolution", "must be in [1, 4096]");
   }
+  if (options.surface_samples < 0 || options.surface_samples > kLpvMaxSurfaceSamples) {
+    return inputError("", "--surface-samples",
+                      fmt::format("must be in [0, {}]", kLpvMaxSurfaceSamples));
+  }
+  if (options.surface_rays < 0 || options.surface_rays > 256) {
+    return inputError("", "--surface-rays", "must be in [0, 256]");
+  }
   LpvSolver s;
   s.options_ = options;
   uint64_t cells = 0;
@@ -69,7 +62,7 @@ Expected<LpvSolver> LpvSolver::build(const Scene& scene, const LpvOptions& optio
       o.mesh = uint32_t(m);
       o.material = id;
       o.medium = *scene.materials[id].subsurface;
-      o.grid = LpvGrid::around(meshBounds(mesh), options.grid);
+      o.grid = LpvGrid::around(Bounds3::of(mesh.positions), options.grid);
       // Any shape the mesh takes later: at most grid^3 cells.
       cells += uint64_t(options.grid) * uint64_t(options.grid) * uint64_t(options.grid);
       s.objects_.push_back(std::move(o));
@@ -91,30 +84,49 @@ uint64_t LpvSolver::gridBytes() const {
   return cells * kBytesPerCell;
 }
 
-LpvFrameTimes LpvSolver::update(const Scene& scene) {
+Status LpvSolver::useGpu() {
+  Expected<GlLpv> gl = GlLpv::create();
+  if (!gl) return gl.error();
+  gpu_ = std::make_shared<GlLpv>(std::move(*gl));
+  // The volumes go up with the next update.
+  stale_ = true;
+  return {};
+}
+
+Expected<LpvFrameTimes> LpvSolver::update(const Scene& scene) {
   LpvFrameTimes times;
   // Voxelisation, and the geometry as it is now for the maps and the view.
   Timer timer;
   FlatTriangles flat = flattenScene(scene);
-  const bool same = geometry_ > 0 && flat.positions == flat_.positions &&
+  const bool same = geometry_ > 0 && !stale_ && flat.positions == flat_.positions &&
                     flat.triangles == flat_.triangles && flat.material_ids == flat_.material_ids;
-  if (!same) rebuild(scene, std::move(flat));
+  if (!same) PENUMBRA_TRY(rebuild(scene, std::move(flat)));
   times.voxelise = timer.seconds();
 
   timer = Timer();
+  std::vector<glm::vec3> emissions;
+  for (const Material& m : scene.materials) emissions.push_back(m.emission);
+  if (!same || emissions != emissions_ || scene.environment != environment_) {
+    emissions_ = std::move(emissions);
+    environment_ = scene.environment;
+    for (size_t k = 0; k < objects_.size(); ++k) {
+      injectSurroundings(scene, objects_[k], uint32_t(k));
+    }
+  }
   for (size_t k = 0; k < objects_.size(); ++k) {
     inject(scene, objects_[k], uint32_t(k), &times.rsm_texels);
   }
   times.inject = timer.seconds();
 
   timer = Timer();
-  propagate();
+  PENUMBRA_TRY(propagate());
   times.propagate = timer.seconds();
   return times;
 }
 
-void LpvSolver::rebuild(const Scene& scene, FlatTriangles flat) {
+Status LpvSolver::rebuild(const Scene& scene, FlatTriangles flat) {
   ++geometry_;
+  stale_ = false;
   flat_ = std::move(flat);
   engine_ = RayEngine::build(flat_.positions, flat_.triangles);
   Bounds3 bounds;
@@ -132,19 +144,29 @@ void LpvSolver::rebuild(const Scene& scene, FlatTriangles flat) {
       if (flat_.material_ids[t] == o.material) triangle_object_[t] = uint32_t(k + 1);
     }
     // The grid follows the mesh (the same resolution along its longest side).
-    o.grid = LpvGrid::around(meshBounds(mesh), options_.grid);
+    o.grid = LpvGrid::around(Bounds3::of(mesh.positions), options_.grid);
     o.cells = lpvVoxelise(o.grid, mesh.positions, mesh.triangles);
-    o.cell_medium = lpvMedium(o.grid, o.medium, meshBounds(mesh));
+    o.cell_medium = lpvMedium(o.grid, o.medium, Bounds3::of(mesh.positions));
     o.transfer = lpvTransfer(o.grid, o.cells, o.cell_medium);
     const size_t n = o.grid.cellCount();
     for (LpvField* f :
          {&o.injected, &o.accumulated, &o.propagation[0], &o.propagation[1], &o.sent}) {
       f->resize(n);
     }
+    if (gpu_) PENUMBRA_TRY(gpu_->setVolume(k, o.grid, o.cells, o.transfer));
   }
+  return {};
 }
 
-void LpvSolver::propagate() {
+Status LpvSolver::propagate() {
+  if (gpu_) {
+    for (size_t k = 0; k < objects_.size(); ++k) {
+      LpvObject& o = objects_[k];
+      PENUMBRA_TRY(
+          gpu_->propagate(k, o.injected, options_.steps, options_.skip_steps, o.accumulated));
+    }
+    return {};
+  }
   for (LpvObject& o : objects_) {
     const std::vector<uint32_t>& cells = o.transfer.cells;
     LpvField* a = &o.propagation[0];
@@ -171,116 +193,7 @@ void LpvSolver::propagate() {
       });
     }
   }
-}
-
-void LpvSolver::inject(const Scene& scene, LpvObject& o, uint32_t index, uint64_t* texels) {
-  // Injection reaches only the object's cells: clearing them clears the field.
-  for (const uint32_t i : o.transfer.cells) {
-    for (size_t ch = 0; ch < 3; ++ch) o.injected.c[ch][i] = glm::vec4(0.0f);
-  }
-  const Mesh& mesh = scene.meshes[o.mesh];
-  const Bounds3 bounds = meshBounds(mesh);
-  const glm::dvec3 centre(bounds.center());
-  const double radius = 0.5 * double(glm::length(bounds.extent())) * 1.001 + 1e-9;
-  const int n = options_.rsm_resolution;
-  const double eta = o.medium.eta;
-  // Per row of the map, the virtual point lights found, summed into the grid in row order so that
-  // the result does not depend on the threads.
-  struct Vpl {
-    size_t cell;
-    glm::dvec3 flux;       // T Phi_p per channel
-    glm::dvec3 direction;  // w_t
-  };
-  for (const Light& light : scene.lights) {
-    // The map's frame: a perspective frustum from the light around the object's bounding sphere,
-    // or, for a directional light, an orthographic square across it.
-    glm::dvec3 axis, origin;
-    bool ortho = false;
-    std::visit(Overloaded{[&](const DirectionalLight& d) {
-                            ortho = true;
-                            axis = glm::normalize(glm::dvec3(d.direction));
-                          },
-                          [&](const auto& l) {
-                            origin = glm::dvec3(l.position);
-                            axis = centre - origin;
-                          }},
-               light);
-    const double distance = ortho ? 0.0 : glm::length(axis);
-    if (!ortho) {
-      if (!(distance > radius)) continue;  // a light inside the object's bounds: no map
-      axis /= distance;
-    }
-    const glm::dvec3 helper =
-        std::abs(axis.x) < 0.9 ? glm::dvec3(1.0, 0.0, 0.0) : glm::dvec3(0.0, 1.0, 0.0);
-    const glm::dvec3 right = glm::normalize(glm::cross(axis, helper));
-    const glm::dvec3 up = glm::cross(right, axis);
-    // Half-extent of the map's plane: tan(FOV / 2) at unit distance, or the sphere's radius.
-    const double half = ortho ? radius : radius / std::sqrt(distance * distance - radius * radius);
-    if (ortho) origin = centre - axis * (2.0 * radius);
-    std::vector<std::vector<Vpl>> rows(static_cast<size_t>(n));
-    std::atomic<uint64_t> count{0};
-    parallelRange(size_t(n), 1, [&](size_t y0, size_t y1) {
-      for (size_t y = y0; y < y1; ++y) {
-        for (int x = 0; x < n; ++x) {
-          const double u = half * (2.0 * (x + 0.5) / n - 1.0);
-          const double v = half * (2.0 * (double(y) + 0.5) / n - 1.0);
-          Ray ray;
-          glm::dvec3 dir;
-          double solid_angle = 0.0, texel_area = 0.0;
-          if (ortho) {
-            dir = axis;
-            ray.origin = glm::vec3(origin + u * right + v * up);
-            texel_area = (2.0 * half / n) * (2.0 * half / n);
-          } else {
-            const glm::dvec3 through = axis + u * right + v * up;
-            dir = glm::normalize(through);
-            ray.origin = glm::vec3(origin);
-            // Sec. 3.1: Delta w_p = 4 alpha tan^2(FOV / 2) cos^3 theta_p / (N_x N_y).
-            const double cos_p = glm::dot(dir, axis);
-            solid_angle = 4.0 * half * half * cos_p * cos_p * cos_p / (double(n) * double(n));
-          }
-          ray.dir = glm::vec3(dir);
-          ray.tmin = 0.0f;
-          ray.tmax = std::numeric_limits<float>::max();
-          const Hit hit = engine_.intersect(ray);
-          if (!hit.hit() || triangle_object_[size_t(hit.triangle)] != index + 1) continue;
-          const glm::uvec3 tri = flat_.triangles[size_t(hit.triangle)];
-          const glm::dvec3 a(flat_.positions[tri.x]), b(flat_.positions[tri.y]),
-              c(flat_.positions[tri.z]);
-          glm::dvec3 normal = glm::normalize(glm::cross(b - a, c - a));
-          if (glm::dot(normal, dir) >= 0.0) continue;  // the inside of the surface
-          const glm::dvec3 p = glm::dvec3(ray.origin) + double(hit.t) * dir;
-          // The flux through the texel: the light's irradiance across the ray times the
-          // texel's area there (I Delta w_p for lights at a point).
-          const LightSample ls = sampleLight(light, p, -dir, -dir);
-          const glm::dvec3 flux = ortho ? ls.irradiance * texel_area
-                                        : ls.irradiance * ls.distance * ls.distance * solid_angle;
-          if (flux == glm::dvec3(0.0)) continue;
-          const double cos_i = -glm::dot(dir, normal);
-          const double t = fresnelTransmittance(eta, cos_i);
-          glm::ivec3 cell = o.grid.cellOf(p);
-          if (o.cells[o.grid.index(cell)] == LpvCell::kOutside) {
-            cell = o.grid.cellOf(p - normal * (0.5 * o.grid.cell));
-          }
-          // A point whose cells are both outside (the surface grazing a cell's corner) injects
-          // nothing: its light would not propagate.
-          if (o.cells[o.grid.index(cell)] == LpvCell::kOutside) continue;
-          rows[y].push_back({o.grid.index(cell), t * flux, refractInto(dir, normal, eta)});
-        }
-        count += rows[y].size();
-      }
-    });
-    for (const std::vector<Vpl>& row : rows) {
-      for (const Vpl& vpl : row) {
-        // Eq. 1: (1 / pi) T Phi_p max(0, w_t . w), on the two bands.
-        const glm::dvec4 lobe = lpvCosineLobe(vpl.direction) / std::numbers::pi;
-        for (int ch = 0; ch < 3; ++ch) {
-          o.injected.c[size_t(ch)][vpl.cell] += glm::vec4(lobe * vpl.flux[ch]);
-        }
-      }
-    }
-    if (texels) *texels += count.load();
-  }
+  return {};
 }
 
 glm::dvec3 LpvSolver::incidentRadiance(size_t k, const glm::dvec3& p, const glm::dvec3& n) const {
