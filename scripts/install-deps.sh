@@ -12,6 +12,8 @@ packages=(
   libtinyobjloader-dev libtinygltf-dev libstb-dev libopenexr-dev
   # OpenGL 4.5 through EGL (Mesa llvmpipe where there is no GPU) and the viewer
   libepoxy-dev libegl-dev libgl-dev libegl-mesa0 libgl1-mesa-dri libglfw3-dev libimgui-dev
+  # the viewer's tests: a virtual X display with Mesa's GLX
+  xvfb
   # tests, benchmarks, and the ray-intersection peer
   libgtest-dev libgmock-dev libbenchmark-dev libembree-dev
   # plots of benchmark results for the docs (make plots)

@@ -11,9 +11,16 @@
 #include <cmath>
 #include <cstdint>
 
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
 #include <exception>
+#include <filesystem>
 #include <new>
+#include <string>
+#include <vector>
+
+#include <unistd.h>
 
 namespace penumbra {
 
@@ -30,6 +37,28 @@ int reportDryRun() {
 }
 
 namespace {
+
+// `penumbra view ...` runs the viewer, a separate executable (penumbra-view, next to this one)
+// that links the window and panel libraries the library does not: this process becomes it.
+int runView(int argc, char** argv) {
+  std::error_code ec;
+  const std::filesystem::path self = std::filesystem::read_symlink("/proc/self/exe", ec);
+  const std::filesystem::path viewer = self.parent_path() / "penumbra-view";
+  if (ec || !std::filesystem::exists(viewer)) {
+    std::fprintf(stderr, "penumbra: error: %s: the viewer is not installed next to penumbra\n",
+                 viewer.string().c_str());
+    return 1;
+  }
+  std::vector<std::string> words = {viewer.string()};
+  for (int k = 2; k < argc; ++k) words.emplace_back(argv[k]);
+  std::vector<char*> args;
+  for (std::string& w : words) args.push_back(w.data());
+  args.push_back(nullptr);
+  ::execv(args[0], args.data());
+  std::fprintf(stderr, "penumbra: error: %s: cannot run the viewer: %s\n", args[0],
+               std::strerror(errno));
+  return 1;
+}
 
 // Option values are checked here, where they are parsed, so that every command refuses the
 // same nonsense the same way (exit 2, one line naming the option and the value).
@@ -480,19 +509,13 @@ int parseAndRun(int argc, char** argv) {
   }
 
   const std::string first = argc > 1 ? argv[1] : "";
-  if (first == "view") {
-    std::fprintf(stderr,
-                 "penumbra: error: '%s' is not available in this version (commands: "
-                 "render, bake, trace, rays, info)\n",
-                 first.c_str());
-    return 2;
-  }
+  if (first == "view") return runView(argc, argv);
   if (!first.empty() && first[0] != '-' && first != "render" && first != "bake" &&
       first != "trace" && first != "rays" && first != "info") {
-    std::fprintf(
-        stderr,
-        "penumbra: error: unknown command '%s' (commands: render, bake, trace, rays, info)\n",
-        first.c_str());
+    std::fprintf(stderr,
+                 "penumbra: error: unknown command '%s' (commands: render, bake, trace, rays, "
+                 "info, view)\n",
+                 first.c_str());
     return 2;
   }
   try {

@@ -283,11 +283,7 @@ Status writeHdr(const std::string& path, const std::string& tmp, const Image& im
 
 Status writePng(const std::string& path, const std::string& tmp, const Image& image,
                 const ToneMapSettings& tonemap) {
-  const Image display = toneMap(image, tonemap);
-  std::vector<uint8_t> data(display.pixels.size() * 3);
-  for (size_t i = 0; i < display.pixels.size(); ++i) {
-    for (int c = 0; c < 3; ++c) data[3 * i + size_t(c)] = encodeSrgb8(display.pixels[i][c]);
-  }
+  const std::vector<uint8_t> data = displayBytes(image, tonemap);
   errno = 0;
   if (!stbi_write_png(tmp.c_str(), image.width, image.height, 3, data.data(), image.width * 3)) {
     return runtimeError(path, "cannot write PNG file" + systemReason());
@@ -592,6 +588,29 @@ Expected<Image> readPfm(const std::string& path) {
 }
 
 }  // namespace
+
+std::vector<uint8_t> displayBytes(const Image& linear, const ToneMapSettings& tonemap) {
+  const Image display = toneMap(linear, tonemap);
+  std::vector<uint8_t> data(display.pixels.size() * 3);
+  for (size_t i = 0; i < display.pixels.size(); ++i) {
+    for (int c = 0; c < 3; ++c) data[3 * i + size_t(c)] = encodeSrgb8(display.pixels[i][c]);
+  }
+  return data;
+}
+
+Status writePng8(const std::string& path, int width, int height, std::span<const uint8_t> rgb) {
+  if (extensionOf(path) != ".png") return unsupportedFormat(path);
+  if (width < 1 || height < 1 || rgb.size() != size_t(width) * size_t(height) * 3) {
+    return runtimeError(path, "cannot write PNG file: the pixels do not fill the image");
+  }
+  return writeAtomically(path, [&](const std::string& tmp) -> Status {
+    errno = 0;
+    if (!stbi_write_png(tmp.c_str(), width, height, 3, rgb.data(), width * 3)) {
+      return runtimeError(path, "cannot write PNG file" + systemReason());
+    }
+    return {};
+  });
+}
 
 bool isSupportedImageExtension(const std::string& path) {
   const std::string ext = extensionOf(path);

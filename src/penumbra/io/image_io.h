@@ -7,7 +7,10 @@
 #include "penumbra/core/image.h"
 #include "penumbra/render/tonemap.h"
 
+#include <cstdint>
+#include <span>
 #include <string>
+#include <vector>
 
 namespace penumbra {
 
@@ -17,6 +20,11 @@ bool isSupportedImageExtension(const std::string& path);
 // Writes `linear` by the extension of `path`; `tonemap` applies to .png only.
 Status writeImage(const std::string& path, const Image& linear,
                   const ToneMapSettings& tonemap = {});
+
+// The 8-bit sRGB bytes (RGB, row-major, top row first) a .png of `linear` holds.
+std::vector<uint8_t> displayBytes(const Image& linear, const ToneMapSettings& tonemap = {});
+// Writes 8-bit sRGB pixels as they are (a window's capture) to a .png.
+Status writePng8(const std::string& path, int width, int height, std::span<const uint8_t> rgb);
 
 // Reads .exr, .hdr, .pfm (linear) and .png (decoded from sRGB to linear).
 Expected<Image> readImage(const std::string& path);

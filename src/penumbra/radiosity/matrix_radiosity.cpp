@@ -76,6 +76,13 @@ void MatrixRadiosity::applyMaterials(std::span<const Material> materials) {
   }
 }
 
+uint64_t MatrixRadiosity::setLights(std::span<const Light> lights) {
+  uint64_t rays = 0;
+  direct.clear();
+  if (!lights.empty()) direct = surface.lightIrradiance(lights, light_visibility, &rays);
+  return rays;
+}
+
 bool MatrixRadiosity::emittedByMaterial(size_t k) const {
   const uint32_t b = surface.hierarchy.elementBegin(clusters[k]);
   const uint32_t e = surface.hierarchy.elementEnd(clusters[k]);
@@ -174,10 +181,8 @@ Expected<MatrixRadiosity> buildMatrixRadiosity(const Scene& scene,
       &pieces);
   if (!f) return f.error();
   mr.system.emplace(std::move(*f), options.precision);
-  if (!scene.lights.empty()) {
-    mr.direct = mr.surface.lightIrradiance(scene.lights, options.form_factors.visibility,
-                                           &mr.form_factor_stats.rays);
-  }
+  mr.light_visibility = options.form_factors.visibility;
+  mr.form_factor_stats.rays += mr.setLights(scene.lights);
   mr.applyMaterials(scene.materials);
   {
     // The emitting clusters, if they are few enough.

@@ -63,6 +63,7 @@ struct MatrixRadiosity {
   std::vector<ClusterRef> clusters;  // the cut: cluster k is unknown k, in element order
   std::vector<double> cluster_area;  // m^2
   std::vector<glm::dvec3> direct;    // per element: the lights' irradiance D_e (W m^-2)
+  bool light_visibility = true;      // shadow rays for D_e (FormFactorOptions::visibility)
   // The emitting clusters gathered at every element, and their form factors:
   // element_ff[e * emitters.size() + s] = F(element e -> cluster emitters[s]).
   std::vector<uint32_t> emitters;
@@ -77,6 +78,10 @@ struct MatrixRadiosity {
   // Sets reflectance and emission, per element and per cluster, from the materials (indexed as
   // the scene's), with the lights' direct term reflected.
   void applyMaterials(std::span<const Material> materials);
+  // The lights' direct irradiance D_e at every element again, for lights that moved or changed
+  // (shadow rays as at build time); applyMaterials then sets the system's emission from it.
+  // Returns the rays traced.
+  uint64_t setLights(std::span<const Light> lights);
   // Solves from the current `radiosity` (zeros at first, the previous solution afterwards).
   SolveStats solve(const SolveOptions& options,
                    const std::function<void(int, double)>& after_iteration = {});

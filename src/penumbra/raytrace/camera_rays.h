@@ -5,8 +5,10 @@
 #include "penumbra/scene/camera.h"
 
 #include <glm/geometric.hpp>
+#include <glm/vec2.hpp>
 
 #include <cmath>
+#include <optional>
 
 namespace penumbra {
 
@@ -23,6 +25,23 @@ class CameraRays {
     scale_x_ = tan_half * float(width) / float(height);
     inv_w_ = 1.0f / float(width);
     inv_h_ = 1.0f / float(height);
+  }
+
+  // The inverse of ray(): where point p appears, in pixel units, and its depth along the view
+  // direction; nothing for points at or behind the eye.
+  std::optional<glm::vec2> project(const glm::vec3& p, float* depth = nullptr) const {
+    const glm::vec3 d = p - origin_;
+    const float z = glm::dot(d, forward_);
+    if (!(z > 0.0f)) return std::nullopt;
+    if (depth) *depth = z;
+    const float sx = glm::dot(d, right_) / z / scale_x_, sy = glm::dot(d, up_) / z / scale_y_;
+    return glm::vec2(0.5f * (sx + 1.0f) / inv_w_, 0.5f * (1.0f - sy) / inv_h_);
+  }
+  // The point at depth `depth` along the view direction that appears at (px, py).
+  glm::vec3 unproject(float px, float py, float depth) const {
+    const float sx = (2.0f * px * inv_w_ - 1.0f) * scale_x_;
+    const float sy = (1.0f - 2.0f * py * inv_h_) * scale_y_;
+    return origin_ + depth * (forward_ + sx * right_ + sy * up_);
   }
 
   // (px, py) in pixel units, e.g. x + 0.5 for the pixel centre. The direction is unit length.

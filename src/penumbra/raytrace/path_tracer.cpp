@@ -1,5 +1,6 @@
 #include "penumbra/raytrace/path_tracer.h"
 
+#include "penumbra/core/check.h"
 #include "penumbra/core/parallel.h"
 #include "penumbra/core/timer.h"
 #include "penumbra/kernels/dipole.h"
@@ -314,6 +315,34 @@ glm::vec3 PathTracer::radiance(const Ray& primary, Rng& rng, const PathTracerSet
   return s.result;
 }
 
+glm::dvec3 PathTracer::pixelSample(const CameraRays& cam, const PathTracerSettings& settings, int x,
+                                   int y, int s, uint64_t& rays) const {
+  const uint64_t pixel = uint64_t(y) * uint64_t(settings.width) + uint64_t(x);
+  Rng rng = sampleRng(settings.seed, pixel, uint64_t(s), settings.spp);
+  const float jx = rng.uniform(), jy = rng.uniform();
+  const Ray r = cam.ray(float(x) + jx, float(y) + jy);
+  return glm::dvec3(radiance(r, rng, settings, rays));
+}
+
+uint64_t PathTracer::addSamples(const Camera& camera, const PathTracerSettings& settings,
+                                int sample, int y0, int y1, std::span<glm::dvec3> sum) const {
+  PENUMBRA_CHECK(sum.size() == size_t(settings.width) * size_t(settings.height));
+  const CameraRays cam(camera, settings.width, settings.height);
+  std::atomic<uint64_t> total{0};
+  parallelRange(size_t(y1 - y0), 1, [&](size_t r0, size_t r1) {
+    uint64_t rays = 0;
+    for (size_t r = r0; r < r1; ++r) {
+      const int y = y0 + int(r);
+      for (int x = 0; x < settings.width; ++x) {
+        sum[size_t(y) * size_t(settings.width) + size_t(x)] +=
+            pixelSample(cam, settings, x, y, sample, rays);
+      }
+    }
+    total += rays;
+  });
+  return total.load();
+}
+
 Image PathTracer::render(const Camera& camera, const PathTracerSettings& settings,
                          PathTracerStats* stats,
                          const std::function<void(int)>& on_progress) const {
@@ -326,14 +355,9 @@ Image PathTracer::render(const Camera& camera, const PathTracerSettings& setting
     uint64_t rays = 0;
     for (size_t y = y0; y < y1; ++y) {
       for (int x = 0; x < settings.width; ++x) {
-        const uint64_t pixel = uint64_t(y) * uint64_t(settings.width) + uint64_t(x);
         glm::dvec3 sum(0.0);
-        for (int s = 0; s < settings.spp; ++s) {
-          Rng rng = sampleRng(settings.seed, pixel, uint64_t(s), settings.spp);
-          const float jx = rng.uniform(), jy = rng.uniform();
-          const Ray r = cam.ray(float(x) + jx, float(y) + jy);
-          sum += glm::dvec3(radiance(r, rng, settings, rays));
-        }
+        for (int s = 0; s < settings.spp; ++s)
+          sum += pixelSample(cam, settings, x, int(y), s, rays);
         image.at(x, int(y)) = glm::vec3(sum / double(settings.spp));
       }
       const int done = rows_done.fetch_add(1) + 1;

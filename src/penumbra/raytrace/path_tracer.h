@@ -33,8 +33,11 @@
 #include <atomic>
 #include <cstdint>
 #include <functional>
+#include <span>
 
 namespace penumbra {
+
+class CameraRays;
 
 struct PathTracerSettings {
   int width = 512;
@@ -109,6 +112,13 @@ class PathTracer {
                PathTracerStats* stats = nullptr,
                const std::function<void(int)>& on_progress = {}) const;
 
+  // Sample `sample` (of settings.spp) of every pixel in rows [y0, y1), added to `sum` (one entry
+  // per pixel of the whole image, row-major): the values render() sums. Adding samples 0 ..
+  // spp - 1 in order and dividing by spp gives render()'s image bit for bit, which is how a
+  // progressive preview accumulates it a slice at a time. Returns the rays traced.
+  uint64_t addSamples(const Camera& camera, const PathTracerSettings& settings, int sample, int y0,
+                      int y1, std::span<glm::dvec3> sum) const;
+
   // The same image as render(), with paths advanced as a wavefront: each bounce's rays, then
   // each bounce's shadow rays, go to `queries` as one batch (so any back end of the Ray Engine
   // can trace them). `on_progress(rows_done)` as in render().
@@ -153,6 +163,10 @@ class PathTracer {
   void shadeBoundary(PathState& s, uint32_t tri, float cos_front, const glm::vec3& p,
                      float p_offset, const PathTracerSettings& settings) const;
   bool mediumFlight(PathState& s, const Hit& hit, const PathTracerSettings& settings) const;
+
+  // Sample s of pixel (x, y): its jittered camera ray and radiance.
+  glm::dvec3 pixelSample(const CameraRays& cam, const PathTracerSettings& settings, int x, int y,
+                         int s, uint64_t& rays) const;
 
   SceneGeometry geometry_;
   std::vector<Light> lights_;

@@ -1,0 +1,496 @@
+#include "penumbra/interactive/live_session.h"
+
+#include "penumbra/core/timer.h"
+#include "penumbra/radiosity/matrix_radiosity.h"
+#include "penumbra/radiosity/progressive.h"
+#include "penumbra/radiosity/stochastic.h"
+#include "penumbra/raytrace/path_tracer.h"
+#include "penumbra/render/lightmap_view.h"
+#include "penumbra/subsurface/sss.h"
+#include "penumbra/subsurface/sss_cache.h"
+#include "penumbra/subsurface/sss_frames.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <utility>
+
+namespace penumbra {
+
+namespace {
+
+// `render`'s defaults (app/commands.h): the iteration cap of the radiosity methods, the matrix
+// solve's tolerance, the path tracer's samples and the other views' rays per pixel.
+constexpr int kDefaultIterations = 500;
+constexpr double kMatrixTolerance = 1e-6;
+constexpr int kPathTracerSpp = 64;
+constexpr int kViewSpp = 4;
+// A solution's view is drawn again at most this often while the solve goes on (and when it
+// ends): the view's rays cost more than a slice of shots.
+constexpr double kViewInterval = 0.25;
+
+bool anyTranslucent(const Scene& scene) {
+  return std::any_of(scene.materials.begin(), scene.materials.end(),
+                     [](const Material& m) { return m.isTranslucent(); });
+}
+
+bool sameCamera(const Camera& a, const Camera& b) {
+  return a.position == b.position && a.look_at == b.look_at && a.up == b.up &&
+         a.vertical_fov == b.vertical_fov;
+}
+
+}  // namespace
+
+std::string_view liveMethodName(LiveMethod method) {
+  switch (method) {
+    case LiveMethod::kPathTrace:
+      return "pathtrace";
+    case LiveMethod::kMatrix:
+      return "matrix";
+    case LiveMethod::kProgressive:
+      return "progressive";
+    case LiveMethod::kStochastic:
+      return "stochastic";
+    case LiveMethod::kSss:
+      return "sss";
+    case LiveMethod::kLpv:
+      return "lpv";
+  }
+  return "pathtrace";
+}
+
+std::optional<LiveMethod> parseLiveMethod(std::string_view name) {
+  for (LiveMethod m : kLiveMethods) {
+    if (liveMethodName(m) == name) return m;
+  }
+  return std::nullopt;
+}
+
+struct LiveSession::State {
+  Scene scene;
+  Camera camera;
+  LiveMethod method = LiveMethod::kPathTrace;
+  LiveSettings settings;
+  Image image;
+  // What a change left to do: build the solver again, solve again, draw the view again.
+  bool build = true, solve = true, view = true;
+  double last_view = -1.0;  // the session clock when the view was last drawn
+  Timer clock;
+  std::string status = "not started";
+
+  // Path tracer: the sums of the samples so far; `sample` is in progress over rows < `row`.
+  std::unique_ptr<PathTracer> tracer;
+  std::vector<glm::dvec3> sum;
+  int sample = 0, row = 0, band = 8;
+  // Radiosity.
+  std::optional<MatrixRadiosity> matrix;
+  int matrix_iterations = 0;
+  double matrix_residual = 0.0;
+  bool matrix_converged = false;
+  std::optional<ProgressiveRadiosity> progressive;
+  std::optional<StochasticRadiosity> stochastic;
+  // Subsurface. The frames hold a pointer to the solver: both on the heap.
+  std::unique_ptr<SssSolver> sss;
+  std::unique_ptr<SssFrames> sss_frames;
+  std::optional<LpvSolver> lpv;
+
+  int spp() const {
+    if (settings.spp > 0) return settings.spp;
+    return method == LiveMethod::kPathTrace ? kPathTracerSpp : kViewSpp;
+  }
+  int iterations() const {
+    return settings.iterations > 0 ? settings.iterations : kDefaultIterations;
+  }
+  void restartSamples() {
+    sum.assign(size_t(settings.width) * size_t(settings.height), glm::dvec3(0.0));
+    sample = 0;
+    row = 0;
+  }
+  LightmapViewSettings viewSettings() const {
+    return LightmapViewSettings{settings.width, settings.height, spp(), settings.seed};
+  }
+
+  Status buildSolver(LiveStep& step);
+  Expected<bool> solveSome(double budget, bool all);
+  Status drawView();
+  bool solved() const;
+};
+
+LiveSession::LiveSession(LiveSession&&) noexcept = default;
+LiveSession& LiveSession::operator=(LiveSession&&) noexcept = default;
+LiveSession::~LiveSession() = default;
+
+Expected<LiveSession> LiveSession::create(Scene scene, LiveMethod method,
+                                          const LiveSettings& settings, const Camera& camera) {
+  if (settings.width < 1 || settings.width > (1 << 14) || settings.height < 1 ||
+      settings.height > (1 << 14)) {
+    return inputError("", "--width/--height", "must be in [1, 16384]");
+  }
+  if (settings.spp < 0 || settings.spp > (1 << 20)) {
+    return inputError("", "--spp", "must be in [1, 1048576]");
+  }
+  const bool subsurface = method == LiveMethod::kSss || method == LiveMethod::kLpv;
+  if (subsurface && !anyTranslucent(scene)) {
+    return inputError(scene.source, "",
+                      fmt::format("no translucent material (a `subsurface` block) for {}",
+                                  liveMethodName(method)));
+  }
+  if (method == LiveMethod::kLpv) {
+    // The options' checks, before any work.
+    Expected<LpvSolver> check = LpvSolver::build(scene, settings.lpv);
+    if (!check) return check.error();
+  }
+  LiveSession session;
+  session.s_ = std::make_unique<State>();
+  State& s = *session.s_;
+  s.scene = std::move(scene);
+  s.camera = camera;
+  s.method = method;
+  s.settings = settings;
+  s.image = Image(settings.width, settings.height);
+  s.restartSamples();
+  return session;
+}
+
+void LiveSession::setCamera(const Camera& camera) {
+  State& s = *s_;
+  if (sameCamera(camera, s.camera)) return;
+  s.camera = camera;
+  s.view = true;
+  if (s.method == LiveMethod::kPathTrace) {
+    s.restartSamples();
+    s.solve = true;
+  }
+  // The dipole's view keeps the camera's hits: made again for the new camera.
+  s.sss_frames.reset();
+}
+
+void LiveSession::setLights(const std::vector<Light>& lights) {
+  State& s = *s_;
+  s.scene.lights = lights;
+  s.solve = s.view = true;
+  switch (s.method) {
+    case LiveMethod::kPathTrace:
+    case LiveMethod::kProgressive:
+    case LiveMethod::kStochastic:
+      s.build = true;
+      break;
+    case LiveMethod::kMatrix:
+      // Dynamic relighting: the lights' direct term again, the form factors stay.
+      if (s.matrix) {
+        s.matrix->setLights(s.scene.lights);
+        s.matrix->applyMaterials(s.scene.materials);
+        s.matrix_converged = false;
+      }
+      break;
+    case LiveMethod::kSss:
+    case LiveMethod::kLpv:
+      break;  // a frame takes the lights as they are
+  }
+}
+
+void LiveSession::setMaterials(const std::vector<Material>& materials) {
+  State& s = *s_;
+  s.scene.materials = materials;
+  s.solve = s.view = true;
+  if (s.method == LiveMethod::kMatrix && s.matrix) {
+    // Dynamic relighting: new reflectances and emissions, the form factors stay.
+    s.matrix->applyMaterials(s.scene.materials);
+    s.matrix_converged = false;
+    return;
+  }
+  s.build = true;
+}
+
+void LiveSession::setSize(int width, int height) {
+  State& s = *s_;
+  if (width == s.settings.width && height == s.settings.height) return;
+  s.settings.width = std::clamp(width, 1, 1 << 14);
+  s.settings.height = std::clamp(height, 1, 1 << 14);
+  s.image = Image(s.settings.width, s.settings.height);
+  s.restartSamples();
+  s.sss_frames.reset();
+  s.solve = s.view = true;
+}
+
+Status LiveSession::State::buildSolver(LiveStep& step) {
+  const Timer timer;
+  const uint32_t elements = settings.elements;
+  switch (method) {
+    case LiveMethod::kPathTrace:
+      tracer = std::make_unique<PathTracer>(scene);
+      restartSamples();
+      break;
+    case LiveMethod::kMatrix: {
+      MatrixRadiosityOptions mo;
+      if (elements > 0) mo.elements = elements;
+      mo.form_factors.seed = settings.seed;
+      PENUMBRA_TRY(checkMatrixRadiosity(scene, mo));
+      Expected<MatrixRadiosity> built = buildMatrixRadiosity(scene, mo);
+      if (!built) return built.error();
+      matrix.emplace(std::move(*built));
+      matrix_iterations = 0;
+      matrix_converged = false;
+      break;
+    }
+    case LiveMethod::kProgressive: {
+      ProgressiveOptions po;
+      po.max_iterations = iterations();
+      po.atlas.texel_density =
+          progressiveTexelDensity(scene, elements > 0 ? elements : kProgressiveDefaultElements);
+      Expected<ProgressiveRadiosity> built = ProgressiveRadiosity::build(scene, po);
+      if (!built) return built.error();
+      progressive.emplace(std::move(*built));
+      break;
+    }
+    case LiveMethod::kStochastic: {
+      StochasticOptions so;
+      so.iterations = iterations();
+      so.seed = settings.seed;
+      LightmapResolution r;
+      if (elements > 0) r.elements = elements;
+      Expected<ChartAtlasOptions> atlas = lightmapAtlasOptions(scene, r);
+      if (!atlas) return atlas.error();
+      so.atlas = *atlas;
+      Expected<StochasticRadiosity> built = StochasticRadiosity::build(scene, so);
+      if (!built) return built.error();
+      stochastic.emplace(std::move(*built));
+      break;
+    }
+    case LiveMethod::kSss: {
+      SssOptions so;
+      so.cache_directory = defaultCacheDirectory();
+      sss_frames.reset();
+      Expected<SssSolver> built = SssSolver::build(scene, so);
+      if (!built) return built.error();
+      sss = std::make_unique<SssSolver>(std::move(*built));
+      break;
+    }
+    case LiveMethod::kLpv: {
+      Expected<LpvSolver> built = LpvSolver::build(scene, settings.lpv);
+      if (!built) return built.error();
+      lpv.emplace(std::move(*built));
+      break;
+    }
+  }
+  build = false;
+  solve = view = true;
+  step.build_seconds += timer.seconds();
+  return {};
+}
+
+bool LiveSession::State::solved() const {
+  switch (method) {
+    case LiveMethod::kPathTrace:
+      return sample >= spp();
+    case LiveMethod::kMatrix:
+      return matrix_converged || matrix_iterations >= iterations();
+    case LiveMethod::kProgressive:
+      return progressive->iterations() >= iterations() ||
+             progressive->selectShooter() == ProgressiveRadiosity::kNoShooter ||
+             (progressive->lightsShot() &&
+              progressive->unshotFraction() <= progressive->options().convergence);
+    case LiveMethod::kStochastic:
+      return stochastic->iterations() >= iterations();
+    case LiveMethod::kSss:
+    case LiveMethod::kLpv:
+      return !solve;
+  }
+  return true;
+}
+
+// Works until the budget is spent (or, with `all`, until solved); true when the solution changed.
+Expected<bool> LiveSession::State::solveSome(double budget, bool all) {
+  const Timer timer;
+  bool changed = false;
+  auto more = [&] { return !solved() && (all || timer.seconds() < budget); };
+  switch (method) {
+    case LiveMethod::kPathTrace: {
+      PathTracerSettings pt;
+      pt.width = settings.width;
+      pt.height = settings.height;
+      pt.spp = spp();
+      pt.seed = settings.seed;
+      while (more()) {
+        const Timer band_timer;
+        const int y1 = std::min(row + band, settings.height);
+        tracer->addSamples(camera, pt, sample, row, y1, sum);
+        row = y1;
+        if (row >= settings.height) {
+          row = 0;
+          ++sample;
+        }
+        // Bands of about a twentieth of the budget.
+        const double seconds = band_timer.seconds();
+        if (budget > 0.0 && seconds < budget / 40.0) band = std::min(band * 2, settings.height);
+        if (budget > 0.0 && seconds > budget / 10.0) band = std::max(band / 2, 1);
+        changed = true;
+      }
+      status = fmt::format("sample {} of {}", std::min(sample + (row > 0 ? 1 : 0), spp()), spp());
+      break;
+    }
+    case LiveMethod::kMatrix: {
+      while (more()) {
+        SolveOptions so;
+        so.max_iterations = 1;
+        so.tolerance = kMatrixTolerance;
+        const SolveStats st = matrix->solve(so);
+        ++matrix_iterations;
+        matrix_residual = st.residual;
+        matrix_converged = st.converged;
+        changed = true;
+      }
+      status =
+          fmt::format("{} clusters, iteration {}, residual {:.3g}{}", matrix->size(),
+                      matrix_iterations, matrix_residual, matrix_converged ? " (converged)" : "");
+      break;
+    }
+    case LiveMethod::kProgressive: {
+      while (more()) {
+        progressive->step();
+        changed = true;
+      }
+      status =
+          fmt::format("{} texels, shot {}, {:.3g} of the power unshot", progressive->elementCount(),
+                      progressive->iterations(), progressive->unshotFraction());
+      break;
+    }
+    case LiveMethod::kStochastic: {
+      while (more()) {
+        stochastic->step();
+        changed = true;
+      }
+      status =
+          fmt::format("{} texels, iteration {} of {}, error {:.3g}", stochastic->elementCount(),
+                      stochastic->iterations(), iterations(), stochastic->errorEstimate());
+      break;
+    }
+    case LiveMethod::kSss:
+    case LiveMethod::kLpv:
+      // A frame is the view: drawn by drawView.
+      changed = solve;
+      break;
+  }
+  return changed;
+}
+
+Status LiveSession::State::drawView() {
+  switch (method) {
+    case LiveMethod::kPathTrace: {
+      image = Image(settings.width, settings.height);
+      for (int y = 0; y < settings.height; ++y) {
+        const int count = sample + (y < row ? 1 : 0);
+        if (count == 0) continue;
+        for (int x = 0; x < settings.width; ++x) {
+          const size_t i = size_t(y) * size_t(settings.width) + size_t(x);
+          image.pixels[i] = glm::vec3(sum[i] / double(count));
+        }
+      }
+      break;
+    }
+    case LiveMethod::kMatrix: {
+      const Image lightmap = matrix->radianceImage(true);
+      image = renderLightmapView(matrix->surface.flat.positions, matrix->surface.flat.triangles,
+                                 matrix->surface.atlas, lightmap, camera, viewSettings());
+      break;
+    }
+    case LiveMethod::kProgressive: {
+      const RadiositySurface& surface = progressive->surface();
+      const Image lightmap = progressive->radianceImage(false);
+      image = renderLightmapView(surface.flat.positions, surface.flat.triangles, surface.atlas,
+                                 lightmap, camera, viewSettings());
+      break;
+    }
+    case LiveMethod::kStochastic: {
+      const RadiositySurface& surface = stochastic->surface();
+      image = renderLightmapView(surface.flat.positions, surface.flat.triangles, surface.atlas,
+                                 stochastic->radianceImage(), camera, viewSettings());
+      break;
+    }
+    case LiveMethod::kSss: {
+      if (!sss_frames) {
+        SssViewSettings view{settings.width, settings.height, spp(), settings.seed};
+        Expected<SssFrames> frames = SssFrames::create(*sss, camera, view, false);
+        if (!frames) return frames.error();
+        sss_frames = std::make_unique<SssFrames>(std::move(*frames));
+      }
+      Expected<SssFrame> frame = sss_frames->render(scene.lights);
+      if (!frame) return frame.error();
+      image = std::move(frame->image);
+      status = fmt::format("{} texels, {} links each", sss->surface().elementCount(),
+                           sss->links().per_element);
+      solve = false;
+      break;
+    }
+    case LiveMethod::kLpv: {
+      Expected<LpvFrameTimes> t = lpv->update(scene);
+      if (!t) return t.error();
+      image = lpv->render(scene, camera, settings.width, settings.height, spp(), settings.seed);
+      const LpvGrid& g = lpv->objects().front().grid;
+      status = fmt::format(
+          "{}x{}x{} cells, {} steps; voxelise {:.1f}, inject {:.1f}, propagate "
+          "{:.1f} ms",
+          g.size.x, g.size.y, g.size.z, settings.lpv.steps, 1e3 * t->voxelise, 1e3 * t->inject,
+          1e3 * t->propagate);
+      solve = false;
+      break;
+    }
+  }
+  view = false;
+  last_view = clock.seconds();
+  return {};
+}
+
+Expected<LiveStep> LiveSession::advance(double budget_seconds) {
+  State& s = *s_;
+  LiveStep step;
+  const bool all = !(budget_seconds > 0.0);
+  if (s.build) {
+    s.status = "building";
+    PENUMBRA_TRY(s.buildSolver(step));
+  }
+  const Timer solve_timer;
+  Expected<bool> changed = s.solveSome(budget_seconds - step.build_seconds, all);
+  if (!changed) return changed.error();
+  if (s.method != LiveMethod::kSss && s.method != LiveMethod::kLpv) s.solve = false;
+  step.solve_seconds = solve_timer.seconds();
+  if (*changed) s.view = true;
+  // The path tracer's image is its sums (cheap); a solution's view is rays: drawn when the work
+  // is done, or at most every kViewInterval while it goes on.
+  const bool finished = s.solved();
+  const bool cheap = s.method == LiveMethod::kPathTrace || s.method == LiveMethod::kSss ||
+                     s.method == LiveMethod::kLpv;
+  if (s.view && (cheap || finished || s.last_view < 0.0 ||
+                 s.clock.seconds() - s.last_view >= kViewInterval)) {
+    const Timer view_timer;
+    PENUMBRA_TRY(s.drawView());
+    step.view_seconds = view_timer.seconds();
+    step.image_changed = true;
+  }
+  return step;
+}
+
+bool LiveSession::done() const {
+  return !s_->build && !s_->view && s_->solved();
+}
+
+const Image& LiveSession::image() const {
+  return s_->image;
+}
+std::string LiveSession::status() const {
+  return s_->status;
+}
+const Scene& LiveSession::scene() const {
+  return s_->scene;
+}
+const Camera& LiveSession::camera() const {
+  return s_->camera;
+}
+LiveMethod LiveSession::method() const {
+  return s_->method;
+}
+const LiveSettings& LiveSession::settings() const {
+  return s_->settings;
+}
+
+}  // namespace penumbra

@@ -1,0 +1,155 @@
+// The interactive viewer for real: penumbra view under Xvfb (Mesa's GLX), driven by a scripted
+// light path, its window captured. The captures change as the light moves, and each matches a
+// headless `penumbra render` of the same state: the path tracer's to the byte (a finished
+// preview is render()'s image), matrix radiosity relit by the viewer (the form factors kept,
+// the solve continued from the last light's solution) to the solver's tolerance.
+#include "penumbra/io/image_io.h"
+#include "support/test_util.h"
+#include "support/x_display.h"
+
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <string>
+
+namespace penumbra {
+namespace {
+
+using test::runCli;
+using test::TempDir;
+
+// The Cornell box's walls and blocks (no luminaire) lit by one point light at `light`.
+std::string boxScene(TempDir& dir, const std::string& name, const glm::vec3& light) {
+  std::string meshes;
+  const std::pair<const char*, const char*> parts[] = {
+      {"floor", "white"}, {"ceiling", "white"},  {"back", "white"},    {"greenwall", "green"},
+      {"redwall", "red"}, {"smallbox", "white"}, {"largebox", "white"}};
+  for (const auto& [file, material] : parts) {
+    meshes += fmt::format(
+        R"({}{{"file": "{}/scenes/cornell/{}.obj", "material": "{}", "transform": {{"scale": 0.001}}}})",
+        meshes.empty() ? "" : ",\n    ", PENUMBRA_SOURCE_DIR, file, material);
+  }
+  return dir.write(name, fmt::format(R"({{
+  "materials": {{
+    "white": {{"reflectance": [0.725, 0.71, 0.68]}},
+    "red": {{"reflectance": [0.63, 0.065, 0.05]}},
+    "green": {{"reflectance": [0.14, 0.45, 0.091]}}
+  }},
+  "meshes": [
+    {}
+  ],
+  "lights": [{{"type": "point", "position": [{}, {}, {}], "intensity": [0.5, 0.5, 0.5]}}],
+  "camera": {{"position": [0.278, 0.273, -0.8], "look_at": [0.278, 0.273, 0.0], "fov_deg": 39.3}}
+}})",
+                                     meshes, light.x, light.y, light.z));
+}
+
+// Relative RMS difference of two images (linear, as read back).
+double difference(const std::string& a, const std::string& b) {
+  Expected<Image> x = readImage(a), y = readImage(b);
+  EXPECT_TRUE(x.ok()) << a;
+  EXPECT_TRUE(y.ok()) << b;
+  if (!x.ok() || !y.ok() || x->pixels.size() != y->pixels.size()) return 1e9;
+  double d = 0.0, s = 0.0;
+  for (size_t i = 0; i < x->pixels.size(); ++i) {
+    const glm::vec3 e = x->pixels[i] - y->pixels[i];
+    d += double(glm::dot(e, e));
+    s += double(glm::dot(y->pixels[i], y->pixels[i]));
+  }
+  return std::sqrt(d / s);
+}
+
+struct Capture {
+  std::string first, last;  // the first and the last frame's captures
+};
+
+// The viewer with the light moving from `from` to `to` over three frames; every frame captured.
+Capture runViewer(TempDir& dir, const std::string& display, const std::string& method,
+                  const std::string& options, const glm::vec3& from, const glm::vec3& to) {
+  const std::string scene = boxScene(dir, method + "_start.json", from);
+  const std::string script =
+      dir.write(method + "_script.json",
+                fmt::format(R"({{"light": 0, "light_path": [[{}, {}, {}], [{}, {}, {}]]}})", from.x,
+                            from.y, from.z, to.x, to.y, to.z));
+  const std::string shot = dir.file(method + ".png");
+  const auto r = runCli(fmt::format("view {} --method {} {} --width 64 --height 64 --hide-ui "
+                                    "--script {} --frames 3 --sequence --screenshot {}",
+                                    scene, method, options, script, shot),
+                        "DISPLAY=" + display);
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  return {dir.file(method + "_0000.png"), dir.file(method + "_0002.png")};
+}
+
+// The same state rendered headless.
+std::string renderHeadless(TempDir& dir, const std::string& method, const std::string& options,
+                           const glm::vec3& light, const std::string& name) {
+  const std::string scene = boxScene(dir, name + ".json", light);
+  const std::string out = dir.file(name + ".png");
+  const auto r = runCli(fmt::format("render {} --method {} {} --width 64 --height 64 --quiet -o {}",
+                                    scene, method, options, out));
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  return out;
+}
+
+const glm::vec3 kFrom(0.12f, 0.45f, 0.2f), kTo(0.44f, 0.45f, 0.35f);
+
+TEST(Viewer, PathTracerCapturesAreTheHeadlessRenders) {
+  PENUMBRA_DISPLAY_OR_SKIP(display);
+  TempDir dir;
+  const std::string options = "--spp 4 --seed 3";
+  const Capture c = runViewer(dir, display, "pathtrace", options, kFrom, kTo);
+  const std::string start = renderHeadless(dir, "pathtrace", options, kFrom, "pt_start");
+  const std::string end = renderHeadless(dir, "pathtrace", options, kTo, "pt_end");
+  const double moved = difference(c.first, c.last);
+  const double first = difference(c.first, start), last = difference(c.last, end);
+  std::printf(
+      "path tracer: the light moved, the capture changed by %.3f; captures vs headless "
+      "renders %.2e and %.2e\n",
+      moved, first, last);
+  EXPECT_GT(moved, 0.1);
+  EXPECT_EQ(first, 0.0);
+  EXPECT_EQ(last, 0.0);
+}
+
+TEST(Viewer, MatrixRelightingFollowsTheLight) {
+  PENUMBRA_DISPLAY_OR_SKIP(display);
+  TempDir dir;
+  const std::string options = "--elements 400 --spp 1";
+  const Capture c = runViewer(dir, display, "matrix", options, kFrom, kTo);
+  const std::string end = renderHeadless(dir, "matrix", options, kTo, "matrix_end");
+  const double moved = difference(c.first, c.last), last = difference(c.last, end);
+  std::printf(
+      "matrix radiosity: the capture changed by %.3f as the light moved; relit capture "
+      "vs headless render %.2e\n",
+      moved, last);
+  EXPECT_GT(moved, 0.1);
+  EXPECT_LT(last, 0.01);
+}
+
+// Bad input is refused before a window opens: one line naming the file or option, exit 2.
+TEST(Viewer, BadInputIsRefusedBeforeAWindowOpens) {
+  TempDir dir;
+  const std::string bad_script = dir.write("s.json", R"({"light_path": [[0, 0]]})");
+  const struct {
+    std::string args, expect;
+  } cases[] = {
+      {"view " + dir.file("missing.json"), "missing.json"},
+      {"view cornell --method lpv", "no translucent material"},
+      {"view cornell --method warp", "--method"},
+      {"view cornell --frames 3", "--screenshot"},
+      {"view cornell --script " + bad_script + " --screenshot " + dir.file("a.png"),
+       "light_path[0]"},
+      {"view cornell --screenshot " + dir.file("a.exr"), "a.exr"},
+  };
+  for (const auto& c : cases) {
+    const auto r = runCli(c.args, "DISPLAY=");
+    EXPECT_EQ(r.exit_code, 2) << c.args << "\n" << r.output;
+    EXPECT_NE(r.output.find(c.expect), std::string::npos) << c.args << "\n" << r.output;
+    EXPECT_FALSE(std::filesystem::exists(dir.file("a.png")));
+  }
+}
+
+}  // namespace
+}  // namespace penumbra
