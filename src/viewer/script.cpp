@@ -97,8 +97,16 @@ Expected<Script> readScript(const std::string& path) {
         if (*p == *l) return inputError(path, where, "position and look_at are the same point");
         s.camera_path.push_back({*p, *l});
       }
+    } else if (key == "drop") {
+      if (!value.is_object() || !value.contains("frame") || !value.contains("file") ||
+          !value["frame"].is_number_integer() || !value["file"].is_string() ||
+          value["frame"].get<int64_t>() < 0 || value["frame"].get<int64_t>() > 1 << 20) {
+        return inputError(path, "drop", "must be {\"frame\": N, \"file\": \"path\"}");
+      }
+      s.drop_frame = value["frame"].get<int>();
+      s.drop_file = value["file"].get<std::string>();
     } else {
-      return inputError(path, key, "unknown key (light, light_path, camera_path)");
+      return inputError(path, key, "unknown key (light, light_path, camera_path, drop)");
     }
   }
   return s;

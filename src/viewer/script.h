@@ -6,7 +6,8 @@
 //    "camera_path": [{"position": [0, 0.1, 0.4], "look_at": [0, 0.1, 0]}, ...]}
 //
 // "light" (default 0) is the index of the scene's light the light path moves. Either path may be
-// left out; a path of one key holds still.
+// left out; a path of one key holds still. "drop": {"frame": 1, "file": "room.gltf"} opens a
+// file at that frame as if it had been dropped on the window.
 #pragma once
 
 #include "penumbra/core/expected.h"
@@ -29,6 +30,8 @@ struct Script {
   int light = 0;
   std::vector<glm::vec3> light_path;
   std::vector<CameraKey> camera_path;
+  int drop_frame = -1;  // the frame a file is dropped at, -1: none
+  std::string drop_file;
 
   // Where the paths are at frame `frame` of `frames` (the first key at frame 0, the last at
   // frames - 1).

@@ -533,9 +533,15 @@ Status Viewer::run() {
     ImGui_ImplGlfw_NewFrame();
     ImGui::NewFrame();
     if (!capturing) handleInput();
+    if (capturing && script_ && loop == script_->drop_frame) pending_drop_ = script_->drop_file;
     if (capturing && script_) {
-      if (const std::optional<glm::vec3> p = script_->lightAt(frame, frames)) {
-        *lightPosition(scene_.lights[size_t(script_->light)]) = *p;
+      // (A dropped scene may have no such light.)
+      const std::optional<glm::vec3> p = script_->lightAt(frame, frames);
+      glm::vec3* moved = p && script_->light < int(scene_.lights.size())
+                             ? lightPosition(scene_.lights[size_t(script_->light)])
+                             : nullptr;
+      if (moved) {
+        *moved = *p;
         lightsChanged();
       }
       if (const std::optional<CameraKey> c = script_->cameraAt(frame, frames)) {
@@ -610,6 +616,7 @@ Status Viewer::writeStats(const nlohmann::json& frames) const {
       {"width", options_.width},
       {"height", options_.height},
       {"status", session_ ? session_->status() : std::string()},
+      {"error", error_},
       {"frames", frames},
       {"frames_per_second", frames.empty() ? 0.0 : 1e3 * double(frames.size()) / sum}};
   return writeStatsFile(options_.stats, j);

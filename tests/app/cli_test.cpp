@@ -34,10 +34,7 @@ size_t lineCount(const std::string& s) {
   return size_t(std::count(s.begin(), s.end(), '\n')) + (!s.empty() && s.back() != '\n');
 }
 
-nlohmann::json readJson(const std::string& path) {
-  std::ifstream in(path);
-  return nlohmann::json::parse(in);
-}
+using test::readJson;
 
 TEST(Cli, RenderFurnaceWritesImagesAndStatsWithTheExactRadiance) {
   TempDir dir;

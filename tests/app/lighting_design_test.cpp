@@ -20,10 +20,7 @@ namespace {
 using test::runCli;
 using test::TempDir;
 
-nlohmann::json readJson(const std::string& path) {
-  std::ifstream in(path);
-  return nlohmann::json::parse(in);
-}
+using test::readJson;
 
 TEST(LightingDesign, InfoShowsTheFluxAgainstTheStatedOneAndWritesThePolarPlot) {
   TempDir dir;

@@ -79,6 +79,11 @@ GlContext* glContext(std::string& why) {
   return context.get();
 }
 
+nlohmann::json readJson(const std::string& path) {
+  std::ifstream in(path);
+  return nlohmann::json::parse(in);
+}
+
 CliResult runCli(const std::string& args, const std::string& env) {
   CliResult result;
   const std::string cmd =

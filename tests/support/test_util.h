@@ -14,6 +14,8 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <nlohmann/json.hpp>
+
 #include <string>
 
 namespace penumbra {
@@ -142,6 +144,9 @@ template <typename T>
 // A headless OpenGL context for this test process, made once; nullptr (with `why`) when none
 // can be made.
 GlContext* glContext(std::string& why);
+
+// A JSON file's contents (a stats file); a file that does not parse throws, failing the test.
+nlohmann::json readJson(const std::string& path);
 
 // Result of running the penumbra executable.
 struct CliResult {

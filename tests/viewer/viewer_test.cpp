@@ -9,9 +9,11 @@
 
 #include <fmt/format.h>
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <string>
 
 namespace penumbra {
@@ -126,6 +128,90 @@ TEST(Viewer, MatrixRelightingFollowsTheLight) {
       moved, last);
   EXPECT_GT(moved, 0.1);
   EXPECT_LT(last, 0.01);
+}
+
+// The bunny in marble lit by one point light at `light`, seen as the built-in `lpv` scene.
+std::string bunnyScene(TempDir& dir, const std::string& name, const glm::vec3& light) {
+  return dir.write(name, fmt::format(R"({{
+  "materials": {{"marble": {{"subsurface": {{"preset": "marble"}}}}}},
+  "meshes": [{{"file": "{}/bunny.ply", "material": "marble"}}],
+  "lights": [{{"type": "point", "position": [{}, {}, {}], "intensity": [0.8, 0.8, 0.8]}}],
+  "camera": {{"position": [-0.017, 0.115, 0.42], "look_at": [-0.017, 0.11, 0.0], "fov_deg": 25.8}}
+}})",
+                                     PENUMBRA_TEST_DATA, light.x, light.y, light.z));
+}
+
+// Progressive and stochastic radiosity (built again and solved for the moved light) and the
+// light propagation volumes (a frame for the light where it is): each capture is the headless
+// render of the same state to the byte.
+TEST(Viewer, EveryMethodsCaptureIsItsHeadlessRender) {
+  PENUMBRA_DISPLAY_OR_SKIP(display);
+  TempDir dir;
+  const struct {
+    const char* method;
+    std::string options;
+    bool bunny;
+    glm::vec3 from, to;
+  } cases[] = {
+      {"progressive", "--elements 3000 --iterations 60 --spp 1", false, kFrom, kTo},
+      {"stochastic", "--elements 3000 --iterations 40 --spp 1", false, kFrom, kTo},
+      {"lpv", "--spp 1", true, glm::vec3(-0.05f, 0.25f, -0.35f), glm::vec3(0.2f, 0.25f, -0.3f)},
+  };
+  for (const auto& c : cases) {
+    const std::string method = c.method;
+    const std::string start = c.bunny ? bunnyScene(dir, method + "_start.json", c.from)
+                                      : boxScene(dir, method + "_start.json", c.from);
+    const std::string end = c.bunny ? bunnyScene(dir, method + "_end.json", c.to)
+                                    : boxScene(dir, method + "_end.json", c.to);
+    const std::string script = dir.write(
+        method + "_script.json", fmt::format(R"({{"light_path": [[{}, {}, {}], [{}, {}, {}]]}})",
+                                             c.from.x, c.from.y, c.from.z, c.to.x, c.to.y, c.to.z));
+    const auto v = runCli(fmt::format("view {} --method {} {} --width 64 --height 64 --hide-ui "
+                                      "--script {} --frames 2 --sequence --screenshot {}",
+                                      start, method, c.options, script, dir.file(method + ".png")),
+                          "DISPLAY=" + display);
+    ASSERT_EQ(v.exit_code, 0) << v.output;
+    const auto h =
+        runCli(fmt::format("render {} --method {} {} --width 64 --height 64 --quiet -o {}", end,
+                           method, c.options, dir.file(method + "_cli.png")));
+    ASSERT_EQ(h.exit_code, 0) << h.output;
+    const double moved = difference(dir.file(method + "_0000.png"), dir.file(method + "_0001.png"));
+    const double last = difference(dir.file(method + "_0001.png"), dir.file(method + "_cli.png"));
+    std::printf("%s: the capture changed by %.3f as the light moved; vs headless %.2e\n", c.method,
+                moved, last);
+    EXPECT_GT(moved, 0.05) << c.method;
+    EXPECT_EQ(last, 0.0) << c.method;
+  }
+}
+
+// A dropped file opens (the next frame shows it); one that does not load leaves its error in the
+// window (and the stats) and the last scene on screen: never a crash.
+TEST(Viewer, DroppedFilesOpenOrShowTheirError) {
+  PENUMBRA_DISPLAY_OR_SKIP(display);
+  TempDir dir;
+  const std::string box = boxScene(dir, "box.json", kFrom);
+  for (const auto& [file, error] :
+       {std::pair<std::string, std::string>{dir.file("nothing.obj"), "nothing.obj"}, {box, ""}}) {
+    const std::string script =
+        dir.write("drop.json", fmt::format(R"({{"drop": {{"frame": 1, "file": "{}"}}}})", file));
+    const auto r = runCli(fmt::format("view cornell --spp 1 --width 48 --height 48 --frames 3 "
+                                      "--script {} --screenshot {} --stats {}",
+                                      script, dir.file("d.png"), dir.file("d.json")),
+                          "DISPLAY=" + display);
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    const nlohmann::json stats = test::readJson(dir.file("d.json"));
+    const std::string shown = stats["error"].get<std::string>();
+    std::printf("dropped %s: error shown \"%s\", scene %s\n", file.c_str(), shown.c_str(),
+                stats["scene"].get<std::string>().c_str());
+    if (error.empty()) {
+      EXPECT_EQ(shown, "");
+      EXPECT_EQ(stats["scene"], box);
+    } else {
+      EXPECT_NE(shown.find(error), std::string::npos) << shown;
+      EXPECT_EQ(stats["scene"], "builtin:cornell");
+    }
+    EXPECT_TRUE(std::filesystem::exists(dir.file("d.png")));
+  }
 }
 
 // Bad input is refused before a window opens: one line naming the file or option, exit 2.

@@ -1,5 +1,6 @@
 #include "penumbra/interactive/live_session.h"
 
+#include "penumbra/core/memory.h"
 #include "penumbra/core/timer.h"
 #include "penumbra/radiosity/matrix_radiosity.h"
 #include "penumbra/radiosity/progressive.h"
@@ -26,8 +27,10 @@ constexpr double kMatrixTolerance = 1e-6;
 constexpr int kPathTracerSpp = 64;
 constexpr int kViewSpp = 4;
 // A solution's view is drawn again at most this often while the solve goes on (and when it
-// ends): the view's rays cost more than a slice of shots.
+// ends): the view's rays cost more than a slice of shots. The path tracer's preview (its sums,
+// tone-mapped by the window) more often.
 constexpr double kViewInterval = 0.25;
+constexpr double kPreviewInterval = 0.1;
 
 bool anyTranslucent(const Scene& scene) {
   return std::any_of(scene.materials.begin(), scene.materials.end(),
@@ -89,6 +92,8 @@ struct LiveSession::State {
   bool matrix_converged = false;
   std::optional<ProgressiveRadiosity> progressive;
   std::optional<StochasticRadiosity> stochastic;
+  // The radiosity methods' view: the camera's hits, kept while the camera and the surface stay.
+  std::optional<LightmapView> lightmap_view;
   // Subsurface. The frames hold a pointer to the solver: both on the heap.
   std::unique_ptr<SssSolver> sss;
   std::unique_ptr<SssFrames> sss_frames;
@@ -157,6 +162,7 @@ void LiveSession::setCamera(const Camera& camera) {
   if (sameCamera(camera, s.camera)) return;
   s.camera = camera;
   s.view = true;
+  s.lightmap_view.reset();
   if (s.method == LiveMethod::kPathTrace) {
     s.restartSamples();
     s.solve = true;
@@ -210,12 +216,14 @@ void LiveSession::setSize(int width, int height) {
   s.image = Image(s.settings.width, s.settings.height);
   s.restartSamples();
   s.sss_frames.reset();
+  s.lightmap_view.reset();
   s.solve = s.view = true;
 }
 
 Status LiveSession::State::buildSolver(LiveStep& step) {
   const Timer timer;
   const uint32_t elements = settings.elements;
+  lightmap_view.reset();  // it refers to the old surface
   switch (method) {
     case LiveMethod::kPathTrace:
       tracer = std::make_unique<PathTracer>(scene);
@@ -388,23 +396,29 @@ Status LiveSession::State::drawView() {
       }
       break;
     }
-    case LiveMethod::kMatrix: {
-      const Image lightmap = matrix->radianceImage(true);
-      image = renderLightmapView(matrix->surface.flat.positions, matrix->surface.flat.triangles,
-                                 matrix->surface.atlas, lightmap, camera, viewSettings());
-      break;
-    }
-    case LiveMethod::kProgressive: {
-      const RadiositySurface& surface = progressive->surface();
-      const Image lightmap = progressive->radianceImage(false);
-      image = renderLightmapView(surface.flat.positions, surface.flat.triangles, surface.atlas,
-                                 lightmap, camera, viewSettings());
-      break;
-    }
+    case LiveMethod::kMatrix:
+    case LiveMethod::kProgressive:
     case LiveMethod::kStochastic: {
-      const RadiositySurface& surface = stochastic->surface();
-      image = renderLightmapView(surface.flat.positions, surface.flat.triangles, surface.atlas,
-                                 stochastic->radianceImage(), camera, viewSettings());
+      const RadiositySurface& surface = method == LiveMethod::kMatrix ? matrix->surface
+                                        : method == LiveMethod::kProgressive
+                                            ? progressive->surface()
+                                            : stochastic->surface();
+      // The camera's hits are kept when they fit in memory; else traced for every view.
+      const uint64_t hit_bytes = uint64_t(settings.width) * uint64_t(settings.height) *
+                                 uint64_t(spp()) * kLightmapViewBytesPerSample;
+      if (!lightmap_view && checkMemory(hit_bytes, "the view's hits").ok()) {
+        lightmap_view.emplace(surface.flat.positions, surface.flat.triangles, surface.atlas, camera,
+                              viewSettings());
+      }
+      // As `render` shows each method's solution (app/render_matrix.cpp,
+      // app/progressive_run.cpp, app/stochastic_run.cpp).
+      const Image lightmap = method == LiveMethod::kMatrix ? matrix->radianceImage(true)
+                             : method == LiveMethod::kProgressive
+                                 ? progressive->radianceImage(false)
+                                 : stochastic->radianceImage();
+      image = lightmap_view ? lightmap_view->render(lightmap)
+                            : renderLightmapView(surface.flat.positions, surface.flat.triangles,
+                                                 surface.atlas, lightmap, camera, viewSettings());
       break;
     }
     case LiveMethod::kSss: {
@@ -455,13 +469,14 @@ Expected<LiveStep> LiveSession::advance(double budget_seconds) {
   if (s.method != LiveMethod::kSss && s.method != LiveMethod::kLpv) s.solve = false;
   step.solve_seconds = solve_timer.seconds();
   if (*changed) s.view = true;
-  // The path tracer's image is its sums (cheap); a solution's view is rays: drawn when the work
-  // is done, or at most every kViewInterval while it goes on.
+  // A subsurface frame is its view; the others' images are drawn when the work is done, and
+  // while it goes on at most every kPreviewInterval (the path tracer's sums, which the window
+  // tone-maps and uploads) or kViewInterval (a solution's view: rays).
   const bool finished = s.solved();
-  const bool cheap = s.method == LiveMethod::kPathTrace || s.method == LiveMethod::kSss ||
-                     s.method == LiveMethod::kLpv;
-  if (s.view && (cheap || finished || s.last_view < 0.0 ||
-                 s.clock.seconds() - s.last_view >= kViewInterval)) {
+  const bool frame = s.method == LiveMethod::kSss || s.method == LiveMethod::kLpv;
+  const double interval = s.method == LiveMethod::kPathTrace ? kPreviewInterval : kViewInterval;
+  if (s.view &&
+      (frame || finished || s.last_view < 0.0 || s.clock.seconds() - s.last_view >= interval)) {
     const Timer view_timer;
     PENUMBRA_TRY(s.drawView());
     step.view_seconds = view_timer.seconds();

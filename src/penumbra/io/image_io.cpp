@@ -9,6 +9,8 @@
 // Writes go through writeAtomically; no exception escapes this file.
 #include "penumbra/io/image_io.h"
 
+#include "penumbra/core/parallel.h"
+
 #include "penumbra/core/memory.h"
 
 #include "penumbra/core/file_util.h"
@@ -592,9 +594,11 @@ Expected<Image> readPfm(const std::string& path) {
 std::vector<uint8_t> displayBytes(const Image& linear, const ToneMapSettings& tonemap) {
   const Image display = toneMap(linear, tonemap);
   std::vector<uint8_t> data(display.pixels.size() * 3);
-  for (size_t i = 0; i < display.pixels.size(); ++i) {
-    for (int c = 0; c < 3; ++c) data[3 * i + size_t(c)] = encodeSrgb8(display.pixels[i][c]);
-  }
+  parallelRange(display.pixels.size(), 4096, [&](size_t begin, size_t end) {
+    for (size_t i = begin; i < end; ++i) {
+      for (int c = 0; c < 3; ++c) data[3 * i + size_t(c)] = encodeSrgb8(display.pixels[i][c]);
+    }
+  });
   return data;
 }
 

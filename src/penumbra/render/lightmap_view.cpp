@@ -56,6 +56,61 @@ glm::vec3 LightmapLookup::radiance(const glm::vec3& ray_dir, int32_t triangle, f
   return sampleBilinear(*lightmap_, uv);
 }
 
+namespace {
+
+// Sample s of pixel (x, y): the jittered ray (the pixel's centre for one sample per pixel).
+Ray viewRay(const CameraRays& rays, const LightmapViewSettings& settings, int x, int y, Rng& rng) {
+  const float jx = settings.spp == 1 ? 0.5f : rng.uniform();
+  const float jy = settings.spp == 1 ? 0.5f : rng.uniform();
+  return rays.ray(float(x) + jx, float(y) + jy);
+}
+
+Rng pixelRng(const LightmapViewSettings& settings, int x, int y) {
+  return Rng(mixBits(settings.seed), uint64_t(y) * uint64_t(settings.width) + uint64_t(x));
+}
+
+}  // namespace
+
+LightmapView::LightmapView(std::span<const glm::vec3> positions,
+                           std::span<const glm::uvec3> triangles, const ChartAtlas& atlas,
+                           const Camera& camera, const LightmapViewSettings& settings)
+    : positions_(positions), triangles_(triangles), atlas_(&atlas), settings_(settings) {
+  const RayEngine engine = RayEngine::build(positions, triangles);
+  const CameraRays rays(camera, settings.width, settings.height);
+  const size_t spp = size_t(settings.spp);
+  samples_.resize(size_t(settings.width) * size_t(settings.height) * spp);
+  parallelRange(size_t(settings.height), 1, [&](size_t y0, size_t y1) {
+    for (size_t y = y0; y < y1; ++y) {
+      for (int x = 0; x < settings.width; ++x) {
+        Rng rng = pixelRng(settings, x, int(y));
+        Sample* out = samples_.data() + (y * size_t(settings.width) + size_t(x)) * spp;
+        for (size_t s = 0; s < spp; ++s) {
+          const Ray ray = viewRay(rays, settings, x, int(y), rng);
+          const Hit hit = engine.intersect(ray);
+          out[s] = {ray.dir, hit.triangle, hit.u, hit.v};
+        }
+      }
+    }
+  });
+}
+
+Image LightmapView::render(const Image& lightmap) const {
+  const LightmapLookup lookup(positions_, triangles_, *atlas_, lightmap);
+  Image image(settings_.width, settings_.height);
+  const size_t spp = size_t(settings_.spp);
+  parallelRange(image.pixels.size(), 1024, [&](size_t p0, size_t p1) {
+    for (size_t p = p0; p < p1; ++p) {
+      glm::vec3 sum(0.0f);
+      for (size_t s = 0; s < spp; ++s) {
+        const Sample& h = samples_[p * spp + s];
+        sum += lookup.radiance(h.dir, h.triangle, h.u, h.v);
+      }
+      image.pixels[p] = sum / float(settings_.spp);
+    }
+  });
+  return image;
+}
+
 Image renderLightmapView(std::span<const glm::vec3> positions,
                          std::span<const glm::uvec3> triangles, const ChartAtlas& atlas,
                          const Image& lightmap, const Camera& camera,
@@ -67,12 +122,10 @@ Image renderLightmapView(std::span<const glm::vec3> positions,
   parallelRange(size_t(settings.height), 1, [&](size_t y0, size_t y1) {
     for (size_t y = y0; y < y1; ++y) {
       for (int x = 0; x < settings.width; ++x) {
-        Rng rng(mixBits(settings.seed), y * uint64_t(settings.width) + uint64_t(x));
+        Rng rng = pixelRng(settings, x, int(y));
         glm::vec3 sum(0.0f);
         for (int s = 0; s < settings.spp; ++s) {
-          const float jx = settings.spp == 1 ? 0.5f : rng.uniform();
-          const float jy = settings.spp == 1 ? 0.5f : rng.uniform();
-          const Ray ray = rays.ray(float(x) + jx, float(y) + jy);
+          const Ray ray = viewRay(rays, settings, x, int(y), rng);
           const Hit hit = engine.intersect(ray);
           sum += lookup.radiance(ray.dir, hit.triangle, hit.u, hit.v);
         }

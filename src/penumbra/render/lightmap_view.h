@@ -42,6 +42,31 @@ class LightmapLookup {
   std::vector<int32_t> face_of_;  // the face of each side of each triangle, -1 where none
 };
 
+// The same view for one lightmap after another (a solver refining, a scene relit, the camera
+// still): the camera's hits are traced once, at construction, and each image costs only the
+// lookups. render() gives renderLightmapView's image bit for bit. Keeps spp hits per pixel (24
+// bytes each); `positions`, `triangles` and `atlas` must outlive it.
+inline constexpr uint64_t kLightmapViewBytesPerSample = 24;
+class LightmapView {
+ public:
+  LightmapView(std::span<const glm::vec3> positions, std::span<const glm::uvec3> triangles,
+               const ChartAtlas& atlas, const Camera& camera, const LightmapViewSettings& settings);
+  Image render(const Image& lightmap) const;
+
+ private:
+  struct Sample {
+    glm::vec3 dir;
+    int32_t triangle;
+    float u, v;
+  };
+  std::span<const glm::vec3> positions_;
+  std::span<const glm::uvec3> triangles_;
+  const ChartAtlas* atlas_;
+  LightmapViewSettings settings_;
+  std::vector<Sample> samples_;  // spp per pixel, in pixel order
+  static_assert(sizeof(Sample) == kLightmapViewBytesPerSample);
+};
+
 // `triangles` over `positions` are the atlas' triangles (its faces refer to them); a hit reads
 // the lightmap through the face on the side the ray sees, and is black where that side has no
 // face (the back of a one-sided surface), as are misses. Pixels are independent of the thread
