@@ -18,7 +18,9 @@ int main(int argc, char** argv) {
   app.add_option("scene", o.scene, "built-in scene name or file (.json, .obj, .gltf, .glb, .ply)");
   app.add_option("--method", o.method,
                  "pathtrace (default), matrix, progressive, stochastic, sss or lpv");
-  app.add_option("--width", o.width, "window width in pixels (default 960)")
+  app.add_option("--width", o.width,
+                 "window width in pixels (default 1120; the image is the window less the 320-pixel "
+                 "side panel)")
       ->check(CLI::Range(16, 8192));
   app.add_option("--height", o.height, "window height in pixels (default 640)")
       ->check(CLI::Range(16, 8192));

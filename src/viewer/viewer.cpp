@@ -49,6 +49,8 @@ const char* lightKind(const Light& light) {
       light);
 }
 
+constexpr int kPanelWidth = 320;  // pixels: the side panel, left of the image
+
 float sceneSize(const Scene& scene) {
   Bounds3 b;
   for (const Mesh& m : scene.meshes) b.extend(Bounds3::of(m.positions));
@@ -105,6 +107,16 @@ class Viewer {
   Status capture(const std::string& path);
   Status writeStats(const nlohmann::json& frames) const;
   Camera currentCamera() const { return orbit_.camera(); }
+  // Where the image goes: the window right of the side panel (the whole window without it).
+  struct Rect {
+    int x0 = 0, width = 1, height = 1;
+  };
+  Rect imageRect() const {
+    int w = options_.width, h = options_.height;
+    if (window_) glfwGetFramebufferSize(window_, &w, &h);
+    const int panel = options_.hide_ui ? 0 : std::min(kPanelWidth, w / 2);
+    return Rect{panel, std::max(w - panel, 1), std::max(h, 1)};
+  }
   void lightsChanged() {
     if (session_) session_->setLights(scene_.lights);
     session_failed_ = false;
@@ -143,10 +155,9 @@ void Viewer::startSession() {
   session_.reset();
   session_failed_ = false;
   LiveSettings s;
-  int w = options_.width, h = options_.height;
-  if (window_) glfwGetFramebufferSize(window_, &w, &h);
-  s.width = std::max(w, 1);
-  s.height = std::max(h, 1);
+  const Rect r = imageRect();
+  s.width = r.width;
+  s.height = r.height;
   s.spp = options_.spp;
   s.seed = options_.seed;
   s.elements = options_.elements;
@@ -253,11 +264,11 @@ void Viewer::uploadImage() {
 
 void Viewer::handleInput() {
   ImGuiIO& io = ImGui::GetIO();
-  int w = 1, h = 1;
-  glfwGetFramebufferSize(window_, &w, &h);
+  const Rect r = imageRect();
+  const int w = r.width, h = r.height;
   const Camera before = currentCamera();
   const glm::vec2 delta(io.MouseDelta.x, io.MouseDelta.y);
-  const glm::vec2 mouse(io.MousePos.x, io.MousePos.y);
+  const glm::vec2 mouse(io.MousePos.x - float(r.x0), io.MousePos.y);
   if (!io.WantCaptureMouse) {
     const CameraRays rays(before, w, h);
     if (ImGui::IsMouseClicked(ImGuiMouseButton_Left)) {
@@ -313,9 +324,8 @@ void Viewer::handleInput() {
 }
 
 void Viewer::drawLightMarkers() {
-  int w = 1, h = 1;
-  glfwGetFramebufferSize(window_, &w, &h);
-  const CameraRays rays(currentCamera(), w, h);
+  const Rect r = imageRect();
+  const CameraRays rays(currentCamera(), r.width, r.height);
   ImDrawList* draw = ImGui::GetForegroundDrawList();
   for (size_t k = 0; k < scene_.lights.size(); ++k) {
     glm::vec3* p = lightPosition(scene_.lights[k]);
@@ -323,15 +333,18 @@ void Viewer::drawLightMarkers() {
     if (!at) continue;
     const ImU32 colour =
         int(k) == selected_light_ ? IM_COL32(255, 210, 60, 255) : IM_COL32(255, 255, 255, 200);
-    draw->AddCircle(ImVec2(at->x, at->y), 8.0f, colour, 16, 2.0f);
-    draw->AddCircleFilled(ImVec2(at->x, at->y), 3.0f, colour);
+    const ImVec2 centre(at->x + float(r.x0), at->y);
+    draw->AddCircle(centre, 8.0f, colour, 16, 2.0f);
+    draw->AddCircleFilled(centre, 3.0f, colour);
   }
 }
 
 void Viewer::drawPanels() {
-  ImGui::SetNextWindowPos(ImVec2(10, 10), ImGuiCond_FirstUseEver);
-  ImGui::SetNextWindowSize(ImVec2(330, 0), ImGuiCond_FirstUseEver);
-  ImGui::Begin("Penumbra");
+  const Rect r = imageRect();
+  ImGui::SetNextWindowPos(ImVec2(0, 0));
+  ImGui::SetNextWindowSize(ImVec2(float(r.x0), float(r.height)));
+  ImGui::Begin("Penumbra", nullptr,
+               ImGuiWindowFlags_NoMove | ImGuiWindowFlags_NoResize | ImGuiWindowFlags_NoCollapse);
   ImGui::TextUnformatted(scene_.source.c_str());
   int method = int(method_);
   std::array<const char*, 6> names{};
@@ -479,7 +492,7 @@ void Viewer::drawPanels() {
   ImGui::End();
 
   if (!error_.empty()) {
-    ImGui::SetNextWindowPos(ImVec2(350, 10), ImGuiCond_FirstUseEver);
+    ImGui::SetNextWindowPos(ImVec2(float(r.x0 + 10), 10), ImGuiCond_FirstUseEver);
     ImGui::Begin("error");
     ImGui::PushStyleColor(ImGuiCol_Text, ImVec4(1.0f, 0.45f, 0.4f, 1.0f));
     ImGui::TextWrapped("%s", error_.c_str());
@@ -572,9 +585,10 @@ Status Viewer::run() {
     const Timer draw_timer;
     int w = 1, h = 1;
     glfwGetFramebufferSize(window_, &w, &h);
+    const Rect image = imageRect();
     ImGui::GetBackgroundDrawList()->AddImage(
-        reinterpret_cast<ImTextureID>(static_cast<intptr_t>(texture_)), ImVec2(0, 0),
-        ImVec2(float(w), float(h)));
+        reinterpret_cast<ImTextureID>(static_cast<intptr_t>(texture_)),
+        ImVec2(float(image.x0), 0.0f), ImVec2(float(image.x0 + image.width), float(image.height)));
     if (!options_.hide_ui) {
       drawPanels();
       drawLightMarkers();

@@ -16,8 +16,8 @@ namespace penumbra::viewer {
 struct ViewerOptions {
   std::string scene = "cornell";
   std::string method = "pathtrace";
-  int width = 960, height = 640;  // the window's (and the image's) size in pixels
-  int spp = 0;                    // 0: the method's default (interactive/live_session.h)
+  int width = 1120, height = 640;  // the window's size in pixels (the image: less the side panel)
+  int spp = 0;                     // 0: the method's default (interactive/live_session.h)
   uint64_t seed = 0;
   uint32_t elements = 0;
   int iterations = 0;
