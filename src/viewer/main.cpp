@@ -34,6 +34,10 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(1u, 1u << 26));
   app.add_option("--iterations", o.iterations, "radiosity: iteration cap (default 500)")
       ->check(CLI::Range(1, 1 << 24));
+  app.add_option("--device", o.device,
+                 "cpu, gpu, or auto (default: the GPU twins of matrix, sss and lpv when the "
+                 "window's OpenGL is hardware)")
+      ->check(CLI::IsMember({"cpu", "gpu", "auto"}));
   app.add_option("--grid", o.lpv.grid, "lpv: cells along each object's longest side (32)")
       ->check(CLI::Range(4, kLpvMaxGrid));
   app.add_option("--steps", o.lpv.steps, "lpv: propagation steps (8)")->check(CLI::Range(1, 4096));

@@ -4,6 +4,7 @@
 #include "penumbra/app/stats_file.h"
 #include "penumbra/core/file_util.h"
 #include "penumbra/core/timer.h"
+#include "penumbra/gpu/storage.h"
 #include "penumbra/interactive/live_session.h"
 #include "penumbra/io/image_io.h"
 #include "penumbra/io/scene_io.h"
@@ -128,6 +129,8 @@ class Viewer {
 };
 
 Viewer::~Viewer() {
+  // The session's GPU objects go while the window's context is current.
+  session_.reset();
   if (texture_) glDeleteTextures(1, &texture_);
   if (imgui_) {
     ImGui_ImplOpenGL3_Shutdown();
@@ -163,6 +166,11 @@ void Viewer::startSession() {
   s.elements = options_.elements;
   s.iterations = options_.iterations;
   s.lpv = options_.lpv;
+  // `auto` takes the GPU on hardware, for the methods that have a GPU twin.
+  const bool twin =
+      method_ == LiveMethod::kMatrix || method_ == LiveMethod::kSss || method_ == LiveMethod::kLpv;
+  s.gpu = options_.device == "gpu" ||
+          (options_.device == "auto" && twin && window_ && !gl::softwareRenderer());
   Expected<LiveSession> session = LiveSession::create(scene_, method_, s, currentCamera());
   if (!session) {
     error_ = session.error().describe();
@@ -205,6 +213,7 @@ Status Viewer::open() {
     s.height = options_.height;
     s.spp = options_.spp;
     s.lpv = options_.lpv;
+    s.gpu = options_.device == "gpu";
     Expected<LiveSession> check = LiveSession::create(scene_, method_, s, currentCamera());
     if (!check) return check.error();
   }
@@ -626,6 +635,7 @@ Status Viewer::writeStats(const nlohmann::json& frames) const {
       {"scene", scene_.source},
       {"renderer", renderer ? renderer : ""},
       {"live", options_.live},
+      {"device", session_ && session_->settings().gpu ? "gpu" : "cpu"},
       {"budget_ms", 1e3 * options_.budget},
       {"width", options_.width},
       {"height", options_.height},

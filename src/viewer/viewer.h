@@ -20,6 +20,9 @@ struct ViewerOptions {
   int spp = 0;                     // 0: the method's default (interactive/live_session.h)
   uint64_t seed = 0;
   uint32_t elements = 0;
+  // cpu, gpu, or auto: the GPU twins (matrix, sss, lpv) when the window's OpenGL is hardware, as
+  // `render --device auto` chooses.
+  std::string device = "auto";
   int iterations = 0;
   LpvOptions lpv;
   ToneMapSettings tonemap;

@@ -184,6 +184,51 @@ TEST(Viewer, EveryMethodsCaptureIsItsHeadlessRender) {
   }
 }
 
+// --device gpu: the GPU twins in the window's own context (GLX here) give what `render --device
+// gpu` gives headless (EGL): matrix radiosity's Jacobi solve, relit, to the solver's tolerance,
+// and the light propagation volumes to the byte.
+TEST(Viewer, GpuTwinsCaptureAsRenderDoesOnTheGpu) {
+  PENUMBRA_GL_OR_SKIP();
+  PENUMBRA_DISPLAY_OR_SKIP(display);
+  TempDir dir;
+  const struct {
+    const char* method;
+    std::string options;
+    bool bunny;
+    glm::vec3 from, to;
+    double bar;
+  } cases[] = {
+      {"matrix", "--elements 400 --spp 1", false, kFrom, kTo, 0.01},
+      {"lpv", "--spp 1", true, glm::vec3(-0.05f, 0.25f, -0.35f), glm::vec3(0.2f, 0.25f, -0.3f),
+       0.0},
+  };
+  for (const auto& c : cases) {
+    const std::string method = c.method;
+    const std::string start = c.bunny ? bunnyScene(dir, method + "_start.json", c.from)
+                                      : boxScene(dir, method + "_start.json", c.from);
+    const std::string end = c.bunny ? bunnyScene(dir, method + "_end.json", c.to)
+                                    : boxScene(dir, method + "_end.json", c.to);
+    const std::string script = dir.write(
+        method + "_script.json", fmt::format(R"({{"light_path": [[{}, {}, {}], [{}, {}, {}]]}})",
+                                             c.from.x, c.from.y, c.from.z, c.to.x, c.to.y, c.to.z));
+    const auto v =
+        runCli(fmt::format("view {} --method {} {} --device gpu --width 64 --height 64 --hide-ui "
+                           "--script {} --frames 2 --screenshot {} --stats {}",
+                           start, method, c.options, script, dir.file(method + ".png"),
+                           dir.file(method + ".json")),
+               "DISPLAY=" + display);
+    ASSERT_EQ(v.exit_code, 0) << v.output;
+    EXPECT_EQ(test::readJson(dir.file(method + ".json"))["device"], "gpu");
+    const auto h = runCli(
+        fmt::format("render {} --method {} {} --device gpu --width 64 --height 64 --quiet -o {}",
+                    end, method, c.options, dir.file(method + "_cli.png")));
+    ASSERT_EQ(h.exit_code, 0) << h.output;
+    const double d = difference(dir.file(method + ".png"), dir.file(method + "_cli.png"));
+    std::printf("%s on the GPU: the relit capture vs render --device gpu %.2e\n", c.method, d);
+    EXPECT_LE(d, c.bar) << c.method;
+  }
+}
+
 // A dropped file opens (the next frame shows it); one that does not load leaves its error in the
 // window (and the stats) and the last scene on screen: never a crash.
 TEST(Viewer, DroppedFilesOpenOrShowTheirError) {

@@ -2,6 +2,7 @@
 
 #include "penumbra/core/memory.h"
 #include "penumbra/core/timer.h"
+#include "penumbra/radiosity/jacobi_gl.h"
 #include "penumbra/radiosity/matrix_radiosity.h"
 #include "penumbra/radiosity/progressive.h"
 #include "penumbra/radiosity/stochastic.h"
@@ -87,6 +88,8 @@ struct LiveSession::State {
   int sample = 0, row = 0, band = 8;
   // Radiosity.
   std::optional<MatrixRadiosity> matrix;
+  std::optional<GlJacobi> jacobi;  // the GPU's solve (LiveSettings::gpu)
+  bool jacobi_materials = false;   // the system's emission and reflectance changed since upload
   int matrix_iterations = 0;
   double matrix_residual = 0.0;
   bool matrix_converged = false;
@@ -135,6 +138,11 @@ Expected<LiveSession> LiveSession::create(Scene scene, LiveMethod method,
     return inputError("", "--spp", "must be in [1, 1048576]");
   }
   const bool subsurface = method == LiveMethod::kSss || method == LiveMethod::kLpv;
+  if (settings.gpu && (method == LiveMethod::kProgressive || method == LiveMethod::kStochastic)) {
+    return inputError(
+        "", "--device",
+        fmt::format("gpu: {} radiosity runs on the cpu in a live session", liveMethodName(method)));
+  }
   if (subsurface && !anyTranslucent(scene)) {
     return inputError(scene.source, "",
                       fmt::format("no translucent material (a `subsurface` block) for {}",
@@ -187,6 +195,7 @@ void LiveSession::setLights(const std::vector<Light>& lights) {
         s.matrix->setLights(s.scene.lights);
         s.matrix->applyMaterials(s.scene.materials);
         s.matrix_converged = false;
+        s.jacobi_materials = true;
       }
       break;
     case LiveMethod::kSss:
@@ -203,6 +212,7 @@ void LiveSession::setMaterials(const std::vector<Material>& materials) {
     // Dynamic relighting: new reflectances and emissions, the form factors stay.
     s.matrix->applyMaterials(s.scene.materials);
     s.matrix_converged = false;
+    s.jacobi_materials = true;
     return;
   }
   s.build = true;
@@ -239,6 +249,13 @@ Status LiveSession::State::buildSolver(LiveStep& step) {
       matrix.emplace(std::move(*built));
       matrix_iterations = 0;
       matrix_converged = false;
+      jacobi.reset();
+      if (settings.gpu) {
+        Expected<GlJacobi> gl = GlJacobi::create(*matrix->system);
+        if (!gl) return gl.error();
+        jacobi.emplace(std::move(*gl));
+      }
+      jacobi_materials = false;
       break;
     }
     case LiveMethod::kProgressive: {
@@ -278,6 +295,7 @@ Status LiveSession::State::buildSolver(LiveStep& step) {
       Expected<LpvSolver> built = LpvSolver::build(scene, settings.lpv);
       if (!built) return built.error();
       lpv.emplace(std::move(*built));
+      if (settings.gpu) PENUMBRA_TRY(lpv->useGpu());
       break;
     }
   }
@@ -338,11 +356,24 @@ Expected<bool> LiveSession::State::solveSome(double budget, bool all) {
       break;
     }
     case LiveMethod::kMatrix: {
+      if (jacobi && jacobi_materials) {
+        PENUMBRA_TRY(jacobi->setMaterials(matrix->system->reflectance, matrix->system->emission));
+        jacobi_materials = false;
+      }
       while (more()) {
+        // As `render`: Gauss-Seidel on the CPU, Jacobi on the GPU.
         SolveOptions so;
         so.max_iterations = 1;
         so.tolerance = kMatrixTolerance;
-        const SolveStats st = matrix->solve(so);
+        SolveStats st;
+        if (jacobi) {
+          so.solver = MatrixSolver::kJacobi;
+          Expected<SolveStats> gs = jacobi->solve(matrix->radiosity, so);
+          if (!gs) return gs.error();
+          st = std::move(*gs);
+        } else {
+          st = matrix->solve(so);
+        }
         ++matrix_iterations;
         matrix_residual = st.residual;
         matrix_converged = st.converged;
@@ -424,7 +455,7 @@ Status LiveSession::State::drawView() {
     case LiveMethod::kSss: {
       if (!sss_frames) {
         SssViewSettings view{settings.width, settings.height, spp(), settings.seed};
-        Expected<SssFrames> frames = SssFrames::create(*sss, camera, view, false);
+        Expected<SssFrames> frames = SssFrames::create(*sss, camera, view, settings.gpu);
         if (!frames) return frames.error();
         sss_frames = std::make_unique<SssFrames>(std::move(*frames));
       }

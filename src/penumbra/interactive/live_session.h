@@ -15,7 +15,8 @@
 // Every method's solver, options and defaults are the library's, as `penumbra render` uses them:
 // anything a session shows, `render` computes headless from the same scene and options.
 // Builds (form factors, links, lightmaps) happen in the first advance after a change that needs
-// them, in one piece. Runs on the CPU (the solvers' CPU twins).
+// them, in one piece. Runs on the CPU, or with LiveSettings::gpu the GPU twins where `render` has
+// them for the method.
 #pragma once
 
 #include "penumbra/core/expected.h"
@@ -55,6 +56,11 @@ struct LiveSettings {
   uint32_t elements = 0;
   int iterations = 0;  // the radiosity methods' cap; 0: each method's `render` default
   LpvOptions lpv;
+  // The GPU twins, as `render --device gpu` runs them: matrix radiosity's Jacobi solve, the
+  // dipole's passes 1 and 2, the light propagation volumes' propagation. Needs the caller's
+  // OpenGL 4.5 context current on the calling thread for every advance; the other methods
+  // refuse it (create()).
+  bool gpu = false;
 };
 
 // What the last advance did, for a frame-time graph.
