@@ -21,12 +21,13 @@ namespace penumbra {
 
 namespace {
 
-// `render`'s defaults (app/commands.h): the iteration cap of the radiosity methods, the matrix
-// solve's tolerance, the path tracer's samples and the other views' rays per pixel.
-constexpr int kDefaultIterations = 500;
-constexpr double kMatrixTolerance = 1e-6;
-constexpr int kPathTracerSpp = 64;
-constexpr int kViewSpp = 4;
+// `render`'s defaults, from where the library states them: the iteration cap of the radiosity
+// methods and the matrix solve's tolerance (SolveOptions), the path tracer's samples
+// (PathTracerSettings) and the other views' rays per pixel (LightmapViewSettings).
+const int kDefaultIterations = SolveOptions{}.max_iterations;
+const double kMatrixTolerance = SolveOptions{}.tolerance;
+const int kPathTracerSpp = PathTracerSettings{}.spp;
+const int kViewSpp = LightmapViewSettings{}.spp;
 // A solution's view is drawn again at most this often while the solve goes on (and when it
 // ends): the view's rays cost more than a slice of shots. The path tracer's preview (its sums,
 // tone-mapped by the window) more often.
@@ -63,6 +64,10 @@ std::string_view liveMethodName(LiveMethod method) {
   return "pathtrace";
 }
 
+bool liveMethodHasGpu(LiveMethod method) {
+  return method == LiveMethod::kMatrix || method == LiveMethod::kSss || method == LiveMethod::kLpv;
+}
+
 std::optional<LiveMethod> parseLiveMethod(std::string_view name) {
   for (LiveMethod m : kLiveMethods) {
     if (liveMethodName(m) == name) return m;
@@ -89,8 +94,11 @@ struct LiveSession::State {
   // Radiosity.
   std::optional<MatrixRadiosity> matrix;
   std::optional<GlJacobi> jacobi;  // the GPU's solve (LiveSettings::gpu)
-  bool jacobi_materials = false;   // the system's emission and reflectance changed since upload
-  int matrix_iterations = 0;
+  // The lights or the materials changed: the direct term and the system's emission and
+  // reflectance are set again (and uploaded) before the next iterations.
+  bool relight = false;
+  int matrix_iterations = 0;  // of the current solve (since the last build or relighting)
+  int matrix_chunk = 1;       // iterations per solve call, sized to the budget
   double matrix_residual = 0.0;
   bool matrix_converged = false;
   std::optional<ProgressiveRadiosity> progressive;
@@ -138,10 +146,10 @@ Expected<LiveSession> LiveSession::create(Scene scene, LiveMethod method,
     return inputError("", "--spp", "must be in [1, 1048576]");
   }
   const bool subsurface = method == LiveMethod::kSss || method == LiveMethod::kLpv;
-  if (settings.gpu && (method == LiveMethod::kProgressive || method == LiveMethod::kStochastic)) {
+  if (settings.gpu && !liveMethodHasGpu(method)) {
     return inputError(
         "", "--device",
-        fmt::format("gpu: {} radiosity runs on the cpu in a live session", liveMethodName(method)));
+        fmt::format("gpu: --method {} runs on the cpu in the viewer", liveMethodName(method)));
   }
   if (subsurface && !anyTranslucent(scene)) {
     return inputError(scene.source, "",
@@ -185,18 +193,20 @@ void LiveSession::setLights(const std::vector<Light>& lights) {
   s.solve = s.view = true;
   switch (s.method) {
     case LiveMethod::kPathTrace:
+      // The geometry (and its BVH) stays.
+      if (s.tracer) {
+        s.tracer->setLights(s.scene.lights);
+        s.restartSamples();
+      }
+      break;
     case LiveMethod::kProgressive:
     case LiveMethod::kStochastic:
       s.build = true;
       break;
     case LiveMethod::kMatrix:
-      // Dynamic relighting: the lights' direct term again, the form factors stay.
-      if (s.matrix) {
-        s.matrix->setLights(s.scene.lights);
-        s.matrix->applyMaterials(s.scene.materials);
-        s.matrix_converged = false;
-        s.jacobi_materials = true;
-      }
+      // Dynamic relighting (in the next advance): the lights' direct term again, the form
+      // factors stay.
+      s.relight = true;
       break;
     case LiveMethod::kSss:
     case LiveMethod::kLpv:
@@ -208,11 +218,9 @@ void LiveSession::setMaterials(const std::vector<Material>& materials) {
   State& s = *s_;
   s.scene.materials = materials;
   s.solve = s.view = true;
-  if (s.method == LiveMethod::kMatrix && s.matrix) {
+  if (s.method == LiveMethod::kMatrix) {
     // Dynamic relighting: new reflectances and emissions, the form factors stay.
-    s.matrix->applyMaterials(s.scene.materials);
-    s.matrix_converged = false;
-    s.jacobi_materials = true;
+    s.relight = true;
     return;
   }
   s.build = true;
@@ -249,13 +257,13 @@ Status LiveSession::State::buildSolver(LiveStep& step) {
       matrix.emplace(std::move(*built));
       matrix_iterations = 0;
       matrix_converged = false;
+      relight = false;
       jacobi.reset();
       if (settings.gpu) {
         Expected<GlJacobi> gl = GlJacobi::create(*matrix->system);
         if (!gl) return gl.error();
         jacobi.emplace(std::move(*gl));
       }
-      jacobi_materials = false;
       break;
     }
     case LiveMethod::kProgressive: {
@@ -310,7 +318,7 @@ bool LiveSession::State::solved() const {
     case LiveMethod::kPathTrace:
       return sample >= spp();
     case LiveMethod::kMatrix:
-      return matrix_converged || matrix_iterations >= iterations();
+      return !relight && (matrix_converged || matrix_iterations >= iterations());
     case LiveMethod::kProgressive:
       return progressive->iterations() >= iterations() ||
              progressive->selectShooter() == ProgressiveRadiosity::kNoShooter ||
@@ -356,14 +364,24 @@ Expected<bool> LiveSession::State::solveSome(double budget, bool all) {
       break;
     }
     case LiveMethod::kMatrix: {
-      if (jacobi && jacobi_materials) {
-        PENUMBRA_TRY(jacobi->setMaterials(matrix->system->reflectance, matrix->system->emission));
-        jacobi_materials = false;
+      if (relight) {
+        matrix->setLights(scene.lights);
+        matrix->applyMaterials(scene.materials);
+        if (jacobi) {
+          PENUMBRA_TRY(jacobi->setMaterials(matrix->system->reflectance, matrix->system->emission));
+        }
+        relight = false;
+        matrix_iterations = 0;
+        matrix_converged = false;
       }
       while (more()) {
-        // As `render`: Gauss-Seidel on the CPU, Jacobi on the GPU.
+        // As `render`: Gauss-Seidel on the CPU, Jacobi on the GPU, from the last solution. A
+        // call ends with the residual of its result (one more product with the matrix), so the
+        // calls take as many iterations as fit in about a quarter of the budget.
+        const Timer chunk_timer;
         SolveOptions so;
-        so.max_iterations = 1;
+        so.max_iterations = all ? iterations() - matrix_iterations
+                                : std::min(matrix_chunk, iterations() - matrix_iterations);
         so.tolerance = kMatrixTolerance;
         SolveStats st;
         if (jacobi) {
@@ -374,10 +392,13 @@ Expected<bool> LiveSession::State::solveSome(double budget, bool all) {
         } else {
           st = matrix->solve(so);
         }
-        ++matrix_iterations;
+        matrix_iterations += st.iterations;
         matrix_residual = st.residual;
         matrix_converged = st.converged;
         changed = true;
+        const double seconds = chunk_timer.seconds();
+        if (budget > 0.0 && seconds < budget / 8.0) matrix_chunk = std::min(matrix_chunk * 2, 64);
+        if (budget > 0.0 && seconds > budget / 2.0) matrix_chunk = std::max(matrix_chunk / 2, 1);
       }
       status =
           fmt::format("{} clusters, iteration {}, residual {:.3g}{}", matrix->size(),

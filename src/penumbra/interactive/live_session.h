@@ -43,6 +43,8 @@ inline constexpr LiveMethod kLiveMethods[] = {LiveMethod::kPathTrace,   LiveMeth
 // The names `render --method` takes.
 std::string_view liveMethodName(LiveMethod method);
 std::optional<LiveMethod> parseLiveMethod(std::string_view name);
+// Whether the method has GPU twins a session runs (LiveSettings::gpu): matrix, sss, lpv.
+bool liveMethodHasGpu(LiveMethod method);
 
 struct LiveSettings {
   int width = 512, height = 512;

@@ -101,6 +101,9 @@ class PathTracer {
   // The scene must have passed validateScene.
   explicit PathTracer(const Scene& scene);
 
+  // Other lights for the same geometry and materials (no BVH to build again).
+  void setLights(std::span<const Light> lights) { lights_.assign(lights.begin(), lights.end()); }
+
   // One-sample estimate of the radiance arriving along `ray` (W m^-2 sr^-1): the radiance
   // leaving the first surface hit towards the ray origin. `rays` counts the rays traced.
   glm::vec3 radiance(const Ray& ray, Rng& rng, const PathTracerSettings& settings,

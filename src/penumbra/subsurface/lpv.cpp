@@ -149,9 +149,15 @@ Status LpvSolver::rebuild(const Scene& scene, FlatTriangles flat) {
     o.cell_medium = lpvMedium(o.grid, o.medium, Bounds3::of(mesh.positions));
     o.transfer = lpvTransfer(o.grid, o.cells, o.cell_medium);
     const size_t n = o.grid.cellCount();
-    for (LpvField* f :
-         {&o.injected, &o.accumulated, &o.propagation[0], &o.propagation[1], &o.sent}) {
-      f->resize(n);
+    o.injected.resize(n);
+    o.accumulated.resize(n);
+    // The CPU's propagation fields; the GPU keeps its own.
+    for (LpvField* f : {&o.propagation[0], &o.propagation[1], &o.sent}) {
+      if (gpu_) {
+        *f = LpvField{};
+      } else {
+        f->resize(n);
+      }
     }
     if (gpu_) PENUMBRA_TRY(gpu_->setVolume(k, o.grid, o.cells, o.transfer));
   }

@@ -1,20 +1,20 @@
 // Subsurface light propagation volumes (Børlum, Christensen, Kjeldsen, Mikkelsen, Noe, Rimestad,
-// Mosegaard 2011, SSLPV): subsurface scattering for translucent objects that may
-// deform and change topology every frame, lit by moving lights, with no precomputation. Each
-// mesh with a translucent material (a `subsurface` block, scene/material.h) gets a light
-// propagation volume (subsurface/lpv_volume.h) around it; every frame:
+// Mosegaard 2011, SSLPV): subsurface scattering for translucent objects that may deform and
+// change topology every frame, lit by moving lights, with no precomputation. Each mesh with a
+// translucent material (a `subsurface` block, scene/material.h) gets a light propagation volume
+// (subsurface/lpv_volume.h) around it; every frame:
 //
 //  - voxelisation: the mesh as it is now sorted into inside, boundary and outside cells;
 //  - injection (sec. 3.1, subsurface/lpv_inject.cpp): per light a reflective shadow map of
-//  rsm_resolution^2 texels over the
-//    object, here traced through the Ray Engine (closest hits: other objects shadow it): at each
-//    texel that sees the object's front, the flux Phi_p = I Delta w_p (Delta w_p the texel's solid
-//    angle, the paper's 4 alpha tan^2(FOV / 2) cos^3 theta_p / (N_x N_y); a directional light's
-//    map is orthographic, Phi_p = E times the texel's area) enters as a virtual point light with
-//    intensity (1 / pi) T Phi_p max(0, w_t . w) about the refracted direction w_t (eq. 1, T the
-//    Fresnel transmittance), projected on the two SH bands and summed into the boundary cell that
-//    holds the texel's surface point; emitting surfaces and the environment through gathered
-//    points of the object's surface;
+//    rsm_resolution^2 texels over the object, here traced through the Ray Engine (closest hits:
+//    other objects shadow it): at each texel that sees the object's front, the flux
+//    Phi_p = I Delta w_p (Delta w_p the texel's solid angle, the paper's
+//    4 alpha tan^2(FOV / 2) cos^3 theta_p / (N_x N_y); a directional light's map is orthographic,
+//    Phi_p = E times the texel's area) enters as a virtual point light with intensity
+//    (1 / pi) T Phi_p max(0, w_t . w) about the refracted direction w_t (eq. 1, T the Fresnel
+//    transmittance), projected on the two SH bands and summed into the boundary cell that holds
+//    the texel's surface point; emitting surfaces and the environment through gathered points of
+//    the object's surface;
 //  - propagation (sec. 3.2): `steps` steps through the object's cells, absorbing and scattering;
 //    the accumulation grid sums the propagation grid after every step but the first
 //    `skip_steps` (sec. 4: fewer flickers as lights and meshes move); on the CPU (oneTBB) or,
@@ -23,9 +23,9 @@
 // The view (sec. 3.3): a translucent surface point shows T(w_o) L_i, L_i the area-light radiance
 // of the accumulated intensity at the point (eq. 5-7, the cell's cross-section A = dx^2), the
 // coefficients interpolated trilinearly between the object's cells around it (the paper takes
-// the cell that holds the point, which shows the grid's blocks); opaque surfaces their direct light
-// with shadow rays (rho / pi E V), emitters their radiance, misses the environment. The boundary's
-// specular reflection is not part of the model (as in the dipole method).
+// the cell that holds the point, which shows the grid's blocks); opaque surfaces their direct
+// light with shadow rays (rho / pi E V), emitters their radiance, misses the environment. The
+// boundary's specular reflection is not part of the model (as in the dipole method).
 #pragma once
 
 #include "penumbra/core/expected.h"
