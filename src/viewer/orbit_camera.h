@@ -16,8 +16,9 @@ class OrbitCamera {
   OrbitCamera() = default;
   explicit OrbitCamera(const Camera& camera) { set(camera); }
 
+  // The camera as given (kept exactly until a move: a still viewer shows what `render` does).
   void set(const Camera& camera);
-  Camera camera() const;
+  const Camera& camera() const { return camera_; }
 
   // Mouse deltas in pixels; `height` the view's height in pixels (a drag across it turns half a
   // turn, pans the view's height at the target's distance).
@@ -30,17 +31,11 @@ class OrbitCamera {
   // size `scale` (metres).
   void fly(const glm::vec3& right_up_forward, float scale);
 
-  const glm::vec3& target() const { return target_; }
-  float distance() const { return distance_; }
+  const glm::vec3& target() const { return camera_.look_at; }
+  float distance() const;
 
  private:
-  glm::vec3 target_{0.0f};
-  float distance_ = 1.0f;
-  float yaw_ = 0.0f, pitch_ = 0.0f;  // radians: the direction from the target to the eye
-  float fov_ = 0.6859f;
-  glm::vec3 up_{0.0f, 1.0f, 0.0f};
-
-  glm::vec3 eyeDirection() const;
+  Camera camera_;
 };
 
 }  // namespace penumbra::viewer

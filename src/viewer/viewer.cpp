@@ -61,7 +61,7 @@ float sceneSize(const Scene& scene) {
 // The last frames' times (ms) per pass, for the graph.
 struct FrameTimes {
   static constexpr size_t kFrames = 240;
-  std::deque<float> build, solve, view, draw;
+  std::deque<float> solve, view, draw;
   void push(std::deque<float>& d, double ms) {
     d.push_back(float(ms));
     if (d.size() > kFrames) d.pop_front();
@@ -100,6 +100,7 @@ class Viewer {
   double last_build_ms_ = 0.0;
 
   Status loadScene(const std::string& path, bool keep_camera);
+  LiveSettings liveSettings() const;
   void startSession();
   void handleInput();
   void uploadImage();
@@ -153,10 +154,9 @@ Status Viewer::loadScene(const std::string& path, bool keep_camera) {
   return {};
 }
 
-// A new session of the current method on the scene as it is (after a drop, a method change).
-void Viewer::startSession() {
-  session_.reset();
-  session_failed_ = false;
+// The session's settings from the options, the image's size and the device: `gpu` as asked;
+// `auto` the GPU twins when the window's OpenGL is hardware, as `render --device auto` chooses.
+LiveSettings Viewer::liveSettings() const {
   LiveSettings s;
   const Rect r = imageRect();
   s.width = r.width;
@@ -166,12 +166,17 @@ void Viewer::startSession() {
   s.elements = options_.elements;
   s.iterations = options_.iterations;
   s.lpv = options_.lpv;
-  // `auto` takes the GPU on hardware, for the methods that have a GPU twin.
-  const bool twin =
-      method_ == LiveMethod::kMatrix || method_ == LiveMethod::kSss || method_ == LiveMethod::kLpv;
-  s.gpu = options_.device == "gpu" ||
-          (options_.device == "auto" && twin && window_ && !gl::softwareRenderer());
-  Expected<LiveSession> session = LiveSession::create(scene_, method_, s, currentCamera());
+  s.gpu = options_.device == "gpu" || (options_.device == "auto" && liveMethodHasGpu(method_) &&
+                                       window_ && !gl::softwareRenderer());
+  return s;
+}
+
+// A new session of the current method on the scene as it is (after a drop, a method change).
+void Viewer::startSession() {
+  session_.reset();
+  session_failed_ = false;
+  Expected<LiveSession> session =
+      LiveSession::create(scene_, method_, liveSettings(), currentCamera());
   if (!session) {
     error_ = session.error().describe();
     session_failed_ = true;
@@ -208,13 +213,8 @@ Status Viewer::open() {
   }
   // Checked before the window opens: a method the scene cannot take is a usage error.
   {
-    LiveSettings s;
-    s.width = options_.width;
-    s.height = options_.height;
-    s.spp = options_.spp;
-    s.lpv = options_.lpv;
-    s.gpu = options_.device == "gpu";
-    Expected<LiveSession> check = LiveSession::create(scene_, method_, s, currentCamera());
+    Expected<LiveSession> check =
+        LiveSession::create(scene_, method_, liveSettings(), currentCamera());
     if (!check) return check.error();
   }
 

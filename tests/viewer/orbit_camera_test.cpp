@@ -23,8 +23,10 @@ TEST(OrbitCamera, MovesAsTheMouseSays) {
   c.look_at = glm::vec3(0.1f, 0.2f, 0.3f);
   c.vertical_fov = 0.7f;
   OrbitCamera o(c);
-  expectNear(o.camera().position, c.position, 1e-5f);
-  expectNear(o.camera().look_at, c.look_at, 1e-6f);
+  // Kept exactly until moved: the still viewer's camera is the scene's, to the bit.
+  EXPECT_EQ(o.camera().position, c.position);
+  EXPECT_EQ(o.camera().look_at, c.look_at);
+  EXPECT_EQ(o.camera().vertical_fov, c.vertical_fov);
 
   // Orbit: the target stays, the distance stays, the eye moves.
   const float d = glm::length(c.position - c.look_at);
