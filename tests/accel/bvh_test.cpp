@@ -7,6 +7,8 @@
 #include "penumbra/raytrace/camera_rays.h"
 #include "penumbra/raytrace/cpu_packet.h"
 #include "penumbra/raytrace/ray_engine.h"
+#include "penumbra/raytrace/ray_order.h"
+#include "penumbra/raytrace/ray_sets.h"
 #include "support/embree_oracle.h"
 #include "support/test_util.h"
 
@@ -173,6 +175,115 @@ TEST(Bvh8, OptimalCollapseKeepsTheLeavesAndBeatsGreedy) {
   }
 }
 
+// The quantised nodes the CPU traverses (accel/wide_bvh.h): every dequantised box contains its
+// child's float box, in the kernels' arithmetic, and is at most a step or two larger; on the
+// bunny, on a scene far from the origin, and on flat and point-sized boxes.
+TEST(Bvh8, QuantisedBoxesContainTheirChildren) {
+  const auto check = [](const Bvh8Node& n, const char* what) {
+    const Bvh8QNode q = quantizeBvh8Node(n);
+    const float* lo[3] = {n.lo_x, n.lo_y, n.lo_z};
+    const float* hi[3] = {n.hi_x, n.hi_y, n.hi_z};
+    const uint8_t* qlo[3] = {q.lo_x, q.lo_y, q.lo_z};
+    const uint8_t* qhi[3] = {q.hi_x, q.hi_y, q.hi_z};
+    for (int i = 0; i < 8; ++i) {
+      ASSERT_EQ(q.child[i], n.child[i]);
+      ASSERT_EQ((q.valid >> i & 1) != 0, n.child[i] != Bvh8Node::kEmpty) << what;
+      if (n.child[i] == Bvh8Node::kEmpty) continue;
+      for (int a = 0; a < 3; ++a) {
+        ASSERT_EQ(std::exp2(std::round(std::log2(q.scale[a]))), q.scale[a]) << "a power of two";
+        const float plane_lo = q.origin[a] + float(qlo[a][i]) * q.scale[a];
+        const float plane_hi = q.origin[a] + float(qhi[a][i]) * q.scale[a];
+        ASSERT_LE(plane_lo, lo[a][i]) << what << " slot " << i << " axis " << a;
+        ASSERT_GE(plane_hi, hi[a][i]) << what << " slot " << i << " axis " << a;
+        // Loose by rounding only: two steps, or the float spacing where steps are finer.
+        const float slack = 2.0f * q.scale[a] + 4.0f * std::fabs(q.origin[a]) * 1.2e-7f;
+        ASSERT_LE(lo[a][i] - plane_lo, slack) << what;
+        ASSERT_LE(plane_hi - hi[a][i], slack) << what;
+      }
+    }
+  };
+  Expected<Scene> bunny = loadScene(test::dataPath("bunny.ply"));
+  ASSERT_TRUE(bunny.ok());
+  const Mesh& mesh = bunny->meshes.at(0);
+  for (const glm::vec3 offset : {glm::vec3(0.0f), glm::vec3(1e5f, -3e4f, 7e3f)}) {
+    std::vector<glm::vec3> moved = mesh.positions;
+    for (glm::vec3& p : moved) p += offset;
+    const Bvh8 wide = collapseToBvh8(buildBvh(moved, mesh.triangles));
+    ASSERT_GT(wide.nodes.size(), 1000u);
+    for (const Bvh8Node& n : wide.nodes) check(n, "bunny");
+  }
+  // Flat children (a wall), a point, a child as large as the node, empty slots.
+  Bvh8Node n;
+  const float inf = std::numeric_limits<float>::infinity();
+  for (int i = 0; i < 8; ++i) {
+    n.lo_x[i] = n.lo_y[i] = n.lo_z[i] = inf;
+    n.hi_x[i] = n.hi_y[i] = n.hi_z[i] = -inf;
+    n.child[i] = Bvh8Node::kEmpty;
+  }
+  const float boxes[4][6] = {{0.0f, 0.0f, -5.0f, 0.0f, 3.0f, 5.0f},
+                             {1.25f, 1.25f, 1.25f, 1.25f, 1.25f, 1.25f},
+                             {-2.0f, -1.0f, -5.0f, 7.0f, 3.0f, 5.0f},
+                             {1e-30f, 0.3f, 0.0f, 2e-30f, 0.3f, 1e-7f}};
+  for (int i = 0; i < 4; ++i) {
+    n.lo_x[i] = boxes[i][0], n.lo_y[i] = boxes[i][1], n.lo_z[i] = boxes[i][2];
+    n.hi_x[i] = boxes[i][3], n.hi_y[i] = boxes[i][4], n.hi_z[i] = boxes[i][5];
+    n.child[i] = int32_t(i + 1);
+  }
+  check(n, "constructed node");
+}
+
+// Rays against a scene far from the origin and against axis-aligned walls (flat boxes, planes
+// on quantisation steps): the same answers as brute force, and none escapes a closed box of
+// big quads.
+TEST(RayEngine, FarFromTheOriginAndOnFlatWallsAnswersStayExact) {
+  Soup s = randomSoup(17, 3000, 0.05f);
+  const glm::vec3 offset(2.5e4f, -1.0e4f, 3.0e3f);
+  for (glm::vec3& p : s.positions) p = offset + 100.0f * p;
+  const RayEngine engine = RayEngine::build(s.positions, s.triangles);
+  Rng rng(8, 8);
+  for (int i = 0; i < 3000; ++i) {
+    const Ray ray{offset + 150.0f * randomInBox(rng, -1.0f, 1.0f), 0.0f, randomDirection(rng),
+                  kInf};
+    const Hit a = engine.intersect(ray), b = bruteForce(s, ray);
+    ASSERT_EQ(a.triangle, b.triangle) << i;
+    if (b.hit()) ASSERT_EQ(a.t, b.t) << i;
+  }
+  // A closed box of 10 x 10 quads per face, two triangles each.
+  Soup box;
+  const int n = 10;
+  for (int axis = 0; axis < 3; ++axis) {
+    for (int side = 0; side < 2; ++side) {
+      for (int i = 0; i < n; ++i) {
+        for (int j = 0; j < n; ++j) {
+          glm::vec3 c[4];
+          for (int k = 0; k < 4; ++k) {
+            glm::vec3 p;
+            p[axis] = side ? 3.0f : -1.0f;
+            p[(axis + 1) % 3] = -1.0f + 4.0f * float(i + (k == 1 || k == 2)) / float(n);
+            p[(axis + 2) % 3] = -1.0f + 4.0f * float(j + (k >= 2)) / float(n);
+            c[k] = p;
+          }
+          const uint32_t base = uint32_t(box.positions.size());
+          for (const glm::vec3& p : c) box.positions.push_back(p);
+          box.triangles.emplace_back(base, base + 1, base + 2);
+          box.triangles.emplace_back(base, base + 2, base + 3);
+        }
+      }
+    }
+  }
+  const RayEngine walls = RayEngine::build(box.positions, box.triangles);
+  int escaped = 0;
+  for (int i = 0; i < 100000; ++i) {
+    // Half of the rays run along the walls' grid lines' directions.
+    glm::vec3 d = randomDirection(rng);
+    if (i % 2) d[i % 3] = 0.0f;
+    if (glm::length(d) < 1e-3f) continue;
+    const Ray ray{glm::vec3(1.0f) + randomInBox(rng, -1.5f, 1.5f), 0.0f, d, kInf};
+    escaped += !walls.intersect(ray).hit();
+  }
+  EXPECT_EQ(escaped, 0);
+}
+
 TEST(Bvh, DepthStaysBoundedOnPathologicalInput) {
   // Triangles at exponentially growing distances defeat the SAH's balance.
   Soup s;
@@ -208,6 +319,53 @@ TEST(RayEngine, ClosestHitsIdenticalToBruteForceOnRandomSoups) {
       ASSERT_EQ(engine.occluded(ray), b.hit());
     }
   }
+}
+
+// Large incoherent batches on a large scene are traced in coherentRayOrder: a permutation,
+// grouped by octant and along the Morton curve, whose answers are each ray's own.
+TEST(RayEngine, ReorderedBatchesGiveEachRayItsOwnAnswer) {
+  const Soup s = randomSoup(12, 160000, 0.01f);
+  const RayEngine engine = RayEngine::build(s.positions, s.triangles);
+  Rng rng(6, 6);
+  RayBatch rays;
+  rays.resize(70000);
+  for (size_t i = 0; i < rays.size(); ++i) {
+    rays.set(i, Ray{randomInBox(rng, -1.2f, 1.2f), 0.0f, randomDirection(rng),
+                    i % 3 == 0 ? 0.05f : kInf});
+  }
+  ASSERT_GE(engine.memoryBytes(), size_t(8) << 20);
+  ASSERT_TRUE(engine.reorders(rays));
+  const LargeVector<uint32_t> order = coherentRayOrder(rays, engine.bounds());
+  std::vector<uint8_t> seen(rays.size(), 0);
+  int octant_changes = 0;
+  const auto octant = [&](uint32_t i) {
+    return int(rays.dx[i] < 0.0f) * 4 + int(rays.dy[i] < 0.0f) * 2 + int(rays.dz[i] < 0.0f);
+  };
+  for (size_t j = 0; j < order.size(); ++j) {
+    ASSERT_LT(order[j], rays.size());
+    ASSERT_EQ(seen[order[j]]++, 0) << "ray " << order[j] << " twice";
+    if (j > 0) {
+      ASSERT_GE(octant(order[j]), octant(order[j - 1]));
+      octant_changes += octant(order[j]) != octant(order[j - 1]);
+    }
+  }
+  EXPECT_EQ(octant_changes, 7);
+  HitBatch hits;
+  std::vector<uint8_t> occ;
+  engine.intersect(rays, hits);
+  engine.occluded(rays, occ);
+  size_t hit_count = 0;
+  for (size_t i = 0; i < rays.size(); ++i) {
+    const Hit h = engine.intersect(rays.get(i));
+    ASSERT_EQ(hits.triangle[i], h.triangle) << i;
+    ASSERT_EQ(hits.t[i], h.t) << i;
+    ASSERT_EQ(occ[i] != 0, h.hit()) << i;
+    hit_count += h.hit();
+  }
+  EXPECT_GT(hit_count, rays.size() / 10);
+  // Camera rays in scanline order keep their order (and their packets).
+  RayBatch camera = cameraRaySet(Camera{}, 300, 240);
+  EXPECT_FALSE(engine.reorders(camera));
 }
 
 TEST(RayEngine, BatchesMatchSingleRaysInInputOrder) {

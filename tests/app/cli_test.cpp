@@ -778,6 +778,30 @@ TEST(Cli, TraceFollowsTheFileContract) {
   EXPECT_EQ(stats["triangles"], 2);
 }
 
+// Shadow rays: one byte per ray, 1 exactly when a closest hit exists within [tmin, tmax], on
+// the CPU and through the GPU's closest hits.
+TEST(Cli, TraceOcclusionWritesOneBytePerRay) {
+  TempDir dir;
+  const std::string mesh = writeSquare(dir);
+  RayBatch rays;
+  rays.resize(5);
+  const float inf = std::numeric_limits<float>::infinity();
+  rays.set(0, Ray{{0.75f, 0.25f, 2.0f}, 0.0f, {0.0f, 0.0f, -1.0f}, inf});   // blocked
+  rays.set(1, Ray{{0.25f, 0.75f, -1.0f}, 0.0f, {0.0f, 0.0f, 2.0f}, 0.6f});  // blocked at 0.5
+  rays.set(2, Ray{{2.0f, 2.0f, 1.0f}, 0.0f, {0.0f, 0.0f, -1.0f}, inf});     // miss
+  rays.set(3, Ray{{0.75f, 0.25f, 2.0f}, 0.0f, {0.0f, 0.0f, -1.0f}, 1.5f});  // short of it
+  rays.set(4, Ray{{0.75f, 0.25f, 2.0f}, 2.5f, {0.0f, 0.0f, -1.0f}, inf});   // starts past it
+  ASSERT_TRUE(writeRayFile(dir.file("rays.bin"), rays).ok());
+  const auto r =
+      runCli("trace " + mesh + " --rays " + dir.file("rays.bin") + " -o " + dir.file("occ.bin") +
+             " --occlusion --device cpu --stats " + dir.file("o.json") + " --quiet");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_EQ(*readFile(dir.file("occ.bin")), std::string("\x01\x01\x00\x00\x00", 5));
+  const nlohmann::json stats = readJson(dir.file("o.json"));
+  EXPECT_EQ(stats["method"], "trace-occlusion");
+  EXPECT_EQ(stats["hits"], 2);
+}
+
 TEST(Cli, TraceRejectsMalformedRayFiles) {
   TempDir dir;
   const std::string mesh = writeSquare(dir);
@@ -893,6 +917,14 @@ TEST(Cli, TraceOnTheGpuGivesTheCpuAnswers) {
   EXPECT_GT(hits, 500u);
   EXPECT_GE(same, hits - 2);  // only true ties may differ
   EXPECT_EQ(readJson(dir.file("g.json"))["device"], "gpu");
+
+  // Occlusion through the GPU's closest hits: a byte for each ray the CPU saw hit.
+  const auto occ = runCli("trace " + bunny + " --rays " + dir.file("rays.bin") + " -o " +
+                          dir.file("occ.bin") + " --device gpu --occlusion --quiet");
+  ASSERT_EQ(occ.exit_code, 0) << occ.output;
+  const std::string bytes = *readFile(dir.file("occ.bin"));
+  ASSERT_EQ(bytes.size(), rays.size());
+  for (size_t i = 0; i < rays.size(); ++i) ASSERT_EQ(bytes[i] == 1, a->triangle[i] >= 0) << i;
 
   // The CPU/GPU split gives the same answers too.
   const auto hybrid =

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <limits>
 
 namespace penumbra {
@@ -164,6 +165,59 @@ Bvh8 collapseToBvh8(const Bvh& bvh) {
   Collapser collapser(bvh, out);
   out.root = collapser.emit(0);
   return out;
+}
+
+namespace {
+
+// The plane of quantised value q, in the arithmetic every traversal kernel uses.
+inline float dequantize(float origin, float scale, int q) {
+  return origin + float(q) * scale;
+}
+
+}  // namespace
+
+Bvh8QNode quantizeBvh8Node(const Bvh8Node& node) {
+  Bvh8QNode q{};
+  const float* lo[3] = {node.lo_x, node.lo_y, node.lo_z};
+  const float* hi[3] = {node.hi_x, node.hi_y, node.hi_z};
+  uint8_t* qlo[3] = {q.lo_x, q.lo_y, q.lo_z};
+  uint8_t* qhi[3] = {q.hi_x, q.hi_y, q.hi_z};
+  for (int i = 0; i < 8; ++i) q.child[i] = node.child[i];
+  for (int i = 0; i < 8; ++i) {
+    if (node.child[i] != Bvh8Node::kEmpty) q.valid |= uint8_t(1u << i);
+  }
+  for (int a = 0; a < 3; ++a) {
+    float box_lo = std::numeric_limits<float>::infinity();
+    float box_hi = -std::numeric_limits<float>::infinity();
+    for (int i = 0; i < 8; ++i) {
+      if (!(q.valid >> i & 1)) continue;
+      box_lo = std::min(box_lo, lo[a][i]);
+      box_hi = std::max(box_hi, hi[a][i]);
+    }
+    if (q.valid == 0) box_lo = box_hi = 0.0f;
+    // The smallest power of two whose 255 steps reach the top of the box (at least 2^-100, so
+    // products stay normal numbers).
+    const double extent = double(box_hi) - double(box_lo);
+    float scale = std::ldexp(
+        1.0f, std::max(-100, extent > 0.0 ? int(std::ceil(std::log2(extent / 255.0))) : -100));
+    while (dequantize(box_lo, scale, 255) < box_hi) scale *= 2.0f;
+    q.origin[a] = box_lo;
+    q.scale[a] = scale;
+    for (int i = 0; i < 8; ++i) {
+      if (!(q.valid >> i & 1)) {
+        qlo[a][i] = 255, qhi[a][i] = 0;  // never entered: the valid mask excludes the slot too
+        continue;
+      }
+      int l = int(std::clamp(std::floor((double(lo[a][i]) - box_lo) / scale), 0.0, 255.0));
+      while (l > 0 && dequantize(box_lo, scale, l) > lo[a][i]) --l;
+      int h = int(std::clamp(std::ceil((double(hi[a][i]) - box_lo) / scale), 0.0, 255.0));
+      while (h < 255 && dequantize(box_lo, scale, h) < hi[a][i]) ++h;
+      PENUMBRA_CHECK(dequantize(box_lo, scale, l) <= lo[a][i] &&
+                     dequantize(box_lo, scale, h) >= hi[a][i]);
+      qlo[a][i] = uint8_t(l), qhi[a][i] = uint8_t(h);
+    }
+  }
+  return q;
 }
 
 }  // namespace penumbra

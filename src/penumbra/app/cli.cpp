@@ -374,6 +374,9 @@ int parseAndRun(int argc, char** argv) {
   trace_cmd->add_option("-o,--output", trace.output, "hits: int32 triangle, float32 t u v")
       ->required();
   trace_cmd->add_option("--stats", trace.stats, "write statistics to this JSON file");
+  trace_cmd->add_flag("--occlusion", trace.occlusion,
+                      "shadow rays: write one byte per ray, 1 when anything lies within "
+                      "[tmin, tmax] (any hit), else 0");
   trace_cmd
       ->add_option("--device", trace.device,
                    "cpu, gpu, hybrid (CPU/GPU split of the Ray Engine paper) or auto")

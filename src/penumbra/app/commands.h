@@ -105,6 +105,7 @@ struct TraceOptions {
   std::string output;
   std::string stats;
   std::string device = "auto";
+  bool occlusion = false;  // any hit: one byte per ray instead of closest hits
 };
 
 // `penumbra rays`: a ray file from a scene (rays_command.cpp).

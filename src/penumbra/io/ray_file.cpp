@@ -108,4 +108,8 @@ Status writeHitFile(const std::string& path, const HitBatch& hits) {
   return writeBytes(path, bytes);
 }
 
+Status writeOcclusionFile(const std::string& path, const std::vector<uint8_t>& occluded) {
+  return writeBytes(path, std::string(occluded.begin(), occluded.end()));
+}
+
 }  // namespace penumbra

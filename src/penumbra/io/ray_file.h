@@ -6,7 +6,9 @@
 #include "penumbra/core/expected.h"
 #include "penumbra/raytrace/ray.h"
 
+#include <cstdint>
 #include <string>
+#include <vector>
 
 namespace penumbra {
 
@@ -17,5 +19,7 @@ Status writeRayFile(const std::string& path, const RayBatch& rays);
 
 Expected<HitBatch> readHitFile(const std::string& path);
 Status writeHitFile(const std::string& path, const HitBatch& hits);
+// Occlusion answers (`trace --occlusion`): one byte per ray, 1 when occluded, else 0.
+Status writeOcclusionFile(const std::string& path, const std::vector<uint8_t>& occluded);
 
 }  // namespace penumbra

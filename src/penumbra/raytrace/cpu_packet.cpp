@@ -58,7 +58,7 @@ struct PacketHits {
   __m256 t, u, v;
 };
 
-PENUMBRA_AVX2_TARGET inline __m256 loadLanes(const std::vector<float>& v, size_t first) {
+PENUMBRA_AVX2_TARGET inline __m256 loadLanes(const LargeVector<float>& v, size_t first) {
   return _mm256_loadu_ps(v.data() + first);
 }
 

@@ -59,55 +59,70 @@ struct BoxTester {
         neg_y(inv.y < 0.0f),
         neg_z(inv.z < 0.0f) {}
 
-  // Near and far planes per axis follow the direction's sign, so no min/max is needed and an
-  // empty slot's inverted box (lo = +inf, hi = -inf) always fails.
-  struct Planes {
-    const float *nx, *fx, *ny, *fy, *nz, *fz;
+  // The quantised node's planes (accel/wide_bvh.h): the byte arrays of the near and far
+  // planes per axis, chosen by the direction's sign as for float boxes.
+  struct QPlanes {
+    const uint8_t *nx, *fx, *ny, *fy, *nz, *fz;
   };
-  Planes planes(const Bvh8Node& n) const {
+  QPlanes planes(const Bvh8QNode& n) const {
     return {neg_x ? n.hi_x : n.lo_x, neg_x ? n.lo_x : n.hi_x, neg_y ? n.hi_y : n.lo_y,
             neg_y ? n.lo_y : n.hi_y, neg_z ? n.hi_z : n.lo_z, neg_z ? n.lo_z : n.hi_z};
   }
 
   // Bit i is set when child i is entered within [tmin, tmax]; t_near gets the entry distances.
+  // A plane is origin + q * scale (exact product, one rounding), then the same slab arithmetic
+  // as a float box's.
 #if PENUMBRA_HAVE_AVX2_KERNELS
-  PENUMBRA_AVX2_TARGET uint32_t testAvx2(const Bvh8Node& n, float tmin, float tmax,
+  PENUMBRA_AVX2_TARGET static __m256 planeAvx2(const uint8_t* q, float origin, float scale) {
+    const __m256 qf = _mm256_cvtepi32_ps(
+        _mm256_cvtepu8_epi32(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(q))));
+    return _mm256_add_ps(_mm256_mul_ps(qf, _mm256_set1_ps(scale)), _mm256_set1_ps(origin));
+  }
+
+  PENUMBRA_AVX2_TARGET uint32_t testAvx2(const Bvh8QNode& n, float tmin, float tmax,
                                          float* t_near) const {
-    const Planes pl = planes(n);
+    const QPlanes pl = planes(n);
     const __m256 ox = _mm256_set1_ps(org.x), oy = _mm256_set1_ps(org.y);
     const __m256 oz = _mm256_set1_ps(org.z);
     const __m256 ix = _mm256_set1_ps(inv.x), iy = _mm256_set1_ps(inv.y);
     const __m256 iz = _mm256_set1_ps(inv.z);
-    const __m256 tnx = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(pl.nx), ox), ix);
-    const __m256 tny = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(pl.ny), oy), iy);
-    const __m256 tnz = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(pl.nz), oz), iz);
-    const __m256 tfx = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(pl.fx), ox), ix);
-    const __m256 tfy = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(pl.fy), oy), iy);
-    const __m256 tfz = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(pl.fz), oz), iz);
+    const float *o = n.origin, *s = n.scale;
+    const __m256 tnx = _mm256_mul_ps(_mm256_sub_ps(planeAvx2(pl.nx, o[0], s[0]), ox), ix);
+    const __m256 tny = _mm256_mul_ps(_mm256_sub_ps(planeAvx2(pl.ny, o[1], s[1]), oy), iy);
+    const __m256 tnz = _mm256_mul_ps(_mm256_sub_ps(planeAvx2(pl.nz, o[2], s[2]), oz), iz);
+    const __m256 tfx = _mm256_mul_ps(_mm256_sub_ps(planeAvx2(pl.fx, o[0], s[0]), ox), ix);
+    const __m256 tfy = _mm256_mul_ps(_mm256_sub_ps(planeAvx2(pl.fy, o[1], s[1]), oy), iy);
+    const __m256 tfz = _mm256_mul_ps(_mm256_sub_ps(planeAvx2(pl.fz, o[2], s[2]), oz), iz);
     const __m256 tn =
         _mm256_max_ps(_mm256_max_ps(tnx, tny), _mm256_max_ps(tnz, _mm256_set1_ps(tmin)));
     const __m256 tf = _mm256_mul_ps(
         _mm256_min_ps(_mm256_min_ps(tfx, tfy), _mm256_min_ps(tfz, _mm256_set1_ps(tmax))),
         _mm256_set1_ps(kFarScale));
     _mm256_store_ps(t_near, tn);
-    return uint32_t(_mm256_movemask_ps(_mm256_cmp_ps(tn, tf, _CMP_LE_OQ)));
+    return uint32_t(_mm256_movemask_ps(_mm256_cmp_ps(tn, tf, _CMP_LE_OQ))) & n.valid;
   }
 #endif
 
-  uint32_t testScalar(const Bvh8Node& n, float tmin, float tmax, float* t_near) const {
-    const Planes pl = planes(n);
+  uint32_t testScalar(const Bvh8QNode& n, float tmin, float tmax, float* t_near) const {
+    const QPlanes pl = planes(n);
+    const float *o = n.origin, *s = n.scale;
+    const auto plane = [](uint8_t q, float origin, float scale) {
+      return origin + float(q) * scale;
+    };
     uint32_t mask = 0;
     for (int i = 0; i < 8; ++i) {
       // The order of max/min matches the AVX2 version (max(max(x, y), max(z, tmin))).
-      const float tn = std::max(std::max((pl.nx[i] - org.x) * inv.x, (pl.ny[i] - org.y) * inv.y),
-                                std::max((pl.nz[i] - org.z) * inv.z, tmin));
-      const float tf = std::min(std::min((pl.fx[i] - org.x) * inv.x, (pl.fy[i] - org.y) * inv.y),
-                                std::min((pl.fz[i] - org.z) * inv.z, tmax)) *
+      const float tn = std::max(std::max((plane(pl.nx[i], o[0], s[0]) - org.x) * inv.x,
+                                         (plane(pl.ny[i], o[1], s[1]) - org.y) * inv.y),
+                                std::max((plane(pl.nz[i], o[2], s[2]) - org.z) * inv.z, tmin));
+      const float tf = std::min(std::min((plane(pl.fx[i], o[0], s[0]) - org.x) * inv.x,
+                                         (plane(pl.fy[i], o[1], s[1]) - org.y) * inv.y),
+                                std::min((plane(pl.fz[i], o[2], s[2]) - org.z) * inv.z, tmax)) *
                        kFarScale;
       t_near[i] = tn;
       mask |= uint32_t(tn <= tf) << i;
     }
-    return mask;
+    return mask & n.valid;
   }
 };
 

@@ -607,12 +607,12 @@ void traceThroughCache(const RayEngine& engine, const RayBatch& rays, HitBatch& 
   // Lay the rays out bucket after bucket, trace, and scatter the hits back to input order.
   RayBatch sorted;
   sorted.resize(n);
-  std::vector<float> RayBatch::*const fields[] = {&RayBatch::ox,   &RayBatch::oy,  &RayBatch::oz,
+  LargeVector<float> RayBatch::*const fields[] = {&RayBatch::ox,   &RayBatch::oy,  &RayBatch::oz,
                                                   &RayBatch::tmin, &RayBatch::dx,  &RayBatch::dy,
                                                   &RayBatch::dz,   &RayBatch::tmax};
   for (const auto field : fields) {
-    const std::vector<float>& src = rays.*field;
-    std::vector<float>& dst = sorted.*field;
+    const LargeVector<float>& src = rays.*field;
+    LargeVector<float>& dst = sorted.*field;
     for (size_t i = 0; i < n; ++i) dst[i] = src[order[i]];
   }
   HitBatch sorted_hits;

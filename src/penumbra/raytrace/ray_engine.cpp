@@ -4,6 +4,7 @@
 #include "penumbra/kernels/ray_triangle.h"
 #include "penumbra/raytrace/cpu_packet.h"
 #include "penumbra/raytrace/cpu_simd.h"
+#include "penumbra/raytrace/ray_order.h"
 
 #include <algorithm>
 #include <cmath>
@@ -15,12 +16,23 @@ RayEngine RayEngine::build(std::span<const glm::vec3> positions,
                            std::span<const glm::uvec3> triangles, const BvhBuildOptions& options) {
   RayEngine engine;
   engine.bvh_ = buildBvh(positions, triangles, options);
-  engine.bvh8_ = collapseToBvh8(engine.bvh_);
+  const Bvh8 wide = collapseToBvh8(engine.bvh_);
+  engine.root_ = wide.root;
+  engine.nodes_.resize(wide.nodes.size());
+  parallelRange(wide.nodes.size(), 1024, [&](size_t begin, size_t end) {
+    for (size_t i = begin; i < end; ++i) engine.nodes_[i] = quantizeBvh8Node(wide.nodes[i]);
+  });
   engine.useIsa(CpuIsa::kAvx2);
-  const std::vector<Bvh8::Leaf>& leaves = engine.bvh8_.leaves;
+  const std::vector<Bvh8::Leaf>& leaves = wide.leaves;
   engine.blocks_.resize(leaves.size());
-  engine.block_of_first_.assign(engine.bvh_.refs.size(), 0);
-  for (size_t i = 0; i < leaves.size(); ++i) engine.block_of_first_[leaves[i].first] = uint32_t(i);
+  // Canonical leaves by their first reference, then the block of each leaf node.
+  std::vector<uint32_t> block_of_first(engine.bvh_.refs.size(), 0);
+  for (size_t i = 0; i < leaves.size(); ++i) block_of_first[leaves[i].first] = uint32_t(i);
+  engine.block_of_node_.assign(engine.bvh_.nodes.size(), 0);
+  for (size_t n = 0; n < engine.bvh_.nodes.size(); ++n) {
+    const BvhNode& node = engine.bvh_.nodes[n];
+    if (node.isLeaf()) engine.block_of_node_[n] = block_of_first[node.index];
+  }
   parallelRange(leaves.size(), 1024, [&](size_t begin, size_t end) {
     for (size_t i = begin; i < end; ++i) {
       TriangleBlock8& block = engine.blocks_[i];
@@ -68,15 +80,69 @@ constexpr int kStackSize = 7 * kMaxBvhDepth + 1;
     p = reinterpret_cast<const char*>(&blocks_[bvh8LeafIndex(ref)]);
     lines = sizeof(TriangleBlock8) / 64;
   } else {
-    p = reinterpret_cast<const char*>(&bvh8_.nodes[size_t(ref)]);
-    lines = sizeof(Bvh8Node) / 64;
+    p = reinterpret_cast<const char*>(&nodes_[size_t(ref)]);
+    lines = sizeof(Bvh8QNode) / 64;
   }
   for (int i = 0; i < lines; ++i) __builtin_prefetch(p + 64 * i, 0, 3);
 }
 
+#if PENUMBRA_HAVE_AVX2_KERNELS
+// Orders the children a ray entered without a branch per child (incoherent rays mispredict
+// most of those): the entry distances, each with its slot in the three low mantissa bits, go
+// through Batcher's odd-even merge sort of eight keys (19 comparators in 6 layers; Knuth, TAOCP
+// vol. 3, sec. 5.3.4), lanes not entered last. The entered children but the nearest are stored
+// farthest first at `refs` / `ts` (whole vectors: the stack keeps eight spare slots), and the
+// nearest is returned, found by a separate minimum so its fetch need not wait for the sort.
+// The stored distances are the exact ones; the keys only order.
+template <int kMaxLanes>
+PENUMBRA_AVX2_TARGET inline __m256 sortLayer(__m256 v, __m256i partner) {
+  const __m256 p = _mm256_permutevar8x32_ps(v, partner);
+  return _mm256_blend_ps(_mm256_min_ps(v, p), _mm256_max_ps(v, p), kMaxLanes);
+}
+
+PENUMBRA_AVX2_TARGET inline int32_t pushChildrenAvx2(const Bvh8QNode& node, uint32_t mask,
+                                                     const float* t_near, int32_t* refs,
+                                                     float* ts) {
+  const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+  const __m256 tn = _mm256_load_ps(t_near);
+  const __m256i bit = _mm256_sllv_epi32(_mm256_set1_epi32(1), lane);
+  const __m256i entered =
+      _mm256_cmpeq_epi32(_mm256_and_si256(_mm256_set1_epi32(int(mask)), bit), bit);
+  const __m256i low = _mm256_set1_epi32(~7);
+  __m256i key = _mm256_or_si256(_mm256_and_si256(_mm256_castps_si256(tn), low), lane);
+  // Not entered: the largest finite float, same slot bits.
+  key = _mm256_blendv_epi8(_mm256_or_si256(_mm256_set1_epi32(0x7f7ffff8), lane), key, entered);
+  const __m256 k = _mm256_castsi256_ps(key);
+  // The nearest: a horizontal minimum in three steps.
+  __m256 m =
+      _mm256_min_ps(k, _mm256_permutevar8x32_ps(k, _mm256_setr_epi32(1, 0, 3, 2, 5, 4, 7, 6)));
+  m = _mm256_min_ps(m, _mm256_permutevar8x32_ps(m, _mm256_setr_epi32(2, 3, 0, 1, 6, 7, 4, 5)));
+  m = _mm256_min_ps(m, _mm256_permutevar8x32_ps(m, _mm256_setr_epi32(4, 5, 6, 7, 0, 1, 2, 3)));
+  const int nearest = _mm256_cvtsi256_si32(_mm256_castps_si256(m)) & 7;
+  // The others, sorted ascending.
+  __m256 s = sortLayer<0xAA>(k, _mm256_setr_epi32(1, 0, 3, 2, 5, 4, 7, 6));
+  s = sortLayer<0xCC>(s, _mm256_setr_epi32(2, 3, 0, 1, 6, 7, 4, 5));
+  s = sortLayer<0x44>(s, _mm256_setr_epi32(0, 2, 1, 3, 4, 6, 5, 7));
+  s = sortLayer<0xF0>(s, _mm256_setr_epi32(4, 5, 6, 7, 0, 1, 2, 3));
+  s = sortLayer<0x30>(s, _mm256_setr_epi32(0, 1, 4, 5, 2, 3, 6, 7));
+  s = sortLayer<0x54>(s, _mm256_setr_epi32(0, 2, 1, 4, 3, 6, 5, 7));
+  // Stack slot j takes sorted element count - 1 - j: the farthest lowest, the second nearest on
+  // top.
+  const int count = __builtin_popcount(mask);
+  const __m256i sorted_slot = _mm256_and_si256(_mm256_castps_si256(s), _mm256_set1_epi32(7));
+  const __m256i order =
+      _mm256_and_si256(_mm256_sub_epi32(_mm256_set1_epi32(count - 1), lane), _mm256_set1_epi32(7));
+  const __m256i slot = _mm256_permutevar8x32_epi32(sorted_slot, order);
+  const __m256i child = _mm256_load_si256(reinterpret_cast<const __m256i*>(node.child));
+  _mm256_storeu_si256(reinterpret_cast<__m256i*>(refs), _mm256_permutevar8x32_epi32(child, slot));
+  _mm256_storeu_ps(ts, _mm256_permutevar8x32_ps(tn, slot));
+  return node.child[nearest];
+}
+#endif
+
 template <bool kAnyHit, bool kAvx2>
 [[gnu::always_inline]] inline bool RayEngine::traverseBody(const Ray& ray, Hit& hit) const {
-  if (bvh8_.root == Bvh8Node::kEmpty || !(ray.tmin <= ray.tmax)) return false;
+  if (root_ == Bvh8Node::kEmpty || !(ray.tmin <= ray.tmax)) return false;
   const BoxTester boxes(ray.origin, ray.dir);
   // Built at the first leaf: most rays of a camera that frames a model never reach one.
   WatertightRay wr;
@@ -84,14 +150,16 @@ template <bool kAnyHit, bool kAvx2>
   float tmax = ray.tmax;
   bool found = false;
 
-  StackEntry stack[kStackSize];
+  // References and entry distances; eight spare slots, as the AVX2 path stores whole vectors.
+  int32_t stack_ref[kStackSize + 8];
+  float stack_t[kStackSize + 8];
   int sp = 0;
-  stack[sp++] = {bvh8_.root, ray.tmin};
+  stack_ref[0] = root_, stack_t[0] = ray.tmin, sp = 1;
   alignas(32) float t_near[8];
   while (sp > 0) {
-    const StackEntry top = stack[--sp];
-    if (top.t_near > tmax) continue;
-    int32_t ref = top.ref;
+    --sp;
+    if (stack_t[sp] > tmax) continue;
+    int32_t ref = stack_ref[sp];
     for (;;) {
       if (bvh8IsLeaf(ref)) {
         if (ref == Bvh8Node::kEmpty) break;
@@ -126,7 +194,7 @@ template <bool kAnyHit, bool kAvx2>
         }
         break;
       }
-      const Bvh8Node& node = bvh8_.nodes[size_t(ref)];
+      const Bvh8QNode& node = nodes_[size_t(ref)];
       uint32_t mask;
 #if PENUMBRA_HAVE_AVX2_KERNELS
       if constexpr (kAvx2) {
@@ -146,16 +214,33 @@ template <bool kAnyHit, bool kAvx2>
         ref = node.child[first];  // one child entered: descend without the stack
         continue;
       }
+      if constexpr (kAnyHit) {
+        // Any hit ends the search: distance order saves nothing worth a sort.
+        for (; mask; mask &= mask - 1) {
+          const int i = __builtin_ctz(mask);
+          stack_ref[sp] = node.child[i], stack_t[sp] = t_near[i], ++sp;
+        }
+        ref = node.child[first];
+        continue;
+      }
       const int second = __builtin_ctz(mask);
       mask &= mask - 1;
       if (mask == 0) {
         // Two (the most common case after one): push the farther, continue with the nearer.
         const bool first_near = t_near[first] <= t_near[second];
         const int near = first_near ? first : second, far = first_near ? second : first;
-        stack[sp++] = {node.child[far], t_near[far]};
+        stack_ref[sp] = node.child[far], stack_t[sp] = t_near[far], ++sp;
         ref = node.child[near];
         continue;
       }
+#if PENUMBRA_HAVE_AVX2_KERNELS
+      if constexpr (kAvx2) {
+        mask |= 1u << first | 1u << second;
+        ref = pushChildrenAvx2(node, mask, t_near, stack_ref + sp, stack_t + sp);
+        sp += __builtin_popcount(mask) - 1;
+        continue;
+      }
+#endif
       // More: sort by entry distance, farthest first (insertion sort, at most eight), push
       // all but the nearest and continue with it.
       StackEntry hits[8];
@@ -173,7 +258,8 @@ template <bool kAnyHit, bool kAvx2>
         }
         hits[j] = e;
       }
-      for (int k = 0; k < n - 1; ++k) stack[sp++] = hits[k];
+      for (int k = 0; k < n - 1; ++k)
+        stack_ref[sp] = hits[k].ref, stack_t[sp] = hits[k].t_near, ++sp;
       ref = hits[n - 1].ref;
     }
   }
@@ -233,8 +319,48 @@ void RayEngine::intersectRange(const RayBatch& rays, size_t begin, size_t end,
   }
 }
 
+namespace {
+
+// Large incoherent batches are traced in coherentRayOrder (raytrace/ray_order.h) when the
+// scene's nodes and leaves outgrow the caches a core has to itself: below 65,536 rays or 8 MiB
+// the sort does not pay (measured: a 1.1M-triangle scene's diffuse rays 23% faster including
+// the sort, the bunny's (4 MiB) 0-7% slower; docs/performance.md).
+constexpr size_t kReorderRays = size_t(1) << 16;
+constexpr size_t kReorderBytes = size_t(8) << 20;
+
+// Starts fetching ray i's eight values (the arrays are far apart, and i jumps in sorted order).
+inline void prefetchRay(const RayBatch& rays, size_t i) {
+  for (const LargeVector<float>* v :
+       {&rays.ox, &rays.oy, &rays.oz, &rays.tmin, &rays.dx, &rays.dy, &rays.dz, &rays.tmax}) {
+    __builtin_prefetch(v->data() + i, 0, 1);
+  }
+}
+
+// Calls trace(i) for every ray, in `order`, in parallel chunks.
+template <typename Trace>
+void traceInOrder(const RayBatch& rays, const LargeVector<uint32_t>& order, Trace&& trace) {
+  constexpr size_t kAhead = 8;
+  parallelRange(order.size(), 256, [&](size_t begin, size_t end) {
+    for (size_t j = begin; j < end; ++j) {
+      if (j + kAhead < end) prefetchRay(rays, order[j + kAhead]);
+      trace(order[j]);
+    }
+  });
+}
+
+}  // namespace
+
+bool RayEngine::reorders(const RayBatch& rays) const {
+  return rays.size() >= kReorderRays && memoryBytes() >= kReorderBytes && !batchIsCoherent(rays);
+}
+
 void RayEngine::intersect(const RayBatch& rays, HitBatch& hits) const {
   hits.resize(rays.size());
+  if (reorders(rays)) {
+    const LargeVector<uint32_t> order = coherentRayOrder(rays, bounds());
+    traceInOrder(rays, order, [&](size_t i) { hits.set(i, intersect(rays.get(i))); });
+    return;
+  }
   // Chunks of 256 rays (aligned, so packets never straddle two chunks).
   parallelRange((rays.size() + 255) / 256, 1, [&](size_t chunk_begin, size_t chunk_end) {
     intersectRange(rays, chunk_begin * 256, std::min(rays.size(), chunk_end * 256), hits);
@@ -248,6 +374,11 @@ void RayEngine::intersectSerial(const RayBatch& rays, HitBatch& hits) const {
 
 void RayEngine::occluded(const RayBatch& rays, std::vector<uint8_t>& occluded_out) const {
   occluded_out.resize(rays.size());
+  if (reorders(rays)) {
+    const LargeVector<uint32_t> order = coherentRayOrder(rays, bounds());
+    traceInOrder(rays, order, [&](size_t i) { occluded_out[i] = occluded(rays.get(i)) ? 1 : 0; });
+    return;
+  }
   parallelRange(rays.size(), 256, [&](size_t begin, size_t end) {
     for (size_t i = begin; i < end; ++i) occluded_out[i] = occluded(rays.get(i)) ? 1 : 0;
   });

@@ -1,12 +1,13 @@
 // The Ray Engine (Carr, Hall, Hart 2002) as a service: batches of rays in, closest hits or
 // occlusion answers out, in input order. This is the CPU back end: the canonical binned-SAH
-// BVH (accel/bvh.h) collapsed to 8-wide nodes (accel/wide_bvh.h) whose child boxes one ray
-// tests with AVX2, traversed in parallel over the batch with oneTBB, and the watertight
-// ray-triangle test (kernels/ray_triangle.h) in the leaves.
+// BVH (accel/bvh.h) collapsed to 8-wide nodes with quantised child boxes (accel/wide_bvh.h)
+// that one ray tests with AVX2, traversed in parallel over the batch with oneTBB, and the
+// watertight ray-triangle test (kernels/ray_triangle.h) in the leaves.
 #pragma once
 
 #include "penumbra/accel/bvh.h"
 #include "penumbra/accel/wide_bvh.h"
+#include "penumbra/core/large_pages.h"
 #include "penumbra/raytrace/cpu_simd.h"
 #include "penumbra/raytrace/ray.h"
 
@@ -46,27 +47,37 @@ class RayEngine {
   Hit intersect(const Ray& ray) const;
   bool occluded(const Ray& ray) const;
 
-  // Batches, traced in parallel; results in input order. `hits` / `occluded` are resized.
+  // Batches, traced in parallel; results in input order. `hits` / `occluded` are resized
+  // (reuse them across calls: a new 1M-ray hit batch is 16 MiB to allocate and touch). Batches
+  // of 65,536 rays or more that do not come in coherent runs are traced in coherentRayOrder
+  // (raytrace/ray_order.h); the answers are the same in any order.
   void intersect(const RayBatch& rays, HitBatch& hits) const;
   void occluded(const RayBatch& rays, std::vector<uint8_t>& occluded) const;
   // The same as intersect(rays, hits) on the calling thread (packets of coherent rays included),
   // for callers that run their own parallel loops over small batches.
   void intersectSerial(const RayBatch& rays, HitBatch& hits) const;
+  // Whether intersect() traces `rays` in coherentRayOrder rather than input order.
+  bool reorders(const RayBatch& rays) const;
 
   size_t triangleCount() const { return bvh_.refs.size(); }
   const Bvh& bvh() const { return bvh_; }
-  const Bvh8& bvh8() const { return bvh8_; }
+  size_t wideNodeCount() const { return nodes_.size(); }
 
   // The kernels in use: AVX2 (8-wide boxes and triangles, packets of 8 rays) when the CPU has
   // it, chosen at run time, else portable scalar loops; both give identical answers. useIsa()
   // asks for one (AVX2 only where the CPU has it), for tests and comparisons.
   CpuIsa isa() const { return isa_; }
   void useIsa(CpuIsa isa);
-  const std::vector<TriangleBlock8>& blocks() const { return blocks_; }
-  // The leaf block holding the triangles of canonical leaf `node` (bvh().nodes[node]).
-  uint32_t blockOfLeaf(const BvhNode& node) const { return block_of_first_[node.index]; }
+  const LargeVector<TriangleBlock8>& blocks() const { return blocks_; }
+  // The leaf block holding the triangles of canonical leaf `node` (an element of bvh().nodes).
+  uint32_t blockOfLeaf(const BvhNode& node) const {
+    return block_of_node_[size_t(&node - bvh_.nodes.data())];
+  }
+  // Everything the engine holds: the wide nodes and leaf blocks it traverses, and the
+  // canonical tree with its triangle references (packets and the hybrid back end use them).
   size_t memoryBytes() const {
-    return bvh8_.nodes.size() * sizeof(Bvh8Node) + blocks_.size() * sizeof(TriangleBlock8);
+    return nodes_.size() * sizeof(Bvh8QNode) + blocks_.size() * sizeof(TriangleBlock8) +
+           bvh_.memoryBytes() + block_of_node_.size() * sizeof(uint32_t);
   }
   Bounds3 bounds() const;
 
@@ -82,11 +93,12 @@ class RayEngine {
   bool traverseBody(const Ray& ray, Hit& hit) const;
   void prefetchChild(int32_t ref) const;
 
-  Bvh bvh_;    // canonical binary tree (kept for statistics and other layouts)
-  Bvh8 bvh8_;  // what the CPU traverses
+  Bvh bvh_;                          // canonical binary tree (packets, other layouts)
+  LargeVector<Bvh8QNode> nodes_;     // what single rays traverse; nodes_[0] is the root
+  int32_t root_ = Bvh8Node::kEmpty;  // an inner node or a leaf (Bvh8Node::child's coding)
   CpuIsa isa_ = CpuIsa::kScalar;
-  std::vector<TriangleBlock8> blocks_;    // one per leaf of bvh8_, vertices copied in
-  std::vector<uint32_t> block_of_first_;  // block index by a leaf's first ref
+  LargeVector<TriangleBlock8> blocks_;   // one per leaf, vertices copied in
+  std::vector<uint32_t> block_of_node_;  // block index by canonical node (leaves only)
 };
 
 }  // namespace penumbra

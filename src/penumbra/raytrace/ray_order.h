@@ -1,0 +1,27 @@
+// The order the CPU back end traces a large batch of incoherent rays in: grouped by direction
+// octant, then along a Morton curve through their origins, so rays traced one after another
+// start in the same part of the scene and walk the same nodes and leaves while those are still
+// in the caches. This is the Ray Engine's reorganisation of rays into coherent groups (Carr,
+// Hall, Hart 2002, sec. 5.3) as the CPU can afford it: one radix sort of a 30-bit key per ray,
+// instead of the ray cache's 5-D tree (which costs more than it saves on the CPU,
+// docs/performance.md). Answers do not depend on the order: each ray's hit is its own.
+#pragma once
+
+#include "penumbra/accel/bounds.h"
+#include "penumbra/raytrace/ray.h"
+
+#include <cstdint>
+#include <vector>
+
+namespace penumbra {
+
+// Whether the batch already comes in coherent runs (camera rays in scanline order): most of
+// 64 sampled aligned groups of eight could travel as packets. Those keep their order.
+bool batchIsCoherent(const RayBatch& rays);
+
+// Indices 0 .. n-1 sorted by (octant of the direction, Morton code of the origin quantised to
+// 2^9 cells per axis of `bounds`, clamped); ties keep input order. Parallel key computation,
+// then a least-significant-digit radix sort in three passes of 10 bits.
+LargeVector<uint32_t> coherentRayOrder(const RayBatch& rays, const Bounds3& bounds);
+
+}  // namespace penumbra
