@@ -246,7 +246,9 @@ TEST(RayEngine, FarFromTheOriginAndOnFlatWallsAnswersStayExact) {
                   kInf};
     const Hit a = engine.intersect(ray), b = bruteForce(s, ray);
     ASSERT_EQ(a.triangle, b.triangle) << i;
-    if (b.hit()) ASSERT_EQ(a.t, b.t) << i;
+    if (b.hit()) {
+      ASSERT_EQ(a.t, b.t) << i;
+    }
   }
   // A closed box of 10 x 10 quads per face, two triangles each.
   Soup box;

@@ -196,6 +196,11 @@ int parseAndRun(int argc, char** argv) {
   render_cmd->add_option("--max-depth", render.max_depth,
                          "maximum bounces, 0 = unlimited (Russian roulette)");
   render_cmd->add_option("--seed", render.seed, "random seed (default 0)")->check(kUnsigned);
+  render_cmd
+      ->add_option("--sampler", render.sampler,
+                   "pathtrace: sobol (Owen-scrambled Sobol points, the default) or independent "
+                   "(one random stream per sample)")
+      ->check(CLI::IsMember({"sobol", "independent"}));
   render_cmd->add_option("--tonemap", tonemap, "PNG tone mapping: reinhard or exposure")
       ->check(CLI::IsMember({"reinhard", "exposure"}))
       ->capture_default_str();

@@ -44,6 +44,7 @@ struct RenderOptions : LightmapMethodOptions {
   std::string stats;
   std::optional<int> width, height, spp, max_depth;
   std::optional<uint64_t> seed;
+  std::optional<std::string> sampler;  // pathtrace: sobol (default) or independent
   ToneMapSettings tonemap;
   // --method matrix (Carr, Hall, Hart 2003, sec. 3).
   std::optional<std::string> solver;  // jacobi or gauss-seidel (default: the device's own)

@@ -108,6 +108,7 @@ Status renderPathTrace(const RenderOptions& options, const CommonOptions& common
   PENUMBRA_TRY(
       setting(options.max_depth, "--max-depth", "max_depth", 0, 1 << 16, settings.max_depth));
   if (options.seed) settings.seed = *options.seed;
+  if (options.sampler) settings.low_discrepancy = *options.sampler == "sobol";
   // The image, its tone-mapped copy and the file buffers: about 40 bytes per pixel.
   PENUMBRA_TRY(checkMemory(uint64_t(settings.width) * uint64_t(settings.height) * 40,
                            fmt::format("a {}x{} image", settings.width, settings.height)));
@@ -196,6 +197,7 @@ Status renderPathTrace(const RenderOptions& options, const CommonOptions& common
                         {"spp", settings.spp},
                         {"max_depth", settings.max_depth},
                         {"seed", settings.seed},
+                        {"sampler", settings.low_discrepancy ? "sobol" : "independent"},
                         {"threads", threadCount()},
                         {"triangles", tracer.geometry().triangles.size()},
                         {"rays", stats.rays},
@@ -266,6 +268,9 @@ int runRender(const RenderOptions& options, const CommonOptions& common) {
                        : options.no_shadows       ? "--no-shadows"
                                                   : nullptr;
     if (only) return reportError(inputError("", only, "applies to --method sss only"));
+  }
+  if (options.method != "pathtrace" && options.sampler) {
+    return reportError(inputError("", "--sampler", "applies to --method pathtrace only"));
   }
   if (options.method != "progressive" && options.method != "stochastic") {
     const char* only = !options.resume.empty()       ? "--resume"

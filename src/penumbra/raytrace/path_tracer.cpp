@@ -2,6 +2,7 @@
 
 #include "penumbra/core/check.h"
 #include "penumbra/core/parallel.h"
+#include "penumbra/core/sobol.h"
 #include "penumbra/core/timer.h"
 #include "penumbra/kernels/dipole.h"
 #include "penumbra/kernels/sampling.h"
@@ -30,6 +31,23 @@ inline glm::vec3 offsetOrigin(const glm::vec3& p, float offset, const glm::vec3&
 // Shadow rays stop this fraction short of their target, so they do not hit the light's own
 // surface.
 constexpr float kShadowShorten = 1.0f - 1e-5f;
+
+// The Sobol patterns of a path (core/sobol.h): 0 is the pixel jitter; vertex d (its depth) has
+// 1 + 4 d + slot, slot one of these.
+constexpr uint32_t kPatternEmitterPick = 0, kPatternEmitterPoint = 1, kPatternBounce = 2,
+                   kPatternRoulette = 3;
+
+// Two uniform numbers for decision `slot` at the path's current vertex: its Sobol pattern's
+// point for this sample, or the generator's when the path is too deep or has no pattern.
+inline glm::vec2 pathSample(PathState& s, uint32_t slot) {
+  if (!s.low_discrepancy || s.depth >= PathTracer::kSobolDepths) {
+    const float u = s.rng.uniform();
+    return {u, s.rng.uniform()};
+  }
+  const SobolPoint p =
+      owenSobol2D(s.ld_index, sobolPatternSeed(s.ld_key, 1 + 4 * uint32_t(s.depth) + slot));
+  return {p.u, p.v};
+}
 
 // Russian roulette after a boundary or medium event (unbiased): survive with probability
 // max(beta) once the throughput has fallen below 1, as PBRT 4th ed. sec. 14.2.2 does in media.
@@ -69,7 +87,8 @@ inline ShadowQuery shadowTo(const glm::vec3& p, float p_offset, const glm::vec3&
 }  // namespace
 
 int PathTracer::directQueries(const glm::vec3& p, float p_offset, const glm::vec3& n,
-                              const glm::vec3& rho, Rng& rng, ShadowQuery* out) const {
+                              const glm::vec3& rho, float u_pick, glm::vec2 u_point,
+                              ShadowQuery* out) const {
   const glm::vec3 f = rho * kInvPi;  // Lambertian BRDF
   int count = 0;
   // Delta lights: one shadow ray each. Geometric terms are taken at the surface point p; the
@@ -114,9 +133,9 @@ int PathTracer::directQueries(const glm::vec3& p, float p_offset, const glm::vec
   }
   // One sample of the emissive triangles, MIS-weighted against cosine sampling.
   if (!geometry_.emitters.empty()) {
-    const uint32_t k = geometry_.pickEmitter(rng.uniform());
+    const uint32_t k = geometry_.pickEmitter(u_pick);
     const uint32_t tri = geometry_.emitters[k];
-    const glm::vec2 b = sampleTriangleBarycentrics(rng.uniform(), rng.uniform());
+    const glm::vec2 b = sampleTriangleBarycentrics(u_point.x, u_point.y);
     const glm::vec3 q = geometry_.point(tri, b.x, b.y);
     const glm::vec3 d = q - p;
     const float d2 = glm::dot(d, d);
@@ -257,11 +276,17 @@ int PathTracer::shade(PathState& s, const Hit& hit, const PathTracerSettings& se
   // An opaque surface inside a medium (not a supported scene) takes no emitter sample: its
   // shadow rays would ignore the medium's attenuation; its bounce finds the light unbiased.
   const bool in_medium = s.medium >= 0;
-  const int count = in_medium ? 0 : directQueries(p, p_offset, n, mat.reflectance, s.rng, queries);
+  int count = 0;
+  if (!in_medium) {
+    const glm::vec2 pick = pathSample(s, kPatternEmitterPick);
+    count = directQueries(p, p_offset, n, mat.reflectance, pick.x,
+                          pathSample(s, kPatternEmitterPoint), queries);
+  }
   s.specular = in_medium;
 
   // Cosine-weighted bounce: f cos / pdf = rho.
-  const glm::vec3 local = sampleCosineHemisphere(s.rng.uniform(), s.rng.uniform());
+  const glm::vec2 u_bounce = pathSample(s, kPatternBounce);
+  const glm::vec3 local = sampleCosineHemisphere(u_bounce.x, u_bounce.y);
   const glm::vec3 wi = Frame::fromNormal(n).toWorld(local);
   const float cos_s = glm::dot(n, wi);
   if (cos_s <= 0.0f) return count;
@@ -273,7 +298,7 @@ int PathTracer::shade(PathState& s, const Hit& hit, const PathTracerSettings& se
   // reflectance 1 ends.
   if (s.depth + 1 >= settings.rr_start_depth) {
     const float survive = std::min(std::max({s.beta.x, s.beta.y, s.beta.z}), 0.99f);
-    if (s.rng.uniform() >= survive) return count;
+    if (pathSample(s, kPatternRoulette).x >= survive) return count;
     s.beta /= survive;
   }
   s.ray = Ray{offsetOrigin(p, p_offset, n, wi), 0.0f, wi, kInfinity};
@@ -296,6 +321,13 @@ glm::vec3 PathTracer::radiance(const Ray& primary, Rng& rng, const PathTracerSet
   PathState s;
   s.ray = primary;
   s.rng = rng;
+  const glm::vec3 result = trace(s, settings, rays);
+  rng = s.rng;
+  return result;
+}
+
+glm::vec3 PathTracer::trace(PathState& s, const PathTracerSettings& settings,
+                            uint64_t& rays) const {
   std::vector<ShadowQuery> queries(lights_.size() + 1);
   std::vector<uint8_t> occluded(lights_.size() + 1);
   for (;;) {
@@ -311,17 +343,31 @@ glm::vec3 PathTracer::radiance(const Ray& primary, Rng& rng, const PathTracerSet
     if (count > 0) addDirect(s, queries.data(), occluded.data(), count);
     if (!s.alive) break;
   }
-  rng = s.rng;
   return s.result;
 }
 
 glm::dvec3 PathTracer::pixelSample(const CameraRays& cam, const PathTracerSettings& settings, int x,
                                    int y, int s, uint64_t& rays) const {
+  PathState path = startPath(cam, settings, x, y, s);
+  return glm::dvec3(trace(path, settings, rays));
+}
+
+PathState PathTracer::startPath(const CameraRays& cam, const PathTracerSettings& settings, int x,
+                                int y, int sample) const {
   const uint64_t pixel = uint64_t(y) * uint64_t(settings.width) + uint64_t(x);
-  Rng rng = sampleRng(settings.seed, pixel, uint64_t(s), settings.spp);
-  const float jx = rng.uniform(), jy = rng.uniform();
-  const Ray r = cam.ray(float(x) + jx, float(y) + jy);
-  return glm::dvec3(radiance(r, rng, settings, rays));
+  PathState p;
+  p.rng = sampleRng(settings.seed, pixel, uint64_t(sample), settings.spp);
+  p.low_discrepancy = settings.low_discrepancy;
+  p.ld_key = mixBits(mixBits(settings.seed) ^ pixel);
+  p.ld_index = uint32_t(sample);
+  if (!p.low_discrepancy) {
+    const float jx = p.rng.uniform(), jy = p.rng.uniform();
+    p.ray = cam.ray(float(x) + jx, float(y) + jy);
+    return p;
+  }
+  const SobolPoint jitter = owenSobol2D(p.ld_index, sobolPatternSeed(p.ld_key, 0));
+  p.ray = cam.ray(float(x) + jitter.u, float(y) + jitter.v);
+  return p;
 }
 
 uint64_t PathTracer::addSamples(const Camera& camera, const PathTracerSettings& settings,
@@ -407,11 +453,7 @@ Expected<Image> PathTracer::renderWavefront(const Camera& camera,
         const size_t local_pixel = i / spp, s = i % spp;
         const size_t x = local_pixel % size_t(settings.width);
         const size_t y = y0 + local_pixel / size_t(settings.width);
-        const uint64_t pixel = uint64_t(y) * uint64_t(settings.width) + uint64_t(x);
-        PathState& p = paths[i];
-        p.rng = sampleRng(settings.seed, pixel, s, settings.spp);
-        const float jx = p.rng.uniform(), jy = p.rng.uniform();
-        p.ray = cam.ray(float(x) + jx, float(y) + jy);
+        paths[i] = startPath(cam, settings, int(x), int(y), int(s));
       }
     });
     alive.resize(n);

@@ -20,8 +20,14 @@
 // by BSDF sampling only (no emitter sample for it): unbiased, and noise-free enough for the
 // furnace and albedo tests it serves.
 //
-// Determinism: sample s of pixel p draws from its own PCG stream (sampleRng), so any thread count
-// and either way of advancing the paths (render, renderWavefront) gives the same image.
+// Sampling: the pixel jitter and, at the first vertices of a path, the emitter sample, the
+// bounce direction and Russian roulette take Owen-scrambled Sobol points (core/sobol.h), one
+// pattern per decision and vertex, so the samples of a pixel stratify them jointly; everything
+// else draws from a PCG stream.
+//
+// Determinism: sample s of pixel p draws from its own PCG stream (sampleRng) and its own index in
+// its pixel's Sobol patterns, so any thread count and either way of advancing the paths (render,
+// renderWavefront) gives the same image.
 #pragma once
 
 #include "penumbra/core/image.h"
@@ -48,6 +54,9 @@ struct PathTracerSettings {
   int max_depth = 0;
   int rr_start_depth = 3;  // Russian roulette from this vertex on
   uint64_t seed = 0;
+  // True: the pixel jitter and the first vertices' decisions take Owen-scrambled Sobol points
+  // (core/sobol.h); false: every sample draws from its own random stream alone.
+  bool low_discrepancy = true;
   // False: a camera ray hitting a translucent boundary always refracts, weighted by the Fresnel
   // transmittance F_t, and never reflects, so the image shows only the light that left the
   // medium: what the dipole method models, for comparing the two.
@@ -80,6 +89,13 @@ struct PathState {
   SpectralPathWeight spectral;  // the free flights' per-channel pdfs (medium_walk.h)
   bool alive = true;
   Rng rng;
+  // Low-discrepancy samples (core/sobol.h) for the camera jitter and, at the first
+  // PathTracer::kSobolDepths vertices, the emitter sample, the bounce and Russian roulette:
+  // pattern seeds from `ld_key` (the pixel), points by `ld_index` (the sample). Off for paths
+  // started by radiance() (their callers supply only a generator): those draw from `rng`.
+  bool low_discrepancy = false;
+  uint64_t ld_key = 0;
+  uint32_t ld_index = 0;
 };
 
 // Batched ray queries for the wavefront path tracer: the CPU Ray Engine, the GPU kernel or the
@@ -152,6 +168,15 @@ class PathTracer {
     return Rng(mixBits(seed), pixel * uint64_t(spp) + sample);
   }
 
+  // The path of sample `sample` of pixel (x, y): its generator, its low-discrepancy stream and
+  // its camera ray through the jittered point of the pixel.
+  PathState startPath(const CameraRays& cam, const PathTracerSettings& settings, int x, int y,
+                      int sample) const;
+
+  // Vertices (path depths) whose random decisions come from the low-discrepancy patterns;
+  // deeper ones draw from the path's generator, where stratification no longer shows.
+  static constexpr int kSobolDepths = 6;
+
   const SceneGeometry& geometry() const { return geometry_; }
 
  private:
@@ -159,13 +184,16 @@ class PathTracer {
   // side, reflectance rho): one per delta light and one emitter sample, MIS-weighted against
   // BSDF sampling. Each query's value is added when its shadow ray is unoccluded.
   int directQueries(const glm::vec3& p, float p_offset, const glm::vec3& n, const glm::vec3& rho,
-                    Rng& rng, ShadowQuery* out) const;
+                    float u_pick, glm::vec2 u_point, ShadowQuery* out) const;
 
   // The walk's part of shade: the smooth boundary of a translucent material, and the free flight
   // of a ray inside a medium.
   void shadeBoundary(PathState& s, uint32_t tri, float cos_front, const glm::vec3& p,
                      float p_offset, const PathTracerSettings& settings) const;
   bool mediumFlight(PathState& s, const Hit& hit, const PathTracerSettings& settings) const;
+
+  // Follows path `s` to its end; returns the radiance it gathered.
+  glm::vec3 trace(PathState& s, const PathTracerSettings& settings, uint64_t& rays) const;
 
   // Sample s of pixel (x, y): its jittered camera ray and radiance.
   glm::dvec3 pixelSample(const CameraRays& cam, const PathTracerSettings& settings, int x, int y,
