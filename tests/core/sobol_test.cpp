@@ -13,7 +13,8 @@ namespace {
 // [i 2^-a, (i+1) 2^-a) x [j 2^-b, (j+1) 2^-b) with a + b = m: a (0, m, 2)-net, for every m up to
 // 12 and several seeds (Owen scrambling keeps the net property of the Sobol points).
 TEST(Sobol, EveryPrefixOfAPowerOfTwoIsANet) {
-  for (uint32_t seed : {0u, 1u, 0xdeadbeefu, sobolPatternSeed(12345, 7)}) {
+  for (const SobolPattern seed :
+       {SobolPattern{0, 0, 0}, SobolPattern{1, 2, 3}, sobolPattern(0, 0), sobolPattern(12345, 7)}) {
     for (int m = 1; m <= 12; ++m) {
       const uint32_t n = 1u << m;
       std::vector<SobolPoint> pts;
@@ -30,15 +31,16 @@ TEST(Sobol, EveryPrefixOfAPowerOfTwoIsANet) {
           ++count[(i << b) | j];
         }
         for (uint32_t c = 0; c < n; ++c) {
-          ASSERT_EQ(count[c], 1) << "seed " << seed << " m " << m << " a " << a << " cell " << c;
+          ASSERT_EQ(count[c], 1) << "seed " << seed.shuffle << " m " << m << " a " << a << " cell "
+                                 << c;
         }
       }
     }
   }
 }
 
-// The table lookup gives the direction numbers' XOR bit by bit.
-TEST(Sobol, DimensionOneTablesMatchTheDirectionNumbers) {
+// The superset transform gives the direction numbers' XOR bit by bit.
+TEST(Sobol, DimensionOneMatchesTheDirectionNumbers) {
   Rng rng(3, 3);
   for (int i = 0; i < 10000; ++i) {
     const uint32_t index = i < 64 ? uint32_t(i) : rng.nextU32();
@@ -53,6 +55,41 @@ TEST(Sobol, DimensionOneTablesMatchTheDirectionNumbers) {
   for (uint32_t i = 0; i < 5; ++i) EXPECT_EQ(float(sobolDimension1(i)) * 0x1p-32f, first[i]) << i;
 }
 
+// A reference bit reversal, one bit at a time.
+uint32_t reverseBitByBit(uint32_t x) {
+  uint32_t r = 0;
+  for (int i = 0; i < 32; ++i) r |= ((x >> i) & 1u) << (31 - i);
+  return r;
+}
+
+// The reversals the point computation saves cancel exactly: it equals Burley's construction
+// written out, (NUS(rev(NUS(index))), NUS(sobol1(NUS(index)))); the 4-lane form gives the same
+// bits; and the fast reversal is the reversal.
+TEST(Sobol, PointsEqualTheConstructionWrittenOut) {
+  Rng rng(5, 5);
+  for (int t = 0; t < 20000; ++t) {
+    const uint32_t index = t < 1024 ? uint32_t(t) : rng.nextU32();
+    ASSERT_EQ(reverseBits32(index), reverseBitByBit(index)) << t;
+    SobolPattern p[4];
+    for (SobolPattern& q : p) q = sobolPattern(rng.nextU32(), uint32_t(t));
+    SobolBits four[4];
+    owenSobol2DBitsReversedX4(reverseBits32(index), p, four);
+    for (int k = 0; k < 4; ++k) {
+      const uint32_t i = nestedUniformScramble(index, p[k].shuffle);
+      const uint32_t x = nestedUniformScramble(reverseBitByBit(i), p[k].scramble0);
+      const uint32_t y = nestedUniformScramble(sobolDimension1(i), p[k].scramble1);
+      const SobolBits one = owenSobol2DBits(index, p[k]);
+      ASSERT_EQ(one.x, x) << t;
+      ASSERT_EQ(one.y, y) << t;
+      ASSERT_EQ(four[k].x, x) << t << " lane " << k;
+      ASSERT_EQ(four[k].y, y) << t << " lane " << k;
+      const SobolPoint q = owenSobol2D(index, p[k]);
+      ASSERT_EQ(q.u, float(x >> 8) * 0x1p-24f) << t;
+      ASSERT_EQ(q.v, float(y >> 8) * 0x1p-24f) << t;
+    }
+  }
+}
+
 // Each point alone is uniform over the seeds (what keeps the path tracer unbiased): the mean and
 // variance of one index's point across 20,000 patterns are those of U[0, 1), and two patterns'
 // points are uncorrelated.
@@ -61,8 +98,8 @@ TEST(Sobol, APointIsUniformOverPatternsAndPatternsAreIndependent) {
     double su = 0, sv = 0, suu = 0, suv = 0, cross = 0;
     const int n = 20000;
     for (int k = 0; k < n; ++k) {
-      const SobolPoint p = owenSobol2D(index, sobolPatternSeed(99, uint32_t(k)));
-      const SobolPoint q = owenSobol2D(index, sobolPatternSeed(99, uint32_t(k) + 100000u));
+      const SobolPoint p = owenSobol2D(index, sobolPattern(99, uint32_t(k)));
+      const SobolPoint q = owenSobol2D(index, sobolPattern(99, uint32_t(k) + 100000u));
       su += p.u, sv += p.v, suu += double(p.u) * p.u, suv += double(p.u) * p.v;
       cross += double(p.u) * q.u;
     }
@@ -85,7 +122,7 @@ TEST(Sobol, EstimatesConvergeFasterThanIndependentPoints) {
     Rng rng(7, uint64_t(t));
     double a = 0.0, b = 0.0;
     for (int i = 0; i < n; ++i) {
-      const SobolPoint p = owenSobol2D(uint32_t(i), sobolPatternSeed(uint64_t(t), 3));
+      const SobolPoint p = owenSobol2D(uint32_t(i), sobolPattern(uint64_t(t), 3));
       a += f(p.u, p.v);
       const float u = rng.uniform();
       b += f(u, rng.uniform());

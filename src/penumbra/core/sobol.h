@@ -6,84 +6,175 @@
 // strata of a pixel's samples cover the pixel, the light and the hemisphere evenly. Padding:
 // every use (camera jitter, light sample, bounce direction, ...) is its own pattern, with its
 // own seed, so patterns are independent of each other (Burley sec. 4).
+//
+// Everything is integer arithmetic, so the 4-lane SIMD form (owenSobol2DBitsReversedX4) gives
+// the scalar form's points bit for bit, and an image does not depend on the machine.
 #pragma once
 
 #include "penumbra/core/rng.h"
 
 #include <cstdint>
 
+#if defined(__SSE4_1__) && defined(__SSSE3__)
+#include <immintrin.h>
+#define PENUMBRA_SOBOL_SIMD 1
+#endif
+
 namespace penumbra {
 
-// The Sobol sequence's dimensions 0 (van der Corput: the index's bits reversed) and 1
-// (primitive polynomial x + 1: direction numbers v_0 = 2^31, v_k = v_{k-1} ^ (v_{k-1} >> 1)).
+// Bit reversal: a byte swap, then the bits within each byte.
 inline uint32_t reverseBits32(uint32_t x) {
-  x = (x << 16) | (x >> 16);
-  x = ((x & 0x00ff00ffu) << 8) | ((x & 0xff00ff00u) >> 8);
-  x = ((x & 0x0f0f0f0fu) << 4) | ((x & 0xf0f0f0f0u) >> 4);
-  x = ((x & 0x33333333u) << 2) | ((x & 0xccccccccu) >> 2);
-  x = ((x & 0x55555555u) << 1) | ((x & 0xaaaaaaaau) >> 1);
+  x = __builtin_bswap32(x);
+  x = ((x & 0x0f0f0f0fu) << 4) | ((x >> 4) & 0x0f0f0f0fu);
+  x = ((x & 0x33333333u) << 2) | ((x >> 2) & 0x33333333u);
+  x = ((x & 0x55555555u) << 1) | ((x >> 1) & 0x55555555u);
   return x;
 }
 
-// Direction number k of dimension 1.
+// The Sobol sequence's dimensions 0 (van der Corput: the index's bits reversed) and 1
+// (primitive polynomial x + 1: direction numbers v_0 = 2^31, v_k = v_{k-1} ^ (v_{k-1} >> 1)).
 constexpr uint32_t sobolDirection1(int k) {
   uint32_t v = 1u << 31;
   for (int i = 0; i < k; ++i) v ^= v >> 1;
   return v;
 }
 
-// XOR of the direction numbers of the set bits of byte `b` at byte position `pos`.
-struct SobolByteTables {
-  uint32_t t[4][256];
-  constexpr SobolByteTables() : t{} {
-    for (int pos = 0; pos < 4; ++pos) {
-      for (int b = 0; b < 256; ++b) {
-        uint32_t x = 0;
-        for (int bit = 0; bit < 8; ++bit) {
-          if (b >> bit & 1) x ^= sobolDirection1(8 * pos + bit);
-        }
-        t[pos][b] = x;
-      }
-    }
-  }
-};
-inline constexpr SobolByteTables kSobolDimension1Tables{};
-
-// Four table lookups: the shuffled indices the path tracer uses have all 32 bits in play.
+// Dimension 1's point `index` with its bits reversed (the order the scrambling works in), without
+// tables. Direction number v_k has bit 31 - j set iff the binomial C(k, j) is odd (its
+// recurrence is Pascal's rule mod 2), which by Lucas' theorem is iff j is a submask of k. So bit
+// j of the reversed point is the XOR of the index's bits k over the supermasks k of j: the
+// superset transform over GF(2) on the five bits of a bit position, one step per bit.
+inline uint32_t sobolDimension1Reversed(uint32_t index) {
+  uint32_t r = index;
+  r ^= (r >> 1) & 0x55555555u;
+  r ^= (r >> 2) & 0x33333333u;
+  r ^= (r >> 4) & 0x0f0f0f0fu;
+  r ^= (r >> 8) & 0x00ff00ffu;
+  r ^= r >> 16;
+  return r;
+}
 inline uint32_t sobolDimension1(uint32_t index) {
-  const auto& t = kSobolDimension1Tables.t;
-  return t[0][index & 255u] ^ t[1][(index >> 8) & 255u] ^ t[2][(index >> 16) & 255u] ^
-         t[3][index >> 24];
+  return reverseBits32(sobolDimension1Reversed(index));
 }
 
-// Owen scrambling of x's bits from the top (each bit flipped by a hash of the bits above it):
-// the Laine-Karras permutation applied to the reversed bits (Burley listing 2 and sec. 3).
-inline uint32_t nestedUniformScramble(uint32_t x, uint32_t seed) {
-  x = reverseBits32(x);
+// The Laine-Karras permutation (Burley listing 2): applied to reversed bits, it flips each bit
+// of the value by a hash of the bits above it, which is Owen scrambling.
+inline uint32_t laineKarrasPermutation(uint32_t x, uint32_t seed) {
   x += seed;
   x ^= x * 0x6c50b47cu;
   x ^= x * 0xb82f1e52u;
   x ^= x * 0xc7afe638u;
   x ^= x * 0x8d22f6e6u;
-  return reverseBits32(x);
+  return x;
 }
 
-// Point `index` of the 2-D pattern `seed`, in [0, 1)^2 (24-bit floats that never round to 1).
+// Owen scrambling of x's bits from the top (Burley sec. 3).
+inline uint32_t nestedUniformScramble(uint32_t x, uint32_t seed) {
+  return reverseBits32(laineKarrasPermutation(reverseBits32(x), seed));
+}
+
+// A 2-D pattern: the seeds of its index shuffle and of the scrambles of its two dimensions.
+struct SobolPattern {
+  uint32_t shuffle, scramble0, scramble1;
+};
+
+// Pattern `pattern` of pixel (or other stream) `key`.
+inline SobolPattern sobolPattern(uint64_t key, uint32_t pattern) {
+  const uint64_t h = mixBits(key ^ (uint64_t(pattern) * 0x9e3779b97f4a7c15ull));
+  return {uint32_t(h >> 32), uint32_t(h), uint32_t(mixBits(h) >> 32)};
+}
+
+// Point `index` of pattern `p`, as 32-bit fractions. Burley's construction (sec. 4): the index
+// is shuffled by a nested uniform scramble, i = NUS(index); the point is (NUS(rev(i)),
+// NUS(sobol1(i))). The reversals cancel in pairs, as NUS(v) = rev(LK(rev(v))): dimension 0 is
+// rev(LK(i)), dimension 1 rev(LK(rev(sobol1(i)))), with rev(sobol1(i)) computed directly.
+struct SobolBits {
+  uint32_t x, y;  // the point times 2^32
+};
+// With the index given bit-reversed (reverseBits32(index)), as a caller taking points of several
+// patterns for one index reverses it once.
+inline SobolBits owenSobol2DBitsReversed(uint32_t reversed_index, const SobolPattern& p) {
+  const uint32_t i = reverseBits32(laineKarrasPermutation(reversed_index, p.shuffle));
+  return {reverseBits32(laineKarrasPermutation(i, p.scramble0)),
+          reverseBits32(laineKarrasPermutation(sobolDimension1Reversed(i), p.scramble1))};
+}
+inline SobolBits owenSobol2DBits(uint32_t index, const SobolPattern& p) {
+  return owenSobol2DBitsReversed(reverseBits32(index), p);
+}
+
+#ifdef PENUMBRA_SOBOL_SIMD
+namespace sobol_simd {
+
+inline __m128i reverseBits(__m128i v) {
+  v = _mm_shuffle_epi8(v, _mm_setr_epi8(3, 2, 1, 0, 7, 6, 5, 4, 11, 10, 9, 8, 15, 14, 13, 12));
+#ifdef __GFNI__
+  // The bits of each byte reversed: the affine map over GF(2) by the anti-diagonal matrix.
+  return _mm_gf2p8affine_epi64_epi8(v, _mm_set1_epi64x(0x8040201008040201ll), 0);
+#else
+  const __m128i nibble =
+      _mm_setr_epi8(0x0, 0x8, 0x4, 0xc, 0x2, 0xa, 0x6, 0xe, 0x1, 0x9, 0x5, 0xd, 0x3, 0xb, 0x7, 0xf);
+  const __m128i low = _mm_set1_epi8(0x0f);
+  const __m128i lo = _mm_shuffle_epi8(nibble, _mm_and_si128(v, low));
+  const __m128i hi = _mm_shuffle_epi8(nibble, _mm_and_si128(_mm_srli_epi16(v, 4), low));
+  return _mm_or_si128(_mm_slli_epi16(lo, 4), hi);
+#endif
+}
+
+inline __m128i laineKarras(__m128i x, __m128i seed) {
+  x = _mm_add_epi32(x, seed);
+  x = _mm_xor_si128(x, _mm_mullo_epi32(x, _mm_set1_epi32(int(0x6c50b47cu))));
+  x = _mm_xor_si128(x, _mm_mullo_epi32(x, _mm_set1_epi32(int(0xb82f1e52u))));
+  x = _mm_xor_si128(x, _mm_mullo_epi32(x, _mm_set1_epi32(int(0xc7afe638u))));
+  x = _mm_xor_si128(x, _mm_mullo_epi32(x, _mm_set1_epi32(int(0x8d22f6e6u))));
+  return x;
+}
+
+inline __m128i dimension1Reversed(__m128i r) {
+  r = _mm_xor_si128(r, _mm_and_si128(_mm_srli_epi32(r, 1), _mm_set1_epi32(0x55555555)));
+  r = _mm_xor_si128(r, _mm_and_si128(_mm_srli_epi32(r, 2), _mm_set1_epi32(0x33333333)));
+  r = _mm_xor_si128(r, _mm_and_si128(_mm_srli_epi32(r, 4), _mm_set1_epi32(0x0f0f0f0f)));
+  r = _mm_xor_si128(r, _mm_and_si128(_mm_srli_epi32(r, 8), _mm_set1_epi32(0x00ff00ff)));
+  return _mm_xor_si128(r, _mm_srli_epi32(r, 16));
+}
+
+}  // namespace sobol_simd
+#endif
+
+// Point `reversed_index` (as owenSobol2DBitsReversed) of four patterns at once: what a path
+// vertex needs for all its decisions, in one pass of 4-lane integer SIMD where the machine has
+// it.
+inline void owenSobol2DBitsReversedX4(uint32_t reversed_index, const SobolPattern (&p)[4],
+                                      SobolBits (&out)[4]) {
+#ifdef PENUMBRA_SOBOL_SIMD
+  using namespace sobol_simd;
+  const __m128i shuffle =
+      _mm_setr_epi32(int(p[0].shuffle), int(p[1].shuffle), int(p[2].shuffle), int(p[3].shuffle));
+  const __m128i s0 = _mm_setr_epi32(int(p[0].scramble0), int(p[1].scramble0), int(p[2].scramble0),
+                                    int(p[3].scramble0));
+  const __m128i s1 = _mm_setr_epi32(int(p[0].scramble1), int(p[1].scramble1), int(p[2].scramble1),
+                                    int(p[3].scramble1));
+  const __m128i i = reverseBits(laineKarras(_mm_set1_epi32(int(reversed_index)), shuffle));
+  const __m128i x = reverseBits(laineKarras(i, s0));
+  const __m128i y = reverseBits(laineKarras(dimension1Reversed(i), s1));
+  alignas(16) uint32_t xs[4], ys[4];
+  _mm_store_si128(reinterpret_cast<__m128i*>(xs), x);
+  _mm_store_si128(reinterpret_cast<__m128i*>(ys), y);
+  for (int k = 0; k < 4; ++k) out[k] = {xs[k], ys[k]};
+#else
+  for (int k = 0; k < 4; ++k) out[k] = owenSobol2DBitsReversed(reversed_index, p[k]);
+#endif
+}
+
+// The same point as 24-bit floats in [0, 1)^2 (they never round to 1).
 struct SobolPoint {
   float u, v;
 };
-inline SobolPoint owenSobol2D(uint32_t index, uint32_t seed) {
-  const uint32_t i = nestedUniformScramble(index, seed);
-  const uint32_t s0 = uint32_t(mixBits(uint64_t(seed) << 1)),
-                 s1 = uint32_t(mixBits(uint64_t(seed) << 1 | 1u));
-  const uint32_t x = nestedUniformScramble(reverseBits32(i), s0);
-  const uint32_t y = nestedUniformScramble(sobolDimension1(i), s1);
-  return {float(x >> 8) * 0x1p-24f, float(y >> 8) * 0x1p-24f};
+inline float unitFloat(uint32_t bits) {
+  return float(bits >> 8) * 0x1p-24f;
 }
-
-// The seed of pattern `pattern` of pixel (or other stream) `key`.
-inline uint32_t sobolPatternSeed(uint64_t key, uint32_t pattern) {
-  return uint32_t(mixBits(key ^ (uint64_t(pattern) * 0x9e3779b97f4a7c15ull)) >> 32);
+inline SobolPoint owenSobol2D(uint32_t index, const SobolPattern& p) {
+  const SobolBits b = owenSobol2DBits(index, p);
+  return {unitFloat(b.x), unitFloat(b.y)};
 }
 
 }  // namespace penumbra

@@ -33,20 +33,43 @@ inline glm::vec3 offsetOrigin(const glm::vec3& p, float offset, const glm::vec3&
 constexpr float kShadowShorten = 1.0f - 1e-5f;
 
 // The Sobol patterns of a path (core/sobol.h): 0 is the pixel jitter; vertex d (its depth) has
-// 1 + 4 d + slot, slot one of these.
-constexpr uint32_t kPatternEmitterPick = 0, kPatternEmitterPoint = 1, kPatternBounce = 2,
-                   kPatternRoulette = 3;
+// 1 + 3 d + slot, slot one of these. The light sample takes one 2-D pattern for both the choice
+// of emitter and the point on it (SceneGeometry::pickEmitter), so that the samples of a pixel
+// cover the emitters' surfaces as one stratified set; Russian roulette takes the first
+// dimension of its own.
+constexpr uint32_t kPatternLight = 0, kPatternBounce = 1, kPatternRoulette = 2;
 
-// Two uniform numbers for decision `slot` at the path's current vertex: its Sobol pattern's
-// point for this sample, or the generator's when the path is too deep or has no pattern.
-inline glm::vec2 pathSample(PathState& s, uint32_t slot) {
+// The random decisions of a surface vertex.
+struct VertexSamples {
+  uint32_t light_x;  // the emitter and the first coordinate on it, a 32-bit fraction
+  float light_y;     // the second coordinate on it
+  glm::vec2 bounce;  // the cosine-weighted direction
+  float roulette;    // Russian roulette
+};
+
+// All of them at once: the vertex's Sobol patterns' points for this sample (in one 4-lane pass),
+// or the generator's numbers when the path is too deep or has no patterns.
+inline VertexSamples vertexSamples(PathState& s) {
+  VertexSamples v;
   if (!s.low_discrepancy || s.depth >= PathTracer::kSobolDepths) {
-    const float u = s.rng.uniform();
-    return {u, s.rng.uniform()};
+    v.light_x = s.rng.nextU32();
+    v.light_y = s.rng.uniform();
+    v.bounce.x = s.rng.uniform();
+    v.bounce.y = s.rng.uniform();
+    v.roulette = s.rng.uniform();
+    return v;
   }
-  const SobolPoint p =
-      owenSobol2D(s.ld_index, sobolPatternSeed(s.ld_key, 1 + 4 * uint32_t(s.depth) + slot));
-  return {p.u, p.v};
+  const uint32_t base = 1 + 3 * uint32_t(s.depth);
+  const SobolPattern patterns[4] = {
+      sobolPattern(s.ld_key, base + kPatternLight), sobolPattern(s.ld_key, base + kPatternBounce),
+      sobolPattern(s.ld_key, base + kPatternRoulette), SobolPattern{}};
+  SobolBits points[4];
+  owenSobol2DBitsReversedX4(reverseBits32(s.ld_index), patterns, points);
+  v.light_x = points[kPatternLight].x;
+  v.light_y = unitFloat(points[kPatternLight].y);
+  v.bounce = {unitFloat(points[kPatternBounce].x), unitFloat(points[kPatternBounce].y)};
+  v.roulette = unitFloat(points[kPatternRoulette].x);
+  return v;
 }
 
 // Russian roulette after a boundary or medium event (unbiased): survive with probability
@@ -87,7 +110,7 @@ inline ShadowQuery shadowTo(const glm::vec3& p, float p_offset, const glm::vec3&
 }  // namespace
 
 int PathTracer::directQueries(const glm::vec3& p, float p_offset, const glm::vec3& n,
-                              const glm::vec3& rho, float u_pick, glm::vec2 u_point,
+                              const glm::vec3& rho, uint32_t u_light_x, float u_light_y,
                               ShadowQuery* out) const {
   const glm::vec3 f = rho * kInvPi;  // Lambertian BRDF
   int count = 0;
@@ -133,9 +156,9 @@ int PathTracer::directQueries(const glm::vec3& p, float p_offset, const glm::vec
   }
   // One sample of the emissive triangles, MIS-weighted against cosine sampling.
   if (!geometry_.emitters.empty()) {
-    const uint32_t k = geometry_.pickEmitter(u_pick);
-    const uint32_t tri = geometry_.emitters[k];
-    const glm::vec2 b = sampleTriangleBarycentrics(u_point.x, u_point.y);
+    const EmitterPick pick = geometry_.pickEmitter(u_light_x);
+    const uint32_t tri = geometry_.emitters[pick.index];
+    const glm::vec2 b = sampleTriangleBarycentrics(pick.u, u_light_y);
     const glm::vec3 q = geometry_.point(tri, b.x, b.y);
     const glm::vec3 d = q - p;
     const float d2 = glm::dot(d, d);
@@ -150,7 +173,7 @@ int PathTracer::directQueries(const glm::vec3& p, float p_offset, const glm::vec
     const float pdf_bsdf = cos_s * kInvPi;
     const glm::vec3& le = geometry_.materials[geometry_.material_ids[tri]].emission;
     // Aim at q lifted off the light towards p, so the shadow ray cannot hit the light itself.
-    const glm::vec3 target = offsetOrigin(q, geometry_.surfaceOffset(tri, b.x, b.y), nl, -d);
+    const glm::vec3 target = offsetOrigin(q, geometry_.surfaceOffset(tri), nl, -d);
     out[count++] = shadowTo(p, p_offset, n, target,
                             f * le * cos_s * powerHeuristic(pdf_light, pdf_bsdf) / pdf_light);
   }
@@ -246,7 +269,7 @@ int PathTracer::shade(PathState& s, const Hit& hit, const PathTracerSettings& se
   const glm::vec3 ng = geometry_.normals[tri];
   const float cos_front = -glm::dot(ng, s.ray.dir) / glm::length(s.ray.dir);
   const glm::vec3 p = geometry_.point(tri, hit.u, hit.v);
-  const float p_offset = geometry_.surfaceOffset(tri, hit.u, hit.v);
+  const float p_offset = geometry_.surfaceOffset(tri);
 
   // Emission reached by BSDF sampling (or seen directly), MIS-weighted against the emitter
   // sample taken at the previous vertex; with full weight after a vertex that took none.
@@ -276,17 +299,15 @@ int PathTracer::shade(PathState& s, const Hit& hit, const PathTracerSettings& se
   // An opaque surface inside a medium (not a supported scene) takes no emitter sample: its
   // shadow rays would ignore the medium's attenuation; its bounce finds the light unbiased.
   const bool in_medium = s.medium >= 0;
+  const VertexSamples u = vertexSamples(s);
   int count = 0;
   if (!in_medium) {
-    const glm::vec2 pick = pathSample(s, kPatternEmitterPick);
-    count = directQueries(p, p_offset, n, mat.reflectance, pick.x,
-                          pathSample(s, kPatternEmitterPoint), queries);
+    count = directQueries(p, p_offset, n, mat.reflectance, u.light_x, u.light_y, queries);
   }
   s.specular = in_medium;
 
   // Cosine-weighted bounce: f cos / pdf = rho.
-  const glm::vec2 u_bounce = pathSample(s, kPatternBounce);
-  const glm::vec3 local = sampleCosineHemisphere(u_bounce.x, u_bounce.y);
+  const glm::vec3 local = sampleCosineHemisphere(u.bounce.x, u.bounce.y);
   const glm::vec3 wi = Frame::fromNormal(n).toWorld(local);
   const float cos_s = glm::dot(n, wi);
   if (cos_s <= 0.0f) return count;
@@ -298,7 +319,7 @@ int PathTracer::shade(PathState& s, const Hit& hit, const PathTracerSettings& se
   // reflectance 1 ends.
   if (s.depth + 1 >= settings.rr_start_depth) {
     const float survive = std::min(std::max({s.beta.x, s.beta.y, s.beta.z}), 0.99f);
-    if (pathSample(s, kPatternRoulette).x >= survive) return count;
+    if (u.roulette >= survive) return count;
     s.beta /= survive;
   }
   s.ray = Ray{offsetOrigin(p, p_offset, n, wi), 0.0f, wi, kInfinity};
@@ -328,19 +349,32 @@ glm::vec3 PathTracer::radiance(const Ray& primary, Rng& rng, const PathTracerSet
 
 glm::vec3 PathTracer::trace(PathState& s, const PathTracerSettings& settings,
                             uint64_t& rays) const {
-  std::vector<ShadowQuery> queries(lights_.size() + 1);
-  std::vector<uint8_t> occluded(lights_.size() + 1);
+  // The shadow queries of a vertex: on the stack for scenes with few lights (no allocation per
+  // path), on the heap otherwise.
+  constexpr size_t kOnStack = 8;
+  ShadowQuery stack_queries[kOnStack];
+  uint8_t stack_occluded[kOnStack];
+  std::vector<ShadowQuery> heap_queries;
+  std::vector<uint8_t> heap_occluded;
+  ShadowQuery* queries = stack_queries;
+  uint8_t* occluded = stack_occluded;
+  if (lightQueryCapacity() > kOnStack) {
+    heap_queries.resize(lightQueryCapacity());
+    heap_occluded.resize(lightQueryCapacity());
+    queries = heap_queries.data();
+    occluded = heap_occluded.data();
+  }
   for (;;) {
     ++rays;
     const Hit hit = geometry_.engine.intersect(s.ray);
-    const int count = shade(s, hit, settings, queries.data());
+    const int count = shade(s, hit, settings, queries);
     for (int i = 0; i < count; ++i) {
-      occluded[size_t(i)] = 0;
-      if (!queries[size_t(i)].trace) continue;
+      occluded[i] = 0;
+      if (!queries[i].trace) continue;
       ++rays;
-      occluded[size_t(i)] = geometry_.engine.occluded(queries[size_t(i)].ray) ? 1 : 0;
+      occluded[i] = geometry_.engine.occluded(queries[i].ray) ? 1 : 0;
     }
-    if (count > 0) addDirect(s, queries.data(), occluded.data(), count);
+    if (count > 0) addDirect(s, queries, occluded, count);
     if (!s.alive) break;
   }
   return s.result;
@@ -365,7 +399,7 @@ PathState PathTracer::startPath(const CameraRays& cam, const PathTracerSettings&
     p.ray = cam.ray(float(x) + jx, float(y) + jy);
     return p;
   }
-  const SobolPoint jitter = owenSobol2D(p.ld_index, sobolPatternSeed(p.ld_key, 0));
+  const SobolPoint jitter = owenSobol2D(p.ld_index, sobolPattern(p.ld_key, 0));
   p.ray = cam.ray(float(x) + jitter.u, float(y) + jitter.v);
   return p;
 }

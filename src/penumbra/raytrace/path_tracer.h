@@ -182,9 +182,10 @@ class PathTracer {
  private:
   // Direct-light queries at surface point p (ray offset p_offset, normal n facing the outgoing
   // side, reflectance rho): one per delta light and one emitter sample, MIS-weighted against
-  // BSDF sampling. Each query's value is added when its shadow ray is unoccluded.
+  // BSDF sampling, its emitter and point taken from the 2-D point (u_light_x as a 32-bit
+  // fraction, u_light_y). Each query's value is added when its shadow ray is unoccluded.
   int directQueries(const glm::vec3& p, float p_offset, const glm::vec3& n, const glm::vec3& rho,
-                    float u_pick, glm::vec2 u_point, ShadowQuery* out) const;
+                    uint32_t u_light_x, float u_light_y, ShadowQuery* out) const;
 
   // The walk's part of shade: the smooth boundary of a translucent material, and the free flight
   // of a ray inside a medium.

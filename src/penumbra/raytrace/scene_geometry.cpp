@@ -6,6 +6,7 @@
 #include <glm/geometric.hpp>
 
 #include <algorithm>
+#include <cmath>
 
 namespace penumbra {
 
@@ -19,6 +20,7 @@ SceneGeometry SceneGeometry::build(const Scene& scene) {
   const size_t nt = g.triangles.size();
   g.normals.resize(nt);
   g.areas.resize(nt);
+  g.surface_offsets.resize(nt);
   for (size_t i = 0; i < nt; ++i) {
     const glm::uvec3 t = g.triangles[i];
     const glm::vec3 c =
@@ -26,6 +28,12 @@ SceneGeometry SceneGeometry::build(const Scene& scene) {
     const float len = glm::length(c);
     g.areas[i] = 0.5f * len;
     g.normals[i] = len > 0.0f ? c / len : glm::vec3(0.0f);
+    const glm::vec3 &p0 = g.positions[t.x], &p1 = g.positions[t.y], &p2 = g.positions[t.z];
+    constexpr float kGamma7 = 7.0f * 0x1p-24f / (1.0f - 7.0f * 0x1p-24f);
+    const glm::vec3 m = glm::max(glm::max(glm::abs(p0), glm::abs(p1)), glm::abs(p2));
+    const float magnitude = std::max(std::max(m.x, m.y), std::max(m.z, 1e-6f));
+    g.surface_offsets[i] =
+        glm::dot(glm::abs(g.normals[i]), 2.0f * kGamma7 * m) + 64.0f * 0x1p-24f * magnitude;
   }
   g.engine = RayEngine::build(g.positions, g.triangles);
 
@@ -45,20 +53,23 @@ SceneGeometry SceneGeometry::build(const Scene& scene) {
     }
   }
   g.total_emitted_power = float(total * kPi);
+  // The CDF in 32-bit fixed point; each emitter's pick probability is the width of its interval,
+  // exactly (an emitter too faint for one step of 2^-32 is never picked, and its pdf says so).
   double acc = 0.0;
+  uint64_t lo = 0;
   for (size_t k = 0; k < g.emitters.size(); ++k) {
     acc += power[k];
-    g.emitter_cdf.push_back(float(acc / total));
-    g.emitter_pick_pdf[g.emitters[k]] = float(power[k] / total);
+    const uint64_t hi =
+        k + 1 == g.emitters.size()
+            ? kEmitterCdfOne
+            : std::min(kEmitterCdfOne, uint64_t(std::llround(acc / total * 0x1p32)));
+    g.emitter_cdf.push_back(std::max(hi, lo));
+    const uint64_t width = g.emitter_cdf.back() - lo;
+    g.emitter_pick_pdf[g.emitters[k]] = float(double(width) * 0x1p-32);
+    g.emitter_width_inverse.push_back(width > 0 ? float(1.0 / double(width)) : 0.0f);
+    lo = g.emitter_cdf.back();
   }
-  if (!g.emitter_cdf.empty()) g.emitter_cdf.back() = 1.0f;
   return g;
-}
-
-uint32_t SceneGeometry::pickEmitter(float u) const {
-  const auto it = std::upper_bound(emitter_cdf.begin(), emitter_cdf.end(), u);
-  const size_t k = std::min(size_t(it - emitter_cdf.begin()), emitter_cdf.size() - 1);
-  return uint32_t(k);
 }
 
 }  // namespace penumbra

@@ -15,6 +15,13 @@
 
 namespace penumbra {
 
+inline constexpr uint64_t kEmitterCdfOne = uint64_t(1) << 32;
+
+struct EmitterPick {
+  uint32_t index;
+  float u;
+};
+
 struct SceneGeometry {
   std::vector<glm::vec3> positions;
   std::vector<glm::uvec3> triangles;
@@ -27,34 +34,37 @@ struct SceneGeometry {
   // Emissive triangles, picked with probability proportional to emitted power (luminance of
   // emission times area; a Lambertian emitter's power is pi * L * A).
   std::vector<uint32_t> emitters;
-  std::vector<float> emitter_cdf;       // inclusive prefix sums, last = 1
-  std::vector<float> emitter_pick_pdf;  // per triangle: probability of picking it (0 if not)
-  float total_emitted_power = 0.0f;     // W, luminance-weighted
+  std::vector<uint64_t> emitter_cdf;         // inclusive prefix sums, times 2^32 (last = 2^32)
+  std::vector<float> emitter_width_inverse;  // 1 / (cdf[k] - cdf[k - 1])
+  std::vector<float> emitter_pick_pdf;       // per triangle: probability of picking it (0 if not)
+  float total_emitted_power = 0.0f;          // W, luminance-weighted
 
   static SceneGeometry build(const Scene& scene);
 
-  // Index into `emitters` for u in [0, 1).
-  uint32_t pickEmitter(float u) const;
+  // The emitter for a uniform 32-bit fraction u: its index into `emitters`, and where u falls
+  // within its interval of the CDF, itself a uniform number in [0, 1) independent of the choice
+  // (so one 2-D point picks the emitter and a coordinate on it; its precision is 32 bits less
+  // the bits the choice took, 24 at most).
+  EmitterPick pickEmitter(uint32_t u) const {
+    const auto it = std::upper_bound(emitter_cdf.begin(), emitter_cdf.end(), uint64_t(u));
+    const size_t k = std::min(size_t(it - emitter_cdf.begin()), emitter_cdf.size() - 1);
+    const uint64_t lo = k > 0 ? emitter_cdf[k - 1] : 0;
+    const float within = float(uint64_t(u) - lo) * emitter_width_inverse[k];
+    return {uint32_t(k), std::min(within, 1.0f - 0x1p-24f)};
+  }
   glm::vec3 point(uint32_t triangle, float b1, float b2) const {
     const glm::uvec3 t = triangles[triangle];
     return (1.0f - b1 - b2) * positions[t.x] + b1 * positions[t.y] + b2 * positions[t.z];
   }
-  // How far to move a ray origin at point(triangle, b1, b2) along the unit normal so that the
-  // ray cannot hit the triangle it starts on: the rounding error of point(), gamma(7)
-  // (|b0 p0| + |b1 p1| + |b2 p2|) (pbrt-v4 sec. 6.8.4) projected on the normal, plus the error
-  // of the intersection test itself, which computes vertices relative to the origin and so
-  // carries about 2^-24 of the vertices' magnitude (64 ulps of margin).
-  float surfaceOffset(uint32_t triangle, float b1, float b2) const {
-    const glm::uvec3 t = triangles[triangle];
-    const glm::vec3 &p0 = positions[t.x], &p1 = positions[t.y], &p2 = positions[t.z];
-    const float b0 = 1.0f - b1 - b2;
-    constexpr float kGamma7 = 7.0f * 0x1p-24f / (1.0f - 7.0f * 0x1p-24f);
-    const glm::vec3 err =
-        2.0f * kGamma7 * (glm::abs(b0 * p0) + glm::abs(b1 * p1) + glm::abs(b2 * p2));
-    const glm::vec3 m = glm::max(glm::max(glm::abs(p0), glm::abs(p1)), glm::abs(p2));
-    const float magnitude = std::max(std::max(m.x, m.y), std::max(m.z, 1e-6f));
-    return glm::dot(glm::abs(normals[triangle]), err) + 64.0f * 0x1p-24f * magnitude;
-  }
+  // How far to move a ray origin on `triangle` along the unit normal so that the ray cannot hit
+  // the triangle it starts on (surface_offsets).
+  float surfaceOffset(uint32_t triangle) const { return surface_offsets[triangle]; }
+  // Per triangle, a bound valid at every point of it: the rounding error of point(), gamma(7)
+  // (|b0 p0| + |b1 p1| + |b2 p2|) <= gamma(7) max_i |p_i| componentwise (pbrt-v4 sec. 6.8.4),
+  // projected on the normal, plus the error of the intersection test itself, which computes
+  // vertices relative to the origin and so carries about 2^-24 of the vertices' magnitude (64
+  // ulps of margin). One load instead of the barycentric bound's arithmetic at every vertex.
+  std::vector<float> surface_offsets;
 };
 
 }  // namespace penumbra
