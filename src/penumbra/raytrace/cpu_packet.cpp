@@ -7,6 +7,7 @@
 
 #include <cmath>
 #include <cstring>
+#include <limits>
 
 namespace penumbra {
 
@@ -60,23 +61,6 @@ struct PacketHits {
 
 PENUMBRA_AVX2_TARGET inline __m256 loadLanes(const LargeVector<float>& v, size_t first) {
   return _mm256_loadu_ps(v.data() + first);
-}
-
-// Slab test of eight rays against one box: lanes entered within [tmin, tmax], and the
-// entry distances.
-PENUMBRA_AVX2_TARGET inline __m256 boxPacket(const BvhNode& n, const Packet& p, __m256 tmax,
-                                             __m256& t_entry) {
-  const float lo[3] = {n.lo.x, n.lo.y, n.lo.z}, hi[3] = {n.hi.x, n.hi.y, n.hi.z};
-  __m256 tn = p.tmin, tf = tmax;
-  for (int a = 0; a < 3; ++a) {
-    const __m256 near_plane = _mm256_set1_ps(p.neg[a] ? hi[a] : lo[a]);
-    const __m256 far_plane = _mm256_set1_ps(p.neg[a] ? lo[a] : hi[a]);
-    tn = _mm256_max_ps(tn, _mm256_mul_ps(_mm256_sub_ps(near_plane, p.o[a]), p.inv[a]));
-    tf = _mm256_min_ps(tf, _mm256_mul_ps(_mm256_sub_ps(far_plane, p.o[a]), p.inv[a]));
-  }
-  tf = _mm256_mul_ps(tf, _mm256_set1_ps(kFarScale));
-  t_entry = tn;
-  return _mm256_cmp_ps(tn, tf, _CMP_LE_OQ);
 }
 
 // One triangle against the packet, the watertight test of kernels/ray_triangle.h across rays.
@@ -146,7 +130,6 @@ PENUMBRA_AVX2_TARGET inline void trianglePacket(const Packet& p, const TriangleB
 
 PENUMBRA_AVX2_TARGET void tracePacket(const RayEngine& engine, const RayBatch& rays, size_t first,
                                       HitBatch& hits) {
-  const Bvh& bvh = engine.bvh();
   Packet p;
   p.o[0] = loadLanes(rays.ox, first);
   p.o[1] = loadLanes(rays.oy, first);
@@ -173,52 +156,95 @@ PENUMBRA_AVX2_TARGET void tracePacket(const RayEngine& engine, const RayBatch& r
 
   PacketHits h{_mm256_set1_epi32(-1), _mm256_setzero_ps(), _mm256_setzero_ps(),
                _mm256_setzero_ps()};
-  // Each node is visited with the lanes that entered its box when it was tested from its
-  // parent; a leaf needs no second box test.
-  struct Entry {
-    uint32_t node;
-    __m256 mask;
+  // The wide quantised tree the single rays walk (accel/wide_bvh.h). A node's children are
+  // tested against all eight rays; each child entered goes with the lanes that entered it and
+  // their entry distances, so a popped entry is culled lane by lane against the hits found
+  // since. Children are visited nearest first, judged by their nearest lane's entry.
+  struct alignas(32) Entry {
+    __m256 mask, t_entry;
+    int32_t ref;
   };
-  Entry stack[kMaxBvhDepth];
+  Entry stack[kMaxBvhDepth * 7 + 8];
   int sp = 0;
-  uint32_t node = 0;
-  __m256 t_entry;
-  __m256 mask = bvh.nodes.empty() ? _mm256_setzero_ps() : boxPacket(bvh.nodes[0], p, tmax, t_entry);
-  bool alive = _mm256_movemask_ps(mask) != 0;
-  while (alive) {
-    const BvhNode& n = bvh.nodes[node];
-    if (n.isLeaf()) {
-      const TriangleBlock8& block = engine.blocks()[engine.blockOfLeaf(n)];
-      for (uint32_t lane = 0; lane < n.count; ++lane) {
-        trianglePacket(p, block, int(lane), mask, h, tmax, rays, first);
+  const LargeVector<Bvh8QNode>& nodes = engine.wideNodes();
+  const __m256 inf = _mm256_set1_ps(std::numeric_limits<float>::infinity());
+  int32_t ref = engine.wideRoot();
+  __m256 mask = _mm256_cmp_ps(p.tmin, tmax, _CMP_LE_OQ);
+  for (;;) {
+    if (bvh8IsLeaf(ref)) {
+      if (ref != Bvh8Node::kEmpty) {
+        const TriangleBlock8& block = engine.blocks()[bvh8LeafIndex(ref)];
+        const uint32_t count = bvh8LeafCount(ref);
+        for (uint32_t lane = 0; lane < count; ++lane) {
+          trianglePacket(p, block, int(lane), mask, h, tmax, rays, first);
+        }
       }
     } else {
-      __m256 ta, tb;
-      const __m256 mask_a = boxPacket(bvh.nodes[n.index], p, tmax, ta);
-      const __m256 mask_b = boxPacket(bvh.nodes[n.index + 1], p, tmax, tb);
-      const int ma = _mm256_movemask_ps(mask_a), mb = _mm256_movemask_ps(mask_b);
-      if (ma && mb) {
-        // Nearer child first, judged by the first ray that enters both.
-        alignas(32) float la[8], lb[8];
-        _mm256_store_ps(la, ta);
-        _mm256_store_ps(lb, tb);
-        const int k = __builtin_ctz(unsigned(ma & mb) | 0x100u) & 7;
-        const bool a_first = la[k] <= lb[k];
-        node = a_first ? n.index : n.index + 1;
-        mask = a_first ? mask_a : mask_b;
-        stack[sp++] = a_first ? Entry{n.index + 1, mask_b} : Entry{n.index, mask_a};
-        continue;
+      const Bvh8QNode& n = nodes[size_t(ref)];
+      // The children's near and far planes for the packet's direction signs, dequantised
+      // as the single-ray test does (origin + q * scale).
+      alignas(32) float near_plane[3][8], far_plane[3][8];
+      const uint8_t* lo[3] = {n.lo_x, n.lo_y, n.lo_z};
+      const uint8_t* hi[3] = {n.hi_x, n.hi_y, n.hi_z};
+      for (int a = 0; a < 3; ++a) {
+        _mm256_store_ps(near_plane[a],
+                        BoxTester::planeAvx2(p.neg[a] ? hi[a] : lo[a], n.origin[a], n.scale[a]));
+        _mm256_store_ps(far_plane[a],
+                        BoxTester::planeAvx2(p.neg[a] ? lo[a] : hi[a], n.origin[a], n.scale[a]));
       }
-      if (ma || mb) {
-        node = ma ? n.index : n.index + 1;
-        mask = ma ? mask_a : mask_b;
+      int entered = 0;
+      int32_t child_ref[8];
+      __m256 child_mask[8], child_t[8];
+      float key[8];
+      for (uint32_t valid = n.valid; valid; valid &= valid - 1) {
+        const int c = __builtin_ctz(valid);
+        __m256 tn = p.tmin, tf = tmax;
+        for (int a = 0; a < 3; ++a) {
+          tn = _mm256_max_ps(
+              tn, _mm256_mul_ps(_mm256_sub_ps(_mm256_set1_ps(near_plane[a][c]), p.o[a]), p.inv[a]));
+          tf = _mm256_min_ps(
+              tf, _mm256_mul_ps(_mm256_sub_ps(_mm256_set1_ps(far_plane[a][c]), p.o[a]), p.inv[a]));
+        }
+        tf = _mm256_mul_ps(tf, _mm256_set1_ps(kFarScale));
+        const __m256 m = _mm256_and_ps(mask, _mm256_cmp_ps(tn, tf, _CMP_LE_OQ));
+        if (_mm256_movemask_ps(m) == 0) continue;
+        // The nearest entry among the lanes that enter.
+        __m256 t = _mm256_blendv_ps(inf, tn, m);
+        t = _mm256_min_ps(t, _mm256_permute_ps(t, 0b10110001));
+        t = _mm256_min_ps(t, _mm256_permute_ps(t, 0b01001110));
+        t = _mm256_min_ps(t, _mm256_permute2f128_ps(t, t, 1));
+        // Insertion by key, farthest first.
+        const float k = _mm256_cvtss_f32(t);
+        int j = entered++;
+        while (j > 0 && key[j - 1] < k) {
+          key[j] = key[j - 1], child_ref[j] = child_ref[j - 1];
+          child_mask[j] = child_mask[j - 1], child_t[j] = child_t[j - 1];
+          --j;
+        }
+        key[j] = k, child_ref[j] = n.child[c], child_mask[j] = m, child_t[j] = tn;
+      }
+      if (entered > 0) {
+        for (int j = 0; j < entered; ++j) engine.prefetchChild(child_ref[j]);
+        for (int j = 0; j < entered - 1; ++j) {
+          stack[sp++] = Entry{child_mask[j], child_t[j], child_ref[j]};
+        }
+        ref = child_ref[entered - 1];
+        mask = child_mask[entered - 1];
         continue;
       }
     }
-    if (sp == 0) break;
-    --sp;
-    node = stack[sp].node;
-    mask = stack[sp].mask;
+    // The next entry with a lane still entering before its hit.
+    bool found = false;
+    while (sp > 0) {
+      --sp;
+      mask = _mm256_and_ps(stack[sp].mask, _mm256_cmp_ps(stack[sp].t_entry, tmax, _CMP_LE_OQ));
+      if (_mm256_movemask_ps(mask) != 0) {
+        ref = stack[sp].ref;
+        found = true;
+        break;
+      }
+    }
+    if (!found) break;
   }
   alignas(32) int32_t id[8];
   alignas(32) float t[8], u[8], v[8];

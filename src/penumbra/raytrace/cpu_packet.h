@@ -1,9 +1,10 @@
-// Packets of eight coherent rays traced together through the canonical binary BVH, SIMD across
-// the rays (AVX2): each node's box and each leaf triangle is tested against all eight rays at
-// once (Wald, Slusallek, Benthin, Wagner, "Interactive Rendering with Coherent Ray Tracing",
-// EG 2001). Pays off when the rays go the same way through the same nodes: camera rays of
-// neighbouring pixels, a bucket of the ray cache (Carr et al. 2002, sec. 5.3). The answers are
-// bit-for-bit those of the single-ray path: the same watertight arithmetic in the same order.
+// Packets of eight coherent rays traced together through the wide quantised BVH the single rays
+// walk (accel/wide_bvh.h), SIMD across the rays (AVX2): each child box of a node and each leaf
+// triangle is tested against all eight rays at once (Wald, Slusallek, Benthin, Wagner,
+// "Interactive Rendering with Coherent Ray Tracing", EG 2001). Pays off when the rays go the same
+// way through the same nodes: camera rays of neighbouring pixels, a bucket of the ray cache (Carr
+// et al. 2002, sec. 5.3). The answers are bit-for-bit those of the single-ray path: the same
+// watertight arithmetic in the same order.
 #pragma once
 
 #include "penumbra/raytrace/ray.h"

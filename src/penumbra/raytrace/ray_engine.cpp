@@ -72,20 +72,6 @@ constexpr int kStackSize = 7 * kMaxBvhDepth + 1;
 
 }  // namespace
 
-[[gnu::always_inline]] inline void RayEngine::prefetchChild(int32_t ref) const {
-  const char* p;
-  int lines;
-  if (bvh8IsLeaf(ref)) {
-    if (ref == Bvh8Node::kEmpty) return;
-    p = reinterpret_cast<const char*>(&blocks_[bvh8LeafIndex(ref)]);
-    lines = sizeof(TriangleBlock8) / 64;
-  } else {
-    p = reinterpret_cast<const char*>(&nodes_[size_t(ref)]);
-    lines = sizeof(Bvh8QNode) / 64;
-  }
-  for (int i = 0; i < lines; ++i) __builtin_prefetch(p + 64 * i, 0, 3);
-}
-
 #if PENUMBRA_HAVE_AVX2_KERNELS
 // Orders the children a ray entered without a branch per child (incoherent rays mispredict
 // most of those): the entry distances, each with its slot in the three low mantissa bits, go

@@ -62,6 +62,10 @@ class RayEngine {
   size_t triangleCount() const { return bvh_.refs.size(); }
   const Bvh& bvh() const { return bvh_; }
   size_t wideNodeCount() const { return nodes_.size(); }
+  // The wide quantised tree the CPU traverses (single rays and packets): its nodes and its root
+  // reference (Bvh8Node::child's coding; a leaf for a tree of one leaf).
+  const LargeVector<Bvh8QNode>& wideNodes() const { return nodes_; }
+  int32_t wideRoot() const { return root_; }
 
   // The kernels in use: AVX2 (8-wide boxes and triangles, packets of 8 rays) when the CPU has
   // it, chosen at run time, else portable scalar loops; both give identical answers. useIsa()
@@ -74,12 +78,27 @@ class RayEngine {
     return block_of_node_[size_t(&node - bvh_.nodes.data())];
   }
   // Everything the engine holds: the wide nodes and leaf blocks it traverses, and the
-  // canonical tree with its triangle references (packets and the hybrid back end use them).
+  // canonical tree with its triangle references (the hybrid back end and the GPU layout use
+  // them).
   size_t memoryBytes() const {
     return nodes_.size() * sizeof(Bvh8QNode) + blocks_.size() * sizeof(TriangleBlock8) +
            bvh_.memoryBytes() + block_of_node_.size() * sizeof(uint32_t);
   }
   Bounds3 bounds() const;
+  // Starts fetching the node or leaf block `ref` (Bvh8Node::child's coding) into the cache.
+  [[gnu::always_inline]] void prefetchChild(int32_t ref) const {
+    const char* p;
+    int lines;
+    if (bvh8IsLeaf(ref)) {
+      if (ref == Bvh8Node::kEmpty) return;
+      p = reinterpret_cast<const char*>(&blocks_[bvh8LeafIndex(ref)]);
+      lines = sizeof(TriangleBlock8) / 64;
+    } else {
+      p = reinterpret_cast<const char*>(&nodes_[size_t(ref)]);
+      lines = sizeof(Bvh8QNode) / 64;
+    }
+    for (int i = 0; i < lines; ++i) __builtin_prefetch(p + 64 * i, 0, 3);
+  }
 
  private:
   template <bool kAnyHit>
@@ -91,9 +110,8 @@ class RayEngine {
   bool traverseScalar(const Ray& ray, Hit& hit) const;
   template <bool kAnyHit, bool kAvx2>
   bool traverseBody(const Ray& ray, Hit& hit) const;
-  void prefetchChild(int32_t ref) const;
 
-  Bvh bvh_;                          // canonical binary tree (packets, other layouts)
+  Bvh bvh_;                          // canonical binary tree (other layouts)
   LargeVector<Bvh8QNode> nodes_;     // what single rays traverse; nodes_[0] is the root
   int32_t root_ = Bvh8Node::kEmpty;  // an inner node or a leaf (Bvh8Node::child's coding)
   CpuIsa isa_ = CpuIsa::kScalar;
