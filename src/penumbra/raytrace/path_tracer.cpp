@@ -64,7 +64,7 @@ inline VertexSamples vertexSamples(PathState& s) {
       sobolPattern(s.ld_key, base + kPatternLight), sobolPattern(s.ld_key, base + kPatternBounce),
       sobolPattern(s.ld_key, base + kPatternRoulette), SobolPattern{}};
   SobolBits points[4];
-  owenSobol2DBitsReversedX4(reverseBits32(s.ld_index), patterns, points);
+  owenSobol2DBitsReversedX4(s.ld_reversed_index, patterns, points);
   v.light_x = points[kPatternLight].x;
   v.light_y = unitFloat(points[kPatternLight].y);
   v.bounce = {unitFloat(points[kPatternBounce].x), unitFloat(points[kPatternBounce].y)};
@@ -393,14 +393,14 @@ PathState PathTracer::startPath(const CameraRays& cam, const PathTracerSettings&
   p.rng = sampleRng(settings.seed, pixel, uint64_t(sample), settings.spp);
   p.low_discrepancy = settings.low_discrepancy;
   p.ld_key = mixBits(mixBits(settings.seed) ^ pixel);
-  p.ld_index = uint32_t(sample);
+  p.ld_reversed_index = reverseBits32(uint32_t(sample));
   if (!p.low_discrepancy) {
     const float jx = p.rng.uniform(), jy = p.rng.uniform();
     p.ray = cam.ray(float(x) + jx, float(y) + jy);
     return p;
   }
-  const SobolPoint jitter = owenSobol2D(p.ld_index, sobolPattern(p.ld_key, 0));
-  p.ray = cam.ray(float(x) + jitter.u, float(y) + jitter.v);
+  const SobolBits jitter = owenSobol2DBitsReversed(p.ld_reversed_index, sobolPattern(p.ld_key, 0));
+  p.ray = cam.ray(float(x) + unitFloat(jitter.x), float(y) + unitFloat(jitter.y));
   return p;
 }
 

@@ -91,11 +91,12 @@ struct PathState {
   Rng rng;
   // Low-discrepancy samples (core/sobol.h) for the camera jitter and, at the first
   // PathTracer::kSobolDepths vertices, the emitter sample, the bounce and Russian roulette:
-  // pattern seeds from `ld_key` (the pixel), points by `ld_index` (the sample). Off for paths
-  // started by radiance() (their callers supply only a generator): those draw from `rng`.
+  // pattern seeds from `ld_key` (the pixel), points by the sample's index, kept bit-reversed
+  // (the form the scrambling takes, reversed once per path rather than at every vertex). Off for
+  // paths started by radiance() (their callers supply only a generator): those draw from `rng`.
   bool low_discrepancy = false;
   uint64_t ld_key = 0;
-  uint32_t ld_index = 0;
+  uint32_t ld_reversed_index = 0;
 };
 
 // Batched ray queries for the wavefront path tracer: the CPU Ray Engine, the GPU kernel or the
