@@ -3,7 +3,7 @@ BUILD ?= build
 JOBS ?= $(shell nproc)
 CMAKE_FLAGS ?= -DCMAKE_BUILD_TYPE=Release
 
-.PHONY: deps configure build demo test test-asan test-asan-fast fuzz fuzz-build bench plots format clean
+.PHONY: deps configure build install demo test test-asan test-asan-fast fuzz fuzz-build bench plots format clean
 
 deps:
 	bash scripts/install-deps.sh
@@ -13,6 +13,12 @@ configure: deps
 
 build: configure
 	cmake --build $(BUILD) -j $(JOBS)
+
+# The library as a package (docs/library.md): header, static and shared library, CMake config,
+# penumbra.pc.
+PREFIX ?= /usr/local
+install: build
+	cmake --install $(BUILD) --prefix $(PREFIX)
 
 demo: build
 	mkdir -p out

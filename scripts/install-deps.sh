@@ -18,6 +18,8 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev libembree-dev
   # plots of benchmark results for the docs (make plots)
   python3-matplotlib
+  # the Python module (import penumbra) and its tests
+  python3-dev pybind11-dev python3-numpy python3-pytest
 )
 
 missing=()

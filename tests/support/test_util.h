@@ -1,6 +1,7 @@
 // Helpers shared by the tests.
 #pragma once
 
+#include "penumbra/core/check.h"
 #include "penumbra/core/expected.h"
 #include "penumbra/core/rng.h"
 #include "penumbra/scene/luminaire.h"
@@ -157,6 +158,18 @@ struct CliResult {
 // Runs build/bin/penumbra with `args` (a shell-quoted argument string), with `env` ("NAME=value
 // ...") added to its environment.
 CliResult runCli(const std::string& args, const std::string& env = "");
+
+// That `work` throws InternalError (a broken PENUMBRA_CHECK, core/check.h) whose message
+// contains `expected`.
+template <typename Work>
+void expectInternalError(Work&& work, const std::string& expected) {
+  try {
+    work();
+    ADD_FAILURE() << "no InternalError (expected one naming '" << expected << "')";
+  } catch (const InternalError& e) {
+    EXPECT_NE(std::string(e.what()).find(expected), std::string::npos) << e.what();
+  }
+}
 
 }  // namespace penumbra::test
 

@@ -11,6 +11,7 @@
 // file is complete, so a failed run leaves no output (and removes DIR if it created it).
 #include "penumbra/app/commands.h"
 #include "penumbra/app/progressive_run.h"
+#include "penumbra/app/session.h"
 #include "penumbra/app/stats_file.h"
 #include "penumbra/app/stochastic_run.h"
 #include "penumbra/core/file_util.h"
@@ -310,7 +311,7 @@ Status bake(const BakeOptions& options, const CommonOptions& common, bool* inter
   if (!options.stats.empty()) PENUMBRA_TRY(checkOutputPath(options.stats));
 
   const Timer total_timer;
-  Expected<Scene> scene = loadScene(options.scene);
+  Expected<Scene> scene = loadCommandScene(options.scene);
   if (!scene) return scene.error();
   for (const std::string& w : scene->warnings) spdlog::warn("{}", w);
   bool any_emitter = false;
@@ -332,6 +333,7 @@ Status bake(const BakeOptions& options, const CommonOptions& common, bool* inter
 
   // Output: temporaries in DIR, placed together by the transaction's commit, in the order
   // written: the glTF last, so that what it references is in place before it is.
+  emitImage(product->lightmap);
   PENUMBRA_TRY(writeImage((out_dir / exr_name).string(), product->lightmap));
   PENUMBRA_TRY(writeImage((out_dir / png_name).string(), product->lightmap, ToneMapSettings{}));
   BakedGltfInfo info;
@@ -356,7 +358,7 @@ Status bake(const BakeOptions& options, const CommonOptions& common, bool* inter
         {"png_content",
          "the EXR tone mapped (Reinhard 2002, automatic key), sRGB encoded; for display"}}}};
   info.extras.update(product->extras);
-  if (!options.stats.empty()) {
+  if (wantsStats(options.stats)) {
     nlohmann::json j = {{"method", options.method},
                         {"device", "cpu"},
                         {"scene", scene->source},
@@ -372,7 +374,7 @@ Status bake(const BakeOptions& options, const CommonOptions& common, bool* inter
                          {(out_dir / gltf_name).string(), (out_dir / bin_name).string(),
                           (out_dir / exr_name).string(), (out_dir / png_name).string()}}};
     j.update(product->stats);
-    PENUMBRA_TRY(writeStatsFile(options.stats, j));
+    PENUMBRA_TRY(emitStats(options.stats, j));
   }
   PENUMBRA_TRY(
       writeBakedGltf((out_dir / gltf_name).string(), product->mesh, scene->materials, info));

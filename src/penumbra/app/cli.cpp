@@ -1,4 +1,5 @@
 #include "penumbra/app/commands.h"
+#include "penumbra/app/session.h"
 
 #include "penumbra/core/interrupt.h"
 #include "penumbra/core/log.h"
@@ -25,7 +26,11 @@
 namespace penumbra {
 
 int reportError(const Error& error) {
-  std::fprintf(stderr, "penumbra: error: %s\n", error.describe().c_str());
+  if (CommandSession* session = CommandSession::current()) {
+    session->error = error;  // the caller reports it
+  } else {
+    std::fprintf(stderr, "penumbra: error: %s\n", error.describe().c_str());
+  }
   return error.kind == ErrorKind::kInput ? 2 : 1;
 }
 
@@ -165,7 +170,7 @@ void addDryRun(CLI::App* app, CommonOptions& common) {
 int parseAndRun(int argc, char** argv) {
   CLI::App app{"Penumbra: diffuse and subsurface global illumination", "penumbra"};
   app.require_subcommand(1);
-  app.set_version_flag("--version", "penumbra 0.1.0");
+  app.set_version_flag("--version", "penumbra " PENUMBRA_VERSION);
   CommonOptions common;
 
   RenderOptions render;
@@ -517,28 +522,30 @@ int parseAndRun(int argc, char** argv) {
   }
 
   const std::string first = argc > 1 ? argv[1] : "";
-  if (first == "view") return runView(argc, argv);
+  const bool session = CommandSession::current() != nullptr;
+  if (first == "view" && !session) return runView(argc, argv);
   if (!first.empty() && first[0] != '-' && first != "render" && first != "bake" &&
       first != "trace" && first != "rays" && first != "info") {
-    std::fprintf(stderr,
-                 "penumbra: error: unknown command '%s' (commands: render, bake, trace, rays, "
-                 "info, view)\n",
-                 first.c_str());
-    return 2;
+    return reportError(inputError(
+        "", "",
+        fmt::format("unknown command '{}' (commands: render, bake, trace, rays, info, view)",
+                    first)));
   }
   try {
     app.parse(argc, argv);
   } catch (const CLI::Success& e) {
+    if (session) return reportError(inputError("", "", "--help and --version: see the CLI"));
     return app.exit(e);
   } catch (const CLI::ParseError& e) {
-    std::fprintf(stderr, "penumbra: error: %s (see penumbra --help)\n", e.what());
-    return 2;
+    return reportError(inputError("", "", fmt::format("{} (see penumbra --help)", e.what())));
   }
 
   render.tonemap.op =
       tonemap == "exposure" ? ToneMapOperator::kExposure : ToneMapOperator::kReinhard;
   initLogging(common.quiet);
-  installInterruptHandlers();
+  // Signals and the thread limit are the process's: the CLI takes them; a program calling the
+  // library through a session keeps its own signal handlers, and the limit lasts for the call.
+  if (!session) installInterruptHandlers();
   auto thread_limit = limitThreads(common.threads);
   if (render_cmd->parsed()) return runRender(render, common);
   if (bake_cmd->parsed()) return runBake(bake, common);
@@ -549,6 +556,14 @@ int parseAndRun(int argc, char** argv) {
 }
 
 }  // namespace
+
+int runCommandLine(const std::vector<std::string>& args) {
+  std::vector<std::string> words = args;
+  std::vector<char*> argv;
+  for (std::string& w : words) argv.push_back(w.data());
+  argv.push_back(nullptr);
+  return parseAndRun(int(words.size()), argv.data());
+}
 
 int runCli(int argc, char** argv) {
   try {

@@ -179,5 +179,8 @@ int reportDryRun();
 
 // Entry point of the executable.
 int runCli(int argc, char** argv);
+// The same for a program calling the library (app/session.h): `args` as argv (the program's name
+// first); exceptions (Interrupted, InternalError, std::bad_alloc) reach the caller.
+int runCommandLine(const std::vector<std::string>& args);
 
 }  // namespace penumbra

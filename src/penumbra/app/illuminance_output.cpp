@@ -70,6 +70,16 @@ Expected<IlluminanceRequest> illuminanceRequest(const RenderOptions& options, in
   return r;
 }
 
+Image renderedValues(const RenderOptions& options, const Image& radiance,
+                     const IlluminanceReport* report) {
+  if (!report || options.output_quantity != "illuminance") return radiance;
+  Image values(radiance.width, radiance.height);
+  for (size_t i = 0; i < values.pixels.size(); ++i) {
+    values.pixels[i] = glm::vec3(float(std::max(0.0, report->image_lux[i])));
+  }
+  return values;
+}
+
 Status writeRenderOutputs(const RenderOptions& options, const std::vector<std::string>& outputs,
                           const Image& radiance, const IlluminanceReport* report,
                           nlohmann::json* stats, const std::string& frame_name) {
@@ -87,11 +97,7 @@ Status writeRenderOutputs(const RenderOptions& options, const std::vector<std::s
       none.op = ToneMapOperator::kNone;
       PENUMBRA_TRY(writeImage(path, picture, none));
     } else {
-      Image values(w, h);
-      for (size_t i = 0; i < values.pixels.size(); ++i) {
-        values.pixels[i] = glm::vec3(float(std::max(0.0, report->image_lux[i])));
-      }
-      PENUMBRA_TRY(writeImage(path, values, options.tonemap));
+      PENUMBRA_TRY(writeImage(path, renderedValues(options, radiance, report), options.tonemap));
     }
   }
   if (!report) return {};

@@ -2,6 +2,7 @@
 #include "penumbra/app/commands.h"
 #include "penumbra/app/device.h"
 #include "penumbra/app/illuminance_output.h"
+#include "penumbra/app/session.h"
 #include "penumbra/app/stats_file.h"
 #include "penumbra/core/file_util.h"
 #include "penumbra/core/interrupt.h"
@@ -59,7 +60,7 @@ std::string sceneStem(const std::string& scene) {
 
 Status renderPathTrace(const RenderOptions& options, const CommonOptions& common) {
   std::vector<std::string> outputs = options.outputs;
-  if (outputs.empty()) outputs.push_back(sceneStem(options.scene) + ".png");
+  if (outputs.empty() && defaultsOutputs()) outputs.push_back(sceneStem(options.scene) + ".png");
   for (const std::string& out : outputs) {
     if (!isSupportedImageExtension(out)) {
       return inputError(out, "",
@@ -72,7 +73,7 @@ Status renderPathTrace(const RenderOptions& options, const CommonOptions& common
   if (!options.stats.empty()) PENUMBRA_TRY(checkOutputPath(options.stats));
 
   Timer load_timer;
-  Expected<Scene> scene = loadScene(options.scene);
+  Expected<Scene> scene = loadCommandScene(options.scene);
   if (!scene) return scene.error();
   for (const std::string& w : scene->warnings) spdlog::warn("{}", w);
 
@@ -180,12 +181,13 @@ Status renderPathTrace(const RenderOptions& options, const CommonOptions& common
     report = std::move(*r);
   }
   nlohmann::json lux_stats = nlohmann::json::object();
+  emitImage(renderedValues(options, image, report ? &*report : nullptr));
   PENUMBRA_TRY(
       writeRenderOutputs(options, outputs, image, report ? &*report : nullptr, &lux_stats));
   const double mrays = stats.seconds > 0.0 ? double(stats.rays) / stats.seconds * 1e-6 : 0.0;
   spdlog::info("rendered in {:.2f} s ({:.2f} Mrays/s); wrote {}", stats.seconds, mrays,
                fmt::join(outputs, ", "));
-  if (!options.stats.empty()) {
+  if (wantsStats(options.stats)) {
     nlohmann::json j = {{"method", "pathtrace"},
                         {"device", device_name},
                         {"scene", scene->source},
@@ -203,7 +205,7 @@ Status renderPathTrace(const RenderOptions& options, const CommonOptions& common
                         {"rays", stats.rays},
                         {"mrays_per_s", mrays}};
     j.update(lux_stats);
-    PENUMBRA_TRY(writeStatsFile(options.stats, j));
+    PENUMBRA_TRY(emitStats(options.stats, j));
   }
   return {};
 }
@@ -219,7 +221,7 @@ std::string sequenceFrameName(const std::string& path, int frame) {
 
 Expected<std::vector<std::string>> checkRenderOutputs(const RenderOptions& options, int frames) {
   std::vector<std::string> outputs = options.outputs;
-  if (outputs.empty()) outputs.push_back(sceneStem(options.scene) + ".png");
+  if (outputs.empty() && defaultsOutputs()) outputs.push_back(sceneStem(options.scene) + ".png");
   for (const std::string& out : outputs) {
     if (!isSupportedImageExtension(out)) {
       return inputError(out, "",

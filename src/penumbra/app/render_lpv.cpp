@@ -5,6 +5,7 @@
 // stage's milliseconds in the stats, as the paper's Table 1.
 #include "penumbra/app/commands.h"
 #include "penumbra/app/device.h"
+#include "penumbra/app/session.h"
 #include "penumbra/app/stats_file.h"
 #include "penumbra/core/file_util.h"
 #include "penumbra/core/memory.h"
@@ -48,7 +49,7 @@ Status renderLpv(const RenderOptions& options, const CommonOptions& common) {
   lo.surface_rays = options.surface_rays.value_or(lo.surface_rays);
 
   const Timer total_timer;
-  Expected<Scene> scene = loadScene(options.scene);
+  Expected<Scene> scene = loadCommandScene(options.scene);
   if (!scene) return scene.error();
   for (const std::string& w : scene->warnings) spdlog::warn("{}", w);
   // Declared before the solver, so that its GPU objects go before the context does.
@@ -95,6 +96,7 @@ Status renderLpv(const RenderOptions& options, const CommonOptions& common) {
                            {"shade_ms", 1e3 * t.shade},
                            {"ms", 1e3 * seconds},
                            {"rsm_texels", t.rsm_texels}});
+    emitImage(image);
     for (const std::string& out : outputs) {
       PENUMBRA_TRY(
           writeImage(frames > 1 ? sequenceFrameName(out, f) : out, image, options.tonemap));
@@ -106,7 +108,7 @@ Status renderLpv(const RenderOptions& options, const CommonOptions& common) {
       "each; wrote {}",
       scene->source, solver.objects().size(), first.grid.size.x, first.grid.size.y,
       first.grid.size.z, lo.steps, frames, 1e3 * frame_sum / frames, fmt::join(outputs, ", "));
-  if (!options.stats.empty()) {
+  if (wantsStats(options.stats)) {
     nlohmann::json objects = nlohmann::json::array();
     for (const LpvObject& o : solver.objects()) {
       size_t inside = 0, boundary = 0;
@@ -139,7 +141,7 @@ Status renderLpv(const RenderOptions& options, const CommonOptions& common) {
                         {"frames", frame_stats},
                         {"frame_ms", 1e3 * frame_sum / frames},
                         {"frames_per_second", frames / frame_sum}};
-    PENUMBRA_TRY(writeStatsFile(options.stats, j));
+    PENUMBRA_TRY(emitStats(options.stats, j));
   }
   return {};
 }

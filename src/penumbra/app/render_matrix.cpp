@@ -4,6 +4,7 @@
 #include "penumbra/app/commands.h"
 #include "penumbra/app/device.h"
 #include "penumbra/app/illuminance_output.h"
+#include "penumbra/app/session.h"
 #include "penumbra/app/stats_file.h"
 #include "penumbra/core/file_util.h"
 #include "penumbra/core/memory.h"
@@ -65,7 +66,7 @@ Status renderMatrix(const RenderOptions& options, const CommonOptions& common) {
                            fmt::format("a {}x{} image", width, height)));
 
   const Timer total_timer;
-  Expected<Scene> scene = loadScene(options.scene);
+  Expected<Scene> scene = loadCommandScene(options.scene);
   if (!scene) return scene.error();
   for (const std::string& w : scene->warnings) spdlog::warn("{}", w);
   if (lux) PENUMBRA_TRY(checkIlluminanceRequest(*scene, *lux));
@@ -184,6 +185,7 @@ Status renderMatrix(const RenderOptions& options, const CommonOptions& common) {
       if (!r) return r.error();
       report = std::move(*r);
     }
+    emitImage(renderedValues(options, image, report ? &*report : nullptr));
     if (frames == 1) {
       PENUMBRA_TRY(
           writeRenderOutputs(options, outputs, image, report ? &*report : nullptr, &lux_stats));
@@ -202,7 +204,7 @@ Status renderMatrix(const RenderOptions& options, const CommonOptions& common) {
                            {"seconds", last.seconds}});
   }
 
-  if (!options.stats.empty()) {
+  if (wantsStats(options.stats)) {
     nlohmann::json j = {{"method", "matrix"},
                         {"device", device->name()},
                         {"scene", scene->source},
@@ -235,7 +237,7 @@ Status renderMatrix(const RenderOptions& options, const CommonOptions& common) {
                         {"spp", spp}};
     if (frames > 1) j["frames"] = frame_stats;
     j.update(lux_stats);
-    PENUMBRA_TRY(writeStatsFile(options.stats, j));
+    PENUMBRA_TRY(emitStats(options.stats, j));
   }
   return {};
 }

@@ -6,6 +6,7 @@
 #include "penumbra/app/device.h"
 #include "penumbra/app/illuminance_output.h"
 #include "penumbra/app/progressive_run.h"
+#include "penumbra/app/session.h"
 #include "penumbra/app/stats_file.h"
 #include "penumbra/app/stochastic_run.h"
 #include "penumbra/core/file_util.h"
@@ -31,10 +32,9 @@ Status renderLightmapRadiosity(const RenderOptions& options, const CommonOptions
                                bool* interrupted) {
   const bool stochastic = options.method == "stochastic";
   std::vector<std::string> outputs = options.outputs;
-  if (outputs.empty()) {
-    const std::filesystem::path p(options.scene);
-    outputs.push_back((p.has_extension() ? p.stem().string() : options.scene) + ".png");
-  }
+  const std::filesystem::path scene_path(options.scene);
+  const std::string stem = scene_path.has_extension() ? scene_path.stem().string() : options.scene;
+  if (outputs.empty() && defaultsOutputs()) outputs.push_back(stem + ".png");
   for (const std::string& out : outputs) {
     if (!isSupportedImageExtension(out)) {
       return inputError(out, "",
@@ -58,8 +58,9 @@ Status renderLightmapRadiosity(const RenderOptions& options, const CommonOptions
                       "applies to --method progressive only");
   }
   const std::string checkpoint =
-      !options.checkpoint.empty()
-          ? options.checkpoint
+      !options.checkpoint.empty() ? options.checkpoint
+      : outputs.empty()
+          ? stem + ".checkpoint"
           : std::filesystem::path(outputs.front()).replace_extension(".checkpoint").string();
   ProgressiveRunOptions ro = progressiveRunOptions(options);
   StochasticRunOptions so = stochasticRunOptions(options);
@@ -81,7 +82,7 @@ Status renderLightmapRadiosity(const RenderOptions& options, const CommonOptions
                            fmt::format("a {}x{} image", width, height)));
 
   const Timer total_timer;
-  Expected<Scene> scene = loadScene(options.scene);
+  Expected<Scene> scene = loadCommandScene(options.scene);
   if (!scene) return scene.error();
   for (const std::string& w : scene->warnings) spdlog::warn("{}", w);
   if (lux) PENUMBRA_TRY(checkIlluminanceRequest(*scene, *lux));
@@ -128,6 +129,7 @@ Status renderLightmapRadiosity(const RenderOptions& options, const CommonOptions
     report = std::move(*r);
   }
   nlohmann::json lux_stats = nlohmann::json::object();
+  emitImage(renderedValues(options, image, report ? &*report : nullptr));
   PENUMBRA_TRY(
       writeRenderOutputs(options, outputs, image, report ? &*report : nullptr, &lux_stats));
   if (stochastic) {
@@ -140,7 +142,7 @@ Status renderLightmapRadiosity(const RenderOptions& options, const CommonOptions
                  progressive->stats.seconds, fmt::join(outputs, ", "));
   }
 
-  if (!options.stats.empty()) {
+  if (wantsStats(options.stats)) {
     nlohmann::json j = {{"method", options.method},
                         {"scene", scene->source},
                         {"seconds", total_timer.seconds()},
@@ -152,7 +154,7 @@ Status renderLightmapRadiosity(const RenderOptions& options, const CommonOptions
     j.update(stochastic ? stochasticStatsJson(*stoch)
                         : progressiveStatsJson(*progressive, ro.tolerance));
     j.update(lux_stats);
-    PENUMBRA_TRY(writeStatsFile(options.stats, j));
+    PENUMBRA_TRY(emitStats(options.stats, j));
   }
   return {};
 }

@@ -4,6 +4,7 @@
 // the stats).
 #include "penumbra/app/commands.h"
 #include "penumbra/app/device.h"
+#include "penumbra/app/session.h"
 #include "penumbra/app/stats_file.h"
 #include "penumbra/core/file_util.h"
 #include "penumbra/core/memory.h"
@@ -54,7 +55,7 @@ Status renderSss(const RenderOptions& options, const CommonOptions& common) {
                   fmt::format("a {}x{} image at {} samples per pixel", width, height, spp)));
 
   const Timer total_timer;
-  Expected<Scene> scene = loadScene(options.scene);
+  Expected<Scene> scene = loadCommandScene(options.scene);
   if (!scene) return scene.error();
   for (const std::string& w : scene->warnings) spdlog::warn("{}", w);
   SssOptions so;
@@ -129,6 +130,7 @@ Status renderSss(const RenderOptions& options, const CommonOptions& common) {
                            {"pass2_seconds", pass2},
                            {"pass3_seconds", pass3},
                            {"seconds", pass1 + pass2 + pass3}});
+    emitImage(image);
     for (const std::string& out : outputs) {
       PENUMBRA_TRY(
           writeImage(frames > 1 ? sequenceFrameName(out, f) : out, image, options.tonemap));
@@ -136,7 +138,7 @@ Status renderSss(const RenderOptions& options, const CommonOptions& common) {
   }
   spdlog::info("{} frame(s), {:.1f} ms each ({:.1f} frames per second); wrote {}", frames,
                1e3 * frame_sum / frames, frames / frame_sum, fmt::join(outputs, ", "));
-  if (!options.stats.empty()) {
+  if (wantsStats(options.stats)) {
     nlohmann::json j = {{"method", "sss"},
                         {"device", device->name()},
                         {"scene", scene->source},
@@ -160,7 +162,7 @@ Status renderSss(const RenderOptions& options, const CommonOptions& common) {
                         {"frame_seconds", frame_sum / frames},
                         {"frames_per_second", frames / frame_sum},
                         {"rays", rays}};
-    PENUMBRA_TRY(writeStatsFile(options.stats, j));
+    PENUMBRA_TRY(emitStats(options.stats, j));
   }
   return {};
 }

@@ -2,6 +2,7 @@
 #include "penumbra/app/commands.h"
 #include "penumbra/app/device.h"
 #include "penumbra/app/stats_file.h"
+#include "penumbra/app/trace_run.h"
 #include "penumbra/core/memory.h"
 #include "penumbra/core/parallel.h"
 #include "penumbra/core/timer.h"
@@ -17,9 +18,7 @@
 
 namespace penumbra {
 
-namespace {
-
-Status trace(const TraceOptions& options, const CommonOptions& common) {
+Status checkTraceOptions(const TraceOptions& options) {
   if (options.device != "cpu" && options.device != "gpu" && options.device != "auto" &&
       options.device != "hybrid") {
     return inputError("", "",
@@ -35,44 +34,36 @@ Status trace(const TraceOptions& options, const CommonOptions& common) {
                                   "a bucket",
                                   *options.cache_rays, options.r_min));
   }
-  PENUMBRA_TRY(checkOutputPath(options.output));
-  if (!options.stats.empty()) PENUMBRA_TRY(checkOutputPath(options.stats));
-  std::error_code ec;
-  const auto ray_bytes = std::filesystem::file_size(options.rays, ec);
-  if (!ec) {
-    // Rays in SoA (32 B), hits (16 B), the file bytes and the output buffer (16 B).
-    PENUMBRA_TRY(
-        checkMemory(uint64_t(ray_bytes) / 32 * 96, fmt::format("tracing {} rays", ray_bytes / 32)));
-  }
+  return {};
+}
 
-  Expected<Scene> scene = loadScene(options.mesh);
-  if (!scene) return scene.error();
-  for (const std::string& w : scene->warnings) spdlog::warn("{}", w);
-  Expected<RayBatch> rays = readRayFile(options.rays);
-  if (!rays) return rays.error();
-
-  const FlatTriangles flat = flattenScene(*scene);
+Expected<TraceRun> traceScene(const Scene& scene, const RayBatch& rays, const TraceOptions& options,
+                              bool dry_run) {
+  PENUMBRA_TRY(checkTraceOptions(options));
+  const FlatTriangles flat = flattenScene(scene);
   const std::vector<glm::vec3>& positions = flat.positions;
   const std::vector<glm::uvec3>& triangles = flat.triangles;
   // hybrid: the CPU/GPU split of the Ray Engine paper (sec. 6.2); it needs a GPU context.
   const bool hybrid = options.device == "hybrid";
   Expected<DeviceChoice> device = chooseDevice(hybrid ? "gpu" : options.device);
   if (!device) return device.error();
-  if (common.dry_run) return {};
+  TraceRun run;
+  if (dry_run) return run;
 
   // The answers' buffers are made before the clock starts, as a caller of the library would
   // hold them: trace_seconds is the intersection alone (docs/cli.md).
-  HitBatch hits;
-  std::vector<uint8_t> occluded;
+  HitBatch& hits = run.hits;
+  std::vector<uint8_t>& occluded = run.occluded;
   if (options.occlusion) {
-    occluded.assign(rays->size(), 0);
+    occluded.assign(rays.size(), 0);
   } else {
-    hits.resize(rays->size());
+    hits.resize(rays.size());
   }
   // GPU back ends answer occlusion with closest hits: occluded exactly when one exists.
   const auto gpuOcclusion = [&] {
     if (!options.occlusion) return;
     for (size_t i = 0; i < hits.size(); ++i) occluded[i] = hits.triangle[i] >= 0 ? 1 : 0;
+    hits = HitBatch();
   };
   double build_seconds = 0.0, trace_seconds = 0.0;
   size_t bvh_nodes = 0, bvh_bytes = 0;
@@ -91,7 +82,7 @@ Status trace(const TraceOptions& options, const CommonOptions& common) {
     build_seconds = build_timer.seconds();
     Timer trace_timer;
     HybridStats hs;
-    PENUMBRA_TRY(engine->intersect(*rays, hits, &hs));
+    PENUMBRA_TRY(engine->intersect(rays, hits, &hs));
     gpuOcclusion();
     trace_seconds = trace_timer.seconds();
     const GlDeviceInfo& info = device->context->info();
@@ -114,7 +105,7 @@ Status trace(const TraceOptions& options, const CommonOptions& common) {
     glFinish();
     build_seconds = build_timer.seconds();
     Timer trace_timer;
-    PENUMBRA_TRY(engine->intersect(*rays, hits));
+    PENUMBRA_TRY(engine->intersect(rays, hits));
     gpuOcclusion();
     trace_seconds = trace_timer.seconds();
     const GlDeviceInfo& info = device->context->info();
@@ -126,9 +117,9 @@ Status trace(const TraceOptions& options, const CommonOptions& common) {
     build_seconds = build_timer.seconds();
     Timer trace_timer;
     if (options.occlusion) {
-      engine.occluded(*rays, occluded);
+      engine.occluded(rays, occluded);
     } else {
-      engine.intersect(*rays, hits);
+      engine.intersect(rays, hits);
     }
     trace_seconds = trace_timer.seconds();
     bvh_nodes = engine.wideNodeCount();
@@ -137,36 +128,62 @@ Status trace(const TraceOptions& options, const CommonOptions& common) {
 
   size_t hit_count = 0;
   if (options.occlusion) {
-    PENUMBRA_TRY(writeOcclusionFile(options.output, occluded));
     for (uint8_t o : occluded) hit_count += o;
   } else {
-    PENUMBRA_TRY(writeHitFile(options.output, hits));
     for (int32_t t : hits.triangle) hit_count += t >= 0;
   }
-  const double mrays = trace_seconds > 0.0 ? double(rays->size()) / trace_seconds * 1e-6 : 0.0;
+  const double mrays = trace_seconds > 0.0 ? double(rays.size()) / trace_seconds * 1e-6 : 0.0;
   spdlog::info(
       "{} rays against {} triangles: {} {}; build {:.3f} s, trace {:.3f} s "
       "({:.2f} Mrays/s)",
-      rays->size(), triangles.size(), hit_count, options.occlusion ? "occluded" : "hits",
+      rays.size(), triangles.size(), hit_count, options.occlusion ? "occluded" : "hits",
       build_seconds, trace_seconds, mrays);
-  if (!options.stats.empty()) {
-    nlohmann::json j = {{"method", options.occlusion ? "trace-occlusion" : "trace"},
-                        {"device", hybrid ? std::string("hybrid") : device->name()},
-                        {"seconds", build_seconds + trace_seconds},
-                        {"build_seconds", build_seconds},
-                        {"trace_seconds", trace_seconds},
-                        {"rays", rays->size()},
-                        {"hits", hit_count},
-                        {"triangles", triangles.size()},
-                        {"threads", threadCount()},
-                        {"bvh_nodes", bvh_nodes},
-                        {"bvh_bytes", bvh_bytes},
-                        {"mrays_per_s", mrays}};
-    // A software GPU (llvmpipe) gives correctness runs: its timings say nothing of a GPU.
-    if (!gpu_info.is_null()) j["gpu"] = gpu_info;
-    if (!hybrid_stats.is_null()) j["hybrid"] = hybrid_stats;
-    PENUMBRA_TRY(writeStatsFile(options.stats, j));
+  run.stats = {{"method", options.occlusion ? "trace-occlusion" : "trace"},
+               {"device", hybrid ? std::string("hybrid") : device->name()},
+               {"seconds", build_seconds + trace_seconds},
+               {"build_seconds", build_seconds},
+               {"trace_seconds", trace_seconds},
+               {"rays", rays.size()},
+               {"hits", hit_count},
+               {"triangles", triangles.size()},
+               {"threads", threadCount()},
+               {"bvh_nodes", bvh_nodes},
+               {"bvh_bytes", bvh_bytes},
+               {"mrays_per_s", mrays}};
+  // A software GPU (llvmpipe) gives correctness runs: its timings say nothing of a GPU.
+  if (!gpu_info.is_null()) run.stats["gpu"] = gpu_info;
+  if (!hybrid_stats.is_null()) run.stats["hybrid"] = hybrid_stats;
+  return run;
+}
+
+namespace {
+
+Status trace(const TraceOptions& options, const CommonOptions& common) {
+  PENUMBRA_TRY(checkTraceOptions(options));
+  PENUMBRA_TRY(checkOutputPath(options.output));
+  if (!options.stats.empty()) PENUMBRA_TRY(checkOutputPath(options.stats));
+  std::error_code ec;
+  const auto ray_bytes = std::filesystem::file_size(options.rays, ec);
+  if (!ec) {
+    // Rays in SoA (32 B), hits (16 B), the file bytes and the output buffer (16 B).
+    PENUMBRA_TRY(
+        checkMemory(uint64_t(ray_bytes) / 32 * 96, fmt::format("tracing {} rays", ray_bytes / 32)));
   }
+
+  Expected<Scene> scene = loadScene(options.mesh);
+  if (!scene) return scene.error();
+  for (const std::string& w : scene->warnings) spdlog::warn("{}", w);
+  Expected<RayBatch> rays = readRayFile(options.rays);
+  if (!rays) return rays.error();
+  Expected<TraceRun> run = traceScene(*scene, *rays, options, common.dry_run);
+  if (!run) return run.error();
+  if (common.dry_run) return {};
+  if (options.occlusion) {
+    PENUMBRA_TRY(writeOcclusionFile(options.output, run->occluded));
+  } else {
+    PENUMBRA_TRY(writeHitFile(options.output, run->hits));
+  }
+  if (!options.stats.empty()) PENUMBRA_TRY(writeStatsFile(options.stats, run->stats));
   return {};
 }
 

@@ -1,22 +1,31 @@
-// Contract checks. A failed PENUMBRA_CHECK is a bug in Penumbra, not bad input: it prints the
-// expression, its location and the values involved, then aborts. Bad input is reported through
+// Contract checks. A failed PENUMBRA_CHECK is a bug in Penumbra, not bad input: it throws
+// InternalError naming the expression, its location and the values involved, so that a program
+// using the library (penumbra.h, the Python module) gets an error it can report and survive
+// instead of a dead process; the CLI prints it and exits with 1. Bad input is reported through
 // Expected<T> (see expected.h) instead.
 #pragma once
 
 #include <fmt/core.h>
 
-#include <cstdio>
-#include <cstdlib>
+#include <stdexcept>
+#include <string>
 
-namespace penumbra::detail {
+namespace penumbra {
+
+class InternalError : public std::logic_error {
+ public:
+  using std::logic_error::logic_error;
+};
+
+namespace detail {
 [[noreturn]] inline void checkFailed(const char* expr, const char* file, int line,
                                      const std::string& detail) {
-  std::fprintf(stderr, "penumbra: internal error: check '%s' failed at %s:%d%s%s\n", expr, file,
-               line, detail.empty() ? "" : ": ", detail.c_str());
-  std::fflush(stderr);
-  std::abort();
+  throw InternalError(fmt::format("internal error: check '{}' failed at {}:{}{}{}", expr, file,
+                                  line, detail.empty() ? "" : ": ", detail));
 }
-}  // namespace penumbra::detail
+}  // namespace detail
+
+}  // namespace penumbra
 
 #define PENUMBRA_CHECK(cond)                                                     \
   do {                                                                           \

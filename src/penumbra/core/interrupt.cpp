@@ -12,6 +12,7 @@ namespace {
 
 volatile std::sig_atomic_t g_scope = 0;      // an InterruptScope is alive
 volatile std::sig_atomic_t g_requested = 0;  // the signal that asked to stop, 0 if none
+std::atomic<bool> g_keep_requests{false};
 
 // The cleanup registry: fixed slots, so the handler reads without allocating. A slot's state is
 // written after its path, and cleared before the path is reused.
@@ -63,8 +64,28 @@ void installInterruptHandlers() {
   sigaction(SIGTERM, &sa, nullptr);
 }
 
-InterruptScope::InterruptScope() {
+void requestInterrupt(int signal) {
+  if (!g_requested) g_requested = signal;
+}
+
+bool interruptRequested() {
+  return g_requested != 0;
+}
+
+void throwIfInterrupted() {
+  if (g_requested && !g_scope) throw Interrupted();
+}
+
+void clearInterrupt() {
   g_requested = 0;
+}
+
+void keepInterruptRequests(bool keep) {
+  g_keep_requests = keep;
+}
+
+InterruptScope::InterruptScope() {
+  if (!g_keep_requests) g_requested = 0;
   g_scope = 1;
 }
 
@@ -74,6 +95,10 @@ InterruptScope::~InterruptScope() {
 
 bool InterruptScope::requested() {
   return g_requested != 0;
+}
+
+bool InterruptScope::active() {
+  return g_scope != 0;
 }
 
 int InterruptScope::exitCode() {

@@ -12,11 +12,36 @@
 //    async-signal-safe calls (unlink, rmdir) run in the handler.
 #pragma once
 
+#include <stdexcept>
 #include <string>
 
 namespace penumbra {
 
 void installInterruptHandlers();
+
+// A request to stop, as the signal makes it: async-signal-safe, so a caller's own SIGINT handler
+// may call it (the library's API does, penumbra.h: requestInterrupt). `signal` picks the exit code
+// (InterruptScope::exitCode).
+void requestInterrupt(int signal);
+// Whether a stop was requested (by a signal inside a scope, or by requestInterrupt).
+bool interruptRequested();
+// Forgets a request.
+void clearInterrupt();
+// While true, a new InterruptScope keeps a request made before it (the API clears it once, when
+// a call starts, and its handler may have asked to stop since).
+void keepInterruptRequests(bool keep);
+
+// Thrown where work without a clean stopping point of its own stops at a request (core/progress.h:
+// ProgressObserver::stop_on_interrupt).
+class Interrupted : public std::runtime_error {
+ public:
+  Interrupted() : std::runtime_error("interrupted") {}
+};
+// Throws Interrupted when a stop was requested and no InterruptScope is alive to stop cleanly.
+// The CLI's signals set the flag only inside a scope, so under the CLI this never throws; a
+// program calling the library (requestInterrupt) stops long work this way. Cheap enough to poll
+// per pixel.
+void throwIfInterrupted();
 
 class InterruptScope {
  public:
@@ -27,6 +52,8 @@ class InterruptScope {
 
   // Whether SIGINT or SIGTERM arrived since the scope began (any thread).
   static bool requested();
+  // Whether a scope is alive (its work stops cleanly on a request, by itself).
+  static bool active();
   // The exit code for a run stopped by that signal: 130 (SIGINT) or 143 (SIGTERM).
   static int exitCode();
 };

@@ -1,5 +1,7 @@
 #include "penumbra/core/progress.h"
 
+#include "penumbra/core/interrupt.h"
+
 #include <unistd.h>
 #include <algorithm>
 #include <chrono>
@@ -11,11 +13,21 @@ namespace {
 double nowSeconds() {
   return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
 }
+
+std::atomic<const ProgressObserver*> g_observer{nullptr};
 }  // namespace
 
+void setProgressObserver(const ProgressObserver* observer) {
+  g_observer = observer;
+}
+
 Progress::Progress(std::string label, uint64_t total, bool enabled)
-    : label_(std::move(label)), total_(total), enabled_(enabled && total > 0) {
+    : label_(std::move(label)),
+      total_(total),
+      enabled_(enabled && total > 0),
+      observer_(g_observer.load()) {
   if (enabled_) draw(0, false);
+  notify(0, false);
 }
 
 Progress::~Progress() {
@@ -37,7 +49,21 @@ void Progress::reach(uint64_t done) {
   redraw(std::max(seen, done));
 }
 
+void Progress::notify(uint64_t done, bool final) {
+  if (!observer_) return;
+  if (!final && observer_->stop_on_interrupt) throwIfInterrupted();
+  if (!observer_->report) return;
+  const double now = nowSeconds();
+  double last = last_notify_.load();
+  // One thread reports per interval; the final report always goes.
+  if (!final && (now - last < 0.2 || !last_notify_.compare_exchange_strong(last, now))) return;
+  if (final) last_notify_ = now;
+  const double frac = total_ ? double(done < total_ ? done : total_) / double(total_) : 1.0;
+  observer_->report(label_, frac);
+}
+
 void Progress::redraw(uint64_t done) {
+  notify(done, false);
   if (!enabled_) return;
   std::unique_lock lock(mutex_, std::try_to_lock);
   if (!lock.owns_lock() || finished_) return;
@@ -48,11 +74,13 @@ void Progress::redraw(uint64_t done) {
 }
 
 void Progress::finish() {
-  if (!enabled_) return;
-  std::lock_guard lock(mutex_);
-  if (finished_) return;
-  finished_ = true;
-  draw(done_.load(), true);
+  {
+    std::lock_guard lock(mutex_);
+    if (finished_) return;
+    finished_ = true;
+    if (enabled_) draw(done_.load(), true);
+  }
+  notify(done_.load(), true);
 }
 
 void Progress::setNote(std::string note) {

@@ -3,10 +3,23 @@
 
 #include <atomic>
 #include <cstdint>
+#include <functional>
 #include <mutex>
 #include <string>
 
 namespace penumbra {
+
+// Where progress goes besides the bar: a program using the library (penumbra.h) is told through
+// `report`, from whichever thread made the progress, at most five times a second per Progress
+// (and once at its end). With `stop_on_interrupt`, add() and reach() throw Interrupted
+// (core/interrupt.h) once a stop is requested, unless an InterruptScope is alive (that work stops
+// cleanly by itself): the other long work then stops at its next row or step.
+struct ProgressObserver {
+  std::function<void(const std::string& label, double fraction)> report;
+  bool stop_on_interrupt = false;
+};
+// Installs `observer` (or none) for the Progress objects made from now on, process-wide.
+void setProgressObserver(const ProgressObserver* observer);
 
 class Progress {
  public:
@@ -27,12 +40,15 @@ class Progress {
 
  private:
   void redraw(uint64_t done);
+  void notify(uint64_t done, bool final);
   void draw(uint64_t done, bool final);
 
   std::string label_;
   std::string note_;  // guarded by mutex_
   uint64_t total_;
   bool enabled_;
+  const ProgressObserver* observer_;
+  std::atomic<double> last_notify_{-1.0};
   std::atomic<uint64_t> done_{0};
   std::mutex mutex_;
   double last_draw_ = -1.0;

@@ -29,6 +29,32 @@ Status writeBytes(const std::string& path, const std::string& bytes) {
 
 }  // namespace
 
+Expected<RayBatch> decodeRays(const std::string& source, const void* values, size_t count) {
+  RayBatch rays;
+  rays.resize(count);
+  const char* bytes = static_cast<const char*>(values);
+  for (size_t i = 0; i < count; ++i) {
+    float f[8];
+    std::memcpy(f, bytes + 32 * i, sizeof f);
+    const Ray r{{f[0], f[1], f[2]}, f[3], {f[4], f[5], f[6]}, f[7]};
+    const char* problem = nullptr;
+    if (!std::isfinite(r.origin.x) || !std::isfinite(r.origin.y) || !std::isfinite(r.origin.z)) {
+      problem = "origin is not finite";
+    } else if (!std::isfinite(r.dir.x) || !std::isfinite(r.dir.y) || !std::isfinite(r.dir.z)) {
+      problem = "direction is not finite";
+    } else if (r.dir.x == 0.0f && r.dir.y == 0.0f && r.dir.z == 0.0f) {
+      problem = "direction is zero";
+    } else if (!std::isfinite(r.tmin)) {
+      problem = "tmin is not finite";
+    } else if (std::isnan(r.tmax)) {
+      problem = "tmax is NaN";
+    }
+    if (problem) return inputError(source, fmt::format("ray {}", i), problem);
+    rays.set(i, r);
+  }
+  return rays;
+}
+
 Expected<RayBatch> readRayFile(const std::string& path) {
   Expected<std::string> bytes = readFile(path);
   if (!bytes) return bytes.error();
@@ -40,28 +66,7 @@ Expected<RayBatch> readRayFile(const std::string& path) {
                                   "ox oy oz tmin dx dy dz tmax)",
                                   b.size()));
   }
-  const size_t n = b.size() / kRayBytes;
-  RayBatch rays;
-  rays.resize(n);
-  for (size_t i = 0; i < n; ++i) {
-    float f[8];
-    std::memcpy(f, b.data() + i * kRayBytes, kRayBytes);
-    const Ray r{{f[0], f[1], f[2]}, f[3], {f[4], f[5], f[6]}, f[7]};
-    const std::string place = fmt::format("ray {}", i);
-    if (!std::isfinite(r.origin.x) || !std::isfinite(r.origin.y) || !std::isfinite(r.origin.z)) {
-      return inputError(path, place, "origin is not finite");
-    }
-    if (!std::isfinite(r.dir.x) || !std::isfinite(r.dir.y) || !std::isfinite(r.dir.z)) {
-      return inputError(path, place, "direction is not finite");
-    }
-    if (r.dir.x == 0.0f && r.dir.y == 0.0f && r.dir.z == 0.0f) {
-      return inputError(path, place, "direction is zero");
-    }
-    if (!std::isfinite(r.tmin)) return inputError(path, place, "tmin is not finite");
-    if (std::isnan(r.tmax)) return inputError(path, place, "tmax is NaN");
-    rays.set(i, r);
-  }
-  return rays;
+  return decodeRays(path, b.data(), b.size() / kRayBytes);
 }
 
 Status writeRayFile(const std::string& path, const RayBatch& rays) {

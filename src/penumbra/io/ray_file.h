@@ -15,6 +15,9 @@ namespace penumbra {
 // Reads and validates a ray file: size a multiple of 32 bytes, finite origins and directions,
 // non-zero directions, tmin finite, tmax not NaN. Errors name the ray.
 Expected<RayBatch> readRayFile(const std::string& path);
+// `count` rays in the file's layout (8 float32 each, 32 bytes, no alignment needed), checked as
+// readRayFile checks them; errors name `source` and the ray.
+Expected<RayBatch> decodeRays(const std::string& source, const void* values, size_t count);
 Status writeRayFile(const std::string& path, const RayBatch& rays);
 
 Expected<HitBatch> readHitFile(const std::string& path);

@@ -6,6 +6,7 @@
 #include "penumbra/core/expected.h"
 #include "penumbra/scene/scene.h"
 
+#include <functional>
 #include <string>
 
 namespace penumbra {
@@ -22,6 +23,11 @@ Expected<Scene> loadPly(const std::string& path);
 Expected<Scene> loadPlyBytes(const std::string& path, const std::string& bytes);
 // Penumbra's JSON scene format (docs/scene-format.md); paths relative to the scene file.
 Expected<Scene> loadSceneJson(const std::string& path);
+// The same from the file's text: messages name `path`, and files it names are found relative to
+// it (to the working directory when `path` names no file). `complete`, when given, adds to the
+// scene (meshes held in memory) before it is validated as a whole.
+Expected<Scene> parseSceneJson(const std::string& path, const std::string& text,
+                               const std::function<void(Scene&)>& complete = {});
 
 // By extension: .json, .obj, .gltf, .glb, .ply.
 Expected<Scene> loadSceneFile(const std::string& path);

@@ -24,6 +24,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <functional>
 #include <map>
 #include <optional>
 #include <string>
@@ -77,7 +78,9 @@ struct Placement {
 
 class SceneJsonReader {
  public:
-  explicit SceneJsonReader(const std::string& path) : path_(path) {}
+  explicit SceneJsonReader(const std::string& path,
+                           const std::function<void(Scene&)>& complete = {})
+      : path_(path), complete_(complete) {}
 
   Expected<Scene> read(const json& root);
 
@@ -105,6 +108,8 @@ class SceneJsonReader {
   Expected<glm::vec3> environment(const json& j, const std::string& place) const;
 
   Status readMaterials(const json& root, Scene& scene);
+  Status readMaterial(const json& entry, const std::string& place, const std::string& name,
+                      bool named, Scene& scene);
   Status readMesh(const json& entry, const std::string& place, Scene& scene);
   Expected<Placement> readTransform(const json& t, const std::string& place) const;
   Status readLight(const json& entry, const std::string& place, Scene& scene);
@@ -112,6 +117,8 @@ class SceneJsonReader {
   Status readCamera(const json& cam, const std::string& place, Scene& scene) const;
 
   const std::string& path_;
+  // Adds what the caller has in memory (parseSceneJson) before the scene is validated.
+  const std::function<void(Scene&)>& complete_;
   std::map<std::string, uint32_t> material_index_;
   // The luminaire files read so far (resolved path, tilt): their photometry and LDT.
   std::map<std::pair<std::string, double>,
@@ -222,68 +229,102 @@ Expected<glm::vec3> SceneJsonReader::environment(const json& j, const std::strin
 }
 
 Status SceneJsonReader::readMaterials(const json& root, Scene& scene) {
-  Expected<const json*> materials = object(root, "materials", "", false);
-  if (!materials.ok()) return materials.error();
-  if (!*materials) return {};
-  for (auto it = (*materials)->begin(); it != (*materials)->end(); ++it) {
-    const std::string place = "materials." + it.key();
-    if (!it->is_object()) {
-      return error(place, fmt::format("must be an object, not {}", jsonTypeName(*it)));
-    }
-    PENUMBRA_TRY(checkKeys(
-        *it, place,
-        {"reflectance", "emission", "two_sided", "subsurface", "normal_map", "normal_scale"}));
-    Material m;
-    m.name = it.key();
-    if (it->contains("reflectance")) {
-      Expected<glm::vec3> r = colour(it->at("reflectance"), place + ".reflectance", true);
-      if (!r.ok()) return r.error();
-      m.reflectance = *r;
-    }
-    if (it->contains("emission")) {
-      Expected<glm::vec3> e = colour(it->at("emission"), place + ".emission", false);
-      if (!e.ok()) return e.error();
-      m.emission = *e;
-    }
-    if (it->contains("two_sided")) {
-      if (!it->at("two_sided").is_boolean()) {
-        return error(place + ".two_sided", fmt::format("must be true or false, not {}",
-                                                       jsonTypeName(it->at("two_sided"))));
+  if (!root.contains("materials")) return {};
+  const json& materials = root.at("materials");
+  // An object of materials by name, or an array of them, each with its "name" (the order mesh
+  // arrays count them in, penumbra.h: Scene::fromArrays).
+  if (materials.is_array()) {
+    for (size_t i = 0; i < materials.size(); ++i) {
+      const std::string place = fmt::format("materials[{}]", i);
+      const json& entry = materials[i];
+      std::string name = fmt::format("material {}", i);
+      if (entry.is_object() && entry.contains("name")) {
+        Expected<std::string> n = string(entry.at("name"), place + ".name");
+        if (!n) return n.error();
+        name = *n;
       }
-      m.two_sided = it->at("two_sided").get<bool>();
-    }
-    if (it->contains("normal_map")) {
-      Expected<std::string> file = string(it->at("normal_map"), place + ".normal_map");
-      if (!file) return file.error();
-      Expected<std::string> resolved = existingFile(*file, place + ".normal_map");
-      if (!resolved) return resolved.error();
-      Expected<Image> map = readImageData(*resolved);
-      if (!map) return map.error();
-      if (map->width < 1 || map->height < 1) return error(place + ".normal_map", "empty image");
-      m.normal_map = std::make_shared<const Image>(std::move(*map));
-      m.normal_map_source = *resolved;
-    }
-    if (it->contains("normal_scale")) {
-      Expected<double> scale = number(it->at("normal_scale"), place + ".normal_scale");
-      if (!scale) return scale.error();
-      if (!(*scale >= 0.0 && *scale <= 100.0)) {
-        return error(place + ".normal_scale", fmt::format("{} is outside [0, 100]", *scale));
+      if (material_index_.contains(name)) {
+        return error(place + ".name", fmt::format("'{}' names an earlier material too", name));
       }
-      m.normal_scale = float(*scale);
+      PENUMBRA_TRY(readMaterial(entry, place, name, /*named=*/true, scene));
     }
-    if (it->contains("subsurface")) {
-      Expected<Subsurface> s = parseSubsurface(it->at("subsurface"), path_, place + ".subsurface");
-      if (!s.ok()) return s.error();
-      m.subsurface = *s;
-      // Methods without subsurface transport see the medium as the Lambertian surface that
-      // returns as much diffuse light, unless the scene says otherwise.
-      if (!it->contains("reflectance")) {
-        m.reflectance = glm::vec3(glm::clamp(lambertianAlbedo(*s), 0.0, 1.0));
-      }
-    }
-    material_index_[m.name] = static_cast<uint32_t>(scene.materials.size());
-    scene.materials.push_back(std::move(m));
+    return {};
   }
+  Expected<const json*> object_or_none = object(root, "materials", "", false);
+  if (!object_or_none.ok()) {
+    return error("materials",
+                 fmt::format("must be an object or an array, not {}", jsonTypeName(materials)));
+  }
+  for (auto it = materials.begin(); it != materials.end(); ++it) {
+    PENUMBRA_TRY(readMaterial(*it, "materials." + it.key(), it.key(), /*named=*/false, scene));
+  }
+  return {};
+}
+
+Status SceneJsonReader::readMaterial(const json& entry, const std::string& place,
+                                     const std::string& name, bool named, Scene& scene) {
+  if (!entry.is_object()) {
+    return error(place, fmt::format("must be an object, not {}", jsonTypeName(entry)));
+  }
+  if (named) {
+    PENUMBRA_TRY(checkKeys(entry, place,
+                           {"name", "reflectance", "emission", "two_sided", "subsurface",
+                            "normal_map", "normal_scale"}));
+  } else {
+    PENUMBRA_TRY(checkKeys(
+        entry, place,
+        {"reflectance", "emission", "two_sided", "subsurface", "normal_map", "normal_scale"}));
+  }
+  Material m;
+  m.name = name;
+  if (entry.contains("reflectance")) {
+    Expected<glm::vec3> r = colour(entry.at("reflectance"), place + ".reflectance", true);
+    if (!r.ok()) return r.error();
+    m.reflectance = *r;
+  }
+  if (entry.contains("emission")) {
+    Expected<glm::vec3> e = colour(entry.at("emission"), place + ".emission", false);
+    if (!e.ok()) return e.error();
+    m.emission = *e;
+  }
+  if (entry.contains("two_sided")) {
+    if (!entry.at("two_sided").is_boolean()) {
+      return error(place + ".two_sided", fmt::format("must be true or false, not {}",
+                                                     jsonTypeName(entry.at("two_sided"))));
+    }
+    m.two_sided = entry.at("two_sided").get<bool>();
+  }
+  if (entry.contains("normal_map")) {
+    Expected<std::string> file = string(entry.at("normal_map"), place + ".normal_map");
+    if (!file) return file.error();
+    Expected<std::string> resolved = existingFile(*file, place + ".normal_map");
+    if (!resolved) return resolved.error();
+    Expected<Image> map = readImageData(*resolved);
+    if (!map) return map.error();
+    if (map->width < 1 || map->height < 1) return error(place + ".normal_map", "empty image");
+    m.normal_map = std::make_shared<const Image>(std::move(*map));
+    m.normal_map_source = *resolved;
+  }
+  if (entry.contains("normal_scale")) {
+    Expected<double> scale = number(entry.at("normal_scale"), place + ".normal_scale");
+    if (!scale) return scale.error();
+    if (!(*scale >= 0.0 && *scale <= 100.0)) {
+      return error(place + ".normal_scale", fmt::format("{} is outside [0, 100]", *scale));
+    }
+    m.normal_scale = float(*scale);
+  }
+  if (entry.contains("subsurface")) {
+    Expected<Subsurface> s = parseSubsurface(entry.at("subsurface"), path_, place + ".subsurface");
+    if (!s.ok()) return s.error();
+    m.subsurface = *s;
+    // Methods without subsurface transport see the medium as the Lambertian surface that
+    // returns as much diffuse light, unless the scene says otherwise.
+    if (!entry.contains("reflectance")) {
+      m.reflectance = glm::vec3(glm::clamp(lambertianAlbedo(*s), 0.0, 1.0));
+    }
+  }
+  material_index_[m.name] = static_cast<uint32_t>(scene.materials.size());
+  scene.materials.push_back(std::move(m));
   return {};
 }
 
@@ -781,10 +822,12 @@ Expected<Scene> SceneJsonReader::read(const json& root) {
   }
 
   // The mesh files were validated by their loaders, whose warnings (degenerate triangles) name
-  // the mesh file; the merged scene's validation would repeat them, so its warnings are dropped.
+  // the mesh file; the merged scene's validation would repeat them, so its warnings are dropped
+  // (unless meshes were added from memory, which no loader has seen).
   const size_t warnings_before = scene.warnings.size();
+  if (complete_) complete_(scene);
   PENUMBRA_TRY(validateScene(scene));
-  scene.warnings.resize(warnings_before);
+  if (!complete_) scene.warnings.resize(warnings_before);
   return scene;
 }
 
@@ -793,6 +836,12 @@ Expected<Scene> SceneJsonReader::read(const json& root) {
 Expected<Scene> loadSceneJson(const std::string& path) {
   Expected<std::string> text = readFile(path);
   if (!text.ok()) return text.error();
+  return parseSceneJson(path, *text);
+}
+
+Expected<Scene> parseSceneJson(const std::string& path, const std::string& text_in,
+                               const std::function<void(Scene&)>& complete) {
+  const std::string* text = &text_in;
   PENUMBRA_TRY(checkJsonNesting(path, *text, /*comments=*/true));
   json root;
   try {
@@ -809,7 +858,7 @@ Expected<Scene> loadSceneJson(const std::string& path) {
     return inputError(path, "", fmt::format("JSON error: {}", e.what()));
   }
   try {
-    SceneJsonReader reader(path);
+    SceneJsonReader reader(path, complete);
     return reader.read(root);
   } catch (const std::exception& e) {
     // Every access above is checked; this is a safety net so no exception leaves the loader.

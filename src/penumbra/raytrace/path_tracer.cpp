@@ -1,6 +1,7 @@
 #include "penumbra/raytrace/path_tracer.h"
 
 #include "penumbra/core/check.h"
+#include "penumbra/core/interrupt.h"
 #include "penumbra/core/parallel.h"
 #include "penumbra/core/sobol.h"
 #include "penumbra/core/timer.h"
@@ -435,6 +436,7 @@ Image PathTracer::render(const Camera& camera, const PathTracerSettings& setting
     uint64_t rays = 0;
     for (size_t y = y0; y < y1; ++y) {
       for (int x = 0; x < settings.width; ++x) {
+        throwIfInterrupted();  // a caller of the library asked to stop (core/interrupt.h)
         glm::dvec3 sum(0.0);
         for (int s = 0; s < settings.spp; ++s)
           sum += pixelSample(cam, settings, x, int(y), s, rays);
@@ -496,6 +498,7 @@ Expected<Image> PathTracer::renderWavefront(const Camera& camera,
     shadow_count.assign(n, 0);
     blocked.assign(n * cap, 0);
     while (!alive.empty()) {
+      throwIfInterrupted();  // a caller of the library asked to stop (core/interrupt.h)
       // 1. This bounce's rays, as one batch.
       batch.resize(alive.size());
       for (size_t k = 0; k < alive.size(); ++k) batch.set(k, paths[alive[k]].ray);

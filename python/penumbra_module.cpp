@@ -1,0 +1,324 @@
+// The Python module `penumbra._penumbra`, on the library's public API (penumbra.h); the package
+// around it (python/penumbra/__init__.py) turns keyword arguments into the CLI's options.
+// Work runs with the GIL released; Ctrl-C during a call asks the library to stop (as SIGINT
+// asks the CLI) and the call raises KeyboardInterrupt.
+#include "penumbra/penumbra.h"
+
+#include <pybind11/functional.h>
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <csignal>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+#include <utility>
+#include <vector>
+
+namespace py = pybind11;
+using penumbra::api::ErrorKind;
+
+namespace {
+
+PyObject* g_error = nullptr;        // penumbra.Error
+PyObject* g_input_error = nullptr;  // penumbra.InputError (also a ValueError)
+
+// A NumPy array that owns `values` (moved, not copied) with the given shape.
+template <typename T>
+py::array_t<T> ownedArray(std::vector<T>&& values, std::vector<py::ssize_t> shape) {
+  auto* owned = new std::vector<T>(std::move(values));
+  py::capsule free_when_done(owned, [](void* p) { delete static_cast<std::vector<T>*>(p); });
+  return py::array_t<T>(shape, owned->data(), free_when_done);
+}
+
+py::array_t<float> imageArray(penumbra::api::Image&& image) {
+  const py::ssize_t h = image.height, w = image.width;
+  return ownedArray(std::move(image.rgb), {h, w, 3});
+}
+
+// While a call runs on the main thread, SIGINT asks the library to stop instead of going to
+// Python's handler (which could only run once the call returns); the old handler comes back
+// after. Calls from other threads leave signals alone.
+class SigintToLibrary {
+ public:
+  SigintToLibrary() {
+    if (std::this_thread::get_id() != mainThread()) return;
+    struct sigaction sa = {};
+    sa.sa_handler = [](int) { penumbra::api::requestInterrupt(); };
+    sigemptyset(&sa.sa_mask);
+    sa.sa_flags = SA_RESTART;
+    installed_ = sigaction(SIGINT, &sa, &previous_) == 0;
+  }
+  ~SigintToLibrary() {
+    if (installed_) sigaction(SIGINT, &previous_, nullptr);
+  }
+  SigintToLibrary(const SigintToLibrary&) = delete;
+  SigintToLibrary& operator=(const SigintToLibrary&) = delete;
+
+  static std::thread::id& mainThread() {
+    static std::thread::id id;
+    return id;
+  }
+
+ private:
+  struct sigaction previous_ = {};
+  bool installed_ = false;
+};
+
+// A Python progress callable behind the library's callback: called with the GIL, its exception
+// kept (and the work asked to stop) to be raised once the call returns.
+struct ProgressBridge {
+  py::object callable;
+  std::mutex mutex;
+  std::optional<py::error_already_set> raised;
+
+  penumbra::api::ProgressCallback callback() {
+    if (callable.is_none()) return {};
+    return [this](const std::string& stage, double fraction) {
+      py::gil_scoped_acquire gil;
+      {
+        std::lock_guard lock(mutex);
+        if (raised) return;
+      }
+      try {
+        callable(stage, fraction);
+      } catch (py::error_already_set& e) {
+        std::lock_guard lock(mutex);
+        raised.emplace(std::move(e));
+        penumbra::api::requestInterrupt();
+      }
+    };
+  }
+  // Raises what the callable raised, if it did.
+  void rethrow() {
+    if (raised) {
+      py::error_already_set e = std::move(*raised);
+      raised.reset();
+      throw e;
+    }
+  }
+  ~ProgressBridge() {
+    py::gil_scoped_acquire gil;
+    raised.reset();
+    callable = py::none();
+  }
+};
+
+[[noreturn]] void raiseKeyboardInterrupt() {
+  PyErr_SetNone(PyExc_KeyboardInterrupt);
+  throw py::error_already_set();
+}
+
+// Runs a render or bake with the GIL released; Ctrl-C raises KeyboardInterrupt once the work has
+// stopped (progressive radiosity has then written its checkpoint, as the CLI does).
+py::tuple runCommand(penumbra::api::Result (*command)(const penumbra::api::Scene&,
+                                                      const std::vector<std::string>&,
+                                                      const penumbra::api::ProgressCallback&),
+                     const penumbra::api::Scene& scene, const std::vector<std::string>& options,
+                     py::object progress) {
+  ProgressBridge bridge{std::move(progress)};
+  penumbra::api::Result result;
+  bool interrupted = false;
+  {
+    SigintToLibrary sigint;
+    py::gil_scoped_release release;
+    try {
+      result = command(scene, options, bridge.callback());
+      interrupted = result.interrupted;
+    } catch (const penumbra::api::Error& e) {
+      if (e.kind() != ErrorKind::kInterrupted) {
+        py::gil_scoped_acquire gil;
+        bridge.rethrow();  // the callable's own exception stopped the work
+        throw;
+      }
+      interrupted = true;
+    }
+  }
+  bridge.rethrow();
+  if (interrupted) raiseKeyboardInterrupt();
+  py::list images;
+  for (penumbra::api::Image& image : result.images) images.append(imageArray(std::move(image)));
+  return py::make_tuple(images, result.stats_json);
+}
+
+}  // namespace
+
+PYBIND11_MODULE(_penumbra, m) {
+  m.doc() = "Penumbra's library: scenes, renders, bakes, rays and images (docs/python.md)";
+  SigintToLibrary::mainThread() = std::this_thread::get_id();
+
+  static py::exception<penumbra::api::Error> error(m, "Error", PyExc_RuntimeError);
+  g_error = error.ptr();
+  py::object input_error_type = py::reinterpret_steal<py::object>(
+      PyErr_NewException("penumbra._penumbra.InputError",
+                         py::make_tuple(error, py::handle(PyExc_ValueError)).ptr(), nullptr));
+  g_input_error = input_error_type.ptr();
+  m.attr("InputError") = input_error_type;
+  py::register_exception_translator([](std::exception_ptr p) {
+    try {
+      if (p) std::rethrow_exception(p);
+    } catch (const penumbra::api::Error& e) {
+      if (e.kind() == ErrorKind::kInterrupted) {
+        PyErr_SetNone(PyExc_KeyboardInterrupt);
+        return;
+      }
+      PyObject* type = e.kind() == ErrorKind::kInput ? g_input_error : g_error;
+      py::object instance = py::reinterpret_borrow<py::object>(type)(e.what());
+      const char* kind = e.kind() == ErrorKind::kInput     ? "input"
+                         : e.kind() == ErrorKind::kRuntime ? "runtime"
+                                                           : "internal";
+      instance.attr("kind") = kind;
+      instance.attr("exit_code") = e.exitCode();
+      PyErr_SetObject(type, instance.ptr());
+    }
+  });
+
+  m.def("version", &penumbra::api::version);
+
+  py::class_<penumbra::api::Scene>(m, "Scene")
+      .def_static("load", &penumbra::api::Scene::load, py::arg("name_or_path"),
+                  py::call_guard<py::gil_scoped_release>())
+      .def_static(
+          "from_arrays",
+          [](py::array_t<float, py::array::c_style | py::array::forcecast> positions,
+             py::array_t<uint32_t, py::array::c_style | py::array::forcecast> indices,
+             std::optional<py::array_t<uint32_t, py::array::c_style | py::array::forcecast>>
+                 material_ids,
+             const std::string& description, const std::string& source) {
+            if (positions.ndim() != 2 || positions.shape(1) != 3) {
+              throw penumbra::api::Error(ErrorKind::kInput,
+                                         source + ": positions must be an N x 3 array");
+            }
+            if (indices.ndim() != 2 || indices.shape(1) != 3) {
+              throw penumbra::api::Error(ErrorKind::kInput,
+                                         source + ": indices must be a T x 3 array");
+            }
+            std::span<const uint32_t> ids;
+            if (material_ids) {
+              if (material_ids->ndim() != 1) {
+                throw penumbra::api::Error(ErrorKind::kInput,
+                                           source + ": material_ids must be a 1-D array");
+              }
+              ids = {material_ids->data(), size_t(material_ids->size())};
+            }
+            const std::span<const float> p(positions.data(), size_t(positions.size()));
+            const std::span<const uint32_t> t(indices.data(), size_t(indices.size()));
+            py::gil_scoped_release release;
+            return penumbra::api::Scene::fromArrays(p, t, ids, description, source);
+          },
+          py::arg("positions"), py::arg("indices"), py::arg("material_ids") = py::none(),
+          py::arg("description") = "", py::arg("source") = "arrays")
+      .def_property_readonly("source", &penumbra::api::Scene::source)
+      .def_property_readonly("triangle_count", &penumbra::api::Scene::triangleCount)
+      .def_property_readonly("vertex_count", &penumbra::api::Scene::vertexCount)
+      .def_property_readonly("light_count", &penumbra::api::Scene::lightCount)
+      .def_property_readonly("material_count", &penumbra::api::Scene::materialCount)
+      .def_property_readonly("warnings", &penumbra::api::Scene::warnings)
+      .def("flat_positions",
+           [](const penumbra::api::Scene& s) {
+             std::vector<float> p = s.flatPositions();
+             const py::ssize_t n = py::ssize_t(p.size() / 3);
+             return ownedArray(std::move(p), {n, 3});
+           })
+      .def("flat_indices",
+           [](const penumbra::api::Scene& s) {
+             std::vector<uint32_t> t = s.flatIndices();
+             const py::ssize_t n = py::ssize_t(t.size() / 3);
+             return ownedArray(std::move(t), {n, 3});
+           })
+      .def("__repr__", [](const penumbra::api::Scene& s) {
+        return "<penumbra.Scene '" + s.source() + "': " + std::to_string(s.triangleCount()) +
+               " triangles, " + std::to_string(s.lightCount()) + " lights>";
+      });
+
+  m.def(
+      "_render",
+      [](const penumbra::api::Scene& scene, const std::vector<std::string>& options,
+         py::object progress) {
+        return runCommand(&penumbra::api::render, scene, options, std::move(progress));
+      },
+      py::arg("scene"), py::arg("options"), py::arg("progress") = py::none());
+  m.def(
+      "_bake",
+      [](const penumbra::api::Scene& scene, const std::vector<std::string>& options,
+         py::object progress) {
+        return runCommand(&penumbra::api::bake, scene, options, std::move(progress));
+      },
+      py::arg("scene"), py::arg("options"), py::arg("progress") = py::none());
+
+  m.def(
+      "_trace",
+      [](const penumbra::api::Scene& scene,
+         py::array_t<float, py::array::c_style | py::array::forcecast> rays,
+         const std::string& device, bool occlusion, int threads, uint32_t t_min, uint32_t t_max,
+         uint32_t r_min, uint32_t cache_rays) {
+        if (rays.ndim() != 2 || rays.shape(1) != 8) {
+          throw penumbra::api::Error(
+              ErrorKind::kInput,
+              "rays must be an N x 8 float32 array (ox oy oz tmin dx dy dz tmax)");
+        }
+        penumbra::api::TraceOptions options;
+        options.device = device;
+        options.occlusion = occlusion;
+        options.threads = threads;
+        options.t_min = t_min;
+        options.t_max = t_max;
+        options.r_min = r_min;
+        options.cache_rays = cache_rays;
+        // Read in place: a C-contiguous float32 array is not copied on the way in.
+        const std::span<const float> values(rays.data(), size_t(rays.size()));
+        penumbra::api::Hits hits;
+        {
+          SigintToLibrary sigint;
+          py::gil_scoped_release release;
+          hits = penumbra::api::trace(scene, values, options);
+        }
+        py::dict out;
+        const py::ssize_t n = rays.shape(0);
+        if (occlusion) {
+          out["occluded"] = ownedArray(std::move(hits.occluded), {n}).attr("astype")("bool");
+        } else {
+          out["triangle"] = ownedArray(std::move(hits.triangle), {n});
+          out["t"] = ownedArray(std::move(hits.t), {n});
+          out["u"] = ownedArray(std::move(hits.u), {n});
+          out["v"] = ownedArray(std::move(hits.v), {n});
+        }
+        out["stats"] = hits.stats_json;
+        return out;
+      },
+      py::arg("scene"), py::arg("rays"), py::arg("device") = "auto", py::arg("occlusion") = false,
+      py::arg("threads") = 0, py::arg("t_min") = 64, py::arg("t_max") = 1024,
+      py::arg("r_min") = 256, py::arg("cache_rays") = 0);
+
+  m.def(
+      "_read_image",
+      [](const std::string& path) {
+        penumbra::api::Image image;
+        {
+          py::gil_scoped_release release;
+          image = penumbra::api::readImage(path);
+        }
+        return imageArray(std::move(image));
+      },
+      py::arg("path"));
+  m.def(
+      "_write_image",
+      [](const std::string& path, py::array_t<float, py::array::c_style | py::array::forcecast> a,
+         const std::string& tonemap, double exposure) {
+        if (a.ndim() != 3 || a.shape(2) != 3) {
+          throw penumbra::api::Error(ErrorKind::kInput,
+                                     path + ": the image must be an H x W x 3 array");
+        }
+        penumbra::api::Image image;
+        image.height = int(a.shape(0));
+        image.width = int(a.shape(1));
+        image.rgb.assign(a.data(), a.data() + a.size());
+        py::gil_scoped_release release;
+        penumbra::api::writeImage(path, image, tonemap, exposure);
+      },
+      py::arg("path"), py::arg("image"), py::arg("tonemap") = "reinhard",
+      py::arg("exposure") = 0.0);
+}

@@ -1,0 +1,334 @@
+// The public API (penumbra.h): each call runs the CLI's command of the same name in a session
+// (app/session.h), so that options, checks, defaults and messages are the command line's.
+#include "penumbra/penumbra.h"
+
+#include "penumbra/app/commands.h"
+#include "penumbra/app/session.h"
+#include "penumbra/app/trace_run.h"
+#include "penumbra/core/check.h"
+#include "penumbra/core/interrupt.h"
+#include "penumbra/core/log.h"
+#include "penumbra/core/parallel.h"
+#include "penumbra/core/progress.h"
+#include "penumbra/io/image_io.h"
+#include "penumbra/io/ray_file.h"
+#include "penumbra/io/scene_io.h"
+#include "penumbra/scene/scene.h"
+
+#include <fmt/format.h>
+
+#include <cmath>
+#include <csignal>
+#include <limits>
+#include <mutex>
+#include <new>
+
+namespace penumbra::api {
+
+namespace {
+
+Error toApiError(const penumbra::Error& e) {
+  return Error(e.kind == penumbra::ErrorKind::kInput ? ErrorKind::kInput : ErrorKind::kRuntime,
+               e.describe());
+}
+
+Image toApiImage(const penumbra::Image& image) {
+  Image out;
+  out.width = image.width;
+  out.height = image.height;
+  out.rgb.resize(image.pixels.size() * 3);
+  for (size_t i = 0; i < image.pixels.size(); ++i) {
+    out.rgb[3 * i] = image.pixels[i].x;
+    out.rgb[3 * i + 1] = image.pixels[i].y;
+    out.rgb[3 * i + 2] = image.pixels[i].z;
+  }
+  return out;
+}
+
+// One call at a time: a session, the progress observer and the interrupt flag are the process's.
+std::mutex& callMutex() {
+  static std::mutex m;
+  return m;
+}
+
+// What a call holds while it runs: the lock, the caller's progress callback (and stops at an
+// interrupt request), a request made before the call forgotten and one made during it kept.
+class CallScope {
+ public:
+  explicit CallScope(const ProgressCallback& progress) : lock_(callMutex()) {
+    clearInterrupt();
+    keepInterruptRequests(true);
+    observer_.report = progress;
+    observer_.stop_on_interrupt = true;
+    setProgressObserver(&observer_);
+  }
+  ~CallScope() {
+    setProgressObserver(nullptr);
+    keepInterruptRequests(false);
+  }
+  CallScope(const CallScope&) = delete;
+  CallScope& operator=(const CallScope&) = delete;
+
+ private:
+  std::lock_guard<std::mutex> lock_;
+  ProgressObserver observer_;
+};
+
+// Runs `work`, turning what it throws into Error.
+template <typename Work>
+auto guarded(Work&& work) -> decltype(work()) {
+  try {
+    return work();
+  } catch (const Error&) {
+    throw;
+  } catch (const Interrupted&) {
+    throw Error(ErrorKind::kInterrupted, "interrupted");
+  } catch (const InternalError& e) {
+    throw Error(ErrorKind::kInternal, e.what());
+  } catch (const std::bad_alloc&) {
+    throw Error(ErrorKind::kRuntime, "out of memory");
+  } catch (const std::exception& e) {
+    throw Error(ErrorKind::kRuntime, e.what());
+  }
+}
+
+// The name a command is given for the scene: what its default file names derive from.
+std::string commandSceneName(const penumbra::Scene& scene) {
+  const std::string& source = scene.source;
+  return source.starts_with("builtin:") ? source.substr(8) : source;
+}
+
+Result runCommand(const char* command, const Scene& scene, const std::vector<std::string>& options,
+                  const ProgressCallback& progress) {
+  return guarded([&] {
+    CallScope call(progress);
+    CommandSession session;
+    session.scene =
+        std::shared_ptr<const penumbra::Scene>(std::shared_ptr<void>(), &scene.internal());
+    const SessionScope open(session);
+    std::vector<std::string> args = {"penumbra", command, commandSceneName(scene.internal())};
+    args.insert(args.end(), options.begin(), options.end());
+    const int code = runCommandLine(args);
+    if (session.error) throw toApiError(*session.error);
+    Result result;
+    if (code == 130 || code == 143) {
+      result.interrupted = true;
+    } else if (code != 0) {
+      throw Error(ErrorKind::kRuntime, fmt::format("{} failed (exit code {})", command, code));
+    }
+    for (const penumbra::Image& image : session.images) result.images.push_back(toApiImage(image));
+    if (!session.stats.is_null()) result.stats_json = session.stats.dump();
+    return result;
+  });
+}
+
+}  // namespace
+
+std::string version() {
+  return PENUMBRA_VERSION;
+}
+
+Error::Error(ErrorKind kind, const std::string& message)
+    : std::runtime_error(message), kind_(kind) {}
+
+int Error::exitCode() const {
+  switch (kind_) {
+    case ErrorKind::kInput:
+      return 2;
+    case ErrorKind::kInterrupted:
+      return kInterruptedExitCode;
+    default:
+      return 1;
+  }
+}
+
+Scene::Scene() : impl_(std::make_shared<const penumbra::Scene>()) {}
+
+Scene Scene::load(const std::string& name_or_path) {
+  return guarded([&] {
+    Expected<penumbra::Scene> loaded = loadScene(name_or_path);
+    if (!loaded) throw toApiError(loaded.error());
+    Scene s;
+    s.impl_ = std::make_shared<const penumbra::Scene>(std::move(*loaded));
+    return s;
+  });
+}
+
+Scene Scene::fromArrays(std::span<const float> positions, std::span<const uint32_t> indices,
+                        std::span<const uint32_t> material_ids, const std::string& description,
+                        const std::string& source) {
+  return guarded([&] {
+    if (positions.size() % 3 != 0) {
+      throw Error(ErrorKind::kInput, fmt::format("{}: positions: {} values is not three per vertex",
+                                                 source, positions.size()));
+    }
+    if (indices.size() % 3 != 0) {
+      throw Error(ErrorKind::kInput, fmt::format("{}: indices: {} values is not three per triangle",
+                                                 source, indices.size()));
+    }
+    const size_t triangles = indices.size() / 3;
+    if (!material_ids.empty() && material_ids.size() != triangles) {
+      throw Error(ErrorKind::kInput, fmt::format("{}: material_ids: {} ids for {} triangles",
+                                                 source, material_ids.size(), triangles));
+    }
+    // The mesh joins the description's scene before it is checked as a loaded file is: finite
+    // positions, indices and material ids in range, a mesh with some area.
+    const auto add_mesh = [&](penumbra::Scene& scene) {
+      if (scene.materials.empty()) scene.materials.push_back(Material{.name = "default"});
+      if (triangles == 0) return;
+      Mesh mesh;
+      mesh.name = source;
+      mesh.positions.resize(positions.size() / 3);
+      for (size_t v = 0; v < mesh.positions.size(); ++v) {
+        mesh.positions[v] = {positions[3 * v], positions[3 * v + 1], positions[3 * v + 2]};
+      }
+      mesh.triangles.resize(triangles);
+      mesh.material_ids.resize(triangles, 0);
+      for (size_t t = 0; t < triangles; ++t) {
+        mesh.triangles[t] = {indices[3 * t], indices[3 * t + 1], indices[3 * t + 2]};
+        if (!material_ids.empty()) mesh.material_ids[t] = material_ids[t];
+      }
+      scene.meshes.push_back(std::move(mesh));
+    };
+    Expected<penumbra::Scene> parsed =
+        parseSceneJson(source, description.empty() ? std::string("{}") : description, add_mesh);
+    if (!parsed) throw toApiError(parsed.error());
+    penumbra::Scene scene = std::move(*parsed);
+    Scene s;
+    s.impl_ = std::make_shared<const penumbra::Scene>(std::move(scene));
+    return s;
+  });
+}
+
+const std::string& Scene::source() const {
+  return impl_->source;
+}
+size_t Scene::triangleCount() const {
+  return impl_->triangleCount();
+}
+size_t Scene::vertexCount() const {
+  return impl_->vertexCount();
+}
+size_t Scene::lightCount() const {
+  return impl_->lights.size();
+}
+size_t Scene::materialCount() const {
+  return impl_->materials.size();
+}
+std::vector<std::string> Scene::warnings() const {
+  return impl_->warnings;
+}
+
+std::vector<float> Scene::flatPositions() const {
+  const FlatTriangles flat = flattenScene(*impl_);
+  std::vector<float> out(flat.positions.size() * 3);
+  for (size_t i = 0; i < flat.positions.size(); ++i) {
+    for (int k = 0; k < 3; ++k) out[3 * i + size_t(k)] = flat.positions[i][k];
+  }
+  return out;
+}
+
+std::vector<uint32_t> Scene::flatIndices() const {
+  const FlatTriangles flat = flattenScene(*impl_);
+  std::vector<uint32_t> out(flat.triangles.size() * 3);
+  for (size_t i = 0; i < flat.triangles.size(); ++i) {
+    for (int k = 0; k < 3; ++k) out[3 * i + size_t(k)] = flat.triangles[i][k];
+  }
+  return out;
+}
+
+Result render(const Scene& scene, const std::vector<std::string>& options,
+              const ProgressCallback& progress) {
+  return runCommand("render", scene, options, progress);
+}
+
+Result bake(const Scene& scene, const std::vector<std::string>& options,
+            const ProgressCallback& progress) {
+  return runCommand("bake", scene, options, progress);
+}
+
+Hits trace(const Scene& scene, std::span<const float> rays, const TraceOptions& options) {
+  return guarded([&] {
+    CallScope call({});
+    if (rays.size() % 8 != 0) {
+      throw Error(ErrorKind::kInput,
+                  fmt::format("rays: {} values is not eight per ray (ox oy oz tmin dx dy dz tmax)",
+                              rays.size()));
+    }
+    if (options.threads < 0) {
+      throw Error(ErrorKind::kInput, fmt::format("threads {} is negative", options.threads));
+    }
+    Expected<RayBatch> batch = decodeRays("rays", rays.data(), rays.size() / 8);
+    if (!batch) throw toApiError(batch.error());
+    penumbra::TraceOptions to;
+    to.device = options.device;
+    to.occlusion = options.occlusion;
+    to.t_min = options.t_min;
+    to.t_max = options.t_max;
+    to.r_min = options.r_min;
+    if (options.cache_rays > 0) to.cache_rays = options.cache_rays;
+    const auto thread_limit = limitThreads(options.threads);
+    Expected<TraceRun> run = traceScene(scene.internal(), *batch, to, /*dry_run=*/false);
+    if (!run) throw toApiError(run.error());
+    Hits hits;
+    hits.stats_json = run->stats.dump();
+    if (options.occlusion) {
+      hits.occluded = std::move(run->occluded);
+      return hits;
+    }
+    // As the hit file has them (io/ray_file.h): a miss is triangle -1, t infinite, u = v = 0.
+    const size_t n = run->hits.size();
+    hits.triangle.resize(n);
+    hits.t.resize(n);
+    hits.u.resize(n);
+    hits.v.resize(n);
+    for (size_t i = 0; i < n; ++i) {
+      Hit h = run->hits.get(i);
+      if (!h.hit()) h = Hit{-1, std::numeric_limits<float>::infinity(), 0.0f, 0.0f};
+      hits.triangle[i] = h.triangle, hits.t[i] = h.t, hits.u[i] = h.u, hits.v[i] = h.v;
+    }
+    return hits;
+  });
+}
+
+Image readImage(const std::string& path) {
+  return guarded([&] {
+    Expected<penumbra::Image> image = penumbra::readImage(path);
+    if (!image) throw toApiError(image.error());
+    return toApiImage(*image);
+  });
+}
+
+void writeImage(const std::string& path, const Image& image, const std::string& tonemap,
+                double exposure) {
+  guarded([&] {
+    if (image.width < 1 || image.height < 1 ||
+        image.rgb.size() != size_t(image.width) * size_t(image.height) * 3) {
+      throw Error(ErrorKind::kInput,
+                  fmt::format("{}: the image is {} x {} with {} values (three per pixel needed)",
+                              path, image.width, image.height, image.rgb.size()));
+    }
+    if (tonemap != "reinhard" && tonemap != "exposure") {
+      throw Error(ErrorKind::kInput,
+                  fmt::format("tonemap '{}': use reinhard or exposure", tonemap));
+    }
+    if (!std::isfinite(exposure)) {
+      throw Error(ErrorKind::kInput, fmt::format("exposure {} is not finite", exposure));
+    }
+    penumbra::Image linear(image.width, image.height);
+    for (size_t i = 0; i < linear.pixels.size(); ++i) {
+      linear.pixels[i] = {image.rgb[3 * i], image.rgb[3 * i + 1], image.rgb[3 * i + 2]};
+    }
+    ToneMapSettings settings;
+    settings.op = tonemap == "exposure" ? ToneMapOperator::kExposure : ToneMapOperator::kReinhard;
+    settings.exposure_stops = float(exposure);
+    const Status s = penumbra::writeImage(path, linear, settings);
+    if (!s) throw toApiError(s.error());
+  });
+}
+
+void requestInterrupt() {
+  penumbra::requestInterrupt(SIGINT);
+}
+
+}  // namespace penumbra::api
