@@ -3,7 +3,10 @@ BUILD ?= build
 JOBS ?= $(shell nproc)
 CMAKE_FLAGS ?= -DCMAKE_BUILD_TYPE=Release
 
-.PHONY: deps configure build install demo test test-asan test-asan-fast fuzz fuzz-build bench plots format clean
+.PHONY: all deps configure build install demo test test-asan test-asan-fast fuzz fuzz-build bench plots format clean
+
+# `make`: everything, the Python module included (build/python/penumbra).
+all: build
 
 deps:
 	bash scripts/install-deps.sh

@@ -90,6 +90,34 @@ TEST(Sobol, PointsEqualTheConstructionWrittenOut) {
   }
 }
 
+// Every 4-lane kernel this CPU runs, the one chosen at run time for portable builds included,
+// gives the scalar form's bits.
+TEST(Sobol, EveryKernelGivesTheScalarBits) {
+  std::vector<std::pair<const char*, SobolX4Kernel>> kernels = {
+      {"chosen at run time", sobolX4Kernel()}, {"scalar", &owenSobol2DBitsReversedX4Scalar}};
+#if PENUMBRA_SOBOL_X86
+  if (__builtin_cpu_supports("sse4.1") && __builtin_cpu_supports("ssse3")) {
+    kernels.emplace_back("sse4.1", &sobol_simd::x4Sse41);
+    if (__builtin_cpu_supports("gfni")) kernels.emplace_back("gfni", &sobol_simd::x4Gfni);
+  }
+#endif
+  Rng rng(9, 2);
+  for (int t = 0; t < 20000; ++t) {
+    const uint32_t reversed = rng.nextU32();
+    SobolPattern p[4];
+    for (SobolPattern& q : p) q = sobolPattern(rng.nextU32(), uint32_t(t));
+    for (const auto& [name, kernel] : kernels) {
+      SobolBits four[4];
+      kernel(reversed, p, four);
+      for (int k = 0; k < 4; ++k) {
+        const SobolBits one = owenSobol2DBitsReversed(reversed, p[k]);
+        ASSERT_EQ(four[k].x, one.x) << name << " " << t;
+        ASSERT_EQ(four[k].y, one.y) << name << " " << t;
+      }
+    }
+  }
+}
+
 // Each point alone is uniform over the seeds (what keeps the path tracer unbiased): the mean and
 // variance of one index's point across 20,000 patterns are those of U[0, 1), and two patterns'
 // points are uncorrelated.

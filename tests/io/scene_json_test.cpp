@@ -133,6 +133,36 @@ TEST(SceneJsonLoad, TwoSidedIsTheDefaultAndCanBeTurnedOff) {
   EXPECT_TRUE(errorNames(loadSceneJson(bad), bad, "materials.sheet.two_sided"));
 }
 
+// "materials" as an array keeps its order (the order mesh arrays count materials in, penumbra.h:
+// Scene::fromArrays), whatever the names; an object's materials come sorted by name.
+TEST(SceneJsonLoad, MaterialsAsAnArrayKeepTheirOrder) {
+  TempDir dir;
+  dir.write("tri.obj", kTriangleObj);
+  const std::string path = dir.write("scene.json", R"({
+    "materials": [{"name": "zinc", "reflectance": [0.2, 0.2, 0.2]}, {"emission": [1, 2, 3]},
+                  {"name": "amber", "two_sided": false}],
+    "meshes": [{"file": "tri.obj", "material": "amber"}]
+  })");
+  Expected<Scene> s = loadSceneJson(path);
+  ASSERT_TRUE(s.ok()) << s.error().describe();
+  ASSERT_EQ(s->materials.size(), 3u);
+  EXPECT_EQ(s->materials[0].name, "zinc");
+  EXPECT_FLOAT_EQ(s->materials[0].reflectance.x, 0.2f);
+  EXPECT_EQ(s->materials[1].name, "material 1");
+  EXPECT_FLOAT_EQ(s->materials[1].emission.z, 3.0f);
+  EXPECT_EQ(s->materials[2].name, "amber");
+  EXPECT_EQ(s->meshes[0].material_ids[0], 2u);
+  const std::string twice = dir.write("twice.json", R"({
+    "materials": [{"name": "a"}, {"name": "a"}], "meshes": [{"file": "tri.obj"}]})");
+  EXPECT_TRUE(errorNames(loadSceneJson(twice), twice, "materials[1].name"));
+  const std::string bad = dir.write("bad.json", R"({
+    "materials": [{"name": "a", "reflectance": [2, 0, 0]}], "meshes": [{"file": "tri.obj"}]})");
+  EXPECT_TRUE(errorNames(loadSceneJson(bad), bad, "materials[0].reflectance"));
+  const std::string neither = dir.write("neither.json", R"({
+    "materials": "grey", "meshes": [{"file": "tri.obj"}]})");
+  EXPECT_TRUE(errorNames(loadSceneJson(neither), neither, "materials"));
+}
+
 // "environment": a colour or one number for grey, 0 when absent; negative values and values a
 // float cannot hold are refused with the key path (JSON itself has no infinities).
 TEST(SceneJsonLoad, EnvironmentIsAColourOrOneGreyNumber) {

@@ -15,9 +15,11 @@
 
 #include <cstdint>
 
-#if defined(__SSE4_1__) && defined(__SSSE3__)
+#if defined(__x86_64__) || defined(__i386__)
 #include <immintrin.h>
-#define PENUMBRA_SOBOL_SIMD 1
+#define PENUMBRA_SOBOL_X86 1
+#else
+#define PENUMBRA_SOBOL_X86 0
 #endif
 
 namespace penumbra {
@@ -102,25 +104,37 @@ inline SobolBits owenSobol2DBits(uint32_t index, const SobolPattern& p) {
   return owenSobol2DBitsReversed(reverseBits32(index), p);
 }
 
-#ifdef PENUMBRA_SOBOL_SIMD
+#if PENUMBRA_SOBOL_X86
+// The 4-lane form in SSE4.1 + SSSE3, and with GFNI for the bit reversals. Each is compiled for
+// its instruction set whatever the build's -march (target attributes), so a portable build
+// still runs them, chosen at run time (owenSobol2DBitsReversedX4); a build for a machine that
+// has them inlines them.
 namespace sobol_simd {
 
-inline __m128i reverseBits(__m128i v) {
-  v = _mm_shuffle_epi8(v, _mm_setr_epi8(3, 2, 1, 0, 7, 6, 5, 4, 11, 10, 9, 8, 15, 14, 13, 12));
-#ifdef __GFNI__
-  // The bits of each byte reversed: the affine map over GF(2) by the anti-diagonal matrix.
-  return _mm_gf2p8affine_epi64_epi8(v, _mm_set1_epi64x(0x8040201008040201ll), 0);
-#else
+#define PENUMBRA_SOBOL_SSE __attribute__((target("sse4.1,ssse3")))
+#define PENUMBRA_SOBOL_GFNI __attribute__((target("gfni,sse4.1,ssse3")))
+
+PENUMBRA_SOBOL_SSE inline __m128i byteSwap(__m128i v) {
+  return _mm_shuffle_epi8(v, _mm_setr_epi8(3, 2, 1, 0, 7, 6, 5, 4, 11, 10, 9, 8, 15, 14, 13, 12));
+}
+
+// Bit reversal: a byte swap, then the bits within each byte by a table of nibbles...
+PENUMBRA_SOBOL_SSE inline __m128i reverseBitsShuffle(__m128i v) {
+  v = byteSwap(v);
   const __m128i nibble =
       _mm_setr_epi8(0x0, 0x8, 0x4, 0xc, 0x2, 0xa, 0x6, 0xe, 0x1, 0x9, 0x5, 0xd, 0x3, 0xb, 0x7, 0xf);
   const __m128i low = _mm_set1_epi8(0x0f);
   const __m128i lo = _mm_shuffle_epi8(nibble, _mm_and_si128(v, low));
   const __m128i hi = _mm_shuffle_epi8(nibble, _mm_and_si128(_mm_srli_epi16(v, 4), low));
   return _mm_or_si128(_mm_slli_epi16(lo, 4), hi);
-#endif
 }
 
-inline __m128i laineKarras(__m128i x, __m128i seed) {
+// ... or by the affine map over GF(2) with the anti-diagonal matrix.
+PENUMBRA_SOBOL_GFNI inline __m128i reverseBitsGfni(__m128i v) {
+  return _mm_gf2p8affine_epi64_epi8(byteSwap(v), _mm_set1_epi64x(0x8040201008040201ll), 0);
+}
+
+PENUMBRA_SOBOL_SSE inline __m128i laineKarras(__m128i x, __m128i seed) {
   x = _mm_add_epi32(x, seed);
   x = _mm_xor_si128(x, _mm_mullo_epi32(x, _mm_set1_epi32(int(0x6c50b47cu))));
   x = _mm_xor_si128(x, _mm_mullo_epi32(x, _mm_set1_epi32(int(0xb82f1e52u))));
@@ -129,7 +143,7 @@ inline __m128i laineKarras(__m128i x, __m128i seed) {
   return x;
 }
 
-inline __m128i dimension1Reversed(__m128i r) {
+PENUMBRA_SOBOL_SSE inline __m128i dimension1Reversed(__m128i r) {
   r = _mm_xor_si128(r, _mm_and_si128(_mm_srli_epi32(r, 1), _mm_set1_epi32(0x55555555)));
   r = _mm_xor_si128(r, _mm_and_si128(_mm_srli_epi32(r, 2), _mm_set1_epi32(0x33333333)));
   r = _mm_xor_si128(r, _mm_and_si128(_mm_srli_epi32(r, 4), _mm_set1_epi32(0x0f0f0f0f)));
@@ -137,31 +151,72 @@ inline __m128i dimension1Reversed(__m128i r) {
   return _mm_xor_si128(r, _mm_srli_epi32(r, 16));
 }
 
-}  // namespace sobol_simd
-#endif
+struct Lanes {
+  __m128i shuffle, s0, s1;
+};
+PENUMBRA_SOBOL_SSE inline Lanes lanes(const SobolPattern (&p)[4]) {
+  return {
+      _mm_setr_epi32(int(p[0].shuffle), int(p[1].shuffle), int(p[2].shuffle), int(p[3].shuffle)),
+      _mm_setr_epi32(int(p[0].scramble0), int(p[1].scramble0), int(p[2].scramble0),
+                     int(p[3].scramble0)),
+      _mm_setr_epi32(int(p[0].scramble1), int(p[1].scramble1), int(p[2].scramble1),
+                     int(p[3].scramble1))};
+}
 
-// Point `reversed_index` (as owenSobol2DBitsReversed) of four patterns at once: what a path
-// vertex needs for all its decisions, in one pass of 4-lane integer SIMD where the machine has
-// it.
-inline void owenSobol2DBitsReversedX4(uint32_t reversed_index, const SobolPattern (&p)[4],
-                                      SobolBits (&out)[4]) {
-#ifdef PENUMBRA_SOBOL_SIMD
-  using namespace sobol_simd;
-  const __m128i shuffle =
-      _mm_setr_epi32(int(p[0].shuffle), int(p[1].shuffle), int(p[2].shuffle), int(p[3].shuffle));
-  const __m128i s0 = _mm_setr_epi32(int(p[0].scramble0), int(p[1].scramble0), int(p[2].scramble0),
-                                    int(p[3].scramble0));
-  const __m128i s1 = _mm_setr_epi32(int(p[0].scramble1), int(p[1].scramble1), int(p[2].scramble1),
-                                    int(p[3].scramble1));
-  const __m128i i = reverseBits(laineKarras(_mm_set1_epi32(int(reversed_index)), shuffle));
-  const __m128i x = reverseBits(laineKarras(i, s0));
-  const __m128i y = reverseBits(laineKarras(dimension1Reversed(i), s1));
+PENUMBRA_SOBOL_SSE inline void store(__m128i x, __m128i y, SobolBits (&out)[4]) {
   alignas(16) uint32_t xs[4], ys[4];
   _mm_store_si128(reinterpret_cast<__m128i*>(xs), x);
   _mm_store_si128(reinterpret_cast<__m128i*>(ys), y);
   for (int k = 0; k < 4; ++k) out[k] = {xs[k], ys[k]};
-#else
+}
+
+// The two kernels differ only in the bit reversal.
+PENUMBRA_SOBOL_SSE inline void x4Sse41(uint32_t reversed_index, const SobolPattern (&p)[4],
+                                       SobolBits (&out)[4]) {
+  const Lanes l = lanes(p);
+  const __m128i i = reverseBitsShuffle(laineKarras(_mm_set1_epi32(int(reversed_index)), l.shuffle));
+  store(reverseBitsShuffle(laineKarras(i, l.s0)),
+        reverseBitsShuffle(laineKarras(dimension1Reversed(i), l.s1)), out);
+}
+
+PENUMBRA_SOBOL_GFNI inline void x4Gfni(uint32_t reversed_index, const SobolPattern (&p)[4],
+                                       SobolBits (&out)[4]) {
+  const Lanes l = lanes(p);
+  const __m128i i = reverseBitsGfni(laineKarras(_mm_set1_epi32(int(reversed_index)), l.shuffle));
+  store(reverseBitsGfni(laineKarras(i, l.s0)),
+        reverseBitsGfni(laineKarras(dimension1Reversed(i), l.s1)), out);
+}
+
+#undef PENUMBRA_SOBOL_SSE
+#undef PENUMBRA_SOBOL_GFNI
+
+}  // namespace sobol_simd
+#endif
+
+inline void owenSobol2DBitsReversedX4Scalar(uint32_t reversed_index, const SobolPattern (&p)[4],
+                                            SobolBits (&out)[4]) {
   for (int k = 0; k < 4; ++k) out[k] = owenSobol2DBitsReversed(reversed_index, p[k]);
+}
+
+using SobolX4Kernel = void (*)(uint32_t, const SobolPattern (&)[4], SobolBits (&)[4]);
+// The best 4-lane kernel this CPU runs (GFNI, SSE4.1 or scalar), chosen once at run time.
+SobolX4Kernel sobolX4Kernel();
+
+// Point `reversed_index` (as owenSobol2DBitsReversed) of four patterns at once: what a path
+// vertex needs for all its decisions, in one pass of 4-lane integer SIMD where the machine has
+// it. A build whose target has the instructions inlines the kernel; a portable one calls the
+// kernel chosen at run time. Every kernel gives the scalar form's points bit for bit.
+inline void owenSobol2DBitsReversedX4(uint32_t reversed_index, const SobolPattern (&p)[4],
+                                      SobolBits (&out)[4]) {
+#if PENUMBRA_SOBOL_X86 && defined(__GFNI__) && defined(__SSE4_1__) && defined(__SSSE3__)
+  sobol_simd::x4Gfni(reversed_index, p, out);
+#elif PENUMBRA_SOBOL_X86 && defined(__SSE4_1__) && defined(__SSSE3__)
+  sobol_simd::x4Sse41(reversed_index, p, out);
+#elif PENUMBRA_SOBOL_X86
+  static const SobolX4Kernel kernel = sobolX4Kernel();
+  kernel(reversed_index, p, out);
+#else
+  owenSobol2DBitsReversedX4Scalar(reversed_index, p, out);
 #endif
 }
 

@@ -78,9 +78,8 @@ struct Placement {
 
 class SceneJsonReader {
  public:
-  explicit SceneJsonReader(const std::string& path,
-                           const std::function<void(Scene&)>& complete = {})
-      : path_(path), complete_(complete) {}
+  SceneJsonReader(const std::string& path, std::function<void(Scene&)> complete)
+      : path_(path), complete_(std::move(complete)) {}
 
   Expected<Scene> read(const json& root);
 
@@ -118,7 +117,7 @@ class SceneJsonReader {
 
   const std::string& path_;
   // Adds what the caller has in memory (parseSceneJson) before the scene is validated.
-  const std::function<void(Scene&)>& complete_;
+  std::function<void(Scene&)> complete_;
   std::map<std::string, uint32_t> material_index_;
   // The luminaire files read so far (resolved path, tilt): their photometry and LDT.
   std::map<std::pair<std::string, double>,
