@@ -254,7 +254,7 @@ PYBIND11_MODULE(_penumbra, m) {
       [](const penumbra::api::Scene& scene,
          py::array_t<float, py::array::c_style | py::array::forcecast> rays,
          const std::string& device, bool occlusion, int threads, uint32_t t_min, uint32_t t_max,
-         uint32_t r_min, uint32_t cache_rays) {
+         uint32_t r_min, uint32_t cache_rays, bool quiet) {
         if (rays.ndim() != 2 || rays.shape(1) != 8) {
           throw penumbra::api::Error(
               ErrorKind::kInput,
@@ -268,6 +268,7 @@ PYBIND11_MODULE(_penumbra, m) {
         options.t_max = t_max;
         options.r_min = r_min;
         options.cache_rays = cache_rays;
+        options.quiet = quiet;
         // Read in place: a C-contiguous float32 array is not copied on the way in.
         const std::span<const float> values(rays.data(), size_t(rays.size()));
         penumbra::api::Hits hits;
@@ -291,7 +292,7 @@ PYBIND11_MODULE(_penumbra, m) {
       },
       py::arg("scene"), py::arg("rays"), py::arg("device") = "auto", py::arg("occlusion") = false,
       py::arg("threads") = 0, py::arg("t_min") = 64, py::arg("t_max") = 1024,
-      py::arg("r_min") = 256, py::arg("cache_rays") = 0);
+      py::arg("r_min") = 256, py::arg("cache_rays") = 0, py::arg("quiet") = true);
 
   m.def(
       "_read_image",

@@ -208,13 +208,15 @@ def trace(
     t_max: int = 1024,
     r_min: int = 256,
     cache_rays: int = 0,
+    quiet: bool = True,
 ) -> dict:
     """Traces ``rays`` (N x 8 float32: ox oy oz tmin dx dy dz tmax, the ray file's layout, read in
     place when C-contiguous float32) against ``scene``'s triangles, numbered as
     :meth:`Scene.flat_indices` lists them, on ``device`` (cpu, gpu, hybrid or auto, as ``penumbra
-    trace --device``; ``t_min``, ``t_max``, ``r_min``, ``cache_rays`` tune hybrid). Returns ``{"triangle", "t", "u", "v", "stats"}``
-    (triangle -1 and t infinite for a miss) or, with ``occlusion``, ``{"occluded", "stats"}``."""
+    trace --device``; ``t_min``, ``t_max``, ``r_min``, ``cache_rays`` tune hybrid; the log line
+    goes to stderr unless ``quiet``). Returns ``{"triangle", "t", "u", "v", "stats"}`` (triangle -1
+    and t infinite for a miss) or, with ``occlusion``, ``{"occluded", "stats"}``."""
     result = _trace(_scene(scene), rays, device, occlusion, threads, t_min, t_max, r_min,
-                    cache_rays)
+                    cache_rays, quiet)
     result["stats"] = json.loads(result["stats"])
     return result

@@ -255,19 +255,40 @@ def test_bad_arrays_raise_naming_the_place():
         penumbra.trace("cornell", rays, device="cpu")
 
 
+def test_rays_that_would_not_fit_are_refused_before_allocating(tmp_path):
+    # 50M rays (1.6 GB, mapped but never touched) under a 4 GB address-space limit: tracing them
+    # needs 3 GB more, which is refused with the amounts before anything is allocated.
+    script = tmp_path / "big.py"
+    script.write_text(textwrap.dedent("""
+        import resource, numpy as np, penumbra
+        resource.setrlimit(resource.RLIMIT_AS, (4 << 30, 4 << 30))
+        rays = np.zeros((50_000_000, 8), dtype=np.float32)
+        try:
+            penumbra.trace("cornell", rays, device="cpu")
+            print("traced")
+        except penumbra.InputError as e:
+            print(e)
+        """))
+    run = subprocess.run([sys.executable, str(script)], capture_output=True, text=True,
+                         timeout=120)
+    assert run.returncode == 0, run.stderr
+    assert run.stdout.startswith("tracing 50000000 rays needs 3.0 GiB, more than is available"), \
+        run.stdout
+
+
 # --- Ctrl-C ---------------------------------------------------------------------------------
 
 
-def run_interrupted(script, tmp_path, after_s=1.5):
-    """Runs `script` in a fresh interpreter and sends it SIGINT after `after_s` seconds; returns
-    (seconds from the signal to the end, stdout)."""
+def run_interrupted(script, tmp_path, after_s=1.0):
+    """Runs `script` in a fresh interpreter and sends it SIGINT `after_s` seconds after it prints
+    "started" (from its progress callback, once the work proper has begun); returns (seconds from
+    the signal to the end, stdout, stderr, exit code)."""
     path = tmp_path / "script.py"
     path.write_text(textwrap.dedent(script))
-    env = dict(os.environ)
     proc = subprocess.Popen([sys.executable, str(path)], stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True, env=env, cwd=tmp_path)
-    # Wait for the script to say the work has started, then interrupt it.
-    assert proc.stdout.readline().strip() == "started"
+                            stderr=subprocess.PIPE, text=True, cwd=tmp_path)
+    line = proc.stdout.readline().strip()
+    assert line == "started", line + proc.stderr.read()
     time.sleep(after_s)
     proc.send_signal(signal.SIGINT)
     sent = time.monotonic()
@@ -275,38 +296,50 @@ def run_interrupted(script, tmp_path, after_s=1.5):
     return time.monotonic() - sent, out, err, proc.returncode
 
 
+# Prints "started" once the named stage reports progress.
+STARTED = """
+    import penumbra, sys, time
+    announced = False
+    def progress(stage, fraction):
+        global announced
+        if stage == STAGE and not announced:
+            announced = True
+            print("started", flush=True)
+    """
+
+
 def test_ctrl_c_interrupts_a_render_with_keyboard_interrupt(tmp_path):
-    elapsed, out, err, code = run_interrupted("""
-        import penumbra, time
-        print("started", flush=True)
-        start = time.monotonic()
-        try:
-            penumbra.render("cornell", spp=100000, width=256, height=256)
-            print("finished")
-        except KeyboardInterrupt:
-            print("KeyboardInterrupt after", time.monotonic() - start)
-        """, tmp_path)
+    elapsed, out, err, code = run_interrupted(STARTED.replace("STAGE", '"rendering"') + """
+    start = time.monotonic()
+    try:
+        penumbra.render("cornell", spp=100000, width=256, height=256, progress=progress)
+        print("finished")
+    except KeyboardInterrupt:
+        print("KeyboardInterrupt after", time.monotonic() - start)
+    """, tmp_path)
     assert code == 0, err
     assert "KeyboardInterrupt" in out, out + err
-    assert elapsed < 10.0  # stopped at the next row, not at the end of a 100000-spp render
+    assert elapsed < 10.0  # stopped at the next pixel, not at the end of a 100000-spp render
 
 
 def test_ctrl_c_during_a_bake_leaves_its_checkpoint(tmp_path):
-    elapsed, out, err, code = run_interrupted("""
-        import penumbra
-        print("started", flush=True)
-        try:
-            penumbra.bake("cornell", "baked", method="progressive", elements=200000,
-                          tolerance=1e-9, iterations=1000000)
-            print("finished")
-        except KeyboardInterrupt:
-            print("KeyboardInterrupt")
-        """, tmp_path, after_s=3.0)
+    elapsed, out, err, code = run_interrupted(STARTED.replace("STAGE", '"shooting"') + """
+    try:
+        penumbra.bake("cornell", "baked", method="progressive", elements=200000,
+                      tolerance=1e-9, iterations=1000000, progress=progress)
+        print("finished")
+    except KeyboardInterrupt:
+        print("KeyboardInterrupt")
+    """, tmp_path)
     assert code == 0, err
     assert "KeyboardInterrupt" in out, out + err
     checkpoints = list((tmp_path / "baked").glob("*.checkpoint"))
     assert len(checkpoints) == 1, sorted(p.name for p in (tmp_path / "baked").iterdir())
     assert checkpoints[0].stat().st_size > 0
+    # The checkpoint continues the bake, as the CLI's does.
+    resumed = penumbra.bake("cornell", tmp_path / "baked", method="progressive", elements=200000,
+                            resume=checkpoints[0], iterations=5)
+    assert resumed.lightmap is not None and resumed.lightmap.max() > 0
 
 
 # --- the README ---------------------------------------------------------------------------

@@ -125,6 +125,7 @@ struct TraceOptions {
   std::string device = "auto";  // cpu, gpu, hybrid or auto, as --device
   bool occlusion = false;       // any hit: fills `occluded` instead of the closest hits
   int threads = 0;              // 0: every core
+  bool quiet = true;            // false: the CLI's log line (rays, hits, Mrays/s) on stderr
   // hybrid: as --t-min, --t-max, --r-min and --cache-rays (0: the default, 4 r_min).
   uint32_t t_min = 64, t_max = 1024, r_min = 256, cache_rays = 0;
 };

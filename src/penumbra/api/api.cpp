@@ -8,6 +8,7 @@
 #include "penumbra/core/check.h"
 #include "penumbra/core/interrupt.h"
 #include "penumbra/core/log.h"
+#include "penumbra/core/memory.h"
 #include "penumbra/core/parallel.h"
 #include "penumbra/core/progress.h"
 #include "penumbra/io/image_io.h"
@@ -258,7 +259,12 @@ Hits trace(const Scene& scene, std::span<const float> rays, const TraceOptions& 
     if (options.threads < 0) {
       throw Error(ErrorKind::kInput, fmt::format("threads {} is negative", options.threads));
     }
-    Expected<RayBatch> batch = decodeRays("rays", rays.data(), rays.size() / 8);
+    // The rays in SoA (32 B), the engine's hits (16 B) and the answers handed back (16 B), before
+    // any of it is allocated.
+    const size_t count = rays.size() / 8;
+    const Status fits = checkMemory(uint64_t(count) * 64, fmt::format("tracing {} rays", count));
+    if (!fits) throw toApiError(fits.error());
+    Expected<RayBatch> batch = decodeRays("rays", rays.data(), count);
     if (!batch) throw toApiError(batch.error());
     penumbra::TraceOptions to;
     to.device = options.device;
@@ -267,6 +273,7 @@ Hits trace(const Scene& scene, std::span<const float> rays, const TraceOptions& 
     to.t_max = options.t_max;
     to.r_min = options.r_min;
     if (options.cache_rays > 0) to.cache_rays = options.cache_rays;
+    initLogging(options.quiet);
     const auto thread_limit = limitThreads(options.threads);
     Expected<TraceRun> run = traceScene(scene.internal(), *batch, to, /*dry_run=*/false);
     if (!run) throw toApiError(run.error());
