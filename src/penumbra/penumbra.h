@@ -146,9 +146,9 @@ void writeImage(const std::string& path, const Image& image,
                 const std::string& tonemap = "reinhard", double exposure = 0.0);
 
 // Asks the running call to stop, as SIGINT asks the CLI: progressive and stochastic radiosity
-// stop after the current step and write what they have; the other methods stop at the next row
-// or step and throw Error(kInterrupted). Async-signal-safe: a caller's SIGINT handler may call
-// it. The request is cleared when the next call starts.
+// stop after the current step and write what they have; the other methods stop at the next pixel
+// (the path tracer) or step and throw Error(kInterrupted). Async-signal-safe: a caller's SIGINT
+// handler may call it. The request is cleared when the next call starts.
 void requestInterrupt();
 
 }  // namespace penumbra::api

@@ -13,7 +13,7 @@ namespace penumbra {
 // `report`, from whichever thread made the progress, at most five times a second per Progress
 // (and once at its end). With `stop_on_interrupt`, add() and reach() throw Interrupted
 // (core/interrupt.h) once a stop is requested, unless an InterruptScope is alive (that work stops
-// cleanly by itself): the other long work then stops at its next row or step.
+// cleanly by itself): the other long work then stops at its next progress step.
 struct ProgressObserver {
   std::function<void(const std::string& label, double fraction)> report;
   bool stop_on_interrupt = false;
