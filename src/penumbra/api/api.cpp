@@ -20,7 +20,6 @@
 
 #include <cmath>
 #include <csignal>
-#include <limits>
 #include <mutex>
 #include <new>
 
@@ -283,15 +282,14 @@ Hits trace(const Scene& scene, std::span<const float> rays, const TraceOptions& 
       hits.occluded = std::move(run->occluded);
       return hits;
     }
-    // As the hit file has them (io/ray_file.h): a miss is triangle -1, t infinite, u = v = 0.
+    // As the hit file has them (io/ray_file.h: reportedHit).
     const size_t n = run->hits.size();
     hits.triangle.resize(n);
     hits.t.resize(n);
     hits.u.resize(n);
     hits.v.resize(n);
     for (size_t i = 0; i < n; ++i) {
-      Hit h = run->hits.get(i);
-      if (!h.hit()) h = Hit{-1, std::numeric_limits<float>::infinity(), 0.0f, 0.0f};
+      const Hit h = reportedHit(run->hits.get(i));
       hits.triangle[i] = h.triangle, hits.t[i] = h.t, hits.u[i] = h.u, hits.v[i] = h.v;
     }
     return hits;

@@ -103,8 +103,7 @@ Expected<HitBatch> readHitFile(const std::string& path) {
 Status writeHitFile(const std::string& path, const HitBatch& hits) {
   std::string bytes(hits.size() * 16, '\0');
   for (size_t i = 0; i < hits.size(); ++i) {
-    Hit h = hits.get(i);
-    if (!h.hit()) h = Hit{-1, std::numeric_limits<float>::infinity(), 0.0f, 0.0f};
+    const Hit h = reportedHit(hits.get(i));
     std::memcpy(bytes.data() + i * 16, &h.triangle, 4);
     std::memcpy(bytes.data() + i * 16 + 4, &h.t, 4);
     std::memcpy(bytes.data() + i * 16 + 8, &h.u, 4);

@@ -7,6 +7,7 @@
 #include "penumbra/raytrace/ray.h"
 
 #include <cstdint>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -19,6 +20,12 @@ Expected<RayBatch> readRayFile(const std::string& path);
 // readRayFile checks them; errors name `source` and the ray.
 Expected<RayBatch> decodeRays(const std::string& source, const void* values, size_t count);
 Status writeRayFile(const std::string& path, const RayBatch& rays);
+
+// A hit as the hit file (and the API, penumbra.h) gives it: a miss is triangle -1, t infinite,
+// u = v = 0, whatever the back end left in its fields.
+inline Hit reportedHit(const Hit& h) {
+  return h.hit() ? h : Hit{-1, std::numeric_limits<float>::infinity(), 0.0f, 0.0f};
+}
 
 Expected<HitBatch> readHitFile(const std::string& path);
 Status writeHitFile(const std::string& path, const HitBatch& hits);
