@@ -20,6 +20,8 @@ packages=(
   python3-matplotlib
   # the Python module (import penumbra) and its tests
   python3-dev pybind11-dev python3-numpy python3-pytest
+  # runs over several processes (mpirun) and their tests
+  libopenmpi-dev openmpi-bin
 )
 
 missing=()

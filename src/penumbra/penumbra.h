@@ -139,6 +139,33 @@ struct Hits {
 };
 Hits trace(const Scene& scene, std::span<const float> rays, const TraceOptions& options = {});
 
+// --- Over several processes (MPI; docs/scaling.md) ---
+//
+// The communicator a call runs over, by its MPI_Comm_c2f handle, so that this header needs no
+// mpi.h: penumbra/penumbra_mpi.h (installed with an MPI build) makes one from an MPI_Comm. The
+// caller initialises MPI (MPI_Init_thread; MPI_THREAD_SERIALIZED or better lets rank 0 hand out
+// work from a thread of its own, else work is dealt out statically) and keeps the communicator
+// alive. A default Communicator is this process alone.
+struct Communicator {
+  int64_t mpi_fortran_handle = -1;
+};
+// Whether this build of the library has MPI (otherwise a call with a communicator of more than
+// one process throws Error{kInput}).
+bool mpiAvailable();
+
+// The calls above over a communicator: every process of it makes the same call with the same
+// scene and options (collective); the work is shared out as the CLI under mpirun shares it, and
+// rank 0 gets the result (the others an empty Result / Hits). The path tracer, `trace`, matrix
+// radiosity with --solver jacobi and progressive radiosity give one process's result bit for
+// bit; --solver gauss-seidel becomes block Gauss-Seidel (docs/scaling.md). For trace, rank 0's
+// rays are traced (the others pass none). Only rank 0 writes files.
+Result render(const Communicator& comm, const Scene& scene,
+              const std::vector<std::string>& options = {}, const ProgressCallback& progress = {});
+Result bake(const Communicator& comm, const Scene& scene,
+            const std::vector<std::string>& options = {}, const ProgressCallback& progress = {});
+Hits trace(const Communicator& comm, const Scene& scene, std::span<const float> rays,
+           const TraceOptions& options = {});
+
 // Images in the formats the CLI reads and writes (.exr, .hdr, .pfm, .png). Writing a .png
 // tone-maps with `tonemap` ("reinhard" or "exposure", as --tonemap) at `exposure` stops.
 Image readImage(const std::string& path);

@@ -42,9 +42,15 @@ version_line=$("$prefix/bin/penumbra" --version)
 [[ $version_line == "penumbra $(sed -n 's/^Version: //p' "$prefix/$libdir/pkgconfig/penumbra.pc")" ]] ||
   fail "the installed CLI says '$version_line'"
 [[ -x $prefix/bin/penumbra-view ]] || fail "the viewer is not installed beside the CLI"
-headers=$(cd "$prefix/include" && find . -type f | sort)
-[[ $headers == "./penumbra/penumbra.h" ]] ||
-  fail "headers other than penumbra.h installed: $headers"
+headers=$(cd "$prefix/include" && find . -type f | sort | tr '\n' ' ')
+# penumbra.h, and with MPI in the build penumbra_mpi.h (an MPI_Comm to the API's communicator).
+[[ $headers == "./penumbra/penumbra.h " || $headers == "./penumbra/penumbra.h ./penumbra/penumbra_mpi.h " ]] ||
+  fail "headers other than penumbra.h (and penumbra_mpi.h) installed: $headers"
+if [[ -f $prefix/include/penumbra/penumbra_mpi.h ]] &&
+  grep -E '^\s*#\s*include' "$prefix/include/penumbra/penumbra_mpi.h" |
+  grep -Ev '^\s*#\s*include\s*<(mpi\.h|penumbra/penumbra\.h)>'; then
+  fail "penumbra_mpi.h includes something other than mpi.h and penumbra.h"
+fi
 # Standard headers only: <name> without a '.' or a '/'.
 if grep -E '^\s*#\s*include' "$prefix/include/penumbra/penumbra.h" |
   grep -Ev '^\s*#\s*include\s*<[a-z_]+>'; then

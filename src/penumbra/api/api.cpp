@@ -5,6 +5,7 @@
 #include "penumbra/app/commands.h"
 #include "penumbra/app/session.h"
 #include "penumbra/app/trace_run.h"
+#include "penumbra/cluster/communicator.h"
 #include "penumbra/core/check.h"
 #include "penumbra/core/interrupt.h"
 #include "penumbra/core/log.h"
@@ -22,6 +23,7 @@
 #include <csignal>
 #include <mutex>
 #include <new>
+#include <optional>
 
 namespace penumbra::api {
 
@@ -91,6 +93,23 @@ auto guarded(Work&& work) -> decltype(work()) {
     throw Error(ErrorKind::kRuntime, e.what());
   }
 }
+
+// The communicator a call with one runs over (cluster/communicator.h), current while it lives.
+class OverCommunicator {
+ public:
+  explicit OverCommunicator(const Communicator& comm) {
+    if (comm.mpi_fortran_handle < 0) return;  // this process alone
+    Expected<std::unique_ptr<penumbra::Communicator>> c =
+        wrapMpiCommunicator(comm.mpi_fortran_handle);
+    if (!c) throw toApiError(c.error());
+    comm_ = std::move(*c);
+    scope_.emplace(*comm_);
+  }
+
+ private:
+  std::unique_ptr<penumbra::Communicator> comm_;
+  std::optional<CommunicatorScope> scope_;
+};
 
 // The name a command is given for the scene: what its default file names derive from.
 std::string commandSceneName(const penumbra::Scene& scene) {
@@ -247,6 +266,28 @@ Result bake(const Scene& scene, const std::vector<std::string>& options,
   return runCommand("bake", scene, options, progress);
 }
 
+bool mpiAvailable() {
+  return mpiBuilt();
+}
+
+Result render(const Communicator& comm, const Scene& scene, const std::vector<std::string>& options,
+              const ProgressCallback& progress) {
+  OverCommunicator over(comm);
+  return render(scene, options, progress);
+}
+
+Result bake(const Communicator& comm, const Scene& scene, const std::vector<std::string>& options,
+            const ProgressCallback& progress) {
+  OverCommunicator over(comm);
+  return bake(scene, options, progress);
+}
+
+Hits trace(const Communicator& comm, const Scene& scene, std::span<const float> rays,
+           const TraceOptions& options) {
+  OverCommunicator over(comm);
+  return trace(scene, rays, options);
+}
+
 Hits trace(const Scene& scene, std::span<const float> rays, const TraceOptions& options) {
   return guarded([&] {
     CallScope call({});
@@ -274,9 +315,18 @@ Hits trace(const Scene& scene, std::span<const float> rays, const TraceOptions& 
     if (options.cache_rays > 0) to.cache_rays = options.cache_rays;
     initLogging(options.quiet);
     const auto thread_limit = limitThreads(options.threads);
-    Expected<TraceRun> run = traceScene(scene.internal(), *batch, to, /*dry_run=*/false);
+    // Over several ranks: rank 0's rays shared out, the answers on rank 0 (app/trace_run.h).
+    penumbra::Communicator& comm = currentCommunicator();
+    if (comm.distributed()) {
+      const Status ready = agreeReady(comm, checkTraceOptions(to));
+      if (!ready) throw toApiError(ready.error());
+    }
+    Expected<TraceRun> run = comm.distributed()
+                                 ? traceOverRanks(comm, scene.internal(), *batch, to)
+                                 : traceScene(scene.internal(), *batch, to, /*dry_run=*/false);
     if (!run) throw toApiError(run.error());
     Hits hits;
+    if (!comm.root()) return hits;
     hits.stats_json = run->stats.dump();
     if (options.occlusion) {
       hits.occluded = std::move(run->occluded);

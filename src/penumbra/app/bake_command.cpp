@@ -14,6 +14,7 @@
 #include "penumbra/app/session.h"
 #include "penumbra/app/stats_file.h"
 #include "penumbra/app/stochastic_run.h"
+#include "penumbra/cluster/communicator.h"
 #include "penumbra/core/file_util.h"
 #include "penumbra/core/interrupt.h"
 #include "penumbra/core/parallel.h"
@@ -113,18 +114,21 @@ struct BakeProduct {
   nlohmann::json extras;  // method-specific asset.extras.penumbra entries
   nlohmann::json stats;   // method-specific --stats entries
   bool interrupted = false;
-  bool dry_run = false;  // --dry-run: planned and checked, nothing solved
+  bool dry_run = false;     // --dry-run: planned and checked, nothing solved
+  bool other_rank = false;  // a rank > 0 of a distributed run: solved, rank 0 writes
 };
 
 Expected<BakeProduct> solveMatrix(const BakeOptions& options, const CommonOptions& common,
-                                  const Scene& scene) {
+                                  const Scene& scene, ReadyGate& gate) {
+  Communicator& comm = currentCommunicator();
   MatrixRadiosityOptions mo;
   mo.elements = options.elements.value_or(kMatrixDefaultElements);
   mo.lightmap.texel_density = options.texel_density;
   mo.lightmap.size = options.lightmap_size;
   if (options.ff_rays) mo.form_factors.rays = *options.ff_rays;
   mo.shading_normals = options.normals == "interpolated";
-  PENUMBRA_TRY(checkMatrixRadiosity(scene, mo));
+  PENUMBRA_TRY(checkMatrixRadiosity(scene, mo, comm.size()));
+  PENUMBRA_TRY(gate.open());
   if (common.dry_run) {
     BakeProduct planned;
     planned.dry_run = true;
@@ -133,13 +137,16 @@ Expected<BakeProduct> solveMatrix(const BakeOptions& options, const CommonOption
   const Timer build_timer;
   std::optional<Progress> ff_progress;
   std::once_flag ff_progress_once;
-  Expected<MatrixRadiosity> built = buildMatrixRadiosity(scene, mo, [&](size_t done, size_t rows) {
-    std::call_once(ff_progress_once, [&] {
-      ff_progress.emplace("form factors", uint64_t(rows),
-                          !common.quiet && Progress::stderrIsTerminal());
-    });
-    ff_progress->reach(done);
-  });
+  Expected<MatrixRadiosity> built = buildMatrixRadiosity(
+      scene, mo,
+      [&](size_t done, size_t rows) {
+        std::call_once(ff_progress_once, [&] {
+          ff_progress.emplace("form factors", uint64_t(rows),
+                              !common.quiet && comm.root() && Progress::stderrIsTerminal());
+        });
+        ff_progress->reach(done);
+      },
+      &comm);
   if (ff_progress) ff_progress->finish();
   if (!built) return built.error();
   MatrixRadiosity& mr = *built;
@@ -155,7 +162,7 @@ Expected<BakeProduct> solveMatrix(const BakeOptions& options, const CommonOption
   so.max_iterations = options.iterations;
   so.tolerance = options.tolerance.value_or(1e-6);
   Progress progress("solving", uint64_t(so.max_iterations),
-                    !common.quiet && Progress::stderrIsTerminal());
+                    !common.quiet && comm.root() && Progress::stderrIsTerminal());
   const SolveStats solved = mr.solve(so, [&](int k, double) { progress.reach(uint64_t(k + 1)); });
   progress.finish();
   if (!solved.converged) {
@@ -168,6 +175,10 @@ Expected<BakeProduct> solveMatrix(const BakeOptions& options, const CommonOption
   // The solution interpolated to the lightmap's elements, the same layout as every method's.
   BakeProduct out;
   const std::vector<glm::dvec3> b = mr.elementRadiosity();
+  if (!comm.root()) {
+    out.other_rank = true;  // rank 0 writes the outputs
+    return out;
+  }
   out.lightmap = mr.surface.radianceImage(b);
   out.mesh = buildLightmapMesh(scene, mr.surface.atlas, out.lightmap);
   std::vector<glm::vec3> radiance(b.size());
@@ -198,6 +209,11 @@ Expected<BakeProduct> solveMatrix(const BakeOptions& options, const CommonOption
                {"converged", solved.converged},
                {"tolerance", so.tolerance},
                {"history", solved.history}};
+  if (comm.distributed()) {
+    out.stats["ranks"] = comm.size();
+    out.stats["mpi"] = comm.describe();
+    out.stats["matrix_bytes_per_rank"] = mr.system->matrixBytes();
+  }
   return out;
 }
 
@@ -243,8 +259,8 @@ Expected<BakeProduct> solveStochastic(const CommonOptions& common, const Scene& 
 // Progressive radiosity (Wallner sec. 2-3): the lightmap is the solution itself, its occupied
 // texels the elements; border texels are filled for bilinear lookups (sec. 3.1).
 Expected<BakeProduct> solveProgressive(const CommonOptions& common, const Scene& scene,
-                                       const ProgressiveRunOptions& ro) {
-  Expected<ProgressiveRun> run = runProgressive(scene, ro, common);
+                                       const ProgressiveRunOptions& ro, ReadyGate& gate) {
+  Expected<ProgressiveRun> run = runProgressive(scene, ro, common, &gate);
   if (!run) return run.error();
   BakeProduct out;
   if (run->dry_run) {
@@ -253,6 +269,10 @@ Expected<BakeProduct> solveProgressive(const CommonOptions& common, const Scene&
   }
   const ProgressiveRadiosity& pr = *run->solver;
   out.interrupted = run->interrupted;
+  if (!currentCommunicator().root()) {
+    out.other_rank = true;  // rank 0 writes the outputs
+    return out;
+  }
   fillFromLightmap(scene, pr.surface(), *run->lightmap, pr.state().radiosity, out);
   out.extras = {{"elements", pr.elementCount()},
                 {"iterations", run->stats.total_iterations},
@@ -262,6 +282,10 @@ Expected<BakeProduct> solveProgressive(const CommonOptions& common, const Scene&
 }
 
 Status bake(const BakeOptions& options, const CommonOptions& common, bool* interrupted) {
+  // Over several processes (mpirun): every rank loads and checks, then they agree to start.
+  Communicator& comm = currentCommunicator();
+  ReadyGate gate(comm);
+  PENUMBRA_TRY(checkDistributedMethod(comm, "bake", options.method));
   // Everything is checked before any work or output.
   const bool stochastic = options.method == "stochastic";
   const bool progressive = options.method == "progressive" || stochastic;
@@ -320,10 +344,14 @@ Status bake(const BakeOptions& options, const CommonOptions& common, bool* inter
     spdlog::warn("{}: no emissive material: the solution is black", scene->source);
   }
   Expected<BakeProduct> product = stochastic    ? solveStochastic(common, *scene, so)
-                                  : progressive ? solveProgressive(common, *scene, ro)
-                                                : solveMatrix(options, common, *scene);
+                                  : progressive ? solveProgressive(common, *scene, ro, gate)
+                                                : solveMatrix(options, common, *scene, gate);
   if (!product) return product.error();
   if (product->dry_run) return {};
+  if (product->other_rank) {
+    *interrupted = product->interrupted;
+    return {};
+  }
   if (product->interrupted) {
     *interrupted = true;
     // The checkpoint is part of what this run leaves, also if the outputs fail.

@@ -1,6 +1,8 @@
 #include "penumbra/app/commands.h"
 #include "penumbra/app/session.h"
+#include "penumbra/cluster/communicator.h"
 
+#include "penumbra/core/file_util.h"
 #include "penumbra/core/interrupt.h"
 #include "penumbra/core/log.h"
 #include "penumbra/core/parallel.h"
@@ -13,6 +15,7 @@
 #include <cstdint>
 
 #include <cerrno>
+#include <csignal>
 #include <cstdio>
 #include <cstring>
 #include <exception>
@@ -26,15 +29,21 @@
 namespace penumbra {
 
 int reportError(const Error& error) {
+  const Communicator& comm = currentCommunicator();
   if (CommandSession* session = CommandSession::current()) {
     session->error = error;  // the caller reports it
-  } else {
+  } else if (comm.root()) {
     std::fprintf(stderr, "penumbra: error: %s\n", error.describe().c_str());
+  } else if (error.report_on_this_rank || thisRankReports()) {
+    // An error rank 0 does not have (cluster/communicator.h: agreeReady); rank 0 names this rank.
+    std::fprintf(stderr, "penumbra: error: rank %d of %d: %s\n", comm.rank(), comm.size(),
+                 error.describe().c_str());
   }
   return error.kind == ErrorKind::kInput ? 2 : 1;
 }
 
 int reportDryRun() {
+  if (!currentCommunicator().root()) return 0;
   std::printf(
       "penumbra: dry run: options, inputs, output paths and memory are fine; nothing was "
       "written\n");
@@ -542,11 +551,18 @@ int parseAndRun(int argc, char** argv) {
 
   render.tonemap.op =
       tonemap == "exposure" ? ToneMapOperator::kExposure : ToneMapOperator::kReinhard;
-  initLogging(common.quiet);
+  // Over several processes only rank 0 logs; the others print only what fails on them alone.
+  const Communicator& comm = currentCommunicator();
+  initLogging(common.quiet || !comm.root());
+  if (!comm.root()) spdlog::set_level(spdlog::level::err);
+  setThisProcessWritesOutputs(comm.root());
   // Signals and the thread limit are the process's: the CLI takes them; a program calling the
   // library through a session keeps its own signal handlers, and the limit lasts for the call.
-  if (!session) installInterruptHandlers();
-  auto thread_limit = limitThreads(common.threads);
+  if (!session) {
+    installInterruptHandlers();
+    if (comm.distributed()) interruptSignalsEndDistributedRun(comm.rank(), comm.size());
+  }
+  auto thread_limit = limitThreads(threadsPerRank(comm, common.threads));
   if (render_cmd->parsed()) return runRender(render, common);
   if (bake_cmd->parsed()) return runBake(bake, common);
   if (trace_cmd->parsed()) return runTrace(trace, common);
@@ -565,7 +581,9 @@ int runCommandLine(const std::vector<std::string>& args) {
   return parseAndRun(int(words.size()), argv.data());
 }
 
-int runCli(int argc, char** argv) {
+namespace {
+
+int runCliCommand(int argc, char** argv) {
   try {
     return parseAndRun(argc, argv);
   } catch (const std::bad_alloc&) {
@@ -575,6 +593,29 @@ int runCli(int argc, char** argv) {
     std::fprintf(stderr, "penumbra: error: %s\n", e.what());
     return 1;
   }
+}
+
+}  // namespace
+
+int runCli(int argc, char** argv) {
+  // Under mpirun: one rank of an MPI job (cluster/communicator.h); otherwise one process.
+  MpiJob job(&argc, &argv);
+  if (!job.world() && launchedByMpiLauncher() && launcherWorldSize() > 1) {
+    std::fprintf(stderr,
+                 "penumbra: error: started as one of %d MPI processes, but this build has no MPI "
+                 "(build it with libopenmpi-dev installed)\n",
+                 launcherWorldSize());
+    return 2;
+  }
+  std::optional<CommunicatorScope> scope;
+  if (job.world()) scope.emplace(*job.world());
+  const int code = runCliCommand(argc, argv);
+  // A rank that failed ends without MPI_Finalize (which waits for every rank): mpirun sees its
+  // exit code and stops the others. A run that all ranks stopped together (a stop request: the
+  // checkpoint is written) finalises, so that rank 0 finishes writing before any rank ends.
+  const bool agreed = code == 0 || code == 128 + SIGUSR1;
+  if (!agreed && job.world() && job.world()->distributed()) job.skipFinalize();
+  return code;
 }
 
 }  // namespace penumbra

@@ -1,7 +1,10 @@
 #include "penumbra/app/progressive_run.h"
 
+#include "penumbra/cluster/communicator.h"
+
 #include "penumbra/app/device.h"
 #include "penumbra/app/stats_file.h"
+#include "penumbra/cluster/communicator.h"
 #include "penumbra/core/file_util.h"
 #include "penumbra/core/interrupt.h"
 #include "penumbra/core/memory.h"
@@ -69,7 +72,7 @@ Status checkProgressiveRunOptions(const ProgressiveRunOptions& o) {
 }
 
 Expected<ProgressiveRun> runProgressive(const Scene& scene, const ProgressiveRunOptions& options,
-                                        const CommonOptions& common) {
+                                        const CommonOptions& common, ReadyGate* gate) {
   ProgressiveRun run;
   if (options.device == "hybrid") {
     return inputError("", "--device", "hybrid applies to the Ray Engine (trace, pathtrace)");
@@ -122,7 +125,11 @@ Expected<ProgressiveRun> runProgressive(const Scene& scene, const ProgressiveRun
                                  info ? std::optional<uint64_t>(info->elements) : std::nullopt,
                                  "progressive radiosity", kBytesPerElement));
 
-  Expected<DeviceChoice> device = chooseDevice(options.device);
+  Communicator& comm = currentCommunicator();
+  Expected<std::string> device_name =
+      radiosityDeviceOverRanks(comm, options.device, "progressive radiosity");
+  if (!device_name) return device_name.error();
+  Expected<DeviceChoice> device = chooseDevice(*device_name);
   if (!device) return device.error();
   const bool gpu = device->device == Device::kGpu;
   run.device = device->name();
@@ -131,6 +138,7 @@ Expected<ProgressiveRun> runProgressive(const Scene& scene, const ProgressiveRun
                       "was written by the CPU's hierarchical shooter; continue it with --device "
                       "cpu");
   }
+  if (gate) PENUMBRA_TRY(gate->open());
   if (common.dry_run) {
     run.dry_run = true;
     return run;
@@ -157,6 +165,7 @@ Expected<ProgressiveRun> runProgressive(const Scene& scene, const ProgressiveRun
   }
   run.solver.emplace(std::move(*built));
   ProgressiveRadiosity& pr = *run.solver;
+  pr.setCommunicator(&comm);
   if (info) {
     PENUMBRA_TRY(resumeProgressiveCheckpoint(options.resume, scene, pr));
     run.resumed_iterations = pr.iterations();
@@ -187,7 +196,7 @@ Expected<ProgressiveRun> runProgressive(const Scene& scene, const ProgressiveRun
 
   // Progress: the fraction of the emitted power shot so far on a log scale down to the tolerance
   // (the iteration count is not known in advance), with the iteration and the unshot fraction.
-  Progress progress("shooting", 1000, !common.quiet && Progress::stderrIsTerminal());
+  Progress progress("shooting", 1000, !common.quiet && comm.root() && Progress::stderrIsTerminal());
   const double log_goal = std::log(std::max(options.tolerance, 1e-12));
   const auto after = [&](const ProgressiveIteration& it) {
     run.history.push_back(it.unshot_fraction);
@@ -201,7 +210,16 @@ Expected<ProgressiveRun> runProgressive(const Scene& scene, const ProgressiveRun
     progress.setNote(fmt::format("iteration {}, {:.3g} unshot", it.iteration, it.unshot_fraction));
     progress.reach(uint64_t(std::clamp(f, 0.0, 1.0) * 1000.0));
   };
-  const auto stop = [] { return InterruptScope::requested(); };
+  // Over several ranks all stop at the same iteration: when any of them was asked to (mpirun
+  // passes SIGUSR1 on to every rank, not at the same instant).
+  const auto stop = [&] {
+    const uint8_t mine = InterruptScope::requested() ? 1 : 0;
+    if (!comm.distributed()) return mine != 0;
+    for (uint8_t r : allgatherValue(comm, mine)) {
+      if (r) return true;
+    }
+    return false;
+  };
   if (gl) {
     Expected<ProgressiveStats> st = gl->solve(after, stop);
     if (!st) return st.error();
@@ -220,7 +238,8 @@ Expected<ProgressiveRun> runProgressive(const Scene& scene, const ProgressiveRun
   progress.finish();
   if (run.stats.interrupted) {
     run.interrupted = true;
-    PENUMBRA_TRY(writeProgressiveCheckpoint(options.checkpoint, scene, pr));
+    // Every rank holds the whole state: rank 0 writes it, and any rank count can resume it.
+    if (comm.root()) PENUMBRA_TRY(writeProgressiveCheckpoint(options.checkpoint, scene, pr));
     spdlog::warn(
         "interrupted after {} iterations ({:.3g} of the emitted power unshot): checkpoint "
         "written to {}; continue with --resume {}",
@@ -229,7 +248,8 @@ Expected<ProgressiveRun> runProgressive(const Scene& scene, const ProgressiveRun
   } else if (!options.resume.empty() && !options.keep_checkpoint) {
     // The run completed: the checkpoint it continued is stale. It goes once the outputs are in
     // place (kept if they fail).
-    if (OutputTransaction* t = OutputTransaction::current()) t->removeOnCommit(options.resume);
+    OutputTransaction* t = OutputTransaction::current();
+    if (t && comm.root()) t->removeOnCommit(options.resume);
   }
   if (!run.interrupted && !run.stats.converged) {
     spdlog::warn(

@@ -5,6 +5,7 @@
 #pragma once
 
 #include "penumbra/app/commands.h"
+#include "penumbra/cluster/communicator.h"
 #include "penumbra/core/expected.h"
 #include "penumbra/core/image.h"
 #include "penumbra/radiosity/progressive.h"
@@ -87,9 +88,12 @@ Status checkLightmapPlan(const Scene& scene, const LightmapResolution& resolutio
 Status checkProgressiveRunOptions(const ProgressiveRunOptions& options);
 
 // Builds and solves; on Ctrl-C writes the checkpoint and returns with `interrupted`. The scene
-// must have passed validateScene.
+// must have passed validateScene. Over several ranks (the current communicator) the shots are
+// shared (radiosity/progressive.h), every rank returns the whole solution, rank 0 writes the
+// checkpoint, and a stop request (SIGUSR1, which mpirun passes on) stops all at one iteration;
+// `gate` is opened once everything is checked, before a dry run returns.
 Expected<ProgressiveRun> runProgressive(const Scene& scene, const ProgressiveRunOptions& options,
-                                        const CommonOptions& common);
+                                        const CommonOptions& common, ReadyGate* gate = nullptr);
 
 // The stats every progressive command reports.
 nlohmann::json progressiveStatsJson(const ProgressiveRun& run, double tolerance);

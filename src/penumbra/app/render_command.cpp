@@ -4,6 +4,7 @@
 #include "penumbra/app/illuminance_output.h"
 #include "penumbra/app/session.h"
 #include "penumbra/app/stats_file.h"
+#include "penumbra/cluster/distributed_render.h"
 #include "penumbra/core/file_util.h"
 #include "penumbra/core/interrupt.h"
 #include "penumbra/core/memory.h"
@@ -59,6 +60,9 @@ std::string sceneStem(const std::string& scene) {
 }
 
 Status renderPathTrace(const RenderOptions& options, const CommonOptions& common) {
+  // Over several processes (mpirun): every rank loads and checks, then they agree to start.
+  Communicator& comm = currentCommunicator();
+  ReadyGate gate(comm);
   std::vector<std::string> outputs = options.outputs;
   if (outputs.empty() && defaultsOutputs()) outputs.push_back(sceneStem(options.scene) + ".png");
   for (const std::string& out : outputs) {
@@ -132,24 +136,24 @@ Status renderPathTrace(const RenderOptions& options, const CommonOptions& common
   Expected<DeviceChoice> device = chooseDevice(hybrid ? "gpu" : options.device);
   if (!device) return device.error();
   const std::string device_name = hybrid ? std::string("hybrid") : device->name();
+  PENUMBRA_TRY(gate.open());
   if (common.dry_run) return {};
-  spdlog::info("{}: {} triangles, {} emissive, {} lights; {}x{} at {} spp on {} threads",
+  spdlog::info("{}: {} triangles, {} emissive, {} lights; {}x{} at {} spp on {} threads{}",
                scene->source, tracer.geometry().triangles.size(), tracer.geometry().emitters.size(),
-               scene->lights.size(), settings.width, settings.height, settings.spp, threadCount());
+               scene->lights.size(), settings.width, settings.height, settings.spp, threadCount(),
+               comm.distributed() ? fmt::format(" x {} ranks", comm.size()) : std::string());
 
   Progress progress("rendering", uint64_t(settings.height),
-                    !common.quiet && Progress::stderrIsTerminal());
+                    !common.quiet && comm.root() && Progress::stderrIsTerminal());
   // Both renderers report the number of rows finished so far (from any thread).
   const auto on_rows = [&](int rows) { progress.reach(uint64_t(rows)); };
-  PathTracerStats stats;
-  Image image;
-  if (device->device == Device::kCpu) {
-    image = tracer.render(camera, settings, &stats, on_rows);
-  } else {
+  // Devices: the CPU traces paths one by one; gpu and hybrid advance them as a wavefront whose
+  // batches go to the Ray Engine's GPU kernel or its CPU/GPU split (same image).
+  std::unique_ptr<RayQueries> queries;
+  std::optional<GlRayEngine> gl_engine;
+  std::optional<HybridRayEngine> hybrid_engine;
+  if (device->device != Device::kCpu) {
     const SceneGeometry& g = tracer.geometry();
-    std::unique_ptr<RayQueries> queries;
-    std::optional<GlRayEngine> gl_engine;
-    std::optional<HybridRayEngine> hybrid_engine;
     if (hybrid) {
       Expected<HybridRayEngine> e = HybridRayEngine::build(g.positions, g.triangles);
       if (!e) return e.error();
@@ -161,11 +165,37 @@ Status renderPathTrace(const RenderOptions& options, const CommonOptions& common
       gl_engine.emplace(std::move(*e));
       queries = std::make_unique<GpuRayQueries>(*gl_engine);
     }
+  }
+  PathTracerStats stats;
+  Image image;
+  std::optional<DistributedRenderStats> distributed;
+  if (comm.distributed()) {
+    // Blocks of rows handed out on demand; rank 0 gets the image (cluster/distributed_render.h).
+    Timer timer;
+    std::atomic<int> rows_in{0};
+    distributed.emplace();
+    image = renderOverRanks(
+        comm, settings.width, settings.height,
+        rowBlockSize(settings.height, comm.size(), threadCount()),
+        [&](int y0, int y1, std::span<glm::vec3> out) -> uint64_t {
+          if (!queries) return tracer.renderRows(camera, settings, y0, y1, out);
+          Expected<uint64_t> rays =
+              tracer.renderRowsWavefront(camera, settings, y0, y1, *queries, out);
+          if (!rays) throw ClusterError(rays.error().describe());
+          return *rays;
+        },
+        [&](int rows) { on_rows(rows_in += rows); }, &*distributed);
+    stats.rays = distributed->rays;
+    stats.seconds = timer.seconds();
+  } else if (!queries) {
+    image = tracer.render(camera, settings, &stats, on_rows);
+  } else {
     Expected<Image> img = tracer.renderWavefront(camera, settings, *queries, &stats, on_rows);
     if (!img) return img.error();
     image = std::move(*img);
   }
   progress.finish();
+  if (!comm.root()) return {};  // rank 0 writes the outputs
 
   // Lux: the path tracer's radiance gathered over each point's hemisphere.
   std::optional<IlluminanceReport> report;
@@ -205,6 +235,15 @@ Status renderPathTrace(const RenderOptions& options, const CommonOptions& common
                         {"rays", stats.rays},
                         {"mrays_per_s", mrays}};
     j.update(lux_stats);
+    if (distributed) {
+      j["ranks"] = comm.size();
+      j["threads_per_rank"] = threadCount();
+      j["block_rows"] = distributed->block_rows;
+      j["blocks_per_rank"] = distributed->blocks_per_rank;
+      j["rays_per_rank"] = distributed->rays_per_rank;
+      j["bytes_received"] = distributed->bytes_received;
+      j["mpi"] = comm.describe();
+    }
     PENUMBRA_TRY(emitStats(options.stats, j));
   }
   return {};
@@ -239,6 +278,9 @@ Expected<std::vector<std::string>> checkRenderOutputs(const RenderOptions& optio
 }
 
 int runRender(const RenderOptions& options, const CommonOptions& common) {
+  if (Status s = checkDistributedMethod(currentCommunicator(), "render", options.method); !s) {
+    return reportError(s.error());
+  }
   if (options.device != "cpu" && options.device != "gpu" && options.device != "auto" &&
       options.device != "hybrid") {
     return reportError(inputError(

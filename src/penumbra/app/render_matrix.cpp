@@ -6,6 +6,7 @@
 #include "penumbra/app/illuminance_output.h"
 #include "penumbra/app/session.h"
 #include "penumbra/app/stats_file.h"
+#include "penumbra/cluster/communicator.h"
 #include "penumbra/core/file_util.h"
 #include "penumbra/core/memory.h"
 #include "penumbra/core/parallel.h"
@@ -40,6 +41,10 @@ glm::vec3 relightTint(int f, int n) {
 }  // namespace
 
 Status renderMatrix(const RenderOptions& options, const CommonOptions& common) {
+  // Over several processes (mpirun): every rank loads and checks, then they agree to start; each
+  // holds a block of the matrix's rows (radiosity/matrix_radiosity.h), rank 0 draws and writes.
+  Communicator& comm = currentCommunicator();
+  ReadyGate gate(comm);
   const int frames = options.relight_frames > 1 ? options.relight_frames : 1;
   Expected<std::vector<std::string>> checked = checkRenderOutputs(options, frames);
   if (!checked) return checked.error();
@@ -83,9 +88,12 @@ Status renderMatrix(const RenderOptions& options, const CommonOptions& common) {
   mo.form_factors.seed = options.seed.value_or(0);
   mo.precision = options.precision == "fp16" ? MatrixPrecision::kFp16 : MatrixPrecision::kFp32;
   mo.shading_normals = options.normals == "interpolated";
-  PENUMBRA_TRY(checkMatrixRadiosity(*scene, mo));
+  PENUMBRA_TRY(checkMatrixRadiosity(*scene, mo, comm.size()));
 
-  Expected<DeviceChoice> device = chooseDevice(options.device);
+  Expected<std::string> device_name =
+      radiosityDeviceOverRanks(comm, options.device, "matrix radiosity");
+  if (!device_name) return device_name.error();
+  Expected<DeviceChoice> device = chooseDevice(*device_name);
   if (!device) return device.error();
   const bool gpu = device->device == Device::kGpu;
   const MatrixSolver solver =
@@ -97,18 +105,22 @@ Status renderMatrix(const RenderOptions& options, const CommonOptions& common) {
                       "gauss-seidel is sequential and runs on the CPU only (use --device cpu, "
                       "or --solver jacobi on the GPU)");
   }
+  PENUMBRA_TRY(gate.open());
   if (common.dry_run) return {};
 
   const Timer build_timer;
   std::optional<Progress> ff_progress;
   std::once_flag ff_progress_once;
-  Expected<MatrixRadiosity> built = buildMatrixRadiosity(*scene, mo, [&](size_t done, size_t rows) {
-    std::call_once(ff_progress_once, [&] {
-      ff_progress.emplace("form factors", uint64_t(rows),
-                          !common.quiet && Progress::stderrIsTerminal());
-    });
-    ff_progress->reach(done);
-  });
+  Expected<MatrixRadiosity> built = buildMatrixRadiosity(
+      *scene, mo,
+      [&](size_t done, size_t rows) {
+        std::call_once(ff_progress_once, [&] {
+          ff_progress.emplace("form factors", uint64_t(rows),
+                              !common.quiet && comm.root() && Progress::stderrIsTerminal());
+        });
+        ff_progress->reach(done);
+      },
+      &comm);
   if (ff_progress) ff_progress->finish();
   if (!built) return built.error();
   MatrixRadiosity& mr = *built;
@@ -152,7 +164,8 @@ Status renderMatrix(const RenderOptions& options, const CommonOptions& common) {
     so.max_iterations = options.iterations;
     so.tolerance = options.tolerance.value_or(1e-6);
     Progress progress(frames > 1 ? fmt::format("solving frame {}", f) : std::string("solving"),
-                      uint64_t(so.max_iterations), !common.quiet && Progress::stderrIsTerminal());
+                      uint64_t(so.max_iterations),
+                      !common.quiet && comm.root() && Progress::stderrIsTerminal());
     auto on_iteration = [&](int k, double) { progress.reach(uint64_t(k + 1)); };
     if (gl) {
       Expected<SolveStats> s = gl->solve(mr.radiosity, so, on_iteration);
@@ -169,6 +182,7 @@ Status renderMatrix(const RenderOptions& options, const CommonOptions& common) {
     }
     const Timer view_timer;
     const Image lightmap = mr.radianceImage(options.shading == "smooth");
+    if (!comm.root()) continue;  // rank 0 draws and writes
     const Image image = renderLightmapView(mr.surface.flat.positions, mr.surface.flat.triangles,
                                            mr.surface.atlas, lightmap, camera, view);
     view_seconds += view_timer.seconds();
@@ -204,6 +218,7 @@ Status renderMatrix(const RenderOptions& options, const CommonOptions& common) {
                            {"seconds", last.seconds}});
   }
 
+  if (!comm.root()) return {};
   if (wantsStats(options.stats)) {
     nlohmann::json j = {{"method", "matrix"},
                         {"device", device->name()},
@@ -236,6 +251,11 @@ Status renderMatrix(const RenderOptions& options, const CommonOptions& common) {
                         {"height", height},
                         {"spp", spp}};
     if (frames > 1) j["frames"] = frame_stats;
+    if (comm.distributed()) {
+      j["ranks"] = comm.size();
+      j["mpi"] = comm.describe();
+      j["matrix_bytes_per_rank"] = mr.system->matrixBytes();
+    }
     j.update(lux_stats);
     PENUMBRA_TRY(emitStats(options.stats, j));
   }

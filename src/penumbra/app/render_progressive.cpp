@@ -9,6 +9,7 @@
 #include "penumbra/app/session.h"
 #include "penumbra/app/stats_file.h"
 #include "penumbra/app/stochastic_run.h"
+#include "penumbra/cluster/communicator.h"
 #include "penumbra/core/file_util.h"
 #include "penumbra/core/memory.h"
 #include "penumbra/core/parallel.h"
@@ -30,6 +31,10 @@ namespace penumbra {
 
 Status renderLightmapRadiosity(const RenderOptions& options, const CommonOptions& common,
                                bool* interrupted) {
+  // Over several processes (mpirun, progressive only): every rank loads and checks, then they
+  // agree to start; rank 0 draws and writes.
+  Communicator& comm = currentCommunicator();
+  ReadyGate gate(comm);
   const bool stochastic = options.method == "stochastic";
   std::vector<std::string> outputs = options.outputs;
   const std::filesystem::path scene_path(options.scene);
@@ -95,10 +100,14 @@ Status renderLightmapRadiosity(const RenderOptions& options, const CommonOptions
     if (run->dry_run) return {};
     stoch.emplace(std::move(*run));
   } else {
-    Expected<ProgressiveRun> run = runProgressive(*scene, ro, common);
+    Expected<ProgressiveRun> run = runProgressive(*scene, ro, common, &gate);
     if (!run) return run.error();
     if (run->dry_run) return {};
     progressive.emplace(std::move(*run));
+  }
+  if (!comm.root()) {
+    if (progressive->interrupted) *interrupted = true;
+    return {};  // rank 0 draws and writes
   }
   const RadiositySurface& surface =
       stochastic ? stoch->solver->surface() : progressive->solver->surface();

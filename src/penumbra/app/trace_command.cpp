@@ -3,6 +3,7 @@
 #include "penumbra/app/device.h"
 #include "penumbra/app/stats_file.h"
 #include "penumbra/app/trace_run.h"
+#include "penumbra/cluster/communicator.h"
 #include "penumbra/core/memory.h"
 #include "penumbra/core/parallel.h"
 #include "penumbra/core/timer.h"
@@ -14,6 +15,9 @@
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
+#include <algorithm>
+#include <cstdio>
+#include <cstring>
 #include <filesystem>
 
 namespace penumbra {
@@ -158,33 +162,146 @@ Expected<TraceRun> traceScene(const Scene& scene, const RayBatch& rays, const Tr
 
 namespace {
 
+Status writeTraceOutputs(const TraceOptions& options, const TraceRun& run) {
+  if (options.occlusion) {
+    PENUMBRA_TRY(writeOcclusionFile(options.output, run.occluded));
+  } else {
+    PENUMBRA_TRY(writeHitFile(options.output, run.hits));
+  }
+  if (!options.stats.empty()) PENUMBRA_TRY(writeStatsFile(options.stats, run.stats));
+  return {};
+}
+
+// Rank 0's rays split evenly among the ranks, each rank's share of the eight arrays in turn.
+template <typename V>
+void scatterArray(Communicator& comm, const V& all, V& mine, std::span<const size_t> offsets) {
+  using T = typename V::value_type;
+  std::vector<size_t> bytes;
+  for (size_t o : offsets) bytes.push_back(o * sizeof(T));
+  const std::vector<std::byte> part = comm.scatter(all.data(), bytes, 0);
+  mine.resize(part.size() / sizeof(T));
+  if (!part.empty()) std::memcpy(mine.data(), part.data(), part.size());
+}
+
+// Every rank's answers, in rank order (so in the rays' order), into `all` on rank 0.
+template <typename V>
+void gatherArray(Communicator& comm, V& mine) {
+  using T = typename V::value_type;
+  const std::vector<std::byte> all = comm.gather(mine.data(), mine.size() * sizeof(T), 0, nullptr);
+  if (!comm.root()) return;
+  mine.resize(all.size() / sizeof(T));
+  if (!all.empty()) std::memcpy(mine.data(), all.data(), all.size());
+}
+
+}  // namespace
+
+Expected<TraceRun> traceOverRanks(Communicator& comm, const Scene& scene, const RayBatch& rays,
+                                  const TraceOptions& options) {
+  Timer timer;
+  const uint64_t total = broadcastValue<uint64_t>(comm, comm.root() ? rays.size() : 0);
+  std::vector<size_t> offsets;
+  for (int r = 0; r <= comm.size(); ++r) {
+    offsets.push_back(r < comm.size() ? shareOf(total, r, comm.size()).begin : total);
+  }
+  RayBatch mine;
+  for (auto member : {&RayBatch::ox, &RayBatch::oy, &RayBatch::oz, &RayBatch::tmin, &RayBatch::dx,
+                      &RayBatch::dy, &RayBatch::dz, &RayBatch::tmax}) {
+    scatterArray(comm, rays.*member, mine.*member, offsets);
+  }
+  const double scatter_seconds = timer.seconds();
+  Expected<TraceRun> run = traceScene(scene, mine, options, false);
+  // A failure here (a GPU that failed on one rank) ends the job: the others wait in the gather.
+  if (!run) {
+    std::fprintf(stderr, "penumbra: error: rank %d of %d: %s\n", comm.rank(), comm.size(),
+                 run.error().describe().c_str());
+    comm.abort(1);
+  }
+  const double trace_seconds = run->stats["trace_seconds"].get<double>();
+  Timer gather_timer;
+  if (options.occlusion) {
+    gatherArray(comm, run->occluded);
+  } else {
+    gatherArray(comm, run->hits.triangle);
+    gatherArray(comm, run->hits.t);
+    gatherArray(comm, run->hits.u);
+    gatherArray(comm, run->hits.v);
+  }
+  const double gather_seconds = gather_timer.seconds();
+  const std::vector<double> per_rank = allgatherValue(comm, trace_seconds);
+  const std::vector<uint64_t> hits_per_rank =
+      allgatherValue(comm, run->stats["hits"].get<uint64_t>());
+  if (!comm.root()) return run;
+  uint64_t hit_count = 0;
+  for (uint64_t h : hits_per_rank) hit_count += h;
+  const double seconds = timer.seconds();
+  std::vector<uint64_t> rays_per_rank;
+  for (int r = 0; r < comm.size(); ++r) rays_per_rank.push_back(offsets[r + 1] - offsets[r]);
+  nlohmann::json& st = run->stats;
+  st["rays"] = total;
+  st["hits"] = hit_count;
+  st["ranks"] = comm.size();
+  st["mpi"] = comm.describe();
+  st["rays_per_rank"] = rays_per_rank;
+  st["trace_seconds_per_rank"] = per_rank;
+  st["scatter_seconds"] = scatter_seconds;
+  st["gather_seconds"] = gather_seconds;
+  // The whole distributed trace, from the scatter to the gathered answers.
+  st["seconds"] = seconds;
+  st["mrays_per_s"] = seconds > 0.0 ? double(total) / seconds * 1e-6 : 0.0;
+  spdlog::info(
+      "{} rays over {} ranks: {} {}; scatter {:.3f} s, trace {:.3f} s (slowest rank), "
+      "gather {:.3f} s",
+      total, comm.size(), hit_count, options.occlusion ? "occluded" : "hits", scatter_seconds,
+      *std::max_element(per_rank.begin(), per_rank.end()), gather_seconds);
+  return run;
+}
+
+namespace {
+
 Status trace(const TraceOptions& options, const CommonOptions& common) {
+  Communicator& comm = currentCommunicator();
+  ReadyGate gate(comm);
   PENUMBRA_TRY(checkTraceOptions(options));
   PENUMBRA_TRY(checkOutputPath(options.output));
   if (!options.stats.empty()) PENUMBRA_TRY(checkOutputPath(options.stats));
   std::error_code ec;
   const auto ray_bytes = std::filesystem::file_size(options.rays, ec);
   if (!ec) {
-    // Rays in SoA (32 B), hits (16 B), the file bytes and the output buffer (16 B).
-    PENUMBRA_TRY(
-        checkMemory(uint64_t(ray_bytes) / 32 * 96, fmt::format("tracing {} rays", ray_bytes / 32)));
+    // Rays in SoA (32 B), hits (16 B), the file bytes and the output buffer (16 B); over several
+    // ranks, rank 0 holds all of it and the others their share.
+    const uint64_t count = uint64_t(ray_bytes) / 32;
+    const uint64_t here = comm.root() ? count : shareOf(count, comm.rank(), comm.size()).size();
+    PENUMBRA_TRY(checkMemory(here * 96, fmt::format("tracing {} rays", here)));
   }
 
   Expected<Scene> scene = loadScene(options.mesh);
   if (!scene) return scene.error();
   for (const std::string& w : scene->warnings) spdlog::warn("{}", w);
-  Expected<RayBatch> rays = readRayFile(options.rays);
-  if (!rays) return rays.error();
-  Expected<TraceRun> run = traceScene(*scene, *rays, options, common.dry_run);
-  if (!run) return run.error();
-  if (common.dry_run) return {};
-  if (options.occlusion) {
-    PENUMBRA_TRY(writeOcclusionFile(options.output, run->occluded));
-  } else {
-    PENUMBRA_TRY(writeHitFile(options.output, run->hits));
+  if (!comm.distributed()) {
+    Expected<RayBatch> rays = readRayFile(options.rays);
+    if (!rays) return rays.error();
+    Expected<TraceRun> run = traceScene(*scene, *rays, options, common.dry_run);
+    if (!run) return run.error();
+    if (common.dry_run) return {};
+    return writeTraceOutputs(options, *run);
   }
-  if (!options.stats.empty()) PENUMBRA_TRY(writeStatsFile(options.stats, run->stats));
-  return {};
+  // Over several ranks: rank 0 reads the rays (the others may not see the file).
+  RayBatch rays;
+  if (comm.root()) {
+    Expected<RayBatch> r = readRayFile(options.rays);
+    if (!r) return r.error();
+    rays = std::move(*r);
+  }
+  // The options and the device, on every rank, before they agree to start.
+  if (Expected<TraceRun> ready = traceScene(*scene, RayBatch(), options, true); !ready) {
+    return ready.error();
+  }
+  PENUMBRA_TRY(gate.open());
+  if (common.dry_run) return {};
+  Expected<TraceRun> run = traceOverRanks(comm, *scene, rays, options);
+  if (!run) return run.error();
+  if (!comm.root()) return {};
+  return writeTraceOutputs(options, *run);
 }
 
 }  // namespace

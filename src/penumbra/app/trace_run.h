@@ -4,6 +4,7 @@
 #pragma once
 
 #include "penumbra/app/commands.h"
+#include "penumbra/cluster/communicator.h"
 #include "penumbra/raytrace/ray.h"
 #include "penumbra/scene/scene.h"
 
@@ -24,5 +25,11 @@ Status checkTraceOptions(const TraceOptions& options);
 // (flattenScene numbering) and traces; `dry_run` stops before the build.
 Expected<TraceRun> traceScene(const Scene& scene, const RayBatch& rays, const TraceOptions& options,
                               bool dry_run);
+
+// traceScene over the ranks of `comm` (collective): rank 0's rays scattered in equal shares,
+// traced on every rank, the answers gathered on rank 0 in the rays' order (one process's, bit
+// for bit), with the statistics of the whole. A rank whose device fails ends the job.
+Expected<TraceRun> traceOverRanks(Communicator& comm, const Scene& scene, const RayBatch& rays,
+                                  const TraceOptions& options);
 
 }  // namespace penumbra

@@ -21,6 +21,9 @@ struct Error {
   std::string file;   // the file the problem is in, empty when none
   std::string place;  // where in the file ("line 12", "vertex 3", "meshes[0].material")
   std::string message;
+  // In a run over several processes (cluster/communicator.h), only rank 0 prints errors, except
+  // one that only this rank has (agreeReady sets it).
+  bool report_on_this_rank = false;
 
   // "file: place: message", leaving out what is empty.
   std::string describe() const {

@@ -122,7 +122,20 @@ OutputTransaction* OutputTransaction::current() {
   return g_current;
 }
 
+namespace {
+bool g_writes_outputs = true;
+}  // namespace
+
+void setThisProcessWritesOutputs(bool writes) {
+  g_writes_outputs = writes;
+}
+
+bool thisProcessWritesOutputs() {
+  return g_writes_outputs;
+}
+
 Status checkOutputPath(const std::string& path) {
+  if (!g_writes_outputs) return {};
   const fs::path target(path);
   const fs::path dir = target.parent_path();
   std::error_code ec;
@@ -153,6 +166,7 @@ Status checkOutputPath(const std::string& path) {
 }
 
 Status OutputTransaction::createDirectories(const std::string& dir) {
+  if (!g_writes_outputs) return {};  // rank 0 makes them
   std::vector<fs::path> missing;
   std::error_code ec;
   for (fs::path p = fs::path(dir).lexically_normal(); !p.empty() && !fs::exists(p, ec);

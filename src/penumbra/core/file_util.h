@@ -28,7 +28,15 @@ Status writeAtomicallyNow(const std::string& path,
 // is created and removed: access() says yes to root on read-only file systems), `path` is not a
 // directory, and its name is not longer than the file system allows. Temporaries left in the
 // directory by processes that no longer exist (SIGKILL) are removed.
+// In a run over several processes only rank 0 writes outputs (cluster/communicator.h): on the
+// others this returns ok without looking (their file systems may differ, and their probes would
+// race rank 0's temporaries).
 Status checkOutputPath(const std::string& path);
+
+// Whether this process writes the run's outputs: true unless it is a rank > 0 of a distributed run
+// (the CLI sets it for each command).
+void setThisProcessWritesOutputs(bool writes);
+bool thisProcessWritesOutputs();
 
 // All outputs of one command. While it is open (one at a time), writeAtomically writes into
 // temporaries and commit() renames them into place in the order written; a transaction closed

@@ -2,8 +2,10 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <csignal>
+#include <cstdio>
 #include <cstring>
 
 namespace penumbra {
@@ -13,6 +15,9 @@ namespace {
 volatile std::sig_atomic_t g_scope = 0;      // an InterruptScope is alive
 volatile std::sig_atomic_t g_requested = 0;  // the signal that asked to stop, 0 if none
 std::atomic<bool> g_keep_requests{false};
+volatile std::sig_atomic_t g_distributed = 0;  // SIGINT / SIGTERM always end the process
+char g_end_message[256] = {};
+size_t g_end_message_length = 0;
 
 // The cleanup registry: fixed slots, so the handler reads without allocating. A slot's state is
 // written after its path, and cleared before the path is reused.
@@ -44,6 +49,16 @@ void removeRegistered() {
 }
 
 extern "C" void onSignal(int sig) {
+  if (g_distributed && sig != SIGUSR1) {
+    // Only async-signal-safe calls: write(2) of a message made in advance.
+    if (g_end_message_length > 0) {
+      [[maybe_unused]] const ssize_t n = ::write(2, g_end_message, g_end_message_length);
+    }
+    removeRegistered();
+    std::signal(sig, SIG_DFL);
+    std::raise(sig);
+    return;
+  }
   if (g_scope && !g_requested) {
     g_requested = sig;
     return;
@@ -62,6 +77,22 @@ void installInterruptHandlers() {
   sa.sa_flags = SA_RESTART;
   sigaction(SIGINT, &sa, nullptr);
   sigaction(SIGTERM, &sa, nullptr);
+}
+
+void interruptSignalsEndDistributedRun(int rank, int size) {
+  const int n = std::snprintf(g_end_message, sizeof(g_end_message),
+                              "penumbra: error: rank %d of %d: stopped by a signal (mpirun stops "
+                              "every rank when one fails or the job is cancelled); nothing was "
+                              "written\n",
+                              rank, size);
+  // Rank 0 speaks for all (a hundred ranks would print a hundred lines).
+  g_end_message_length = n > 0 && rank == 0 ? std::min(size_t(n), sizeof(g_end_message) - 1) : 0;
+  g_distributed = 1;
+  struct sigaction sa = {};
+  sa.sa_handler = onSignal;
+  sigemptyset(&sa.sa_mask);
+  sa.sa_flags = SA_RESTART;
+  sigaction(SIGUSR1, &sa, nullptr);
 }
 
 void requestInterrupt(int signal) {

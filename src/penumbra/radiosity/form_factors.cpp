@@ -13,6 +13,7 @@
 #include <array>
 #include <atomic>
 #include <cmath>
+#include <cstring>
 #include <numbers>
 
 namespace penumbra {
@@ -176,55 +177,168 @@ ElementPieces ElementPieces::build(const RadiositySurface& s) {
   return cache;
 }
 
+Share matrixRowBlock(uint64_t n, int rank, int size) {
+  // Whole groups of four rows: the solvers' kernels take rows four at a time from row 0
+  // (radiosity/matrix_solver.cpp), so each rank's groups are one process's and so are the sums.
+  const Share groups = shareOf((n + 3) / 4, rank, size);
+  return Share{std::min(n, groups.begin * 4), std::min(n, groups.end * 4)};
+}
+
+namespace {
+
+// What a rank sends another after evaluating its pairs: records of a header and floats.
+//  - kRowPart: row i's entries F_ij, j in [j0, j0 + count), for the rank holding row i;
+//  - kColumnPart: the entries F_ji, j in [j0, j0 + count), of rows the receiver holds.
+enum : uint32_t { kRowPart = 0, kColumnPart = 1 };
+struct PartHeader {
+  uint32_t kind, i, j0, count;
+};
+
+void appendPart(std::vector<std::byte>& out, PartHeader h, const float* values) {
+  const size_t at = out.size();
+  out.resize(at + sizeof(h) + size_t(h.count) * sizeof(float));
+  std::memcpy(out.data() + at, &h, sizeof(h));
+  std::memcpy(out.data() + at + sizeof(h), values, size_t(h.count) * sizeof(float));
+}
+
+}  // namespace
+
 Expected<FormFactorMatrix> computeFormFactors(const RadiositySurface& surface,
                                               std::span<const ClusterRef> cut,
                                               const FormFactorOptions& options,
                                               FormFactorStats* stats,
                                               const std::function<void(size_t)>& on_row,
-                                              const ElementPieces* pieces) {
+                                              const ElementPieces* pieces, Communicator* comm) {
   const Timer timer;
+  LocalCommunicator local;
+  Communicator& c = comm ? *comm : local;
+  const int rank = c.rank(), ranks = c.size();
   const uint64_t n = cut.size();
   if (!(options.near > 0.0) || options.rays < 1 || options.probe_rays < 0 ||
       options.probe_rays > (1 << 20)) {
     return inputError("", "form factors",
                       "near must be positive, rays at least 1, probe_rays in [0, 2^20]");
   }
-  PENUMBRA_TRY(
-      checkMemory(formFactorBytes(n), fmt::format("the {} x {} form-factor matrix", n, n)));
+  const Share held = matrixRowBlock(n, rank, ranks);
+  PENUMBRA_TRY(checkMemory(held.size() * n * sizeof(float),
+                           ranks > 1 ? fmt::format("rows {}-{} of the {} x {} form-factor matrix",
+                                                   held.begin, held.end, n, n)
+                                     : fmt::format("the {} x {} form-factor matrix", n, n)));
   FormFactorMatrix m;
   m.n = uint32_t(n);
-  m.f.assign(n * n, 0.0f);
-  m.row_scale.assign(n, 1.0f);
+  m.row_begin = uint32_t(held.begin);
+  m.f.assign(held.size() * n, 0.0f);
+  m.row_scale.assign(held.size(), 1.0f);
   std::vector<double> area(n);
   for (size_t i = 0; i < n; ++i) area[i] = surface.hierarchy.level(cut[i].level).area[cut[i].index];
+  std::vector<int> owner(n);
+  for (int r = 0; r < ranks; ++r) {
+    const Share b = matrixRowBlock(n, r, ranks);
+    for (uint64_t i = b.begin; i < b.end; ++i) owner[i] = r;
+  }
+  const auto mine = [&](size_t i) { return owner[i] == rank; };
 
   const ElementPieces own = pieces ? ElementPieces{} : ElementPieces::build(surface);
   const ElementPieces& cache = pieces ? *pieces : own;
   std::atomic<uint64_t> rays{0}, refined{0}, closed_rows{0};
   std::atomic<size_t> rows_done{0};
-  // Row i evaluates the pairs (i, j > i) and writes both F_ij and F_ji: each entry is written
-  // by exactly one row.
-  parallelRange(n, 1, [&](size_t begin, size_t end) {
+  // This rank evaluates the pairs (i, j > i) of rows i = rank mod ranks (all rows on one
+  // process). Each entry is written by exactly one row: F_ij and F_ji into the rows held here,
+  // the others into `away`, the entries for other ranks (row i's part, F_ij, in away_row; the
+  // column part, F_ji, in away_col), sent once every pair is done.
+  const size_t computed = n > size_t(rank) ? (n - size_t(rank) + size_t(ranks) - 1) / ranks : 0;
+  std::vector<std::vector<float>> away_row(ranks > 1 ? computed : 0);
+  std::vector<std::vector<float>> away_col(ranks > 1 ? computed : 0);
+  parallelRange(computed, 1, [&](size_t begin, size_t end) {
     PairEvaluator ev{surface, options, cache, {}, {}, 0, 0, options.rays, kFewRaysBelow};
-    for (size_t i = begin; i < end; ++i) {
+    for (size_t q = begin; q < end; ++q) {
+      const size_t i = q * size_t(ranks) + size_t(rank);
+      float* row_out = nullptr;
+      float* col_out = nullptr;
+      if (ranks > 1) {
+        if (!mine(i)) {
+          away_row[q].assign(n - i - 1, 0.0f);
+          row_out = away_row[q].data();
+        }
+        // Rows are held in contiguous blocks: rows i + 1 .. n - 1 are all held here when the
+        // first and the last are.
+        if (i + 1 < n && (!mine(i + 1) || !mine(n - 1))) {
+          away_col[q].assign(n - i - 1, 0.0f);
+          col_out = away_col[q].data();
+        }
+      }
       for (size_t j = i + 1; j < n; ++j) {
         Rng rng(mixBits(options.seed), i * n + j);
         const double t = ev.transport(cut[i], cut[j], rng);
         if (t <= 0.0) continue;
-        m.f[i * n + j] = float(t / area[i]);
-        m.f[j * n + i] = float(t / area[j]);
+        const float fij = float(t / area[i]), fji = float(t / area[j]);
+        if (mine(i)) {
+          m.f[(i - held.begin) * n + j] = fij;
+        } else {
+          row_out[j - i - 1] = fij;
+        }
+        if (mine(j)) {
+          m.f[(j - held.begin) * n + i] = fji;
+        } else {
+          col_out[j - i - 1] = fji;
+        }
       }
       const size_t done = rows_done.fetch_add(1) + 1;
-      if (on_row) on_row(done);
+      if (on_row) on_row(std::min<size_t>(n, done * size_t(ranks)));
     }
     rays += ev.rays;
     refined += ev.refined;
   });
+  if (ranks > 1) {
+    // The entries of other ranks' rows, to them, in one exchange.
+    std::vector<std::vector<std::byte>> to(static_cast<size_t>(ranks));
+    for (size_t q = 0; q < computed; ++q) {
+      const size_t i = q * size_t(ranks) + size_t(rank);
+      if (!away_row[q].empty()) {
+        appendPart(to[size_t(owner[i])],
+                   {kRowPart, uint32_t(i), uint32_t(i + 1), uint32_t(n - i - 1)},
+                   away_row[q].data());
+      }
+      if (!away_col[q].empty()) {
+        for (int r = 0; r < ranks; ++r) {
+          if (r == rank) continue;
+          const Share b = matrixRowBlock(n, r, ranks);
+          const uint64_t j0 = std::max<uint64_t>(b.begin, i + 1);
+          if (j0 >= b.end) continue;
+          appendPart(to[size_t(r)], {kColumnPart, uint32_t(i), uint32_t(j0), uint32_t(b.end - j0)},
+                     away_col[q].data() + (j0 - i - 1));
+        }
+      }
+      std::vector<float>().swap(away_row[q]);
+      std::vector<float>().swap(away_col[q]);
+    }
+    const std::vector<std::vector<std::byte>> from = c.alltoall(std::move(to));
+    for (const std::vector<std::byte>& bytes : from) {
+      size_t at = 0;
+      while (at + sizeof(PartHeader) <= bytes.size()) {
+        PartHeader h;
+        std::memcpy(&h, bytes.data() + at, sizeof(h));
+        at += sizeof(h);
+        const float* v = reinterpret_cast<const float*>(bytes.data() + at);
+        for (uint32_t k = 0; k < h.count; ++k) {
+          float value;
+          std::memcpy(&value, v + k, sizeof(float));
+          if (h.kind == kRowPart) {
+            m.f[(size_t(h.i) - held.begin) * n + h.j0 + k] = value;
+          } else {
+            m.f[(size_t(h.j0) + k - held.begin) * n + h.i] = value;
+          }
+        }
+        at += size_t(h.count) * sizeof(float);
+      }
+    }
+  }
   // Closed rows sum to 1; none sums to more.
-  parallelRange(n, 4, [&](size_t begin, size_t end) {
+  parallelRange(held.size(), 4, [&](size_t begin, size_t end) {
     uint64_t traced = 0, closed = 0;
-    for (size_t i = begin; i < end; ++i) {
-      float* row = &m.f[i * n];
+    for (size_t r = begin; r < end; ++r) {
+      const size_t i = held.begin + r;
+      float* row = &m.f[r * n];
       double sum = 0.0;
       for (size_t j = 0; j < n; ++j) sum += row[j];
       if (!(sum > 0.0)) continue;
@@ -240,28 +354,28 @@ Expected<FormFactorMatrix> computeFormFactors(const RadiositySurface& surface,
       }
       if (target == sum) continue;
       const double scale = target / sum;
-      m.row_scale[i] = float(scale);
+      m.row_scale[r] = float(scale);
       for (size_t j = 0; j < n; ++j) row[j] = float(double(row[j]) * scale);
     }
     rays += traced;
     closed_rows += closed;
   });
   if (stats) {
+    const uint64_t counts[3] = {refined.load(), rays.load(), closed_rows.load()};
+    const std::vector<uint64_t> total = allreduceSum(c, std::span<const uint64_t>(counts, 3));
     stats->seconds = timer.seconds();
     stats->pairs = n * (n - 1) / 2;
-    stats->refined = refined.load();
-    stats->rays = rays.load();
-    stats->closed_rows = closed_rows.load();
+    stats->refined = total[0];
+    stats->rays = total[1];
+    stats->closed_rows = total[2];
   }
   return m;
 }
 
-Expected<std::vector<float>> computeElementFormFactors(const RadiositySurface& surface,
-                                                       std::span<const ClusterRef> cut,
-                                                       std::span<const uint32_t> sources,
-                                                       const FormFactorOptions& options,
-                                                       FormFactorStats* stats,
-                                                       const ElementPieces* pieces) {
+Expected<std::vector<float>> computeElementFormFactors(
+    const RadiositySurface& surface, std::span<const ClusterRef> cut,
+    std::span<const uint32_t> sources, const FormFactorOptions& options, FormFactorStats* stats,
+    const ElementPieces* pieces, Communicator* comm) {
   const size_t n = surface.elementCount(), s_count = sources.size();
   PENUMBRA_TRY(checkMemory(
       uint64_t(n) * s_count * sizeof(float),
@@ -269,10 +383,13 @@ Expected<std::vector<float>> computeElementFormFactors(const RadiositySurface& s
   std::vector<float> out(n * s_count, 0.0f);
   const ElementPieces own = pieces ? ElementPieces{} : ElementPieces::build(surface);
   const ElementPieces& cache = pieces ? *pieces : own;
+  // Over several ranks each takes a share of the elements; then all have every row.
+  const bool distributed = comm && comm->distributed();
+  const Share share = distributed ? shareOf(n, comm->rank(), comm->size()) : Share{0, n};
   std::atomic<uint64_t> rays{0};
-  parallelRange(n, 64, [&](size_t begin, size_t end) {
+  parallelRange(share.size(), 64, [&](size_t begin, size_t end) {
     PairEvaluator ev{surface, options, cache, {}, {}, 0, 0, options.element_rays, 0.0};
-    for (size_t e = begin; e < end; ++e) {
+    for (size_t e = share.begin + begin; e < share.begin + end; ++e) {
       const double area = surface.atlas.element_area[e];
       if (!(area > 0.0)) continue;
       for (size_t s = 0; s < s_count; ++s) {
@@ -285,7 +402,13 @@ Expected<std::vector<float>> computeElementFormFactors(const RadiositySurface& s
     }
     rays += ev.rays;
   });
-  if (stats) stats->rays += rays.load();
+  uint64_t traced = rays.load();
+  if (distributed) {
+    out = allgatherValues<float>(
+        *comm, std::span<const float>(out.data() + share.begin * s_count, share.size() * s_count));
+    traced = allreduceSum(*comm, traced);
+  }
+  if (stats) stats->rays += traced;
   return out;
 }
 

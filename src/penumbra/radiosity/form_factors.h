@@ -29,6 +29,7 @@
 //    sums to more than 1.
 #pragma once
 
+#include "penumbra/cluster/communicator.h"
 #include "penumbra/core/expected.h"
 #include "penumbra/geometry/surface_hierarchy.h"
 #include "penumbra/radiosity/radiosity_surface.h"
@@ -66,14 +67,18 @@ struct ElementPieces {
   bool empty() const { return piece_first.empty(); }
 };
 
-// Row-major N x N: f[i * n + j] = F_ij.
+// Row-major rows of the N x N matrix: f[(i - row_begin) * n + j] = F_ij for the rows held, all N
+// on one process, a block of them on each rank of a distributed run (docs/scaling.md).
 struct FormFactorMatrix {
   uint32_t n = 0;
   std::vector<float> f;
-  // Per row, the factor the closed-row rule (or the cap at 1) scaled it by (1: untouched).
+  // Per row held, the factor the closed-row rule (or the cap at 1) scaled it by (1: untouched).
   std::vector<float> row_scale;
+  uint32_t row_begin = 0;  // the first row held
 
-  float operator()(uint32_t i, uint32_t j) const { return f[size_t(i) * n + j]; }
+  uint32_t rowsHeld() const { return n == 0 ? 0 : uint32_t(f.size() / n); }
+  uint32_t rowEnd() const { return row_begin + rowsHeld(); }
+  float operator()(uint32_t i, uint32_t j) const { return f[size_t(i - row_begin) * n + j]; }
   double rowSum(uint32_t i) const;
 };
 
@@ -94,22 +99,35 @@ inline uint64_t formFactorBytes(uint64_t n) {
 // on the thread count). Refuses, before allocating, a matrix that would not fit in memory.
 // `on_row(rows_done)` may be called from worker threads. `pieces`: ElementPieces::build(surface)
 // when the caller has it (else built here).
+//
+// Over several ranks (`comm`, collective; docs/scaling.md), rank r holds the rows
+// matrixRowBlock(n, r, size) and evaluates the pairs of the rows i = r mod size (a balanced share
+// of the triangle j > i); each pair's two entries go to the ranks that hold their rows, in one
+// exchange. Every entry is the one process's, bit for bit (a pair's random stream is its own).
+// The memory guard counts this rank's rows. Stats are summed over the ranks.
 Expected<FormFactorMatrix> computeFormFactors(const RadiositySurface& surface,
                                               std::span<const ClusterRef> cut,
                                               const FormFactorOptions& options,
                                               FormFactorStats* stats = nullptr,
                                               const std::function<void(size_t)>& on_row = {},
-                                              const ElementPieces* pieces = nullptr);
+                                              const ElementPieces* pieces = nullptr,
+                                              Communicator* comm = nullptr);
+
+// The rows rank `rank` of `size` holds of an n-row system: contiguous, as even as whole groups of
+// four rows allow.
+Share matrixRowBlock(uint64_t n, int rank, int size);
 
 // Form factors from every element (level 0) to the clusters cut[sources[s]]: out[e * S + s] =
 // F(element e -> cluster), by the same rules (an element inside the cluster gets 0). What
 // matrix radiosity gathers at full resolution from emitters (radiosity/matrix_radiosity.h).
-// Rays traced are added to stats->rays.
+// Rays traced are added to stats->rays. Over several ranks (`comm`, collective) each computes a
+// share of the elements and all get every value.
 Expected<std::vector<float>> computeElementFormFactors(const RadiositySurface& surface,
                                                        std::span<const ClusterRef> cut,
                                                        std::span<const uint32_t> sources,
                                                        const FormFactorOptions& options,
                                                        FormFactorStats* stats = nullptr,
-                                                       const ElementPieces* pieces = nullptr);
+                                                       const ElementPieces* pieces = nullptr,
+                                                       Communicator* comm = nullptr);
 
 }  // namespace penumbra

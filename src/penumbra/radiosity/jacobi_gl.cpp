@@ -41,6 +41,11 @@ Expected<GlJacobi> GlJacobi::create(const RadiositySystem& system, int64_t max_b
   while (glGetError() != GL_NO_ERROR) continue;
   GlJacobi s;
   const uint32_t n = system.size();
+  if (system.rowBegin() != 0 || system.rowEnd() != n) {
+    return inputError("", "--device",
+                      "the GPU Jacobi solver takes the whole matrix; over several ranks matrix "
+                      "radiosity solves on the CPU (--device cpu)");
+  }
   s.n_ = n;
   s.precision_ = system.precision();
   const bool fp16 = s.precision_ == MatrixPrecision::kFp16;

@@ -29,13 +29,26 @@ LightmapResolution lightmapFor(const MatrixRadiosityOptions& options) {
 
 }  // namespace
 
-Status checkMatrixRadiosity(const Scene& scene, const MatrixRadiosityOptions& options) {
+namespace {
+
+// The memory check of the system, on one process or for one rank's rows.
+Status checkSystemMemory(uint64_t n, MatrixPrecision precision, int ranks, uint64_t elements) {
+  const uint64_t rows = (n + uint64_t(ranks) - 1) / uint64_t(ranks);
+  return checkMemory(
+      matrixRadiosityBytes(n, precision, rows),
+      ranks > 1
+          ? fmt::format("matrix radiosity with {} elements ({} form factors; {} rows on "
+                        "each of {} ranks)",
+                        elements, n * n, rows, ranks)
+          : fmt::format("matrix radiosity with {} elements ({} form factors)", elements, n * n));
+}
+
+}  // namespace
+
+Status checkMatrixRadiosity(const Scene& scene, const MatrixRadiosityOptions& options, int ranks) {
   if (options.elements == 0) return inputError("", "--elements", "must be at least 1");
   const uint64_t n_max = options.elements + 3;  // cut(n) gives at most n + 3 clusters
-  PENUMBRA_TRY(
-      checkMemory(matrixRadiosityBytes(n_max, options.precision),
-                  fmt::format("matrix radiosity with {} elements ({} form factors)",
-                              options.elements, uint64_t(options.elements) * options.elements)));
+  PENUMBRA_TRY(checkSystemMemory(n_max, options.precision, ranks, options.elements));
   // The lightmap has several elements per cluster (so that the cut can be chosen freely).
   const LightmapResolution res = lightmapFor(options);
   const uint64_t texels = expectedLightmapElements(scene, res);
@@ -51,9 +64,13 @@ Status checkMatrixRadiosity(const Scene& scene, const MatrixRadiosityOptions& op
   return {};
 }
 
-uint64_t matrixRadiosityBytes(uint64_t n, MatrixPrecision precision) {
-  const uint64_t stored = n * n * (precision == MatrixPrecision::kFp32 ? 4 : 2);
-  const uint64_t computed = precision == MatrixPrecision::kFp32 ? 0 : n * n * 4;
+uint64_t matrixRadiosityBytes(uint64_t n, MatrixPrecision precision, uint64_t rows) {
+  rows = std::min(rows, n);
+  const uint64_t stored = rows * n * (precision == MatrixPrecision::kFp32 ? 4 : 2);
+  // Over several ranks the entries bound for other ranks wait in buffers until the exchange:
+  // at most as many as this rank's own rows hold.
+  const uint64_t computed =
+      (precision == MatrixPrecision::kFp32 ? 0 : rows * n * 4) + (rows < n ? rows * n * 4 : 0);
   return stored + computed + n * 64;
 }
 
@@ -96,11 +113,12 @@ SolveStats MatrixRadiosity::solve(const SolveOptions& options,
                                   const std::function<void(int, double)>& after_iteration) {
   PENUMBRA_CHECK(system.has_value());
   radiosity.resize(size(), glm::vec3(0.0f));
-  return solveRadiosity(*system, radiosity, options, after_iteration);
+  return solveRadiosity(*system, radiosity, options, after_iteration, comm);
 }
 
 std::vector<glm::dvec3> MatrixRadiosity::elementRadiosity(bool interpolate) const {
   PENUMBRA_CHECK(system.has_value() && radiosity.size() == size());
+  // The rows held here (all on one process); the other ranks' rows are added below.
   std::vector<glm::dvec3> gathered = gatherIrradiance(*system, radiosity);
   // The emitters' part is gathered at each element instead (G_e).
   const size_t ns = emitters.size();
@@ -110,8 +128,10 @@ std::vector<glm::dvec3> MatrixRadiosity::elementRadiosity(bool interpolate) cons
     g.assign(n_el, glm::dvec3(0.0));
     parallelRange(size(), 16, [&](size_t b, size_t end) {
       for (size_t k = b; k < end; ++k) {
-        for (uint32_t j : emitters) {
-          gathered[k] -= double(system->formFactor(uint32_t(k), j)) * glm::dvec3(radiosity[j]);
+        if (k >= system->rowBegin() && k < system->rowEnd()) {
+          for (uint32_t j : emitters) {
+            gathered[k] -= double(system->formFactor(uint32_t(k), j)) * glm::dvec3(radiosity[j]);
+          }
         }
         for (uint32_t e = surface.hierarchy.elementBegin(clusters[k]);
              e < surface.hierarchy.elementEnd(clusters[k]); ++e) {
@@ -121,6 +141,11 @@ std::vector<glm::dvec3> MatrixRadiosity::elementRadiosity(bool interpolate) cons
         }
       }
     });
+  }
+  if (comm && comm->distributed()) {
+    const std::span<const glm::dvec3> held(gathered.data() + system->rowBegin(),
+                                           system->rowEnd() - system->rowBegin());
+    gathered = allgatherValues<glm::dvec3>(*comm, held);
   }
   std::vector<glm::dvec3> h;
   if (interpolate) {
@@ -150,8 +175,10 @@ Image MatrixRadiosity::radianceImage(bool interpolate) const {
 
 Expected<MatrixRadiosity> buildMatrixRadiosity(const Scene& scene,
                                                const MatrixRadiosityOptions& options,
-                                               const std::function<void(size_t, size_t)>& on_row) {
-  PENUMBRA_TRY(checkMatrixRadiosity(scene, options));
+                                               const std::function<void(size_t, size_t)>& on_row,
+                                               Communicator* comm) {
+  const int ranks = comm ? comm->size() : 1;
+  PENUMBRA_TRY(checkMatrixRadiosity(scene, options, ranks));
   Expected<ChartAtlasOptions> ao = lightmapAtlasOptions(scene, lightmapFor(options));
   if (!ao) return ao.error();
 
@@ -166,9 +193,8 @@ Expected<MatrixRadiosity> buildMatrixRadiosity(const Scene& scene,
     mr.cluster_area[k] =
         mr.surface.hierarchy.level(mr.clusters[k].level).area[mr.clusters[k].index];
   }
-  PENUMBRA_TRY(
-      checkMemory(matrixRadiosityBytes(n, options.precision),
-                  fmt::format("matrix radiosity with {} elements ({} form factors)", n, n * n)));
+  PENUMBRA_TRY(checkSystemMemory(n, options.precision, ranks, n));
+  mr.comm = comm && comm->distributed() ? comm : nullptr;
   // Everything transport takes, timed together: the pieces, the clusters' form factors, the
   // lights' shadow rays and the emitters' per-element form factors.
   const Timer transport_timer;
@@ -178,7 +204,7 @@ Expected<MatrixRadiosity> buildMatrixRadiosity(const Scene& scene,
       [&](size_t done) {
         if (on_row) on_row(done, size_t(n));
       },
-      &pieces);
+      &pieces, mr.comm);
   if (!f) return f.error();
   mr.system.emplace(std::move(*f), options.precision);
   mr.light_visibility = options.form_factors.visibility;
@@ -198,7 +224,7 @@ Expected<MatrixRadiosity> buildMatrixRadiosity(const Scene& scene,
     if (!mr.emitters.empty()) {
       Expected<std::vector<float>> ff =
           computeElementFormFactors(mr.surface, mr.clusters, mr.emitters, options.form_factors,
-                                    &mr.form_factor_stats, &pieces);
+                                    &mr.form_factor_stats, &pieces, mr.comm);
       if (!ff) return ff.error();
       mr.element_ff = std::move(*ff);
     }

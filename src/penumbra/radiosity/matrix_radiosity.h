@@ -55,8 +55,9 @@ struct MatrixRadiosityOptions {
 };
 
 // Bytes the method needs for n clusters at a precision (form factors in fp32 while they are
-// computed, the stored matrix): checked before anything N^2 is allocated.
-uint64_t matrixRadiosityBytes(uint64_t n, MatrixPrecision precision);
+// computed, the stored matrix) on a process holding `rows` of the n rows (all by default; a
+// rank's block over several): checked before anything N^2 is allocated.
+uint64_t matrixRadiosityBytes(uint64_t n, MatrixPrecision precision, uint64_t rows = ~0ull);
 
 struct MatrixRadiosity {
   RadiositySurface surface;
@@ -69,7 +70,10 @@ struct MatrixRadiosity {
   std::vector<uint32_t> emitters;
   std::vector<float> element_ff;
   std::optional<RadiositySystem> system;  // always set once built
-  std::vector<glm::vec3> radiosity;       // B per cluster (W m^-2), the latest solution
+  // The ranks that share the system (each holds a block of rows; docs/scaling.md); null: one
+  // process. solve() and elementRadiosity() are then collective, and every rank gets the result.
+  Communicator* comm = nullptr;
+  std::vector<glm::vec3> radiosity;  // B per cluster (W m^-2), the latest solution
   FormFactorStats form_factor_stats;
 
   size_t size() const { return clusters.size(); }
@@ -93,13 +97,18 @@ struct MatrixRadiosity {
 };
 
 // The checks buildMatrixRadiosity makes before any work (options in range, memory for the system
-// and the lightmap), for callers that want to refuse early.
-Status checkMatrixRadiosity(const Scene& scene, const MatrixRadiosityOptions& options);
+// and the lightmap), for callers that want to refuse early; over `ranks` ranks the memory is
+// this rank's share of the rows.
+Status checkMatrixRadiosity(const Scene& scene, const MatrixRadiosityOptions& options,
+                            int ranks = 1);
 
 // Builds the surface, picks the cut and computes the form factors (`on_row(rows_done, rows)`
 // reports progress). Refuses, with the amount, a system that would not fit in memory.
+// Over several ranks (`comm`, collective: every rank builds the same surface and cut) each rank
+// holds and computes a block of the rows (radiosity/form_factors.h), and the emitters' element
+// form factors are shared out too.
 Expected<MatrixRadiosity> buildMatrixRadiosity(
     const Scene& scene, const MatrixRadiosityOptions& options,
-    const std::function<void(size_t, size_t)>& on_row = {});
+    const std::function<void(size_t, size_t)>& on_row = {}, Communicator* comm = nullptr);
 
 }  // namespace penumbra

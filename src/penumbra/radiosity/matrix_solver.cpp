@@ -83,8 +83,10 @@ RadiositySystem::RadiositySystem(FormFactorMatrix form_factors, MatrixPrecision 
     : reflectance(form_factors.n, glm::vec3(0.0f)),
       emission(form_factors.n, glm::vec3(0.0f)),
       n_(form_factors.n),
+      row_begin_(form_factors.row_begin),
+      rows_(form_factors.rowsHeld()),
       precision_(precision) {
-  PENUMBRA_CHECK(form_factors.f.size() == size_t(n_) * n_);
+  PENUMBRA_CHECK(form_factors.f.size() == size_t(rows_) * n_ && row_begin_ + rows_ <= n_);
   if (precision == MatrixPrecision::kFp32) {
     f32_ = std::move(form_factors.f);
   } else {
@@ -96,7 +98,7 @@ RadiositySystem::RadiositySystem(FormFactorMatrix form_factors, MatrixPrecision 
 }
 
 float RadiositySystem::formFactor(uint32_t i, uint32_t j) const {
-  const size_t k = size_t(i) * n_ + j;
+  const size_t k = size_t(i - row_begin_) * n_ + j;
   return precision_ == MatrixPrecision::kFp32 ? f32_[k] : halfToFloat(f16_[k]);
 }
 
@@ -189,7 +191,7 @@ PENUMBRA_MATRIX_TARGET void rowDotAvx2(const float* f, const uint16_t* h, const 
 
 template <int K>
 void rowDot(const RadiositySystem& sys, uint32_t i, const float* const* x, double* out) {
-  const size_t n = sys.size(), off = size_t(i) * n;
+  const size_t n = sys.size(), off = size_t(i - sys.rowBegin()) * n;
   const float* f = sys.precision() == MatrixPrecision::kFp32 ? sys.f32().data() + off : nullptr;
   const uint16_t* h = f ? nullptr : sys.f16().data() + off;
 #if PENUMBRA_MATRIX_SIMD
@@ -244,7 +246,7 @@ PENUMBRA_MATRIX_TARGET void rowsDot4x3Avx2(const float* f, const uint16_t* h, si
 void rowsDot4x3(const RadiositySystem& sys, uint32_t i, const float* const* x, double* out) {
 #if PENUMBRA_MATRIX_SIMD
   if (haveSimd()) {
-    const size_t n = sys.size(), off = size_t(i) * n;
+    const size_t n = sys.size(), off = size_t(i - sys.rowBegin()) * n;
     const float* f = sys.precision() == MatrixPrecision::kFp32 ? sys.f32().data() + off : nullptr;
     const uint16_t* h = f ? nullptr : sys.f16().data() + off;
     return rowsDot4x3Avx2(f, h, n, x, n, out);
@@ -253,17 +255,17 @@ void rowsDot4x3(const RadiositySystem& sys, uint32_t i, const float* const* x, d
   rowsDot4x3Scalar(sys, i, x, out);
 }
 
-}  // namespace
-
-std::vector<glm::dvec3> gatherIrradiance(const RadiositySystem& sys, std::span<const glm::vec3> b) {
+// The rows this system holds of (F B): out[i] for i in [rowBegin, rowEnd), zero elsewhere.
+std::vector<glm::dvec3> gatherHeldRows(const RadiositySystem& sys, std::span<const glm::vec3> b) {
   const uint32_t n = sys.size();
   PENUMBRA_CHECK(b.size() == n);
   Channels x;
   x.load(b, padded(n));
   const float* xs[3] = {x.c[0].data(), x.c[1].data(), x.c[2].data()};
-  std::vector<glm::dvec3> out(n);
-  parallelRange(n, 16, [&](size_t begin, size_t end) {
-    for (size_t i = begin; i < end; ++i) {
+  std::vector<glm::dvec3> out(n, glm::dvec3(0.0));
+  parallelRange(sys.rowEnd() - sys.rowBegin(), 16, [&](size_t begin, size_t end) {
+    for (size_t r = begin; r < end; ++r) {
+      const size_t i = sys.rowBegin() + r;
       double g[3];
       rowDot<3>(sys, uint32_t(i), xs, g);
       out[i] = glm::dvec3(g[0], g[1], g[2]);
@@ -272,31 +274,40 @@ std::vector<glm::dvec3> gatherIrradiance(const RadiositySystem& sys, std::span<c
   return out;
 }
 
-double meanSquaredResidual(const RadiositySystem& sys, std::span<const glm::vec3> b) {
-  std::vector<glm::vec3> next(b.size());
-  return jacobiStep(sys, b, next);
+// The rows held, completed from the other ranks: each rank's rows of `v` (one T per row, sizeof
+// T bytes), gathered in rank order, which is row order.
+template <typename T>
+void completeRows(const RadiositySystem& sys, Communicator* comm, std::span<T> v) {
+  if (!comm || !comm->distributed()) return;
+  const std::vector<T> all = allgatherValues<T>(
+      *comm, std::span<const T>(v.data() + sys.rowBegin(), sys.rowEnd() - sys.rowBegin()));
+  PENUMBRA_CHECK(all.size() == v.size());
+  std::copy(all.begin(), all.end(), v.begin());
 }
 
-double jacobiStep(const RadiositySystem& sys, std::span<const glm::vec3> b,
-                  std::span<glm::vec3> next) {
+// Jacobi (eq. 4) on the rows held: next[i] and the row's squared residual, summed over its
+// channels, for i in [rowBegin, rowEnd).
+void jacobiRows(const RadiositySystem& sys, std::span<const glm::vec3> b, std::span<glm::vec3> next,
+                std::span<double> row_residual) {
   const uint32_t n = sys.size();
-  PENUMBRA_CHECK(b.size() == n && next.size() == n && sys.reflectance.size() == n &&
-                 sys.emission.size() == n);
+  PENUMBRA_CHECK(b.size() == n && next.size() == n && row_residual.size() == n &&
+                 sys.reflectance.size() == n && sys.emission.size() == n);
   Channels x;
   x.load(b, padded(n));
   const float* xs[3] = {x.c[0].data(), x.c[1].data(), x.c[2].data()};
-  std::vector<double> row_residual(n);
+  const uint32_t row_begin = sys.rowBegin(), rows = sys.rowEnd() - sys.rowBegin();
   // Blocks of four rows (the last block may be shorter).
-  parallelRange((n + 3) / 4, 4, [&](size_t block_begin, size_t block_end) {
+  parallelRange((rows + 3) / 4, 4, [&](size_t block_begin, size_t block_end) {
     for (size_t blk = block_begin; blk < block_end; ++blk) {
       double g4[12];
-      const size_t first = blk * 4, rows = std::min<size_t>(4, n - first);
-      if (rows == 4) {
+      const size_t first = row_begin + blk * 4;
+      const size_t count = std::min<size_t>(4, row_begin + rows - first);
+      if (count == 4) {
         rowsDot4x3(sys, uint32_t(first), xs, g4);
       } else {
-        for (size_t r = 0; r < rows; ++r) rowDot<3>(sys, uint32_t(first + r), xs, g4 + 3 * r);
+        for (size_t r = 0; r < count; ++r) rowDot<3>(sys, uint32_t(first + r), xs, g4 + 3 * r);
       }
-      for (size_t i = first; i < first + rows; ++i) {
+      for (size_t i = first; i < first + count; ++i) {
         const double* g = g4 + 3 * (i - first);  // (F B)_i
         const double fii = double(sys.formFactor(uint32_t(i), uint32_t(i)));
         double r2 = 0.0;
@@ -311,12 +322,19 @@ double jacobiStep(const RadiositySystem& sys, std::span<const glm::vec3> b,
       }
     }
   });
-  double sum = 0.0;
-  for (double r : row_residual) sum += r;
-  return sum / (3.0 * double(std::max<uint32_t>(1, n)));
 }
 
-double gaussSeidelSweep(const RadiositySystem& sys, std::span<glm::vec3> b) {
+double meanOf(std::span<const double> row_residual) {
+  double sum = 0.0;
+  for (double r : row_residual) sum += r;
+  return sum / (3.0 * double(std::max<size_t>(1, row_residual.size())));
+}
+
+// Gauss-Seidel on the rows held, in place, with the other rows' B as they were when the sweep
+// began (one process: the sweep of every row). Writes each held row's squared residual before
+// its update.
+void gaussSeidelRows(const RadiositySystem& sys, std::span<glm::vec3> b,
+                     std::span<double> row_residual) {
   const uint32_t n = sys.size();
   PENUMBRA_CHECK(b.size() == n && sys.reflectance.size() == n && sys.emission.size() == n);
   // x[0..2]: B at the start of the sweep; x[3..5]: the updates made so far (zero for rows not
@@ -327,11 +345,11 @@ double gaussSeidelSweep(const RadiositySystem& sys, std::span<glm::vec3> b) {
   for (int k = 0; k < 3; ++k) delta.c[k].assign(padded(n), 0.0f);
   const float* xs[6] = {old_b.c[0].data(), old_b.c[1].data(), old_b.c[2].data(),
                         delta.c[0].data(), delta.c[1].data(), delta.c[2].data()};
-  double r2 = 0.0;
-  for (uint32_t i = 0; i < n; ++i) {
+  for (uint32_t i = sys.rowBegin(); i < sys.rowEnd(); ++i) {
     double g[6];
     rowDot<6>(sys, i, xs, g);
     const double fii = double(sys.formFactor(i, i));
+    double r2 = 0.0;
     for (int c = 0; c < 3; ++c) {
       const double rho = sys.reflectance[i][c], e = sys.emission[i][c];
       const double old = old_b.c[c][i];
@@ -342,31 +360,67 @@ double gaussSeidelSweep(const RadiositySystem& sys, std::span<glm::vec3> b) {
       b[i][c] = float(updated);
       delta.c[c][i] = float(double(b[i][c]) - old);
     }
+    row_residual[i] = r2;
   }
-  return r2 / (3.0 * double(std::max<uint32_t>(1, n)));
+}
+
+}  // namespace
+
+std::vector<glm::dvec3> gatherIrradiance(const RadiositySystem& sys, std::span<const glm::vec3> b,
+                                         Communicator* comm) {
+  std::vector<glm::dvec3> out = gatherHeldRows(sys, b);
+  completeRows<glm::dvec3>(sys, comm, out);
+  return out;
+}
+
+double meanSquaredResidual(const RadiositySystem& sys, std::span<const glm::vec3> b,
+                           Communicator* comm) {
+  std::vector<glm::vec3> next(b.size());
+  std::vector<double> row_residual(b.size(), 0.0);
+  jacobiRows(sys, b, next, row_residual);
+  completeRows<double>(sys, comm, row_residual);
+  return meanOf(row_residual);
+}
+
+double jacobiStep(const RadiositySystem& sys, std::span<const glm::vec3> b,
+                  std::span<glm::vec3> next) {
+  std::vector<double> row_residual(b.size(), 0.0);
+  jacobiRows(sys, b, next, row_residual);
+  return meanOf(row_residual);
+}
+
+double gaussSeidelSweep(const RadiositySystem& sys, std::span<glm::vec3> b) {
+  std::vector<double> row_residual(b.size(), 0.0);
+  gaussSeidelRows(sys, b, row_residual);
+  return meanOf(row_residual);
 }
 
 SolveStats solveRadiosity(const RadiositySystem& sys, std::vector<glm::vec3>& b,
                           const SolveOptions& options,
-                          const std::function<void(int, double)>& after_iteration) {
+                          const std::function<void(int, double)>& after_iteration,
+                          Communicator* comm) {
   const Timer timer;
   SolveStats stats;
   PENUMBRA_CHECK(b.size() == sys.size());
   std::vector<glm::vec3> next(b.size());
+  std::vector<double> row_residual(b.size(), 0.0);
   for (int k = 0; k < options.max_iterations; ++k) {
-    double r;
+    // Each rank its rows; then every rank has all of B and of the residuals, in row order.
     if (options.solver == MatrixSolver::kJacobi) {
-      r = jacobiStep(sys, b, next);
+      jacobiRows(sys, b, next, row_residual);
       b.swap(next);
     } else {
-      r = gaussSeidelSweep(sys, b);
+      gaussSeidelRows(sys, b, row_residual);
     }
+    completeRows<glm::vec3>(sys, comm, b);
+    completeRows<double>(sys, comm, row_residual);
+    const double r = meanOf(row_residual);
     stats.history.push_back(r);  // residual of iterate k
     ++stats.iterations;
     if (after_iteration) after_iteration(k, r);
     if (r <= options.tolerance) break;
   }
-  stats.residual = meanSquaredResidual(sys, b);
+  stats.residual = meanSquaredResidual(sys, b, comm);
   stats.history.push_back(stats.residual);
   stats.converged = stats.residual <= options.tolerance;
   stats.seconds = timer.seconds();

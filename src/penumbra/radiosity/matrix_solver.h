@@ -44,11 +44,14 @@ class RadiositySystem {
   RadiositySystem(FormFactorMatrix form_factors, MatrixPrecision precision);
 
   uint32_t size() const { return n_; }
+  // The rows of F held (all on one process; a rank's block over several, docs/scaling.md).
+  uint32_t rowBegin() const { return row_begin_; }
+  uint32_t rowEnd() const { return row_begin_ + rows_; }
   MatrixPrecision precision() const { return precision_; }
   // The matrix as stored: row-major n x n, one of the two is non-empty.
   const std::vector<float>& f32() const { return f32_; }
   const std::vector<uint16_t>& f16() const { return f16_; }
-  // F_ij as the solvers see it (after fp16 rounding when stored so).
+  // F_ij as the solvers see it (after fp16 rounding when stored so), for a row held.
   float formFactor(uint32_t i, uint32_t j) const;
   // Bytes the stored matrix takes.
   uint64_t matrixBytes() const;
@@ -59,6 +62,7 @@ class RadiositySystem {
 
  private:
   uint32_t n_ = 0;
+  uint32_t row_begin_ = 0, rows_ = 0;
   MatrixPrecision precision_;
   std::vector<float> f32_;
   std::vector<uint16_t> f16_;
@@ -78,17 +82,27 @@ struct SolveStats {
   double seconds = 0.0;
 };
 
+// Over several ranks (`comm`, collective; docs/scaling.md) each rank computes the rows it holds
+// and the ranks exchange them: every rank gets all of the result. The per-row values are summed
+// in row order, so Jacobi's iterates, residuals and iteration count are one process's bit for
+// bit. Gauss-Seidel becomes block Gauss-Seidel: in place within a rank's rows, the other rows as
+// they were when the sweep began (the same fixed point; iterates and count differ).
+
 // (F B)_i per element: the irradiance each element gathers from the others (W m^-2).
 std::vector<glm::dvec3> gatherIrradiance(const RadiositySystem& system,
-                                         std::span<const glm::vec3> b);
+                                         std::span<const glm::vec3> b,
+                                         Communicator* comm = nullptr);
 
 // Mean squared residual of M B - E over elements and channels ((W m^-2)^2).
-double meanSquaredResidual(const RadiositySystem& system, std::span<const glm::vec3> b);
+double meanSquaredResidual(const RadiositySystem& system, std::span<const glm::vec3> b,
+                           Communicator* comm = nullptr);
 
-// One Jacobi iteration (eq. 4): writes B' to `next` and returns the residual of `b`.
+// One Jacobi iteration (eq. 4) on one process: writes B' to `next` and returns the residual of
+// `b`.
 double jacobiStep(const RadiositySystem& system, std::span<const glm::vec3> b,
                   std::span<glm::vec3> next);
-// One Gauss-Seidel sweep in place; returns the residual of `b` as it was before the sweep.
+// One Gauss-Seidel sweep in place on one process; returns the residual of `b` as it was before
+// the sweep.
 double gaussSeidelSweep(const RadiositySystem& system, std::span<glm::vec3> b);
 
 // Iterates from `b` (the previous solution for a warm start, or anything: zeros, E) until the
@@ -96,6 +110,7 @@ double gaussSeidelSweep(const RadiositySystem& system, std::span<glm::vec3> b);
 // `after_iteration(k, residual_of_iterate_k)` is called after each iteration.
 SolveStats solveRadiosity(const RadiositySystem& system, std::vector<glm::vec3>& b,
                           const SolveOptions& options,
-                          const std::function<void(int, double)>& after_iteration = {});
+                          const std::function<void(int, double)>& after_iteration = {},
+                          Communicator* comm = nullptr);
 
 }  // namespace penumbra

@@ -63,6 +63,66 @@ constexpr double kCoarse = 20.0;
 // the L2 cache.
 constexpr size_t kReceiverBlock = 256;
 
+// Receivers shared out over the ranks of a distributed run (docs/scaling.md): chunks of whole
+// receiver blocks dealt out in turn (chunk c to rank c mod size), about eight per rank, so each
+// rank gets near and far, lit and shadowed parts of the scene alike. One process: one chunk.
+class ReceiverShare {
+ public:
+  ReceiverShare(size_t n, Communicator* comm) : n_(n), comm_(comm) {
+    const size_t ranks = comm ? size_t(comm->size()) : 1;
+    const size_t per = (n + 8 * ranks - 1) / (8 * ranks);
+    chunk_ = std::max(kReceiverBlock, (per + kReceiverBlock - 1) / kReceiverBlock * kReceiverBlock);
+    if (ranks == 1) chunk_ = std::max<size_t>(n, 1);
+  }
+  size_t chunks() const { return (n_ + chunk_ - 1) / chunk_; }
+  int ownerOf(size_t c) const { return comm_ ? int(c % size_t(comm_->size())) : 0; }
+  bool mine(size_t c) const { return !comm_ || ownerOf(c) == comm_->rank(); }
+  std::pair<size_t, size_t> range(size_t c) const {
+    return {c * chunk_, std::min(n_, (c + 1) * chunk_)};
+  }
+  // body(begin, end) over this rank's receivers, in parallel within each chunk.
+  template <typename Body>
+  void forMine(Body&& body) const {
+    for (size_t c = 0; c < chunks(); ++c) {
+      if (!mine(c)) continue;
+      const auto [b, e] = range(c);
+      parallelRange(e - b, kReceiverBlock, [&](size_t i, size_t j) { body(b + i, b + j); });
+    }
+  }
+  // Fills in the other ranks' receivers of `values` (one per receiver): every rank then has
+  // every receiver's value, each computed once.
+  template <typename T>
+  void exchange(std::vector<T>& values) const {
+    if (!comm_ || !comm_->distributed()) return;
+    std::vector<T> packed;
+    for (size_t c = 0; c < chunks(); ++c) {
+      if (!mine(c)) continue;
+      const auto [b, e] = range(c);
+      packed.insert(packed.end(), values.begin() + std::ptrdiff_t(b),
+                    values.begin() + std::ptrdiff_t(e));
+    }
+    std::vector<size_t> counts;
+    const std::vector<T> all = allgatherValues<T>(*comm_, packed, &counts);
+    size_t at = 0;
+    for (int r = 0; r < comm_->size(); ++r) {
+      for (size_t c = size_t(r); c < chunks(); c += size_t(comm_->size())) {
+        const auto [b, e] = range(c);
+        std::copy(all.begin() + std::ptrdiff_t(at), all.begin() + std::ptrdiff_t(at + e - b),
+                  values.begin() + std::ptrdiff_t(b));
+        at += e - b;
+      }
+    }
+  }
+  uint64_t sum(uint64_t mine) const {
+    return comm_ && comm_->distributed() ? allreduceSum(*comm_, mine) : mine;
+  }
+
+ private:
+  size_t n_ = 0;
+  size_t chunk_ = 1;
+  Communicator* comm_ = nullptr;
+};
+
 void ProgressiveRadiosity::elementPieces(size_t e, std::vector<std::array<glm::dvec3, 8>>& polygons,
                                          std::vector<int>& counts) const {
   surface_.atlas.elementPieces(e, surface_.flat.positions, surface_.flat.triangles, polygons,
@@ -363,16 +423,27 @@ ProgressiveIteration ProgressiveRadiosity::shootLights() {
       },
       it);
   uint64_t traced = 0;
-  std::vector<glm::dvec3> positions(receivers_.size()), normals(receivers_.size()),
-      shading(receivers_.size());
-  for (size_t k = 0; k < receivers_.size(); ++k) {
-    positions[k] = receivers_.position(k);
-    normals[k] = receivers_.normal(k);
-    shading[k] = receivers_.shadingNormal(k);
+  // Each rank its chunks of receivers (one process: all of them), then every rank has all.
+  const ReceiverShare share(receivers_.size(), comm_);
+  std::vector<glm::dvec3> incident(receivers_.size(), glm::dvec3(0.0));
+  for (size_t c = 0; c < share.chunks(); ++c) {
+    if (!share.mine(c)) continue;
+    const auto [b, e] = share.range(c);
+    std::vector<glm::dvec3> positions(e - b), normals(e - b), shading(e - b);
+    for (size_t k = b; k < e; ++k) {
+      positions[k - b] = receivers_.position(k);
+      normals[k - b] = receivers_.normal(k);
+      shading[k - b] = receivers_.shadingNormal(k);
+    }
+    uint64_t rays = 0;
+    const std::vector<glm::dvec3> got = surface_.lightIrradianceAt(
+        lights_, options_.visibility, positions, normals, shading, &rays);
+    std::copy(got.begin(), got.end(), incident.begin() + std::ptrdiff_t(b));
+    traced += rays;
   }
-  incident_ = receivers_.toElements(
-      surface_, surface_.lightIrradianceAt(lights_, options_.visibility, positions, normals,
-                                           shading, &traced));
+  share.exchange(incident);
+  traced = share.sum(traced);
+  incident_ = receivers_.toElements(surface_, std::move(incident));
   uint64_t probes = 0;
   glm::dvec3 scale(1.0);
   it.closed = shotClosed(kLights, &probes);
@@ -618,7 +689,10 @@ ProgressiveIteration ProgressiveRadiosity::shoot(uint32_t shooter) {
   const size_t n = receivers_.size();
   std::vector<glm::dvec3> incident(n, glm::dvec3(0.0));
   std::atomic<uint64_t> rays{0};
-  parallelRange(n, 256, [&](size_t begin, size_t end) {
+  // Each rank gathers at its chunks of receivers (one process: all of them); then every rank has
+  // every receiver's irradiance, and the rest of the shot runs alike on all.
+  const ReceiverShare share(n, comm_);
+  share.forMine([&](size_t begin, size_t end) {
     std::vector<Pair> pairs;
     std::vector<uint32_t> stack;
     std::vector<uint64_t> order;  // (point, pair index): sorted, the pairs by point, stably
@@ -717,6 +791,7 @@ ProgressiveIteration ProgressiveRadiosity::shoot(uint32_t shooter) {
     }
   });
 
+  share.exchange(incident);
   incident_ = receivers_.toElements(surface_, std::move(incident));
 
   // Closed shot: the power arriving equals the power shot (the form factors' sum rule).
@@ -731,7 +806,7 @@ ProgressiveIteration ProgressiveRadiosity::shoot(uint32_t shooter) {
 
   it.shot_power = residualLuminance(shot);
   it.unshot_fraction = unshotFraction();
-  it.rays += rays.load() + probes;
+  it.rays += share.sum(rays.load()) + probes;
   it.seconds = timer.seconds();
   return it;
 }

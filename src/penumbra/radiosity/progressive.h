@@ -59,6 +59,7 @@
 //    iterations, never added to B.
 #pragma once
 
+#include "penumbra/cluster/communicator.h"
 #include "penumbra/core/expected.h"
 #include "penumbra/core/image.h"
 #include "penumbra/core/timer.h"
@@ -311,6 +312,13 @@ class ProgressiveRadiosity {
   const ProgressiveReceivers& receivers() const { return receivers_; }
   int receiverLevel() const { return receiver_level_; }
 
+  // The ranks that share the shots (docs/scaling.md; null: one process). Each rank gathers at a
+  // share of the receivers and they exchange the irradiance, so every rank holds the whole
+  // solution, and each shot, the shooter chosen next, the balance and the checkpoint are one
+  // process's bit for bit. shoot(), step() and solve() are then collective.
+  void setCommunicator(Communicator* comm) { comm_ = comm && comm->distributed() ? comm : nullptr; }
+  Communicator* communicator() const { return comm_; }
+
   // Outgoing radiance B / pi (W m^-2 sr^-1) per atlas texel, the size of the atlas: kInside
   // texels hold their element's value (plus rho * ambient when `with_ambient`), kBorder and
   // kDilated texels the mean of adjacent filled texels of the same chart (in rounds), kEmpty
@@ -334,6 +342,7 @@ class ProgressiveRadiosity {
   EnergyBalance balance_;
   glm::dvec3 ambient_factor_{1.0};  // R of eq. 6, per channel
   int iterations_ = 0;
+  Communicator* comm_ = nullptr;
 
   mutable std::vector<int8_t> closed_;  // per shooter, then the lights: -1 not probed yet
   ProgressiveIteration shootLights();

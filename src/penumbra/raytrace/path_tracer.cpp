@@ -424,31 +424,42 @@ uint64_t PathTracer::addSamples(const Camera& camera, const PathTracerSettings& 
   return total.load();
 }
 
+uint64_t PathTracer::renderRows(const Camera& camera, const PathTracerSettings& settings, int y0,
+                                int y1, std::span<glm::vec3> rows,
+                                const std::function<void()>& on_row) const {
+  PENUMBRA_CHECK(0 <= y0 && y0 <= y1 && y1 <= settings.height &&
+                 rows.size() == size_t(y1 - y0) * size_t(settings.width));
+  const CameraRays cam(camera, settings.width, settings.height);
+  std::atomic<uint64_t> total_rays{0};
+  parallelRange(size_t(y1 - y0), 1, [&](size_t r0, size_t r1) {
+    uint64_t rays = 0;
+    for (size_t r = r0; r < r1; ++r) {
+      const int y = y0 + int(r);
+      for (int x = 0; x < settings.width; ++x) {
+        throwIfInterrupted();  // a caller of the library asked to stop (core/interrupt.h)
+        glm::dvec3 sum(0.0);
+        for (int s = 0; s < settings.spp; ++s) sum += pixelSample(cam, settings, x, y, s, rays);
+        rows[r * size_t(settings.width) + size_t(x)] = glm::vec3(sum / double(settings.spp));
+      }
+      if (on_row) on_row();
+    }
+    total_rays += rays;
+  });
+  return total_rays.load();
+}
+
 Image PathTracer::render(const Camera& camera, const PathTracerSettings& settings,
                          PathTracerStats* stats,
                          const std::function<void(int)>& on_progress) const {
   Timer timer;
   Image image(settings.width, settings.height);
-  const CameraRays cam(camera, settings.width, settings.height);
-  std::atomic<uint64_t> total_rays{0};
   std::atomic<int> rows_done{0};
-  parallelRange(size_t(settings.height), 1, [&](size_t y0, size_t y1) {
-    uint64_t rays = 0;
-    for (size_t y = y0; y < y1; ++y) {
-      for (int x = 0; x < settings.width; ++x) {
-        throwIfInterrupted();  // a caller of the library asked to stop (core/interrupt.h)
-        glm::dvec3 sum(0.0);
-        for (int s = 0; s < settings.spp; ++s)
-          sum += pixelSample(cam, settings, x, int(y), s, rays);
-        image.at(x, int(y)) = glm::vec3(sum / double(settings.spp));
-      }
-      const int done = rows_done.fetch_add(1) + 1;
-      if (on_progress) on_progress(done);
-    }
-    total_rays += rays;
+  const uint64_t rays = renderRows(camera, settings, 0, settings.height, image.pixels, [&] {
+    const int done = rows_done.fetch_add(1) + 1;
+    if (on_progress) on_progress(done);
   });
   if (stats) {
-    stats->rays = total_rays.load();
+    stats->rays = rays;
     stats->seconds = timer.seconds();
   }
   return image;
@@ -464,6 +475,27 @@ Expected<Image> PathTracer::renderWavefront(const Camera& camera,
                                             const std::function<void(int)>& on_progress) const {
   Timer timer;
   Image image(settings.width, settings.height);
+  int rows_done = 0;
+  Expected<uint64_t> rays =
+      renderRowsWavefront(camera, settings, 0, settings.height, queries, image.pixels, [&](int n) {
+        rows_done += n;
+        if (on_progress) on_progress(rows_done);
+      });
+  if (!rays) return rays.error();
+  if (stats) {
+    stats->rays = *rays;
+    stats->seconds = timer.seconds();
+  }
+  return image;
+}
+
+Expected<uint64_t> PathTracer::renderRowsWavefront(const Camera& camera,
+                                                   const PathTracerSettings& settings, int y_begin,
+                                                   int y_end, RayQueries& queries,
+                                                   std::span<glm::vec3> rows,
+                                                   const std::function<void(int)>& on_rows) const {
+  PENUMBRA_CHECK(0 <= y_begin && y_begin <= y_end && y_end <= settings.height &&
+                 rows.size() == size_t(y_end - y_begin) * size_t(settings.width));
   const CameraRays cam(camera, settings.width, settings.height);
   const size_t spp = size_t(settings.spp);
   const size_t cap = lightQueryCapacity();
@@ -480,8 +512,8 @@ Expected<Image> PathTracer::renderWavefront(const Camera& camera,
   std::vector<uint8_t> occluded;
   std::vector<size_t> shadow_slot;
   std::vector<uint8_t> blocked;  // per query slot: its shadow ray was occluded
-  for (size_t y0 = 0; y0 < size_t(settings.height); y0 += rows_per_wave) {
-    const size_t y1 = std::min(size_t(settings.height), y0 + rows_per_wave);
+  for (size_t y0 = size_t(y_begin); y0 < size_t(y_end); y0 += rows_per_wave) {
+    const size_t y1 = std::min(size_t(y_end), y0 + rows_per_wave);
     const size_t n = (y1 - y0) * size_t(settings.width) * spp;
     paths.assign(n, PathState{});
     parallelRange(n, 1024, [&](size_t b, size_t e) {
@@ -548,15 +580,12 @@ Expected<Image> PathTracer::renderWavefront(const Camera& camera,
       for (size_t s = 0; s < spp; ++s) sum += glm::dvec3(paths[local_pixel * spp + s].result);
       const size_t x = local_pixel % size_t(settings.width);
       const size_t y = y0 + local_pixel / size_t(settings.width);
-      image.at(int(x), int(y)) = glm::vec3(sum / double(settings.spp));
+      rows[(y - size_t(y_begin)) * size_t(settings.width) + x] =
+          glm::vec3(sum / double(settings.spp));
     }
-    if (on_progress) on_progress(int(y1));
+    if (on_rows) on_rows(int(y1 - y0));
   }
-  if (stats) {
-    stats->rays = rays;
-    stats->seconds = timer.seconds();
-  }
-  return image;
+  return rays;
 }
 
 }  // namespace penumbra

@@ -132,6 +132,12 @@ class PathTracer {
                PathTracerStats* stats = nullptr,
                const std::function<void(int)>& on_progress = {}) const;
 
+  // Rows [y0, y1) of render()'s image, bit for bit, into `rows` ((y1 - y0) x width, row-major);
+  // `on_row()` after each row (from any thread). Returns the rays traced. What a rank of a
+  // distributed render computes for each block of rows (cluster/distributed_render.h).
+  uint64_t renderRows(const Camera& camera, const PathTracerSettings& settings, int y0, int y1,
+                      std::span<glm::vec3> rows, const std::function<void()>& on_row = {}) const;
+
   // Sample `sample` (of settings.spp) of every pixel in rows [y0, y1), added to `sum` (one entry
   // per pixel of the whole image, row-major): the values render() sums. Adding samples 0 ..
   // spp - 1 in order and dividing by spp gives render()'s image bit for bit, which is how a
@@ -145,6 +151,13 @@ class PathTracer {
   Expected<Image> renderWavefront(const Camera& camera, const PathTracerSettings& settings,
                                   RayQueries& queries, PathTracerStats* stats = nullptr,
                                   const std::function<void(int)>& on_progress = {}) const;
+
+  // Rows [y0, y1) of renderWavefront()'s image into `rows`, as renderRows(); `on_rows(n)` when n
+  // more rows are done. Returns the rays traced.
+  Expected<uint64_t> renderRowsWavefront(const Camera& camera, const PathTracerSettings& settings,
+                                         int y0, int y1, RayQueries& queries,
+                                         std::span<glm::vec3> rows,
+                                         const std::function<void(int)>& on_rows = {}) const;
 
   // One step of a path: processes the hit of s.ray (inside a medium, first the free flight,
   // which may end in a scattering event before the hit; then emission with its MIS weight, or
