@@ -6,7 +6,10 @@ one process with every core, and `mpirun -np N` with one thread per rank for N =
 --max-ranks (ranks beyond the cores run oversubscribed: say so when quoting them), in
 interleaved rounds, checks that the distributed outputs are the baseline's bytes (where
 docs/scaling.md promises it), and prints a Markdown table of median wall times and speed-ups
-over the baseline, with the bytes each rank exchanged where the stats give them.
+over the baseline: of the whole command (wall, including starting the processes and loading the
+scene on each), and of the work itself as --stats times it (path tracer: rendering; trace: build
+and trace, over ranks from the scatter to the gathered answers; matrix: form factors and solve;
+progressive: the solve).
 
   bench/mpi_scaling.py [--build build] [--out bench-out/mpi-scaling] [--rounds 3] [--max-ranks 2]
 """
@@ -40,6 +43,17 @@ def cases(out):
     ]
 
 
+def work_seconds(command, stats):
+    """The work itself, from --stats (without starting the processes and loading the scene)."""
+    if command == "trace":
+        return stats["seconds"]  # one process: build + trace; ranks: scatter to gather
+    if stats.get("method") == "matrix":
+        return stats["form_factor_seconds"] + stats["solve_seconds"]
+    if "solve_seconds" in stats:
+        return stats["solve_seconds"]
+    return stats["seconds"]
+
+
 def mpirun():
     cmd = ["mpirun", "--oversubscribe"]
     if os.geteuid() == 0:
@@ -66,6 +80,7 @@ def main():
     rows = []
     for title, command, opts, product in cases(args.out):
         times = {c[0]: [] for c in configs}
+        work = {c[0]: [] for c in configs}
         stats = {}
         outputs = {}
         for _ in range(args.rounds):
@@ -80,20 +95,24 @@ def main():
                 subprocess.run(cmd, check=True, cwd=ROOT, stdout=subprocess.DEVNULL)
                 times[name].append(time.monotonic() - t0)
                 stats[name] = json.load(open(tag + ".json"))
+                work[name].append(work_seconds(command, stats[name]))
                 with open(product.replace("{out}", tag), "rb") as f:
                     outputs[name] = f.read()
         base = statistics.median(times[configs[0][0]])
+        base_work = statistics.median(work[configs[0][0]])
         same = all(outputs[c[0]] == outputs[configs[0][0]] for c in configs)
         for name, ranks, threads in configs:
             t = statistics.median(times[name])
-            rows.append((title, name, t, base / t, same, stats[name]))
-    print("| case | run | wall s (median) | speed-up over 1 thread | same bytes |")
-    print("|---|---|---|---|---|")
-    for title, name, t, s, same, _ in rows:
-        print(f"| {title} | {name} | {t:.2f} | {s:.2f}x | {'yes' if same else 'NO'} |")
-    json.dump([{"case": r[0], "run": r[1], "seconds": r[2], "speedup": r[3], "same": r[4],
-                "stats": r[5]} for r in rows], open(os.path.join(args.out, "results.json"), "w"),
-              indent=1)
+            w = statistics.median(work[name])
+            rows.append((title, name, t, base / t, w, base_work / w, same, stats[name]))
+    print("| case | run | wall s | speed-up | work s | speed-up | same bytes |")
+    print("|---|---|---|---|---|---|---|")
+    for title, name, t, s, w, ws, same, _ in rows:
+        print(f"| {title} | {name} | {t:.2f} | {s:.2f}x | {w:.2f} | {ws:.2f}x | "
+              f"{'yes' if same else 'NO'} |")
+    json.dump([{"case": r[0], "run": r[1], "seconds": r[2], "speedup": r[3], "work_seconds": r[4],
+                "work_speedup": r[5], "same": r[6], "stats": r[7]} for r in rows],
+              open(os.path.join(args.out, "results.json"), "w"), indent=1)
     return 0
 
 

@@ -175,8 +175,7 @@ Status renderPathTrace(const RenderOptions& options, const CommonOptions& common
     std::atomic<int> rows_in{0};
     distributed.emplace();
     image = renderOverRanks(
-        comm, settings.width, settings.height,
-        rowBlockSize(settings.height, comm.size(), threadCount()),
+        comm, settings.width, settings.height, rowBlockSize(settings.height, comm.size()),
         [&](int y0, int y1, std::span<glm::vec3> out) -> uint64_t {
           if (!queries) return tracer.renderRows(camera, settings, y0, y1, out);
           Expected<uint64_t> rays =

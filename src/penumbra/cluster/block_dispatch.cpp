@@ -2,6 +2,7 @@
 
 #include <atomic>
 #include <cstdio>
+#include <cstdlib>
 #include <exception>
 #include <mutex>
 #include <thread>
@@ -15,6 +16,7 @@ namespace {
   std::fprintf(stderr, "penumbra: error: rank %d of %d: %s\n", comm.rank(), comm.size(), what);
   std::fflush(stderr);
   comm.abort(1);
+  std::_Exit(1);  // abort() does not return; this says so to the compiler
 }
 
 template <typename F>

@@ -21,10 +21,12 @@ struct DistributedRenderStats {
   uint64_t bytes_received = 0;            // on rank 0: pixels from the other ranks
 };
 
-// Rows per block for an image `height` rows high over `ranks` ranks of `threads` threads each:
-// at least 8 blocks per rank (so that a slow rank holds back the end by at most an eighth of its
-// share), and rows enough to keep a rank's threads busy (one row per thread at least).
-int rowBlockSize(int height, int ranks, int threads);
+// Rows per block for an image `height` rows high over `ranks` ranks: 8 blocks per rank where the
+// rows allow (so that a slow rank holds back the end by at most an eighth of its share), one row
+// at least (a block of fewer rows than a rank has threads renders its pixels in parallel:
+// PathTracer::renderRows). A 2160-row frame keeps up to 270 ranks busy at 8 blocks each, and up
+// to 2160 at one row each.
+int rowBlockSize(int height, int ranks);
 
 // Renders a width x height image: `render_rows(y0, y1, out)` renders rows [y0, y1) into `out`
 // ((y1 - y0) x width) and returns its rays; it throws on failure (which ends the job).

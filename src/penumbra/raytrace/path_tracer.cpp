@@ -431,20 +431,37 @@ uint64_t PathTracer::renderRows(const Camera& camera, const PathTracerSettings& 
                  rows.size() == size_t(y1 - y0) * size_t(settings.width));
   const CameraRays cam(camera, settings.width, settings.height);
   std::atomic<uint64_t> total_rays{0};
-  parallelRange(size_t(y1 - y0), 1, [&](size_t r0, size_t r1) {
-    uint64_t rays = 0;
-    for (size_t r = r0; r < r1; ++r) {
-      const int y = y0 + int(r);
-      for (int x = 0; x < settings.width; ++x) {
-        throwIfInterrupted();  // a caller of the library asked to stop (core/interrupt.h)
-        glm::dvec3 sum(0.0);
-        for (int s = 0; s < settings.spp; ++s) sum += pixelSample(cam, settings, x, y, s, rays);
-        rows[r * size_t(settings.width) + size_t(x)] = glm::vec3(sum / double(settings.spp));
+  const auto pixel = [&](size_t r, int x, uint64_t& rays) {
+    throwIfInterrupted();  // a caller of the library asked to stop (core/interrupt.h)
+    glm::dvec3 sum(0.0);
+    for (int s = 0; s < settings.spp; ++s)
+      sum += pixelSample(cam, settings, x, y0 + int(r), s, rays);
+    rows[r * size_t(settings.width) + size_t(x)] = glm::vec3(sum / double(settings.spp));
+  };
+  const size_t count = size_t(y1 - y0);
+  if (count >= size_t(threadCount())) {
+    // Rows in parallel.
+    parallelRange(count, 1, [&](size_t r0, size_t r1) {
+      uint64_t rays = 0;
+      for (size_t r = r0; r < r1; ++r) {
+        for (int x = 0; x < settings.width; ++x) pixel(r, x, rays);
+        if (on_row) on_row();
       }
-      if (on_row) on_row();
+      total_rays += rays;
+    });
+  } else {
+    // Fewer rows than threads (a distributed render's small blocks): pixels in parallel. Each
+    // pixel's value is its own either way.
+    const size_t w = size_t(settings.width);
+    parallelRange(count * w, 16, [&](size_t b, size_t e) {
+      uint64_t rays = 0;
+      for (size_t i = b; i < e; ++i) pixel(i / w, int(i % w), rays);
+      total_rays += rays;
+    });
+    if (on_row) {
+      for (size_t r = 0; r < count; ++r) on_row();
     }
-    total_rays += rays;
-  });
+  }
   return total_rays.load();
 }
 
