@@ -138,7 +138,10 @@ ReadyGate::~ReadyGate() {
 
 Status ReadyGate::open() {
   opened_ = true;
-  return agreeReady(comm_, {});
+  const Status agreed = agreeReady(comm_, {});
+  // From here on an error on this rank is its own (a GPU that failed here): it prints it.
+  if (agreed.ok()) g_this_rank_reports = true;
+  return agreed;
 }
 
 bool thisRankReports() {

@@ -191,7 +191,8 @@ class ReadyGate {
   Communicator& comm_;
   bool opened_ = false;
 };
-// Whether this rank (not rank 0) prints its error: set by a ReadyGate that failed here first.
+// Whether this rank (not rank 0) prints its errors: set by a ReadyGate that failed here first, or
+// that opened (an error after the ranks agreed to start is this rank's own).
 bool thisRankReports();
 
 template <typename T>

@@ -59,6 +59,13 @@ extern "C" void onSignal(int sig) {
     std::raise(sig);
     return;
   }
+  if (g_distributed) {
+    // SIGUSR1: a request to stop cleanly whenever it comes (a rank may not have reached its
+    // solve yet); the ranks agree on it between two steps, or a method without a clean stop
+    // ends the job.
+    if (!g_requested) g_requested = sig;
+    return;
+  }
   if (g_scope && !g_requested) {
     g_requested = sig;
     return;

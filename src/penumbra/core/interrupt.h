@@ -21,8 +21,9 @@ void installInterruptHandlers();
 // In a run over several processes (cluster/communicator.h), SIGINT and SIGTERM end the process
 // even inside an InterruptScope: mpirun sends them to every rank when one fails or the job is
 // cancelled, and a rank cannot stop cleanly while the others are gone. SIGUSR1 (which mpirun
-// passes on to every rank) is the request to stop cleanly instead (progressive radiosity writes
-// its checkpoint). The exit message names the rank.
+// passes on to every rank) is the request to stop cleanly instead, inside a scope or not
+// (progressive radiosity writes its checkpoint; a method without a clean stop ends the job). The
+// exit message names the rank.
 void interruptSignalsEndDistributedRun(int rank, int size);
 
 // A request to stop, as the signal makes it: async-signal-safe, so a caller's own SIGINT handler
