@@ -10,6 +10,7 @@
 // All outputs are staged in a hidden directory inside DIR and renamed into place only once every
 // file is complete, so a failed run leaves no output (and removes DIR if it created it).
 #include "penumbra/app/commands.h"
+#include "penumbra/app/matrix_build.h"
 #include "penumbra/app/progressive_run.h"
 #include "penumbra/app/session.h"
 #include "penumbra/app/stats_file.h"
@@ -135,19 +136,7 @@ Expected<BakeProduct> solveMatrix(const BakeOptions& options, const CommonOption
     return planned;
   }
   const Timer build_timer;
-  std::optional<Progress> ff_progress;
-  std::once_flag ff_progress_once;
-  Expected<MatrixRadiosity> built = buildMatrixRadiosity(
-      scene, mo,
-      [&](size_t done, size_t rows) {
-        std::call_once(ff_progress_once, [&] {
-          ff_progress.emplace("form factors", uint64_t(rows),
-                              !common.quiet && comm.root() && Progress::stderrIsTerminal());
-        });
-        ff_progress->reach(done);
-      },
-      &comm);
-  if (ff_progress) ff_progress->finish();
+  Expected<MatrixRadiosity> built = buildMatrixWithProgress(scene, mo, common);
   if (!built) return built.error();
   MatrixRadiosity& mr = *built;
   const double build_seconds = build_timer.seconds();

@@ -4,6 +4,7 @@
 #include "penumbra/app/commands.h"
 #include "penumbra/app/device.h"
 #include "penumbra/app/illuminance_output.h"
+#include "penumbra/app/matrix_build.h"
 #include "penumbra/app/session.h"
 #include "penumbra/app/stats_file.h"
 #include "penumbra/cluster/communicator.h"
@@ -109,19 +110,7 @@ Status renderMatrix(const RenderOptions& options, const CommonOptions& common) {
   if (common.dry_run) return {};
 
   const Timer build_timer;
-  std::optional<Progress> ff_progress;
-  std::once_flag ff_progress_once;
-  Expected<MatrixRadiosity> built = buildMatrixRadiosity(
-      *scene, mo,
-      [&](size_t done, size_t rows) {
-        std::call_once(ff_progress_once, [&] {
-          ff_progress.emplace("form factors", uint64_t(rows),
-                              !common.quiet && comm.root() && Progress::stderrIsTerminal());
-        });
-        ff_progress->reach(done);
-      },
-      &comm);
-  if (ff_progress) ff_progress->finish();
+  Expected<MatrixRadiosity> built = buildMatrixWithProgress(*scene, mo, common);
   if (!built) return built.error();
   MatrixRadiosity& mr = *built;
   const double build_seconds = build_timer.seconds();
@@ -260,6 +249,27 @@ Status renderMatrix(const RenderOptions& options, const CommonOptions& common) {
     PENUMBRA_TRY(emitStats(options.stats, j));
   }
   return {};
+}
+
+Expected<MatrixRadiosity> buildMatrixWithProgress(const Scene& scene,
+                                                  const MatrixRadiosityOptions& options,
+                                                  const CommonOptions& common) {
+  Communicator& comm = currentCommunicator();
+  // The form factors' row count is known once the cut is made: the bar starts with the first row.
+  std::optional<Progress> progress;
+  std::once_flag once;
+  Expected<MatrixRadiosity> built = buildMatrixRadiosity(
+      scene, options,
+      [&](size_t done, size_t rows) {
+        std::call_once(once, [&] {
+          progress.emplace("form factors", uint64_t(rows),
+                           !common.quiet && comm.root() && Progress::stderrIsTerminal());
+        });
+        progress->reach(done);
+      },
+      &comm);
+  if (progress) progress->finish();
+  return built;
 }
 
 }  // namespace penumbra

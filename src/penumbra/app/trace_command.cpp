@@ -44,15 +44,15 @@ Status checkTraceOptions(const TraceOptions& options) {
 Expected<TraceRun> traceScene(const Scene& scene, const RayBatch& rays, const TraceOptions& options,
                               bool dry_run) {
   PENUMBRA_TRY(checkTraceOptions(options));
-  const FlatTriangles flat = flattenScene(scene);
-  const std::vector<glm::vec3>& positions = flat.positions;
-  const std::vector<glm::uvec3>& triangles = flat.triangles;
   // hybrid: the CPU/GPU split of the Ray Engine paper (sec. 6.2); it needs a GPU context.
   const bool hybrid = options.device == "hybrid";
   Expected<DeviceChoice> device = chooseDevice(hybrid ? "gpu" : options.device);
   if (!device) return device.error();
   TraceRun run;
   if (dry_run) return run;
+  const FlatTriangles flat = flattenScene(scene);
+  const std::vector<glm::vec3>& positions = flat.positions;
+  const std::vector<glm::uvec3>& triangles = flat.triangles;
 
   // The answers' buffers are made before the clock starts, as a caller of the library would
   // hold them: trace_seconds is the intersection alone (docs/cli.md).

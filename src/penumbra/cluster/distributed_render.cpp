@@ -12,7 +12,7 @@ constexpr int kRowBlockTag = 11;
 }  // namespace
 
 int rowBlockSize(int height, int ranks) {
-  return std::max(1, std::min(height, height / (std::max(1, ranks) * 8)));
+  return std::max(1, height / (std::max(1, ranks) * 8));
 }
 
 Image renderOverRanks(
