@@ -163,7 +163,7 @@ def render(
     **options,
 ) -> RenderResult:
     """Renders ``scene`` (a :class:`Scene`, a built-in name or a file) with ``method``: pathtrace,
-    matrix, progressive, stochastic, sss or lpv; the other options are ``penumbra render``'s
+    whitted, photons, matrix, progressive, stochastic, sss or lpv; the other options are ``penumbra render``'s
     (``device="gpu"``, ``spp=256``, ``output="out.exr"``, ``threads=2``, ...). ``progress(stage,
     fraction)`` is called now and then. Log lines go to stderr unless ``quiet``."""
     words = ["--method", method] + _options(options) + (["--quiet"] if quiet else [])

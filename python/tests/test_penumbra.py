@@ -54,6 +54,25 @@ def test_matrix_radiosity_is_the_cli_result(tmp_path):
     assert result.stats["method"] == "matrix"
 
 
+def test_a_mirror_from_arrays_shows_the_emitter_in_every_method():
+    # A tinted mirror facing the camera, and behind the camera a large emitter: every pixel is
+    # the mirror's reflectance times the emitter's radiance, through the path tracer, Whitted ray
+    # tracing and photon mapping alike.
+    positions = np.array([[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0],
+                          [-5, -5, 2], [-5, 5, 2], [5, 5, 2], [5, -5, 2]], dtype=np.float32)
+    triangles = np.array([[0, 1, 2], [0, 2, 3], [4, 5, 6], [4, 6, 7]], dtype=np.uint32)
+    scene = penumbra.from_arrays(
+        positions, triangles, material_ids=np.array([0, 0, 1, 1], dtype=np.uint32),
+        materials=[{"name": "mirror", "type": "mirror", "specular": [0.9, 0.6, 0.3]},
+                   {"name": "light", "reflectance": [0, 0, 0], "emission": [2, 3, 4]}],
+        camera={"position": [0, 0, 1], "look_at": [0, 0, 0], "up": [0, 1, 0], "fov_deg": 17})
+    expected = np.array([1.8, 1.8, 1.2], dtype=np.float32)
+    for method in ("pathtrace", "whitted", "photons"):
+        result = penumbra.render(scene, method, width=8, height=8, spp=2, device="cpu")
+        np.testing.assert_allclose(result.image, np.broadcast_to(expected, (8, 8, 3)), rtol=1e-4)
+        assert result.stats["method"] == method
+
+
 def test_render_writes_the_outputs_it_is_given(tmp_path):
     out = tmp_path / "a.png"
     stats = tmp_path / "s.json"

@@ -327,6 +327,14 @@ TEST(Cli, SignalsLeaveNoDebris) {
   code = runCliSignalled(bake, 0.4, SIGINT, dir.file("out/room"));
   EXPECT_EQ(code, 128 + SIGINT);
   EXPECT_TRUE(entries(dir.path()).empty());
+  // Photon mapping ended by Ctrl-C while it shoots or renders: nothing written, exit 130.
+  code = runCliSignalled("render " + scene_dir +
+                             "/scenes/cornell-glass.json --method photons --photons 20000000 "
+                             "--device cpu -o " +
+                             dir.file("photons.png"),
+                         1.0, SIGINT);
+  EXPECT_EQ(code, 128 + SIGINT);
+  EXPECT_TRUE(entries(dir.path()).empty());
   // A progressive bake stops cleanly on SIGTERM: outputs and a checkpoint, exit 143, no
   // staging or temporaries.
   code = runCliSignalled(

@@ -212,17 +212,80 @@ TEST(GltfLoad, TranslucentMaterialsFromPenumbrasExtensionAndFromKhrVolume) {
   ASSERT_FALSE(khr->warnings.empty());
   EXPECT_NE(khr->warnings.back().find("read as a scattering medium"), std::string::npos);
 
-  // A clear volume stays opaque; a bad medium names its place.
+  // A clear volume is glass (GltfLoad.TransmissionIsGlassAndSmoothMetalIsAMirror); a bad
+  // medium names its place.
   g.doc["materials"][0]["extensions"]["KHR_materials_volume"] = json::object();
   Expected<Scene> clear = loadGltf(writeGltf(dir, "clear.gltf", g));
   ASSERT_TRUE(clear.ok()) << clear.error().describe();
   EXPECT_FALSE(clear->materials[0].subsurface.has_value());
+  EXPECT_EQ(clear->materials[0].scattering, Scattering::kDielectric);
+  EXPECT_FLOAT_EQ(clear->materials[0].ior, 1.4f);
   g = makeTestGltf();
   g.doc["materials"][0]["extensions"]["PENUMBRA_materials_subsurface"] =
       json::parse(R"({"sigma_s_prime": 1, "sigma_a": -1})");
   const std::string bad = writeGltf(dir, "bad.gltf", g);
   EXPECT_TRUE(test::errorNames(
       loadGltf(bad), bad, "material 0.extensions.PENUMBRA_materials_subsurface: sigma_a -1000"));
+}
+
+// KHR_materials_transmission (with KHR_materials_ior, default 1.5) is smooth glass filtered by
+// the base colour; metallic 1 with roughness 0 is a mirror of the base colour; anything rougher
+// stays diffuse. The radiosity methods' stand-in reflectance comes with them (scene/scene.h).
+TEST(GltfLoad, TransmissionIsGlassAndSmoothMetalIsAMirror) {
+  TempDir dir;
+  TestGltf g = makeTestGltf();
+  g.doc["materials"][0]["extensions"] = json::parse(R"({
+    "KHR_materials_transmission": {"transmissionFactor": 1},
+    "KHR_materials_ior": {"ior": 1.7}})");
+  Expected<Scene> glass = loadGltf(writeGltf(dir, "glass.gltf", g));
+  ASSERT_TRUE(glass.ok()) << glass.error().describe();
+  const Material& m = glass->materials[0];
+  EXPECT_EQ(m.scattering, Scattering::kDielectric);
+  EXPECT_FLOAT_EQ(m.ior, 1.7f);
+  EXPECT_EQ(m.specular, glm::vec3(0.5f, 0.25f, 0.125f));
+  const float r0 = (1.7f - 1.0f) / (1.7f + 1.0f);
+  EXPECT_FLOAT_EQ(m.reflectance.x, r0 * r0);
+  EXPECT_EQ(m.emission, glm::vec3(1.0f, 0.5f, 0.25f));  // emission is kept
+
+  g.doc["materials"][0]["extensions"] = json::parse(R"({
+    "KHR_materials_transmission": {"transmissionFactor": 0.5}})");
+  Expected<Scene> half = loadGltf(writeGltf(dir, "half.gltf", g));
+  ASSERT_TRUE(half.ok()) << half.error().describe();
+  EXPECT_EQ(half->materials[0].scattering, Scattering::kDielectric);
+  EXPECT_FLOAT_EQ(half->materials[0].ior, 1.5f);
+  ASSERT_FALSE(half->warnings.empty());
+  EXPECT_NE(half->warnings.back().find("transmissionFactor 0.5 read as 1"), std::string::npos);
+
+  g.doc["materials"][0]["extensions"] = json::parse(R"({
+    "KHR_materials_transmission": {"transmissionFactor": 0}})");
+  Expected<Scene> none = loadGltf(writeGltf(dir, "none.gltf", g));
+  ASSERT_TRUE(none.ok());
+  EXPECT_EQ(none->materials[0].scattering, Scattering::kDiffuse);
+
+  g = makeTestGltf();
+  g.doc["materials"][0]["pbrMetallicRoughness"]["metallicFactor"] = 1.0;
+  g.doc["materials"][0]["pbrMetallicRoughness"]["roughnessFactor"] = 0.0;
+  Expected<Scene> chrome = loadGltf(writeGltf(dir, "chrome.gltf", g));
+  ASSERT_TRUE(chrome.ok()) << chrome.error().describe();
+  EXPECT_EQ(chrome->materials[0].scattering, Scattering::kMirror);
+  EXPECT_EQ(chrome->materials[0].specular, glm::vec3(0.5f, 0.25f, 0.125f));
+  EXPECT_EQ(chrome->materials[0].reflectance, glm::vec3(0.5f, 0.25f, 0.125f));
+  g.doc["materials"][0]["pbrMetallicRoughness"]["roughnessFactor"] = 0.2;
+  Expected<Scene> rough = loadGltf(writeGltf(dir, "rough.gltf", g));
+  ASSERT_TRUE(rough.ok());
+  EXPECT_EQ(rough->materials[0].scattering, Scattering::kDiffuse);
+
+  g = makeTestGltf();
+  g.doc["materials"][0]["extensions"] = json::parse(R"({
+    "KHR_materials_transmission": {"transmissionFactor": 1}, "KHR_materials_ior": {"ior": 9}})");
+  const std::string bad = writeGltf(dir, "bad.gltf", g);
+  EXPECT_TRUE(test::errorNames(loadGltf(bad), bad,
+                               "material 0.extensions.KHR_materials_ior.ior: must be a number in"));
+  g.doc["materials"][0]["extensions"] = json::parse(R"({
+    "KHR_materials_transmission": {"transmissionFactor": "all"}})");
+  const std::string bad2 = writeGltf(dir, "bad2.gltf", g);
+  EXPECT_TRUE(
+      test::errorNames(loadGltf(bad2), bad2, "KHR_materials_transmission.transmissionFactor"));
 }
 
 TEST(GltfLoad, BinaryGlb) {

@@ -133,6 +133,80 @@ TEST(SceneJsonLoad, TwoSidedIsTheDefaultAndCanBeTurnedOff) {
   EXPECT_TRUE(errorNames(loadSceneJson(bad), bad, "materials.sheet.two_sided"));
 }
 
+// "type": "mirror" and "glass" with their "specular" colour and "ior"; the radiosity methods'
+// stand-in reflectance (scene/scene.h); "sphere" meshes; and the errors, each naming its key.
+TEST(SceneJsonLoad, MirrorAndGlassMaterialsAndSpheres) {
+  TempDir dir;
+  dir.write("tri.obj", kTriangleObj);
+  const std::string path = dir.write("scene.json", R"({
+    "materials": {"chrome": {"type": "mirror", "specular": [0.9, 0.8, 0.7]},
+                  "crown": {"type": "glass", "ior": 1.52, "specular": [1, 1, 0.9]},
+                  "plain": {"type": "diffuse", "reflectance": [0.5, 0.5, 0.5]}},
+    "meshes": [{"file": "tri.obj", "material": "plain"},
+               {"sphere": 2, "material": "crown",
+                "transform": {"scale": 0.5, "translate": [1, 2, 3]}},
+               {"sphere": 0, "material": "chrome"}]
+  })");
+  Expected<Scene> s = loadSceneJson(path);
+  ASSERT_TRUE(s.ok()) << s.error().describe();
+  ASSERT_EQ(s->materials.size(), 3u);  // sorted by name: chrome, crown, plain
+  EXPECT_EQ(s->materials[0].scattering, Scattering::kMirror);
+  EXPECT_EQ(s->materials[0].specular, glm::vec3(0.9f, 0.8f, 0.7f));
+  EXPECT_EQ(s->materials[0].reflectance, glm::vec3(0.9f, 0.8f, 0.7f));
+  EXPECT_EQ(s->materials[1].scattering, Scattering::kDielectric);
+  EXPECT_FLOAT_EQ(s->materials[1].ior, 1.52f);
+  EXPECT_NEAR(s->materials[1].reflectance.x, std::pow(0.52 / 2.52, 2.0), 1e-6);
+  EXPECT_EQ(s->materials[2].scattering, Scattering::kDiffuse);
+  ASSERT_EQ(s->meshes.size(), 3u);
+  // The sphere: 20 x 4^2 triangles on radius 0.5 around (1, 2, 3), wound outwards.
+  const Mesh& ball = s->meshes[1];
+  EXPECT_EQ(ball.triangles.size(), 320u);
+  for (const glm::vec3& p : ball.positions) {
+    EXPECT_NEAR(glm::length(p - glm::vec3(1, 2, 3)), 0.5f, 1e-5f);
+  }
+  for (const glm::uvec3& t : ball.triangles) {
+    const glm::vec3 c = (ball.positions[t.x] + ball.positions[t.y] + ball.positions[t.z]) / 3.0f;
+    const glm::vec3 n = glm::cross(ball.positions[t.y] - ball.positions[t.x],
+                                   ball.positions[t.z] - ball.positions[t.x]);
+    EXPECT_GT(glm::dot(n, c - glm::vec3(1, 2, 3)), 0.0f);
+  }
+  EXPECT_EQ(s->meshes[2].triangles.size(), 20u);
+  const std::vector<std::string> warnings = diffuseStandInWarnings(*s, "progressive");
+  ASSERT_EQ(warnings.size(), 2u);
+  EXPECT_NE(warnings[0].find("material 'chrome' is a mirror: --method progressive sees a diffuse "
+                             "surface of reflectance (0.9, 0.8, 0.7)"),
+            std::string::npos)
+      << warnings[0];
+  EXPECT_NE(warnings[1].find("glass (ior 1.52)"), std::string::npos) << warnings[1];
+
+  const std::pair<const char*, const char*> bad[] = {
+      {R"({"m": {"type": "metal"}})", "materials.m.type: unknown type 'metal'"},
+      {R"({"m": {"type": "glass", "ior": 0.5}})", "materials.m.ior: 0.5 is outside [1, 4]"},
+      {R"({"m": {"type": "mirror", "ior": 1.5}})", "materials.m.ior: applies to"},
+      {R"({"m": {"specular": [1, 1, 1]}})", "materials.m.specular: applies to"},
+      {R"({"m": {"type": "mirror", "reflectance": [1, 1, 1]}})", "materials.m.reflectance"},
+      {R"({"m": {"type": "glass", "specular": [1, 2, 1]}})", "materials.m.specular"},
+      {R"({"m": {"type": "glass", "subsurface": "marble"}})", "materials.m.subsurface"},
+  };
+  for (const auto& [materials, expected] : bad) {
+    const std::string p = dir.write("bad.json", std::string(R"({"materials": )") + materials +
+                                                    R"(, "meshes": [{"sphere": 1}]})");
+    EXPECT_TRUE(errorNames(loadSceneJson(p), p, expected)) << materials;
+  }
+  const std::pair<const char*, const char*> bad_meshes[] = {
+      {R"([{"sphere": 9}])", "meshes[0].sphere: must be a subdivision level"},
+      {R"([{"sphere": -1}])", "meshes[0].sphere"},
+      {R"([{"sphere": 1.5}])", "meshes[0].sphere"},
+      {R"([{"sphere": 1, "file": "tri.obj"}])", "not both"},
+      {R"([{"material": "m"}])", "needs"},
+  };
+  for (const auto& [meshes, expected] : bad_meshes) {
+    const std::string p =
+        dir.write("bad.json", std::string(R"({"materials": {"m": {}}, "meshes": )") + meshes + "}");
+    EXPECT_TRUE(errorNames(loadSceneJson(p), p, expected)) << meshes;
+  }
+}
+
 // "materials" as an array keeps its order (the order mesh arrays count materials in, penumbra.h:
 // Scene::fromArrays), whatever the names; an object's materials come sorted by name.
 TEST(SceneJsonLoad, MaterialsAsAnArrayKeepTheirOrder) {

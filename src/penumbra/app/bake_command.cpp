@@ -327,6 +327,7 @@ Status bake(const BakeOptions& options, const CommonOptions& common, bool* inter
   Expected<Scene> scene = loadCommandScene(options.scene);
   if (!scene) return scene.error();
   for (const std::string& w : scene->warnings) spdlog::warn("{}", w);
+  for (const std::string& w : diffuseStandInWarnings(*scene, options.method)) spdlog::warn("{}", w);
   bool any_emitter = false;
   for (const Material& m : scene->materials) any_emitter |= m.isEmissive();
   if (!any_emitter && !progressive) {

@@ -192,10 +192,12 @@ int parseAndRun(int argc, char** argv) {
       ->capture_default_str();
   render_cmd
       ->add_option("--method", render.method,
-                   "pathtrace (the reference path tracer), matrix (matrix radiosity), "
-                   "progressive (progressive radiosity in a lightmap), stochastic (stochastic "
-                   "radiosity by ray-bundle shooting), sss (subsurface scattering through "
-                   "hierarchical links) or lpv (subsurface light propagation volumes)")
+                   "pathtrace (the reference path tracer), whitted (Whitted ray tracing: mirrors, "
+                   "glass and shadow rays), photons (photon mapping with final gather), matrix "
+                   "(matrix radiosity), progressive (progressive radiosity in a lightmap), "
+                   "stochastic (stochastic radiosity by ray-bundle shooting), sss (subsurface "
+                   "scattering through hierarchical links) or lpv (subsurface light propagation "
+                   "volumes)")
       ->capture_default_str();
   render_cmd
       ->add_option("--device", render.device,
@@ -206,9 +208,27 @@ int parseAndRun(int argc, char** argv) {
   render_cmd->add_option("--stats", render.stats, "write statistics to this JSON file");
   render_cmd->add_option("--width", render.width, "image width (default 512)");
   render_cmd->add_option("--height", render.height, "image height (default 512)");
-  render_cmd->add_option("--spp", render.spp, "samples per pixel (default 64)");
+  render_cmd->add_option("--spp", render.spp,
+                         "samples per pixel (default 64; whitted, photons, sss, lpv: 4)");
   render_cmd->add_option("--max-depth", render.max_depth,
-                         "maximum bounces, 0 = unlimited (Russian roulette)");
+                         "maximum bounces, 0 = unlimited (Russian roulette); whitted and photons: "
+                         "mirror and glass generations (default 8)");
+  render_cmd->add_option("--light-samples", render.light_samples,
+                         "whitted, photons: shadow rays per diffuse point to the emissive "
+                         "surfaces and to the environment (default 8)");
+  render_cmd->add_option("--photons", render.photons,
+                         "photons: photons emitted for the global map (default 200000)");
+  render_cmd->add_option("--caustic-photons", render.caustic_photons,
+                         "photons: photons emitted towards mirrors and glass for the caustic map "
+                         "(default 200000)");
+  render_cmd->add_option("--gather-count", render.gather_count,
+                         "photons: photons per density estimate (default 64)");
+  render_cmd->add_option("--gather-radius", render.gather_radius,
+                         "photons: their largest distance in metres (default 1% of the scene's "
+                         "bounding-box diagonal)");
+  render_cmd->add_option("--final-gather", render.final_gather,
+                         "photons: final-gather rays per diffuse point; 0 reads the global map "
+                         "directly (default 32)");
   render_cmd->add_option("--seed", render.seed, "random seed (default 0)")->check(kUnsigned);
   render_cmd
       ->add_option("--sampler", render.sampler,

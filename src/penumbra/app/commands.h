@@ -94,6 +94,13 @@ struct RenderOptions : LightmapMethodOptions {
   std::optional<double> grid_spacing, grid_margin;
   std::string grid_csv;
   int illuminance_rays = 256;  // per grid point (a quarter of it per pixel)
+  // --method whitted and photons (raytrace/whitted.h, photon_map.h): shadow rays per diffuse
+  // vertex to the emissive triangles and the environment; photons: the global and caustic photon
+  // counts, photons per density estimate and their largest distance (m), final-gather rays.
+  std::optional<int> light_samples;
+  std::optional<uint64_t> photons, caustic_photons;
+  std::optional<int> gather_count, final_gather;
+  std::optional<double> gather_radius;
 };
 
 struct TraceOptions {
@@ -162,6 +169,8 @@ Status renderLightmapRadiosity(const RenderOptions& options, const CommonOptions
                                bool* interrupted);
 Status renderSss(const RenderOptions& options, const CommonOptions& common);
 Status renderLpv(const RenderOptions& options, const CommonOptions& common);
+// --method whitted and photons (render_whitted.cpp).
+Status renderRayTraced(const RenderOptions& options, const CommonOptions& common);
 // out.png -> out_0007.png: frame f of a sequence.
 std::string sequenceFrameName(const std::string& path, int frame);
 // The render's image outputs (SCENE.png when none is given), each checked before the work: a

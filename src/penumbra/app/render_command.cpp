@@ -149,22 +149,12 @@ Status renderPathTrace(const RenderOptions& options, const CommonOptions& common
   const auto on_rows = [&](int rows) { progress.reach(uint64_t(rows)); };
   // Devices: the CPU traces paths one by one; gpu and hybrid advance them as a wavefront whose
   // batches go to the Ray Engine's GPU kernel or its CPU/GPU split (same image).
-  std::unique_ptr<RayQueries> queries;
-  std::optional<GlRayEngine> gl_engine;
-  std::optional<HybridRayEngine> hybrid_engine;
+  std::unique_ptr<OwnedRayQueries> queries;
   if (device->device != Device::kCpu) {
-    const SceneGeometry& g = tracer.geometry();
-    if (hybrid) {
-      Expected<HybridRayEngine> e = HybridRayEngine::build(g.positions, g.triangles);
-      if (!e) return e.error();
-      hybrid_engine.emplace(std::move(*e));
-      queries = std::make_unique<HybridRayQueries>(*hybrid_engine);
-    } else {
-      Expected<GlRayEngine> e = GlRayEngine::build(g.positions, g.triangles);
-      if (!e) return e.error();
-      gl_engine.emplace(std::move(*e));
-      queries = std::make_unique<GpuRayQueries>(*gl_engine);
-    }
+    Expected<std::unique_ptr<OwnedRayQueries>> q =
+        OwnedRayQueries::make(device_name, tracer.geometry());
+    if (!q) return q.error();
+    queries = std::move(*q);
   }
   PathTracerStats stats;
   Image image;
@@ -312,6 +302,19 @@ int runRender(const RenderOptions& options, const CommonOptions& common) {
                                                   : nullptr;
     if (only) return reportError(inputError("", only, "applies to --method sss only"));
   }
+  if (options.method != "whitted" && options.method != "photons" && options.light_samples) {
+    return reportError(
+        inputError("", "--light-samples", "applies to --method whitted and photons only"));
+  }
+  if (options.method != "photons") {
+    const char* only = options.photons           ? "--photons"
+                       : options.caustic_photons ? "--caustic-photons"
+                       : options.gather_count    ? "--gather-count"
+                       : options.gather_radius   ? "--gather-radius"
+                       : options.final_gather    ? "--final-gather"
+                                                 : nullptr;
+    if (only) return reportError(inputError("", only, "applies to --method photons only"));
+  }
   if (options.method != "pathtrace" && options.sampler) {
     return reportError(inputError("", "--sampler", "applies to --method pathtrace only"));
   }
@@ -333,6 +336,8 @@ int runRender(const RenderOptions& options, const CommonOptions& common) {
   bool interrupted = false;
   if (options.method == "pathtrace") {
     s = renderPathTrace(options, common);
+  } else if (options.method == "whitted" || options.method == "photons") {
+    s = renderRayTraced(options, common);
   } else if (options.method == "matrix") {
     s = renderMatrix(options, common);
   } else if (options.method == "progressive" || options.method == "stochastic") {
@@ -349,8 +354,8 @@ int runRender(const RenderOptions& options, const CommonOptions& common) {
             : renderLpv(options, common);
   } else {
     s = inputError("", "",
-                   fmt::format("unknown --method '{}' (available: pathtrace, matrix, progressive, "
-                               "stochastic, sss, lpv)",
+                   fmt::format("unknown --method '{}' (available: pathtrace, whitted, photons, "
+                               "matrix, progressive, stochastic, sss, lpv)",
                                options.method));
   }
   if (s.ok() && common.dry_run) return reportDryRun();  // the transaction removes what it made

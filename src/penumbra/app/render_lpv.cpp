@@ -52,6 +52,7 @@ Status renderLpv(const RenderOptions& options, const CommonOptions& common) {
   Expected<Scene> scene = loadCommandScene(options.scene);
   if (!scene) return scene.error();
   for (const std::string& w : scene->warnings) spdlog::warn("{}", w);
+  for (const std::string& w : diffuseStandInWarnings(*scene, "lpv")) spdlog::warn("{}", w);
   // Declared before the solver, so that its GPU objects go before the context does.
   std::optional<DeviceChoice> device;
   Expected<LpvSolver> built = LpvSolver::build(*scene, lo);

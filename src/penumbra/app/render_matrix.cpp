@@ -75,6 +75,7 @@ Status renderMatrix(const RenderOptions& options, const CommonOptions& common) {
   Expected<Scene> scene = loadCommandScene(options.scene);
   if (!scene) return scene.error();
   for (const std::string& w : scene->warnings) spdlog::warn("{}", w);
+  for (const std::string& w : diffuseStandInWarnings(*scene, "matrix")) spdlog::warn("{}", w);
   if (lux) PENUMBRA_TRY(checkIlluminanceRequest(*scene, *lux));
   bool any_emitter = !scene->lights.empty();
   for (const Material& m : scene->materials) any_emitter |= m.isEmissive();

@@ -90,6 +90,7 @@ Status renderLightmapRadiosity(const RenderOptions& options, const CommonOptions
   Expected<Scene> scene = loadCommandScene(options.scene);
   if (!scene) return scene.error();
   for (const std::string& w : scene->warnings) spdlog::warn("{}", w);
+  for (const std::string& w : diffuseStandInWarnings(*scene, options.method)) spdlog::warn("{}", w);
   if (lux) PENUMBRA_TRY(checkIlluminanceRequest(*scene, *lux));
   // The solution: a lightmap over the surface's atlas, the stats and a summary line.
   std::optional<ProgressiveRun> progressive;

@@ -58,6 +58,7 @@ Status renderSss(const RenderOptions& options, const CommonOptions& common) {
   Expected<Scene> scene = loadCommandScene(options.scene);
   if (!scene) return scene.error();
   for (const std::string& w : scene->warnings) spdlog::warn("{}", w);
+  for (const std::string& w : diffuseStandInWarnings(*scene, "sss")) spdlog::warn("{}", w);
   SssOptions so;
   if (options.texel_density) {
     so.resolution.texel_density = options.texel_density;

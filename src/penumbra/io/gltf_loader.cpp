@@ -244,6 +244,9 @@ class GltfReader {
   const tinygltf::Model& model_;
   const std::map<int, std::string>& image_bytes_;  // undecoded, by image index
   Scene& scene_;
+  // KHR_materials_transmission (+ KHR_materials_ior) as glass, metallic 1 and roughness 0 as a
+  // mirror (Material::scattering).
+  Status readSpecular(const tinygltf::Material& gm, const std::string& place, Material& m);
   std::vector<int> material_map_;  // glTF material -> scene material, -1 until used
   int default_material_ = -1;
   std::vector<int> parent_;        // per node, -1 for a root
@@ -400,6 +403,7 @@ Expected<uint32_t> GltfReader::materialFor(int gltf_material, const std::string&
     }
   }
   PENUMBRA_TRY(readSubsurface(gm, place, m));
+  if (!m.subsurface) PENUMBRA_TRY(readSpecular(gm, place, m));
   mapped = static_cast<int>(scene_.materials.size());
   scene_.materials.push_back(std::move(m));
   return static_cast<uint32_t>(mapped);
@@ -468,13 +472,8 @@ Status GltfReader::readSubsurface(const tinygltf::Material& gm, const std::strin
         tint[i] = c[size_t(i)].get<double>();
       }
     }
-    if (!std::isfinite(distance)) {
-      scene_.warnings.push_back(fmt::format(
-          "{}: {} ('{}'): KHR_materials_volume without attenuationDistance is clear, not "
-          "translucent; read as an opaque surface",
-          path_, place, m.name));
-      return {};
-    }
+    // Without attenuationDistance the volume is clear: glass (readSpecular).
+    if (!std::isfinite(distance)) return {};
     double eta = 1.5;
     auto ior = gm.extensions.find("KHR_materials_ior");
     if (ior != gm.extensions.end()) {
@@ -499,6 +498,59 @@ Status GltfReader::readSubsurface(const tinygltf::Material& gm, const std::strin
   }
   // Methods without subsurface transport see the Lambertian surface that returns as much light.
   m.reflectance = glm::vec3(glm::clamp(lambertianAlbedo(*m.subsurface), 0.0, 1.0));
+  return {};
+}
+
+Status GltfReader::readSpecular(const tinygltf::Material& gm, const std::string& place,
+                                Material& m) {
+  const glm::vec3 base = m.reflectance;
+  auto transmission = gm.extensions.find("KHR_materials_transmission");
+  if (transmission != gm.extensions.end()) {
+    const nlohmann::json t = toJson(transmission->second);
+    const std::string tplace = place + ".extensions.KHR_materials_transmission";
+    double factor = 0.0;  // the extension's default
+    if (t.contains("transmissionFactor")) {
+      if (!t["transmissionFactor"].is_number() || !(t["transmissionFactor"].get<double>() >= 0.0 &&
+                                                    t["transmissionFactor"].get<double>() <= 1.0)) {
+        return inputError(path_, tplace + ".transmissionFactor", "must be a number in [0, 1]");
+      }
+      factor = t["transmissionFactor"].get<double>();
+    }
+    if (factor > 0.0) {
+      // Smooth glass: the base colour filters the light it lets in, KHR_materials_ior gives its
+      // index (the extension's default 1.5).
+      double ior = 1.5;
+      auto ext = gm.extensions.find("KHR_materials_ior");
+      if (ext != gm.extensions.end()) {
+        const nlohmann::json i = toJson(ext->second);
+        if (i.contains("ior")) {
+          if (!i["ior"].is_number() ||
+              !(i["ior"].get<double>() >= 1.0 && i["ior"].get<double>() <= 4.0)) {
+            return inputError(path_, place + ".extensions.KHR_materials_ior.ior",
+                              "must be a number in [1, 4]");
+          }
+          ior = i["ior"].get<double>();
+        }
+      }
+      m.scattering = Scattering::kDielectric;
+      m.ior = float(ior);
+      m.specular = glm::clamp(base, glm::vec3(0.0f), glm::vec3(1.0f));
+      if (factor < 1.0) {
+        scene_.warnings.push_back(
+            fmt::format("{}: {} ('{}'): transmissionFactor {} read as 1 (smooth glass)", path_,
+                        place, m.name, factor));
+      }
+      m.reflectance = diffuseStandIn(m);
+      return {};
+    }
+  }
+  // A smooth metal: a perfect mirror of the base colour.
+  if (gm.pbrMetallicRoughness.metallicFactor == 1.0 &&
+      gm.pbrMetallicRoughness.roughnessFactor == 0.0) {
+    m.scattering = Scattering::kMirror;
+    m.specular = glm::clamp(base, glm::vec3(0.0f), glm::vec3(1.0f));
+    m.reflectance = diffuseStandIn(m);
+  }
   return {};
 }
 

@@ -5,6 +5,7 @@
 // silently changes a scene. Mesh files are loaded by their own loaders (which name the mesh file
 // in their errors), transformed to world space and merged.
 #include "penumbra/core/file_util.h"
+#include "penumbra/geometry/icosphere.h"
 #include "penumbra/io/image_io.h"
 #include "penumbra/io/json_guard.h"
 #include "penumbra/io/luminaire_io.h"
@@ -109,6 +110,8 @@ class SceneJsonReader {
   Status readMaterials(const json& root, Scene& scene);
   Status readMaterial(const json& entry, const std::string& place, const std::string& name,
                       bool named, Scene& scene);
+  // "type" (diffuse, mirror, glass), "specular" and "ior" (Material::scattering).
+  Status readScattering(const json& entry, const std::string& place, Material& m);
   Status readMesh(const json& entry, const std::string& place, Scene& scene);
   Expected<Placement> readTransform(const json& t, const std::string& place) const;
   Status readLight(const json& entry, const std::string& place, Scene& scene);
@@ -267,15 +270,16 @@ Status SceneJsonReader::readMaterial(const json& entry, const std::string& place
   }
   if (named) {
     PENUMBRA_TRY(checkKeys(entry, place,
-                           {"name", "reflectance", "emission", "two_sided", "subsurface",
-                            "normal_map", "normal_scale"}));
+                           {"name", "type", "reflectance", "specular", "ior", "emission",
+                            "two_sided", "subsurface", "normal_map", "normal_scale"}));
   } else {
-    PENUMBRA_TRY(checkKeys(
-        entry, place,
-        {"reflectance", "emission", "two_sided", "subsurface", "normal_map", "normal_scale"}));
+    PENUMBRA_TRY(checkKeys(entry, place,
+                           {"type", "reflectance", "specular", "ior", "emission", "two_sided",
+                            "subsurface", "normal_map", "normal_scale"}));
   }
   Material m;
   m.name = name;
+  PENUMBRA_TRY(readScattering(entry, place, m));
   if (entry.contains("reflectance")) {
     Expected<glm::vec3> r = colour(entry.at("reflectance"), place + ".reflectance", true);
     if (!r.ok()) return r.error();
@@ -324,6 +328,56 @@ Status SceneJsonReader::readMaterial(const json& entry, const std::string& place
   }
   material_index_[m.name] = static_cast<uint32_t>(scene.materials.size());
   scene.materials.push_back(std::move(m));
+  return {};
+}
+
+Status SceneJsonReader::readScattering(const json& entry, const std::string& place, Material& m) {
+  if (entry.contains("type")) {
+    Expected<std::string> type = string(entry.at("type"), place + ".type");
+    if (!type) return type.error();
+    if (*type == "mirror") {
+      m.scattering = Scattering::kMirror;
+    } else if (*type == "glass") {
+      m.scattering = Scattering::kDielectric;
+    } else if (*type != "diffuse") {
+      return error(place + ".type",
+                   fmt::format("unknown type '{}' (diffuse, mirror or glass)", *type));
+    }
+  }
+  const char* kind = m.scattering == Scattering::kMirror ? "a mirror" : "glass";
+  if (!m.isSpecular()) {
+    for (const char* key : {"specular", "ior"}) {
+      if (entry.contains(key)) {
+        return error(place + "." + key, "applies to \"type\": \"mirror\" or \"glass\" only");
+      }
+    }
+    return {};
+  }
+  if (entry.contains("reflectance")) {
+    return error(
+        place + ".reflectance",
+        fmt::format("{} has no diffuse reflectance: give its colour as \"specular\"", kind));
+  }
+  if (entry.contains("subsurface")) {
+    return error(place + ".subsurface", fmt::format("{} cannot have a subsurface medium", kind));
+  }
+  if (entry.contains("specular")) {
+    Expected<glm::vec3> c = colour(entry.at("specular"), place + ".specular", true);
+    if (!c.ok()) return c.error();
+    m.specular = *c;
+  }
+  if (entry.contains("ior")) {
+    if (m.scattering != Scattering::kDielectric) {
+      return error(place + ".ior", "applies to \"type\": \"glass\" only");
+    }
+    Expected<double> ior = number(entry.at("ior"), place + ".ior");
+    if (!ior) return ior.error();
+    if (!(*ior >= 1.0 && *ior <= 4.0)) {
+      return error(place + ".ior", fmt::format("{} is outside [1, 4]", *ior));
+    }
+    m.ior = float(*ior);
+  }
+  m.reflectance = diffuseStandIn(m);
   return {};
 }
 
@@ -415,17 +469,33 @@ Status SceneJsonReader::readMesh(const json& entry, const std::string& place, Sc
   if (!entry.is_object()) {
     return error(place, fmt::format("must be an object, not {}", jsonTypeName(entry)));
   }
-  PENUMBRA_TRY(checkKeys(entry, place, {"file", "material", "transform", "name"}));
-  if (!entry.contains("file")) return error(place + ".file", "missing");
-  Expected<std::string> file = string(entry.at("file"), place + ".file");
-  if (!file.ok()) return file.error();
-  const std::string resolved = resolveRelativeTo(path_, *file);
-  const std::string ext = extensionOf(resolved);
-  if (ext != ".obj" && ext != ".gltf" && ext != ".glb" && ext != ".ply") {
-    return error(place + ".file",
-                 fmt::format("'{}': a mesh file must be .obj, .gltf, .glb or .ply", *file));
+  PENUMBRA_TRY(checkKeys(entry, place, {"file", "sphere", "material", "transform", "name"}));
+  if (entry.contains("file") == entry.contains("sphere")) {
+    return error(place, entry.contains("file") ? "give \"file\" or \"sphere\", not both"
+                                               : "needs \"file\" (a mesh file) or \"sphere\"");
   }
-  PENUMBRA_TRY(existingFile(*file, place + ".file"));
+  std::string resolved;
+  int sphere_level = -1;
+  if (entry.contains("sphere")) {
+    const json& level = entry.at("sphere");
+    if (!level.is_number_integer() || level.get<int64_t>() < 0 ||
+        level.get<int64_t>() > kMaxSphereSubdivisions) {
+      return error(place + ".sphere",
+                   fmt::format("must be a subdivision level, an integer in [0, {}], not {}",
+                               kMaxSphereSubdivisions, level.dump()));
+    }
+    sphere_level = int(level.get<int64_t>());
+  } else {
+    Expected<std::string> file = string(entry.at("file"), place + ".file");
+    if (!file.ok()) return file.error();
+    resolved = resolveRelativeTo(path_, *file);
+    const std::string ext = extensionOf(resolved);
+    if (ext != ".obj" && ext != ".gltf" && ext != ".glb" && ext != ".ply") {
+      return error(place + ".file",
+                   fmt::format("'{}': a mesh file must be .obj, .gltf, .glb or .ply", *file));
+    }
+    PENUMBRA_TRY(existingFile(*file, place + ".file"));
+  }
   std::optional<uint32_t> material;
   if (entry.contains("material")) {
     Expected<std::string> name = string(entry.at("material"), place + ".material");
@@ -450,8 +520,16 @@ Status SceneJsonReader::readMesh(const json& entry, const std::string& place, Sc
     name = *n;
   }
 
-  Expected<Scene> loaded = loadSceneFile(resolved);
-  if (!loaded.ok()) return loaded.error();  // names the mesh file and the place in it
+  Expected<Scene> loaded = Scene{};
+  if (sphere_level >= 0) {
+    // A unit sphere, placed by the transform; grey 0.8 unless a material is given.
+    loaded->source = path_;
+    loaded->meshes.push_back(icosphere(sphere_level));
+    loaded->materials.push_back(Material{"sphere", glm::vec3(0.8f), glm::vec3(0.0f)});
+  } else {
+    loaded = loadSceneFile(resolved);
+    if (!loaded.ok()) return loaded.error();  // names the mesh file and the place in it
+  }
   Scene& sub = *loaded;
 
   // To world space. A mirroring transform flips the winding so that front faces stay front.
@@ -459,7 +537,8 @@ Status SceneJsonReader::readMesh(const json& entry, const std::string& place, Sc
   const glm::dmat3 normal_from_object = glm::transpose(glm::inverse(linear));
   const bool mirrored = glm::determinant(linear) < 0.0;
   const uint32_t material_base = static_cast<uint32_t>(scene.materials.size());
-  const std::string stem = std::filesystem::path(resolved).stem().string();
+  const std::string stem =
+      sphere_level >= 0 ? std::string("sphere") : std::filesystem::path(resolved).stem().string();
   for (size_t k = 0; k < sub.meshes.size(); ++k) {
     Mesh& mesh = sub.meshes[k];
     for (glm::vec3& p : mesh.positions) p = placement.point(p);

@@ -8,6 +8,7 @@
 #include "penumbra/kernels/dipole.h"
 #include "penumbra/kernels/sampling.h"
 #include "penumbra/raytrace/camera_rays.h"
+#include "penumbra/raytrace/specular.h"
 
 #include <glm/geometric.hpp>
 
@@ -20,18 +21,7 @@ namespace penumbra {
 
 namespace {
 
-constexpr float kInfinity = std::numeric_limits<float>::infinity();
-
-// Moves a surface point off its surface by `offset` (SceneGeometry::surfaceOffset) along the
-// normal, to the side of `dir`.
-inline glm::vec3 offsetOrigin(const glm::vec3& p, float offset, const glm::vec3& n,
-                              const glm::vec3& dir) {
-  return p + (glm::dot(n, dir) >= 0.0f ? offset : -offset) * n;
-}
-
-// Shadow rays stop this fraction short of their target, so they do not hit the light's own
-// surface.
-constexpr float kShadowShorten = 1.0f - 1e-5f;
+constexpr float kInfinity = kRayInfinity;
 
 // The Sobol patterns of a path (core/sobol.h): 0 is the pixel jitter; vertex d (its depth) has
 // 1 + 3 d + slot, slot one of these. The light sample takes one 2-D pattern for both the choice
@@ -95,88 +85,13 @@ PathTracer::PathTracer(const Scene& scene)
       lights_(scene.lights),
       environment_(scene.environment) {}
 
-namespace {
-
-// A shadow ray from surface point p (lifted off its surface by p_offset along n) to `target`,
-// or none (always visible) when the target is at p.
-inline ShadowQuery shadowTo(const glm::vec3& p, float p_offset, const glm::vec3& n,
-                            const glm::vec3& target, const glm::vec3& value) {
-  const glm::vec3 origin = offsetOrigin(p, p_offset, n, target - p);
-  const glm::vec3 d = target - origin;
-  const float dist = glm::length(d);
-  if (!(dist > 0.0f)) return ShadowQuery{Ray{}, value, false};
-  return ShadowQuery{Ray{origin, 0.0f, d / dist, dist * kShadowShorten}, value, true};
-}
-
-}  // namespace
-
 int PathTracer::directQueries(const glm::vec3& p, float p_offset, const glm::vec3& n,
-                              const glm::vec3& rho, uint32_t u_light_x, float u_light_y,
+                              const glm::vec3& rho, uint32_t u_light_x, float u_light_y, bool mis,
                               ShadowQuery* out) const {
-  const glm::vec3 f = rho * kInvPi;  // Lambertian BRDF
-  int count = 0;
-  // Delta lights: one shadow ray each. Geometric terms are taken at the surface point p; the
-  // shadow ray starts from p lifted off the surface.
-  const auto point_like = [&](const glm::vec3& pos, auto&& intensity_towards) {
-    const glm::vec3 d = pos - p;
-    const float d2 = glm::dot(d, d);
-    if (!(d2 > 0.0f)) return;
-    const glm::vec3 wi = d / std::sqrt(d2);
-    const float cos_s = glm::dot(n, wi);
-    if (cos_s <= 0.0f) return;
-    const glm::vec3 intensity = intensity_towards(-wi);
-    if (intensity == glm::vec3(0.0f)) return;
-    out[count++] = shadowTo(p, p_offset, n, pos, f * intensity * cos_s / d2);
-  };
-  for (const Light& light : lights_) {
-    std::visit(
-        Overloaded{[&](const DirectionalLight& dl) {
-                     const glm::vec3 wi = -dl.direction;
-                     const float cos_s = glm::dot(n, wi);
-                     if (cos_s <= 0.0f) return;
-                     out[count++] =
-                         ShadowQuery{Ray{offsetOrigin(p, p_offset, n, wi), 0.0f, wi, kInfinity},
-                                     f * dl.irradiance * cos_s, true};
-                   },
-                   [&](const PointLight& pl) {
-                     point_like(pl.position, [&](const glm::vec3&) { return pl.intensity; });
-                   },
-                   [&](const SpotLight& sl) {
-                     point_like(sl.position, [&](const glm::vec3& out_dir) {
-                       return sl.intensity *
-                              float(spotFalloff(sl, double(glm::dot(sl.direction, out_dir))));
-                     });
-                   },
-                   [&](const LuminaireLight& lu) {
-                     // Its light distribution towards p (scene/luminaire.h, Wallner eq. 15).
-                     point_like(lu.position, [&](const glm::vec3& out_dir) {
-                       return luminaireIntensity(lu, out_dir);
-                     });
-                   }},
-        light);
-  }
+  int count = deltaLightQueries(lights_, p, p_offset, n, rho, out);
   // One sample of the emissive triangles, MIS-weighted against cosine sampling.
-  if (!geometry_.emitters.empty()) {
-    const EmitterPick pick = geometry_.pickEmitter(u_light_x);
-    const uint32_t tri = geometry_.emitters[pick.index];
-    const glm::vec2 b = sampleTriangleBarycentrics(pick.u, u_light_y);
-    const glm::vec3 q = geometry_.point(tri, b.x, b.y);
-    const glm::vec3 d = q - p;
-    const float d2 = glm::dot(d, d);
-    if (!(d2 > 0.0f)) return count;
-    const glm::vec3 wi = d / std::sqrt(d2);
-    const float cos_s = glm::dot(n, wi);
-    const glm::vec3& nl = geometry_.normals[tri];
-    const float cos_l = -glm::dot(nl, wi);  // emits from the front only
-    if (cos_s <= 0.0f || cos_l <= 0.0f) return count;
-    const float pdf_area = geometry_.emitter_pick_pdf[tri] / geometry_.areas[tri];
-    const float pdf_light = pdf_area * d2 / cos_l;  // solid-angle measure
-    const float pdf_bsdf = cos_s * kInvPi;
-    const glm::vec3& le = geometry_.materials[geometry_.material_ids[tri]].emission;
-    // Aim at q lifted off the light towards p, so the shadow ray cannot hit the light itself.
-    const glm::vec3 target = offsetOrigin(q, geometry_.surfaceOffset(tri), nl, -d);
-    out[count++] = shadowTo(p, p_offset, n, target,
-                            f * le * cos_s * powerHeuristic(pdf_light, pdf_bsdf) / pdf_light);
+  if (emitterQuery(geometry_, p, p_offset, n, rho, u_light_x, u_light_y, mis, 1.0f, out[count])) {
+    ++count;
   }
   return count;
 }
@@ -255,6 +170,28 @@ void PathTracer::shadeBoundary(PathState& s, uint32_t tri, float cos_front, cons
   s.alive = true;
 }
 
+void PathTracer::shadeSpecular(PathState& s, const Material& mat, uint32_t tri, const glm::vec3& p,
+                               float p_offset, const PathTracerSettings& settings) const {
+  const float u =
+      (s.low_discrepancy && s.depth < kSobolDepths) ? vertexSamples(s).bounce.x : s.rng.uniform();
+  SpecularLobe lobe;
+  if (!sampleSpecular(mat, geometry_.normals[tri], s.ray.dir, u, lobe)) return;
+  s.beta *= lobe.weight;
+  s.specular = true;
+  s.prev_point = p;
+  // Russian roulette as on diffuse surfaces: survival capped at 0.99, so a path caught between
+  // perfect mirrors ends.
+  if (s.depth + 1 >= settings.rr_start_depth) {
+    const float survive = std::min(std::max({s.beta.x, s.beta.y, s.beta.z}), 0.99f);
+    if (s.rng.uniform() >= survive) return;
+    s.beta /= survive;
+  }
+  s.ray =
+      Ray{offsetOrigin(p, p_offset, geometry_.normals[tri], lobe.dir), 0.0f, lobe.dir, kInfinity};
+  ++s.depth;
+  s.alive = true;
+}
+
 int PathTracer::shade(PathState& s, const Hit& hit, const PathTracerSettings& settings,
                       ShadowQuery* queries) const {
   s.alive = false;
@@ -290,6 +227,11 @@ int PathTracer::shade(PathState& s, const Hit& hit, const PathTracerSettings& se
     shadeBoundary(s, tri, cos_front, p, p_offset, settings);
     return 0;
   }
+  // Mirrors and glass (raytrace/specular.h): a delta BSDF, so no emitter sample.
+  if (mat.isSpecular()) {
+    shadeSpecular(s, mat, tri, p, p_offset, settings);
+    return 0;
+  }
   if (mat.reflectance == glm::vec3(0.0f)) return 0;
   // One-sided surfaces (Material::two_sided false) have a black back face.
   if (!mat.two_sided && !(cos_front > 0.0f)) return 0;
@@ -302,8 +244,23 @@ int PathTracer::shade(PathState& s, const Hit& hit, const PathTracerSettings& se
   const bool in_medium = s.medium >= 0;
   const VertexSamples u = vertexSamples(s);
   int count = 0;
+  if (settings.direct_only) {
+    // The path ends here with this vertex's direct light: the emitter samples with full weight
+    // (no bounce follows to share it with) and, under an environment, one cosine-weighted ray
+    // towards it (f cos / pdf = rho).
+    count = directQueries(p, p_offset, n, mat.reflectance, u.light_x, u.light_y, false, queries);
+    if (environment_ != glm::vec3(0.0f)) {
+      const glm::vec3 wi =
+          Frame::fromNormal(n).toWorld(sampleCosineHemisphere(u.bounce.x, u.bounce.y));
+      if (glm::dot(n, wi) > 0.0f) {
+        queries[count++] = ShadowQuery{Ray{offsetOrigin(p, p_offset, n, wi), 0.0f, wi, kInfinity},
+                                       mat.reflectance * environment_, true};
+      }
+    }
+    return count;
+  }
   if (!in_medium) {
-    count = directQueries(p, p_offset, n, mat.reflectance, u.light_x, u.light_y, queries);
+    count = directQueries(p, p_offset, n, mat.reflectance, u.light_x, u.light_y, true, queries);
   }
   s.specular = in_medium;
 

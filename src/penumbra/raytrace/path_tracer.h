@@ -5,6 +5,13 @@
 // judged against it, so it favours being right over being fast: shading uses geometric
 // normals (interpolated normals are not physical), and nothing is clamped.
 //
+// Mirrors and smooth glass (Material::scattering, raytrace/specular.h) are delta BSDFs: a path
+// follows one lobe (glass: reflection with the Fresnel probability F_r, else refraction) and
+// takes no emitter sample there, so light reaches it through them only by the continuation
+// finding an emitter or the environment (full weight). Delta lights seen only through a mirror or
+// glass (a point light's caustic) therefore stay black here; the whitted and photons methods
+// compute them.
+//
 // Translucent materials (Material::subsurface) are the physical reference for the dipole method
 // (subsurface/): a smooth dielectric boundary (exact Fresnel, chosen stochastically) around a
 // homogeneous medium filling the closed mesh, crossed by a random walk with isotropic
@@ -32,6 +39,7 @@
 
 #include "penumbra/core/image.h"
 #include "penumbra/core/rng.h"
+#include "penumbra/raytrace/direct_light.h"
 #include "penumbra/raytrace/medium_walk.h"
 #include "penumbra/raytrace/scene_geometry.h"
 #include "penumbra/scene/scene.h"
@@ -61,14 +69,11 @@ struct PathTracerSettings {
   // transmittance F_t, and never reflects, so the image shows only the light that left the
   // medium: what the dipole method models, for comparing the two.
   bool boundary_reflection_from_camera = true;
-};
-
-// A shadow ray and what it contributes (before the path throughput) when unoccluded; `trace`
-// is false when the light point coincides with the surface point (always visible).
-struct ShadowQuery {
-  Ray ray;
-  glm::vec3 value{0.0f};
-  bool trace = true;
+  // True: a path ends at its first diffuse vertex after that vertex's direct light (its emitter
+  // samples, and one ray towards the environment), so the image holds only the light of
+  // camera - (mirror | glass)* - diffuse - light paths and of light seen through mirrors and glass:
+  // the light Whitted's method computes (raytrace/whitted.h), for comparing the two.
+  bool direct_only = false;
 };
 
 // One path in flight: the ray to trace next and what the path has gathered. The path tracer's
@@ -168,7 +173,7 @@ class PathTracer {
             ShadowQuery* queries) const;
   static void addDirect(PathState& s, const ShadowQuery* queries, const uint8_t* occluded,
                         int count);
-  size_t lightQueryCapacity() const { return lights_.size() + 1; }
+  size_t lightQueryCapacity() const { return lights_.size() + 2; }
 
   // A guard against endless walks: a path ends after this many boundary and medium events.
   // Bias-free in practice: a walk of 10^5 events reaches about sqrt(10^5) = 300 mean free paths
@@ -198,8 +203,12 @@ class PathTracer {
   // side, reflectance rho): one per delta light and one emitter sample, MIS-weighted against
   // BSDF sampling, its emitter and point taken from the 2-D point (u_light_x as a 32-bit
   // fraction, u_light_y). Each query's value is added when its shadow ray is unoccluded.
+  // `mis` false: the emitter sample takes full weight (no bounce sample follows).
   int directQueries(const glm::vec3& p, float p_offset, const glm::vec3& n, const glm::vec3& rho,
-                    uint32_t u_light_x, float u_light_y, ShadowQuery* out) const;
+                    uint32_t u_light_x, float u_light_y, bool mis, ShadowQuery* out) const;
+  // A mirror or glass vertex (raytrace/specular.h): one lobe, chosen by its Fresnel share.
+  void shadeSpecular(PathState& s, const Material& mat, uint32_t tri, const glm::vec3& p,
+                     float p_offset, const PathTracerSettings& settings) const;
 
   // The walk's part of shade: the smooth boundary of a translucent material, and the free flight
   // of a ray inside a medium.

@@ -6,6 +6,11 @@
 #include "penumbra/raytrace/path_tracer.h"
 #include "penumbra/raytrace/ray_engine.h"
 #include "penumbra/raytrace/ray_engine_gl.h"
+#include "penumbra/raytrace/scene_geometry.h"
+
+#include <memory>
+#include <optional>
+#include <string>
 
 namespace penumbra {
 
@@ -71,6 +76,32 @@ class HybridRayQueries : public RayQueries {
   const HybridRayEngine& engine_;
   HitBatch scratch_;
   HybridStats stats_;
+};
+
+}  // namespace penumbra
+
+namespace penumbra {
+
+// A back end of the Ray Engine with the engine it owns, for methods that trace in batches
+// (whitted, photons): "cpu" (the CPU engine over `geometry`'s BVH), "gpu" (the compute kernel) or
+// "hybrid" (the CPU/GPU split). The GPU ones need a current OpenGL 4.5 context.
+class OwnedRayQueries : public RayQueries {
+ public:
+  static Expected<std::unique_ptr<OwnedRayQueries>> make(const std::string& back_end,
+                                                         const SceneGeometry& geometry);
+  Status intersect(const RayBatch& rays, HitBatch& hits) override {
+    return queries_->intersect(rays, hits);
+  }
+  Status occluded(const RayBatch& rays, std::vector<uint8_t>& occluded) override {
+    return queries_->occluded(rays, occluded);
+  }
+  const std::string& backEnd() const { return back_end_; }
+
+ private:
+  std::string back_end_;
+  std::optional<GlRayEngine> gl_;
+  std::optional<HybridRayEngine> hybrid_;
+  std::unique_ptr<RayQueries> queries_;
 };
 
 }  // namespace penumbra

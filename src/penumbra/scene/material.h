@@ -1,4 +1,5 @@
-// Lambertian materials. Reflectance is the hemispherical reflectance rho in [0, 1) per RGB
+// Materials: Lambertian by default, or a perfect mirror or smooth glass (Material::scattering).
+// Reflectance is the hemispherical reflectance rho in [0, 1) per RGB
 // channel (the BRDF is rho / pi); emission is the radiance leaving the front face
 // (W m^-2 sr^-1, the side the counter-clockwise winding faces). Surfaces reflect on both sides
 // unless `two_sided` is false (glTF's doubleSided = false, or "two_sided": false in a JSON
@@ -10,6 +11,7 @@
 
 #include <glm/vec3.hpp>
 
+#include <cstdint>
 #include <memory>
 #include <optional>
 #include <string>
@@ -34,6 +36,19 @@ struct Subsurface {
   std::shared_ptr<const MediumGrid> grid;
 };
 
+// How a surface scatters the light that reaches it. The specular kinds are delta BSDFs (Whitted
+// 1980; PBRT 4th ed. sec. 9.2-9.5): only the path tracer and the whitted and photons methods
+// follow them. The radiosity, sss and lpv methods see a Lambertian stand-in of `reflectance`
+// instead, which the scene readers set (docs/scene-format.md) and the methods warn about
+// (diffuseStandInWarnings, scene/scene.h).
+enum class Scattering : uint8_t {
+  kDiffuse,     // Lambertian of `reflectance` (with a medium behind it when `subsurface` is set)
+  kMirror,      // perfect specular reflection of `specular` per channel
+  kDielectric,  // smooth glass of index `ior` around the closed mesh's inside: exact Fresnel
+                // reflection and refraction, total internal reflection included; `specular`
+                // filters the light once as it enters (1 = clear glass)
+};
+
 struct Material {
   std::string name;
   glm::vec3 reflectance{0.8f};
@@ -55,8 +70,13 @@ struct Material {
   std::string normal_map_source;  // the file, for messages
   float normal_scale = 1.0f;
 
+  Scattering scattering = Scattering::kDiffuse;
+  glm::vec3 specular{1.0f};  // mirror reflectance, or glass transmittance (see Scattering)
+  float ior = 1.5f;          // glass: index of refraction relative to the outside
+
   bool isEmissive() const { return emission.x > 0.0f || emission.y > 0.0f || emission.z > 0.0f; }
   bool isTranslucent() const { return subsurface.has_value(); }
+  bool isSpecular() const { return scattering != Scattering::kDiffuse; }
 };
 
 }  // namespace penumbra

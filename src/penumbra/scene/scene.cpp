@@ -148,6 +148,21 @@ Status validateScene(Scene& scene) {
         return inputError(scene.source, place + ": subsurface", s.error().message);
       }
     }
+    if (m.isSpecular()) {
+      if (!finite3(m.specular) || glm::any(glm::lessThan(m.specular, glm::vec3(0.0f))) ||
+          glm::any(glm::greaterThan(m.specular, glm::vec3(1.0f)))) {
+        return inputError(scene.source, place,
+                          fmt::format("specular colour ({}, {}, {}) is outside [0, 1]",
+                                      m.specular.x, m.specular.y, m.specular.z));
+      }
+      if (m.scattering == Scattering::kDielectric && !(m.ior >= 1.0f && m.ior <= 4.0f)) {
+        return inputError(scene.source, place, fmt::format("ior {} is outside [1, 4]", m.ior));
+      }
+      if (m.subsurface) {
+        return inputError(scene.source, place,
+                          "a mirror or glass material cannot also have a subsurface medium");
+      }
+    }
   }
   for (size_t k = 0; k < scene.meshes.size(); ++k) {
     Mesh& mesh = scene.meshes[k];
@@ -217,6 +232,35 @@ Status validateScene(Scene& scene) {
     return inputError(scene.source, "", "the scene has no triangles");
   }
   return {};
+}
+
+glm::vec3 diffuseStandIn(const Material& m) {
+  switch (m.scattering) {
+    case Scattering::kMirror:
+      return m.specular;
+    case Scattering::kDielectric: {
+      const float r0 = (m.ior - 1.0f) / (m.ior + 1.0f);
+      return glm::vec3(r0 * r0);
+    }
+    case Scattering::kDiffuse:
+      break;
+  }
+  return m.reflectance;
+}
+
+std::vector<std::string> diffuseStandInWarnings(const Scene& scene, const std::string& method) {
+  std::vector<std::string> out;
+  for (const Material& m : scene.materials) {
+    if (!m.isSpecular()) continue;
+    const bool mirror = m.scattering == Scattering::kMirror;
+    out.push_back(fmt::format(
+        "{}: material '{}' is {}: --method {} sees a diffuse surface of reflectance ({:.3g}, "
+        "{:.3g}, {:.3g}) instead{} (pathtrace, whitted and photons follow its {})",
+        scene.source, m.name, mirror ? "a mirror" : fmt::format("glass (ior {:.3g})", m.ior),
+        method, m.reflectance.x, m.reflectance.y, m.reflectance.z, mirror ? "" : ", opaque",
+        mirror ? "reflections" : "reflections and refractions"));
+  }
+  return out;
 }
 
 Camera defaultCamera(const Scene& scene) {

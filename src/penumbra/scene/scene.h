@@ -64,6 +64,16 @@ std::vector<glm::vec2> flattenSceneUvs(const Scene& scene, bool& any);
 // is an error.
 Status validateScene(Scene& scene);
 
+// The Lambertian reflectance a method without specular transport (radiosity, sss, lpv) sees on a
+// mirror or glass (Material::scattering): a mirror keeps its reflectance (the energy it returns,
+// spread diffusely); glass becomes an opaque surface of its normal-incidence Fresnel reflectance
+// ((n - 1) / (n + 1))^2 (what it reflects; the light it would transmit is lost). The scene
+// readers store it in Material::reflectance; for a diffuse material it is `reflectance` itself.
+glm::vec3 diffuseStandIn(const Material& m);
+// One line per mirror or glass material, saying what `method` (a method without specular
+// transport) sees instead; empty when the scene has none.
+std::vector<std::string> diffuseStandInWarnings(const Scene& scene, const std::string& method);
+
 // A camera that frames the scene's bounding box from the front (-z looking +z) when it has none.
 Camera defaultCamera(const Scene& scene);
 

@@ -1,0 +1,193 @@
+// `penumbra render --method whitted | photons`: Whitted ray tracing and photon mapping, the Ray
+// Engine paper's other applications, traced in batches through the chosen back end.
+#include "penumbra/app/commands.h"
+#include "penumbra/app/device.h"
+#include "penumbra/app/illuminance_output.h"
+#include "penumbra/app/session.h"
+#include "penumbra/app/stats_file.h"
+#include "penumbra/core/memory.h"
+#include "penumbra/core/parallel.h"
+#include "penumbra/core/progress.h"
+#include "penumbra/core/timer.h"
+#include "penumbra/io/scene_io.h"
+#include "penumbra/raytrace/photon_map.h"
+#include "penumbra/raytrace/ray_queries.h"
+#include "penumbra/raytrace/whitted.h"
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+namespace penumbra {
+
+namespace {
+
+Status checkOption(const char* flag, int64_t value, int64_t lo, int64_t hi) {
+  if (value < lo || value > hi) {
+    return inputError("", flag, fmt::format("{} is out of range [{}, {}]", value, lo, hi));
+  }
+  return {};
+}
+
+}  // namespace
+
+Status renderRayTraced(const RenderOptions& options, const CommonOptions& common) {
+  const bool photons = options.method == "photons";
+  Expected<std::vector<std::string>> checked = checkRenderOutputs(options, 1);
+  if (!checked) return checked.error();
+  const std::vector<std::string>& outputs = *checked;
+  if (wantsIlluminance(options)) {
+    return inputError("", options.work_plane ? "--work-plane" : "--output-quantity",
+                      "lux are computed by pathtrace, progressive and matrix");
+  }
+  for (const auto& [set, name] : {std::pair{options.solver.has_value(), "--solver"},
+                                  std::pair{options.relight_frames > 0, "--relight-frames"},
+                                  std::pair{options.elements.has_value(), "--elements"}}) {
+    if (set) {
+      return inputError("", name, fmt::format("does not apply to --method {}", options.method));
+    }
+  }
+  WhittedSettings ws;
+  ws.width = options.width.value_or(512);
+  ws.height = options.height.value_or(512);
+  ws.spp = options.spp.value_or(4);
+  ws.max_depth = options.max_depth.value_or(ws.max_depth);
+  ws.light_samples = options.light_samples.value_or(ws.light_samples);
+  ws.seed = options.seed.value_or(0);
+  PENUMBRA_TRY(checkOption("--width", ws.width, 1, 1 << 16));
+  PENUMBRA_TRY(checkOption("--height", ws.height, 1, 1 << 16));
+  PENUMBRA_TRY(checkOption("--spp", ws.spp, 1, 4096));
+  PENUMBRA_TRY(checkOption("--max-depth", ws.max_depth, 0, 64));
+  PENUMBRA_TRY(checkOption("--light-samples", ws.light_samples, 0, 1024));
+  PhotonSettings ps;
+  ps.seed = ws.seed;
+  if (photons) {
+    if (options.photons) ps.photons = *options.photons;
+    if (options.caustic_photons) ps.caustic_photons = *options.caustic_photons;
+    ps.gather_count = options.gather_count.value_or(ps.gather_count);
+    ps.final_gather = options.final_gather.value_or(ps.final_gather);
+    PENUMBRA_TRY(checkOption("--photons", int64_t(ps.photons), 1, int64_t(1) << 32));
+    PENUMBRA_TRY(
+        checkOption("--caustic-photons", int64_t(ps.caustic_photons), 0, int64_t(1) << 32));
+    PENUMBRA_TRY(checkOption("--gather-count", ps.gather_count, 1, 10000));
+    PENUMBRA_TRY(checkOption("--final-gather", ps.final_gather, 0, 4096));
+    if (options.gather_radius) {
+      if (!(*options.gather_radius > 0.0 && *options.gather_radius < 1e6)) {
+        return inputError("", "--gather-radius",
+                          fmt::format("{} must be a positive distance in metres (below 1e6)",
+                                      *options.gather_radius));
+      }
+      ps.gather_radius = float(*options.gather_radius);
+    }
+  }
+  // The image (about 40 bytes per pixel with its samples and files), a wave of the ray tree (its
+  // rays, hits and shadow queries: about 2 KiB per camera ray of a wave of 65,536) and the
+  // photons (a global photon lands about four times; 64 bytes each with its index).
+  const uint64_t image_bytes =
+      uint64_t(ws.width) * uint64_t(ws.height) * (40 + 4 * uint64_t(ws.spp));
+  const uint64_t wave_bytes = (uint64_t(1) << 16) * (256 + 48 * uint64_t(ws.light_samples));
+  const uint64_t photon_bytes = photons ? (ps.photons * 4 + ps.caustic_photons) * 64 : 0;
+  PENUMBRA_TRY(checkMemory(image_bytes + wave_bytes + photon_bytes,
+                           photons ? fmt::format("a {}x{} image with {} + {} photons", ws.width,
+                                                 ws.height, ps.photons, ps.caustic_photons)
+                                   : fmt::format("a {}x{} image", ws.width, ws.height)));
+
+  Timer load_timer;
+  Expected<Scene> scene = loadCommandScene(options.scene);
+  if (!scene) return scene.error();
+  for (const std::string& w : scene->warnings) spdlog::warn("{}", w);
+  const Camera camera = scene->camera ? *scene->camera : defaultCamera(*scene);
+  const double load_seconds = load_timer.seconds();
+  Timer build_timer;
+  const WhittedTracer tracer(*scene);
+  const double build_seconds = build_timer.seconds();
+  // Every device traces the same batches: the CPU engine, the GPU kernel or the split.
+  const bool hybrid = options.device == "hybrid";
+  Expected<DeviceChoice> device = chooseDevice(hybrid ? "gpu" : options.device);
+  if (!device) return device.error();
+  const std::string back_end = hybrid ? std::string("hybrid") : device->name();
+  Expected<std::unique_ptr<OwnedRayQueries>> queries =
+      OwnedRayQueries::make(back_end, tracer.geometry());
+  if (!queries) return queries.error();
+  if (common.dry_run) return {};
+  spdlog::info(
+      "{}: {} triangles, {} emissive, {} lights; {}x{} at {} spp, depth {}, {} light "
+      "samples on {} ({} threads)",
+      scene->source, tracer.geometry().triangles.size(), tracer.geometry().emitters.size(),
+      scene->lights.size(), ws.width, ws.height, ws.spp, ws.max_depth, ws.light_samples, back_end,
+      threadCount());
+
+  nlohmann::json j = {{"method", options.method},
+                      {"device", back_end},
+                      {"scene", scene->source},
+                      {"load_seconds", load_seconds},
+                      {"build_seconds", build_seconds},
+                      {"width", ws.width},
+                      {"height", ws.height},
+                      {"spp", ws.spp},
+                      {"max_depth", ws.max_depth},
+                      {"light_samples", ws.light_samples},
+                      {"seed", ws.seed},
+                      {"threads", threadCount()},
+                      {"triangles", tracer.geometry().triangles.size()}};
+  const bool show = !common.quiet && Progress::stderrIsTerminal();
+  PhotonMaps maps;
+  DiffuseShading shading;
+  uint64_t gather_rays = 0;
+  if (photons) {
+    PhotonStats pstats;
+    Progress progress("photons", ps.photons + ps.caustic_photons, show);
+    Expected<PhotonMaps> shot = shootPhotons(*scene, tracer.geometry(), ps, **queries, &pstats,
+                                             [&](uint64_t traced) { progress.reach(traced); });
+    if (!shot) return shot.error();
+    progress.finish();
+    maps = std::move(*shot);
+    shading = photonShading(tracer.geometry(), maps, ps, &gather_rays);
+    const double emitted = double(pstats.emitted + pstats.caustic_emitted);
+    const double photons_per_s = pstats.seconds > 0.0 ? emitted / pstats.seconds : 0.0;
+    spdlog::info(
+        "{} + {} photons in {:.2f} s ({:.3g} photons/s, {:.3g} rays/s): {} global and {} "
+        "caustic stored; gather radius {:.4g} m",
+        pstats.emitted, pstats.caustic_emitted, pstats.seconds, photons_per_s,
+        pstats.seconds > 0.0 ? double(pstats.rays) / pstats.seconds : 0.0, pstats.stored,
+        pstats.caustic_stored, maps.radius);
+    j["photons"] = {{"emitted", pstats.emitted},
+                    {"caustic_emitted", pstats.caustic_emitted},
+                    {"stored", pstats.stored},
+                    {"caustic_stored", pstats.caustic_stored},
+                    {"rays", pstats.rays},
+                    {"seconds", pstats.seconds},
+                    {"photons_per_s", photons_per_s},
+                    {"precompute_seconds", pstats.gather_seconds},
+                    {"gather_count", ps.gather_count},
+                    {"gather_radius", maps.radius},
+                    {"final_gather", ps.final_gather},
+                    {"memory_bytes", maps.global.memoryBytes() + maps.caustic.memoryBytes()}};
+  }
+  Progress progress("rendering", uint64_t(ws.height), show);
+  WhittedStats stats;
+  Expected<Image> image = tracer.render(
+      camera, ws, **queries, &stats, [&](int rows) { progress.reach(uint64_t(rows)); }, shading);
+  if (!image) return image.error();
+  progress.finish();
+  emitImage(renderedValues(options, *image, nullptr));
+  PENUMBRA_TRY(writeRenderOutputs(options, outputs, *image, nullptr, nullptr));
+  const uint64_t rays = stats.rays + stats.shadow_rays + gather_rays;
+  const double rays_per_s = stats.seconds > 0.0 ? double(rays) / stats.seconds : 0.0;
+  spdlog::info("rendered in {:.2f} s ({:.2f} Mrays/s: {} rays, {} shadow rays{}); wrote {}",
+               stats.seconds, rays_per_s * 1e-6, stats.rays, stats.shadow_rays,
+               photons ? fmt::format(", {} gather rays", gather_rays) : std::string(),
+               fmt::join(outputs, ", "));
+  if (wantsStats(options.stats)) {
+    j["seconds"] = stats.seconds;
+    j["rays"] = rays;
+    j["tree_rays"] = stats.rays;
+    j["shadow_rays"] = stats.shadow_rays;
+    j["diffuse_vertices"] = stats.diffuse_vertices;
+    j["mrays_per_s"] = rays_per_s * 1e-6;
+    if (photons) j["gather_rays"] = gather_rays;
+    PENUMBRA_TRY(emitStats(options.stats, j));
+  }
+  return {};
+}
+
+}  // namespace penumbra

@@ -1,0 +1,268 @@
+#include "penumbra/raytrace/whitted.h"
+
+#include "penumbra/core/check.h"
+#include "penumbra/core/interrupt.h"
+#include "penumbra/core/parallel.h"
+#include "penumbra/core/rng.h"
+#include "penumbra/core/timer.h"
+#include "penumbra/kernels/sampling.h"
+#include "penumbra/raytrace/camera_rays.h"
+#include "penumbra/raytrace/direct_light.h"
+#include "penumbra/raytrace/specular.h"
+
+#include <glm/geometric.hpp>
+
+#include <algorithm>
+
+namespace penumbra {
+
+namespace {
+
+// A ray of a ray tree: what it carries to its pixel sample, and its stream key (the root's from
+// the pixel and sample, a child's from its parent's and its lobe).
+struct TreeNode {
+  Ray ray;
+  glm::vec3 weight{1.0f};
+  uint32_t sample = 0;  // pixel sample within the wave
+  int depth = 0;        // generations after the camera ray
+  uint64_t key = 0;
+};
+
+// Camera rays per wave: whole rows of about this many, so that a generation and its shadow rays
+// stay within a few hundred MiB whatever the image size.
+constexpr size_t kWaveRays = size_t(1) << 16;
+
+}  // namespace
+
+WhittedTracer::WhittedTracer(const Scene& scene)
+    : geometry_(SceneGeometry::build(scene)),
+      lights_(scene.lights),
+      environment_(scene.environment) {}
+
+int WhittedTracer::directQueries(const DiffuseVertex& v, int light_samples, Rng& rng,
+                                 ShadowQuery* out) const {
+  int count = deltaLightQueries(lights_, v.point, v.offset, v.normal, v.reflectance, out);
+  if (light_samples <= 0) return count;
+  const float inv = 1.0f / float(light_samples);
+  // Emitters: sample j takes the j-th stratum of the power CDF (its first coordinate on the
+  // emitter comes with it, SceneGeometry::pickEmitter), the second coordinate at random.
+  if (!geometry_.emitters.empty()) {
+    for (int j = 0; j < light_samples; ++j) {
+      const double u = (double(j) + double(rng.uniform())) * inv;
+      const uint32_t ux = uint32_t(std::min(u * 4294967296.0, 4294967295.0));
+      if (emitterQuery(geometry_, v.point, v.offset, v.normal, v.reflectance, ux, rng.uniform(),
+                       false, inv, out[count])) {
+        ++count;
+      }
+    }
+  }
+  // The environment: cosine-distributed rays (f cos / pdf = rho), stratified in the first
+  // coordinate.
+  if (environment_ != glm::vec3(0.0f)) {
+    const Frame frame = Frame::fromNormal(v.normal);
+    for (int j = 0; j < light_samples; ++j) {
+      const float u1 = (float(j) + rng.uniform()) * inv;
+      const glm::vec3 wi =
+          frame.toWorld(sampleCosineHemisphere(std::min(u1, 1.0f - 0x1p-24f), rng.uniform()));
+      if (!(glm::dot(v.normal, wi) > 0.0f)) continue;
+      out[count++] =
+          ShadowQuery{Ray{offsetOrigin(v.point, v.offset, v.normal, wi), 0.0f, wi, kRayInfinity},
+                      v.reflectance * environment_ * inv, true};
+    }
+  }
+  return count;
+}
+
+Expected<Image> WhittedTracer::render(const Camera& camera, const WhittedSettings& settings,
+                                      RayQueries& queries, WhittedStats* stats,
+                                      const std::function<void(int)>& on_progress,
+                                      const DiffuseShading& shading) const {
+  Timer timer;
+  Image image(settings.width, settings.height);
+  WhittedStats s;
+  int rows_done = 0;
+  PENUMBRA_TRY(renderRows(
+      camera, settings, 0, settings.height, queries, image.pixels, s,
+      [&](int n) {
+        rows_done += n;
+        if (on_progress) on_progress(rows_done);
+      },
+      shading));
+  s.seconds = timer.seconds();
+  if (stats) *stats = s;
+  return image;
+}
+
+Status WhittedTracer::renderRows(const Camera& camera, const WhittedSettings& settings, int y_begin,
+                                 int y_end, RayQueries& queries, std::span<glm::vec3> rows,
+                                 WhittedStats& stats, const std::function<void(int)>& on_rows,
+                                 const DiffuseShading& shading) const {
+  PENUMBRA_CHECK(0 <= y_begin && y_begin <= y_end && y_end <= settings.height &&
+                 rows.size() == size_t(y_end - y_begin) * size_t(settings.width));
+  const CameraRays cam(camera, settings.width, settings.height);
+  const size_t spp = size_t(settings.spp);
+  const size_t width = size_t(settings.width);
+  const size_t cap = directCapacity(settings.light_samples);
+  const size_t rows_per_wave = std::max<size_t>(1, kWaveRays / (width * spp));
+  const uint64_t seed = mixBits(settings.seed);
+
+  std::vector<TreeNode> nodes, next;
+  std::vector<glm::vec3> sample_sum;  // per pixel sample of the wave
+  std::vector<glm::vec3> value;       // per node: what it adds to its sample
+  std::vector<uint8_t> diffuse;       // per node: it ended on a diffuse surface
+  std::vector<DiffuseVertex> vertices;
+  std::vector<uint32_t> vertex_node;
+  std::vector<glm::vec3> extra;
+  std::vector<uint32_t> child_offset;
+  std::vector<ShadowQuery> shadow;
+  std::vector<int> shadow_count;
+  std::vector<size_t> shadow_slot;
+  std::vector<uint8_t> occluded;
+  RayBatch batch;
+  HitBatch hits;
+
+  for (size_t y0 = size_t(y_begin); y0 < size_t(y_end); y0 += rows_per_wave) {
+    const size_t y1 = std::min(size_t(y_end), y0 + rows_per_wave);
+    const size_t samples = (y1 - y0) * width * spp;
+    sample_sum.assign(samples, glm::vec3(0.0f));
+    // The camera rays, jittered within their pixels.
+    nodes.resize(samples);
+    parallelRange(samples, 1024, [&](size_t b, size_t e) {
+      for (size_t i = b; i < e; ++i) {
+        const size_t local_pixel = i / spp, s = i % spp;
+        const size_t x = local_pixel % width, y = y0 + local_pixel / width;
+        const uint64_t key = mixBits((uint64_t(y) * width + x) * spp + s + 1);
+        Rng rng(seed, key);
+        const float jx = rng.uniform(), jy = rng.uniform();
+        nodes[i] =
+            TreeNode{cam.ray(float(x) + jx, float(y) + jy), glm::vec3(1.0f), uint32_t(i), 0, key};
+      }
+    });
+    while (!nodes.empty()) {
+      throwIfInterrupted();  // a caller of the library asked to stop (core/interrupt.h)
+      const size_t n = nodes.size();
+      // 1. This generation's rays, as one batch.
+      batch.resize(n);
+      for (size_t k = 0; k < n; ++k) batch.set(k, nodes[k].ray);
+      PENUMBRA_TRY(queries.intersect(batch, hits));
+      stats.rays += n;
+      // 2. Shade: emission and the environment, the children of mirrors and glass, the shadow
+      //    queries of diffuse vertices.
+      value.assign(n, glm::vec3(0.0f));
+      diffuse.assign(n, 0);
+      child_offset.assign(n + 1, 0);
+      shadow.resize(n * cap);
+      shadow_count.assign(n, 0);
+      if (vertices.size() < n) vertices.resize(n);
+      parallelRange(n, 256, [&](size_t b, size_t e) {
+        for (size_t k = b; k < e; ++k) {
+          const TreeNode& node = nodes[k];
+          const Hit hit = hits.get(k);
+          if (!hit.hit()) {
+            value[k] = node.weight * environment_;
+            continue;
+          }
+          const uint32_t tri = uint32_t(hit.triangle);
+          const Material& mat = geometry_.materials[geometry_.material_ids[tri]];
+          const glm::vec3 ng = geometry_.normals[tri];
+          const glm::vec3 dir = glm::normalize(node.ray.dir);
+          const float cos_front = -glm::dot(ng, dir);
+          if (mat.isEmissive() && cos_front > 0.0f) value[k] = node.weight * mat.emission;
+          if (mat.isSpecular()) {
+            if (node.depth >= settings.max_depth) continue;
+            child_offset[k + 1] = uint32_t(specularLobes(mat, ng, dir).count);
+            continue;
+          }
+          if (mat.reflectance == glm::vec3(0.0f)) continue;
+          if (!mat.two_sided && !(cos_front > 0.0f)) continue;
+          DiffuseVertex& v = vertices[k];
+          v.point = geometry_.point(tri, hit.u, hit.v);
+          v.offset = geometry_.surfaceOffset(tri);
+          v.normal = cos_front > 0.0f ? ng : -ng;
+          v.reflectance = mat.reflectance;
+          v.incoming = dir;
+          v.key = node.key;
+          diffuse[k] = 1;
+          Rng rng(seed, node.key);
+          rng.advance(2);  // past the camera jitter of a root
+          shadow_count[k] = directQueries(v, settings.light_samples, rng, &shadow[k * cap]);
+        }
+      });
+      // 3. The shadow rays, as one batch.
+      shadow_slot.clear();
+      for (size_t k = 0; k < n; ++k) {
+        for (int q = 0; q < shadow_count[k]; ++q) {
+          if (shadow[k * cap + size_t(q)].trace) shadow_slot.push_back(k * cap + size_t(q));
+        }
+      }
+      batch.resize(shadow_slot.size());
+      for (size_t j = 0; j < shadow_slot.size(); ++j) batch.set(j, shadow[shadow_slot[j]].ray);
+      PENUMBRA_TRY(queries.occluded(batch, occluded));
+      stats.shadow_rays += shadow_slot.size();
+      for (size_t j = 0; j < shadow_slot.size(); ++j) {
+        if (occluded[j]) shadow[shadow_slot[j]].value = glm::vec3(0.0f);
+      }
+      // 4. The hook's radiance at this generation's diffuse vertices.
+      if (shading) {
+        vertex_node.clear();
+        for (size_t k = 0; k < n; ++k) {
+          if (diffuse[k]) vertex_node.push_back(uint32_t(k));
+        }
+        std::vector<DiffuseVertex> batch_vertices(vertex_node.size());
+        for (size_t j = 0; j < vertex_node.size(); ++j)
+          batch_vertices[j] = vertices[vertex_node[j]];
+        extra.assign(vertex_node.size(), glm::vec3(0.0f));
+        PENUMBRA_TRY(shading(batch_vertices, extra, queries));
+        for (size_t j = 0; j < vertex_node.size(); ++j) {
+          value[vertex_node[j]] += nodes[vertex_node[j]].weight * extra[j];
+        }
+      }
+      // 5. Sum into the pixel samples in node order (so any thread count gives the same sums).
+      for (size_t k = 0; k < n; ++k) {
+        glm::vec3 direct(0.0f);
+        for (int q = 0; q < shadow_count[k]; ++q) direct += shadow[k * cap + size_t(q)].value;
+        stats.diffuse_vertices += diffuse[k];
+        sample_sum[nodes[k].sample] += value[k] + nodes[k].weight * direct;
+      }
+      // 6. The next generation: the reflected and refracted rays, in their parents' order.
+      for (size_t k = 0; k < n; ++k) child_offset[k + 1] += child_offset[k];
+      next.resize(child_offset[n]);
+      parallelRange(n, 256, [&](size_t b, size_t e) {
+        for (size_t k = b; k < e; ++k) {
+          if (child_offset[k + 1] == child_offset[k]) continue;
+          const TreeNode& node = nodes[k];
+          const Hit hit = hits.get(k);
+          const uint32_t tri = uint32_t(hit.triangle);
+          const Material& mat = geometry_.materials[geometry_.material_ids[tri]];
+          const glm::vec3 ng = geometry_.normals[tri];
+          const glm::vec3 p = geometry_.point(tri, hit.u, hit.v);
+          const float offset = geometry_.surfaceOffset(tri);
+          const SpecularLobes lobes = specularLobes(mat, ng, node.ray.dir);
+          for (int l = 0; l < lobes.count; ++l) {
+            const SpecularLobe& lobe = lobes.lobe[l];
+            next[child_offset[k] + uint32_t(l)] =
+                TreeNode{Ray{offsetOrigin(p, offset, ng, lobe.dir), 0.0f, lobe.dir, kRayInfinity},
+                         node.weight * lobe.weight, node.sample, node.depth + 1,
+                         mixBits(node.key * 2 + uint64_t(l) + 1)};
+          }
+        }
+      });
+      // Children that carry nothing (a black mirror) are dropped.
+      next.erase(std::remove_if(next.begin(), next.end(),
+                                [](const TreeNode& c) { return c.weight == glm::vec3(0.0f); }),
+                 next.end());
+      nodes.swap(next);
+    }
+    // Pixels: the mean of their samples, summed in order.
+    for (size_t local_pixel = 0; local_pixel < samples / spp; ++local_pixel) {
+      glm::dvec3 sum(0.0);
+      for (size_t s = 0; s < spp; ++s) sum += glm::dvec3(sample_sum[local_pixel * spp + s]);
+      const size_t x = local_pixel % width, y = y0 + local_pixel / width;
+      rows[(y - size_t(y_begin)) * width + x] = glm::vec3(sum / double(spp));
+    }
+    if (on_rows) on_rows(int(y1 - y0));
+  }
+  return {};
+}
+
+}  // namespace penumbra
