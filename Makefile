@@ -80,6 +80,7 @@ bench: build
 	$(BUILD)/bin/radiosity_bench --benchmark_out=bench-out/radiosity_bench.json --benchmark_out_format=json
 	$(BUILD)/bin/progressive_bench --benchmark_out=bench-out/progressive_bench.json --benchmark_out_format=json
 	$(BUILD)/bin/stochastic_bench --benchmark_out=bench-out/stochastic_bench.json --benchmark_out_format=json
+	$(BUILD)/bin/applications_bench --benchmark_out=bench-out/applications_bench.json --benchmark_out_format=json
 
 plots: build
 	mkdir -p bench-out

@@ -8,6 +8,8 @@ packages=(
   build-essential cmake ninja-build pkg-config clang-format
   # core libraries
   libtbb-dev libglm-dev libeigen3-dev libfmt-dev libspdlog-dev libcli11-dev nlohmann-json3-dev libpcg-cpp-dev
+  # the photon map's kd-tree
+  libnanoflann-dev
   # file formats
   libtinyobjloader-dev libtinygltf-dev libstb-dev libopenexr-dev
   # OpenGL 4.5 through EGL (Mesa llvmpipe where there is no GPU) and the viewer

@@ -87,6 +87,13 @@ TEST(SpecularCli, RadiosityMethodsWarnAboutTheirStandIn) {
   EXPECT_EQ(r.output.find("diffuse surface"), std::string::npos) << r.output;
 }
 
+TEST(SpecularCli, InfoNamesMirrorsAndGlass) {
+  const auto r = runCli("info " + kGlassScene);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("glass, ior 1.5, filter (1, 1, 1)"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("mirror (0.95, 0.95, 0.95)"), std::string::npos) << r.output;
+}
+
 TEST(SpecularCli, BadOptionsGiveOneErrorLineAndNoOutput) {
   TempDir dir;
   const std::string out = " -o " + dir.file("out.png");

@@ -158,6 +158,43 @@ TEST(ObjLoad, VerticesAreSplitPerNormal) {
   EXPECT_EQ(m.positions[m.triangles[1].x], glm::vec3(1, 0, 0));
 }
 
+// MTL illumination models that ray-trace: illum 3 and 5 make a mirror of Ks, illum 4, 6, 7 and 9
+// glass of index Ni filtered by Tf; illum 2 stays diffuse.
+TEST(ObjLoad, RayTracedIllumModelsAreMirrorsAndGlass) {
+  TempDir dir;
+  dir.write("m.mtl",
+            "newmtl chrome\nillum 5\nKd 0.1 0.1 0.1\nKs 0.9 0.8 0.7\n"
+            "newmtl crown\nillum 7\nNi 1.52\nTf 1 1 0.9\n"
+            "newmtl bare\nillum 7\n"
+            "newmtl paint\nillum 2\nKd 0.5 0.5 0.5\nKs 0.9 0.9 0.9\n");
+  const std::string path = dir.write(
+      "m.obj",
+      "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl chrome\nf 1 2 3\nusemtl crown\nf 1 2 3\n"
+      "usemtl bare\nf 1 2 3\nusemtl paint\nf 1 2 3\n");
+  Expected<Scene> s = loadObj(path);
+  ASSERT_TRUE(s.ok()) << s.error().describe();
+  ASSERT_EQ(s->materials.size(), 4u);
+  EXPECT_EQ(s->materials[0].scattering, Scattering::kMirror);
+  EXPECT_EQ(s->materials[0].specular, glm::vec3(0.9f, 0.8f, 0.7f));
+  EXPECT_EQ(s->materials[0].reflectance, glm::vec3(0.9f, 0.8f, 0.7f));  // the stand-in
+  EXPECT_EQ(s->materials[1].scattering, Scattering::kDielectric);
+  EXPECT_FLOAT_EQ(s->materials[1].ior, 1.52f);
+  EXPECT_EQ(s->materials[1].specular, glm::vec3(1.0f, 1.0f, 0.9f));
+  EXPECT_EQ(s->materials[2].scattering, Scattering::kDielectric);  // no Ni: 1.5, with a warning
+  EXPECT_FLOAT_EQ(s->materials[2].ior, 1.5f);
+  EXPECT_EQ(s->materials[2].specular, glm::vec3(1.0f));
+  ASSERT_EQ(s->warnings.size(), 1u);
+  EXPECT_NE(s->warnings[0].find("material 'bare': illum 7 (glass) with Ni 1 read as Ni 1.5"),
+            std::string::npos)
+      << s->warnings[0];
+  EXPECT_EQ(s->materials[3].scattering, Scattering::kDiffuse);
+  dir.write("bad.mtl", "newmtl flint\nillum 7\nNi 9\n");
+  const std::string bad = dir.write("bad.obj",
+                                    "mtllib bad.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\n"
+                                    "usemtl flint\nf 1 2 3\n");
+  EXPECT_TRUE(errorNames(loadObj(bad), bad, "material 'flint': Ni 9 is outside [1, 4]"));
+}
+
 TEST(ObjLoad, MissingMaterialLibraryIsAWarning) {
   TempDir dir;
   const std::string path =

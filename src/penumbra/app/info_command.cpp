@@ -132,8 +132,16 @@ int runInfo(const InfoOptions& options, const CommonOptions&) {
   }
   fmt::print("materials  {}\n", s.materials.size());
   for (const Material& m : s.materials) {
-    fmt::print("  {:<20} reflectance ({:.3g}, {:.3g}, {:.3g})", m.name, m.reflectance.x,
-               m.reflectance.y, m.reflectance.z);
+    if (m.scattering == Scattering::kMirror) {
+      fmt::print("  {:<20} mirror ({:.3g}, {:.3g}, {:.3g})", m.name, m.specular.x, m.specular.y,
+                 m.specular.z);
+    } else if (m.scattering == Scattering::kDielectric) {
+      fmt::print("  {:<20} glass, ior {:.4g}, filter ({:.3g}, {:.3g}, {:.3g})", m.name, m.ior,
+                 m.specular.x, m.specular.y, m.specular.z);
+    } else {
+      fmt::print("  {:<20} reflectance ({:.3g}, {:.3g}, {:.3g})", m.name, m.reflectance.x,
+                 m.reflectance.y, m.reflectance.z);
+    }
     if (m.isEmissive()) {
       fmt::print("  emission ({:.4g}, {:.4g}, {:.4g}) W/m^2/sr", m.emission.x, m.emission.y,
                  m.emission.z);

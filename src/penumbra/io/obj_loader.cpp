@@ -7,11 +7,14 @@
 // errors naming the line, and only then handed to tinyobjloader with triangulation off. Polygons
 // are fan-triangulated here (v0 v1 v2, v0 v2 v3, ...) so that triangle i is the i-th triangle in
 // file order. MTL files are read here too (so a missing one is a warning, not a failure):
-// Kd -> reflectance, Ke -> emission.
+// Kd -> reflectance, Ke -> emission; illum 3 and 5 (ray-traced reflection) make a mirror of Ks,
+// illum 4, 6, 7 and 9 (ray-traced refraction) glass of index Ni filtered by Tf.
 #include "penumbra/core/file_util.h"
 #include "penumbra/io/scene_io.h"
 
 #include <tiny_obj_loader.h>
+
+#include <glm/common.hpp>
 
 #include <fmt/format.h>
 
@@ -421,6 +424,33 @@ Expected<Scene> loadObj(const std::string& path) {
       scene.warnings.push_back(
           fmt::format("{}: material '{}': texture '{}' is not used yet (Kd is)", path, m.name,
                       m.diffuse_texname));
+    }
+    const auto colour = [](const tinyobj::real_t* c) {
+      return glm::clamp(glm::vec3(c[0], c[1], c[2]), glm::vec3(0.0f), glm::vec3(1.0f));
+    };
+    if (m.illum == 3 || m.illum == 5) {
+      // A mirror of Ks (white when the file gives none).
+      mat.scattering = Scattering::kMirror;
+      mat.specular = colour(m.specular);
+      if (mat.specular == glm::vec3(0.0f)) mat.specular = glm::vec3(1.0f);
+      mat.reflectance = diffuseStandIn(mat);
+    } else if (m.illum == 4 || m.illum == 6 || m.illum == 7 || m.illum == 9) {
+      // Glass of index Ni, the light it lets in filtered by Tf (clear when the file gives none).
+      mat.scattering = Scattering::kDielectric;
+      mat.ior = float(m.ior);
+      if (!(mat.ior > 1.0f)) {
+        scene.warnings.push_back(
+            fmt::format("{}: material '{}': illum {} (glass) with Ni {} read as Ni 1.5", path,
+                        m.name, m.illum, m.ior));
+        mat.ior = 1.5f;
+      }
+      if (mat.ior > 4.0f) {
+        return inputError(path, fmt::format("material '{}'", m.name),
+                          fmt::format("Ni {} is outside [1, 4]", m.ior));
+      }
+      mat.specular = colour(m.transmittance);
+      if (mat.specular == glm::vec3(0.0f)) mat.specular = glm::vec3(1.0f);
+      mat.reflectance = diffuseStandIn(mat);
     }
     scene.materials.push_back(std::move(mat));
   }

@@ -16,7 +16,6 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
-#include <queue>
 #include <variant>
 
 namespace penumbra {
@@ -28,9 +27,9 @@ constexpr float kPiF = std::numbers::pi_v<float>;
 
 // The photons as nanoflann's dataset.
 struct PhotonCloud {
-  const std::vector<Photon>* photons = nullptr;
-  size_t kdtree_get_point_count() const { return photons->size(); }
-  float kdtree_get_pt(size_t i, size_t dim) const { return (*photons)[i].position[int(dim)]; }
+  const std::vector<glm::vec3>* positions = nullptr;
+  size_t kdtree_get_point_count() const { return positions->size(); }
+  float kdtree_get_pt(size_t i, size_t dim) const { return (*positions)[i][int(dim)]; }
   template <class Box>
   bool kdtree_get_bbox(Box&) const {
     return false;
@@ -41,35 +40,41 @@ using KdTree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<
                                                    PhotonCloud, 3, uint32_t>;
 
 // The k nearest points within a radius (squared distances), as a bounded max-heap: the result set
-// nanoflann's search fills, pruning with the current k-th distance.
+// nanoflann's search fills, pruning with the current k-th distance. The heap lives in a buffer of
+// the calling thread's, so a query allocates nothing.
 class KnnWithin {
  public:
-  KnnWithin(size_t k, float r2_max) : k_(k), r2_max_(r2_max) {}
+  KnnWithin(size_t k, float r2_max) : k_(k), r2_max_(r2_max), heap_(buffer()) { heap_.clear(); }
   size_t size() const { return heap_.size(); }
   bool full() const { return heap_.size() == k_; }
-  float worstDist() const { return full() ? heap_.top().first : r2_max_; }
+  float worstDist() const { return full() ? heap_.front().first : r2_max_; }
   bool addPoint(float d2, uint32_t index) {
     if (d2 < worstDist()) {
-      heap_.push({d2, index});
-      if (heap_.size() > k_) heap_.pop();
+      if (full()) {
+        std::pop_heap(heap_.begin(), heap_.end());
+        heap_.back() = {d2, index};
+      } else {
+        heap_.push_back({d2, index});
+      }
+      std::push_heap(heap_.begin(), heap_.end());
     }
     return true;
   }
   // The squared radius the estimate spans: the k-th distance when k were found, else the limit.
-  float radius2() const { return full() ? heap_.top().first : r2_max_; }
+  float radius2() const { return full() ? heap_.front().first : r2_max_; }
   template <class F>
   void forEach(F&& f) const {
-    auto copy = heap_;
-    while (!copy.empty()) {
-      f(copy.top().second, copy.top().first);
-      copy.pop();
-    }
+    for (const auto& [d2, i] : heap_) f(i, d2);
   }
 
  private:
+  static std::vector<std::pair<float, uint32_t>>& buffer() {
+    thread_local std::vector<std::pair<float, uint32_t>> heap;
+    return heap;
+  }
   size_t k_;
   float r2_max_;
-  std::priority_queue<std::pair<float, uint32_t>> heap_;
+  std::vector<std::pair<float, uint32_t>>& heap_;
 };
 
 float channelMean(const glm::dvec3& c) {
@@ -91,14 +96,48 @@ glm::dvec3 sampleCone(const glm::dvec3& axis, double cos_max, double u1, double 
 
 // The photons and their tree, on the heap together: the tree reads the photons through the
 // cloud's pointer, which must not move.
+// The photons in Morton order (neighbours in space are neighbours in memory, so a search touches
+// few cache lines), their positions packed apart for the tree, and the tree; on the heap
+// together, since the tree reads the positions through the cloud's pointer.
 struct PhotonMap::Index {
   std::vector<Photon> photons;
+  std::vector<glm::vec3> positions;
   PhotonCloud cloud;
   KdTree tree;
   explicit Index(std::vector<Photon> p)
-      : photons(std::move(p)),
-        cloud{&photons},
+      : photons(mortonOrder(std::move(p))),
+        positions(positionsOf(photons)),
+        cloud{&positions},
         tree(3, cloud, nanoflann::KDTreeSingleIndexAdaptorParams(8)) {}
+
+  static std::vector<Photon> mortonOrder(std::vector<Photon> p) {
+    glm::vec3 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
+    for (const Photon& ph : p) {
+      lo = glm::min(lo, ph.position);
+      hi = glm::max(hi, ph.position);
+    }
+    const glm::vec3 scale = 1023.0f / glm::max(hi - lo, glm::vec3(1e-30f));
+    const auto spread = [](uint32_t v) {  // 10 bits to every third of 30
+      v = (v | (v << 16)) & 0x030000FFu;
+      v = (v | (v << 8)) & 0x0300F00Fu;
+      v = (v | (v << 4)) & 0x030C30C3u;
+      return (v | (v << 2)) & 0x09249249u;
+    };
+    std::vector<std::pair<uint32_t, uint32_t>> keys(p.size());
+    for (size_t i = 0; i < p.size(); ++i) {
+      const glm::uvec3 c((p[i].position - lo) * scale);
+      keys[i] = {spread(c.x) | spread(c.y) << 1 | spread(c.z) << 2, uint32_t(i)};
+    }
+    std::sort(keys.begin(), keys.end());
+    std::vector<Photon> out(p.size());
+    for (size_t i = 0; i < p.size(); ++i) out[i] = p[keys[i].second];
+    return out;
+  }
+  static std::vector<glm::vec3> positionsOf(const std::vector<Photon>& p) {
+    std::vector<glm::vec3> out(p.size());
+    for (size_t i = 0; i < p.size(); ++i) out[i] = p[i].position;
+    return out;
+  }
 };
 
 PhotonMap::PhotonMap() = default;
@@ -165,20 +204,26 @@ void PhotonMap::precomputeRadiance(int k, float r_max, int stride) {
 
 glm::vec3 PhotonMap::radiance(const glm::vec3& x, const glm::vec3& n, float r_max) const {
   if (!radiance_index_) return glm::vec3(0.0f);
-  // The nearest few, the first of them that faces the same way.
-  KnnWithin found(8, r_max * r_max);
   const float q[3] = {x.x, x.y, x.z};
-  radiance_index_->tree.findNeighbors(found, q, nanoflann::SearchParams());
-  float best = std::numeric_limits<float>::max();
-  glm::vec3 value(0.0f);
-  found.forEach([&](uint32_t i, float d2) {
-    const Photon& p = radiance_index_->photons[i];
-    if (glm::dot(p.normal, n) > 0.7f && d2 < best) {
-      best = d2;
-      value = p.power;
-    }
-  });
-  return value;
+  // The nearest point, and when it faces another way (a corner, a thin wall), the nearest of the
+  // closest few that faces the same way.
+  for (const size_t k : {size_t(1), size_t(8)}) {
+    KnnWithin found(k, r_max * r_max);
+    radiance_index_->tree.findNeighbors(found, q, nanoflann::SearchParams());
+    float best = std::numeric_limits<float>::max();
+    glm::vec3 value(0.0f);
+    bool any = false;
+    found.forEach([&](uint32_t i, float d2) {
+      const Photon& p = radiance_index_->photons[i];
+      if (glm::dot(p.normal, n) > 0.7f && d2 < best) {
+        best = d2;
+        value = p.power;
+        any = true;
+      }
+    });
+    if (any || found.size() < k) return value;
+  }
+  return glm::vec3(0.0f);
 }
 
 namespace {
@@ -499,21 +544,25 @@ Expected<PhotonMaps> shootPhotons(const Scene& scene, const SceneGeometry& geome
     if (!global) return global.error();
     stats.emitted = settings.photons;
     stats.stored = global->size();
-    maps.global.build(std::move(*global));
+    std::vector<Photon> caustic;
     if (emitter.hasSpecular() && settings.caustic_photons > 0) {
-      Expected<std::vector<Photon>> caustic = tracePhotons(
+      Expected<std::vector<Photon>> c = tracePhotons(
           emitter, geometry, settings, settings.caustic_photons, true, queries, stats, progress);
-      if (!caustic) return caustic.error();
+      if (!c) return c.error();
       stats.caustic_emitted = settings.caustic_photons;
-      stats.caustic_stored = caustic->size();
-      maps.caustic.build(std::move(*caustic));
+      stats.caustic_stored = c->size();
+      caustic = std::move(*c);
     }
+    stats.seconds = timer.seconds();
+    Timer build;
+    maps.global.build(std::move(*global));
+    maps.caustic.build(std::move(caustic));
+    stats.build_seconds = build.seconds();
   }
-  stats.seconds = timer.seconds();
   if (settings.final_gather > 0) {
     Timer gather;
     maps.global.precomputeRadiance(settings.gather_count, maps.radius, 4);
-    stats.gather_seconds = gather.seconds();
+    stats.precompute_seconds = gather.seconds();
   }
   if (stats_out) *stats_out = stats;
   return maps;

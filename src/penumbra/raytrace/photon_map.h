@@ -97,9 +97,10 @@ class PhotonMap {
 struct PhotonStats {
   uint64_t emitted = 0, caustic_emitted = 0;
   uint64_t stored = 0, caustic_stored = 0;
-  uint64_t rays = 0;  // photon rays traced
-  double seconds = 0.0;
-  double gather_seconds = 0.0;  // precomputing the gather's radiance
+  uint64_t rays = 0;                // photon rays traced
+  double seconds = 0.0;             // shooting and storing the photons
+  double build_seconds = 0.0;       // the two kd-trees
+  double precompute_seconds = 0.0;  // the gather's radiance at every fourth photon
 };
 
 struct PhotonMaps {
