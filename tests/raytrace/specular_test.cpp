@@ -177,10 +177,12 @@ TEST(Specular, GlassSphereInFurnaceKeepsTheFurnaceValue) {
   Expected<Image> w = whitted.render(cam, ws, cpu);
   ASSERT_TRUE(w.ok());
   // Light caught by total internal reflection between the facets loses what its branch carries
-  // when the depth limit cuts it: a few pixels are darker; every other one is exact.
+  // when the depth limit cuts it: a few pixels are darker; every other one is exact, up to the
+  // branches fainter than 1e-4, which go on by Russian roulette (whitted.cpp) and move a pixel by
+  // a few 1e-4 at most.
   size_t exact = 0;
   for (const glm::vec3& c : w->pixels) {
-    EXPECT_LE(c.x, 0.7f + 1e-4f);
+    EXPECT_LE(c.x, 0.7f + 5e-4f);
     exact += std::fabs(c.x - 0.7f) < 2e-4f;
   }
   EXPECT_GT(exact, w->pixels.size() * 95 / 100);
@@ -212,6 +214,39 @@ TEST(Specular, GlassSphereInFurnaceKeepsTheFurnaceValue) {
       "glass furnace 0.7: whitted mean %.5f (%zu of %zu pixels exact), path tracer mean "
       "%.5f\n",
       meanLuminance(*w), exact, w->pixels.size(), meanLuminance(p));
+}
+
+// Glass in glass in glass, 40 generations deep: every split doubles the rays, so the tree would
+// hold 2^40 branches; faint branches going on by Russian roulette and generations traced in chunks
+// keep it bounded, and it stays energy-conserving in the furnace (unbiased, so the mean is the
+// furnace's value up to noise).
+TEST(Whitted, GlassInGlassStaysBoundedAndConservesEnergy) {
+  Scene s;
+  s.source = "nested glass";
+  s.materials.push_back(glass(1.5f));
+  s.materials.push_back(glass(1.33f));
+  for (int i = 0; i < 3; ++i)
+    addSphere(s, glm::vec3(0.0f), 0.5f - 0.12f * float(i), 3, uint32_t(i % 2));
+  s.environment = glm::vec3(0.7f);
+  ASSERT_TRUE(validateScene(s).ok());
+  Camera cam;
+  cam.position = {0.0f, 0.2f, 2.0f};
+  cam.look_at = {0.0f, 0.0f, 0.0f};
+  cam.vertical_fov = 0.55f;
+  WhittedTracer whitted(s);
+  CpuRayQueries cpu(whitted.geometry().engine);
+  WhittedSettings ws;
+  ws.width = ws.height = 16;
+  ws.spp = 2;
+  ws.max_depth = 40;
+  WhittedStats stats;
+  Expected<Image> w = whitted.render(cam, ws, cpu, &stats);
+  ASSERT_TRUE(w.ok());
+  std::printf("nested glass, depth 40: mean %.5f, %llu rays for %d camera rays\n",
+              meanLuminance(*w), static_cast<unsigned long long>(stats.rays),
+              ws.width * ws.height * ws.spp);
+  EXPECT_NEAR(meanLuminance(*w), 0.7, 0.7 * 0.03);
+  EXPECT_LT(stats.rays, uint64_t(ws.width * ws.height * ws.spp) * 20000);
 }
 
 // The Cornell box with a mirror ball and a glass ball: Whitted's image is the path tracer's

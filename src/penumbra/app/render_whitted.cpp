@@ -79,12 +79,13 @@ Status renderRayTraced(const RenderOptions& options, const CommonOptions& common
       ps.gather_radius = float(*options.gather_radius);
     }
   }
-  // The image (about 40 bytes per pixel with its samples and files), a wave of the ray tree (its
-  // rays, hits and shadow queries: about 2 KiB per camera ray of a wave of 65,536) and the
-  // photons (a global photon lands about four times; 64 bytes each with its index).
+  // The image (about 40 bytes per pixel with its samples and files), a wave of the ray tree and
+  // a chunk of gather rays (bounded by whitted.cpp's and photon_map.cpp's chunk sizes: about
+  // 384 MiB together at most) and the photons (a global photon lands about four times; 64 bytes
+  // each with its index).
   const uint64_t image_bytes =
       uint64_t(ws.width) * uint64_t(ws.height) * (40 + 4 * uint64_t(ws.spp));
-  const uint64_t wave_bytes = (uint64_t(1) << 16) * (256 + 48 * uint64_t(ws.light_samples));
+  const uint64_t wave_bytes = uint64_t(384) << 20;
   const uint64_t photon_bytes = photons ? (ps.photons * 4 + ps.caustic_photons) * 64 : 0;
   PENUMBRA_TRY(checkMemory(image_bytes + wave_bytes + photon_bytes,
                            photons ? fmt::format("a {}x{} image with {} + {} photons", ws.width,

@@ -568,6 +568,101 @@ Expected<PhotonMaps> shootPhotons(const Scene& scene, const SceneGeometry& geome
   return maps;
 }
 
+namespace {
+
+// The final gather at `vertices`, added to `radiance`: cosine-distributed rays (stratified in
+// their first coordinate), each followed through mirrors and glass to a diffuse surface, where the
+// global map's radiance is read; f cos / pdf = rho, so each adds rho L / gather rays.
+Status finalGather(const SceneGeometry& geometry, const PhotonMaps& maps,
+                   const PhotonSettings& settings, uint64_t* gather_rays,
+                   std::span<const DiffuseVertex> vertices, std::span<glm::vec3> radiance,
+                   RayQueries& queries) {
+  const float r = maps.radius;
+  const size_t g = size_t(settings.final_gather);
+  const size_t n = vertices.size() * g;
+  struct GatherRay {
+    Ray ray;
+    glm::vec3 weight{1.0f};
+    Rng rng;
+    bool alive = false;
+  };
+  std::vector<GatherRay> rays(n);
+  parallelRange(vertices.size(), 64, [&](size_t b, size_t e) {
+    for (size_t i = b; i < e; ++i) {
+      const DiffuseVertex& v = vertices[i];
+      const Frame frame = Frame::fromNormal(v.normal);
+      Rng rng(mixBits(settings.seed ^ 0x6a09e667f3bcc909ULL), v.key);
+      for (size_t j = 0; j < g; ++j) {
+        GatherRay& gr = rays[i * g + j];
+        const float u1 = std::min((float(j) + rng.uniform()) / float(g), 1.0f - 0x1p-24f);
+        const glm::vec3 wi = frame.toWorld(sampleCosineHemisphere(u1, rng.uniform()));
+        gr.rng = Rng(mixBits(v.key), j);
+        if (!(glm::dot(wi, v.normal) > 0.0f)) continue;
+        gr.ray = Ray{offsetOrigin(v.point, v.offset, v.normal, wi), 0.0f, wi, kRayInfinity};
+        gr.alive = true;
+      }
+    }
+  });
+  std::vector<glm::vec3> found(n, glm::vec3(0.0f));
+  std::vector<uint32_t> alive;
+  for (uint32_t i = 0; i < n; ++i) {
+    if (rays[i].alive) alive.push_back(i);
+  }
+  RayBatch batch;
+  HitBatch hits;
+  for (int depth = 0; !alive.empty(); ++depth) {
+    throwIfInterrupted();
+    batch.resize(alive.size());
+    for (size_t a = 0; a < alive.size(); ++a) batch.set(a, rays[alive[a]].ray);
+    PENUMBRA_TRY(queries.intersect(batch, hits));
+    if (gather_rays) *gather_rays += alive.size();
+    parallelRange(alive.size(), 256, [&](size_t b, size_t e) {
+      for (size_t a = b; a < e; ++a) {
+        GatherRay& gr = rays[alive[a]];
+        gr.alive = false;
+        const Hit hit = hits.get(a);
+        // A miss or an emitter: direct light (or a caustic, after mirrors and glass), which the
+        // shadow rays and the caustic map already count.
+        if (!hit.hit()) continue;
+        const uint32_t tri = uint32_t(hit.triangle);
+        const Material& mat = geometry.materials[geometry.material_ids[tri]];
+        const glm::vec3 ng = geometry.normals[tri];
+        const glm::vec3 dir = glm::normalize(gr.ray.dir);
+        const float cos_front = -glm::dot(ng, dir);
+        const glm::vec3 p = geometry.point(tri, hit.u, hit.v);
+        if (mat.isSpecular()) {
+          SpecularLobe lobe;
+          if (depth >= settings.max_bounces ||
+              !sampleSpecular(mat, ng, dir, gr.rng.uniform(), lobe)) {
+            continue;
+          }
+          gr.weight *= lobe.weight;
+          gr.ray = Ray{offsetOrigin(p, geometry.surfaceOffset(tri), ng, lobe.dir), 0.0f, lobe.dir,
+                       kRayInfinity};
+          gr.alive = gr.weight != glm::vec3(0.0f);
+          continue;
+        }
+        if (!mat.two_sided && !(cos_front > 0.0f)) continue;
+        const glm::vec3 nf = cos_front > 0.0f ? ng : -ng;
+        found[alive[a]] = gr.weight * maps.global.radiance(p, nf, r);
+      }
+    });
+    size_t kept = 0;
+    for (uint32_t i : alive) {
+      if (rays[i].alive) alive[kept++] = i;
+    }
+    alive.resize(kept);
+  }
+  for (size_t i = 0; i < vertices.size(); ++i) {
+    glm::vec3 sum(0.0f);
+    for (size_t j = 0; j < g; ++j) sum += found[i * g + j];
+    radiance[i] += vertices[i].reflectance * sum / float(g);
+  }
+  return {};
+}
+
+}  // namespace
+
 DiffuseShading photonShading(const SceneGeometry& geometry, const PhotonMaps& maps,
                              const PhotonSettings& settings, uint64_t* gather_rays) {
   return [&geometry, &maps, settings, gather_rays](std::span<const DiffuseVertex> vertices,
@@ -587,88 +682,12 @@ DiffuseShading photonShading(const SceneGeometry& geometry, const PhotonMaps& ma
       }
     });
     if (settings.final_gather <= 0) return {};
-    // The final gather: cosine-distributed rays (stratified in their first coordinate), each
-    // followed through mirrors and glass to a diffuse surface, where the global map's radiance is
-    // read; f cos / pdf = rho, so each adds rho L / gather rays.
-    const size_t g = size_t(settings.final_gather);
-    const size_t n = vertices.size() * g;
-    struct GatherRay {
-      Ray ray;
-      glm::vec3 weight{1.0f};
-      Rng rng;
-      bool alive = false;
-    };
-    std::vector<GatherRay> rays(n);
-    parallelRange(vertices.size(), 64, [&](size_t b, size_t e) {
-      for (size_t i = b; i < e; ++i) {
-        const DiffuseVertex& v = vertices[i];
-        const Frame frame = Frame::fromNormal(v.normal);
-        Rng rng(mixBits(settings.seed ^ 0x6a09e667f3bcc909ULL), v.key);
-        for (size_t j = 0; j < g; ++j) {
-          GatherRay& gr = rays[i * g + j];
-          const float u1 = std::min((float(j) + rng.uniform()) / float(g), 1.0f - 0x1p-24f);
-          const glm::vec3 wi = frame.toWorld(sampleCosineHemisphere(u1, rng.uniform()));
-          gr.rng = Rng(mixBits(v.key), j);
-          if (!(glm::dot(wi, v.normal) > 0.0f)) continue;
-          gr.ray = Ray{offsetOrigin(v.point, v.offset, v.normal, wi), 0.0f, wi, kRayInfinity};
-          gr.alive = true;
-        }
-      }
-    });
-    std::vector<glm::vec3> found(n, glm::vec3(0.0f));
-    std::vector<uint32_t> alive;
-    for (uint32_t i = 0; i < n; ++i) {
-      if (rays[i].alive) alive.push_back(i);
-    }
-    RayBatch batch;
-    HitBatch hits;
-    for (int depth = 0; !alive.empty(); ++depth) {
-      throwIfInterrupted();
-      batch.resize(alive.size());
-      for (size_t a = 0; a < alive.size(); ++a) batch.set(a, rays[alive[a]].ray);
-      PENUMBRA_TRY(queries.intersect(batch, hits));
-      if (gather_rays) *gather_rays += alive.size();
-      parallelRange(alive.size(), 256, [&](size_t b, size_t e) {
-        for (size_t a = b; a < e; ++a) {
-          GatherRay& gr = rays[alive[a]];
-          gr.alive = false;
-          const Hit hit = hits.get(a);
-          // A miss or an emitter: direct light (or a caustic, after mirrors and glass), which the
-          // shadow rays and the caustic map already count.
-          if (!hit.hit()) continue;
-          const uint32_t tri = uint32_t(hit.triangle);
-          const Material& mat = geometry.materials[geometry.material_ids[tri]];
-          const glm::vec3 ng = geometry.normals[tri];
-          const glm::vec3 dir = glm::normalize(gr.ray.dir);
-          const float cos_front = -glm::dot(ng, dir);
-          const glm::vec3 p = geometry.point(tri, hit.u, hit.v);
-          if (mat.isSpecular()) {
-            SpecularLobe lobe;
-            if (depth >= settings.max_bounces ||
-                !sampleSpecular(mat, ng, dir, gr.rng.uniform(), lobe)) {
-              continue;
-            }
-            gr.weight *= lobe.weight;
-            gr.ray = Ray{offsetOrigin(p, geometry.surfaceOffset(tri), ng, lobe.dir), 0.0f, lobe.dir,
-                         kRayInfinity};
-            gr.alive = gr.weight != glm::vec3(0.0f);
-            continue;
-          }
-          if (!mat.two_sided && !(cos_front > 0.0f)) continue;
-          const glm::vec3 nf = cos_front > 0.0f ? ng : -ng;
-          found[alive[a]] = gr.weight * maps.global.radiance(p, nf, r);
-        }
-      });
-      size_t kept = 0;
-      for (uint32_t i : alive) {
-        if (rays[i].alive) alive[kept++] = i;
-      }
-      alive.resize(kept);
-    }
-    for (size_t i = 0; i < vertices.size(); ++i) {
-      glm::vec3 sum(0.0f);
-      for (size_t j = 0; j < g; ++j) sum += found[i * g + j];
-      radiance[i] += vertices[i].reflectance * sum / float(g);
+    // The final gather, in chunks of about 2^20 rays.
+    const size_t chunk = std::max<size_t>(1, (size_t(1) << 20) / size_t(settings.final_gather));
+    for (size_t v0 = 0; v0 < vertices.size(); v0 += chunk) {
+      const size_t count = std::min(chunk, vertices.size() - v0);
+      PENUMBRA_TRY(finalGather(geometry, maps, settings, gather_rays, vertices.subspan(v0, count),
+                               radiance.subspan(v0, count), queries));
     }
     return {};
   };

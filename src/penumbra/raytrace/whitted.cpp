@@ -28,9 +28,17 @@ struct TreeNode {
   uint64_t key = 0;
 };
 
-// Camera rays per wave: whole rows of about this many, so that a generation and its shadow rays
-// stay within a few hundred MiB whatever the image size.
-constexpr size_t kWaveRays = size_t(1) << 16;
+// Shadow queries per wave (about 40 bytes each): the camera rays of a wave are whole rows of about
+// this many over the queries each may make, so that a generation and its shadow rays stay within
+// a hundred MiB or so whatever the image size and light samples.
+constexpr size_t kWaveQueries = size_t(1) << 21;
+// A generation larger than this (glass in glass multiplies the rays) is traced in chunks, each with
+// all its descendants before the next, so memory stays bounded whatever the depth.
+constexpr size_t kMaxGeneration = size_t(1) << 17;
+// Branches carrying less than this (their largest channel) are followed with probability
+// weight / kFaintBranch, and then carry kFaintBranch (Russian roulette: unbiased), so that a tree
+// keeps at most about 1 / kFaintBranch rays per generation for each camera ray.
+constexpr float kFaintBranch = 1e-4f;
 
 }  // namespace
 
@@ -103,10 +111,10 @@ Status WhittedTracer::renderRows(const Camera& camera, const WhittedSettings& se
   const size_t spp = size_t(settings.spp);
   const size_t width = size_t(settings.width);
   const size_t cap = directCapacity(settings.light_samples);
-  const size_t rows_per_wave = std::max<size_t>(1, kWaveRays / (width * spp));
+  const size_t rows_per_wave = std::max<size_t>(1, kWaveQueries / cap / (width * spp));
   const uint64_t seed = mixBits(settings.seed);
 
-  std::vector<TreeNode> nodes, next;
+  std::vector<TreeNode> nodes;
   std::vector<glm::vec3> sample_sum;  // per pixel sample of the wave
   std::vector<glm::vec3> value;       // per node: what it adds to its sample
   std::vector<uint8_t> diffuse;       // per node: it ended on a diffuse surface
@@ -138,9 +146,13 @@ Status WhittedTracer::renderRows(const Camera& camera, const WhittedSettings& se
             TreeNode{cam.ray(float(x) + jx, float(y) + jy), glm::vec3(1.0f), uint32_t(i), 0, key};
       }
     });
-    while (!nodes.empty()) {
+    // One generation: its rays, its shading and shadow rays, then its children, chunk by chunk,
+    // each chunk with all its descendants.
+    std::function<Status(const std::vector<TreeNode>&)> generation =
+        [&](const std::vector<TreeNode>& nodes) -> Status {
       throwIfInterrupted();  // a caller of the library asked to stop (core/interrupt.h)
       const size_t n = nodes.size();
+      if (n == 0) return {};
       // 1. This generation's rays, as one batch.
       batch.resize(n);
       for (size_t k = 0; k < n; ++k) batch.set(k, nodes[k].ray);
@@ -226,7 +238,7 @@ Status WhittedTracer::renderRows(const Camera& camera, const WhittedSettings& se
       }
       // 6. The next generation: the reflected and refracted rays, in their parents' order.
       for (size_t k = 0; k < n; ++k) child_offset[k + 1] += child_offset[k];
-      next.resize(child_offset[n]);
+      std::vector<TreeNode> next(child_offset[n]);
       parallelRange(n, 256, [&](size_t b, size_t e) {
         for (size_t k = b; k < e; ++k) {
           if (child_offset[k + 1] == child_offset[k]) continue;
@@ -247,12 +259,29 @@ Status WhittedTracer::renderRows(const Camera& camera, const WhittedSettings& se
           }
         }
       });
-      // Children that carry nothing (a black mirror) are dropped.
-      next.erase(std::remove_if(next.begin(), next.end(),
-                                [](const TreeNode& c) { return c.weight == glm::vec3(0.0f); }),
-                 next.end());
-      nodes.swap(next);
-    }
+      // Children that carry nothing (a black mirror) are dropped; faint ones go on by Russian
+      // roulette.
+      size_t kept = 0;
+      for (TreeNode& c : next) {
+        const float w = std::max({c.weight.x, c.weight.y, c.weight.z});
+        if (!(w > 0.0f)) continue;
+        if (w < kFaintBranch) {
+          Rng rng(seed, c.key);
+          if (rng.uniform() * kFaintBranch >= w) continue;
+          c.weight *= kFaintBranch / w;
+        }
+        next[kept++] = c;
+      }
+      next.resize(kept);
+      for (size_t c0 = 0; c0 < next.size(); c0 += kMaxGeneration) {
+        const size_t c1 = std::min(next.size(), c0 + kMaxGeneration);
+        const std::vector<TreeNode> chunk(next.begin() + std::ptrdiff_t(c0),
+                                          next.begin() + std::ptrdiff_t(c1));
+        PENUMBRA_TRY(generation(chunk));
+      }
+      return {};
+    };
+    PENUMBRA_TRY(generation(nodes));
     // Pixels: the mean of their samples, summed in order.
     for (size_t local_pixel = 0; local_pixel < samples / spp; ++local_pixel) {
       glm::dvec3 sum(0.0);
