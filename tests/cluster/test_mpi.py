@@ -84,6 +84,24 @@ def test_gpu_path_tracer_over_ranks(tmp_path):
     assert (tmp_path / "one.pfm").read_bytes() == (tmp_path / "two.pfm").read_bytes()
 
 
+@pytest.mark.parametrize("method", ["whitted", "photons"])
+def test_whitted_and_photons_over_ranks(tmp_path, method):
+    # Rows handed out on demand; every rank shoots the same photons (the same seeds), so the
+    # image is one process's bit for bit.
+    root = os.path.join(os.path.dirname(__file__), "..", "..")
+    opts = ["scenes/cornell-glass.json", "--method", method, "--width", 40, "--height", 32,
+            "--spp", 2, "--device", "cpu", "--quiet"]
+    if method == "photons":
+        opts += ["--photons", 20000, "--caustic-photons", 20000, "--final-gather", 4]
+    one("render", *opts, "-o", tmp_path / "one.pfm", cwd=root)
+    ranks(2, "render", *opts, "-o", tmp_path / "two.pfm", "--stats", tmp_path / "two.json",
+          cwd=root)
+    assert (tmp_path / "one.pfm").read_bytes() == (tmp_path / "two.pfm").read_bytes()
+    stats = json.loads((tmp_path / "two.json").read_text())
+    assert stats["ranks"] == 2 and stats["method"] == method
+    assert sum(stats["rays_per_rank"]) == stats["rays"]
+
+
 # --- trace: hits in the rays' order ----------------------------------------------------------
 
 

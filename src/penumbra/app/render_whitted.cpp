@@ -5,6 +5,7 @@
 #include "penumbra/app/illuminance_output.h"
 #include "penumbra/app/session.h"
 #include "penumbra/app/stats_file.h"
+#include "penumbra/cluster/distributed_render.h"
 #include "penumbra/core/memory.h"
 #include "penumbra/core/parallel.h"
 #include "penumbra/core/progress.h"
@@ -16,6 +17,9 @@
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
+
+#include <atomic>
+#include <optional>
 
 namespace penumbra {
 
@@ -32,6 +36,10 @@ Status checkOption(const char* flag, int64_t value, int64_t lo, int64_t hi) {
 
 Status renderRayTraced(const RenderOptions& options, const CommonOptions& common) {
   const bool photons = options.method == "photons";
+  // Over several processes (mpirun): every rank loads and checks, then they agree to start; each
+  // rank shoots the same photons (the same seeds), and blocks of rows are handed out on demand.
+  Communicator& comm = currentCommunicator();
+  ReadyGate gate(comm);
   Expected<std::vector<std::string>> checked = checkRenderOutputs(options, 1);
   if (!checked) return checked.error();
   const std::vector<std::string>& outputs = *checked;
@@ -109,6 +117,7 @@ Status renderRayTraced(const RenderOptions& options, const CommonOptions& common
   Expected<std::unique_ptr<OwnedRayQueries>> queries =
       OwnedRayQueries::make(back_end, tracer.geometry());
   if (!queries) return queries.error();
+  PENUMBRA_TRY(gate.open());
   if (common.dry_run) return {};
   spdlog::info(
       "{}: {} triangles, {} emissive, {} lights; {}x{} at {} spp, depth {}, {} light "
@@ -130,7 +139,7 @@ Status renderRayTraced(const RenderOptions& options, const CommonOptions& common
                       {"seed", ws.seed},
                       {"threads", threadCount()},
                       {"triangles", tracer.geometry().triangles.size()}};
-  const bool show = !common.quiet && Progress::stderrIsTerminal();
+  const bool show = !common.quiet && comm.root() && Progress::stderrIsTerminal();
   PhotonMaps maps;
   DiffuseShading shading;
   uint64_t gather_rays = 0;
@@ -167,13 +176,42 @@ Status renderRayTraced(const RenderOptions& options, const CommonOptions& common
   }
   Progress progress("rendering", uint64_t(ws.height), show);
   WhittedStats stats;
-  Expected<Image> image = tracer.render(
-      camera, ws, **queries, &stats, [&](int rows) { progress.reach(uint64_t(rows)); }, shading);
-  if (!image) return image.error();
+  Expected<Image> image = Image();
+  std::optional<uint64_t> all_rays;  // over ranks: every rank's
+  if (comm.distributed()) {
+    Timer timer;
+    std::atomic<int> rows_in{0};
+    DistributedRenderStats distributed;
+    *image = renderOverRanks(
+        comm, ws.width, ws.height, rowBlockSize(ws.height, comm.size()),
+        [&](int y0, int y1, std::span<glm::vec3> out) -> uint64_t {
+          WhittedStats block;
+          const uint64_t gathered = gather_rays;
+          if (Status st = tracer.renderRows(camera, ws, y0, y1, **queries, out, block, {}, shading);
+              !st) {
+            throw ClusterError(st.error().describe());
+          }
+          stats.rays += block.rays;
+          stats.shadow_rays += block.shadow_rays;
+          stats.diffuse_vertices += block.diffuse_vertices;
+          return block.rays + block.shadow_rays + (gather_rays - gathered);
+        },
+        [&](int rows) { progress.reach(uint64_t(rows_in += rows)); }, &distributed);
+    stats.seconds = timer.seconds();
+    all_rays = distributed.rays;
+    j["ranks"] = comm.size();
+    j["block_rows"] = distributed.block_rows;
+    j["rays_per_rank"] = distributed.rays_per_rank;
+  } else {
+    image = tracer.render(
+        camera, ws, **queries, &stats, [&](int rows) { progress.reach(uint64_t(rows)); }, shading);
+    if (!image) return image.error();
+  }
   progress.finish();
+  if (!comm.root()) return {};  // rank 0 writes the outputs
   emitImage(renderedValues(options, *image, nullptr));
   PENUMBRA_TRY(writeRenderOutputs(options, outputs, *image, nullptr, nullptr));
-  const uint64_t rays = stats.rays + stats.shadow_rays + gather_rays;
+  const uint64_t rays = all_rays ? *all_rays : stats.rays + stats.shadow_rays + gather_rays;
   const double rays_per_s = stats.seconds > 0.0 ? double(rays) / stats.seconds : 0.0;
   spdlog::info("rendered in {:.2f} s ({:.2f} Mrays/s: {} rays, {} shadow rays{}); wrote {}",
                stats.seconds, rays_per_s * 1e-6, stats.rays, stats.shadow_rays,

@@ -78,14 +78,15 @@ Status checkDistributedMethod(const Communicator& comm, const std::string& comma
                               const std::string& method) {
   if (!comm.distributed()) return {};
   const bool runs = method == "matrix" || method == "progressive" ||
-                    (command == "render" && method == "pathtrace");
+                    (command == "render" &&
+                     (method == "pathtrace" || method == "whitted" || method == "photons"));
   if (runs) return {};
   return inputError(
       "", "--method",
-      fmt::format(
-          "{} {} runs on one process; over {} ranks {} runs {} (docs/scaling.md)", command, method,
-          comm.size(), command,
-          command == "render" ? "pathtrace, matrix and progressive" : "matrix and progressive"));
+      fmt::format("{} {} runs on one process; over {} ranks {} runs {} (docs/scaling.md)", command,
+                  method, comm.size(), command,
+                  command == "render" ? "pathtrace, whitted, photons, matrix and progressive"
+                                      : "matrix and progressive"));
 }
 
 Expected<std::string> radiosityDeviceOverRanks(const Communicator& comm,
