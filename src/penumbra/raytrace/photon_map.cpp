@@ -250,7 +250,7 @@ struct PhotonPath {
 class PhotonEmitter {
  public:
   PhotonEmitter(const Scene& scene, const SceneGeometry& g, const Bounds3& bounds)
-      : g_(g), lights_(scene.lights), environment_(scene.environment), bounds_(bounds) {
+      : g_(g), lights_(scene.lights), environment_(scene.environment) {
     const glm::vec3 lo = bounds.lo, hi = bounds.hi;
     centre_ = 0.5 * (glm::dvec3(lo) + glm::dvec3(hi));
     radius_ = std::max(0.5 * glm::length(glm::dvec3(hi) - glm::dvec3(lo)), 1e-6);
@@ -412,7 +412,6 @@ class PhotonEmitter {
   const SceneGeometry& g_;
   std::vector<Light> lights_;
   glm::vec3 environment_;
-  Bounds3 bounds_;
   glm::dvec3 centre_{0.0};
   double radius_ = 1.0;
   std::vector<PhotonSource> sources_;
@@ -470,39 +469,34 @@ Expected<std::vector<Photon>> tracePhotons(const PhotonEmitter& emitter, const S
           const Hit hit = hits.get(k);
           ph.alive = false;
           if (!hit.hit()) continue;
-          const uint32_t tri = uint32_t(hit.triangle);
-          const Material& mat = g.materials[g.material_ids[tri]];
-          const glm::vec3 ng = g.normals[tri];
-          const glm::vec3 dir = glm::normalize(ph.ray.dir);
-          const float cos_front = -glm::dot(ng, dir);
-          const glm::vec3 p = g.point(tri, hit.u, hit.v);
-          const float offset = g.surfaceOffset(tri);
+          const SurfaceHit h = g.surfaceHit(hit, ph.ray.dir);
+          const Material& mat = *h.material;
           if (++ph.events > settings.max_bounces) continue;
           if (mat.isSpecular()) {
             SpecularLobe lobe;
-            if (!sampleSpecular(mat, ng, dir, rng.uniform(), lobe)) continue;
+            if (!sampleSpecular(mat, h.geometric_normal, h.dir, rng.uniform(), lobe)) continue;
             ph.power *= lobe.weight;
             ph.specular_seen = true;
-            ph.ray = Ray{offsetOrigin(p, offset, ng, lobe.dir), 0.0f, lobe.dir, kRayInfinity};
+            ph.ray = Ray{offsetOrigin(h.point, h.offset, h.geometric_normal, lobe.dir), 0.0f,
+                         lobe.dir, kRayInfinity};
             ph.alive = ph.power != glm::vec3(0.0f);
             continue;
           }
           if (caustic && !ph.specular_seen) continue;  // not a caustic path
           if (mat.reflectance == glm::vec3(0.0f)) continue;
-          if (!mat.two_sided && !(cos_front > 0.0f)) continue;
-          const glm::vec3 nf = cos_front > 0.0f ? ng : -ng;
-          slot[k] = Photon{p, ph.power, nf, mat.reflectance, ph.diffuse_seen};
+          if (!mat.two_sided && !h.front) continue;
+          slot[k] = Photon{h.point, ph.power, h.normal, mat.reflectance, ph.diffuse_seen};
           has_slot[k] = 1;
           if (caustic) continue;  // caustic photons end at their first diffuse surface
           // Russian roulette by reflectance (Jensen 2001 sec. 5.2), then a cosine bounce.
           const float q = std::max({mat.reflectance.x, mat.reflectance.y, mat.reflectance.z});
           if (rng.uniform() >= q) continue;
           ph.power *= mat.reflectance / q;
-          const glm::vec3 wi =
-              Frame::fromNormal(nf).toWorld(sampleCosineHemisphere(rng.uniform(), rng.uniform()));
-          if (!(glm::dot(wi, nf) > 0.0f)) continue;
+          const glm::vec3 wi = Frame::fromNormal(h.normal).toWorld(
+              sampleCosineHemisphere(rng.uniform(), rng.uniform()));
+          if (!(glm::dot(wi, h.normal) > 0.0f)) continue;
           ph.diffuse_seen = true;
-          ph.ray = Ray{offsetOrigin(p, offset, nf, wi), 0.0f, wi, kRayInfinity};
+          ph.ray = Ray{offsetOrigin(h.point, h.offset, h.normal, wi), 0.0f, wi, kRayInfinity};
           ph.alive = true;
         }
       });
@@ -624,27 +618,22 @@ Status finalGather(const SceneGeometry& geometry, const PhotonMaps& maps,
         // A miss or an emitter: direct light (or a caustic, after mirrors and glass), which the
         // shadow rays and the caustic map already count.
         if (!hit.hit()) continue;
-        const uint32_t tri = uint32_t(hit.triangle);
-        const Material& mat = geometry.materials[geometry.material_ids[tri]];
-        const glm::vec3 ng = geometry.normals[tri];
-        const glm::vec3 dir = glm::normalize(gr.ray.dir);
-        const float cos_front = -glm::dot(ng, dir);
-        const glm::vec3 p = geometry.point(tri, hit.u, hit.v);
+        const SurfaceHit h = geometry.surfaceHit(hit, gr.ray.dir);
+        const Material& mat = *h.material;
         if (mat.isSpecular()) {
           SpecularLobe lobe;
           if (depth >= settings.max_bounces ||
-              !sampleSpecular(mat, ng, dir, gr.rng.uniform(), lobe)) {
+              !sampleSpecular(mat, h.geometric_normal, h.dir, gr.rng.uniform(), lobe)) {
             continue;
           }
           gr.weight *= lobe.weight;
-          gr.ray = Ray{offsetOrigin(p, geometry.surfaceOffset(tri), ng, lobe.dir), 0.0f, lobe.dir,
-                       kRayInfinity};
+          gr.ray = Ray{offsetOrigin(h.point, h.offset, h.geometric_normal, lobe.dir), 0.0f,
+                       lobe.dir, kRayInfinity};
           gr.alive = gr.weight != glm::vec3(0.0f);
           continue;
         }
-        if (!mat.two_sided && !(cos_front > 0.0f)) continue;
-        const glm::vec3 nf = cos_front > 0.0f ? ng : -ng;
-        found[alive[a]] = gr.weight * maps.global.radiance(p, nf, r);
+        if (!mat.two_sided && !h.front) continue;
+        found[alive[a]] = gr.weight * maps.global.radiance(h.point, h.normal, r);
       }
     });
     size_t kept = 0;

@@ -22,6 +22,20 @@ struct EmitterPick {
   float u;
 };
 
+// What a ray found at a hit, as the methods that follow mirrors and glass shade it (whitted.h,
+// photon_map.h): the triangle, its material, the point with its ray-origin lift, the geometric
+// normal, and the same normal turned towards the arriving ray.
+struct SurfaceHit {
+  uint32_t triangle = 0;
+  const Material* material = nullptr;
+  glm::vec3 point{0.0f};
+  float offset = 0.0f;               // SceneGeometry::surfaceOffset
+  glm::vec3 geometric_normal{0.0f};  // front = counter-clockwise side
+  glm::vec3 normal{0.0f};            // facing the arriving ray
+  glm::vec3 dir{0.0f};               // unit direction of the arriving ray
+  bool front = false;                // it arrived on the front face
+};
+
 struct SceneGeometry {
   std::vector<glm::vec3> positions;
   std::vector<glm::uvec3> triangles;
@@ -55,6 +69,19 @@ struct SceneGeometry {
   glm::vec3 point(uint32_t triangle, float b1, float b2) const {
     const glm::uvec3 t = triangles[triangle];
     return (1.0f - b1 - b2) * positions[t.x] + b1 * positions[t.y] + b2 * positions[t.z];
+  }
+  // The surface `hit` (a hit, not a miss) of a ray travelling along `ray_dir`.
+  SurfaceHit surfaceHit(const Hit& hit, const glm::vec3& ray_dir) const {
+    SurfaceHit h;
+    h.triangle = uint32_t(hit.triangle);
+    h.material = &materials[material_ids[h.triangle]];
+    h.point = point(h.triangle, hit.u, hit.v);
+    h.offset = surface_offsets[h.triangle];
+    h.geometric_normal = normals[h.triangle];
+    h.dir = glm::normalize(ray_dir);
+    h.front = glm::dot(h.geometric_normal, h.dir) < 0.0f;
+    h.normal = h.front ? h.geometric_normal : -h.geometric_normal;
+    return h;
   }
   // How far to move a ray origin on `triangle` along the unit normal so that the ray cannot hit
   // the triangle it starts on (surface_offsets).

@@ -13,6 +13,7 @@
 #include <glm/geometric.hpp>
 
 #include <algorithm>
+#include <array>
 
 namespace penumbra {
 
@@ -166,6 +167,7 @@ Status WhittedTracer::renderRows(const Camera& camera, const WhittedSettings& se
       shadow.resize(n * cap);
       shadow_count.assign(n, 0);
       if (vertices.size() < n) vertices.resize(n);
+      std::vector<std::array<TreeNode, 2>> children(n);
       parallelRange(n, 256, [&](size_t b, size_t e) {
         for (size_t k = b; k < e; ++k) {
           const TreeNode& node = nodes[k];
@@ -174,25 +176,31 @@ Status WhittedTracer::renderRows(const Camera& camera, const WhittedSettings& se
             value[k] = node.weight * environment_;
             continue;
           }
-          const uint32_t tri = uint32_t(hit.triangle);
-          const Material& mat = geometry_.materials[geometry_.material_ids[tri]];
-          const glm::vec3 ng = geometry_.normals[tri];
-          const glm::vec3 dir = glm::normalize(node.ray.dir);
-          const float cos_front = -glm::dot(ng, dir);
-          if (mat.isEmissive() && cos_front > 0.0f) value[k] = node.weight * mat.emission;
+          const SurfaceHit h = geometry_.surfaceHit(hit, node.ray.dir);
+          const Material& mat = *h.material;
+          if (mat.isEmissive() && h.front) value[k] = node.weight * mat.emission;
           if (mat.isSpecular()) {
             if (node.depth >= settings.max_depth) continue;
-            child_offset[k + 1] = uint32_t(specularLobes(mat, ng, dir).count);
+            // The reflected and refracted rays, kept until the generation's order is known.
+            const SpecularLobes lobes = specularLobes(mat, h.geometric_normal, h.dir);
+            for (int l = 0; l < lobes.count; ++l) {
+              const SpecularLobe& lobe = lobes.lobe[l];
+              children[k][size_t(l)] =
+                  TreeNode{Ray{offsetOrigin(h.point, h.offset, h.geometric_normal, lobe.dir), 0.0f,
+                               lobe.dir, kRayInfinity},
+                           node.weight * lobe.weight, node.sample, node.depth + 1,
+                           mixBits(node.key * 2 + uint64_t(l) + 1)};
+            }
+            child_offset[k + 1] = uint32_t(lobes.count);
             continue;
           }
           if (mat.reflectance == glm::vec3(0.0f)) continue;
-          if (!mat.two_sided && !(cos_front > 0.0f)) continue;
+          if (!mat.two_sided && !h.front) continue;
           DiffuseVertex& v = vertices[k];
-          v.point = geometry_.point(tri, hit.u, hit.v);
-          v.offset = geometry_.surfaceOffset(tri);
-          v.normal = cos_front > 0.0f ? ng : -ng;
+          v.point = h.point;
+          v.offset = h.offset;
+          v.normal = h.normal;
           v.reflectance = mat.reflectance;
-          v.incoming = dir;
           v.key = node.key;
           diffuse[k] = 1;
           Rng rng(seed, node.key);
@@ -239,26 +247,11 @@ Status WhittedTracer::renderRows(const Camera& camera, const WhittedSettings& se
       // 6. The next generation: the reflected and refracted rays, in their parents' order.
       for (size_t k = 0; k < n; ++k) child_offset[k + 1] += child_offset[k];
       std::vector<TreeNode> next(child_offset[n]);
-      parallelRange(n, 256, [&](size_t b, size_t e) {
-        for (size_t k = b; k < e; ++k) {
-          if (child_offset[k + 1] == child_offset[k]) continue;
-          const TreeNode& node = nodes[k];
-          const Hit hit = hits.get(k);
-          const uint32_t tri = uint32_t(hit.triangle);
-          const Material& mat = geometry_.materials[geometry_.material_ids[tri]];
-          const glm::vec3 ng = geometry_.normals[tri];
-          const glm::vec3 p = geometry_.point(tri, hit.u, hit.v);
-          const float offset = geometry_.surfaceOffset(tri);
-          const SpecularLobes lobes = specularLobes(mat, ng, node.ray.dir);
-          for (int l = 0; l < lobes.count; ++l) {
-            const SpecularLobe& lobe = lobes.lobe[l];
-            next[child_offset[k] + uint32_t(l)] =
-                TreeNode{Ray{offsetOrigin(p, offset, ng, lobe.dir), 0.0f, lobe.dir, kRayInfinity},
-                         node.weight * lobe.weight, node.sample, node.depth + 1,
-                         mixBits(node.key * 2 + uint64_t(l) + 1)};
-          }
+      for (size_t k = 0; k < n; ++k) {
+        for (uint32_t l = 0; l < child_offset[k + 1] - child_offset[k]; ++l) {
+          next[child_offset[k] + l] = children[k][l];
         }
-      });
+      }
       // Children that carry nothing (a black mirror) are dropped; faint ones go on by Russian
       // roulette.
       size_t kept = 0;

@@ -55,8 +55,7 @@ struct DiffuseVertex {
   float offset = 0.0f;     // ray-origin lift (SceneGeometry::surfaceOffset)
   glm::vec3 normal{0.0f};  // unit geometric normal facing the arriving ray
   glm::vec3 reflectance{0.0f};
-  glm::vec3 incoming{0.0f};  // unit direction of the arriving ray
-  uint64_t key = 0;          // the node's stream key, for the hook's own random numbers
+  uint64_t key = 0;  // the node's stream key, for the hook's own random numbers
 };
 
 // Extra radiance leaving diffuse vertices towards the rays that found them (W m^-2 sr^-1), for a
