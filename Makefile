@@ -23,7 +23,9 @@ PREFIX ?= /usr/local
 install: build
 	cmake --install $(BUILD) --prefix $(PREFIX)
 
-demo: build
+# The demo needs the CLI and the library only: not the tests, benchmarks, viewer or Python module.
+demo: configure
+	cmake --build $(BUILD) -j $(JOBS) --target penumbra_cli
 	mkdir -p out
 	$(BUILD)/bin/penumbra render cornell --spp 256 -o out/cornell.png -o out/cornell.exr --stats out/cornell-stats.json
 

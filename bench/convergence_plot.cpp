@@ -9,10 +9,10 @@
 #include "penumbra/core/timer.h"
 #include "penumbra/io/image_io.h"
 #include "penumbra/io/scene_io.h"
+#include "penumbra/io/tonemap.h"
 #include "penumbra/radiosity/progressive.h"
 #include "penumbra/radiosity/stochastic.h"
 #include "penumbra/render/plot.h"
-#include "penumbra/render/tonemap.h"
 
 #include <cmath>
 #include <cstdio>

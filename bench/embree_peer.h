@@ -4,7 +4,7 @@
 // inside the call (as a caller of either library would).
 #pragma once
 
-#include "penumbra/raytrace/ray.h"
+#include "penumbra/kernels/ray.h"
 
 #include <embree3/rtcore.h>
 #include <glm/vec3.hpp>

@@ -15,11 +15,11 @@
 // its three passes once its links are built (cached under the build directory).
 //   build/bin/lpv_bench
 #include "penumbra/io/scene_io.h"
+#include "penumbra/render/sss_frames.h"
 #include "penumbra/scene/animation.h"
 #include "penumbra/subsurface/lpv.h"
 #include "penumbra/subsurface/lpv_volume.h"
 #include "penumbra/subsurface/sss.h"
-#include "penumbra/subsurface/sss_frames.h"
 
 #include <benchmark/benchmark.h>
 

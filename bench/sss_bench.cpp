@@ -13,9 +13,9 @@
 // quadratic (3e10 pairs at 512^2) and is timed at small sizes in tests/subsurface.
 #include "penumbra/core/parallel.h"
 #include "penumbra/io/scene_io.h"
+#include "penumbra/render/sss_frames.h"
 #include "penumbra/scene/scene.h"
 #include "penumbra/subsurface/sss.h"
-#include "penumbra/subsurface/sss_frames.h"
 
 #include <benchmark/benchmark.h>
 

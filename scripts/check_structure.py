@@ -8,8 +8,10 @@
   app       src/penumbra/app/ (the CLI) stays under MAX_APP_LINES lines;
   api       src/penumbra/api/ calls no command line (runCommandLine) and includes nothing of app/.
 
-Usage: check_structure.py [--list] [SRC]   (SRC defaults to the src/ beside this script's folder)
---list prints every function over the limit, longest first, and the module graph.
+Usage: check_structure.py [--list | --dot] [SRC]   (SRC defaults to the src/ beside this script's
+folder). --list prints every function over the limit, longest first, and the module graph;
+--dot prints the module graph the sources have, for graphviz (docs/images/modules.png:
+check_structure.py --dot | dot -Tpng -Gdpi=110 -o docs/images/modules.png).
 Exit status 0 when everything holds, 1 with one line per violation otherwise.
 """
 import os
@@ -44,6 +46,14 @@ ALLOWED["app"] = ENGINE | {"methods", "interactive", "api"}
 
 MAX_FUNCTION_LINES = 120
 MAX_APP_LINES = 2000
+
+# What the issue "Library first" still has to bring under the limits, each at its size today: a
+# pending function may shrink or go, not grow, and no other function may pass the limit; app/
+# may not grow. Lower these as the work lands; the check is complete when they are all gone.
+PENDING_FUNCTIONS = {
+}
+PENDING_APP_LINES = None  # app/'s lines today, while over MAX_APP_LINES
+PENDING_API_COMMAND_LINE = False  # api/ still reaches the methods through the CLI's parser
 
 INCLUDE = re.compile(r'^\s*#\s*include\s+"penumbra/([A-Za-z_]+)/')
 CONTROL = {"if", "for", "while", "switch", "catch", "do", "else", "try", "return", "sizeof",
@@ -212,9 +222,41 @@ def long_functions(path):
     return found
 
 
+def module_graph_dot(graph):
+    """The modules and their includes, without the edges another path already implies."""
+    def reaches(a, b, skip):
+        stack, seen = [a], set()
+        while stack:
+            m = stack.pop()
+            for n in graph.get(m, ()):
+                if (m, n) == skip or n in seen:
+                    continue
+                if n == b:
+                    return True
+                seen.add(n)
+                stack.append(n)
+        return False
+    layers = [["app"], ["api"], ["interactive"], ["methods"], ["render"], ["subsurface"],
+              ["radiosity"], ["raytrace", "io"], ["geometry", "accel", "gpu", "cluster"],
+              ["scene"], ["kernels"]]
+    lines = ["digraph modules {", '  rankdir=TB; node [shape=box, style="rounded,filled", '
+             'fillcolor="#eef3fb", fontname="Helvetica"]; edge [color="#5577aa"];',
+             '  label="src/penumbra: each module includes only those below it '
+             '(core, under all, not drawn)"; labelloc=b; fontname="Helvetica";']
+    for layer in layers:
+        lines.append("  { rank=same; " + " ".join(layer) + "; }")
+    for a in sorted(graph):
+        for b in sorted(graph[a]):
+            if not reaches(a, b, (a, b)):
+                lines.append(f"  {a} -> {b};")
+    lines.append("}")
+    return "\n".join(lines)
+
+
 def main(argv):
     listing = "--list" in argv
-    args = [a for a in argv[1:] if a != "--list"]
+    dot = "--dot" in argv
+    args = [a for a in argv[1:] if a not in ("--list", "--dot")]
     src = args[0] if args else os.path.join(os.path.dirname(os.path.abspath(__file__)), "..",
                                             "src")
     src = os.path.normpath(src)
@@ -229,16 +271,26 @@ def main(argv):
             longest.append((length, f"{os.path.relpath(path, os.path.dirname(src))}:{start}",
                             name))
     longest.sort(reverse=True)
+    pending = []
     for length, place, name in longest:
-        errors.append(f"{place}: {name} is {length} lines (at most {MAX_FUNCTION_LINES}: split it "
-                      "into named steps)")
+        key = (place.split(":")[0], name)
+        ceiling = PENDING_FUNCTIONS.get(key)
+        if ceiling is not None and length <= ceiling:
+            pending.append(f"{place}: {name} is {length} lines (pending, at most {ceiling})")
+            continue
+        errors.append(f"{place}: {name} is {length} lines (at most "
+                      f"{ceiling if ceiling is not None else MAX_FUNCTION_LINES}: split it into "
+                      "named steps)")
 
     app = os.path.join(penumbra_root, "app")
     app_lines = 0
     for path in source_files(app):
         with open(path, encoding="utf-8") as f:
             app_lines += sum(1 for _ in f)
-    if app_lines > MAX_APP_LINES:
+    if app_lines > MAX_APP_LINES and PENDING_APP_LINES is not None and \
+            app_lines <= PENDING_APP_LINES:
+        pending.append(f"{app}: {app_lines} lines (pending, at most {PENDING_APP_LINES})")
+    elif app_lines > MAX_APP_LINES:
         errors.append(f"{app}: {app_lines} lines (at most {MAX_APP_LINES}: run logic belongs in "
                       "the methods' modules)")
 
@@ -246,23 +298,31 @@ def main(argv):
     for path in source_files(api):
         with open(path, encoding="utf-8") as f:
             for number, text in enumerate(f, 1):
-                if "runCommandLine" in strip_code(text):
+                if "runCommandLine" in strip_code(text) and PENDING_API_COMMAND_LINE:
+                    pending.append(f"{path}:{number}: the API runs the command line (pending)")
+                elif "runCommandLine" in strip_code(text):
                     errors.append(f"{path}:{number}: the API runs no command line "
                                   "(runCommandLine): it calls the methods")
 
+    if dot:
+        print(module_graph_dot(graph))
+        return 0
     if listing:
         for module in sorted(graph):
             print(f"{module} -> {', '.join(sorted(graph[module]))}")
         print(f"app/: {app_lines} lines")
         for length, place, name in longest:
             print(f"{length:5d}  {place}  {name}")
+    for p in pending:
+        print(p)
     for e in errors:
         print(e, file=sys.stderr)
     if errors:
         print(f"check_structure: {len(errors)} violation(s)", file=sys.stderr)
         return 1
-    print("check_structure: modules form a DAG, no function over "
-          f"{MAX_FUNCTION_LINES} lines, app/ {app_lines} lines, api/ runs no command line")
+    print(f"check_structure: modules form a DAG; no function over {MAX_FUNCTION_LINES} lines but "
+          f"{len(pending)} pending item(s) of \"Library first\" listed above; app/ {app_lines} "
+          "lines")
     return 0
 
 

@@ -1,4 +1,4 @@
-// THE GLSL TWIN of sampleLight() in src/penumbra/radiosity/lights.h: direct irradiance from a
+// THE GLSL TWIN of sampleLight() in src/penumbra/raytrace/lights.h: direct irradiance from a
 // point, spot, directional light or luminaire at a surface point, before visibility. Same operations in
 // the same order, in single precision; change both together (Lights.GlslTwinAgreesWithCpp checks
 // that they agree).
@@ -12,7 +12,7 @@
 
 #include "common/luminaire.glsl"
 
-struct GpuLight {  // 64 bytes, mirrored by penumbra::GpuLight (radiosity/lights.h)
+struct GpuLight {  // 64 bytes, mirrored by penumbra::GpuLight (raytrace/lights.h)
   vec3 position;    // point, spot and luminaire
   uint type;        // LIGHT_*
   vec3 direction;   // unit: a spot's axis, a directional light's travel, a luminaire's nadir

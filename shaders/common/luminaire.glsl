@@ -4,7 +4,7 @@
 // change both together (Lights.GlslTwinAgreesWithCpp checks them through sampleLight).
 //
 // The includer supplies `float luminaireTable(uint index)`: the tables buffer of gpuLights()
-// (radiosity/lights.h), where a light's LDT starts at its `table` with gamma_count and c_count
+// (raytrace/lights.h), where a light's LDT starts at its `table` with gamma_count and c_count
 // as floats, then c_count rows of gamma_count values.
 #ifndef PENUMBRA_LUMINAIRE_GLSL
 #define PENUMBRA_LUMINAIRE_GLSL

@@ -9,7 +9,7 @@
 #include "penumbra/io/image_io.h"
 #include "penumbra/io/scene_io.h"
 #include "penumbra/raytrace/camera_rays.h"
-#include "penumbra/subsurface/media.h"
+#include "penumbra/scene/media.h"
 #include "viewer/orbit_camera.h"
 #include "viewer/script.h"
 

@@ -5,7 +5,7 @@
 #pragma once
 
 #include "penumbra/core/expected.h"
-#include "penumbra/render/tonemap.h"
+#include "penumbra/io/tonemap.h"
 #include "penumbra/subsurface/lpv.h"
 
 #include <cstdint>

@@ -711,7 +711,7 @@ TEST(Cli, BadInputGivesOneErrorLineExitTwoAndNoOutput) {
       {"render " + dir.file("unknown_key.json") + " -o " + out, "meshs"},
       {"render " + dir.file("nan.obj") + " -o " + out, "nan.obj: line 2"},
       {"render " + dir.file("badindex.obj") + " -o " + out, "badindex.obj: line 4"},
-      {"render cornell --width 0 -o " + out, "--width 0"},
+      {"render cornell --width 0 -o " + out, "--width: 0 is out of range [1, 65536]"},
       {"render cornell --width 60000 --height 60000 -o " + out, "needs"},
       {"render cornell --spp many -o " + out, "spp"},
       {"render cornell --method lpv -o " + out, "no translucent material"},

@@ -109,7 +109,8 @@ TEST(SpecularCli, BadOptionsGiveOneErrorLineAndNoOutput) {
       {"render cornell --method whitted --light-samples 2000", "--light-samples"},
       {"render cornell --method photons --photons 4000000000", "needs"},
       {"render cornell --method whitted --elements 100", "--elements"},
-      {"render cornell --method photons --output-quantity illuminance", "lux"},
+      {"render cornell --method photons --output-quantity illuminance",
+       "--output-quantity: applies to --method pathtrace, matrix and progressive only"},
   };
   for (const auto& [args, expect] : cases) {
     const auto r = runCli(args + out);

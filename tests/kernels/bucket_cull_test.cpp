@@ -5,8 +5,8 @@
 
 #include "penumbra/core/rng.h"
 #include "penumbra/gpu/program.h"
+#include "penumbra/kernels/ray.h"
 #include "penumbra/kernels/ray_triangle.h"
-#include "penumbra/raytrace/ray.h"
 #include "penumbra/raytrace/ray_engine_gl.h"
 #include "support/test_util.h"
 

@@ -3,8 +3,8 @@
 // law on a large floor, the glTF spot fall-off, a directional light's E cos, and a closed room
 // whose wall is wound outwards losing nothing.
 #include "penumbra/io/luminaire_io.h"
-#include "penumbra/radiosity/lights.h"
 #include "penumbra/radiosity/progressive.h"
+#include "penumbra/raytrace/lights.h"
 #include "support/test_util.h"
 
 #include <gtest/gtest.h>

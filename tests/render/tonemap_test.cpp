@@ -1,6 +1,6 @@
 // Tone mapping: the exposure function, Reinhard et al. 2002 eq. 4 with the automatic key and
 // white point of Reinhard 2002 (JGT) eqs. 4-5, and the sRGB transfer function (IEC 61966-2-1).
-#include "penumbra/render/tonemap.h"
+#include "penumbra/io/tonemap.h"
 
 #include <gtest/gtest.h>
 

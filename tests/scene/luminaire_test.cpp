@@ -2,7 +2,7 @@
 // luminaire's frame, its flux, its emission sampling, and the irradiance the radiosity methods
 // take from it.
 #include "penumbra/scene/luminaire.h"
-#include "penumbra/radiosity/lights.h"
+#include "penumbra/raytrace/lights.h"
 #include "support/test_util.h"
 
 #include <gtest/gtest.h>

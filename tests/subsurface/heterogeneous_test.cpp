@@ -1,11 +1,11 @@
-// Heterogeneous media for the light propagation volumes (subsurface/heterogeneous.h): the grid
+// Heterogeneous media for the light propagation volumes (scene/heterogeneous_media.h): the grid
 // file round-trips and refuses bad files with the file and place; scenes take a grid or a
 // pattern in the subsurface block; a uniform grid gives the homogeneous medium's picture and the
 // marble veins change it where they run.
-#include "penumbra/subsurface/heterogeneous.h"
 #include "penumbra/io/scene_io.h"
+#include "penumbra/scene/heterogeneous_media.h"
+#include "penumbra/scene/media.h"
 #include "penumbra/subsurface/lpv.h"
-#include "penumbra/subsurface/media.h"
 #include "support/test_util.h"
 
 #include <gtest/gtest.h>

@@ -4,10 +4,10 @@
 // paper claims plausibility, not agreement: docs/algorithms.md gives the figures).
 #include "penumbra/io/scene_io.h"
 #include "penumbra/kernels/dipole.h"
+#include "penumbra/render/sss_frames.h"
+#include "penumbra/scene/media.h"
 #include "penumbra/subsurface/lpv.h"
-#include "penumbra/subsurface/media.h"
 #include "penumbra/subsurface/sss.h"
-#include "penumbra/subsurface/sss_frames.h"
 #include "support/test_util.h"
 
 #include <gtest/gtest.h>

@@ -8,8 +8,8 @@
 #include "penumbra/io/image_io.h"
 #include "penumbra/io/scene_io.h"
 #include "penumbra/kernels/dipole.h"
-#include "penumbra/radiosity/lights.h"
-#include "penumbra/subsurface/media.h"
+#include "penumbra/raytrace/lights.h"
+#include "penumbra/scene/media.h"
 #include "penumbra/subsurface/sss.h"
 #include "support/test_util.h"
 
@@ -103,7 +103,7 @@ TEST(Dipole, GlslTwinAgreesWithCpp) {
 }
 
 TEST(Lights, GlslTwinAgreesWithCpp) {
-  // shaders/common/lights.glsl's sampleLight against radiosity/lights.h's, for point, spot and
+  // shaders/common/lights.glsl's sampleLight against raytrace/lights.h's, for point, spot and
   // directional lights and a luminaire (its light distribution texture, common/luminaire.glsl)
   // at random points, normals facing towards and away from them.
   PENUMBRA_GL_OR_SKIP();

@@ -4,7 +4,7 @@
 // closer as L grows.
 #include "penumbra/subsurface/sss_links.h"
 #include "penumbra/io/scene_io.h"
-#include "penumbra/subsurface/media.h"
+#include "penumbra/scene/media.h"
 #include "support/test_util.h"
 
 #include <gtest/gtest.h>

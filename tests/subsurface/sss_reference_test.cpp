@@ -9,8 +9,8 @@
 #include "penumbra/io/scene_io.h"
 #include "penumbra/raytrace/camera_rays.h"
 #include "penumbra/raytrace/path_tracer.h"
+#include "penumbra/render/sss_frames.h"
 #include "penumbra/subsurface/sss.h"
-#include "penumbra/subsurface/sss_frames.h"
 #include "support/sss_scenes.h"
 #include "support/test_util.h"
 

@@ -5,8 +5,8 @@
 #include "penumbra/subsurface/sss.h"
 #include "penumbra/io/scene_io.h"
 #include "penumbra/kernels/dipole.h"
-#include "penumbra/subsurface/media.h"
-#include "penumbra/subsurface/sss_view.h"
+#include "penumbra/render/sss_view.h"
+#include "penumbra/scene/media.h"
 #include "support/test_util.h"
 
 #include <fmt/format.h>

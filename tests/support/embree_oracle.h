@@ -1,7 +1,7 @@
 // Embree 3 as a test oracle and benchmark peer: the same triangles, closest hits per ray.
 #pragma once
 
-#include "penumbra/raytrace/ray.h"
+#include "penumbra/kernels/ray.h"
 
 #include <glm/vec3.hpp>
 

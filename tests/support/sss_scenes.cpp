@@ -1,7 +1,7 @@
 #include "support/sss_scenes.h"
 
 #include "penumbra/io/scene_io.h"
-#include "penumbra/subsurface/media.h"
+#include "penumbra/scene/media.h"
 #include "support/test_util.h"
 
 #include <gtest/gtest.h>

@@ -148,7 +148,7 @@ Expected<BakeProduct> solveMatrix(const BakeOptions& options, const CommonOption
 
   SolveOptions so;
   so.solver = options.solver == "jacobi" ? MatrixSolver::kJacobi : MatrixSolver::kGaussSeidel;
-  so.max_iterations = options.iterations;
+  so.max_iterations = iterationCap(options.iterations);
   so.tolerance = options.tolerance.value_or(1e-6);
   Progress progress("solving", uint64_t(so.max_iterations),
                     !common.quiet && comm.root() && Progress::stderrIsTerminal());
@@ -278,24 +278,7 @@ Status bake(const BakeOptions& options, const CommonOptions& common, bool* inter
   // Everything is checked before any work or output.
   const bool stochastic = options.method == "stochastic";
   const bool progressive = options.method == "progressive" || stochastic;
-  if (options.texel_density &&
-      !(*options.texel_density > 0.0 && std::isfinite(*options.texel_density))) {
-    return inputError("", "--texel-density", "must be a positive number of texels per metre");
-  }
-  if (!progressive) {
-    const char* only = !options.resume.empty()       ? "--resume"
-                       : !options.checkpoint.empty() ? "--checkpoint"
-                       : options.keep_checkpoint     ? "--keep-checkpoint"
-                                                     : nullptr;
-    if (only) return inputError("", only, "applies to --method progressive and stochastic only");
-  }
-  if (!stochastic && (options.time_limit || options.shooters != 1 || options.seed)) {
-    return inputError("",
-                      options.time_limit ? "--time-limit"
-                      : options.seed     ? "--seed"
-                                         : "--shooters",
-                      "applies to --method stochastic only");
-  }
+  // Which options apply, and their ranges: methods/registry.cpp.
   Expected<std::vector<fs::path>> missing = checkOutputDirectory(options.output);
   if (!missing) return missing.error();
   const fs::path out_dir = normalDirectory(options.output);
@@ -406,13 +389,6 @@ Status bake(const BakeOptions& options, const CommonOptions& common, bool* inter
 }  // namespace
 
 int runBake(const BakeOptions& options, const CommonOptions& common) {
-  if (options.method != "matrix" && options.method != "progressive" &&
-      options.method != "stochastic") {
-    return reportError(
-        inputError("", "--method",
-                   fmt::format("unknown method '{}' (available: matrix, progressive, stochastic)",
-                               options.method)));
-  }
   OutputTransaction transaction;
   bool interrupted = false;
   Status s = bake(options, common, &interrupted);

@@ -6,13 +6,18 @@
 #include "penumbra/core/interrupt.h"
 #include "penumbra/core/log.h"
 #include "penumbra/core/parallel.h"
+#include "penumbra/methods/registry.h"
 
 #include <fmt/format.h>
 #include <CLI/CLI.hpp>
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <cstdint>
+#include <deque>
+#include <functional>
+#include <optional>
 
 #include <cerrno>
 #include <csignal>
@@ -96,46 +101,6 @@ CLI::Validator finiteIn(double lo, double hi, bool open_lo = false, bool open_hi
       fmt::format("{}{}, {}{}", open_lo ? '(' : '[', lo, hi, open_hi ? ')' : ']'));
 }
 
-// Progressive radiosity's receivers and adaptive subdivision (Wallner sec. 4), for render and
-// bake alike.
-template <typename Options>
-void addReceiverOptions(CLI::App* cmd, Options& o) {
-  cmd->add_flag("--adaptive", o.adaptive,
-                "progressive: receivers start coarse (--receiver-level, default 2) and are "
-                "split at shadow boundaries before each shooter first shoots");
-  cmd->add_option("--receiver-level", o.receiver_level,
-                  "progressive: receivers are blocks of 2^L x 2^L lightmap texels, gathering at "
-                  "one point each (default 0: every texel; 2 with --adaptive)")
-      ->check(CLI::Range(0, 16));
-  cmd->add_option("--boundary", o.boundary,
-                  "progressive --adaptive: LOW,HIGH: a receiver whose visible share of samples "
-                  "lies in [LOW, HIGH] holds a shadow boundary (default 0.05,0.95)")
-      ->delimiter(',')
-      ->expected(2)
-      ->check(finiteIn(0.0, 1.0));
-  cmd->add_option("--finest-level", o.finest_level,
-                  "progressive --adaptive: receivers are split down to this level at most")
-      ->check(CLI::Range(0, 16))
-      ->capture_default_str();
-  cmd->add_option("--min-share", o.min_share,
-                  "progressive --adaptive: split only where the shooter brings at least this "
-                  "share of a receiver's irradiance (default 0.25; 0: the paper's test alone)")
-      ->check(finiteIn(0.0, 1.0));
-}
-
-// Stochastic radiosity's options (Barsi and Jakab), for render and bake alike.
-template <typename Options>
-void addStochasticOptions(CLI::App* cmd, Options& o) {
-  cmd->add_option("--time-limit", o.time_limit,
-                  "stochastic: stop after this many seconds of iterating (--iterations still "
-                  "caps them)")
-      ->check(finiteIn(0.0, 1e9, /*open_lo=*/true));
-  cmd->add_option("--shooters", o.shooters,
-                  "stochastic: independent shooters per iteration, averaged")
-      ->check(CLI::Range(1, 4096))
-      ->capture_default_str();
-}
-
 // An unsigned integer written in decimal digits (no sign: "-1" would wrap to 2^64 - 1).
 const CLI::Validator kUnsigned(
     [](std::string& value) -> std::string {
@@ -163,432 +128,336 @@ void refuseEmptyValues(CLI::App* cmd) {
   }
 }
 
-void addCommon(CLI::App* app, CommonOptions& common) {
-  app->add_option("--threads", common.threads, "worker threads (0 = all cores)")
-      ->check(CLI::Range(0, 1024));
-  app->add_flag("--quiet", common.quiet, "no progress or information, only warnings and errors");
+// ---- Options from their descriptions (methods/registry.h) ----
+
+// The help line: what the option does, its unit, and the methods that take it with their
+// defaults (all `methods` of the command: the default alone).
+std::string describedHelp(const OptionSpec& spec, size_t methods) {
+  std::string help = spec.help;
+  if (!spec.unit.empty()) help += ", " + spec.unit;
+  if (spec.uses.empty()) return help;
+  const std::string uses = spec.usesText(methods);
+  if (spec.uses.size() == methods && uses.find(':') == std::string::npos) {
+    return uses.empty() ? help : fmt::format("{} (default {})", help, uses);
+  }
+  return fmt::format("{} ({})", help, uses);
 }
 
-// For the commands that do work and write files.
-void addDryRun(CLI::App* app, CommonOptions& common) {
-  app->add_flag("--dry-run", common.dry_run,
-                "check options, inputs, output paths and memory, then stop before the work "
-                "(nothing is written)");
+const char* typeName(OptionKind kind) {
+  switch (kind) {
+    case OptionKind::kInt:
+      return "INT";
+    case OptionKind::kUnsigned:
+      return "UINT";
+    case OptionKind::kReal:
+      return "NUMBER";
+    case OptionKind::kRealList:
+      return "X,Y";
+    default:
+      return "TEXT";
+  }
+}
+
+// CLI11 collects the words of every described option; the library's parser then checks each
+// value for the chosen method, as it checks a scene file's settings (methods/option_spec.h).
+class DescribedOptions {
+ public:
+  // Adds `specs` (those named in `only`, when given) to `cmd`, whose methods number `methods`.
+  void add(CLI::App* cmd, const std::vector<OptionSpec>& specs, size_t methods,
+           const std::vector<std::string>& only = {}) {
+    for (const OptionSpec& spec : specs) {
+      if (!only.empty() && std::find(only.begin(), only.end(), spec.name) == only.end()) continue;
+      Entry& e = entries_.emplace_back();
+      e.spec = &spec;
+      if (spec.kind == OptionKind::kFlag) {
+        e.option = cmd->add_flag("--" + spec.name, e.flag, describedHelp(spec, methods));
+        continue;
+      }
+      const std::string names = spec.positional           ? spec.name
+                                : spec.short_name.empty() ? "--" + spec.name
+                                                          : spec.short_name + ",--" + spec.name;
+      e.option = cmd->add_option(names, e.texts, describedHelp(spec, methods))->expected(1);
+      e.option->type_name(spec.kind == OptionKind::kChoice
+                              ? fmt::format("{{{}}}", fmt::join(spec.choices, ","))
+                              : std::string(typeName(spec.kind)));
+      e.option->multi_option_policy(spec.repeatable ? CLI::MultiOptionPolicy::TakeAll
+                                                    : CLI::MultiOptionPolicy::TakeLast);
+    }
+  }
+
+  std::optional<std::string> text(const std::string& name) const {
+    for (const Entry& e : entries_) {
+      if (e.spec->name == name && !e.texts.empty()) return e.texts.back();
+    }
+    return std::nullopt;
+  }
+
+  // Parses and checks every option given, for `method`, and hands it to `set`; `given` receives
+  // the names of the options set.
+  Status apply(const std::string& method,
+               const std::function<void(const OptionSpec&, const OptionValue&)>& set,
+               std::vector<std::string>* given) const {
+    for (const Entry& e : entries_) {
+      if (e.spec->kind == OptionKind::kFlag) {
+        if (!e.flag) continue;
+        set(*e.spec, OptionValue(true));
+        given->push_back(e.spec->name);
+        continue;
+      }
+      if (e.texts.empty()) continue;
+      const std::string where = e.spec->positional ? e.spec->name : "--" + e.spec->name;
+      for (const std::string& text : e.texts) {
+        Expected<OptionValue> v = parseOption(*e.spec, text, method, "", where);
+        if (!v) return v.error();
+        set(*e.spec, *v);
+      }
+      given->push_back(e.spec->name);
+    }
+    return {};
+  }
+
+ private:
+  struct Entry {
+    const OptionSpec* spec = nullptr;
+    CLI::Option* option = nullptr;
+    std::vector<std::string> texts;
+    bool flag = false;
+  };
+  std::deque<Entry> entries_;  // CLI11 keeps references into the entries
+};
+
+// A parsed command's options: the described ones, set and checked for the chosen method.
+template <typename Options, typename Set>
+Status applyDescribed(const DescribedOptions& described, const std::vector<OptionSpec>& specs,
+                      Options& options, Set set, std::vector<std::string>* given) {
+  // The method first: the other values are checked against its ranges.
+  if (const std::optional<std::string> m = described.text("method")) {
+    Expected<OptionValue> v = parseOption(*findOption(specs, "method"), *m, "", "", "--method");
+    if (!v) return v.error();
+    options.method = std::get<std::string>(*v);
+  }
+  PENUMBRA_TRY(described.apply(
+      options.method, [&](const OptionSpec& s, const OptionValue& v) { set(options, s, v); },
+      given));
+  return checkOptionsTaken(specs, options.method, *given);
+}
+
+const std::vector<std::string> kCommonOnly = {"threads", "quiet"};
+
+// Parsed commands: the described options of each and what they fill in.
+struct CommandLine {
+  CLI::App app{"Penumbra: diffuse and subsurface global illumination", "penumbra"};
+  CommonOptions common;
+  RenderOptions render;
+  BakeOptions bake;
+  TraceOptions trace;
+  InfoOptions info;
+  RaysOptions rays;
+  DescribedOptions render_options, bake_options;
+  std::deque<DescribedOptions> common_options;  // one per command
+  CLI::App* render_cmd = nullptr;
+  CLI::App* bake_cmd = nullptr;
+  CLI::App* trace_cmd = nullptr;
+  CLI::App* info_cmd = nullptr;
+  CLI::App* rays_cmd = nullptr;
+
+  DescribedOptions& addCommon(CLI::App* cmd, const std::vector<std::string>& only = {}) {
+    DescribedOptions& d = common_options.emplace_back();
+    d.add(cmd, commonOptionSpecs(), 0, only);
+    return d;
+  }
+};
+
+void addRenderCommand(CommandLine& c) {
+  c.render_cmd = c.app.add_subcommand("render", "render a scene to an image");
+  c.render_options.add(c.render_cmd, renderOptionSpecs(), methodInfos().size());
+  c.render_cmd->footer(fmt::format(
+      "Each option names the methods that take it and their defaults; docs/cli.md has them all. "
+      "Methods: {}.",
+      methodNames()));
+  c.addCommon(c.render_cmd);
+}
+
+void addBakeCommand(CommandLine& c) {
+  c.bake_cmd = c.app.add_subcommand(
+      "bake", "solve radiosity and write a glTF with lightmaps (EXR, PNG) into a directory");
+  c.bake_options.add(c.bake_cmd, bakeOptionSpecs(),
+                     findOption(bakeOptionSpecs(), "method")->choices.size());
+  c.bake_cmd->get_option("scene")->required();
+  c.addCommon(c.bake_cmd);
+}
+
+void addTraceCommand(CommandLine& c) {
+  TraceOptions& trace = c.trace;
+  CLI::App* cmd = c.trace_cmd =
+      c.app.add_subcommand("trace", "closest hits of a ray file against a mesh (the Ray Engine)");
+  cmd->add_option("mesh", trace.mesh, "mesh file or built-in scene")->required();
+  cmd->add_option("--rays", trace.rays, "rays: float32 ox oy oz tmin dx dy dz tmax")->required();
+  cmd->add_option("-o,--output", trace.output, "hits: int32 triangle, float32 t u v")->required();
+  cmd->add_option("--stats", trace.stats, "write statistics to this JSON file");
+  cmd->add_flag("--occlusion", trace.occlusion,
+                "shadow rays: write one byte per ray, 1 when anything lies within [tmin, tmax] "
+                "(any hit), else 0");
+  cmd->add_option("--device", trace.device,
+                  "cpu, gpu, hybrid (CPU/GPU split of the Ray Engine paper) or auto")
+      ->capture_default_str();
+  cmd->add_option("--t-min", trace.t_min, "hybrid: fewest triangles in a GPU cell")
+      ->check(CLI::Range(1u, 1u << 24))
+      ->capture_default_str();
+  cmd->add_option("--t-max", trace.t_max, "hybrid: most triangles in a GPU cell")
+      ->check(CLI::Range(1u, 1u << 24))
+      ->capture_default_str();
+  cmd->add_option("--r-min", trace.r_min, "hybrid: rays a cell collects per GPU pass")
+      ->check(CLI::Range(1u, 65536u))
+      ->capture_default_str();
+  cmd->add_option("--cache-rays", trace.cache_rays,
+                  "hybrid: rays a cell's ray cache holds before it sends its most coherent "
+                  "bucket (default 4 x --r-min)")
+      ->check(CLI::Range(1u, 1u << 24));
+  c.addCommon(cmd);
+}
+
+void addInfoCommand(CommandLine& c) {
+  InfoOptions& info = c.info;
+  CLI::App* cmd = c.info_cmd =
+      c.app.add_subcommand("info", "what a scene holds: sizes, lights, warnings");
+  cmd->add_option("scene", info.scene,
+                  "built-in scene name or file; a luminaire's .ldt or .ies file shows its "
+                  "photometry")
+      ->capture_default_str();
+  cmd->add_option("--plot", info.plot,
+                  "luminaire: write its polar light distribution curve to this PNG");
+  cmd->add_flag("--devices", info.devices,
+                "list the OpenGL 4.5 contexts that can be made, with their limits");
+  c.addCommon(cmd, kCommonOnly);
+}
+
+void addRaysCommand(CommandLine& c) {
+  RaysOptions& rays = c.rays;
+  CLI::App* cmd = c.rays_cmd = c.app.add_subcommand(
+      "rays", "write a ray file for trace: a camera's primary rays or diffuse surface rays");
+  cmd->add_option("scene", rays.scene, "built-in scene name or file")->required();
+  cmd->add_option("-o,--output", rays.output, "ray file (float32 ox oy oz tmin dx dy dz tmax)")
+      ->required();
+  cmd->add_option("--kind", rays.kind,
+                  "camera (one ray per pixel through the scene's camera) or diffuse (from random "
+                  "surface points, cosine-distributed, either side)")
+      ->capture_default_str();
+  cmd->add_option("--width", rays.width, "camera: image width (default 512)")
+      ->check(CLI::Range(1, 1 << 16));
+  cmd->add_option("--height", rays.height, "camera: image height (default 512)")
+      ->check(CLI::Range(1, 1 << 16));
+  cmd->add_option("--count", rays.count, "diffuse: number of rays (default 1048576)")
+      ->check(CLI::Range(uint64_t(1), uint64_t(1) << 34));
+  cmd->add_option("--seed", rays.seed, "diffuse: random seed (default 0)")->check(kUnsigned);
+  cmd->add_option("--tmin", rays.t_min,
+                  "diffuse: distance the rays start at (default 1e-4 of the scene's diagonal)")
+      ->check(finiteIn(0.0, 1e30));
+  c.addCommon(cmd);
+}
+
+// The common options of the command that was parsed.
+Status applyCommon(CommandLine& c) {
+  std::vector<std::string> given;
+  for (const DescribedOptions& d : c.common_options) {
+    PENUMBRA_TRY(d.apply(
+        "", [&](const OptionSpec& s, const OptionValue& v) { setCommonOption(c.common, s, v); },
+        &given));
+  }
+  return {};
+}
+
+// Runs the command that was parsed.
+int runParsed(CommandLine& c) {
+  if (Status s = applyCommon(c); !s) return reportError(s.error());
+  // Over several processes only rank 0 logs; the others print only what fails on them alone.
+  const Communicator& comm = currentCommunicator();
+  initLogging(c.common.quiet || !comm.root());
+  if (!comm.root()) spdlog::set_level(spdlog::level::err);
+  setThisProcessWritesOutputs(comm.root());
+  // Signals and the thread limit are the process's: the CLI takes them; a program calling the
+  // library through a session keeps its own signal handlers, and the limit lasts for the call.
+  if (CommandSession::current() == nullptr) {
+    installInterruptHandlers();
+    if (comm.distributed()) interruptSignalsEndDistributedRun(comm.rank(), comm.size());
+  }
+  auto thread_limit = limitThreads(threadsPerRank(comm, c.common.threads));
+  std::vector<std::string> given;
+  if (c.render_cmd->parsed()) {
+    Status s =
+        applyDescribed(c.render_options, renderOptionSpecs(), c.render, setRenderOption, &given);
+    if (!s) return reportError(s.error());
+    return runRender(c.render, c.common, given);
+  }
+  if (c.bake_cmd->parsed()) {
+    Status s = applyDescribed(c.bake_options, bakeOptionSpecs(), c.bake, setBakeOption, &given);
+    if (!s) return reportError(s.error());
+    return runBake(c.bake, c.common);
+  }
+  if (c.trace_cmd->parsed()) return runTrace(c.trace, c.common);
+  if (c.info_cmd->parsed()) return runInfo(c.info, c.common);
+  if (c.rays_cmd->parsed()) return runRays(c.rays, c.common);
+  return 2;
+}
+
+// `penumbra methods`: every method with its options; --markdown prints the option reference of
+// docs/cli.md.
+int runMethods(int argc, char** argv) {
+  const std::string arg = argc > 2 ? argv[2] : "";
+  if (arg == "--markdown" && argc == 3) {
+    std::fputs(optionReferenceMarkdown().c_str(), stdout);
+    return 0;
+  }
+  if (!arg.empty()) {
+    return reportError(
+        inputError("", "", fmt::format("methods: unknown argument '{}' (use --markdown)", arg)));
+  }
+  for (const MethodInfo& m : methodInfos()) {
+    std::vector<std::string> own;
+    for (const OptionSpec& s : renderOptionSpecs()) {
+      if (!s.uses.empty() && s.use(m.name)) own.push_back("--" + s.name);
+    }
+    std::printf("%s%s: %s (%s)\n  %s\n", m.name.c_str(), m.bakes ? " (render, bake)" : "",
+                m.summary.c_str(), m.source.c_str(),
+                fmt::format("{}", fmt::join(own, " ")).c_str());
+  }
+  return 0;
 }
 
 int parseAndRun(int argc, char** argv) {
-  CLI::App app{"Penumbra: diffuse and subsurface global illumination", "penumbra"};
-  app.require_subcommand(1);
-  app.set_version_flag("--version", "penumbra " PENUMBRA_VERSION);
-  CommonOptions common;
-
-  RenderOptions render;
-  std::string tonemap = "reinhard";
-  CLI::App* render_cmd = app.add_subcommand("render", "render a scene to an image");
-  render_cmd
-      ->add_option("scene", render.scene,
-                   "built-in scene name (cornell, furnace) or a .json/.obj/.gltf/.glb/.ply "
-                   "file")
-      ->capture_default_str();
-  render_cmd
-      ->add_option("--method", render.method,
-                   "pathtrace (the reference path tracer), whitted (Whitted ray tracing: mirrors, "
-                   "glass and shadow rays), photons (photon mapping with final gather), matrix "
-                   "(matrix radiosity), progressive (progressive radiosity in a lightmap), "
-                   "stochastic (stochastic radiosity by ray-bundle shooting), sss (subsurface "
-                   "scattering through hierarchical links) or lpv (subsurface light propagation "
-                   "volumes)")
-      ->capture_default_str();
-  render_cmd
-      ->add_option("--device", render.device,
-                   "cpu, gpu, hybrid (the Ray Engine's CPU/GPU split) or auto")
-      ->capture_default_str();
-  render_cmd->add_option("-o,--output", render.outputs,
-                         "output image (.exr .hdr .pfm linear, .png tone mapped); may repeat");
-  render_cmd->add_option("--stats", render.stats, "write statistics to this JSON file");
-  render_cmd->add_option("--width", render.width, "image width (default 512)");
-  render_cmd->add_option("--height", render.height, "image height (default 512)");
-  render_cmd->add_option("--spp", render.spp,
-                         "samples per pixel (default 64; whitted, photons, sss, lpv: 4)");
-  render_cmd->add_option("--max-depth", render.max_depth,
-                         "maximum bounces, 0 = unlimited (Russian roulette); whitted and photons: "
-                         "mirror and glass generations (default 8)");
-  render_cmd->add_option("--light-samples", render.light_samples,
-                         "whitted, photons: shadow rays per diffuse point to the emissive "
-                         "surfaces and to the environment (default 8)");
-  render_cmd->add_option("--photons", render.photons,
-                         "photons: photons emitted for the global map (default 200000)");
-  render_cmd->add_option("--caustic-photons", render.caustic_photons,
-                         "photons: photons emitted towards mirrors and glass for the caustic map "
-                         "(default 200000)");
-  render_cmd->add_option("--gather-count", render.gather_count,
-                         "photons: photons per density estimate (default 64)");
-  render_cmd->add_option("--gather-radius", render.gather_radius,
-                         "photons: their largest distance in metres (default 1% of the scene's "
-                         "bounding-box diagonal)");
-  render_cmd->add_option("--final-gather", render.final_gather,
-                         "photons: final-gather rays per diffuse point; 0 reads the global map "
-                         "directly (default 32)");
-  render_cmd->add_option("--seed", render.seed, "random seed (default 0)")->check(kUnsigned);
-  render_cmd
-      ->add_option("--sampler", render.sampler,
-                   "pathtrace: sobol (Owen-scrambled Sobol points, the default) or independent "
-                   "(one random stream per sample)")
-      ->check(CLI::IsMember({"sobol", "independent"}));
-  render_cmd->add_option("--tonemap", tonemap, "PNG tone mapping: reinhard or exposure")
-      ->check(CLI::IsMember({"reinhard", "exposure"}))
-      ->capture_default_str();
-  render_cmd
-      ->add_option("--exposure", render.tonemap.exposure_stops,
-                   "exposure in stops before tone mapping")
-      ->check(finiteIn(-64.0, 64.0));
-  render_cmd
-      ->add_option("--key", render.tonemap.key,
-                   "Reinhard key value, the mean image brightness aimed at (default: estimated "
-                   "from the image)")
-      ->check(finiteIn(0.0, 1.0, /*open_lo=*/true));
-  render_cmd
-      ->add_option("--solver", render.solver,
-                   "matrix: jacobi or gauss-seidel (default: gauss-seidel on the CPU, jacobi "
-                   "on the GPU)")
-      ->check(CLI::IsMember({"jacobi", "gauss-seidel"}));
-  render_cmd
-      ->add_option("--elements", render.elements,
-                   "matrix: about this many elements (default 2000); progressive: about this "
-                   "many lightmap texels (default 40000)")
-      ->check(CLI::Range(1u, 1u << 28));
-  render_cmd
-      ->add_option("--iterations", render.iterations,
-                   "iteration cap (progressive: shooters; stochastic: random operators; counted "
-                   "over resumed runs)")
-      ->check(CLI::Range(1, 1 << 20))
-      ->capture_default_str();
-  render_cmd
-      ->add_option("--tolerance", render.tolerance,
-                   "matrix: stop when the mean squared residual of MB - E ((W m^-2)^2) is at "
-                   "most this (default 1e-6); progressive: when the unshot fraction of the "
-                   "emitted power is (default 1e-3)")
-      ->check(finiteIn(0.0, 1e30, /*open_lo=*/true));
-  render_cmd
-      ->add_option("--precision", render.precision,
-                   "matrix: form-factor storage, fp32 or fp16 (as the paper stores them)")
-      ->check(CLI::IsMember({"fp32", "fp16"}))
-      ->capture_default_str();
-  render_cmd
-      ->add_option("--ff-rays", render.ff_rays,
-                   "matrix: shadow rays per pair of elements that exchange a noticeable share "
-                   "of their light (default 4)")
-      ->check(CLI::Range(1, 1024));
-  render_cmd
-      ->add_option("--relight-frames", render.relight_frames,
-                   "matrix: render this many frames with the emitters' colour changing, "
-                   "re-solving from the previous frame without new form factors "
-                   "(-o out.png writes out_0000.png ...)")
-      ->check(CLI::Range(0, 10000));
-  render_cmd
-      ->add_option("--shading", render.shading,
-                   "matrix: smooth (corner-interpolated radiosity) or flat (one value per "
-                   "element)")
-      ->check(CLI::IsMember({"smooth", "flat"}))
-      ->capture_default_str();
-  render_cmd
-      ->add_option("--texel-density", render.texel_density,
-                   "radiosity: lightmap texels per metre (instead of the default from "
-                   "--elements)")
-      ->check(finiteIn(0.0, 1e9, /*open_lo=*/true));
-  render_cmd
-      ->add_option("--shooter-points", render.shooter_points,
-                   "progressive: points a shooter starts from (its texels grouped in blocks; "
-                   "nearer receivers refine them); more resolve soft shadows finer")
-      ->check(CLI::Range(1, 4096))
-      ->capture_default_str();
-  addReceiverOptions(render_cmd, render);
-  addStochasticOptions(render_cmd, render);
-  render_cmd
-      ->add_option("--normals", render.normals,
-                   "progressive: interpolated (shading normals across triangles, smooth curved "
-                   "surfaces) or triangle (each triangle's own normal)")
-      ->check(CLI::IsMember({"interpolated", "triangle"}))
-      ->capture_default_str();
-  render_cmd
-      ->add_option("--lightmap-size", render.lightmap_size,
-                   "sss: atlas width and height (default 512, as the paper's real-time atlas)")
-      ->check(CLI::Range(8, 16384));
-  render_cmd
-      ->add_option("--links", render.links,
-                   "sss: links per texel, refined adaptively from the object's root (default "
-                   "16, as the paper)")
-      ->check(CLI::Range(1, 1024));
-  render_cmd
-      ->add_option("--links-level", render.links_level,
-                   "sss: the non-adaptive scheme instead: a link to every cluster of this "
-                   "hierarchy level")
-      ->check(CLI::Range(0, 30));
-  render_cmd
-      ->add_option("--frames", render.frames,
-                   "sss, lpv: render this many frames with the lights orbiting the scene once "
-                   "(-o out.png writes out_0000.png ...); sss builds its links once, lpv needs "
-                   "nothing built")
-      ->check(CLI::Range(0, 100000));
-  render_cmd
-      ->add_option("--grid", render.grid,
-                   "lpv: light propagation volume cells along each translucent object's longest "
-                   "side (default 32, the paper's; at most 128)")
-      ->check(CLI::Range(4, 128));
-  render_cmd
-      ->add_option("--steps", render.steps,
-                   "lpv: propagation steps (default 8; the paper's Table 1 runs 8 and 32)")
-      ->check(CLI::Range(1, 4096));
-  render_cmd
-      ->add_option("--skip-steps", render.skip_steps,
-                   "lpv: first steps left out of the accumulation (default 2, the paper's)")
-      ->check(CLI::Range(0, 4095));
-  render_cmd
-      ->add_option("--rsm-resolution", render.rsm_resolution,
-                   "lpv: injection texels per side of each light's reflective shadow map "
-                   "(default 256, the paper's)")
-      ->check(CLI::Range(1, 4096));
-  render_cmd
-      ->add_option("--surface-samples", render.surface_samples,
-                   "lpv: points of each translucent surface that gather the light of emitting "
-                   "surfaces and the environment (default 16384; 0: none)")
-      ->check(CLI::Range(0, 1 << 20));
-  render_cmd
-      ->add_option("--surface-rays", render.surface_rays,
-                   "lpv: rays per surface point (default 16)")
-      ->check(CLI::Range(0, 256));
-  render_cmd->add_flag("--no-cache", render.no_cache,
-                       "sss: build the links even if the cache ($PENUMBRA_CACHE_DIR, else "
-                       "~/.cache/penumbra) holds them, and do not write them there");
-  render_cmd->add_flag("--no-shadows", render.no_shadows,
-                       "sss: light pass 1 without shadow rays, as the paper's vertex-program "
-                       "lighting did (faster; light then reaches surfaces that face it through "
-                       "the object)");
-  render_cmd->add_option("--resume", render.resume,
-                         "progressive: continue from this checkpoint (written on Ctrl-C)");
-  render_cmd->add_flag("--keep-checkpoint", render.keep_checkpoint,
-                       "progressive: keep the --resume checkpoint after the run completes "
-                       "(it is removed by default: the outputs supersede it)");
-  render_cmd->add_option("--checkpoint", render.checkpoint,
-                         "progressive: where Ctrl-C writes the checkpoint (default: the first "
-                         "output with the extension .checkpoint)");
-  render_cmd
-      ->add_option("--output-quantity", render.output_quantity,
-                   "radiance (default) or illuminance: lux on the surfaces the camera sees "
-                   "(pathtrace, progressive, matrix)")
-      ->check(CLI::IsMember({"radiance", "illuminance"}));
-  render_cmd->add_flag("--false-colour", render.false_colour,
-                       "illuminance: PNG outputs in false colour, blue to red, with a legend "
-                       "in lux");
-  render_cmd->add_option("--lux-max", render.lux_max,
-                         "illuminance: the lux at the top of the false-colour scale (default: a "
-                         "round number above the 99th percentile)");
-  render_cmd->add_option("--work-plane", render.work_plane,
-                         "a horizontal grid of calculation points this many metres above the "
-                         "scene's lowest point: average, minimum, maximum lux and uniformity U0 "
-                         "in the log and the stats");
-  render_cmd->add_option("--grid-surface", render.grid_surface,
-                         "calculation points on the front of the mesh of this name (a JSON "
-                         "scene's mesh \"name\"): lux figures as for --work-plane, area-weighted");
-  render_cmd->add_option("--grid-spacing", render.grid_spacing,
-                         "work plane or surface: metres between points (default 0.25)");
-  render_cmd->add_option("--grid-margin", render.grid_margin,
-                         "work plane: metres left out along the walls (default 0)");
-  render_cmd->add_option(
-      "--grid-csv", render.grid_csv,
-      "work plane or surface: write x, y, z, direct and total lux per point to this CSV");
-  render_cmd
-      ->add_option("--illuminance-rays", render.illuminance_rays,
-                   "hemisphere rays per grid point (default 256; a quarter of it per pixel)")
-      ->check(CLI::Range(1, 65536));
-  addCommon(render_cmd, common);
-  addDryRun(render_cmd, common);
-
-  TraceOptions trace;
-  CLI::App* trace_cmd =
-      app.add_subcommand("trace", "closest hits of a ray file against a mesh (the Ray Engine)");
-  trace_cmd->add_option("mesh", trace.mesh, "mesh file or built-in scene")->required();
-  trace_cmd->add_option("--rays", trace.rays, "rays: float32 ox oy oz tmin dx dy dz tmax")
-      ->required();
-  trace_cmd->add_option("-o,--output", trace.output, "hits: int32 triangle, float32 t u v")
-      ->required();
-  trace_cmd->add_option("--stats", trace.stats, "write statistics to this JSON file");
-  trace_cmd->add_flag("--occlusion", trace.occlusion,
-                      "shadow rays: write one byte per ray, 1 when anything lies within "
-                      "[tmin, tmax] (any hit), else 0");
-  trace_cmd
-      ->add_option("--device", trace.device,
-                   "cpu, gpu, hybrid (CPU/GPU split of the Ray Engine paper) or auto")
-      ->capture_default_str();
-  trace_cmd->add_option("--t-min", trace.t_min, "hybrid: fewest triangles in a GPU cell")
-      ->check(CLI::Range(1u, 1u << 24))
-      ->capture_default_str();
-  trace_cmd->add_option("--t-max", trace.t_max, "hybrid: most triangles in a GPU cell")
-      ->check(CLI::Range(1u, 1u << 24))
-      ->capture_default_str();
-  trace_cmd->add_option("--r-min", trace.r_min, "hybrid: rays a cell collects per GPU pass")
-      ->check(CLI::Range(1u, 65536u))
-      ->capture_default_str();
-  trace_cmd
-      ->add_option("--cache-rays", trace.cache_rays,
-                   "hybrid: rays a cell's ray cache holds before it sends its most coherent "
-                   "bucket (default 4 x --r-min)")
-      ->check(CLI::Range(1u, 1u << 24));
-  addCommon(trace_cmd, common);
-  addDryRun(trace_cmd, common);
-
-  InfoOptions info;
-  CLI::App* info_cmd = app.add_subcommand("info", "what a scene holds: sizes, lights, warnings");
-  info_cmd
-      ->add_option("scene", info.scene,
-                   "built-in scene name or file; a luminaire's .ldt or .ies file shows its "
-                   "photometry")
-      ->capture_default_str();
-  info_cmd->add_option("--plot", info.plot,
-                       "luminaire: write its polar light distribution curve to this PNG");
-  info_cmd->add_flag("--devices", info.devices,
-                     "list the OpenGL 4.5 contexts that can be made, with their limits");
-  addCommon(info_cmd, common);
-
-  BakeOptions bake;
-  CLI::App* bake_cmd = app.add_subcommand(
-      "bake", "solve radiosity and write a glTF with lightmaps (EXR, PNG) into a directory");
-  bake_cmd->add_option("scene", bake.scene, "built-in scene name or file")->required();
-  bake_cmd
-      ->add_option("--method", bake.method,
-                   "matrix (matrix radiosity), progressive (progressive radiosity) or "
-                   "stochastic (stochastic radiosity)")
-      ->capture_default_str();
-  bake_cmd
-      ->add_option("--device", bake.device,
-                   "progressive: cpu, gpu or auto (matrix bakes on the CPU)")
-      ->check(CLI::IsMember({"cpu", "gpu", "auto"}))
-      ->capture_default_str();
-  bake_cmd->add_option("-o,--output", bake.output, "output directory (created if missing)")
-      ->capture_default_str();
-  bake_cmd->add_option("--stats", bake.stats, "write statistics to this JSON file");
-  bake_cmd
-      ->add_option("--elements", bake.elements,
-                   "about this many radiosity elements (default 2000; progressive: lightmap "
-                   "texels, default 40000)")
-      ->check(CLI::Range(1u, 1u << 28));
-  bake_cmd->add_option("--iterations", bake.iterations, "iteration cap")
-      ->check(CLI::Range(1, 1 << 20))
-      ->capture_default_str();
-  bake_cmd
-      ->add_option("--tolerance", bake.tolerance,
-                   "matrix: stop when the mean squared residual of MB - E ((W m^-2)^2) is at "
-                   "most this (default 1e-6); progressive: when the unshot fraction of the "
-                   "emitted power is (default 1e-3)")
-      ->check(finiteIn(0.0, 1e30, /*open_lo=*/true));
-  bake_cmd->add_option("--solver", bake.solver, "jacobi or gauss-seidel")
-      ->check(CLI::IsMember({"jacobi", "gauss-seidel"}))
-      ->capture_default_str();
-  bake_cmd
-      ->add_option("--ff-rays", bake.ff_rays,
-                   "matrix: shadow rays per pair of elements that exchange a noticeable share "
-                   "of their light (default 4)")
-      ->check(CLI::Range(1, 1024));
-  bake_cmd
-      ->add_option("--texel-density", bake.texel_density,
-                   "lightmap texels per metre (default: the most that fit --lightmap-size)")
-      ->check(finiteIn(0.0, 1e9, /*open_lo=*/true));
-  bake_cmd
-      ->add_option("--lightmap-size", bake.lightmap_size,
-                   "lightmap width and height when --texel-density is not given (matrix: "
-                   "default 1024; progressive: default from --elements)")
-      ->check(CLI::Range(8, 16384));
-  bake_cmd
-      ->add_option("--shooter-points", bake.shooter_points,
-                   "progressive: points a shooter starts from (see render)")
-      ->check(CLI::Range(1, 4096))
-      ->capture_default_str();
-  addReceiverOptions(bake_cmd, bake);
-  addStochasticOptions(bake_cmd, bake);
-  bake_cmd->add_option("--seed", bake.seed, "stochastic: random seed (default 0)")
-      ->check(kUnsigned);
-  bake_cmd
-      ->add_option("--normals", bake.normals, "progressive: interpolated or triangle (see render)")
-      ->check(CLI::IsMember({"interpolated", "triangle"}))
-      ->capture_default_str();
-  bake_cmd->add_option("--resume", bake.resume,
-                       "progressive: continue from this checkpoint (written on Ctrl-C)");
-  bake_cmd->add_flag("--keep-checkpoint", bake.keep_checkpoint,
-                     "progressive: keep the --resume checkpoint after the bake completes");
-  bake_cmd->add_option("--checkpoint", bake.checkpoint,
-                       "progressive: where Ctrl-C writes the checkpoint (default: "
-                       "DIR/SCENE.checkpoint)");
-  addCommon(bake_cmd, common);
-  addDryRun(bake_cmd, common);
-
-  RaysOptions rays;
-  CLI::App* rays_cmd = app.add_subcommand(
-      "rays", "write a ray file for trace: a camera's primary rays or diffuse surface rays");
-  rays_cmd->add_option("scene", rays.scene, "built-in scene name or file")->required();
-  rays_cmd->add_option("-o,--output", rays.output, "ray file (float32 ox oy oz tmin dx dy dz tmax)")
-      ->required();
-  rays_cmd
-      ->add_option("--kind", rays.kind,
-                   "camera (one ray per pixel through the scene's camera) or diffuse (from "
-                   "random surface points, cosine-distributed, either side)")
-      ->capture_default_str();
-  rays_cmd->add_option("--width", rays.width, "camera: image width (default 512)")
-      ->check(CLI::Range(1, 1 << 16));
-  rays_cmd->add_option("--height", rays.height, "camera: image height (default 512)")
-      ->check(CLI::Range(1, 1 << 16));
-  rays_cmd->add_option("--count", rays.count, "diffuse: number of rays (default 1048576)")
-      ->check(CLI::Range(uint64_t(1), uint64_t(1) << 34));
-  rays_cmd->add_option("--seed", rays.seed, "diffuse: random seed (default 0)")->check(kUnsigned);
-  rays_cmd
-      ->add_option("--tmin", rays.t_min,
-                   "diffuse: distance the rays start at (default 1e-4 of the scene's diagonal)")
-      ->check(finiteIn(0.0, 1e30));
-  addCommon(rays_cmd, common);
-  addDryRun(rays_cmd, common);
-
-  for (CLI::App* cmd : {render_cmd, trace_cmd, info_cmd, bake_cmd, rays_cmd}) {
+  CommandLine c;
+  c.app.require_subcommand(1);
+  c.app.set_version_flag("--version", "penumbra " PENUMBRA_VERSION);
+  addRenderCommand(c);
+  addTraceCommand(c);
+  addInfoCommand(c);
+  addBakeCommand(c);
+  addRaysCommand(c);
+  for (CLI::App* cmd : {c.render_cmd, c.trace_cmd, c.info_cmd, c.bake_cmd, c.rays_cmd}) {
     refuseEmptyValues(cmd);
   }
 
   const std::string first = argc > 1 ? argv[1] : "";
   const bool session = CommandSession::current() != nullptr;
   if (first == "view" && !session) return runView(argc, argv);
+  if (first == "methods" && !session) return runMethods(argc, argv);
   if (!first.empty() && first[0] != '-' && first != "render" && first != "bake" &&
       first != "trace" && first != "rays" && first != "info") {
     return reportError(inputError(
         "", "",
-        fmt::format("unknown command '{}' (commands: render, bake, trace, rays, info, view)",
+        fmt::format("unknown command '{}' (commands: render, bake, trace, rays, info, view, "
+                    "methods)",
                     first)));
   }
   try {
-    app.parse(argc, argv);
+    c.app.parse(argc, argv);
   } catch (const CLI::Success& e) {
     if (session) return reportError(inputError("", "", "--help and --version: see the CLI"));
-    return app.exit(e);
+    return c.app.exit(e);
   } catch (const CLI::ParseError& e) {
     return reportError(inputError("", "", fmt::format("{} (see penumbra --help)", e.what())));
   }
-
-  render.tonemap.op =
-      tonemap == "exposure" ? ToneMapOperator::kExposure : ToneMapOperator::kReinhard;
-  // Over several processes only rank 0 logs; the others print only what fails on them alone.
-  const Communicator& comm = currentCommunicator();
-  initLogging(common.quiet || !comm.root());
-  if (!comm.root()) spdlog::set_level(spdlog::level::err);
-  setThisProcessWritesOutputs(comm.root());
-  // Signals and the thread limit are the process's: the CLI takes them; a program calling the
-  // library through a session keeps its own signal handlers, and the limit lasts for the call.
-  if (!session) {
-    installInterruptHandlers();
-    if (comm.distributed()) interruptSignalsEndDistributedRun(comm.rank(), comm.size());
-  }
-  auto thread_limit = limitThreads(threadsPerRank(comm, common.threads));
-  if (render_cmd->parsed()) return runRender(render, common);
-  if (bake_cmd->parsed()) return runBake(bake, common);
-  if (trace_cmd->parsed()) return runTrace(trace, common);
-  if (info_cmd->parsed()) return runInfo(info, common);
-  if (rays_cmd->parsed()) return runRays(rays, common);
-  return 2;
+  return runParsed(c);
 }
 
 }  // namespace

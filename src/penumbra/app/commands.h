@@ -3,105 +3,13 @@
 #pragma once
 
 #include "penumbra/core/expected.h"
-#include "penumbra/render/tonemap.h"
+#include "penumbra/methods/command_options.h"
 
 #include <optional>
 #include <string>
 #include <vector>
 
 namespace penumbra {
-
-struct CommonOptions {
-  int threads = 0;  // 0 = all cores
-  bool quiet = false;
-  // --dry-run: check the options, read the inputs, check every output path and the memory the
-  // plan needs, then stop before the work; nothing is written or left behind.
-  bool dry_run = false;
-};
-
-// What `render` and `bake` both take for the lightmap methods (addReceiverOptions and
-// addStochasticOptions in cli.cpp bind them for both commands).
-struct LightmapMethodOptions {
-  // progressive: receivers (Wallner sec. 4): adaptive subdivision at shadow boundaries, the
-  // receivers' level (default 0, or 2 with --adaptive), the thresholds b_l and b_u, the finest
-  // level and the minimum share of the contrast test (radiosity/progressive_receivers.h).
-  bool adaptive = false;
-  std::optional<int> receiver_level;
-  std::vector<double> boundary;
-  int finest_level = 0;
-  std::optional<double> min_share;
-  // --method stochastic (Barsi and Jakab): a time limit (seconds; the iteration cap still
-  // applies) and independent shooters per iteration.
-  std::optional<double> time_limit;
-  int shooters = 1;
-};
-
-struct RenderOptions : LightmapMethodOptions {
-  std::string scene = "cornell";
-  std::string method = "pathtrace";
-  std::string device = "auto";
-  std::vector<std::string> outputs;  // -o, may repeat: one render, several files
-  std::string stats;
-  std::optional<int> width, height, spp, max_depth;
-  std::optional<uint64_t> seed;
-  std::optional<std::string> sampler;  // pathtrace: sobol (default) or independent
-  ToneMapSettings tonemap;
-  // --method matrix (Carr, Hall, Hart 2003, sec. 3).
-  std::optional<std::string> solver;  // jacobi or gauss-seidel (default: the device's own)
-  // Matrix: elements (default 2000); progressive: lightmap texels (about; default
-  // kProgressiveDefaultElements).
-  std::optional<uint32_t> elements;
-  int iterations = 500;  // iteration cap (progressive: shooters)
-  // matrix: mean squared residual of MB - E, (W m^-2)^2 (default 1e-6); progressive: unshot
-  // fraction of the emitted power (default 1e-3).
-  std::optional<double> tolerance;
-  std::string precision = "fp32";
-  // Matrix: shadow rays per cluster pair that exchanges a noticeable share (default
-  // FormFactorOptions::rays).
-  std::optional<int> ff_rays;
-  int relight_frames = 0;  // > 1: a sequence of relit frames from one set of form factors
-  std::string shading = "smooth";
-  // --method progressive (Wallner): lightmap texels per metre (overrides --elements), the
-  // checkpoint to continue from, and where Ctrl-C writes one (default: the first output with
-  // the extension .checkpoint).
-  std::optional<double> texel_density;
-  std::string resume;
-  std::string checkpoint;
-  bool keep_checkpoint = false;  // keep --resume's file after the run completes
-  // progressive: top-level points per shooter (0: the paper's flat scheme), and normals
-  // (interpolated or triangle).
-  int shooter_points = 16;
-  std::string normals = "interpolated";
-  // --method sss (Carr, Hall, Hart 2003, sec. 4): the atlas size (default kSssDefaultAtlas),
-  // links per texel (adaptive) or a hierarchy level for the non-adaptive scheme, and frames of
-  // a light orbit.
-  std::optional<int> lightmap_size;
-  std::optional<int> links;  // default SssLinkOptions::links
-  int links_level = -1;
-  int frames = 0;
-  bool no_cache = false;    // sss: build the links even when the cache holds them
-  bool no_shadows = false;  // sss: pass 1 without shadow rays (the paper's lighting)
-  // --method lpv (Børlum et al. 2011): grid cells along each object's longest side, propagation
-  // steps, steps left out of the accumulation, injection texels per side of each light's map.
-  std::optional<int> grid, steps, skip_steps, rsm_resolution, surface_samples, surface_rays;
-  // Lighting design (render/illuminance.h, app/illuminance_output.h): images of lux instead of
-  // radiance, false colour with a legend, and a work plane's grid of calculation points.
-  std::string output_quantity = "radiance";  // or illuminance
-  bool false_colour = false;
-  std::optional<double> lux_max;
-  std::optional<double> work_plane;  // height above the scene's lowest point, m
-  std::string grid_surface;          // or points on the mesh of this name
-  std::optional<double> grid_spacing, grid_margin;
-  std::string grid_csv;
-  int illuminance_rays = 256;  // per grid point (a quarter of it per pixel)
-  // --method whitted and photons (raytrace/whitted.h, photon_map.h): shadow rays per diffuse
-  // vertex to the emissive triangles and the environment; photons: the global and caustic photon
-  // counts, photons per density estimate and their largest distance (m), final-gather rays.
-  std::optional<int> light_samples;
-  std::optional<uint64_t> photons, caustic_photons;
-  std::optional<int> gather_count, final_gather;
-  std::optional<double> gather_radius;
-};
 
 struct TraceOptions {
   std::string mesh;
@@ -133,33 +41,9 @@ struct InfoOptions {
   std::string plot;      // a photometric file's polar plot (PNG)
 };
 
-// `penumbra bake`: a radiosity solution as files (bake_command.cpp).
-struct BakeOptions : LightmapMethodOptions {
-  std::string scene;
-  std::string method = "matrix";
-  std::string device = "cpu";  // progressive: cpu, gpu or auto; matrix: cpu
-  std::string output = ".";    // -o DIR, created if missing
-  std::string stats;
-  std::optional<uint32_t> elements;  // as RenderOptions::elements
-  int iterations = 500;              // iteration cap
-  // matrix: mean squared residual of MB - E, (W m^-2)^2 (default 1e-6); progressive: unshot
-  // fraction of the emitted power (default 1e-3).
-  std::optional<double> tolerance;
-  std::string solver = "gauss-seidel";
-  // Matrix: shadow rays per cluster pair that exchanges a noticeable share (default
-  // FormFactorOptions::rays).
-  std::optional<int> ff_rays;
-  std::optional<double> texel_density;  // lightmap texels per metre (default: from the size)
-  std::optional<int> lightmap_size;     // lightmap width and height (default 1024 for matrix)
-  std::string resume;                   // progressive: checkpoint to continue from
-  std::string checkpoint;        // progressive: where Ctrl-C writes one (DIR/STEM.checkpoint)
-  bool keep_checkpoint = false;  // progressive: keep --resume's file after the run completes
-  int shooter_points = 16;       // progressive: top-level points per shooter
-  std::string normals = "interpolated";  // progressive: interpolated or triangle
-  std::optional<uint64_t> seed;          // stochastic: random seed (default 0)
-};
-
-int runRender(const RenderOptions& options, const CommonOptions& common);
+// `given`: the options the command line set (the scene file's settings apply to the others).
+int runRender(RenderOptions options, const CommonOptions& common,
+              const std::vector<std::string>& given = {});
 int runBake(const BakeOptions& options, const CommonOptions& common);
 // The methods behind `render` (render_*.cpp).
 Status renderMatrix(const RenderOptions& options, const CommonOptions& common);

@@ -58,7 +58,7 @@ ProgressiveRunOptions progressiveRunOptions(const CommandOptions& o) {
   ro.elements = o.elements.value_or(kProgressiveDefaultElements);
   ro.texel_density = o.texel_density;
   if constexpr (requires { o.lightmap_size; }) ro.lightmap_size = o.lightmap_size;
-  ro.iterations = o.iterations;
+  ro.iterations = iterationCap(o.iterations);
   ro.tolerance = o.tolerance.value_or(1e-3);
   ro.resume = o.resume;
   ro.checkpoint = o.checkpoint;

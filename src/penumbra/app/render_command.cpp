@@ -13,6 +13,7 @@
 #include "penumbra/core/timer.h"
 #include "penumbra/io/image_io.h"
 #include "penumbra/io/scene_io.h"
+#include "penumbra/methods/registry.h"
 #include "penumbra/raytrace/path_tracer.h"
 #include "penumbra/raytrace/ray_queries.h"
 
@@ -25,34 +26,6 @@
 namespace penumbra {
 
 namespace {
-
-// Reads an integer setting from the scene file's "settings": {"pathtrace": {...}}, in
-// [lo, hi]; errors name the file, the key and the value.
-Expected<int> sceneSetting(const Scene& scene, const std::string& method, const std::string& key,
-                           int fallback, int lo, int hi) {
-  if (!scene.settings.contains(method)) return fallback;
-  const nlohmann::json& m = scene.settings[method];
-  if (!m.is_object() || !m.contains(key)) return fallback;
-  const nlohmann::json& v = m[key];
-  const std::string where = fmt::format("settings.{}.{}", method, key);
-  if (!v.is_number_integer()) {
-    return inputError(scene.source, where, fmt::format("must be an integer, not {}", v.dump()));
-  }
-  const bool in_range = v.is_number_unsigned() ? v.get<uint64_t>() <= uint64_t(hi) && lo <= hi
-                                               : v.get<int64_t>() >= lo && v.get<int64_t>() <= hi;
-  if (!in_range) {
-    return inputError(scene.source, where,
-                      fmt::format("{} is out of range [{}, {}]", v.dump(), lo, hi));
-  }
-  return int(v.get<int64_t>());
-}
-
-Status checkRange(const std::string& what, int value, int lo, int hi) {
-  if (value < lo || value > hi) {
-    return inputError("", "", fmt::format("{} {} is out of range [{}, {}]", what, value, lo, hi));
-  }
-  return {};
-}
 
 std::string sceneStem(const std::string& scene) {
   const std::filesystem::path p(scene);
@@ -81,37 +54,11 @@ Status renderPathTrace(const RenderOptions& options, const CommonOptions& common
   if (!scene) return scene.error();
   for (const std::string& w : scene->warnings) spdlog::warn("{}", w);
 
-  // Settings a scene file gives the path tracer: unknown keys are errors, not silently ignored.
-  if (scene->settings.contains("pathtrace")) {
-    const nlohmann::json& pt = scene->settings["pathtrace"];
-    if (!pt.is_object()) {
-      return inputError(scene->source, "settings.pathtrace", "must be an object");
-    }
-    for (const auto& [key, value] : pt.items()) {
-      if (key != "width" && key != "height" && key != "spp" && key != "max_depth") {
-        return inputError(scene->source, "settings.pathtrace." + key,
-                          "unknown setting (width, height, spp, max_depth)");
-      }
-    }
-  }
   PathTracerSettings settings;
-  // From the command line, else the scene's settings, else the default; each in [lo, hi].
-  auto setting = [&](const std::optional<int>& cli, const char* flag, const char* key, int lo,
-                     int hi, int& dst) -> Status {
-    if (cli) {
-      dst = *cli;
-      return checkRange(flag, dst, lo, hi);
-    }
-    Expected<int> v = sceneSetting(*scene, "pathtrace", key, dst, lo, hi);
-    if (!v) return v.error();
-    dst = *v;
-    return {};
-  };
-  PENUMBRA_TRY(setting(options.width, "--width", "width", 1, 1 << 16, settings.width));
-  PENUMBRA_TRY(setting(options.height, "--height", "height", 1, 1 << 16, settings.height));
-  PENUMBRA_TRY(setting(options.spp, "--spp", "spp", 1, 1 << 20, settings.spp));
-  PENUMBRA_TRY(
-      setting(options.max_depth, "--max-depth", "max_depth", 0, 1 << 16, settings.max_depth));
+  settings.width = options.width.value_or(settings.width);
+  settings.height = options.height.value_or(settings.height);
+  settings.spp = options.spp.value_or(settings.spp);
+  settings.max_depth = options.max_depth.value_or(settings.max_depth);
   if (options.seed) settings.seed = *options.seed;
   if (options.sampler) settings.low_discrepancy = *options.sampler == "sobol";
   // The image, its tone-mapped copy and the file buffers: about 40 bytes per pixel.
@@ -266,69 +213,18 @@ Expected<std::vector<std::string>> checkRenderOutputs(const RenderOptions& optio
   return outputs;
 }
 
-int runRender(const RenderOptions& options, const CommonOptions& common) {
+int runRender(RenderOptions options, const CommonOptions& common,
+              const std::vector<std::string>& given) {
   if (Status s = checkDistributedMethod(currentCommunicator(), "render", options.method); !s) {
     return reportError(s.error());
   }
-  if (options.device != "cpu" && options.device != "gpu" && options.device != "auto" &&
-      options.device != "hybrid") {
-    return reportError(inputError(
-        "", "", fmt::format("--device '{}': use cpu, gpu, hybrid or auto", options.device)));
-  }
-  if (options.method != "progressive" && options.method != "stochastic" &&
-      options.method != "matrix" && options.method != "sss" && options.texel_density) {
-    return reportError(
-        inputError("", "--texel-density", "applies to the radiosity and sss methods only"));
-  }
-  if (options.method != "sss" && options.method != "lpv" && options.frames > 0) {
-    return reportError(inputError("", "--frames", "applies to --method sss and lpv only"));
-  }
-  if (options.method != "lpv") {
-    const char* only = options.grid              ? "--grid"
-                       : options.steps           ? "--steps"
-                       : options.skip_steps      ? "--skip-steps"
-                       : options.rsm_resolution  ? "--rsm-resolution"
-                       : options.surface_samples ? "--surface-samples"
-                       : options.surface_rays    ? "--surface-rays"
-                                                 : nullptr;
-    if (only) return reportError(inputError("", only, "applies to --method lpv only"));
-  }
-  if (options.method != "sss") {
-    const char* only = options.lightmap_size      ? "--lightmap-size"
-                       : options.links_level >= 0 ? "--links-level"
-                       : options.links            ? "--links"
-                       : options.no_cache         ? "--no-cache"
-                       : options.no_shadows       ? "--no-shadows"
-                                                  : nullptr;
-    if (only) return reportError(inputError("", only, "applies to --method sss only"));
-  }
-  if (options.method != "whitted" && options.method != "photons" && options.light_samples) {
-    return reportError(
-        inputError("", "--light-samples", "applies to --method whitted and photons only"));
-  }
-  if (options.method != "photons") {
-    const char* only = options.photons           ? "--photons"
-                       : options.caustic_photons ? "--caustic-photons"
-                       : options.gather_count    ? "--gather-count"
-                       : options.gather_radius   ? "--gather-radius"
-                       : options.final_gather    ? "--final-gather"
-                                                 : nullptr;
-    if (only) return reportError(inputError("", only, "applies to --method photons only"));
-  }
-  if (options.method != "pathtrace" && options.sampler) {
-    return reportError(inputError("", "--sampler", "applies to --method pathtrace only"));
-  }
-  if (options.method != "progressive" && options.method != "stochastic") {
-    const char* only = !options.resume.empty()       ? "--resume"
-                       : !options.checkpoint.empty() ? "--checkpoint"
-                       : options.keep_checkpoint     ? "--keep-checkpoint"
-                       : options.time_limit          ? "--time-limit"
-                       : options.shooters != 1       ? "--shooters"
-                                                     : nullptr;
-    if (only) {
-      return reportError(
-          inputError("", only, "applies to --method progressive and stochastic only"));
-    }
+  // The scene file's "settings" for the method, checked as the command line's values are; the
+  // command line's win.
+  const auto [settings, settings_file] = commandSceneSettings(options.scene);
+  if (Expected<std::vector<std::string>> set =
+          applySceneSettings(options, settings, settings_file, given);
+      !set) {
+    return reportError(set.error());
   }
   // Every output is placed at the end, together, or none is (core/file_util.h).
   OutputTransaction transaction;
@@ -343,15 +239,9 @@ int runRender(const RenderOptions& options, const CommonOptions& common) {
   } else if (options.method == "progressive" || options.method == "stochastic") {
     s = renderLightmapRadiosity(options, common, &interrupted);
   } else if (options.method == "sss") {
-    s = wantsIlluminance(options)
-            ? Status(inputError("", options.work_plane ? "--work-plane" : "--output-quantity",
-                                "lux are computed by pathtrace, progressive and matrix"))
-            : renderSss(options, common);
+    s = renderSss(options, common);
   } else if (options.method == "lpv") {
-    s = wantsIlluminance(options)
-            ? Status(inputError("", options.work_plane ? "--work-plane" : "--output-quantity",
-                                "lux are computed by pathtrace, progressive and matrix"))
-            : renderLpv(options, common);
+    s = renderLpv(options, common);
   } else {
     s = inputError("", "",
                    fmt::format("unknown --method '{}' (available: pathtrace, whitted, photons, "

@@ -34,10 +34,7 @@ Status renderLpv(const RenderOptions& options, const CommonOptions& common) {
   }
   const int width = options.width.value_or(512), height = options.height.value_or(512);
   const int spp = options.spp.value_or(4);
-  if (width < 1 || width > (1 << 16) || height < 1 || height > (1 << 16)) {
-    return inputError("", "--width/--height", "must be in [1, 65536]");
-  }
-  if (spp < 1 || spp > 4096) return inputError("", "--spp", "must be in [1, 4096]");
+  // Ranges: methods/registry.cpp.
   PENUMBRA_TRY(checkMemory(uint64_t(width) * uint64_t(height) * 16,
                            fmt::format("a {}x{} image", width, height)));
   LpvOptions lo;

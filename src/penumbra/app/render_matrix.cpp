@@ -55,10 +55,7 @@ Status renderMatrix(const RenderOptions& options, const CommonOptions& common) {
   }
   const int width = options.width.value_or(512), height = options.height.value_or(512);
   const int spp = options.spp.value_or(4);
-  if (width < 1 || width > (1 << 16) || height < 1 || height > (1 << 16)) {
-    return inputError("", "--width/--height", "must be in [1, 65536]");
-  }
-  if (spp < 1 || spp > 4096) return inputError("", "--spp", "must be in [1, 4096]");
+  // Ranges: methods/registry.cpp.
   std::optional<IlluminanceRequest> lux;
   if (frames > 1 && !options.grid_csv.empty()) {
     return inputError("", "--grid-csv", "writes one frame's table: not with --relight-frames");
@@ -151,7 +148,7 @@ Status renderMatrix(const RenderOptions& options, const CommonOptions& common) {
     }
     SolveOptions so;
     so.solver = solver;
-    so.max_iterations = options.iterations;
+    so.max_iterations = iterationCap(options.iterations);
     so.tolerance = options.tolerance.value_or(1e-6);
     Progress progress(frames > 1 ? fmt::format("solving frame {}", f) : std::string("solving"),
                       uint64_t(so.max_iterations),

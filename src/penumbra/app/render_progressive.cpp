@@ -73,10 +73,7 @@ Status renderLightmapRadiosity(const RenderOptions& options, const CommonOptions
   PENUMBRA_TRY(stochastic ? checkStochasticRunOptions(so) : checkProgressiveRunOptions(ro));
   const int width = options.width.value_or(512), height = options.height.value_or(512);
   const int spp = options.spp.value_or(4);
-  if (width < 1 || width > (1 << 16) || height < 1 || height > (1 << 16)) {
-    return inputError("", "--width/--height", "must be in [1, 65536]");
-  }
-  if (spp < 1 || spp > 4096) return inputError("", "--spp", "must be in [1, 4096]");
+  // Ranges: methods/registry.cpp.
   std::optional<IlluminanceRequest> lux;
   if (wantsIlluminance(options)) {
     Expected<IlluminanceRequest> r = illuminanceRequest(options, width, height);

@@ -13,9 +13,9 @@
 #include "penumbra/core/timer.h"
 #include "penumbra/io/image_io.h"
 #include "penumbra/io/scene_io.h"
+#include "penumbra/render/sss_frames.h"
 #include "penumbra/subsurface/sss.h"
 #include "penumbra/subsurface/sss_cache.h"
-#include "penumbra/subsurface/sss_frames.h"
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
@@ -45,10 +45,7 @@ Status renderSss(const RenderOptions& options, const CommonOptions& common) {
   }
   const int width = options.width.value_or(512), height = options.height.value_or(512);
   const int spp = options.spp.value_or(4);
-  if (width < 1 || width > (1 << 16) || height < 1 || height > (1 << 16)) {
-    return inputError("", "--width/--height", "must be in [1, 65536]");
-  }
-  if (spp < 1 || spp > 4096) return inputError("", "--spp", "must be in [1, 4096]");
+  // Ranges: methods/registry.cpp.
   // The image, its view samples (about 40 bytes each) and the files.
   PENUMBRA_TRY(
       checkMemory(uint64_t(width) * uint64_t(height) * (40 + 40 * uint64_t(spp)),

@@ -23,17 +23,6 @@
 
 namespace penumbra {
 
-namespace {
-
-Status checkOption(const char* flag, int64_t value, int64_t lo, int64_t hi) {
-  if (value < lo || value > hi) {
-    return inputError("", flag, fmt::format("{} is out of range [{}, {}]", value, lo, hi));
-  }
-  return {};
-}
-
-}  // namespace
-
 Status renderRayTraced(const RenderOptions& options, const CommonOptions& common) {
   const bool photons = options.method == "photons";
   // Over several processes (mpirun): every rank loads and checks, then they agree to start; each
@@ -43,17 +32,7 @@ Status renderRayTraced(const RenderOptions& options, const CommonOptions& common
   Expected<std::vector<std::string>> checked = checkRenderOutputs(options, 1);
   if (!checked) return checked.error();
   const std::vector<std::string>& outputs = *checked;
-  if (wantsIlluminance(options)) {
-    return inputError("", options.work_plane ? "--work-plane" : "--output-quantity",
-                      "lux are computed by pathtrace, progressive and matrix");
-  }
-  for (const auto& [set, name] : {std::pair{options.solver.has_value(), "--solver"},
-                                  std::pair{options.relight_frames > 0, "--relight-frames"},
-                                  std::pair{options.elements.has_value(), "--elements"}}) {
-    if (set) {
-      return inputError("", name, fmt::format("does not apply to --method {}", options.method));
-    }
-  }
+  // Which options apply, and their ranges: methods/registry.cpp.
   WhittedSettings ws;
   ws.width = options.width.value_or(512);
   ws.height = options.height.value_or(512);
@@ -61,11 +40,6 @@ Status renderRayTraced(const RenderOptions& options, const CommonOptions& common
   ws.max_depth = options.max_depth.value_or(ws.max_depth);
   ws.light_samples = options.light_samples.value_or(ws.light_samples);
   ws.seed = options.seed.value_or(0);
-  PENUMBRA_TRY(checkOption("--width", ws.width, 1, 1 << 16));
-  PENUMBRA_TRY(checkOption("--height", ws.height, 1, 1 << 16));
-  PENUMBRA_TRY(checkOption("--spp", ws.spp, 1, 4096));
-  PENUMBRA_TRY(checkOption("--max-depth", ws.max_depth, 0, 64));
-  PENUMBRA_TRY(checkOption("--light-samples", ws.light_samples, 0, 1024));
   PhotonSettings ps;
   ps.seed = ws.seed;
   if (photons) {
@@ -73,19 +47,7 @@ Status renderRayTraced(const RenderOptions& options, const CommonOptions& common
     if (options.caustic_photons) ps.caustic_photons = *options.caustic_photons;
     ps.gather_count = options.gather_count.value_or(ps.gather_count);
     ps.final_gather = options.final_gather.value_or(ps.final_gather);
-    PENUMBRA_TRY(checkOption("--photons", int64_t(ps.photons), 1, int64_t(1) << 32));
-    PENUMBRA_TRY(
-        checkOption("--caustic-photons", int64_t(ps.caustic_photons), 0, int64_t(1) << 32));
-    PENUMBRA_TRY(checkOption("--gather-count", ps.gather_count, 1, 10000));
-    PENUMBRA_TRY(checkOption("--final-gather", ps.final_gather, 0, 4096));
-    if (options.gather_radius) {
-      if (!(*options.gather_radius > 0.0 && *options.gather_radius < 1e6)) {
-        return inputError("", "--gather-radius",
-                          fmt::format("{} must be a positive distance in metres (below 1e6)",
-                                      *options.gather_radius));
-      }
-      ps.gather_radius = float(*options.gather_radius);
-    }
+    if (options.gather_radius) ps.gather_radius = float(*options.gather_radius);
   }
   // The image (about 40 bytes per pixel with its samples and files), a wave of the ray tree and
   // a chunk of gather rays (bounded by whitted.cpp's and photon_map.cpp's chunk sizes: about

@@ -28,6 +28,13 @@ Expected<Scene> loadCommandScene(const std::string& name) {
   return loadScene(name);
 }
 
+std::pair<nlohmann::json, std::string> commandSceneSettings(const std::string& name) {
+  if (CommandSession* s = CommandSession::current(); s && s->scene) {
+    return {s->scene->settings, s->scene->source};
+  }
+  return {readSceneSettings(name), name};
+}
+
 bool wantsStats(const std::string& stats_path) {
   return !stats_path.empty() || CommandSession::current() != nullptr;
 }

@@ -11,6 +11,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace penumbra {
@@ -37,6 +38,9 @@ class SessionScope {
 
 // The command's scene: the session's, else loadScene(name).
 Expected<Scene> loadCommandScene(const std::string& name);
+// The scene's "settings" (methods/registry.h: applySceneSettings) and the file they come from:
+// the session's scene's, else the JSON file's (io/scene_io.h: readSceneSettings).
+std::pair<nlohmann::json, std::string> commandSceneSettings(const std::string& name);
 // Whether the command makes its statistics: a --stats file is named, or a session wants them.
 bool wantsStats(const std::string& stats_path);
 // Hands `stats` to the session and writes them to `path` when one is named.

@@ -51,7 +51,7 @@ StochasticRunOptions stochasticRunOptions(const CommandOptions& o) {
   ro.elements = o.elements.value_or(kDefaultLightmapElements);
   ro.texel_density = o.texel_density;
   if constexpr (requires { o.lightmap_size; }) ro.lightmap_size = o.lightmap_size;
-  ro.iterations = o.iterations;
+  ro.iterations = iterationCap(o.iterations, o.time_limit);
   ro.time_limit = o.time_limit.value_or(0.0);
   ro.shooters = o.shooters;
   ro.seed = o.seed.value_or(0);

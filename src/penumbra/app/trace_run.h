@@ -5,7 +5,7 @@
 
 #include "penumbra/app/commands.h"
 #include "penumbra/cluster/communicator.h"
-#include "penumbra/raytrace/ray.h"
+#include "penumbra/kernels/ray.h"
 #include "penumbra/scene/scene.h"
 
 #include <cstdint>

@@ -8,9 +8,9 @@
 #include "penumbra/radiosity/stochastic.h"
 #include "penumbra/raytrace/path_tracer.h"
 #include "penumbra/render/lightmap_view.h"
+#include "penumbra/render/sss_frames.h"
 #include "penumbra/subsurface/sss.h"
 #include "penumbra/subsurface/sss_cache.h"
-#include "penumbra/subsurface/sss_frames.h"
 
 #include <fmt/format.h>
 

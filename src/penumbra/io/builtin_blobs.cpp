@@ -4,7 +4,7 @@
 // light. Marching tetrahedra remesh it at every time (geometry/isosurface.h).
 #include "penumbra/geometry/isosurface.h"
 #include "penumbra/scene/animation.h"
-#include "penumbra/subsurface/media.h"
+#include "penumbra/scene/media.h"
 
 #include <glm/common.hpp>
 #include <glm/geometric.hpp>
@@ -36,7 +36,7 @@ Expected<Scene> blobsAt(double t) {
   blobs.name = "blobs";
   s.meshes.push_back(std::move(blobs));
   // Jade-like: green, light diffusing centimetres (albedo and diffusion length per channel,
-  // subsurface/media.h).
+  // scene/media.h).
   Expected<Subsurface> jade_medium =
       subsurfaceFromAlbedo(glm::dvec3(0.55, 0.85, 0.6), glm::dvec3(0.004, 0.008, 0.005), 1.5);
   if (!jade_medium) return jade_medium.error();

@@ -3,7 +3,7 @@
 // two point lights, as Carr, Hall, Hart 2003 (Fig. 7) show translucency: light through the ears and
 // the thin parts.
 #include "penumbra/io/scene_io.h"
-#include "penumbra/subsurface/media.h"
+#include "penumbra/scene/media.h"
 
 #include <fmt/format.h>
 #include <glm/common.hpp>

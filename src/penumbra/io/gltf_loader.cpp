@@ -17,7 +17,7 @@
 #include "penumbra/io/json_guard.h"
 #include "penumbra/io/scene_io.h"
 #include "penumbra/io/subsurface_json.h"
-#include "penumbra/subsurface/media.h"
+#include "penumbra/scene/media.h"
 
 #include <tiny_gltf.h>
 #include <nlohmann/json.hpp>

@@ -18,7 +18,7 @@
 #pragma once
 
 #include "penumbra/core/expected.h"
-#include "penumbra/render/lightmap_mesh.h"
+#include "penumbra/io/baked_mesh.h"
 #include "penumbra/scene/material.h"
 
 #include <nlohmann/json.hpp>

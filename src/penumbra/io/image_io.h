@@ -5,7 +5,7 @@
 
 #include "penumbra/core/expected.h"
 #include "penumbra/core/image.h"
-#include "penumbra/render/tonemap.h"
+#include "penumbra/io/tonemap.h"
 
 #include <cstdint>
 #include <span>

@@ -4,7 +4,7 @@
 #pragma once
 
 #include "penumbra/core/expected.h"
-#include "penumbra/raytrace/ray.h"
+#include "penumbra/kernels/ray.h"
 
 #include <cstdint>
 #include <limits>

@@ -6,6 +6,8 @@
 #include "penumbra/core/expected.h"
 #include "penumbra/scene/scene.h"
 
+#include <nlohmann/json_fwd.hpp>
+
 #include <functional>
 #include <string>
 
@@ -28,6 +30,10 @@ Expected<Scene> loadSceneJson(const std::string& path);
 // scene (meshes held in memory) before it is validated as a whole.
 Expected<Scene> parseSceneJson(const std::string& path, const std::string& text,
                                const std::function<void(Scene&)>& complete = {});
+
+// The "settings" object of a JSON scene file (null when the file has none, is not a .json file
+// or cannot be read: loading it reports that). Cheap: the meshes are not read.
+nlohmann::json readSceneSettings(const std::string& path);
 
 // By extension: .json, .obj, .gltf, .glb, .ply.
 Expected<Scene> loadSceneFile(const std::string& path);

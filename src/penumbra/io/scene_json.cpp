@@ -13,7 +13,7 @@
 #include "penumbra/io/subsurface_json.h"
 #include "penumbra/scene/animation.h"
 #include "penumbra/scene/builtin.h"
-#include "penumbra/subsurface/media.h"
+#include "penumbra/scene/media.h"
 
 #include <glm/geometric.hpp>
 #include <glm/mat3x3.hpp>
@@ -942,6 +942,16 @@ Expected<Scene> parseSceneJson(const std::string& path, const std::string& text_
     // Every access above is checked; this is a safety net so no exception leaves the loader.
     return inputError(path, "", fmt::format("unexpected JSON error: {}", e.what()));
   }
+}
+
+json readSceneSettings(const std::string& path) {
+  if (extensionOf(path) != ".json") return json();
+  Expected<std::string> text = readFile(path);
+  if (!text.ok() || !checkJsonNesting(path, *text, /*comments=*/true).ok()) return json();
+  const json root = json::parse(*text, nullptr, /*allow_exceptions=*/false,
+                                /*ignore_comments=*/true);
+  if (!root.is_object() || !root.contains("settings")) return json();
+  return root["settings"];
 }
 
 Expected<Scene> loadSceneFile(const std::string& path) {

@@ -1,7 +1,7 @@
 #include "penumbra/io/subsurface_json.h"
 
-#include "penumbra/subsurface/heterogeneous.h"
-#include "penumbra/subsurface/media.h"
+#include "penumbra/scene/heterogeneous_media.h"
+#include "penumbra/scene/media.h"
 
 #include <fmt/format.h>
 
@@ -135,7 +135,7 @@ Expected<Subsurface> parseSubsurface(const nlohmann::json& block, const std::str
   medium->sigma_a *= scale;
   if (Status s = checkSubsurface(*medium); !s.ok())
     return inputError(file, place, s.error().message);
-  // Heterogeneity (subsurface/heterogeneous.h): a pattern over these coefficients, or a grid
+  // Heterogeneity (scene/heterogeneous_media.h): a pattern over these coefficients, or a grid
   // file (relative to the scene file).
   if (block.contains("pattern") && block.contains("grid")) {
     return inputError(file, place, "give pattern or grid, not both");

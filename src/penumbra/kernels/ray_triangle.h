@@ -11,7 +11,7 @@
 // keeps the paper's formulation; its agreement with this test is checked by tests.
 #pragma once
 
-#include "penumbra/raytrace/ray.h"
+#include "penumbra/kernels/ray.h"
 
 #include <glm/vec3.hpp>
 

@@ -7,7 +7,7 @@
 //
 //  - The system, per cluster c (area-weighted means over its elements):
 //      B_c = E_c + rho_c (D_c + sum_j F_cj B_j),
-//    D the direct irradiance of the point, spot and directional lights (radiosity/lights.h),
+//    D the direct irradiance of the point, spot and directional lights (raytrace/lights.h),
 //    computed at every element with a Ray Engine shadow ray.
 //  - Display and bake (the solution interpolated down to level 0): each element takes
 //      B_e = E_e + rho_e (D_e + G_e + H_e),
@@ -43,8 +43,10 @@ inline constexpr uint64_t kElementGatherBudget = 10'000'000;
 // surface (small luminaires; a scene that glows all over gains nothing from it).
 inline constexpr double kElementGatherArea = 0.1;
 
-// Clusters (unknowns) when the caller names no count.
-inline constexpr uint32_t kMatrixDefaultElements = 2000;
+// Clusters (unknowns) when the caller names no count. On the Cornell box at 5,000 the image's
+// mean is 0.986 of the path tracer's and every block of a 4 x 4 grid within 4.3% of it (2,000:
+// 0.982 and 6.3%), for about 1.5 s of form factors on two cores.
+inline constexpr uint32_t kMatrixDefaultElements = 5000;
 
 struct MatrixRadiosityOptions {
   uint32_t elements = kMatrixDefaultElements;  // clusters of the cut: the unknowns

@@ -3,7 +3,7 @@
 #include "penumbra/geometry/shading_normals.h"
 #include "penumbra/kernels/form_factor.h"
 #include "penumbra/kernels/sampling.h"
-#include "penumbra/radiosity/lights.h"
+#include "penumbra/raytrace/lights.h"
 
 #include "penumbra/core/check.h"
 #include "penumbra/core/parallel.h"

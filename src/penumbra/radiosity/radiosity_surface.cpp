@@ -5,7 +5,7 @@
 #include "penumbra/geometry/shading_normals.h"
 #include "penumbra/geometry/tangents.h"
 #include "penumbra/kernels/sampling.h"
-#include "penumbra/radiosity/lights.h"
+#include "penumbra/raytrace/lights.h"
 
 #include <glm/geometric.hpp>
 

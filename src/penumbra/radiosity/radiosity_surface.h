@@ -17,7 +17,7 @@
 #include "penumbra/core/rng.h"
 #include "penumbra/geometry/chart_atlas.h"
 #include "penumbra/geometry/surface_hierarchy.h"
-#include "penumbra/radiosity/lights.h"
+#include "penumbra/raytrace/lights.h"
 #include "penumbra/raytrace/ray_engine.h"
 #include "penumbra/scene/scene.h"
 
@@ -88,7 +88,7 @@ struct RadiositySurface {
   // (Wallner sec. 3.3; scene/material.h); `corner_normals` as cornerShadingNormals gives them.
   void applyNormalMaps(const Scene& scene, std::span<const glm::vec3> corner_normals);
 
-  // Direct irradiance from the lights at each element's point (W m^-2, radiosity/lights.h),
+  // Direct irradiance from the lights at each element's point (W m^-2, raytrace/lights.h),
   // with one Ray Engine shadow ray per element and light when `visibility`; rays traced are
   // added to *rays.
   std::vector<glm::dvec3> lightIrradiance(std::span<const Light> lights, bool visibility,

@@ -1,7 +1,7 @@
 // Primary rays of a pinhole camera.
 #pragma once
 
-#include "penumbra/raytrace/ray.h"
+#include "penumbra/kernels/ray.h"
 #include "penumbra/scene/camera.h"
 
 #include <glm/geometric.hpp>

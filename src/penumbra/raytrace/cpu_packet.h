@@ -7,7 +7,7 @@
 // watertight arithmetic in the same order.
 #pragma once
 
-#include "penumbra/raytrace/ray.h"
+#include "penumbra/kernels/ray.h"
 
 #include <cstddef>
 #include <cstdint>

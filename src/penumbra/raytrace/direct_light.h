@@ -4,7 +4,7 @@
 // is unoccluded.
 #pragma once
 
-#include "penumbra/raytrace/ray.h"
+#include "penumbra/kernels/ray.h"
 #include "penumbra/raytrace/scene_geometry.h"
 #include "penumbra/scene/light.h"
 

@@ -5,8 +5,8 @@
 #include "penumbra/core/rng.h"
 #include "penumbra/core/timer.h"
 #include "penumbra/kernels/sampling.h"
-#include "penumbra/radiosity/lights.h"
 #include "penumbra/raytrace/direct_light.h"
+#include "penumbra/raytrace/lights.h"
 #include "penumbra/raytrace/specular.h"
 
 #include <glm/common.hpp>

@@ -46,7 +46,7 @@
 #pragma once
 
 #include "penumbra/core/rng.h"
-#include "penumbra/raytrace/ray.h"
+#include "penumbra/kernels/ray.h"
 
 #include <cstddef>
 #include <cstdint>

@@ -8,8 +8,8 @@
 #include "penumbra/accel/bvh.h"
 #include "penumbra/accel/wide_bvh.h"
 #include "penumbra/core/large_pages.h"
+#include "penumbra/kernels/ray.h"
 #include "penumbra/raytrace/cpu_simd.h"
-#include "penumbra/raytrace/ray.h"
 
 #include <glm/vec3.hpp>
 

@@ -10,7 +10,7 @@
 #include "penumbra/core/expected.h"
 #include "penumbra/gpu/objects.h"
 #include "penumbra/kernels/bucket_cull.h"
-#include "penumbra/raytrace/ray.h"
+#include "penumbra/kernels/ray.h"
 
 #include <glm/vec3.hpp>
 

@@ -8,7 +8,7 @@
 #pragma once
 
 #include "penumbra/accel/bounds.h"
-#include "penumbra/raytrace/ray.h"
+#include "penumbra/kernels/ray.h"
 
 #include <cstdint>
 #include <vector>

@@ -3,7 +3,7 @@
 // of query the Ray Engine paper measures (Carr, Hall, Hart 2002, sec. 7).
 #pragma once
 
-#include "penumbra/raytrace/ray.h"
+#include "penumbra/kernels/ray.h"
 #include "penumbra/scene/camera.h"
 
 #include <glm/vec3.hpp>

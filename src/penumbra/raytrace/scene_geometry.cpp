@@ -1,7 +1,7 @@
 #include "penumbra/raytrace/scene_geometry.h"
 
+#include "penumbra/core/color.h"
 #include "penumbra/kernels/sampling.h"
-#include "penumbra/render/tonemap.h"
 
 #include <glm/geometric.hpp>
 

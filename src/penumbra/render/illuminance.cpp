@@ -4,8 +4,8 @@
 #include "penumbra/core/parallel.h"
 #include "penumbra/core/timer.h"
 #include "penumbra/kernels/sampling.h"
-#include "penumbra/radiosity/lights.h"
 #include "penumbra/raytrace/camera_rays.h"
+#include "penumbra/raytrace/lights.h"
 #include "penumbra/render/plot.h"
 #include "penumbra/scene/luminaire.h"
 

@@ -17,7 +17,7 @@
 #include "penumbra/core/expected.h"
 #include "penumbra/core/image.h"
 #include "penumbra/core/rng.h"
-#include "penumbra/raytrace/ray.h"
+#include "penumbra/kernels/ray.h"
 #include "penumbra/raytrace/ray_engine.h"
 #include "penumbra/scene/camera.h"
 #include "penumbra/scene/scene.h"

@@ -21,7 +21,7 @@ namespace penumbra {
 struct MediumGrid;
 
 // A translucent, homogeneous medium filling the closed surface a material covers (subsurface
-// scattering, subsurface/media.h): the reduced scattering and absorption coefficients of the
+// scattering, scene/media.h): the reduced scattering and absorption coefficients of the
 // diffusion approximation (Jensen et al. 2001) and the index of refraction of its boundary.
 struct Subsurface {
   glm::dvec3 sigma_s_prime{0.0};  // reduced scattering coefficient sigma_s' per metre
@@ -29,7 +29,7 @@ struct Subsurface {
   double eta = 1.3;               // index of refraction relative to the outside
   double g = 0.0;                 // Henyey-Greenstein mean cosine (sigma_s' = sigma_s (1 - g))
   std::string preset;             // the measured material it comes from, if any ("marble")
-  // How the medium varies over the mesh's bounding box (subsurface/heterogeneous.h): a
+  // How the medium varies over the mesh's bounding box (scene/heterogeneous_media.h): a
   // procedural pattern over these coefficients ("veins", "layers"), or a grid read from a file.
   // Only the lpv method uses it; the others take the coefficients above.
   std::string pattern;

@@ -1,6 +1,6 @@
 #include "penumbra/scene/scene.h"
 
-#include "penumbra/subsurface/media.h"
+#include "penumbra/scene/media.h"
 
 #include <glm/common.hpp>
 #include <glm/geometric.hpp>

@@ -5,8 +5,8 @@
 #include "penumbra/core/rng.h"
 #include "penumbra/core/timer.h"
 #include "penumbra/kernels/dipole.h"
-#include "penumbra/radiosity/lights.h"
 #include "penumbra/raytrace/camera_rays.h"
+#include "penumbra/raytrace/lights.h"
 #include "penumbra/subsurface/lpv_gl.h"
 #include "penumbra/subsurface/lpv_sh.h"
 

@@ -19,7 +19,7 @@
 #include "penumbra/core/rng.h"
 #include "penumbra/kernels/dipole.h"
 #include "penumbra/kernels/sampling.h"
-#include "penumbra/radiosity/lights.h"
+#include "penumbra/raytrace/lights.h"
 #include "penumbra/subsurface/lpv.h"
 #include "penumbra/subsurface/lpv_sh.h"
 

@@ -2,7 +2,7 @@
 
 #include "penumbra/core/parallel.h"
 #include "penumbra/geometry/triangle_box.h"
-#include "penumbra/subsurface/heterogeneous.h"
+#include "penumbra/scene/heterogeneous_media.h"
 #include "penumbra/subsurface/lpv_sh.h"
 
 #include <glm/mat4x4.hpp>

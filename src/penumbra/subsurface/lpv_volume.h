@@ -78,7 +78,7 @@ struct LpvMedium {
 // lost, so counting it as extinction too would remove it twice), and s = 1 - exp(-sigma_s dx)
 // is the share of light a cell's width scatters, sigma_s = sigma_s' / (1 - g).
 LpvMedium lpvHomogeneousMedium(const LpvGrid& grid, const Subsurface& medium);
-// The same per cell from a heterogeneous medium (subsurface/heterogeneous.h) over the mesh's
+// The same per cell from a heterogeneous medium (scene/heterogeneous_media.h) over the mesh's
 // bounding box `box` (cells outside it take its nearest face's values).
 LpvMedium lpvMedium(const LpvGrid& grid, const Subsurface& medium, const Bounds3& box);
 

@@ -7,7 +7,7 @@
 #include "penumbra/kernels/dipole.h"
 #include "penumbra/kernels/form_factor.h"
 #include "penumbra/kernels/sampling.h"
-#include "penumbra/radiosity/lights.h"
+#include "penumbra/raytrace/lights.h"
 #include "penumbra/subsurface/sss_cache.h"
 
 #include <fmt/format.h>

@@ -13,7 +13,7 @@
 //    MIP-mapped up the hierarchy (nodeMeans).
 //  - Pass 2, the scattered irradiance map (sec. 4.2.3): B_i = sum_links F E_node (eq. 9).
 //  - Pass 3, the image (sec. 4.2.4): a translucent surface point shows L = F_t(eta, cos theta_o)
-//    B / pi (eq. 6) with B looked up bilinearly in the atlas (subsurface/sss_view.h). The
+//    B / pi (eq. 6) with B looked up bilinearly in the atlas (render/sss_view.h). The
 //    boundary's specular reflection is not part of the model; opaque surfaces show their direct
 //    light (rho / pi E) and emitters their radiance.
 #pragma once

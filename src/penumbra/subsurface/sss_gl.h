@@ -20,7 +20,7 @@
 
 #include "penumbra/core/expected.h"
 #include "penumbra/gpu/objects.h"
-#include "penumbra/radiosity/lights.h"
+#include "penumbra/raytrace/lights.h"
 #include "penumbra/raytrace/ray_engine_gl.h"
 #include "penumbra/subsurface/sss.h"
 
@@ -33,7 +33,7 @@
 namespace penumbra {
 
 // ---- GPU layouts (std430), mirrored in shaders/subsurface/sss_layout.glsl; the lights'
-// (GpuLight) are in radiosity/lights.h ----
+// (GpuLight) are in raytrace/lights.h ----
 
 struct GpuSssElement {  // 64 bytes
   float position[3];

@@ -1,4 +1,4 @@
-#include "penumbra/subsurface/sss_frames.h"
+#include "penumbra/render/sss_frames.h"
 
 #include "penumbra/core/timer.h"
 

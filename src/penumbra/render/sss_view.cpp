@@ -1,11 +1,11 @@
-#include "penumbra/subsurface/sss_view.h"
+#include "penumbra/render/sss_view.h"
 
 #include "penumbra/core/parallel.h"
 #include "penumbra/core/rng.h"
 #include "penumbra/geometry/shading_normals.h"
 #include "penumbra/kernels/dipole.h"
-#include "penumbra/radiosity/lights.h"
 #include "penumbra/raytrace/camera_rays.h"
+#include "penumbra/raytrace/lights.h"
 #include "penumbra/render/lightmap_view.h"
 
 #include <glm/geometric.hpp>

@@ -17,7 +17,7 @@
 
 #include "penumbra/accel/bounds.h"
 #include "penumbra/core/rng.h"
-#include "penumbra/raytrace/ray.h"
+#include "penumbra/kernels/ray.h"
 #include "penumbra/scene/light.h"
 
 #include <glm/vec3.hpp>

@@ -1,4 +1,4 @@
-#include "penumbra/radiosity/lights.h"
+#include "penumbra/raytrace/lights.h"
 
 #include "penumbra/raytrace/ray_engine.h"
 

@@ -4,6 +4,7 @@
 // estimation for photographic tone reproduction", JGT 7(1), 2002.
 #pragma once
 
+#include "penumbra/core/color.h"
 #include "penumbra/core/image.h"
 
 #include <cstdint>
@@ -25,11 +26,6 @@ struct ToneMapSettings {
   float white = -1.0f;  // Reinhard L_white, in units of the scaled luminance a L_w / L_av;
                         // < 0 (or NaN) selects the automatic estimate, +inf means no burn-out
 };
-
-// Relative luminance of linear sRGB / Rec. 709 primaries.
-inline float luminance(const glm::vec3& c) {
-  return 0.2126f * c.x + 0.7152f * c.y + 0.0722f * c.z;
-}
 
 // Reinhard 2002 (JGT) automatic key: a = 0.18 * 4^((2 log2 Lav - log2 Lmin - log2 Lmax) /
 // (log2 Lmax - log2 Lmin)), from the log-average, minimum and maximum luminance. Lmin and Lmax

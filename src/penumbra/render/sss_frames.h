@@ -6,9 +6,9 @@
 
 #include "penumbra/core/expected.h"
 #include "penumbra/core/image.h"
+#include "penumbra/render/sss_view.h"
 #include "penumbra/subsurface/sss.h"
 #include "penumbra/subsurface/sss_gl.h"
-#include "penumbra/subsurface/sss_view.h"
 
 #include <memory>
 #include <optional>

@@ -1,4 +1,4 @@
-#include "penumbra/subsurface/heterogeneous.h"
+#include "penumbra/scene/heterogeneous_media.h"
 
 #include "penumbra/core/file_util.h"
 #include "penumbra/scene/material.h"

@@ -8,7 +8,7 @@
 //
 // All arithmetic on radiance is done in double so that 2^exposure_stops times a large float
 // cannot overflow to infinity on the way.
-#include "penumbra/render/tonemap.h"
+#include "penumbra/io/tonemap.h"
 
 #include "penumbra/core/parallel.h"
 

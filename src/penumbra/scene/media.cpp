@@ -1,4 +1,4 @@
-#include "penumbra/subsurface/media.h"
+#include "penumbra/scene/media.h"
 
 #include "penumbra/kernels/dipole.h"
 

@@ -1,0 +1,865 @@
+// The descriptions of every method's options (methods/registry.h). Defaults shown here are the
+// ones the methods apply (each method's settings struct holds the value); docs/cli.md's option
+// reference is generated from this file.
+#include "penumbra/methods/registry.h"
+
+#include "penumbra/radiosity/matrix_radiosity.h"
+#include "penumbra/radiosity/progressive.h"
+#include "penumbra/radiosity/progressive_receivers.h"
+#include "penumbra/raytrace/path_tracer.h"
+#include "penumbra/raytrace/photon_map.h"
+#include "penumbra/raytrace/whitted.h"
+#include "penumbra/subsurface/lpv.h"
+#include "penumbra/subsurface/sss.h"
+#include "penumbra/subsurface/sss_links.h"
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <functional>
+#include <map>
+#include <type_traits>
+
+namespace penumbra {
+
+namespace {
+
+using K = OptionKind;
+
+// The methods, as `render --method` lists them.
+const std::vector<std::string> kAll = {"pathtrace",   "whitted",    "photons", "matrix",
+                                       "progressive", "stochastic", "sss",     "lpv"};
+const std::vector<std::string> kLightmap = {"matrix", "progressive", "stochastic"};
+const std::vector<std::string> kLux = {"pathtrace", "matrix", "progressive"};
+const std::vector<std::string> kCheckpointed = {"progressive", "stochastic"};
+
+// A default as the docs show it, from the value the method's settings hold.
+template <typename T>
+std::string text(T value) {
+  return fmt::format("{}", value);
+}
+
+OptionRange range(double lo, double hi, bool open_lo = false, bool open_hi = false) {
+  return OptionRange{lo, hi, open_lo, open_hi};
+}
+
+// Each of `methods` takes the option with the same default.
+std::vector<OptionUse> all(const std::vector<std::string>& methods, const std::string& def = {}) {
+  std::vector<OptionUse> uses;
+  for (const std::string& m : methods) uses.push_back(OptionUse{m, def, std::nullopt});
+  return uses;
+}
+
+// ---- Setting a field of the options structs from a checked value ----
+
+template <typename Field>
+void assign(Field& field, const OptionValue& value) {
+  const auto number = [&]() -> double {
+    return std::visit(
+        [](const auto& v) -> double {
+          if constexpr (std::is_arithmetic_v<std::decay_t<decltype(v)>>) {
+            return double(v);
+          } else {
+            return 0.0;
+          }
+        },
+        value);
+  };
+  if constexpr (std::is_same_v<Field, bool>) {
+    field = std::get<bool>(value);
+  } else if constexpr (std::is_same_v<Field, std::string>) {
+    field = std::get<std::string>(value);
+  } else if constexpr (std::is_same_v<Field, std::vector<std::string>>) {
+    field.push_back(std::get<std::string>(value));
+  } else if constexpr (std::is_same_v<Field, std::vector<double>>) {
+    field = std::get<std::vector<double>>(value);
+  } else if constexpr (std::is_same_v<Field, std::optional<std::string>>) {
+    field = std::get<std::string>(value);
+  } else if constexpr (std::is_same_v<Field, uint64_t> ||
+                       std::is_same_v<Field, std::optional<uint64_t>>) {
+    field = std::holds_alternative<uint64_t>(value) ? std::get<uint64_t>(value)
+                                                    : uint64_t(std::get<int64_t>(value));
+  } else if constexpr (std::is_same_v<Field, double> ||
+                       std::is_same_v<Field, std::optional<double>>) {
+    field = number();
+  } else if constexpr (std::is_same_v<Field, std::optional<int>> ||
+                       std::is_same_v<Field, std::optional<uint32_t>>) {
+    field = typename Field::value_type(std::get<int64_t>(value));
+  } else {
+    static_assert(std::is_integral_v<Field>);
+    field = Field(std::get<int64_t>(value));
+  }
+}
+
+template <typename Options>
+using Setter = std::function<void(Options&, const OptionValue&)>;
+
+template <typename Options, typename Owner, typename Field>
+Setter<Options> field(Field Owner::*member) {
+  return [member](Options& o, const OptionValue& v) { assign(o.*member, v); };
+}
+
+template <typename Options>
+struct Bound {
+  OptionSpec spec;
+  Setter<Options> set;
+};
+
+// ---- Options both render and bake take for the lightmap methods ----
+
+template <typename Options>
+void addReceiverOptions(std::vector<Bound<Options>>& out) {
+  out.push_back({{.name = "adaptive",
+                  .kind = K::kFlag,
+                  .help = "Wallner sec. 4: receivers start coarse (--receiver-level, default 2) "
+                          "and are split at shadow boundaries before each shooter first shoots",
+                  .uses = all({"progressive"}, "off")},
+                 field<Options>(&LightmapMethodOptions::adaptive)});
+  out.push_back({{.name = "receiver-level",
+                  .kind = K::kInt,
+                  .range = range(0, 16),
+                  .help = "receivers are blocks of 2^L x 2^L lightmap texels, gathering at one "
+                          "point each",
+                  .uses = all({"progressive"}, "0 (2 with --adaptive)")},
+                 field<Options>(&LightmapMethodOptions::receiver_level)});
+  out.push_back({{.name = "boundary",
+                  .kind = K::kRealList,
+                  .range = range(0, 1),
+                  .count = 2,
+                  .help = "LOW,HIGH: a receiver whose share of visible samples lies in [LOW, "
+                          "HIGH] holds a shadow boundary",
+                  .uses = all({"progressive"}, "0.05,0.95")},
+                 field<Options>(&LightmapMethodOptions::boundary)});
+  out.push_back({{.name = "finest-level",
+                  .kind = K::kInt,
+                  .range = range(0, 16),
+                  .help = "--adaptive: receivers are split down to this level at most",
+                  .uses = all({"progressive"}, "0")},
+                 field<Options>(&LightmapMethodOptions::finest_level)});
+  out.push_back({{.name = "min-share",
+                  .kind = K::kReal,
+                  .range = range(0, 1),
+                  .help = "--adaptive: split only where the shooter brings at least this share "
+                          "of a receiver's irradiance (0: the paper's test alone)",
+                  .uses = all({"progressive"}, text(SubdivisionOptions{}.min_share))},
+                 field<Options>(&LightmapMethodOptions::min_share)});
+  out.push_back({{.name = "time-limit",
+                  .kind = K::kReal,
+                  .range = range(0, 1e9, /*open_lo=*/true),
+                  .unit = "s",
+                  .help = "stop after this many seconds of iterating; without --iterations the "
+                          "iteration cap is lifted",
+                  .uses = all({"stochastic"})},
+                 field<Options>(&LightmapMethodOptions::time_limit)});
+  out.push_back({{.name = "shooters",
+                  .kind = K::kInt,
+                  .range = range(1, 4096),
+                  .help = "independent shooters per iteration, averaged (an iteration costs N "
+                          "times as much and has 1/N of the variance)",
+                  .uses = all({"stochastic"}, "1")},
+                 field<Options>(&LightmapMethodOptions::shooters)});
+}
+
+// ---- penumbra render ----
+
+std::vector<Bound<RenderOptions>> renderBindings() {
+  using R = RenderOptions;
+  std::vector<Bound<R>> b;
+  const auto add = [&](OptionSpec spec, Setter<R> set) { b.push_back({std::move(spec), set}); };
+  add({.name = "scene",
+       .kind = K::kText,
+       .help = "built-in scene name (cornell, furnace, sss, lpv, blobs) or a .json, .obj, .gltf, "
+               ".glb or .ply file",
+       .positional = true},
+      field<R>(&R::scene));
+  add({.name = "method",
+       .kind = K::kChoice,
+       .choices = kAll,
+       .help = "the method (docs/cli.md): pathtrace (the reference path tracer), whitted, "
+               "photons, matrix, progressive, stochastic, sss or lpv"},
+      field<R>(&R::method));
+  add({.name = "device",
+       .kind = K::kChoice,
+       .choices = {"cpu", "gpu", "hybrid", "auto"},
+       .help = "cpu, gpu, hybrid (the Ray Engine's CPU/GPU split) or auto"},
+      field<R>(&R::device));
+  add({.name = "output",
+       .kind = K::kText,
+       .help = "output image (.exr .hdr .pfm linear, .png tone mapped); may repeat",
+       .short_name = "-o",
+       .repeatable = true},
+      field<R>(&R::outputs));
+  add({.name = "stats", .kind = K::kText, .help = "write statistics to this JSON file"},
+      field<R>(&R::stats));
+  add({.name = "width",
+       .kind = K::kInt,
+       .range = range(1, 65536),
+       .unit = "pixels",
+       .help = "image width",
+       .uses = all(kAll, "512")},
+      field<R>(&R::width));
+  add({.name = "height",
+       .kind = K::kInt,
+       .range = range(1, 65536),
+       .unit = "pixels",
+       .help = "image height",
+       .uses = all(kAll, "512")},
+      field<R>(&R::height));
+  {
+    OptionSpec spp{.name = "spp",
+                   .kind = K::kInt,
+                   .range = range(1, 4096),
+                   .help = "samples (jittered camera rays) per pixel",
+                   .uses = all(kAll)};
+    for (OptionUse& u : spp.uses) u.default_value = text(WhittedSettings{}.spp);
+    spp.uses[0] = OptionUse{"pathtrace", text(PathTracerSettings{}.spp), range(1, 1 << 20)};
+    add(spp, field<R>(&R::spp));
+  }
+  add({.name = "max-depth",
+       .kind = K::kInt,
+       .range = range(0, 64),
+       .help = "pathtrace: bounce limit, 0 = unlimited (Russian roulette ends paths without "
+               "bias); whitted, photons: mirror and glass generations after the camera ray",
+       .uses = {{"pathtrace", text(PathTracerSettings{}.max_depth), range(0, 65536)},
+                {"whitted", text(WhittedSettings{}.max_depth), {}},
+                {"photons", text(WhittedSettings{}.max_depth), {}}}},
+      field<R>(&R::max_depth));
+  add({.name = "light-samples",
+       .kind = K::kInt,
+       .range = range(0, 1024),
+       .help = "shadow rays per diffuse point to the emissive surfaces, and as many to the "
+               "environment",
+       .uses = all({"whitted", "photons"}, text(WhittedSettings{}.light_samples))},
+      field<R>(&R::light_samples));
+  add({.name = "photons",
+       .kind = K::kUnsigned,
+       .range = range(1, 4294967296.0),
+       .help = "photons emitted for the global map",
+       .uses = all({"photons"}, text(PhotonSettings{}.photons))},
+      field<R>(&R::photons));
+  add({.name = "caustic-photons",
+       .kind = K::kUnsigned,
+       .range = range(0, 4294967296.0),
+       .help = "photons emitted towards mirrors and glass for the caustic map (0: none)",
+       .uses = all({"photons"}, text(PhotonSettings{}.caustic_photons))},
+      field<R>(&R::caustic_photons));
+  add({.name = "gather-count",
+       .kind = K::kInt,
+       .range = range(1, 10000),
+       .help = "photons per density estimate",
+       .uses = all({"photons"}, text(PhotonSettings{}.gather_count))},
+      field<R>(&R::gather_count));
+  add({.name = "gather-radius",
+       .kind = K::kReal,
+       .range = range(0, 1e6, true, true),
+       .unit = "m",
+       .help = "the photons' largest distance from the point",
+       .uses = all({"photons"}, "1% of the scene's diagonal")},
+      field<R>(&R::gather_radius));
+  add({.name = "final-gather",
+       .kind = K::kInt,
+       .range = range(0, 4096),
+       .help = "gather rays per diffuse point; 0 reads the global map at the point itself",
+       .uses = all({"photons"}, text(PhotonSettings{}.final_gather))},
+      field<R>(&R::final_gather));
+  add({.name = "seed",
+       .kind = K::kUnsigned,
+       .help = "random seed: the image is a function of the seed, not of the thread count",
+       .uses = all(kAll, "0")},
+      field<R>(&R::seed));
+  add({.name = "sampler",
+       .kind = K::kChoice,
+       .choices = {"sobol", "independent"},
+       .help = "sobol (Owen-scrambled Sobol points) or independent (one random stream per "
+               "sample)",
+       .uses = all({"pathtrace"}, "sobol")},
+      field<R>(&R::sampler));
+  add({.name = "tonemap",
+       .kind = K::kChoice,
+       .choices = {"reinhard", "exposure"},
+       .help = "PNG tone mapping: reinhard (Reinhard et al. 2002, automatic key) or exposure",
+       .uses = all(kAll, "reinhard")},
+      [](R& o, const OptionValue& v) {
+        o.tonemap.op = std::get<std::string>(v) == "exposure" ? ToneMapOperator::kExposure
+                                                              : ToneMapOperator::kReinhard;
+      });
+  add({.name = "exposure",
+       .kind = K::kReal,
+       .range = range(-64, 64),
+       .unit = "stops",
+       .help = "brightens by 2^STOPS before tone mapping",
+       .uses = all(kAll, "0")},
+      [](R& o, const OptionValue& v) { o.tonemap.exposure_stops = float(std::get<double>(v)); });
+  add({.name = "key",
+       .kind = K::kReal,
+       .range = range(0, 1, /*open_lo=*/true),
+       .help = "Reinhard key value, the mean image brightness aimed at",
+       .uses = all(kAll, "estimated from the image")},
+      [](R& o, const OptionValue& v) { o.tonemap.key = float(std::get<double>(v)); });
+  add({.name = "solver",
+       .kind = K::kChoice,
+       .choices = {"jacobi", "gauss-seidel"},
+       .help = "jacobi (Carr et al. 2003 eq. 4, rows in parallel) or gauss-seidel (sequential, "
+               "CPU only)",
+       .uses = all({"matrix"}, "gauss-seidel on the CPU, jacobi on the GPU")},
+      field<R>(&R::solver));
+  add({.name = "elements",
+       .kind = K::kInt,
+       .range = range(1, 1 << 28),
+       .help = "matrix: unknowns (clusters of the lightmap's hierarchy); progressive, "
+               "stochastic: about this many lightmap texels",
+       .uses = {{"matrix", text(kMatrixDefaultElements), {}},
+                {"progressive", text(kProgressiveDefaultElements), {}},
+                {"stochastic", text(kProgressiveDefaultElements), {}}}},
+      field<R>(&R::elements));
+  add({.name = "iterations",
+       .kind = K::kInt,
+       .range = range(1, 1 << 20),
+       .help = "iteration cap (progressive: shooters; stochastic: random operators; counted "
+               "over resumed runs)",
+       .uses = {{"matrix", text(kIterationCapDefault), {}},
+                {"progressive", text(kIterationCapDefault), {}},
+                {"stochastic", text(kIterationCapDefault) + ", none with --time-limit", {}}}},
+      field<R>(&R::iterations));
+  add({.name = "tolerance",
+       .kind = K::kReal,
+       .range = range(0, 1e30, /*open_lo=*/true),
+       .help = "matrix: stop when the mean squared residual of MB - E over the mean squared "
+               "emission is at most this; progressive: when the unshot fraction of the emitted "
+               "power is",
+       .uses = {{"matrix", "1e-6", {}}, {"progressive", "1e-3", {}}}},
+      field<R>(&R::tolerance));
+  add({.name = "precision",
+       .kind = K::kChoice,
+       .choices = {"fp32", "fp16"},
+       .help = "form-factor storage: fp32, or fp16 as the paper stores them",
+       .uses = all({"matrix"}, "fp32")},
+      field<R>(&R::precision));
+  add({.name = "ff-rays",
+       .kind = K::kInt,
+       .range = range(1, 1024),
+       .help = "shadow rays per pair of clusters that exchange a noticeable share of their light",
+       .uses = all({"matrix"}, "4")},
+      field<R>(&R::ff_rays));
+  add({.name = "relight-frames",
+       .kind = K::kInt,
+       .range = range(0, 10000),
+       .help = "N > 1: N frames with the emitters' colour going round the hue circle, each "
+               "solved from the previous one with the same form factors (out_0000.png ...)",
+       .uses = all({"matrix"}, "0")},
+      field<R>(&R::relight_frames));
+  add({.name = "shading",
+       .kind = K::kChoice,
+       .choices = {"smooth", "flat"},
+       .help = "smooth (clusters' light interpolated to every texel) or flat (one value per "
+               "cluster)",
+       .uses = all({"matrix"}, "smooth")},
+      field<R>(&R::shading));
+  add({.name = "texel-density",
+       .kind = K::kReal,
+       .range = range(0, 1e9, /*open_lo=*/true),
+       .unit = "texels/m",
+       .help = "lightmap texels per metre, instead of the density from --elements "
+               "(sss: from --lightmap-size)",
+       .uses = all({"matrix", "progressive", "stochastic", "sss"})},
+      field<R>(&R::texel_density));
+  add({.name = "shooter-points",
+       .kind = K::kInt,
+       .range = range(1, 4096),
+       .help = "points a shooter starts from (its texels grouped in blocks; nearer receivers "
+               "refine them)",
+       .uses = all({"progressive"}, "16")},
+      field<R>(&R::shooter_points));
+  addReceiverOptions(b);
+  add({.name = "normals",
+       .kind = K::kChoice,
+       .choices = {"interpolated", "triangle"},
+       .help = "interpolated (shading normals across triangles) or triangle (each triangle's "
+               "own normal)",
+       .uses = all(kLightmap, "interpolated")},
+      field<R>(&R::normals));
+  add({.name = "lightmap-size",
+       .kind = K::kInt,
+       .range = range(8, 16384),
+       .unit = "texels",
+       .help = "the atlas's width and height",
+       .uses = all({"sss"}, text(kSssDefaultAtlas))},
+      field<R>(&R::lightmap_size));
+  add({.name = "links",
+       .kind = K::kInt,
+       .range = range(1, 1024),
+       .help = "links per texel, refined adaptively from the object's root",
+       .uses = all({"sss"}, text(SssLinkOptions{}.links))},
+      field<R>(&R::links));
+  add({.name = "links-level",
+       .kind = K::kInt,
+       .range = range(0, 30),
+       .help = "the non-adaptive scheme instead: a link to every cluster of this level",
+       .uses = all({"sss"})},
+      field<R>(&R::links_level));
+  add({.name = "frames",
+       .kind = K::kInt,
+       .range = range(0, 100000),
+       .help = "N frames with the lights orbiting the scene once, or an animation's N times "
+               "(out_0000.png ...)",
+       .uses = all({"sss", "lpv"}, "0")},
+      field<R>(&R::frames));
+  add({.name = "grid",
+       .kind = K::kInt,
+       .range = range(4, 128),
+       .unit = "cells",
+       .help = "cells along each translucent object's longest side",
+       .uses = all({"lpv"}, text(LpvOptions{}.grid))},
+      field<R>(&R::grid));
+  add({.name = "steps",
+       .kind = K::kInt,
+       .range = range(1, 4096),
+       .help = "propagation steps (the paper's Table 1 runs 8 and 32)",
+       .uses = all({"lpv"}, text(LpvOptions{}.steps))},
+      field<R>(&R::steps));
+  add({.name = "skip-steps",
+       .kind = K::kInt,
+       .range = range(0, 4095),
+       .help = "first steps left out of the accumulation",
+       .uses = all({"lpv"}, text(LpvOptions{}.skip_steps))},
+      field<R>(&R::skip_steps));
+  add({.name = "rsm-resolution",
+       .kind = K::kInt,
+       .range = range(1, 4096),
+       .unit = "texels",
+       .help = "injection texels per side of each light's reflective shadow map",
+       .uses = all({"lpv"}, text(LpvOptions{}.rsm_resolution))},
+      field<R>(&R::rsm_resolution));
+  add({.name = "surface-samples",
+       .kind = K::kInt,
+       .range = range(0, 1 << 20),
+       .help = "points of each translucent surface that gather the light of emitting surfaces "
+               "and the environment (0: none)",
+       .uses = all({"lpv"}, text(LpvOptions{}.surface_samples))},
+      field<R>(&R::surface_samples));
+  add({.name = "surface-rays",
+       .kind = K::kInt,
+       .range = range(0, 256),
+       .help = "cosine-distributed rays per surface point",
+       .uses = all({"lpv"}, text(LpvOptions{}.surface_rays))},
+      field<R>(&R::surface_rays));
+  add({.name = "no-cache",
+       .kind = K::kFlag,
+       .help = "build the links even if the cache holds them, and do not store them",
+       .uses = all({"sss"}, "off")},
+      field<R>(&R::no_cache));
+  add({.name = "no-shadows",
+       .kind = K::kFlag,
+       .help = "pass 1 without shadow rays, as the paper's vertex-program lighting",
+       .uses = all({"sss"}, "off")},
+      field<R>(&R::no_shadows));
+  add({.name = "resume",
+       .kind = K::kText,
+       .help = "continue from this checkpoint (written on Ctrl-C)",
+       .uses = all(kCheckpointed)},
+      field<R>(&R::resume));
+  add({.name = "keep-checkpoint",
+       .kind = K::kFlag,
+       .help = "keep the --resume checkpoint after the run completes",
+       .uses = all(kCheckpointed, "off")},
+      field<R>(&R::keep_checkpoint));
+  add({.name = "checkpoint",
+       .kind = K::kText,
+       .help = "where Ctrl-C writes the checkpoint",
+       .uses = all(kCheckpointed, "the first output with the extension .checkpoint")},
+      field<R>(&R::checkpoint));
+  add({.name = "output-quantity",
+       .kind = K::kChoice,
+       .choices = {"radiance", "illuminance"},
+       .help = "radiance, or illuminance: lux on the surfaces the camera sees",
+       .uses = all(kLux, "radiance")},
+      field<R>(&R::output_quantity));
+  add({.name = "false-colour",
+       .kind = K::kFlag,
+       .help = "illuminance: PNG outputs in false colour, blue to red, with a legend in lux",
+       .uses = all(kLux, "off")},
+      field<R>(&R::false_colour));
+  add({.name = "lux-max",
+       .kind = K::kReal,
+       .range = range(0, 1e12, true),
+       .unit = "lx",
+       .help = "illuminance: the lux at the top of the false-colour scale",
+       .uses = all(kLux, "a round number above the 99th percentile")},
+      field<R>(&R::lux_max));
+  add({.name = "work-plane",
+       .kind = K::kReal,
+       .range = range(-1e6, 1e6),
+       .unit = "m",
+       .help = "a horizontal grid of calculation points this high above the scene's lowest "
+               "point: average, minimum, maximum lux and uniformity U0",
+       .uses = all(kLux)},
+      field<R>(&R::work_plane));
+  add({.name = "grid-surface",
+       .kind = K::kText,
+       .help = "calculation points on the front of the mesh of this name",
+       .uses = all(kLux)},
+      field<R>(&R::grid_surface));
+  add({.name = "grid-spacing",
+       .kind = K::kReal,
+       .range = range(0, 1e6, true),
+       .unit = "m",
+       .help = "work plane or surface: metres between points",
+       .uses = all(kLux, "0.25")},
+      field<R>(&R::grid_spacing));
+  add({.name = "grid-margin",
+       .kind = K::kReal,
+       .range = range(0, 1e6),
+       .unit = "m",
+       .help = "work plane: metres left out along the walls",
+       .uses = all(kLux, "0")},
+      field<R>(&R::grid_margin));
+  add({.name = "grid-csv",
+       .kind = K::kText,
+       .help = "work plane or surface: x, y, z, direct and total lux per point to this CSV",
+       .uses = all(kLux)},
+      field<R>(&R::grid_csv));
+  add({.name = "illuminance-rays",
+       .kind = K::kInt,
+       .range = range(1, 65536),
+       .help = "hemisphere rays per grid point (a quarter of it per pixel)",
+       .uses = all(kLux, "256")},
+      field<R>(&R::illuminance_rays));
+  return b;
+}
+
+// ---- penumbra bake ----
+
+std::vector<Bound<BakeOptions>> bakeBindings() {
+  using B = BakeOptions;
+  std::vector<Bound<B>> b;
+  const auto add = [&](OptionSpec spec, Setter<B> set) { b.push_back({std::move(spec), set}); };
+  add({.name = "scene",
+       .kind = K::kText,
+       .help = "built-in scene name or a scene file",
+       .positional = true},
+      field<B>(&B::scene));
+  add({.name = "method",
+       .kind = K::kChoice,
+       .choices = kLightmap,
+       .help = "matrix (matrix radiosity), progressive (progressive radiosity) or stochastic "
+               "(stochastic radiosity)"},
+      field<B>(&B::method));
+  add({.name = "device",
+       .kind = K::kChoice,
+       .choices = {"cpu", "gpu", "auto"},
+       .help = "progressive and stochastic: cpu, gpu or auto (matrix bakes on the CPU)"},
+      field<B>(&B::device));
+  add({.name = "output",
+       .kind = K::kText,
+       .help = "output directory (created if missing)",
+       .short_name = "-o"},
+      field<B>(&B::output));
+  add({.name = "stats", .kind = K::kText, .help = "write statistics to this JSON file"},
+      field<B>(&B::stats));
+  add({.name = "elements",
+       .kind = K::kInt,
+       .range = range(1, 1 << 28),
+       .help = "matrix: unknowns (clusters) over a lightmap of max(40000, 4 N) texels; "
+               "progressive, stochastic: about this many lightmap texels",
+       .uses = {{"matrix", text(kMatrixDefaultElements), {}},
+                {"progressive", text(kProgressiveDefaultElements), {}},
+                {"stochastic", text(kProgressiveDefaultElements), {}}}},
+      field<B>(&B::elements));
+  add({.name = "iterations",
+       .kind = K::kInt,
+       .range = range(1, 1 << 20),
+       .help = "iteration cap",
+       .uses = {{"matrix", text(kIterationCapDefault), {}},
+                {"progressive", text(kIterationCapDefault), {}},
+                {"stochastic", text(kIterationCapDefault) + ", none with --time-limit", {}}}},
+      field<B>(&B::iterations));
+  add({.name = "tolerance",
+       .kind = K::kReal,
+       .range = range(0, 1e30, /*open_lo=*/true),
+       .help = "matrix: stop when the mean squared residual of MB - E is at most this; "
+               "progressive: when the unshot fraction of the emitted power is",
+       .uses = {{"matrix", "1e-6", {}}, {"progressive", "1e-3", {}}}},
+      field<B>(&B::tolerance));
+  add({.name = "solver",
+       .kind = K::kChoice,
+       .choices = {"jacobi", "gauss-seidel"},
+       .help = "jacobi (eq. 4 of the paper) or gauss-seidel",
+       .uses = all({"matrix"}, "gauss-seidel")},
+      field<B>(&B::solver));
+  add({.name = "ff-rays",
+       .kind = K::kInt,
+       .range = range(1, 1024),
+       .help = "shadow rays per pair of clusters that exchange a noticeable share of their light",
+       .uses = all({"matrix"}, "4")},
+      field<B>(&B::ff_rays));
+  add({.name = "texel-density",
+       .kind = K::kReal,
+       .range = range(0, 1e9, /*open_lo=*/true),
+       .unit = "texels/m",
+       .help = "lightmap texels per metre (the lightmap is then the smallest power of two that "
+               "holds every chart)",
+       .uses = all(kLightmap)},
+      field<B>(&B::texel_density));
+  add({.name = "lightmap-size",
+       .kind = K::kInt,
+       .range = range(8, 16384),
+       .unit = "texels",
+       .help = "without --texel-density: an N x N lightmap at the largest density that fits",
+       .uses = all(kLightmap)},
+      field<B>(&B::lightmap_size));
+  add({.name = "shooter-points",
+       .kind = K::kInt,
+       .range = range(1, 4096),
+       .help = "points a shooter starts from (see render)",
+       .uses = all({"progressive"}, "16")},
+      field<B>(&B::shooter_points));
+  addReceiverOptions(b);
+  add({.name = "seed",
+       .kind = K::kUnsigned,
+       .help = "random seed",
+       .uses = all({"stochastic"}, "0")},
+      field<B>(&B::seed));
+  add({.name = "normals",
+       .kind = K::kChoice,
+       .choices = {"interpolated", "triangle"},
+       .help = "interpolated or triangle (see render)",
+       .uses = all(kLightmap, "interpolated")},
+      field<B>(&B::normals));
+  add({.name = "resume",
+       .kind = K::kText,
+       .help = "continue from this checkpoint (written on Ctrl-C)",
+       .uses = all(kCheckpointed)},
+      field<B>(&B::resume));
+  add({.name = "keep-checkpoint",
+       .kind = K::kFlag,
+       .help = "keep the --resume checkpoint after the bake completes",
+       .uses = all(kCheckpointed, "off")},
+      field<B>(&B::keep_checkpoint));
+  add({.name = "checkpoint",
+       .kind = K::kText,
+       .help = "where Ctrl-C writes the checkpoint",
+       .uses = all(kCheckpointed, "DIR/SCENE.checkpoint")},
+      field<B>(&B::checkpoint));
+  return b;
+}
+
+std::vector<Bound<CommonOptions>> commonBindings() {
+  using C = CommonOptions;
+  std::vector<Bound<C>> b;
+  b.push_back({{.name = "threads",
+                .kind = K::kInt,
+                .range = range(0, 1024),
+                .help = "worker threads (0 = all cores)"},
+               field<C>(&C::threads)});
+  b.push_back({{.name = "quiet",
+                .kind = K::kFlag,
+                .help = "no progress or information, only warnings and errors"},
+               field<C>(&C::quiet)});
+  b.push_back({{.name = "dry-run",
+                .kind = K::kFlag,
+                .help = "check options, inputs, output paths and memory, then stop before the "
+                        "work (nothing is written)"},
+               field<C>(&C::dry_run)});
+  return b;
+}
+
+template <typename Options>
+const std::vector<Bound<Options>>& bindings();
+template <>
+const std::vector<Bound<RenderOptions>>& bindings() {
+  static const std::vector<Bound<RenderOptions>> b = renderBindings();
+  return b;
+}
+template <>
+const std::vector<Bound<BakeOptions>>& bindings() {
+  static const std::vector<Bound<BakeOptions>> b = bakeBindings();
+  return b;
+}
+template <>
+const std::vector<Bound<CommonOptions>>& bindings() {
+  static const std::vector<Bound<CommonOptions>> b = commonBindings();
+  return b;
+}
+
+template <typename Options>
+const std::vector<OptionSpec>& specsOf() {
+  static const std::vector<OptionSpec> specs = [] {
+    std::vector<OptionSpec> s;
+    for (const Bound<Options>& b : bindings<Options>()) s.push_back(b.spec);
+    return s;
+  }();
+  return specs;
+}
+
+template <typename Options>
+void setOption(Options& options, const OptionSpec& spec, const OptionValue& value) {
+  for (const Bound<Options>& b : bindings<Options>()) {
+    if (b.spec.name == spec.name) {
+      b.set(options, value);
+      return;
+    }
+  }
+}
+
+}  // namespace
+
+const std::vector<MethodInfo>& methodInfos() {
+  static const std::vector<MethodInfo> methods = {
+      {"pathtrace", "the unbiased reference path tracer", "Kajiya 1986; Owen-scrambled Sobol",
+       false},
+      {"whitted", "Whitted ray tracing: mirrors, glass and shadow rays",
+       "Carr et al. 2002, the Ray Engine's applications", false},
+      {"photons", "photon mapping with caustics and final gather", "Jensen 1996; Carr et al. 2002",
+       false},
+      {"matrix", "matrix radiosity: form factors once, Jacobi or Gauss-Seidel",
+       "Carr, Hall, Hart 2003, sec. 3", true},
+      {"progressive", "progressive refinement radiosity in a lightmap atlas", "Wallner", true},
+      {"stochastic", "stochastic radiosity by ray-bundle shooting", "Barsi and Jakab", true},
+      {"sss", "subsurface scattering: the dipole through hierarchical links",
+       "Carr, Hall, Hart 2003, sec. 4", false},
+      {"lpv", "subsurface light propagation volumes", "Borlum et al. 2011", false},
+  };
+  return methods;
+}
+
+const MethodInfo* findMethod(const std::string& name) {
+  for (const MethodInfo& m : methodInfos()) {
+    if (m.name == name) return &m;
+  }
+  return nullptr;
+}
+
+std::string methodNames(bool bake) {
+  std::vector<std::string> names;
+  for (const MethodInfo& m : methodInfos()) {
+    if (!bake || m.bakes) names.push_back(m.name);
+  }
+  return fmt::format("{}", fmt::join(names, ", "));
+}
+
+const std::vector<OptionSpec>& renderOptionSpecs() {
+  return specsOf<RenderOptions>();
+}
+const std::vector<OptionSpec>& bakeOptionSpecs() {
+  return specsOf<BakeOptions>();
+}
+const std::vector<OptionSpec>& commonOptionSpecs() {
+  return specsOf<CommonOptions>();
+}
+
+void setRenderOption(RenderOptions& options, const OptionSpec& spec, const OptionValue& value) {
+  setOption(options, spec, value);
+}
+void setBakeOption(BakeOptions& options, const OptionSpec& spec, const OptionValue& value) {
+  setOption(options, spec, value);
+}
+void setCommonOption(CommonOptions& options, const OptionSpec& spec, const OptionValue& value) {
+  setOption(options, spec, value);
+}
+
+Status checkOptionsTaken(const std::vector<OptionSpec>& specs, const std::string& method,
+                         const std::vector<std::string>& given, const std::string& file,
+                         const std::string& prefix) {
+  for (const std::string& name : given) {
+    const OptionSpec* spec = findOption(specs, name);
+    if (!spec || spec->takenBy(method)) continue;
+    std::vector<std::string> owners;
+    for (const OptionUse& u : spec->uses) owners.push_back(u.method);
+    std::string list = owners.back();
+    if (owners.size() > 1) {
+      list = fmt::format("{} and {}", fmt::join(owners.begin(), owners.end() - 1, ", "),
+                         owners.back());
+    }
+    return inputError(file, prefix + name,
+                      fmt::format("applies to --method {} only, not {}", list, method));
+  }
+  return {};
+}
+
+Expected<std::vector<std::string>> applySceneSettings(RenderOptions& options,
+                                                      const nlohmann::json& settings,
+                                                      const std::string& file,
+                                                      const std::vector<std::string>& given) {
+  std::vector<std::string> set;
+  if (settings.is_null()) return set;
+  if (!settings.is_object()) return inputError(file, "settings", "must be an object");
+  const std::vector<OptionSpec>& specs = renderOptionSpecs();
+  for (const auto& [method, values] : settings.items()) {
+    const std::string where = "settings." + method;
+    if (!findMethod(method)) {
+      return inputError(file, where, fmt::format("unknown method (methods: {})", methodNames()));
+    }
+    if (!values.is_object()) return inputError(file, where, "must be an object");
+    for (const auto& [key, value] : values.items()) {
+      const OptionSpec* spec = findOption(specs, key);
+      // Settings describe how a method runs; where its results go stays on the command line.
+      if (!spec || spec->uses.empty() || spec->kind == OptionKind::kText ||
+          key.find('-') != std::string::npos) {
+        return inputError(file, where + "." + key,
+                          "unknown setting (the options of docs/cli.md, written with '_')");
+      }
+      if (!spec->takenBy(method)) {
+        return inputError(
+            file, where + "." + key,
+            fmt::format("is not a setting of {} (it is one of {})", method, spec->owners()));
+      }
+      Expected<OptionValue> v = optionFromJson(*spec, value, method, file, where + "." + key);
+      if (!v) return v.error();
+      // Every method's settings are checked; the running method's apply, under the command
+      // line's.
+      if (method != options.method) continue;
+      if (std::find(given.begin(), given.end(), spec->name) != given.end()) continue;
+      setRenderOption(options, *spec, *v);
+      set.push_back(spec->name);
+    }
+  }
+  return set;
+}
+
+std::string optionReferenceMarkdown() {
+  std::string out;
+  const auto table = [&](const char* command, const std::vector<OptionSpec>& specs, bool bake) {
+    out += fmt::format(
+        "### `{}`\n\n| option | methods: default | range | meaning |\n"
+        "|---|---|---|---|\n",
+        command);
+    for (const OptionSpec& s : specs) {
+      if (s.positional) continue;
+      const size_t n = bake ? findOption(specs, "method")->choices.size() : methodInfos().size();
+      std::string uses = s.usesText(n);
+      if (s.uses.size() == n && uses.find(':') == std::string::npos) {
+        uses = uses.empty() ? "all" : "all: " + uses;
+      }
+      // A method whose range is narrower than the option's says so.
+      for (const OptionUse& u : s.uses) {
+        if (u.range && s.range && u.range->describe() != s.range->describe()) {
+          uses += fmt::format("; {} in {}", u.method, u.range->describe());
+        }
+      }
+      if (s.uses.empty()) uses = "all";
+      std::string values;
+      if (s.kind == OptionKind::kChoice) {
+        values = fmt::format("{}", fmt::join(s.choices, ", "));
+      } else if (s.range) {
+        values = s.range->describe();
+        if (s.kind == OptionKind::kRealList) values = fmt::format("{} x {}", s.count, values);
+      } else if (s.kind == OptionKind::kFlag) {
+        values = "flag";
+      } else if (s.kind == OptionKind::kUnsigned) {
+        values = "[0, 2^64)";
+      }
+      if (!s.unit.empty()) values += " " + s.unit;
+      const std::string name = s.short_name.empty() ? "`--" + s.name + "`"
+                                                    : "`" + s.short_name + "`, `--" + s.name + "`";
+      out += fmt::format("| {} | {} | {} | {} |\n", name, uses, values, s.help);
+    }
+    out += "\n";
+  };
+  table("penumbra render", renderOptionSpecs(), false);
+  table("penumbra bake", bakeOptionSpecs(), true);
+  table("every command that does work", commonOptionSpecs(), false);
+  return out;
+}
+
+}  // namespace penumbra
