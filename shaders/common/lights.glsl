@@ -5,10 +5,11 @@
 #ifndef PENUMBRA_LIGHTS_GLSL
 #define PENUMBRA_LIGHTS_GLSL
 
-#define LIGHT_POINT 0u
-#define LIGHT_SPOT 1u
-#define LIGHT_DIRECTIONAL 2u
-#define LIGHT_LUMINAIRE 3u
+// LIGHT_POINT, LIGHT_SPOT, LIGHT_DIRECTIONAL and LIGHT_LUMINAIRE are GpuLightType's values,
+// defined by the program's host from raytrace/lights.h (gpuLightDefines): written once, in C++.
+#ifndef LIGHT_LUMINAIRE
+#error "the LIGHT_* types come from gpuLightDefines() (raytrace/lights.h)"
+#endif
 
 #include "common/luminaire.glsl"
 

@@ -6,7 +6,7 @@
 #include "raytrace/layout.glsl"
 #include "common/watertight.glsl"
 
-layout(local_size_x = 64) in;
+layout(local_size_x = RAY_ENGINE_GROUP_SIZE) in;
 
 layout(std430, binding = RAY_ENGINE_SSBO_NODES) readonly buffer Nodes { BvhNode nodes[]; };
 layout(std430, binding = RAY_ENGINE_SSBO_TRIANGLES) readonly buffer Triangles { GpuTriangle triangles[]; };
@@ -16,7 +16,7 @@ layout(std430, binding = RAY_ENGINE_SSBO_HITS) writeonly buffer Hits { GpuHit hi
 uniform uint ray_count;
 uniform uint any_hit;  // 1: stop at the first hit (occlusion)
 
-const int kStackSize = 96;  // accel/bvh.h kMaxBvhDepth
+const int kStackSize = MAX_BVH_DEPTH;  // accel/bvh.h kMaxBvhDepth, defined by ray_engine_gl.cpp
 
 float safeReciprocal(float d) { return 1.0 / (abs(d) < 1e-30 ? (d < 0.0 ? -1e-30 : 1e-30) : d); }
 

@@ -1,6 +1,7 @@
 // OpenGL plumbing: headless contexts, limits, and shader errors that name file and line.
 #include "penumbra/gpu/context.h"
 #include "penumbra/gpu/program.h"
+#include "penumbra/raytrace/ray_engine_gl.h"
 #include "support/test_util.h"
 
 #include <gtest/gtest.h>
@@ -58,7 +59,8 @@ TEST(GlProgram, CompileErrorNamesShaderFileAndLine) {
 
 TEST(GlProgram, EveryEmbeddedComputeShaderCompiles) {
   PENUMBRA_GL_OR_SKIP();
-  Expected<gl::Program> p = gl::computeProgram("raytrace/bvh_intersect.comp");
+  Expected<gl::Program> p =
+      gl::computeProgram("raytrace/bvh_intersect.comp", bvhIntersectDefines());
   EXPECT_TRUE(p.ok()) << p.error().describe();
 }
 

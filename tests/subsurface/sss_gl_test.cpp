@@ -107,8 +107,10 @@ TEST(Lights, GlslTwinAgreesWithCpp) {
   // directional lights and a luminaire (its light distribution texture, common/luminaire.glsl)
   // at random points, normals facing towards and away from them.
   PENUMBRA_GL_OR_SKIP();
+  std::string defines;
+  for (const std::string& d : gpuLightDefines()) defines += "#define " + d + "\n";
   const std::string source =
-      "#version 450\n"
+      "#version 450\n" + defines +
       "#include \"common/lights.glsl\"\n"
       "layout(local_size_x = 64) in;\n"
       "layout(std430, binding = 0) readonly buffer Lights { GpuLight lights[]; };\n"

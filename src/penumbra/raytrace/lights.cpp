@@ -2,6 +2,7 @@
 
 #include "penumbra/raytrace/ray_engine.h"
 
+#include <fmt/format.h>
 #include <glm/geometric.hpp>
 
 #include <algorithm>
@@ -256,6 +257,15 @@ glm::dvec3 visibleIrradiance(const RayEngine& engine, double lift, std::span<con
     e += ls.irradiance;
   }
   return e;
+}
+
+std::vector<std::string> gpuLightDefines() {
+  const auto define = [](const char* name, GpuLightType type) {
+    return fmt::format("{} {}u", name, uint32_t(type));
+  };
+  return {define("LIGHT_POINT", GpuLightType::kPoint), define("LIGHT_SPOT", GpuLightType::kSpot),
+          define("LIGHT_DIRECTIONAL", GpuLightType::kDirectional),
+          define("LIGHT_LUMINAIRE", GpuLightType::kLuminaire)};
 }
 
 }  // namespace penumbra

@@ -25,6 +25,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <span>
+#include <string>
 #include <vector>
 
 namespace penumbra {
@@ -50,6 +51,10 @@ glm::dvec3 visibleIrradiance(const RayEngine& engine, double lift, std::span<con
 // ---- The GPU twin (shaders/common/lights.glsl): a light as its sampleLight reads it, std430 ----
 // LIGHT_POINT, LIGHT_SPOT, LIGHT_DIRECTIONAL, LIGHT_LUMINAIRE of shaders/common/lights.glsl.
 enum class GpuLightType : uint32_t { kPoint = 0, kSpot = 1, kDirectional = 2, kLuminaire = 3 };
+
+// The light types as the #defines ("LIGHT_POINT 0u", ...) every program that includes
+// shaders/common/lights.glsl is compiled with (gl::computeProgram's defines).
+std::vector<std::string> gpuLightDefines();
 
 struct GpuLight {  // 64 bytes
   float position[3];

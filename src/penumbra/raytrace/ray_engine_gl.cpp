@@ -15,8 +15,13 @@
 
 namespace penumbra {
 
+std::vector<std::string> bvhIntersectDefines() {
+  return {fmt::format("MAX_BVH_DEPTH {}", kMaxBvhDepth),
+          fmt::format("RAY_ENGINE_GROUP_SIZE {}", kGroupSize)};
+}
+
 namespace {
-constexpr GLuint kGroupSize = 64;  // local_size_x of bvh_intersect.comp
+constexpr GLuint kGroupSize = 64;  // local_size_x of bvh_intersect.comp (injected)
 }
 
 Expected<GlRayEngine> GlRayEngine::build(std::span<const glm::vec3> positions,
@@ -33,7 +38,8 @@ Expected<GlRayEngine> GlRayEngine::build(std::span<const glm::vec3> positions,
                         triangles.size(), formatBytes(triangles.size() * sizeof(GpuTriangle)),
                         formatBytes(uint64_t(max_ssbo))));
   }
-  Expected<gl::Program> program = gl::computeProgram("raytrace/bvh_intersect.comp");
+  Expected<gl::Program> program =
+      gl::computeProgram("raytrace/bvh_intersect.comp", bvhIntersectDefines());
   if (!program) return program.error();
   e.program_ = std::move(*program);
 

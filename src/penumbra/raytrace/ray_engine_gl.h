@@ -15,9 +15,14 @@
 #include <glm/vec3.hpp>
 
 #include <span>
+#include <string>
 #include <vector>
 
 namespace penumbra {
+
+// The #defines shaders/raytrace/bvh_intersect.comp is compiled with: the traversal stack
+// (accel/bvh.h kMaxBvhDepth) and the work-group size the dispatch assumes.
+std::vector<std::string> bvhIntersectDefines();
 
 class GlRayEngine {
  public:

@@ -63,8 +63,9 @@ Expected<GlSss> GlSss::create(const SssSolver& solver) {
   g.shadows_ = solver.shadows();
 
   for (auto [program, pass] : {std::pair{&g.irradiance_rays_, 0}, {&g.irradiance_sum_, 1}}) {
-    Expected<gl::Program> p =
-        gl::computeProgram("subsurface/sss_irradiance.comp", {fmt::format("SSS_PASS {}", pass)});
+    std::vector<std::string> defines = gpuLightDefines();
+    defines.push_back(fmt::format("SSS_PASS {}", pass));
+    Expected<gl::Program> p = gl::computeProgram("subsurface/sss_irradiance.comp", defines);
     if (!p) return p.error();
     *program = std::move(*p);
   }
