@@ -232,6 +232,19 @@ class GltfReader {
   Status checkInstancedTriangles(const std::vector<int>& roots);
   Status addPrimitive(const tinygltf::Node& node, int mesh_index, size_t primitive_index,
                       const glm::dmat4& world_from_object);
+  // A primitive's attributes into `mesh`: POSITION (`pos`, accessor `accessor`) and NORMAL in
+  // world space, TEXCOORD_0 as it is; `where` names the primitive for messages.
+  Status readPositions(const AccessorView& pos, int accessor, const std::string& where,
+                       const glm::dmat4& world_from_object, Mesh& mesh);
+  Status readNormals(const tinygltf::Primitive& prim, const std::string& where, size_t nv,
+                     const glm::dmat4& world_from_object, Mesh& mesh);
+  Status readUvs(const tinygltf::Primitive& prim, const std::string& where, size_t nv, Mesh& mesh);
+  // The primitive's vertex sequence, from the index accessor or 0 .. nv-1.
+  Expected<std::vector<uint32_t>> vertexSequence(const tinygltf::Primitive& prim,
+                                                 const std::string& where, size_t nv);
+  // The triangles of the sequence in draw mode `mode`, wound the other way when `mirrored`.
+  void addTriangles(int mode, const std::vector<uint32_t>& seq, uint32_t material, bool mirrored,
+                    const std::string& where, Mesh& mesh);
   Status addLight(int node_index, const glm::dmat4& world_from_light);
   Status addCamera(int node_index, int camera_index, const glm::dmat4& world_from_camera);
   Expected<uint32_t> materialFor(int gltf_material, const std::string& where);
@@ -738,64 +751,90 @@ Status GltfReader::addPrimitive(const tinygltf::Node& node, int mesh_index, size
               : !gmesh.name.empty() ? gmesh.name
                                     : fmt::format("mesh{}", mesh_index);
   if (gmesh.primitives.size() > 1) mesh.name += fmt::format("#{}", primitive_index);
+  PENUMBRA_TRY(readPositions(*pos, pos_it->second, where, world_from_object, mesh));
+  PENUMBRA_TRY(readNormals(prim, where, nv, world_from_object, mesh));
+  PENUMBRA_TRY(readUvs(prim, where, nv, mesh));
+  Expected<std::vector<uint32_t>> seq = vertexSequence(prim, where, nv);
+  if (!seq.ok()) return seq.error();
 
-  const glm::dmat3 linear(world_from_object);
-  const glm::dmat3 normal_from_object = glm::transpose(glm::inverse(linear));
-  const bool mirrored = glm::determinant(linear) < 0.0;
+  Expected<uint32_t> material = materialFor(prim.material, where);
+  if (!material.ok()) return material.error();
+  const bool mirrored = glm::determinant(glm::dmat3(world_from_object)) < 0.0;
+  addTriangles(mode, *seq, *material, mirrored, where, mesh);
+  if (mesh.triangles.empty()) {
+    scene_.warnings.push_back(fmt::format("{}: {}: no triangles", path_, where));
+    return {};
+  }
+  scene_.meshes.push_back(std::move(mesh));
+  return {};
+}
 
+Status GltfReader::readPositions(const AccessorView& pos, int accessor, const std::string& where,
+                                 const glm::dmat4& world_from_object, Mesh& mesh) {
+  const size_t nv = pos.count;
   mesh.positions.resize(nv);
   for (size_t i = 0; i < nv; ++i) {
-    const glm::dvec3 p(pos->component(i, 0), pos->component(i, 1), pos->component(i, 2));
+    const glm::dvec3 p(pos.component(i, 0), pos.component(i, 1), pos.component(i, 2));
     if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z)) {
-      return inputError(
-          path_, fmt::format("accessor {} ({} POSITION), vertex {}", pos_it->second, where, i),
-          "position is not a finite number");
+      return inputError(path_,
+                        fmt::format("accessor {} ({} POSITION), vertex {}", accessor, where, i),
+                        "position is not a finite number");
     }
     mesh.positions[i] = glm::vec3(world_from_object * glm::dvec4(p, 1.0));
   }
+  return {};
+}
 
+Status GltfReader::readNormals(const tinygltf::Primitive& prim, const std::string& where, size_t nv,
+                               const glm::dmat4& world_from_object, Mesh& mesh) {
   auto nrm_it = prim.attributes.find("NORMAL");
-  if (nrm_it != prim.attributes.end()) {
-    Expected<AccessorView> nrm = view(nrm_it->second, where + " NORMAL", TINYGLTF_TYPE_VEC3,
-                                      {TINYGLTF_COMPONENT_TYPE_FLOAT});
-    if (!nrm.ok()) return nrm.error();
-    if (nrm->count != nv) {
-      return inputError(path_, fmt::format("accessor {} ({} NORMAL)", nrm_it->second, where),
-                        fmt::format("count {} differs from POSITION's {}", nrm->count, nv));
-    }
-    mesh.normals.resize(nv);
-    for (size_t i = 0; i < nv; ++i) {
-      const glm::dvec3 n(nrm->component(i, 0), nrm->component(i, 1), nrm->component(i, 2));
-      if (!std::isfinite(n.x) || !std::isfinite(n.y) || !std::isfinite(n.z)) {
-        return inputError(
-            path_, fmt::format("accessor {} ({} NORMAL), vertex {}", nrm_it->second, where, i),
-            "normal is not a finite number");
-      }
-      const glm::dvec3 w = normal_from_object * n;
-      const double len = glm::length(w);
-      mesh.normals[i] = len > 0.0 ? glm::vec3(w / len) : glm::vec3(0.0f);
-    }
+  if (nrm_it == prim.attributes.end()) return {};
+  Expected<AccessorView> nrm =
+      view(nrm_it->second, where + " NORMAL", TINYGLTF_TYPE_VEC3, {TINYGLTF_COMPONENT_TYPE_FLOAT});
+  if (!nrm.ok()) return nrm.error();
+  if (nrm->count != nv) {
+    return inputError(path_, fmt::format("accessor {} ({} NORMAL)", nrm_it->second, where),
+                      fmt::format("count {} differs from POSITION's {}", nrm->count, nv));
   }
+  const glm::dmat3 normal_from_object = glm::transpose(glm::inverse(glm::dmat3(world_from_object)));
+  mesh.normals.resize(nv);
+  for (size_t i = 0; i < nv; ++i) {
+    const glm::dvec3 n(nrm->component(i, 0), nrm->component(i, 1), nrm->component(i, 2));
+    if (!std::isfinite(n.x) || !std::isfinite(n.y) || !std::isfinite(n.z)) {
+      return inputError(path_,
+                        fmt::format("accessor {} ({} NORMAL), vertex {}", nrm_it->second, where, i),
+                        "normal is not a finite number");
+    }
+    const glm::dvec3 w = normal_from_object * n;
+    const double len = glm::length(w);
+    mesh.normals[i] = len > 0.0 ? glm::vec3(w / len) : glm::vec3(0.0f);
+  }
+  return {};
+}
 
+Status GltfReader::readUvs(const tinygltf::Primitive& prim, const std::string& where, size_t nv,
+                           Mesh& mesh) {
   auto uv_it = prim.attributes.find("TEXCOORD_0");
-  if (uv_it != prim.attributes.end()) {
-    Expected<AccessorView> uv =
-        view(uv_it->second, where + " TEXCOORD_0", TINYGLTF_TYPE_VEC2,
-             {TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE,
-              TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT});
-    if (!uv.ok()) return uv.error();
-    if (uv->count != nv) {
-      return inputError(path_, fmt::format("accessor {} ({} TEXCOORD_0)", uv_it->second, where),
-                        fmt::format("count {} differs from POSITION's {}", uv->count, nv));
-    }
-    mesh.uvs.resize(nv);
-    mesh.uv_origin_top = true;  // glTF: (0, 0) is the top-left of an image
-    for (size_t i = 0; i < nv; ++i) {
-      mesh.uvs[i] = glm::vec2(uv->component(i, 0), uv->component(i, 1));
-    }
+  if (uv_it == prim.attributes.end()) return {};
+  Expected<AccessorView> uv =
+      view(uv_it->second, where + " TEXCOORD_0", TINYGLTF_TYPE_VEC2,
+           {TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE,
+            TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT});
+  if (!uv.ok()) return uv.error();
+  if (uv->count != nv) {
+    return inputError(path_, fmt::format("accessor {} ({} TEXCOORD_0)", uv_it->second, where),
+                      fmt::format("count {} differs from POSITION's {}", uv->count, nv));
   }
+  mesh.uvs.resize(nv);
+  mesh.uv_origin_top = true;  // glTF: (0, 0) is the top-left of an image
+  for (size_t i = 0; i < nv; ++i) {
+    mesh.uvs[i] = glm::vec2(uv->component(i, 0), uv->component(i, 1));
+  }
+  return {};
+}
 
-  // The primitive's vertex sequence, from the index accessor or 0 .. nv-1.
+Expected<std::vector<uint32_t>> GltfReader::vertexSequence(const tinygltf::Primitive& prim,
+                                                           const std::string& where, size_t nv) {
   std::vector<uint32_t> seq;
   if (prim.indices >= 0) {
     Expected<AccessorView> idx =
@@ -816,12 +855,14 @@ Status GltfReader::addPrimitive(const tinygltf::Node& node, int mesh_index, size
     seq.resize(nv);
     for (size_t i = 0; i < nv; ++i) seq[i] = static_cast<uint32_t>(i);
   }
+  return seq;
+}
 
-  Expected<uint32_t> material = materialFor(prim.material, where);
-  if (!material.ok()) return material.error();
+void GltfReader::addTriangles(int mode, const std::vector<uint32_t>& seq, uint32_t material,
+                              bool mirrored, const std::string& where, Mesh& mesh) {
   auto add = [&](uint32_t a, uint32_t b, uint32_t c) {
     mesh.triangles.push_back(mirrored ? glm::uvec3(a, c, b) : glm::uvec3(a, b, c));
-    mesh.material_ids.push_back(*material);
+    mesh.material_ids.push_back(material);
   };
   const size_t n = seq.size();
   if (mode == TINYGLTF_MODE_TRIANGLES) {
@@ -844,12 +885,6 @@ Status GltfReader::addPrimitive(const tinygltf::Node& node, int mesh_index, size
     // Fan: (v_{i+1}, v_{i+2}, v_0) in the spec, the same triangle as (v_0, v_{i+1}, v_{i+2}).
     for (size_t i = 0; i + 2 < n; ++i) add(seq[0], seq[i + 1], seq[i + 2]);
   }
-  if (mesh.triangles.empty()) {
-    scene_.warnings.push_back(fmt::format("{}: {}: no triangles", path_, where));
-    return {};
-  }
-  scene_.meshes.push_back(std::move(mesh));
-  return {};
 }
 
 Status GltfReader::addLight(int node_index, const glm::dmat4& world_from_light) {

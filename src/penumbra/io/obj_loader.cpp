@@ -106,198 +106,230 @@ bool isIgnoredStatement(std::string_view k) {
 // The most corners tinyobjloader keeps for one face (it stores the count in a byte).
 constexpr size_t kMaxLoaderCorners = 255;
 
-// Checks `text` and writes to `clean` the same lines without comments (tinyobjloader does not
-// accept a comment after a statement), so line numbers stay the same (except after a polygon
-// of more than kMaxLoaderCorners corners, which takes several lines).
-Status scanObj(const std::string& path, const std::string& text, ObjScan* scan,
-               std::string* clean) {
-  clean->reserve(text.size());
-  size_t num_v = 0, num_vn = 0, num_vt = 0;
+// The line-by-line check of scanObj, one line at a time: the counts of vertex data and the
+// pending indices carry from line to line.
+class ObjLineChecker {
+ public:
+  ObjLineChecker(const std::string& path, ObjScan* scan, std::string* clean)
+      : path_(path), scan_(scan), clean_(clean) {}
+
+  // The next line of the file.
+  Status check(std::string_view line) {
+    ++line_no_;
+    if (line.find('\0') != std::string_view::npos) {
+      return inputError(path_, place(), "binary data: this is not a text OBJ file");
+    }
+    const size_t comment = line.find('#');
+    if (comment != std::string_view::npos) line = line.substr(0, comment);
+    clean_->append(line);
+    clean_->push_back('\n');
+    splitTokens(line, tok_);
+    if (tok_.empty()) return {};
+    if (!tok_.back().empty() && tok_.back().back() == '\\') {
+      return inputError(path_, place(), "line continuation ('\\') is not supported");
+    }
+    const std::string_view key = tok_[0];
+    if (key == "v" || key == "vn" || key == "vt") return vertexData(key);
+    if (key == "f" || key == "l" || key == "p") return element(key, line);
+    if (key == "mtllib") {
+      for (size_t i = 1; i < tok_.size(); ++i) {
+        scan_->material_libraries.emplace_back(std::string(tok_[i]), line_no_);
+      }
+      return {};
+    }
+    if (key == "usemtl") {
+      if (tok_.size() >= 2) scan_->material_uses.emplace_back(std::string(tok_[1]), line_no_);
+      return {};
+    }
+    if (key == "g" || key == "o" || key == "s") return {};
+    if (isIgnoredStatement(key)) {
+      if (!warned_ignored_) {
+        scan_->warnings.push_back(
+            fmt::format("{}: {}: '{}' (free-form geometry or display attribute) is ignored", path_,
+                        place(), key));
+        warned_ignored_ = true;
+      }
+      return {};
+    }
+    std::string shown(key.substr(0, 32));
+    for (char& c : shown) {
+      if (!std::isprint(static_cast<unsigned char>(c))) c = '?';
+    }
+    return inputError(path_, place(),
+                      fmt::format("unknown statement '{}'{}", shown,
+                                  line_no_ == 1 ? " (is this an OBJ file?)" : ""));
+  }
+
+  // After the last line: the positive indices against the final counts.
+  Status finish() const {
+    struct Final {
+      const Pending* pending;
+      const char* name;
+      const char* plural;
+      size_t count;
+    };
+    const Final finals[3] = {{&max_v_, "vertex", "vertices", num_v_},
+                             {&max_vt_, "texture coordinate", "texture coordinates", num_vt_},
+                             {&max_vn_, "normal", "normals", num_vn_}};
+    for (const Final& f : finals) {
+      if (f.pending->index > 0 && static_cast<size_t>(f.pending->index) > f.count) {
+        return inputError(path_, fmt::format("line {}", f.pending->line),
+                          fmt::format("{} index {} is out of range (the file has {} {})", f.name,
+                                      f.pending->index, f.count, f.count == 1 ? f.name : f.plural));
+      }
+    }
+    return {};
+  }
+
+ private:
   // Positive indices may refer to vertices defined later in the file (tinyobjloader allows it),
   // so they are checked against the final counts; the first offender of each kind is kept.
   struct Pending {
     long index = 0;
     size_t line = 0;
   };
-  Pending max_v, max_vn, max_vt;
-  bool warned_lines = false, warned_ignored = false;
 
-  size_t line_no = 0;
-  size_t pos = 0;
-  std::vector<std::string_view> tok;
-  std::string_view line;
-  while (nextLine(text, &pos, &line)) {
-    ++line_no;
-    auto place = [&line_no]() { return fmt::format("line {}", line_no); };
-    if (line.find('\0') != std::string_view::npos) {
-      return inputError(path, place(), "binary data: this is not a text OBJ file");
-    }
-    const size_t comment = line.find('#');
-    if (comment != std::string_view::npos) line = line.substr(0, comment);
-    clean->append(line);
-    clean->push_back('\n');
-    splitTokens(line, tok);
-    if (tok.empty()) continue;
-    if (!tok.back().empty() && tok.back().back() == '\\') {
-      return inputError(path, place(), "line continuation ('\\') is not supported");
-    }
-    const std::string_view key = tok[0];
+  std::string place() const { return fmt::format("line {}", line_no_); }
 
-    if (key == "v" || key == "vn" || key == "vt") {
-      const size_t min_n = key == "vt" ? 1 : 3;
-      const size_t max_n = key == "v" ? 7 : 3;  // v: x y z [w] or x y z r g b
-      const size_t n = tok.size() - 1;
-      if (n < min_n || n > max_n) {
+  // v, vn or vt: its numbers, the coordinates finite.
+  Status vertexData(std::string_view key) {
+    const size_t min_n = key == "vt" ? 1 : 3;
+    const size_t max_n = key == "v" ? 7 : 3;  // v: x y z [w] or x y z r g b
+    const size_t n = tok_.size() - 1;
+    if (n < min_n || n > max_n) {
+      return inputError(path_, place(),
+                        fmt::format("'{}' needs {} to {} numbers, found {}", key, min_n, max_n, n));
+    }
+    const size_t checked = key == "vt" ? std::min<size_t>(n, 2) : 3;
+    size_t& count = key == "v" ? num_v_ : key == "vn" ? num_vn_ : num_vt_;
+    for (size_t i = 1; i < tok_.size(); ++i) {
+      double value = 0.0;
+      if (!parseNumber(tok_[i], &value)) {
+        return inputError(path_, place(), fmt::format("'{}' is not a number", tok_[i]));
+      }
+      if (i <= checked && !std::isfinite(static_cast<float>(value))) {
+        const char* what = key == "v" ? "vertex" : key == "vn" ? "normal" : "texture coordinate";
+        return inputError(path_, fmt::format("{}, {} {}", place(), what, count + 1),
+                          fmt::format("coordinate '{}' is not a finite number", tok_[i]));
+      }
+    }
+    ++count;
+    return {};
+  }
+
+  // f, l or p: its corners; faces are counted, lines and points are ignored with a warning.
+  Status element(std::string_view key, std::string_view line) {
+    const size_t min_corners = key == "f" ? 3 : key == "l" ? 2 : 1;
+    if (tok_.size() - 1 < min_corners) {
+      return inputError(path_, place(),
+                        fmt::format("'{}' needs at least {} vertices, found {}", key, min_corners,
+                                    tok_.size() - 1));
+    }
+    for (size_t i = 1; i < tok_.size(); ++i) PENUMBRA_TRY(checkCorner(tok_[i]));
+    if (key == "f" && tok_.size() - 1 > kMaxLoaderCorners) {
+      splitFace(line);
+    } else if (key == "f") {
+      ++scan_->faces;
+    } else if (!warned_lines_) {
+      scan_->warnings.push_back(
+          fmt::format("{}: {}: line and point elements are ignored", path_, place()));
+      warned_lines_ = true;
+    }
+    return {};
+  }
+
+  // A corner: v, v/vt, v//vn or v/vt/vn, each index within the vertices defined so far
+  // (relative) or pending the final counts (absolute).
+  Status checkCorner(std::string_view corner) {
+    std::string_view parts[3];
+    size_t np = 0;
+    size_t start = 0;
+    for (;;) {
+      const size_t slash = corner.find('/', start);
+      if (np == 3) {
+        return inputError(path_, place(),
+                          fmt::format("'{}' is not a vertex reference (v, v/vt, v//vn or "
+                                      "v/vt/vn)",
+                                      corner));
+      }
+      parts[np++] = corner.substr(
+          start, slash == std::string_view::npos ? std::string_view::npos : slash - start);
+      if (slash == std::string_view::npos) break;
+      start = slash + 1;
+    }
+    const char* const kNames[3] = {"vertex", "texture coordinate", "normal"};
+    const size_t counts[3] = {num_v_, num_vt_, num_vn_};
+    Pending* const pendings[3] = {&max_v_, &max_vt_, &max_vn_};
+    for (size_t k = 0; k < np; ++k) {
+      if (k > 0 && parts[k].empty() && !(k == 1 && np == 3)) {
+        return inputError(path_, place(), fmt::format("'{}' has an empty index", corner));
+      }
+      if (parts[k].empty()) continue;  // the vt of v//vn
+      long index = 0;
+      if (!parseInteger(parts[k], &index)) {
+        return inputError(path_, place(), fmt::format("'{}' is not a vertex reference", corner));
+      }
+      if (index == 0) {
         return inputError(
-            path, place(),
-            fmt::format("'{}' needs {} to {} numbers, found {}", key, min_n, max_n, n));
+            path_, place(),
+            fmt::format("{} index 0 in '{}' (OBJ indices start at 1)", kNames[k], corner));
       }
-      const size_t checked = key == "vt" ? std::min<size_t>(n, 2) : 3;
-      size_t& count = key == "v" ? num_v : key == "vn" ? num_vn : num_vt;
-      for (size_t i = 1; i < tok.size(); ++i) {
-        double value = 0.0;
-        if (!parseNumber(tok[i], &value)) {
-          return inputError(path, place(), fmt::format("'{}' is not a number", tok[i]));
+      if (index < 0) {
+        if (static_cast<size_t>(-index) > counts[k]) {
+          return inputError(path_, place(),
+                            fmt::format("relative {} index {} in '{}' points before the first "
+                                        "{} ({} defined so far)",
+                                        kNames[k], index, corner, kNames[k], counts[k]));
         }
-        if (i <= checked && !std::isfinite(static_cast<float>(value))) {
-          const char* what = key == "v" ? "vertex" : key == "vn" ? "normal" : "texture coordinate";
-          return inputError(path, fmt::format("{}, {} {}", place(), what, count + 1),
-                            fmt::format("coordinate '{}' is not a finite number", tok[i]));
-        }
+      } else if (index > pendings[k]->index) {
+        *pendings[k] = Pending{index, line_no_};
       }
-      ++count;
-      continue;
     }
-
-    if (key == "f" || key == "l" || key == "p") {
-      const size_t min_corners = key == "f" ? 3 : key == "l" ? 2 : 1;
-      if (tok.size() - 1 < min_corners) {
-        return inputError(path, place(),
-                          fmt::format("'{}' needs at least {} vertices, found {}", key, min_corners,
-                                      tok.size() - 1));
-      }
-      for (size_t i = 1; i < tok.size(); ++i) {
-        // v, v/vt, v//vn or v/vt/vn
-        std::string_view corner = tok[i];
-        std::string_view parts[3];
-        size_t np = 0;
-        size_t start = 0;
-        for (;;) {
-          const size_t slash = corner.find('/', start);
-          if (np == 3) {
-            return inputError(path, place(),
-                              fmt::format("'{}' is not a vertex reference (v, v/vt, v//vn or "
-                                          "v/vt/vn)",
-                                          corner));
-          }
-          parts[np++] = corner.substr(
-              start, slash == std::string_view::npos ? std::string_view::npos : slash - start);
-          if (slash == std::string_view::npos) break;
-          start = slash + 1;
-        }
-        const char* const kNames[3] = {"vertex", "texture coordinate", "normal"};
-        const size_t counts[3] = {num_v, num_vt, num_vn};
-        Pending* const pendings[3] = {&max_v, &max_vt, &max_vn};
-        for (size_t k = 0; k < np; ++k) {
-          if (k > 0 && parts[k].empty() && !(k == 1 && np == 3)) {
-            return inputError(path, place(), fmt::format("'{}' has an empty index", corner));
-          }
-          if (parts[k].empty()) continue;  // the vt of v//vn
-          long index = 0;
-          if (!parseInteger(parts[k], &index)) {
-            return inputError(path, place(), fmt::format("'{}' is not a vertex reference", corner));
-          }
-          if (index == 0) {
-            return inputError(
-                path, place(),
-                fmt::format("{} index 0 in '{}' (OBJ indices start at 1)", kNames[k], corner));
-          }
-          if (index < 0) {
-            if (static_cast<size_t>(-index) > counts[k]) {
-              return inputError(path, place(),
-                                fmt::format("relative {} index {} in '{}' points before the first "
-                                            "{} ({} defined so far)",
-                                            kNames[k], index, corner, kNames[k], counts[k]));
-            }
-          } else if (index > pendings[k]->index) {
-            *pendings[k] = Pending{index, line_no};
-          }
-        }
-      }
-      if (key == "f" && tok.size() - 1 > kMaxLoaderCorners) {
-        // tinyobjloader counts a face's corners in 8 bits: a polygon of 256 or more corners
-        // (CAD exports have them) is written as consecutive polygons of at most 255 corners
-        // that share corner 0, whose fans are the same triangles in the same order.
-        clean->resize(clean->size() - line.size() - 1);
-        const size_t n = tok.size() - 1;
-        for (size_t k = 1; k + 1 < n;) {
-          const size_t end = std::min(k + kMaxLoaderCorners - 2, n - 1);
-          clean->append("f ");
-          clean->append(tok[1]);
-          for (size_t i = k; i <= end; ++i) {
-            clean->push_back(' ');
-            clean->append(tok[i + 1]);
-          }
-          clean->push_back('\n');
-          ++scan->faces;
-          k = end;
-        }
-      } else if (key == "f") {
-        ++scan->faces;
-      } else if (!warned_lines) {
-        scan->warnings.push_back(
-            fmt::format("{}: {}: line and point elements are ignored", path, place()));
-        warned_lines = true;
-      }
-      continue;
-    }
-
-    if (key == "mtllib") {
-      for (size_t i = 1; i < tok.size(); ++i) {
-        scan->material_libraries.emplace_back(std::string(tok[i]), line_no);
-      }
-      continue;
-    }
-    if (key == "usemtl") {
-      if (tok.size() >= 2) scan->material_uses.emplace_back(std::string(tok[1]), line_no);
-      continue;
-    }
-    if (key == "g" || key == "o" || key == "s") continue;
-    if (isIgnoredStatement(key)) {
-      if (!warned_ignored) {
-        scan->warnings.push_back(
-            fmt::format("{}: {}: '{}' (free-form geometry or display attribute) is ignored", path,
-                        place(), key));
-        warned_ignored = true;
-      }
-      continue;
-    }
-    std::string shown(key.substr(0, 32));
-    for (char& c : shown) {
-      if (!std::isprint(static_cast<unsigned char>(c))) c = '?';
-    }
-    return inputError(path, place(),
-                      fmt::format("unknown statement '{}'{}", shown,
-                                  line_no == 1 ? " (is this an OBJ file?)" : ""));
+    return {};
   }
 
-  struct Final {
-    const Pending* pending;
-    const char* name;
-    const char* plural;
-    size_t count;
-  };
-  const Final finals[3] = {{&max_v, "vertex", "vertices", num_v},
-                           {&max_vt, "texture coordinate", "texture coordinates", num_vt},
-                           {&max_vn, "normal", "normals", num_vn}};
-  for (const Final& f : finals) {
-    if (f.pending->index > 0 && static_cast<size_t>(f.pending->index) > f.count) {
-      return inputError(path, fmt::format("line {}", f.pending->line),
-                        fmt::format("{} index {} is out of range (the file has {} {})", f.name,
-                                    f.pending->index, f.count, f.count == 1 ? f.name : f.plural));
+  // tinyobjloader counts a face's corners in 8 bits: a polygon of 256 or more corners (CAD
+  // exports have them) is written as consecutive polygons of at most 255 corners that share
+  // corner 0, whose fans are the same triangles in the same order. `line` is the face's line as
+  // written to `clean`, which they replace.
+  void splitFace(std::string_view line) {
+    clean_->resize(clean_->size() - line.size() - 1);
+    const size_t n = tok_.size() - 1;
+    for (size_t k = 1; k + 1 < n;) {
+      const size_t end = std::min(k + kMaxLoaderCorners - 2, n - 1);
+      clean_->append("f ");
+      clean_->append(tok_[1]);
+      for (size_t i = k; i <= end; ++i) {
+        clean_->push_back(' ');
+        clean_->append(tok_[i + 1]);
+      }
+      clean_->push_back('\n');
+      ++scan_->faces;
+      k = end;
     }
   }
-  return {};
+
+  const std::string& path_;
+  ObjScan* scan_;
+  std::string* clean_;
+  size_t num_v_ = 0, num_vn_ = 0, num_vt_ = 0;
+  Pending max_v_, max_vn_, max_vt_;
+  bool warned_lines_ = false, warned_ignored_ = false;
+  size_t line_no_ = 0;
+  std::vector<std::string_view> tok_;  // the tokens of the current line
+};
+
+// Checks `text` and writes to `clean` the same lines without comments (tinyobjloader does not
+// accept a comment after a statement), so line numbers stay the same (except after a polygon
+// of more than kMaxLoaderCorners corners, which takes several lines).
+Status scanObj(const std::string& path, const std::string& text, ObjScan* scan,
+               std::string* clean) {
+  clean->reserve(text.size());
+  ObjLineChecker checker(path, scan, clean);
+  size_t pos = 0;
+  std::string_view line;
+  while (nextLine(text, &pos, &line)) PENUMBRA_TRY(checker.check(line));
+  return checker.finish();
 }
 
 // Checks the numbers of a material library's colour and scalar statements (tinyobjloader reads
@@ -360,25 +392,11 @@ struct CornerKeyHash {
   }
 };
 
-}  // namespace
-
-Expected<Scene> loadObj(const std::string& path) {
-  Expected<std::string> text = readFile(path);
-  if (!text.ok()) return text.error();
-
-  ObjScan scan;
-  std::string clean;
-  PENUMBRA_TRY(scanObj(path, *text, &scan, &clean));
-  text->clear();
-  if (scan.faces == 0) return inputError(path, "", "no faces: the file has no polygons");
-
-  Scene scene;
-  scene.source = path;
-  scene.warnings = std::move(scan.warnings);
-
-  // The material libraries, read here so that a missing one is only a warning.
+// The material libraries the file names, read here so that a missing one is only a warning (and
+// sets `library_missing`): their texts, one after another.
+Expected<std::string> readMaterialLibraries(const std::string& path, const ObjScan& scan,
+                                            Scene& scene, bool& library_missing) {
   std::string mtl_text;
-  bool library_missing = false;
   for (const auto& [name, line] : scan.material_libraries) {
     const std::string mtl_path = resolveRelativeTo(path, name);
     Expected<std::string> mtl = readFile(mtl_path);
@@ -394,11 +412,15 @@ Expected<Scene> loadObj(const std::string& path) {
     mtl_text += *mtl;
     mtl_text += "\n";
   }
+  return mtl_text;
+}
 
+// The checked text and its materials through tinyobjloader, without triangulation.
+Status parseWithTinyObj(const std::string& path, const std::string& clean,
+                        const std::string& mtl_text, tinyobj::ObjReader& reader) {
   tinyobj::ObjReaderConfig config;
   config.triangulate = false;
   config.vertex_color = false;
-  tinyobj::ObjReader reader;
   bool parsed = false;
   try {
     parsed = reader.ParseFromString(clean, mtl_text, config);
@@ -412,48 +434,56 @@ Expected<Scene> loadObj(const std::string& path) {
     }
     return inputError(path, "", fmt::format("tinyobjloader: {}", message));
   }
+  return {};
+}
 
-  const tinyobj::attrib_t& attrib = reader.GetAttrib();
-  const std::vector<tinyobj::material_t>& obj_materials = reader.GetMaterials();
-  for (const tinyobj::material_t& m : obj_materials) {
-    Material mat;
-    mat.name = m.name;
-    mat.reflectance = glm::vec3(m.diffuse[0], m.diffuse[1], m.diffuse[2]);
-    mat.emission = glm::vec3(m.emission[0], m.emission[1], m.emission[2]);
-    if (!m.diffuse_texname.empty()) {
-      scene.warnings.push_back(
-          fmt::format("{}: material '{}': texture '{}' is not used yet (Kd is)", path, m.name,
-                      m.diffuse_texname));
-    }
-    const auto colour = [](const tinyobj::real_t* c) {
-      return glm::clamp(glm::vec3(c[0], c[1], c[2]), glm::vec3(0.0f), glm::vec3(1.0f));
-    };
-    if (m.illum == 3 || m.illum == 5) {
-      // A mirror of Ks (white when the file gives none).
-      mat.scattering = Scattering::kMirror;
-      mat.specular = colour(m.specular);
-      if (mat.specular == glm::vec3(0.0f)) mat.specular = glm::vec3(1.0f);
-      mat.reflectance = diffuseStandIn(mat);
-    } else if (m.illum == 4 || m.illum == 6 || m.illum == 7 || m.illum == 9) {
-      // Glass of index Ni, the light it lets in filtered by Tf (clear when the file gives none).
-      mat.scattering = Scattering::kDielectric;
-      mat.ior = float(m.ior);
-      if (!(mat.ior > 1.0f)) {
-        scene.warnings.push_back(
-            fmt::format("{}: material '{}': illum {} (glass) with Ni {} read as Ni 1.5", path,
-                        m.name, m.illum, m.ior));
-        mat.ior = 1.5f;
-      }
-      if (mat.ior > 4.0f) {
-        return inputError(path, fmt::format("material '{}'", m.name),
-                          fmt::format("Ni {} is outside [1, 4]", m.ior));
-      }
-      mat.specular = colour(m.transmittance);
-      if (mat.specular == glm::vec3(0.0f)) mat.specular = glm::vec3(1.0f);
-      mat.reflectance = diffuseStandIn(mat);
-    }
-    scene.materials.push_back(std::move(mat));
+// One MTL material: Kd -> reflectance, Ke -> emission; illum 3 and 5 a mirror of Ks, illum 4, 6,
+// 7 and 9 glass of index Ni filtered by Tf.
+Expected<Material> objMaterial(const std::string& path, const tinyobj::material_t& m,
+                               Scene& scene) {
+  Material mat;
+  mat.name = m.name;
+  mat.reflectance = glm::vec3(m.diffuse[0], m.diffuse[1], m.diffuse[2]);
+  mat.emission = glm::vec3(m.emission[0], m.emission[1], m.emission[2]);
+  if (!m.diffuse_texname.empty()) {
+    scene.warnings.push_back(fmt::format("{}: material '{}': texture '{}' is not used yet (Kd is)",
+                                         path, m.name, m.diffuse_texname));
   }
+  const auto colour = [](const tinyobj::real_t* c) {
+    return glm::clamp(glm::vec3(c[0], c[1], c[2]), glm::vec3(0.0f), glm::vec3(1.0f));
+  };
+  if (m.illum == 3 || m.illum == 5) {
+    // A mirror of Ks (white when the file gives none).
+    mat.scattering = Scattering::kMirror;
+    mat.specular = colour(m.specular);
+    if (mat.specular == glm::vec3(0.0f)) mat.specular = glm::vec3(1.0f);
+    mat.reflectance = diffuseStandIn(mat);
+  } else if (m.illum == 4 || m.illum == 6 || m.illum == 7 || m.illum == 9) {
+    // Glass of index Ni, the light it lets in filtered by Tf (clear when the file gives none).
+    mat.scattering = Scattering::kDielectric;
+    mat.ior = float(m.ior);
+    if (!(mat.ior > 1.0f)) {
+      scene.warnings.push_back(
+          fmt::format("{}: material '{}': illum {} (glass) with Ni {} read as Ni 1.5", path, m.name,
+                      m.illum, m.ior));
+      mat.ior = 1.5f;
+    }
+    if (mat.ior > 4.0f) {
+      return inputError(path, fmt::format("material '{}'", m.name),
+                        fmt::format("Ni {} is outside [1, 4]", m.ior));
+    }
+    mat.specular = colour(m.transmittance);
+    if (mat.specular == glm::vec3(0.0f)) mat.specular = glm::vec3(1.0f);
+    mat.reflectance = diffuseStandIn(mat);
+  }
+  return mat;
+}
+
+// A warning for each usemtl that names a material no library defines (none when a library is
+// missing: its materials are unknown).
+void warnUndefinedMaterials(const std::string& path, const ObjScan& scan,
+                            const std::vector<tinyobj::material_t>& obj_materials,
+                            bool library_missing, Scene& scene) {
   for (const auto& [name, line] : scan.material_uses) {
     bool found = false;
     for (const tinyobj::material_t& m : obj_materials) found = found || m.name == name;
@@ -464,87 +494,152 @@ Expected<Scene> loadObj(const std::string& path) {
                       path, line, name));
     }
   }
-  int default_material = -1;
-  auto materialFor = [&](int obj_material) -> uint32_t {
-    if (obj_material >= 0 && static_cast<size_t>(obj_material) < obj_materials.size()) {
+}
+
+// The scene material of a face's tinyobjloader material: the same index, or for a face without
+// one a default material, added to the scene when first used.
+class ObjMaterialIds {
+ public:
+  ObjMaterialIds(size_t obj_materials, Scene& scene)
+      : obj_materials_(obj_materials), scene_(scene) {}
+
+  uint32_t operator()(int obj_material) {
+    if (obj_material >= 0 && static_cast<size_t>(obj_material) < obj_materials_) {
       return static_cast<uint32_t>(obj_material);
     }
-    if (default_material < 0) {
-      default_material = static_cast<int>(scene.materials.size());
-      scene.materials.push_back(Material{"default", glm::vec3(0.8f), glm::vec3(0.0f)});
+    if (default_material_ < 0) {
+      default_material_ = static_cast<int>(scene_.materials.size());
+      scene_.materials.push_back(Material{"default", glm::vec3(0.8f), glm::vec3(0.0f)});
     }
-    return static_cast<uint32_t>(default_material);
+    return static_cast<uint32_t>(default_material_);
+  }
+
+ private:
+  size_t obj_materials_;
+  Scene& scene_;
+  int default_material_ = -1;
+};
+
+// Which attributes a shape's corners have.
+struct ObjCorners {
+  bool normals = true, uvs = true, any_normals = false;
+};
+
+// The attributes of a shape's corners, each index checked against the attribute arrays.
+Expected<ObjCorners> objCorners(const std::string& path, const tinyobj::attrib_t& attrib,
+                                const tinyobj::mesh_t& sm) {
+  ObjCorners corners;
+  const size_t nv = attrib.vertices.size() / 3, nn = attrib.normals.size() / 3,
+               nt = attrib.texcoords.size() / 2;
+  for (const tinyobj::index_t& idx : sm.indices) {
+    // The scan checked every index; this guards against tinyobjloader resolving one otherwise.
+    if (idx.vertex_index < 0 || static_cast<size_t>(idx.vertex_index) >= nv ||
+        (idx.normal_index >= 0 && static_cast<size_t>(idx.normal_index) >= nn) ||
+        (idx.texcoord_index >= 0 && static_cast<size_t>(idx.texcoord_index) >= nt)) {
+      return inputError(path, "", "tinyobjloader produced an index out of range");
+    }
+    corners.normals = corners.normals && idx.normal_index >= 0;
+    corners.any_normals = corners.any_normals || idx.normal_index >= 0;
+    corners.uvs = corners.uvs && idx.texcoord_index >= 0;
+  }
+  return corners;
+}
+
+// A shape as a mesh: its faces fanned in file order, corners with the same indices sharing a
+// vertex.
+Status addObjShape(const std::string& path, const tinyobj::attrib_t& attrib,
+                   const tinyobj::shape_t& shape, const std::string& stem,
+                   ObjMaterialIds& material_for, Scene& scene) {
+  const tinyobj::mesh_t& sm = shape.mesh;
+  // Normals and texture coordinates are kept only when every corner of the shape has them.
+  Expected<ObjCorners> corners = objCorners(path, attrib, sm);
+  if (!corners) return corners.error();
+  const bool has_normals = corners->normals, has_uvs = corners->uvs;
+  const std::string mesh_name = shape.name.empty() ? stem : shape.name;
+  if (corners->any_normals && !has_normals) {
+    scene.warnings.push_back(
+        fmt::format("{}: '{}': some faces have no normals, so the shape's normals are dropped",
+                    path, mesh_name));
+  }
+
+  Mesh mesh;
+  mesh.name = mesh_name;
+  std::unordered_map<CornerKey, uint32_t, CornerKeyHash> vertex_of;
+  auto vertexFor = [&](const tinyobj::index_t& idx) -> uint32_t {
+    const CornerKey key{idx.vertex_index, has_normals ? idx.normal_index : -1,
+                        has_uvs ? idx.texcoord_index : -1};
+    auto [it, inserted] = vertex_of.try_emplace(key, static_cast<uint32_t>(mesh.positions.size()));
+    if (inserted) {
+      const size_t v = static_cast<size_t>(key.v);
+      mesh.positions.emplace_back(attrib.vertices[3 * v], attrib.vertices[3 * v + 1],
+                                  attrib.vertices[3 * v + 2]);
+      if (has_normals) {
+        const size_t n = static_cast<size_t>(key.vn);
+        mesh.normals.emplace_back(attrib.normals[3 * n], attrib.normals[3 * n + 1],
+                                  attrib.normals[3 * n + 2]);
+      }
+      if (has_uvs) {
+        const size_t t = static_cast<size_t>(key.vt);
+        mesh.uvs.emplace_back(attrib.texcoords[2 * t], attrib.texcoords[2 * t + 1]);
+      }
+    }
+    return it->second;
   };
 
+  size_t offset = 0;
+  for (size_t f = 0; f < sm.num_face_vertices.size(); ++f) {
+    const size_t n = sm.num_face_vertices[f];
+    const uint32_t material = material_for(f < sm.material_ids.size() ? sm.material_ids[f] : -1);
+    const uint32_t v0 = vertexFor(sm.indices[offset]);
+    uint32_t prev = vertexFor(sm.indices[offset + 1]);
+    for (size_t k = 2; k < n; ++k) {
+      const uint32_t cur = vertexFor(sm.indices[offset + k]);
+      mesh.triangles.emplace_back(v0, prev, cur);
+      mesh.material_ids.push_back(material);
+      prev = cur;
+    }
+    offset += n;
+  }
+  scene.meshes.push_back(std::move(mesh));
+  return {};
+}
+
+}  // namespace
+
+Expected<Scene> loadObj(const std::string& path) {
+  Expected<std::string> text = readFile(path);
+  if (!text.ok()) return text.error();
+
+  ObjScan scan;
+  std::string clean;
+  PENUMBRA_TRY(scanObj(path, *text, &scan, &clean));
+  text->clear();
+  if (scan.faces == 0) return inputError(path, "", "no faces: the file has no polygons");
+
+  Scene scene;
+  scene.source = path;
+  scene.warnings = std::move(scan.warnings);
+  bool library_missing = false;
+  Expected<std::string> mtl_text = readMaterialLibraries(path, scan, scene, library_missing);
+  if (!mtl_text) return mtl_text.error();
+  tinyobj::ObjReader reader;
+  PENUMBRA_TRY(parseWithTinyObj(path, clean, *mtl_text, reader));
+
+  const std::vector<tinyobj::material_t>& obj_materials = reader.GetMaterials();
+  for (const tinyobj::material_t& m : obj_materials) {
+    Expected<Material> mat = objMaterial(path, m, scene);
+    if (!mat) return mat.error();
+    scene.materials.push_back(std::move(*mat));
+  }
+  warnUndefinedMaterials(path, scan, obj_materials, library_missing, scene);
+
+  ObjMaterialIds material_for(obj_materials.size(), scene);
   const std::string stem = std::filesystem::path(path).stem().string();
   size_t faces_read = 0;
   for (const tinyobj::shape_t& shape : reader.GetShapes()) {
-    const tinyobj::mesh_t& sm = shape.mesh;
-    if (sm.num_face_vertices.empty()) continue;
-    faces_read += sm.num_face_vertices.size();
-
-    // Normals and texture coordinates are kept only when every corner of the shape has them.
-    bool has_normals = true, has_uvs = true, any_normals = false;
-    const size_t nv = attrib.vertices.size() / 3, nn = attrib.normals.size() / 3,
-                 nt = attrib.texcoords.size() / 2;
-    for (const tinyobj::index_t& idx : sm.indices) {
-      // The scan checked every index; this guards against tinyobjloader resolving one otherwise.
-      if (idx.vertex_index < 0 || static_cast<size_t>(idx.vertex_index) >= nv ||
-          (idx.normal_index >= 0 && static_cast<size_t>(idx.normal_index) >= nn) ||
-          (idx.texcoord_index >= 0 && static_cast<size_t>(idx.texcoord_index) >= nt)) {
-        return inputError(path, "", "tinyobjloader produced an index out of range");
-      }
-      has_normals = has_normals && idx.normal_index >= 0;
-      any_normals = any_normals || idx.normal_index >= 0;
-      has_uvs = has_uvs && idx.texcoord_index >= 0;
-    }
-    const std::string mesh_name = shape.name.empty() ? stem : shape.name;
-    if (any_normals && !has_normals) {
-      scene.warnings.push_back(
-          fmt::format("{}: '{}': some faces have no normals, so the shape's normals are dropped",
-                      path, mesh_name));
-    }
-
-    Mesh mesh;
-    mesh.name = mesh_name;
-    std::unordered_map<CornerKey, uint32_t, CornerKeyHash> vertex_of;
-    auto vertexFor = [&](const tinyobj::index_t& idx) -> uint32_t {
-      const CornerKey key{idx.vertex_index, has_normals ? idx.normal_index : -1,
-                          has_uvs ? idx.texcoord_index : -1};
-      auto [it, inserted] =
-          vertex_of.try_emplace(key, static_cast<uint32_t>(mesh.positions.size()));
-      if (inserted) {
-        const size_t v = static_cast<size_t>(key.v);
-        mesh.positions.emplace_back(attrib.vertices[3 * v], attrib.vertices[3 * v + 1],
-                                    attrib.vertices[3 * v + 2]);
-        if (has_normals) {
-          const size_t n = static_cast<size_t>(key.vn);
-          mesh.normals.emplace_back(attrib.normals[3 * n], attrib.normals[3 * n + 1],
-                                    attrib.normals[3 * n + 2]);
-        }
-        if (has_uvs) {
-          const size_t t = static_cast<size_t>(key.vt);
-          mesh.uvs.emplace_back(attrib.texcoords[2 * t], attrib.texcoords[2 * t + 1]);
-        }
-      }
-      return it->second;
-    };
-
-    size_t offset = 0;
-    for (size_t f = 0; f < sm.num_face_vertices.size(); ++f) {
-      const size_t n = sm.num_face_vertices[f];
-      const uint32_t material = materialFor(f < sm.material_ids.size() ? sm.material_ids[f] : -1);
-      const uint32_t v0 = vertexFor(sm.indices[offset]);
-      uint32_t prev = vertexFor(sm.indices[offset + 1]);
-      for (size_t k = 2; k < n; ++k) {
-        const uint32_t cur = vertexFor(sm.indices[offset + k]);
-        mesh.triangles.emplace_back(v0, prev, cur);
-        mesh.material_ids.push_back(material);
-        prev = cur;
-      }
-      offset += n;
-    }
-    scene.meshes.push_back(std::move(mesh));
+    if (shape.mesh.num_face_vertices.empty()) continue;
+    faces_read += shape.mesh.num_face_vertices.size();
+    PENUMBRA_TRY(addObjShape(path, reader.GetAttrib(), shape, stem, material_for, scene));
   }
   if (faces_read != scan.faces) {
     return inputError(path, "",

@@ -391,29 +391,14 @@ struct LdtLines {
   }
 };
 
-}  // namespace
+// The counts of lines 2-7 that shape the intensity table.
+struct LdtShape {
+  int isym = 0, mc = 0, ng = 0;
+};
 
-Expected<Photometry> parseEulumdat(std::string_view text, const std::string& name) {
-  const std::vector<std::string_view> lines = splitLines(stripBom(text));
-  const LdtLines in{lines, name};
-  Photometry p;
-  p.file = name;
-  p.format = "EULUMDAT";
-  p.type = PhotometricType::kC;
-
-  // Lines 1-25: the luminaire.
-  PENUMBRA_TRY(in.need(1, "company identification"));
-  p.manufacturer = in.text(1);
-  int ityp = 0, isym = 0, mc = 0, ng = 0;
-  PENUMBRA_TRY(in.integer(2, "type indicator Ityp", 0, 3, ityp));
-  PENUMBRA_TRY(in.integer(3, "symmetry indicator Isym", 0, 4, isym));
-  PENUMBRA_TRY(in.integer(4, "number of C planes Mc", 1, kMaxAngles, mc));
-  double dc = 0.0, dg = 0.0;
-  PENUMBRA_TRY(in.range(5, "distance between C planes Dc", 0.0, 360.0, dc));
-  PENUMBRA_TRY(in.integer(6, "number of intensities per C plane Ng", 2, kMaxAngles, ng));
-  PENUMBRA_TRY(in.range(7, "distance between intensities Dg", 0.0, 180.0, dg));
-  PENUMBRA_TRY(in.need(12, "date/user"));
-  p.luminaire = in.text(9).empty() ? in.text(10) : in.text(9);
+// Lines 13-21: the luminaire's and the luminous area's dimensions; the opening is the luminous
+// area's.
+Status readLdtOpening(const LdtLines& in, Photometry& p) {
   double dims[9] = {};
   static constexpr std::string_view kDimensions[9] = {"luminaire length/diameter (mm)",
                                                       "luminaire width (mm)",
@@ -432,12 +417,30 @@ Expected<Photometry> parseEulumdat(std::string_view text, const std::string& nam
   p.height = std::max({dims[5], dims[6], dims[7], dims[8]}) / 1000.0;
   p.circular = dims[4] == 0.0 && dims[3] > 0.0;
   if (p.circular) p.width = p.length;  // the diameter
+  return {};
+}
+
+// Lines 1-25: the luminaire.
+Status readLdtLuminaire(const LdtLines& in, LdtShape& shape, Photometry& p) {
+  PENUMBRA_TRY(in.need(1, "company identification"));
+  p.manufacturer = in.text(1);
+  int ityp = 0;
+  PENUMBRA_TRY(in.integer(2, "type indicator Ityp", 0, 3, ityp));
+  PENUMBRA_TRY(in.integer(3, "symmetry indicator Isym", 0, 4, shape.isym));
+  PENUMBRA_TRY(in.integer(4, "number of C planes Mc", 1, kMaxAngles, shape.mc));
+  double dc = 0.0, dg = 0.0;
+  PENUMBRA_TRY(in.range(5, "distance between C planes Dc", 0.0, 360.0, dc));
+  PENUMBRA_TRY(in.integer(6, "number of intensities per C plane Ng", 2, kMaxAngles, shape.ng));
+  PENUMBRA_TRY(in.range(7, "distance between intensities Dg", 0.0, 180.0, dg));
+  PENUMBRA_TRY(in.need(12, "date/user"));
+  p.luminaire = in.text(9).empty() ? in.text(10) : in.text(9);
+  PENUMBRA_TRY(readLdtOpening(in, p));
   double dff = 0.0, lorl = 0.0;
   PENUMBRA_TRY(in.range(22, "downward flux fraction DFF (%)", 0.0, 100.0, dff));
   PENUMBRA_TRY(in.range(23, "light output ratio LORL (%)", 0.0, 100.0, lorl));
   PENUMBRA_TRY(in.number(24, "conversion factor for luminous intensities", p.conversion_factor));
   if (!(p.conversion_factor > 0.0)) {
-    return lineError(name, 24,
+    return lineError(in.file, 24,
                      fmt::format("the conversion factor for luminous intensities must be "
                                  "positive, not {}",
                                  p.conversion_factor));
@@ -446,8 +449,12 @@ Expected<Photometry> parseEulumdat(std::string_view text, const std::string& nam
       in.range(25, "tilt of the luminaire during measurement", -360.0, 360.0, p.measurement_tilt));
   p.downward_flux_fraction = dff / 100.0;
   p.light_output_ratio = lorl / 100.0;
+  return {};
+}
 
-  // Line 26: n lamp sets, then n lines of each of 26a-26f.
+// Line 26: n lamp sets, then n lines of each of 26a-26f; then the ten direct ratios. The line of
+// the first direct ratio.
+Expected<size_t> readLdtLampSets(const LdtLines& in, Photometry& p) {
   int n = 0;
   PENUMBRA_TRY(in.integer(26, "number of lamp sets n", 1, 50, n));
   p.lamp_sets = n;
@@ -475,12 +482,46 @@ Expected<Photometry> parseEulumdat(std::string_view text, const std::string& nam
     PENUMBRA_TRY(in.number(ratios + k, "direct ratio", p.direct_ratios[k]));
   }
   p.stated_flux = p.lamp_flux * p.light_output_ratio;
+  return ratios;
+}
 
-  // The C angles, gamma angles and intensities (cd/klm) of the planes the symmetry keeps:
-  // Isym 1 one plane; 2 C0..C180 (Mc/2 + 1 planes); 3 C270..C360=C0..C90 (Mc/2 + 1 planes, from
-  // index 3 Mc/4); 4 C0..C90 (Mc/4 + 1 planes).
+// The intensity table as the file stores it: all C and gamma angles, the intensities (cd/klm)
+// of the `kept` planes the symmetry keeps, and the factor from cd/klm to cd.
+struct LdtTable {
+  std::vector<double> c_angles, gammas, stored;
+  size_t kept = 0;
+  double scale = 1.0;
+};
+
+// The intensities of the kept planes, each checked against kMaxCandela once scaled to cd.
+Status readLdtIntensities(TokenStream& data, const Photometry& p, LdtTable& table) {
+  table.stored.resize(table.kept * table.gammas.size());
+  for (size_t k = 0; k < table.stored.size(); ++k) {
+    Expected<double> v = data.number("luminous intensity");
+    if (!v) return v.error();
+    if (*v < 0.0) {
+      return data.error(fmt::format("negative luminous intensity {} cd/klm", *v));
+    }
+    if (!(*v * table.scale <= kMaxCandela)) {
+      return data.error(
+          fmt::format("luminous intensity {} cd/klm times {} lm / 1000 and the conversion "
+                      "factor {} exceeds {:g} cd",
+                      *v, p.lamp_flux, p.conversion_factor, kMaxCandela));
+    }
+    table.stored[k] = *v;
+  }
+  return {};
+}
+
+// The C angles, gamma angles and intensities (cd/klm) of the planes the symmetry keeps:
+// Isym 1 one plane; 2 C0..C180 (Mc/2 + 1 planes); 3 C270..C360=C0..C90 (Mc/2 + 1 planes, from
+// index 3 Mc/4); 4 C0..C90 (Mc/4 + 1 planes). They follow the last direct ratio (line
+// `ratios` + 9) and are read as a stream.
+Status readLdtTable(const LdtLines& in, size_t ratios, const LdtShape& shape, const Photometry& p,
+                    LdtTable& table) {
+  const int isym = shape.isym, mc = shape.mc, ng = shape.ng;
   if ((isym == 2 && mc % 2 != 0) || ((isym == 3 || isym == 4) && mc % 4 != 0)) {
-    return lineError(name, 4,
+    return lineError(in.file, 4,
                      fmt::format("Mc = {} C planes do not divide into the symmetry Isym = {} "
                                  "(Mc must be a multiple of {})",
                                  mc, isym, isym == 2 ? 2 : 4));
@@ -489,73 +530,86 @@ Expected<Photometry> parseEulumdat(std::string_view text, const std::string& nam
   const size_t kept = isym == 0 ? mcs : isym == 1 ? 1 : isym == 4 ? mcs / 4 + 1 : mcs / 2 + 1;
   if (mcs * ngs > kMaxValues) {
     return lineError(
-        name, 6,
+        in.file, 6,
         fmt::format("{} C planes of {} intensities are more than {} values", mc, ng, kMaxValues));
   }
   // Enough values must be left before anything is allocated for them.
-  TokenStream data(lines, std::min(ratios + 9, lines.size()), true, name);
+  TokenStream data(in.lines, std::min(ratios + 9, in.lines.size()), true, in.file);
   if (data.remaining() < mcs + ngs) {
     const size_t have = data.remaining();
     return lineError(
-        name, data.lastLine(),
+        in.file, data.lastLine(),
         have < mcs ? fmt::format("the file ends before C angle {} of {}", have + 1, mc)
                    : fmt::format("the file ends before gamma angle {} of {}", have - mcs + 1, ng));
   }
-  std::vector<double> c_angles, gammas;
-  PENUMBRA_TRY(readAngles(data, mcs, 0.0, 360.0, "C angle", c_angles, true));
-  PENUMBRA_TRY(readAngles(data, ngs, 0.0, 180.0, "gamma angle", gammas));
+  PENUMBRA_TRY(readAngles(data, mcs, 0.0, 360.0, "C angle", table.c_angles, true));
+  PENUMBRA_TRY(readAngles(data, ngs, 0.0, 180.0, "gamma angle", table.gammas));
   if (data.remaining() < kept * ngs) {
-    return lineError(name, data.lastLine(),
+    return lineError(in.file, data.lastLine(),
                      fmt::format("the file ends before intensity {} of {} (Isym {}: {} planes "
                                  "of {})",
                                  data.remaining() + 1, kept * ngs, isym, kept, ng));
   }
-  const double scale = p.lamp_flux / 1000.0 * p.conversion_factor;  // cd/klm to cd
-  if (!std::isfinite(scale)) {
-    return lineError(name, 24, "the lamp flux times the conversion factor overflows");
+  table.kept = kept;
+  table.scale = p.lamp_flux / 1000.0 * p.conversion_factor;  // cd/klm to cd
+  if (!std::isfinite(table.scale)) {
+    return lineError(in.file, 24, "the lamp flux times the conversion factor overflows");
   }
-  std::vector<double> stored(kept * ngs);
-  for (size_t k = 0; k < stored.size(); ++k) {
-    Expected<double> v = data.number("luminous intensity");
-    if (!v) return v.error();
-    if (*v < 0.0) {
-      return data.error(fmt::format("negative luminous intensity {} cd/klm", *v));
-    }
-    if (!(*v * scale <= kMaxCandela)) {
-      return data.error(
-          fmt::format("luminous intensity {} cd/klm times {} lm / 1000 and the conversion "
-                      "factor {} exceeds {:g} cd",
-                      *v, p.lamp_flux, p.conversion_factor, kMaxCandela));
-    }
-    stored[k] = *v;
-  }
-  PENUMBRA_TRY(data.end(
-      fmt::format("Isym {} with Mc {} and Ng {} gives {} intensities", isym, mc, ng, kept * ngs)));
+  PENUMBRA_TRY(readLdtIntensities(data, p, table));
+  return data.end(
+      fmt::format("Isym {} with Mc {} and Ng {} gives {} intensities", isym, mc, ng, kept * ngs));
+}
 
+// The distribution on all Mc planes, in cd: the kept planes unfolded by the symmetry.
+Status expandLdtTable(const LdtLines& in, const LdtShape& shape, const LdtTable& table,
+                      Photometry& p) {
+  const int isym = shape.isym;
+  const size_t mcs = table.c_angles.size(), ngs = table.gammas.size(), kept = table.kept;
   // The kept planes' coordinates in the folded domain of foldC (Isym 3: C270.. as -90..).
   std::vector<double> kept_c(kept);
   for (size_t k = 0; k < kept; ++k) {
     const size_t index = isym == 3 ? (3 * mcs / 4 + k) % mcs : k;
-    kept_c[k] = c_angles[index];
+    kept_c[k] = table.c_angles[index];
     if (isym == 3 && kept_c[k] > 180.0) kept_c[k] -= 360.0;
     if (k > 0 && kept_c[k] <= kept_c[k - 1]) {
-      return lineError(name, 4,
+      return lineError(in.file, 4,
                        fmt::format("the C angles do not fit Isym = {}: the planes it keeps are "
                                    "not in order ({} after {})",
-                                   isym, c_angles[index], kept_c[k - 1]));
+                                   isym, table.c_angles[index], kept_c[k - 1]));
     }
   }
   p.symmetry = isym;
-  p.planes = c_angles;
-  p.angles = gammas;
+  p.planes = table.c_angles;
+  p.angles = table.gammas;
   if (isym == 1) {
     p.candela.resize(mcs * ngs);
-    for (size_t c = 0; c < mcs; ++c) std::copy(stored.begin(), stored.end(), &p.candela[c * ngs]);
+    for (size_t c = 0; c < mcs; ++c) {
+      std::copy(table.stored.begin(), table.stored.end(), &p.candela[c * ngs]);
+    }
   } else {
-    p.candela =
-        expandPlanes(kept_c, stored, ngs, c_angles, [isym](double c) { return foldC(c, isym); });
+    p.candela = expandPlanes(kept_c, table.stored, ngs, table.c_angles,
+                             [isym](double c) { return foldC(c, isym); });
   }
-  for (double& v : p.candela) v *= scale;
+  for (double& v : p.candela) v *= table.scale;
+  return {};
+}
+
+}  // namespace
+
+Expected<Photometry> parseEulumdat(std::string_view text, const std::string& name) {
+  const std::vector<std::string_view> lines = splitLines(stripBom(text));
+  const LdtLines in{lines, name};
+  Photometry p;
+  p.file = name;
+  p.format = "EULUMDAT";
+  p.type = PhotometricType::kC;
+  LdtShape shape;
+  PENUMBRA_TRY(readLdtLuminaire(in, shape, p));
+  Expected<size_t> ratios = readLdtLampSets(in, p);
+  if (!ratios) return ratios.error();
+  LdtTable table;
+  PENUMBRA_TRY(readLdtTable(in, *ratios, shape, p, table));
+  PENUMBRA_TRY(expandLdtTable(in, shape, table, p));
   return p;
 }
 
@@ -592,15 +646,10 @@ Status readTilt(TokenStream& in, Photometry& p) {
 
 using TiltLoader = std::function<Expected<std::string>(const std::string& tilt_name)>;
 
-Expected<Photometry> parseIesWith(std::string_view text, const std::string& name,
-                                  const TiltLoader& load_tilt) {
-  const std::vector<std::string_view> lines = splitLines(stripBom(text));
-  Photometry p;
-  p.file = name;
-
-  // The header line: LM-63-1986 files have none.
+// The header line: LM-63-1986 files have none. Sets p.format; `line` (the 0-based index of the
+// next line) moves past the header line when there is one.
+IesVersion readIesVersion(const std::vector<std::string_view>& lines, size_t& line, Photometry& p) {
   IesVersion version = IesVersion::k1986;
-  size_t line = 0;  // 0-based index of the next line
   if (!lines.empty()) {
     const std::string head = upper(trim(lines[0]));
     if (head.rfind("IESNA", 0) == 0 || head.rfind("IES:", 0) == 0) {
@@ -621,10 +670,13 @@ Expected<Photometry> parseIesWith(std::string_view text, const std::string& name
   static constexpr const char* kFormats[] = {"IES LM-63-1986", "IES LM-63-1991", "IES LM-63-1995",
                                              "IES LM-63-2002", "IES LM-63-2019"};
   p.format = kFormats[int(version)];
+  return version;
+}
 
-  // Keyword lines ("[KEY] value", [MORE] continues the one before; free text in 1986 files) up
-  // to TILT=.
-  std::string free_text;
+// Keyword lines ("[KEY] value", [MORE] continues the one before; free text in 1986 files) up
+// to TILT=, from lines[line] (0-based) on. The 1-based line of TILT=.
+Expected<size_t> readIesKeywords(const std::vector<std::string_view>& lines, size_t line,
+                                 const std::string& name, Photometry& p, std::string& free_text) {
   size_t tilt_line = 0;  // 1-based
   for (; line < lines.size(); ++line) {
     const std::string_view t = trim(lines[line]);
@@ -653,22 +705,32 @@ Expected<Photometry> parseIesWith(std::string_view text, const std::string& name
                      "no TILT= line: an LM-63 file names its tilt data (TILT=NONE, "
                      "TILT=INCLUDE or TILT=<file>) before the photometric data");
   }
-  auto keyword = [&p](std::string_view key) -> std::string {
-    for (const auto& [k, v] : p.keywords) {
-      if (k == key && !v.empty()) return v;
-    }
-    return "";
-  };
-  p.manufacturer = keyword("[MANUFAC]");
-  p.luminaire = keyword("[LUMINAIRE]");
-  if (p.luminaire.empty()) p.luminaire = keyword("[LUMCAT]");
-  if (p.luminaire.empty()) p.luminaire = free_text;
-  p.lamp = keyword("[LAMP]");
-  if (p.lamp.empty()) p.lamp = keyword("[LAMPCAT]");
+  return tilt_line;
+}
 
-  // The tilt data and the photometric data: numbers from the line after TILT= on.
-  TokenStream in(lines, tilt_line, false, name);
-  const std::string_view tilt_line_text = trim(lines[tilt_line - 1]);
+// The value of the first keyword `key` that has one, or "".
+std::string keywordValue(const Photometry& p, std::string_view key) {
+  for (const auto& [k, v] : p.keywords) {
+    if (k == key && !v.empty()) return v;
+  }
+  return "";
+}
+
+// The descriptive strings from the keywords; a 1986 file's free text names the luminaire.
+void nameIesLuminaire(const std::string& free_text, Photometry& p) {
+  p.manufacturer = keywordValue(p, "[MANUFAC]");
+  p.luminaire = keywordValue(p, "[LUMINAIRE]");
+  if (p.luminaire.empty()) p.luminaire = keywordValue(p, "[LUMCAT]");
+  if (p.luminaire.empty()) p.luminaire = free_text;
+  p.lamp = keywordValue(p, "[LAMP]");
+  if (p.lamp.empty()) p.lamp = keywordValue(p, "[LAMPCAT]");
+}
+
+// The tilt data the TILT= line (1-based `tilt_line`, text `tilt_line_text`) names: none,
+// INCLUDE (read from `in`, the numbers after that line), or a separate file `load_tilt` reads.
+Status readIesTiltData(std::string_view tilt_line_text, size_t tilt_line,
+                       const TiltLoader& load_tilt, TokenStream& in, Photometry& p) {
+  const std::string& name = in.file();
   const std::string tilt(trim(tilt_line_text.substr(tilt_line_text.find('=') + 1)));
   const std::string tilt_upper = upper(tilt);
   if (tilt_upper == "INCLUDE") {
@@ -692,13 +754,31 @@ Expected<Photometry> parseIesWith(std::string_view text, const std::string& name
     PENUMBRA_TRY(readTilt(tilt_in, p));
     PENUMBRA_TRY(tilt_in.end("the tilt file's angles and factors"));
   }
+  return {};
+}
 
-  // <lamps> <lumens per lamp> <candela multiplier> <vertical angles> <horizontal angles>
-  // <photometric type> <units> <width> <length> <height>
-  // <ballast factor> <ballast-lamp photometric factor | future use | file generation type>
-  // <input watts>
+// The two lines of numbers after the tilt data:
+// <lamps> <lumens per lamp> <candela multiplier> <vertical angles> <horizontal angles>
+// <photometric type> <units> <width> <length> <height>
+// <ballast factor> <ballast-lamp photometric factor | future use | file generation type>
+// <input watts>
+struct IesCounts {
+  int lamps = 0;
+  double lumens = 0.0, multiplier = 0.0;
+  int n_vertical = 0, n_horizontal = 0;
+  size_t counts_line = 0;  // the line of the number of horizontal angles
+  int type = 0, units = 0;
+  double size[3] = {};
+  double ballast = 0.0, factor = 0.0;
+  bool uses_factor = false;  // the ballast-lamp photometric factor applies (before LM-63-2002)
+  double watts = 0.0;
+};
+
+// The first line: lamps to height.
+Status readIesLampLine(TokenStream& in, IesCounts& c) {
   Expected<int> lamps = in.integer("number of lamps", 1, 1000000);
   if (!lamps) return lamps.error();
+  c.lamps = *lamps;
   Expected<double> lumens = in.number("lumens per lamp");
   if (!lumens) return lumens.error();
   if (!(*lumens > 0.0) && *lumens != -1.0) {
@@ -707,49 +787,75 @@ Expected<Photometry> parseIesWith(std::string_view text, const std::string& name
                     "photometry, not {}",
                     *lumens));
   }
+  c.lumens = *lumens;
   Expected<double> multiplier = in.number("candela multiplier");
   if (!multiplier) return multiplier.error();
   if (!(*multiplier > 0.0)) {
     return in.error(fmt::format("the candela multiplier must be positive, not {}", *multiplier));
   }
+  c.multiplier = *multiplier;
   Expected<int> n_vertical = in.integer("number of vertical angles", 2, kMaxAngles);
   if (!n_vertical) return n_vertical.error();
+  c.n_vertical = *n_vertical;
   Expected<int> n_horizontal = in.integer("number of horizontal angles", 1, kMaxAngles);
   if (!n_horizontal) return n_horizontal.error();
-  const size_t counts_line = in.line();
+  c.n_horizontal = *n_horizontal;
+  c.counts_line = in.line();
   Expected<int> type = in.integer("photometric type (1 C, 2 B, 3 A)", 1, 3);
   if (!type) return type.error();
+  c.type = *type;
   Expected<int> units = in.integer("units type (1 feet, 2 metres)", 1, 2);
   if (!units) return units.error();
-  double size[3] = {};
+  c.units = *units;
   static constexpr std::string_view kSize[3] = {"luminous width", "luminous length",
                                                 "luminous height"};
   for (int k = 0; k < 3; ++k) {
     Expected<double> v = in.number(kSize[k]);
     if (!v) return v.error();
-    size[k] = *v;
+    c.size[k] = *v;
   }
+  return {};
+}
+
+// The second line: ballast factor, the field LM-63-2002 made "future use", input watts.
+Status readIesBallastLine(TokenStream& in, IesVersion version, IesCounts& c) {
   Expected<double> ballast = in.number("ballast factor");
   if (!ballast) return ballast.error();
   if (!(*ballast > 0.0)) {
     return in.error(fmt::format("the ballast factor must be positive, not {}", *ballast));
   }
+  c.ballast = *ballast;
   Expected<double> factor =
       in.number(version >= IesVersion::k2002 ? std::string_view("future use field")
                                              : std::string_view("ballast-lamp photometric factor"));
   if (!factor) return factor.error();
-  const bool uses_factor = version < IesVersion::k2002;
-  if (uses_factor && !(*factor > 0.0)) {
+  c.uses_factor = version < IesVersion::k2002;
+  if (c.uses_factor && !(*factor > 0.0)) {
     return in.error(
         fmt::format("the ballast-lamp photometric factor must be positive, not {}", *factor));
   }
+  c.factor = *factor;
   Expected<double> watts = in.number("input watts");
   if (!watts) return watts.error();
   if (*watts < 0.0) return in.error(fmt::format("negative input watts {}", *watts));
+  c.watts = *watts;
+  return {};
+}
 
-  const size_t nv = size_t(*n_vertical), nh = size_t(*n_horizontal);
+// The candela table as the file stores it: nv vertical by nh horizontal angles, nh rows of nv
+// values, and the factor that makes them absolute.
+struct IesTable {
+  std::vector<double> vertical, horizontal, values;
+  size_t horizontal_line = 0;  // the line of the last horizontal angle
+  double scale = 1.0;
+};
+
+// The angles, checked against the photometric type's ranges, once their counts are checked
+// against kMaxValues and the values the file still holds; sets p.type.
+Status readIesAngles(TokenStream& in, const IesCounts& c, Photometry& p, IesTable& table) {
+  const size_t nv = size_t(c.n_vertical), nh = size_t(c.n_horizontal);
   if (nv * nh > kMaxValues) {
-    return lineError(name, counts_line,
+    return lineError(in.file(), c.counts_line,
                      fmt::format("{} vertical by {} horizontal angles are more than {} candela "
                                  "values",
                                  nv, nh, kMaxValues));
@@ -757,152 +863,201 @@ Expected<Photometry> parseIesWith(std::string_view text, const std::string& name
   if (in.remaining() < nv + nh) {
     const size_t have = in.remaining();
     return lineError(
-        name, in.lastLine(),
+        in.file(), in.lastLine(),
         have < nv
             ? fmt::format("the file ends before vertical angle {} of {}", have + 1, nv)
             : fmt::format("the file ends before horizontal angle {} of {}", have - nv + 1, nh));
   }
 
-  p.type = *type == 1   ? PhotometricType::kC
-           : *type == 2 ? PhotometricType::kB
-                        : PhotometricType::kA;
+  p.type = c.type == 1   ? PhotometricType::kC
+           : c.type == 2 ? PhotometricType::kB
+                         : PhotometricType::kA;
   // Ranges {vertical lo, hi, horizontal lo, hi}: type C gamma 0..180 and C 0..360; type A a
   // latitude and a longitude; type B a plane angle and a latitude.
   const double(&range)[4] = p.type == PhotometricType::kC   ? kRangesC
                             : p.type == PhotometricType::kA ? kRangesA
                                                             : kRangesB;
   const double v_lo = range[0], v_hi = range[1], h_lo = range[2], h_hi = range[3];
-  std::vector<double> vertical, horizontal;
-  PENUMBRA_TRY(readAngles(in, nv, v_lo, v_hi, "vertical angle", vertical));
-  PENUMBRA_TRY(readAngles(in, nh, h_lo, h_hi, "horizontal angle", horizontal));
-  const size_t horizontal_line = in.line();
+  PENUMBRA_TRY(readAngles(in, nv, v_lo, v_hi, "vertical angle", table.vertical));
+  PENUMBRA_TRY(readAngles(in, nh, h_lo, h_hi, "horizontal angle", table.horizontal));
+  table.horizontal_line = in.line();
+  return {};
+}
+
+// The candela values, each checked against kMaxCandela once scaled; none may be left over.
+Status readIesCandela(TokenStream& in, const IesCounts& c, IesTable& table) {
+  const size_t nv = size_t(c.n_vertical), nh = size_t(c.n_horizontal);
   if (in.remaining() < nv * nh) {
-    return lineError(name, in.lastLine(),
+    return lineError(in.file(), in.lastLine(),
                      fmt::format("the file ends before candela value {} of {} ({} horizontal by "
                                  "{} vertical angles, line {})",
-                                 in.remaining() + 1, nv * nh, nh, nv, counts_line));
+                                 in.remaining() + 1, nv * nh, nh, nv, c.counts_line));
   }
-  const double scale = *multiplier * *ballast * (uses_factor ? *factor : 1.0);
-  if (!std::isfinite(scale)) {
-    return lineError(name, counts_line, "the candela multiplier and ballast factors overflow");
+  table.scale = c.multiplier * c.ballast * (c.uses_factor ? c.factor : 1.0);
+  if (!std::isfinite(table.scale)) {
+    return lineError(in.file(), c.counts_line,
+                     "the candela multiplier and ballast factors overflow");
   }
-  std::vector<double> values(nv * nh);
-  for (double& v : values) {
-    Expected<double> c = in.number("candela value");
-    if (!c) return c.error();
-    if (*c < 0.0) return in.error(fmt::format("negative candela value {}", *c));
-    if (!(*c * scale <= kMaxCandela)) {
+  table.values.resize(nv * nh);
+  for (double& v : table.values) {
+    Expected<double> value = in.number("candela value");
+    if (!value) return value.error();
+    if (*value < 0.0) return in.error(fmt::format("negative candela value {}", *value));
+    if (!(*value * table.scale <= kMaxCandela)) {
       return in.error(
           fmt::format("candela value {} times the multiplier and ballast factors exceeds {:g} cd",
-                      *c, kMaxCandela));
+                      *value, kMaxCandela));
     }
-    v = *c;
+    v = *value;
   }
-  PENUMBRA_TRY(
-      in.end(fmt::format("{} horizontal by {} vertical angles (line {}) give {} candela values", nh,
-                         nv, counts_line, nv * nh)));
+  return in.end(fmt::format("{} horizontal by {} vertical angles (line {}) give {} candela values",
+                            nh, nv, c.counts_line, nv * nh));
+}
 
-  // Expand the symmetry.
-  if (p.type == PhotometricType::kC) {
-    const double first = horizontal.front(), last = horizontal.back();
-    std::vector<double> full;
-    int symmetry = 0;
-    if (nh == 1) {
-      symmetry = 1;
-      full = {0.0};
-    } else if (first == 0.0 && last == 90.0) {
-      symmetry = 4;
-      for (double h : horizontal) full.insert(full.end(), {h, 180.0 - h, 180.0 + h, 360.0 - h});
-    } else if (first == 0.0 && last == 180.0) {
-      symmetry = 2;
-      for (double h : horizontal) full.insert(full.end(), {h, 360.0 - h});
-    } else if (first == 90.0 && last == 270.0) {
-      symmetry = 3;
-      for (double h : horizontal) {
-        full.push_back(h);
-        full.push_back(h <= 180.0 ? 180.0 - h : 540.0 - h);
-      }
-    } else if (first == 0.0 && last > 180.0) {
-      full = horizontal;  // 0 to 360, or to a last plane short of 360 that wraps to 0
-    } else {
-      return lineError(name, horizontal_line,
-                       fmt::format("type C horizontal angles {} to {}: LM-63 allows 0 alone "
-                                   "(rotational symmetry), 0 to 90, 0 to 180, 90 to 270, or 0 "
-                                   "to more than 180 (up to 360)",
-                                   first, last));
+// Type C: the horizontal angles' range gives the symmetry, expanded to planes in [0, 360).
+Status expandIesTypeC(const IesTable& table, const std::string& name, Photometry& p) {
+  const std::vector<double>& horizontal = table.horizontal;
+  const size_t nv = table.vertical.size(), nh = horizontal.size();
+  const double first = horizontal.front(), last = horizontal.back();
+  std::vector<double> full;
+  int symmetry = 0;
+  if (nh == 1) {
+    symmetry = 1;
+    full = {0.0};
+  } else if (first == 0.0 && last == 90.0) {
+    symmetry = 4;
+    for (double h : horizontal) full.insert(full.end(), {h, 180.0 - h, 180.0 + h, 360.0 - h});
+  } else if (first == 0.0 && last == 180.0) {
+    symmetry = 2;
+    for (double h : horizontal) full.insert(full.end(), {h, 360.0 - h});
+  } else if (first == 90.0 && last == 270.0) {
+    symmetry = 3;
+    for (double h : horizontal) {
+      full.push_back(h);
+      full.push_back(h <= 180.0 ? 180.0 - h : 540.0 - h);
     }
-    std::vector<double> planes;
-    for (double c : sortedUnique(std::move(full))) {
-      if (c < 360.0 - kAngleTolerance) planes.push_back(c);  // C = 360 is C = 0
-    }
-    p.symmetry = symmetry;
-    p.angles = vertical;
-    if (symmetry == 1) {
-      p.planes = planes;
-      p.candela = values;
-    } else {
-      // 90..270 is read as its own domain: mirror C into [90, 270].
-      auto fold = [symmetry](double c) {
-        if (symmetry != 3) return foldC(c, symmetry);
-        if (c >= 90.0 && c <= 270.0) return c;
-        return c < 90.0 ? 180.0 - c : 540.0 - c;
-      };
-      p.candela = expandPlanes(horizontal, values, nv, planes, fold);
-      p.planes = std::move(planes);
-    }
+  } else if (first == 0.0 && last > 180.0) {
+    full = horizontal;  // 0 to 360, or to a last plane short of 360 that wraps to 0
   } else {
-    // Types A and B: an axis starting at 0 is mirrored to negative angles.
-    const bool mirror_h = horizontal.front() == 0.0 && nh > 1;
-    const bool mirror_v = vertical.front() == 0.0;
-    auto mirrored = [](const std::vector<double>& a) {
-      std::vector<double> out;
-      for (size_t k = a.size(); k-- > 1;) out.push_back(-a[k]);
-      out.insert(out.end(), a.begin(), a.end());
-      return out;
-    };
-    if (nh < 2 && !mirror_h) {
-      return lineError(name, horizontal_line, "types A and B need at least two horizontal angles");
-    }
-    p.planes = mirror_h ? mirrored(horizontal) : horizontal;
-    p.angles = mirror_v ? mirrored(vertical) : vertical;
-    const size_t np = p.planes.size(), na = p.angles.size();
-    p.candela.resize(np * na);
-    for (size_t i = 0; i < np; ++i) {
-      const size_t si = mirror_h ? (i < nh - 1 ? nh - 1 - i : i - (nh - 1)) : i;
-      for (size_t j = 0; j < na; ++j) {
-        const size_t sj = mirror_v ? (j < nv - 1 ? nv - 1 - j : j - (nv - 1)) : j;
-        p.candela[i * na + j] = values[si * nv + sj];
-      }
-    }
-    p.symmetry = mirror_h && mirror_v ? 4 : mirror_h ? 2 : mirror_v ? 3 : 0;
+    return lineError(name, table.horizontal_line,
+                     fmt::format("type C horizontal angles {} to {}: LM-63 allows 0 alone "
+                                 "(rotational symmetry), 0 to 90, 0 to 180, 90 to 270, or 0 "
+                                 "to more than 180 (up to 360)",
+                                 first, last));
   }
+  std::vector<double> planes;
+  for (double c : sortedUnique(std::move(full))) {
+    if (c < 360.0 - kAngleTolerance) planes.push_back(c);  // C = 360 is C = 0
+  }
+  p.symmetry = symmetry;
+  p.angles = table.vertical;
+  if (symmetry == 1) {
+    p.planes = planes;
+    p.candela = table.values;
+  } else {
+    // 90..270 is read as its own domain: mirror C into [90, 270].
+    auto fold = [symmetry](double c) {
+      if (symmetry != 3) return foldC(c, symmetry);
+      if (c >= 90.0 && c <= 270.0) return c;
+      return c < 90.0 ? 180.0 - c : 540.0 - c;
+    };
+    p.candela = expandPlanes(horizontal, table.values, nv, planes, fold);
+    p.planes = std::move(planes);
+  }
+  return {};
+}
 
-  // Units, scale and the stated fluxes.
-  const double metres = *units == 1 ? kFeet : 1.0;
-  p.width = std::abs(size[0]) * metres;
-  p.length = std::abs(size[1]) * metres;
-  p.height = std::abs(size[2]) * metres;
+// Types A and B: an axis starting at 0 is mirrored to negative angles.
+Status expandIesTypesAB(const IesTable& table, const std::string& name, Photometry& p) {
+  const std::vector<double>&vertical = table.vertical, &horizontal = table.horizontal;
+  const size_t nv = vertical.size(), nh = horizontal.size();
+  const bool mirror_h = horizontal.front() == 0.0 && nh > 1;
+  const bool mirror_v = vertical.front() == 0.0;
+  auto mirrored = [](const std::vector<double>& a) {
+    std::vector<double> out;
+    for (size_t k = a.size(); k-- > 1;) out.push_back(-a[k]);
+    out.insert(out.end(), a.begin(), a.end());
+    return out;
+  };
+  if (nh < 2 && !mirror_h) {
+    return lineError(name, table.horizontal_line,
+                     "types A and B need at least two horizontal angles");
+  }
+  p.planes = mirror_h ? mirrored(horizontal) : horizontal;
+  p.angles = mirror_v ? mirrored(vertical) : vertical;
+  const size_t np = p.planes.size(), na = p.angles.size();
+  p.candela.resize(np * na);
+  for (size_t i = 0; i < np; ++i) {
+    const size_t si = mirror_h ? (i < nh - 1 ? nh - 1 - i : i - (nh - 1)) : i;
+    for (size_t j = 0; j < na; ++j) {
+      const size_t sj = mirror_v ? (j < nv - 1 ? nv - 1 - j : j - (nv - 1)) : j;
+      p.candela[i * na + j] = table.values[si * nv + sj];
+    }
+  }
+  p.symmetry = mirror_h && mirror_v ? 4 : mirror_h ? 2 : mirror_v ? 3 : 0;
+  return {};
+}
+
+// The opening in metres, the factors and the stated fluxes.
+void setIesOpeningAndFluxes(const IesCounts& c, Photometry& p) {
+  const double metres = c.units == 1 ? kFeet : 1.0;
+  p.width = std::abs(c.size[0]) * metres;
+  p.length = std::abs(c.size[1]) * metres;
+  p.height = std::abs(c.size[2]) * metres;
   // Negative width or length: a round opening (LM-63-02 gives circles as width = length < 0;
   // older files write the diameter as a negative width and a zero length).
-  p.circular = size[0] < 0.0 || size[1] < 0.0;
+  p.circular = c.size[0] < 0.0 || c.size[1] < 0.0;
   if (p.circular && p.width == 0.0) p.width = p.length;
   if (p.circular && p.length == 0.0) p.length = p.width;
-  p.lamp_count = *lamps;
-  p.candela_multiplier = *multiplier;
-  p.ballast_factor = *ballast;
-  p.ballast_lamp_factor = uses_factor ? *factor : 1.0;
-  p.watts = *watts;
+  p.lamp_count = c.lamps;
+  p.candela_multiplier = c.multiplier;
+  p.ballast_factor = c.ballast;
+  p.ballast_lamp_factor = c.uses_factor ? c.factor : 1.0;
+  p.watts = c.watts;
   p.lamp_sets = 1;
   p.light_output_ratio = 1.0;
   const double operated = p.ballast_factor * p.ballast_lamp_factor;
-  if (*lumens < 0.0) {
+  if (c.lumens < 0.0) {
     p.lamp_flux = -1.0;
     p.stated_flux = -1.0;
   } else {
-    p.lamp_flux = *lamps * *lumens;
+    p.lamp_flux = c.lamps * c.lumens;
     p.stated_flux = p.lamp_flux * operated;
   }
-  for (double& v : p.candela) v *= scale;
+}
+
+Expected<Photometry> parseIesWith(std::string_view text, const std::string& name,
+                                  const TiltLoader& load_tilt) {
+  const std::vector<std::string_view> lines = splitLines(stripBom(text));
+  Photometry p;
+  p.file = name;
+  size_t line = 0;  // 0-based index of the next line
+  const IesVersion version = readIesVersion(lines, line, p);
+  std::string free_text;
+  Expected<size_t> tilt_line = readIesKeywords(lines, line, name, p, free_text);
+  if (!tilt_line) return tilt_line.error();
+  nameIesLuminaire(free_text, p);
+
+  // The tilt data and the photometric data: numbers from the line after TILT= on.
+  TokenStream in(lines, *tilt_line, false, name);
+  PENUMBRA_TRY(readIesTiltData(trim(lines[*tilt_line - 1]), *tilt_line, load_tilt, in, p));
+  IesCounts counts;
+  PENUMBRA_TRY(readIesLampLine(in, counts));
+  PENUMBRA_TRY(readIesBallastLine(in, version, counts));
+  IesTable table;
+  PENUMBRA_TRY(readIesAngles(in, counts, p, table));
+  PENUMBRA_TRY(readIesCandela(in, counts, table));
+
+  // Expand the symmetry.
+  if (p.type == PhotometricType::kC) {
+    PENUMBRA_TRY(expandIesTypeC(table, name, p));
+  } else {
+    PENUMBRA_TRY(expandIesTypesAB(table, name, p));
+  }
+
+  // Units, scale and the stated fluxes.
+  setIesOpeningAndFluxes(counts, p);
+  for (double& v : p.candela) v *= table.scale;
   return p;
 }
 

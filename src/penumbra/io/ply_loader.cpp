@@ -231,13 +231,87 @@ VertexSlot vertexSlot(const std::string& name) {
   return VertexSlot::kNone;
 }
 
-Status scanPly(const std::string& path, const std::string& text, PlyScan* scan) {
+// The header: the body's format, the elements with their properties, and where the body starts.
+struct PlyHeader {
+  PlyFormat format = PlyFormat::kAscii;
+  std::vector<PlyElement> elements;
+  size_t body = 0;   // offset of the body's first byte
+  size_t lines = 0;  // the header's lines, 'end_header' included
+};
+
+// "format <type> <version>", once.
+Status readPlyFormat(const std::string& path, const std::string& place,
+                     const std::vector<std::string_view>& w, std::optional<PlyFormat>& format) {
+  if (w.size() != 3) return inputError(path, place, "'format' needs a type and a version");
+  if (format) return inputError(path, place, "a second 'format' line");
+  if (w[1] == "ascii") {
+    format = PlyFormat::kAscii;
+  } else if (w[1] == "binary_little_endian") {
+    format = PlyFormat::kBinaryLittle;
+  } else if (w[1] == "binary_big_endian") {
+    format = PlyFormat::kBinaryBig;
+  } else {
+    return inputError(path, place, fmt::format("unknown format '{}'", w[1]));
+  }
+  return {};
+}
+
+// "element <name> <count>": a new element, its name not used before.
+Status readPlyElement(const std::string& path, const std::string& place,
+                      const std::vector<std::string_view>& w, std::vector<PlyElement>& elements) {
+  if (w.size() != 3) return inputError(path, place, "'element' needs a name and a count");
+  PlyElement e;
+  e.name = std::string(w[1]);
+  for (const PlyElement& other : elements) {
+    if (other.name == e.name) {
+      return inputError(path, place, fmt::format("a second element '{}'", e.name));
+    }
+  }
+  const std::string count(w[2]);
+  char* end = nullptr;
+  errno = 0;
+  const unsigned long long n = std::strtoull(count.c_str(), &end, 10);
+  if (end != count.c_str() + count.size() || errno != 0 || count[0] == '-') {
+    return inputError(path, place, fmt::format("element count '{}' is not a number", count));
+  }
+  e.count = static_cast<size_t>(n);
+  elements.push_back(std::move(e));
+  return {};
+}
+
+// "property <type> <name>" or "property list <count type> <type> <name>", of the last element.
+Status readPlyProperty(const std::string& path, const std::string& place,
+                       const std::vector<std::string_view>& w, std::vector<PlyElement>& elements) {
+  if (elements.empty()) return inputError(path, place, "'property' before any 'element'");
+  PlyProperty p;
+  if (w.size() == 5 && w[1] == "list") {
+    const auto ct = plyType(w[2]), it = plyType(w[3]);
+    if (!ct || !it) return inputError(path, place, "unknown property type");
+    if (*ct == PlyType::kFloat32 || *ct == PlyType::kFloat64) {
+      return inputError(path, place, "a list count must be an integer type");
+    }
+    p.is_list = true;
+    p.count_type = *ct;
+    p.type = *it;
+    p.name = std::string(w[4]);
+  } else if (w.size() == 3) {
+    const auto t = plyType(w[1]);
+    if (!t) return inputError(path, place, fmt::format("unknown property type '{}'", w[1]));
+    p.type = *t;
+    p.name = std::string(w[2]);
+  } else {
+    return inputError(path, place, "malformed 'property' line");
+  }
+  elements.back().properties.push_back(std::move(p));
+  return {};
+}
+
+// The header, line by line up to 'end_header'.
+Status readPlyHeader(const std::string& path, const std::string& text, PlyHeader& header) {
   if (text.compare(0, 3, "ply") != 0 || text.size() < 4 || (text[3] != '\n' && text[3] != '\r')) {
     return inputError(path, "line 1", "not a PLY file (it does not start with 'ply')");
   }
-  // Header.
   std::optional<PlyFormat> format;
-  std::vector<PlyElement> elements;
   size_t pos = 0, line_no = 0;
   bool ended = false;
   while (pos < text.size()) {
@@ -261,64 +335,27 @@ Status scanPly(const std::string& path, const std::string& text, PlyScan* scan) 
       break;
     }
     if (w[0] == "format") {
-      if (w.size() != 3) return inputError(path, place, "'format' needs a type and a version");
-      if (format) return inputError(path, place, "a second 'format' line");
-      if (w[1] == "ascii") {
-        format = PlyFormat::kAscii;
-      } else if (w[1] == "binary_little_endian") {
-        format = PlyFormat::kBinaryLittle;
-      } else if (w[1] == "binary_big_endian") {
-        format = PlyFormat::kBinaryBig;
-      } else {
-        return inputError(path, place, fmt::format("unknown format '{}'", w[1]));
-      }
+      PENUMBRA_TRY(readPlyFormat(path, place, w, format));
     } else if (w[0] == "element") {
-      if (w.size() != 3) return inputError(path, place, "'element' needs a name and a count");
-      PlyElement e;
-      e.name = std::string(w[1]);
-      for (const PlyElement& other : elements) {
-        if (other.name == e.name) {
-          return inputError(path, place, fmt::format("a second element '{}'", e.name));
-        }
-      }
-      const std::string count(w[2]);
-      char* end = nullptr;
-      errno = 0;
-      const unsigned long long n = std::strtoull(count.c_str(), &end, 10);
-      if (end != count.c_str() + count.size() || errno != 0 || count[0] == '-') {
-        return inputError(path, place, fmt::format("element count '{}' is not a number", count));
-      }
-      e.count = static_cast<size_t>(n);
-      elements.push_back(std::move(e));
+      PENUMBRA_TRY(readPlyElement(path, place, w, header.elements));
     } else if (w[0] == "property") {
-      if (elements.empty()) return inputError(path, place, "'property' before any 'element'");
-      PlyProperty p;
-      if (w.size() == 5 && w[1] == "list") {
-        const auto ct = plyType(w[2]), it = plyType(w[3]);
-        if (!ct || !it) return inputError(path, place, "unknown property type");
-        if (*ct == PlyType::kFloat32 || *ct == PlyType::kFloat64) {
-          return inputError(path, place, "a list count must be an integer type");
-        }
-        p.is_list = true;
-        p.count_type = *ct;
-        p.type = *it;
-        p.name = std::string(w[4]);
-      } else if (w.size() == 3) {
-        const auto t = plyType(w[1]);
-        if (!t) return inputError(path, place, fmt::format("unknown property type '{}'", w[1]));
-        p.type = *t;
-        p.name = std::string(w[2]);
-      } else {
-        return inputError(path, place, "malformed 'property' line");
-      }
-      elements.back().properties.push_back(std::move(p));
+      PENUMBRA_TRY(readPlyProperty(path, place, w, header.elements));
     } else {
       return inputError(path, place, fmt::format("unknown header keyword '{}'", w[0]));
     }
   }
   if (!ended) return inputError(path, "header", "no 'end_header' (the file is truncated?)");
   if (!format) return inputError(path, "header", "no 'format' line");
+  header.format = *format;
+  header.body = pos;
+  header.lines = line_no;
+  return {};
+}
 
+// The 'vertex' element, with one scalar x, y and z; every 'face' element with entries has
+// vertex indices, and there are no 'tristrips'.
+Expected<const PlyElement*> findPlyVertices(const std::string& path,
+                                            const std::vector<PlyElement>& elements) {
   const PlyElement* vertex_element = nullptr;
   for (const PlyElement& e : elements) {
     if (e.name == "vertex") vertex_element = &e;
@@ -337,7 +374,6 @@ Status scanPly(const std::string& path, const std::string& text, PlyScan* scan) 
       return inputError(path, "header", "the 'face' element has no 'vertex_indices' list");
     }
   }
-  scan->vertices = vertex_element->count;
   // Positions need x, y and z, each once and not a list.
   for (const char* axis : {"x", "y", "z"}) {
     int found = 0;
@@ -349,21 +385,24 @@ Status scanPly(const std::string& path, const std::string& text, PlyScan* scan) 
                         fmt::format("the 'vertex' element needs one scalar property '{}'", axis));
     }
   }
+  return vertex_element;
+}
 
-  // Counts against the file's size, before any loop over them. An element with entries but no
-  // properties holds nothing to read (and nothing would end a loop over a hostile count); every
-  // entry of any other element takes at least one byte, so a count larger than the rest of the
-  // file is refused here. Smaller shortfalls are found by the walk below, which stops at the
-  // first missing value and names it.
-  for (const PlyElement& e : elements) {
+// Counts against the file's size, before any loop over them. An element with entries but no
+// properties holds nothing to read (and nothing would end a loop over a hostile count); every
+// entry of any other element takes at least one byte, so a count larger than the rest of the
+// file is refused here. Smaller shortfalls are found by the walk over the body, which stops at
+// the first missing value and names it.
+Status checkPlyCounts(const std::string& path, const std::string& text, const PlyHeader& header) {
+  for (const PlyElement& e : header.elements) {
     if (e.count > 0 && e.properties.empty()) {
       return inputError(
           path, "header",
           fmt::format("element '{}' has {} entries but no properties", e.name, e.count));
     }
   }
-  const size_t body_bytes = text.size() - std::min(pos, text.size());
-  for (const PlyElement& e : elements) {
+  const size_t body_bytes = text.size() - std::min(header.body, text.size());
+  for (const PlyElement& e : header.elements) {
     if (e.count > body_bytes) {
       return inputError(path, "header",
                         fmt::format("element '{}' declares {} entries, more than the file's {} "
@@ -371,20 +410,24 @@ Status scanPly(const std::string& path, const std::string& text, PlyScan* scan) 
                                     e.name, e.count, body_bytes));
     }
   }
+  return {};
+}
 
-  // Normals and texture coordinates are read when every component is there, once, as a scalar.
-  auto hasScalars = [&](std::initializer_list<VertexSlot> slots) {
-    for (VertexSlot slot : slots) {
-      int found = 0;
-      for (const PlyProperty& p : vertex_element->properties) {
-        if (vertexSlot(p.name) == slot) found += p.is_list ? 2 : 1;
-      }
-      if (found != 1) return false;
+// Whether the vertex element has every one of `slots`, once, as a scalar.
+bool hasScalars(const PlyElement& vertex_element, std::initializer_list<VertexSlot> slots) {
+  for (VertexSlot slot : slots) {
+    int found = 0;
+    for (const PlyProperty& p : vertex_element.properties) {
+      if (vertexSlot(p.name) == slot) found += p.is_list ? 2 : 1;
     }
-    return true;
-  };
-  const bool has_normals = hasScalars({VertexSlot::kNx, VertexSlot::kNy, VertexSlot::kNz});
-  const bool has_uvs = hasScalars({VertexSlot::kU, VertexSlot::kV});
+    if (found != 1) return false;
+  }
+  return true;
+}
+
+// The mesh's vertex arrays at the file's vertex count, within the memory there is.
+Status allocatePlyMesh(const std::string& path, const std::vector<PlyElement>& elements,
+                       bool has_normals, bool has_uvs, PlyScan* scan) {
   if (scan->vertices > UINT32_MAX) {
     return inputError(
         path, "header",
@@ -401,102 +444,160 @@ Status scanPly(const std::string& path, const std::string& text, PlyScan* scan) 
   mesh.positions.resize(scan->vertices);
   if (has_normals) mesh.normals.resize(scan->vertices);
   if (has_uvs) mesh.uvs.resize(scan->vertices);
+  return {};
+}
 
-  // Body.
-  PlyBodyReader body(text, pos, *format, line_no + 1);
-  std::vector<uint32_t> polygon;
-  for (const PlyElement& e : elements) {
-    const bool is_vertex = e.name == "vertex";
-    const bool is_face = e.name == "face";
-    for (size_t i = 0; i < e.count; ++i) {
-      auto where = [&]() {
-        std::string s = fmt::format("{} {}", e.name, i);
-        if (body.ascii()) s = fmt::format("line {}, {}", body.line(), s);
-        return s;
-      };
-      for (const PlyProperty& p : e.properties) {
-        double value = 0.0;
-        std::string bad;
-        auto fail = [&]() -> Status {
-          if (!bad.empty()) {
-            return inputError(path, where(),
-                              fmt::format("'{}' is not a number (property '{}')", bad, p.name));
-          }
-          // No line number: the reader is past the last line.
-          return inputError(
-              path, fmt::format("{} {}", e.name, i),
-              fmt::format("the file ends early, in property '{}' (truncated?)", p.name));
-        };
-        if (!p.is_list) {
-          if (!body.next(p.type, &value, &bad)) return fail();
-          if (!is_vertex) continue;
-          const auto f = static_cast<float>(value);
-          switch (vertexSlot(p.name)) {
-            case VertexSlot::kX:
-            case VertexSlot::kY:
-            case VertexSlot::kZ:
-              if (!std::isfinite(f)) {
-                return inputError(
-                    path, where(),
-                    fmt::format("coordinate {} is not a finite number ({})", p.name, value));
-              }
-              mesh.positions[i][static_cast<int>(vertexSlot(p.name)) -
-                                static_cast<int>(VertexSlot::kX)] = f;
-              break;
-            case VertexSlot::kNx:
-            case VertexSlot::kNy:
-            case VertexSlot::kNz:
-              if (has_normals) {
-                mesh.normals[i][static_cast<int>(vertexSlot(p.name)) -
-                                static_cast<int>(VertexSlot::kNx)] = f;
-              }
-              break;
-            case VertexSlot::kU:
-            case VertexSlot::kV:
-              if (has_uvs) {
-                mesh.uvs[i][static_cast<int>(vertexSlot(p.name)) -
-                            static_cast<int>(VertexSlot::kU)] = f;
-              }
-              break;
-            case VertexSlot::kNone:
-              break;
-          }
-          continue;
-        }
-        if (!body.next(p.count_type, &value, &bad)) return fail();
-        // A count within its declared type (an ASCII file can write any number).
-        if (!(value >= 0.0) || value != std::floor(value) || value > largestValue(p.count_type)) {
-          return inputError(path, where(),
-                            fmt::format("list length {} of '{}' is not a count", value, p.name));
-        }
-        const size_t n = static_cast<size_t>(value);
-        const bool indices = is_face && (p.name == "vertex_indices" || p.name == "vertex_index");
-        polygon.clear();
-        for (size_t k = 0; k < n; ++k) {
-          if (!body.next(p.type, &value, &bad)) return fail();
-          if (!indices) continue;
-          if (!(value >= 0.0 && value < static_cast<double>(scan->vertices) &&
-                value == std::floor(value))) {
-            return inputError(path, where(),
-                              fmt::format("vertex index {} is out of range ({} vertices)", value,
-                                          scan->vertices));
-          }
-          polygon.push_back(static_cast<uint32_t>(value));
-        }
-        if (!indices) continue;
-        ++scan->faces;
-        if (n < 3) {
-          ++scan->points_and_lines;
-          continue;
-        }
-        for (size_t k = 2; k < n; ++k) {
-          mesh.triangles.emplace_back(polygon[0], polygon[k - 1], polygon[k]);
-          mesh.material_ids.push_back(0);
+// The walk over the body: every entry of every element, property by property, into a scan whose
+// vertex arrays are sized.
+class PlyBodyWalk {
+ public:
+  PlyBodyWalk(const std::string& path, const std::string& text, const PlyHeader& header,
+              bool has_normals, bool has_uvs, PlyScan* scan)
+      : path_(path),
+        body_(text, header.body, header.format, header.lines + 1),
+        has_normals_(has_normals),
+        has_uvs_(has_uvs),
+        scan_(scan) {}
+
+  Status walk(const std::vector<PlyElement>& elements) {
+    for (const PlyElement& e : elements) {
+      element_ = &e;
+      is_vertex_ = e.name == "vertex";
+      is_face_ = e.name == "face";
+      for (entry_ = 0; entry_ < e.count; ++entry_) {
+        for (const PlyProperty& p : e.properties) {
+          PENUMBRA_TRY(p.is_list ? list(p) : scalar(p));
         }
       }
     }
+    return {};
   }
-  return {};
+
+ private:
+  // The entry being read, with its line in an ASCII file.
+  std::string where() const {
+    std::string s = fmt::format("{} {}", element_->name, entry_);
+    if (body_.ascii()) s = fmt::format("line {}, {}", body_.line(), s);
+    return s;
+  }
+
+  // A value of property p that could not be read: `bad` is the token that is not a number, or
+  // empty at the end of the data.
+  Status fail(const PlyProperty& p, const std::string& bad) const {
+    if (!bad.empty()) {
+      return inputError(path_, where(),
+                        fmt::format("'{}' is not a number (property '{}')", bad, p.name));
+    }
+    // No line number: the reader is past the last line.
+    return inputError(path_, fmt::format("{} {}", element_->name, entry_),
+                      fmt::format("the file ends early, in property '{}' (truncated?)", p.name));
+  }
+
+  // A scalar: a vertex's position, normal or texture coordinate component is kept.
+  Status scalar(const PlyProperty& p) {
+    double value = 0.0;
+    std::string bad;
+    if (!body_.next(p.type, &value, &bad)) return fail(p, bad);
+    if (!is_vertex_) return {};
+    Mesh& mesh = scan_->mesh;
+    const size_t i = entry_;
+    const auto f = static_cast<float>(value);
+    switch (vertexSlot(p.name)) {
+      case VertexSlot::kX:
+      case VertexSlot::kY:
+      case VertexSlot::kZ:
+        if (!std::isfinite(f)) {
+          return inputError(
+              path_, where(),
+              fmt::format("coordinate {} is not a finite number ({})", p.name, value));
+        }
+        mesh.positions[i][static_cast<int>(vertexSlot(p.name)) - static_cast<int>(VertexSlot::kX)] =
+            f;
+        break;
+      case VertexSlot::kNx:
+      case VertexSlot::kNy:
+      case VertexSlot::kNz:
+        if (has_normals_) {
+          mesh.normals[i][static_cast<int>(vertexSlot(p.name)) -
+                          static_cast<int>(VertexSlot::kNx)] = f;
+        }
+        break;
+      case VertexSlot::kU:
+      case VertexSlot::kV:
+        if (has_uvs_) {
+          mesh.uvs[i][static_cast<int>(vertexSlot(p.name)) - static_cast<int>(VertexSlot::kU)] = f;
+        }
+        break;
+      case VertexSlot::kNone:
+        break;
+    }
+    return {};
+  }
+
+  // A list: a face's vertex indices become a polygon, fanned into triangles; other lists are read
+  // and dropped.
+  Status list(const PlyProperty& p) {
+    double value = 0.0;
+    std::string bad;
+    if (!body_.next(p.count_type, &value, &bad)) return fail(p, bad);
+    // A count within its declared type (an ASCII file can write any number).
+    if (!(value >= 0.0) || value != std::floor(value) || value > largestValue(p.count_type)) {
+      return inputError(path_, where(),
+                        fmt::format("list length {} of '{}' is not a count", value, p.name));
+    }
+    const size_t n = static_cast<size_t>(value);
+    const bool indices = is_face_ && (p.name == "vertex_indices" || p.name == "vertex_index");
+    polygon_.clear();
+    for (size_t k = 0; k < n; ++k) {
+      if (!body_.next(p.type, &value, &bad)) return fail(p, bad);
+      if (!indices) continue;
+      if (!(value >= 0.0 && value < static_cast<double>(scan_->vertices) &&
+            value == std::floor(value))) {
+        return inputError(
+            path_, where(),
+            fmt::format("vertex index {} is out of range ({} vertices)", value, scan_->vertices));
+      }
+      polygon_.push_back(static_cast<uint32_t>(value));
+    }
+    if (!indices) return {};
+    ++scan_->faces;
+    if (n < 3) {
+      ++scan_->points_and_lines;
+      return {};
+    }
+    Mesh& mesh = scan_->mesh;
+    for (size_t k = 2; k < n; ++k) {
+      mesh.triangles.emplace_back(polygon_[0], polygon_[k - 1], polygon_[k]);
+      mesh.material_ids.push_back(0);
+    }
+    return {};
+  }
+
+  const std::string& path_;
+  PlyBodyReader body_;
+  bool has_normals_, has_uvs_;
+  PlyScan* scan_;
+  std::vector<uint32_t> polygon_;
+  // The entry being read: entry_ of element_.
+  const PlyElement* element_ = nullptr;
+  bool is_vertex_ = false, is_face_ = false;
+  size_t entry_ = 0;
+};
+
+Status scanPly(const std::string& path, const std::string& text, PlyScan* scan) {
+  PlyHeader header;
+  PENUMBRA_TRY(readPlyHeader(path, text, header));
+  Expected<const PlyElement*> vertex_element = findPlyVertices(path, header.elements);
+  if (!vertex_element) return vertex_element.error();
+  scan->vertices = (*vertex_element)->count;
+  PENUMBRA_TRY(checkPlyCounts(path, text, header));
+  // Normals and texture coordinates are read when every component is there, once, as a scalar.
+  const bool has_normals =
+      hasScalars(**vertex_element, {VertexSlot::kNx, VertexSlot::kNy, VertexSlot::kNz});
+  const bool has_uvs = hasScalars(**vertex_element, {VertexSlot::kU, VertexSlot::kV});
+  PENUMBRA_TRY(allocatePlyMesh(path, header.elements, has_normals, has_uvs, scan));
+  PlyBodyWalk body(path, text, header, has_normals, has_uvs, scan);
+  return body.walk(header.elements);
 }
 
 }  // namespace

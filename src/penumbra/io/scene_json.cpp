@@ -77,6 +77,16 @@ struct Placement {
   }
 };
 
+// A "meshes" entry: a mesh file (`resolved`) or a sphere of subdivision level `sphere_level`,
+// with the material that replaces the file's, its placement and its name.
+struct MeshEntry {
+  std::string resolved;
+  int sphere_level = -1;  // -1: a mesh file
+  std::optional<uint32_t> material;
+  Placement placement;
+  std::string name;
+};
+
 class SceneJsonReader {
  public:
   SceneJsonReader(const std::string& path, std::function<void(Scene&)> complete)
@@ -113,9 +123,35 @@ class SceneJsonReader {
   // "type" (diffuse, mirror, glass), "specular" and "ior" (Material::scattering).
   Status readScattering(const json& entry, const std::string& place, Material& m);
   Status readMesh(const json& entry, const std::string& place, Scene& scene);
+  // "file" (an existing .obj, .gltf, .glb or .ply) or "sphere" (a subdivision level).
+  Status readMeshSource(const json& entry, const std::string& place, MeshEntry& m) const;
+  // "material", "transform" and "name".
+  Status readMeshOptions(const json& entry, const std::string& place, MeshEntry& m) const;
   Expected<Placement> readTransform(const json& t, const std::string& place) const;
   Status readLight(const json& entry, const std::string& place, Scene& scene);
   Status readLuminaire(const json& entry, const std::string& place, Scene& scene);
+  // A luminaire file's photometry and its LDT.
+  using LuminaireData = std::pair<Photometry, std::shared_ptr<const LuminaireDistribution>>;
+  // An array: count [nx, nz] luminaires spacing [dx, dz] apart along world x and z, centred on
+  // the position.
+  struct LuminaireArray {
+    int nx = 1, nz = 1;
+    double dx = 0.0, dz = 0.0;
+  };
+  // entry[key] as a number, or `fallback` when the entry has no `key`.
+  Expected<double> optionalNumber(const json& entry, const std::string& place, const char* key,
+                                  double fallback) const;
+  // The photometry and LDT of `file` at the entry's tilt_deg, read once per file and tilt.
+  Expected<const LuminaireData*> luminaireData(const json& entry, const std::string& place,
+                                               const std::string& file);
+  // The nadir ("aim") and C0 ("rotation_deg").
+  Status readLuminaireAim(const json& entry, const std::string& place, LuminaireLight& l) const;
+  // Scale: I_max / 683 W/sr per LDT unit (Wallner eq. 12), times what the user changes: the
+  // factor of "dimming", "lamps" and "flux_lm".
+  Expected<double> luminaireFactor(const json& entry, const std::string& place,
+                                   const std::string& file, const Photometry& photometry,
+                                   const LuminaireDistribution& distribution) const;
+  Status readLuminaireArray(const json& a, const std::string& place, LuminaireArray& array) const;
   Status readCamera(const json& cam, const std::string& place, Scene& scene) const;
 
   const std::string& path_;
@@ -123,9 +159,7 @@ class SceneJsonReader {
   std::function<void(Scene&)> complete_;
   std::map<std::string, uint32_t> material_index_;
   // The luminaire files read so far (resolved path, tilt): their photometry and LDT.
-  std::map<std::pair<std::string, double>,
-           std::pair<Photometry, std::shared_ptr<const LuminaireDistribution>>>
-      luminaires_;
+  std::map<std::pair<std::string, double>, LuminaireData> luminaires_;
 };
 
 Status SceneJsonReader::checkKeys(
@@ -465,80 +499,36 @@ Expected<Placement> SceneJsonReader::readTransform(const json& t, const std::str
   return out;
 }
 
-Status SceneJsonReader::readMesh(const json& entry, const std::string& place, Scene& scene) {
-  if (!entry.is_object()) {
-    return error(place, fmt::format("must be an object, not {}", jsonTypeName(entry)));
-  }
-  PENUMBRA_TRY(checkKeys(entry, place, {"file", "sphere", "material", "transform", "name"}));
-  if (entry.contains("file") == entry.contains("sphere")) {
-    return error(place, entry.contains("file") ? "give \"file\" or \"sphere\", not both"
-                                               : "needs \"file\" (a mesh file) or \"sphere\"");
-  }
-  std::string resolved;
-  int sphere_level = -1;
-  if (entry.contains("sphere")) {
-    const json& level = entry.at("sphere");
-    if (!level.is_number_integer() || level.get<int64_t>() < 0 ||
-        level.get<int64_t>() > kMaxSphereSubdivisions) {
-      return error(place + ".sphere",
-                   fmt::format("must be a subdivision level, an integer in [0, {}], not {}",
-                               kMaxSphereSubdivisions, level.dump()));
-    }
-    sphere_level = int(level.get<int64_t>());
-  } else {
-    Expected<std::string> file = string(entry.at("file"), place + ".file");
-    if (!file.ok()) return file.error();
-    resolved = resolveRelativeTo(path_, *file);
-    const std::string ext = extensionOf(resolved);
-    if (ext != ".obj" && ext != ".gltf" && ext != ".glb" && ext != ".ply") {
-      return error(place + ".file",
-                   fmt::format("'{}': a mesh file must be .obj, .gltf, .glb or .ply", *file));
-    }
-    PENUMBRA_TRY(existingFile(*file, place + ".file"));
-  }
-  std::optional<uint32_t> material;
-  if (entry.contains("material")) {
-    Expected<std::string> name = string(entry.at("material"), place + ".material");
-    if (!name.ok()) return name.error();
-    auto it = material_index_.find(*name);
-    if (it == material_index_.end()) {
-      return error(place + ".material",
-                   fmt::format("material '{}' is not defined in \"materials\"", *name));
-    }
-    material = it->second;
-  }
-  Placement placement;
-  if (entry.contains("transform")) {
-    Expected<Placement> p = readTransform(entry.at("transform"), place + ".transform");
-    if (!p.ok()) return p.error();
-    placement = *p;
-  }
-  std::string name;
-  if (entry.contains("name")) {
-    Expected<std::string> n = string(entry.at("name"), place + ".name");
-    if (!n.ok()) return n.error();
-    name = *n;
-  }
+// A light of a mesh file, placed in the world.
+void placeLight(const Placement& placement, Light& light) {
+  std::visit(
+      Overloaded{[&](PointLight& l) { l.position = placement.point(l.position); },
+                 [&](SpotLight& l) {
+                   l.position = placement.point(l.position);
+                   l.direction = placement.direction(l.direction);
+                 },
+                 [&](DirectionalLight& l) { l.direction = placement.direction(l.direction); },
+                 [&](LuminaireLight& l) {
+                   l.position = placement.point(l.position);
+                   l.nadir = placement.direction(l.nadir);
+                   // C0 kept perpendicular to the nadir under any linear map.
+                   const glm::vec3 c0 = placement.direction(l.c0);
+                   l.c0 = glm::normalize(c0 - glm::dot(c0, l.nadir) * l.nadir);
+                 }},
+      light);
+}
 
-  Expected<Scene> loaded = Scene{};
-  if (sphere_level >= 0) {
-    // A unit sphere, placed by the transform; grey 0.8 unless a material is given.
-    loaded->source = path_;
-    loaded->meshes.push_back(icosphere(sphere_level));
-    loaded->materials.push_back(Material{"sphere", glm::vec3(0.8f), glm::vec3(0.0f)});
-  } else {
-    loaded = loadSceneFile(resolved);
-    if (!loaded.ok()) return loaded.error();  // names the mesh file and the place in it
-  }
-  Scene& sub = *loaded;
-
+// The meshes, materials, lights, camera and warnings of a mesh entry's scene `sub`, placed in
+// the world and added to `scene`.
+void addPlacedScene(const MeshEntry& m, Scene& sub, Scene& scene) {
+  const Placement& placement = m.placement;
   // To world space. A mirroring transform flips the winding so that front faces stay front.
   const glm::dmat3 linear(placement.world_from_object);
   const glm::dmat3 normal_from_object = glm::transpose(glm::inverse(linear));
   const bool mirrored = glm::determinant(linear) < 0.0;
   const uint32_t material_base = static_cast<uint32_t>(scene.materials.size());
-  const std::string stem =
-      sphere_level >= 0 ? std::string("sphere") : std::filesystem::path(resolved).stem().string();
+  const std::string stem = m.sphere_level >= 0 ? std::string("sphere")
+                                               : std::filesystem::path(m.resolved).stem().string();
   for (size_t k = 0; k < sub.meshes.size(); ++k) {
     Mesh& mesh = sub.meshes[k];
     for (glm::vec3& p : mesh.positions) p = placement.point(p);
@@ -550,33 +540,19 @@ Status SceneJsonReader::readMesh(const json& entry, const std::string& place, Sc
     if (mirrored) {
       for (glm::uvec3& t : mesh.triangles) std::swap(t.y, t.z);
     }
-    for (uint32_t& id : mesh.material_ids) id = material ? *material : id + material_base;
-    if (!name.empty()) {
-      mesh.name = sub.meshes.size() == 1 ? name : name + "/" + mesh.name;
+    for (uint32_t& id : mesh.material_ids) id = m.material ? *m.material : id + material_base;
+    if (!m.name.empty()) {
+      mesh.name = sub.meshes.size() == 1 ? m.name : m.name + "/" + mesh.name;
     } else if (mesh.name.empty()) {
       mesh.name = stem;
     }
     scene.meshes.push_back(std::move(mesh));
   }
-  if (!material) {
-    for (Material& m : sub.materials) scene.materials.push_back(std::move(m));
+  if (!m.material) {
+    for (Material& material : sub.materials) scene.materials.push_back(std::move(material));
   }
   for (Light& light : sub.lights) {
-    std::visit(
-        Overloaded{[&](PointLight& l) { l.position = placement.point(l.position); },
-                   [&](SpotLight& l) {
-                     l.position = placement.point(l.position);
-                     l.direction = placement.direction(l.direction);
-                   },
-                   [&](DirectionalLight& l) { l.direction = placement.direction(l.direction); },
-                   [&](LuminaireLight& l) {
-                     l.position = placement.point(l.position);
-                     l.nadir = placement.direction(l.nadir);
-                     // C0 kept perpendicular to the nadir under any linear map.
-                     const glm::vec3 c0 = placement.direction(l.c0);
-                     l.c0 = glm::normalize(c0 - glm::dot(c0, l.nadir) * l.nadir);
-                   }},
-        light);
+    placeLight(placement, light);
     scene.lights.push_back(light);
   }
   if (sub.camera && !scene.camera) {
@@ -587,7 +563,83 @@ Status SceneJsonReader::readMesh(const json& entry, const std::string& place, Sc
     scene.camera = cam;
   }
   for (std::string& w : sub.warnings) {
-    scene.warnings.push_back(w.starts_with(resolved) ? std::move(w) : resolved + ": " + w);
+    scene.warnings.push_back(w.starts_with(m.resolved) ? std::move(w) : m.resolved + ": " + w);
+  }
+}
+
+Status SceneJsonReader::readMesh(const json& entry, const std::string& place, Scene& scene) {
+  if (!entry.is_object()) {
+    return error(place, fmt::format("must be an object, not {}", jsonTypeName(entry)));
+  }
+  PENUMBRA_TRY(checkKeys(entry, place, {"file", "sphere", "material", "transform", "name"}));
+  MeshEntry m;
+  PENUMBRA_TRY(readMeshSource(entry, place, m));
+  PENUMBRA_TRY(readMeshOptions(entry, place, m));
+
+  Expected<Scene> loaded = Scene{};
+  if (m.sphere_level >= 0) {
+    // A unit sphere, placed by the transform; grey 0.8 unless a material is given.
+    loaded->source = path_;
+    loaded->meshes.push_back(icosphere(m.sphere_level));
+    loaded->materials.push_back(Material{"sphere", glm::vec3(0.8f), glm::vec3(0.0f)});
+  } else {
+    loaded = loadSceneFile(m.resolved);
+    if (!loaded.ok()) return loaded.error();  // names the mesh file and the place in it
+  }
+  addPlacedScene(m, *loaded, scene);
+  return {};
+}
+
+Status SceneJsonReader::readMeshSource(const json& entry, const std::string& place,
+                                       MeshEntry& m) const {
+  if (entry.contains("file") == entry.contains("sphere")) {
+    return error(place, entry.contains("file") ? "give \"file\" or \"sphere\", not both"
+                                               : "needs \"file\" (a mesh file) or \"sphere\"");
+  }
+  if (entry.contains("sphere")) {
+    const json& level = entry.at("sphere");
+    if (!level.is_number_integer() || level.get<int64_t>() < 0 ||
+        level.get<int64_t>() > kMaxSphereSubdivisions) {
+      return error(place + ".sphere",
+                   fmt::format("must be a subdivision level, an integer in [0, {}], not {}",
+                               kMaxSphereSubdivisions, level.dump()));
+    }
+    m.sphere_level = int(level.get<int64_t>());
+    return {};
+  }
+  Expected<std::string> file = string(entry.at("file"), place + ".file");
+  if (!file.ok()) return file.error();
+  m.resolved = resolveRelativeTo(path_, *file);
+  const std::string ext = extensionOf(m.resolved);
+  if (ext != ".obj" && ext != ".gltf" && ext != ".glb" && ext != ".ply") {
+    return error(place + ".file",
+                 fmt::format("'{}': a mesh file must be .obj, .gltf, .glb or .ply", *file));
+  }
+  PENUMBRA_TRY(existingFile(*file, place + ".file"));
+  return {};
+}
+
+Status SceneJsonReader::readMeshOptions(const json& entry, const std::string& place,
+                                        MeshEntry& m) const {
+  if (entry.contains("material")) {
+    Expected<std::string> name = string(entry.at("material"), place + ".material");
+    if (!name.ok()) return name.error();
+    auto it = material_index_.find(*name);
+    if (it == material_index_.end()) {
+      return error(place + ".material",
+                   fmt::format("material '{}' is not defined in \"materials\"", *name));
+    }
+    m.material = it->second;
+  }
+  if (entry.contains("transform")) {
+    Expected<Placement> p = readTransform(entry.at("transform"), place + ".transform");
+    if (!p.ok()) return p.error();
+    m.placement = *p;
+  }
+  if (entry.contains("name")) {
+    Expected<std::string> n = string(entry.at("name"), place + ".name");
+    if (!n.ok()) return n.error();
+    m.name = *n;
   }
   return {};
 }
@@ -694,14 +746,53 @@ Status SceneJsonReader::readLuminaire(const json& entry, const std::string& plac
   if (!entry.contains("position")) return error(place + ".position", "missing");
   Expected<std::string> file = string(entry.at("file"), place + ".file");
   if (!file) return file.error();
-  Expected<std::string> found = existingFile(*file, place + ".file");
+  Expected<const LuminaireData*> data = luminaireData(entry, place, *file);
+  if (!data) return data.error();
+  const Photometry& photometry = (*data)->first;
+  const std::shared_ptr<const LuminaireDistribution>& distribution = (*data)->second;
+
+  Expected<glm::dvec3> position = vec3(entry.at("position"), place + ".position");
+  if (!position) return position.error();
+  LuminaireLight l;
+  PENUMBRA_TRY(readLuminaireAim(entry, place, l));
+  Expected<double> factor = luminaireFactor(entry, place, *file, photometry, *distribution);
+  if (!factor) return factor.error();
+  glm::vec3 tint(1.0f);
+  if (entry.contains("colour")) {
+    Expected<glm::vec3> c = colour(entry.at("colour"), place + ".colour", false);
+    if (!c) return c.error();
+    tint = *c;
+  }
+  l.distribution = distribution;
+  l.scale = tint * float(distribution->max_candela / kLumensPerWatt * *factor);
+
+  LuminaireArray array;
+  if (entry.contains("array")) PENUMBRA_TRY(readLuminaireArray(entry.at("array"), place, array));
+  const int nx = array.nx, nz = array.nz;
+  const double dx = array.dx, dz = array.dz;
+  for (int i = 0; i < nx; ++i) {
+    for (int k = 0; k < nz; ++k) {
+      LuminaireLight li = l;
+      li.position = glm::vec3(
+          *position + glm::dvec3((i - 0.5 * (nx - 1)) * dx, 0.0, (k - 0.5 * (nz - 1)) * dz));
+      scene.lights.push_back(li);
+    }
+  }
+  return {};
+}
+
+Expected<double> SceneJsonReader::optionalNumber(const json& entry, const std::string& place,
+                                                 const char* key, double fallback) const {
+  if (!entry.contains(key)) return fallback;
+  return number(entry.at(key), keyPath(place, key));
+}
+
+Expected<const SceneJsonReader::LuminaireData*> SceneJsonReader::luminaireData(
+    const json& entry, const std::string& place, const std::string& file) {
+  Expected<std::string> found = existingFile(file, place + ".file");
   if (!found) return found.error();
   const std::string resolved = *found;
-  auto optional_number = [&](const char* key, double fallback) -> Expected<double> {
-    if (!entry.contains(key)) return fallback;
-    return number(entry.at(key), keyPath(place, key));
-  };
-  Expected<double> tilt = optional_number("tilt_deg", 0.0);
+  Expected<double> tilt = optionalNumber(entry, place, "tilt_deg", 0.0);
   if (!tilt) return tilt.error();
   // One read and one LDT per file and tilt, whatever number of entries and arrays use them.
   const auto key = std::make_pair(resolved, *tilt);
@@ -714,11 +805,11 @@ Status SceneJsonReader::readLuminaire(const json& entry, const std::string& plac
     if (!ldt) return ldt.error();
     known = luminaires_.emplace(key, std::make_pair(std::move(*read), *ldt)).first;
   }
-  const Photometry* photometry = &known->second.first;
-  const std::shared_ptr<const LuminaireDistribution>* distribution = &known->second.second;
+  return &known->second;
+}
 
-  Expected<glm::dvec3> position = vec3(entry.at("position"), place + ".position");
-  if (!position) return position.error();
+Status SceneJsonReader::readLuminaireAim(const json& entry, const std::string& place,
+                                         LuminaireLight& l) const {
   glm::vec3 aim(0.0f, -1.0f, 0.0f);
   if (entry.contains("aim")) {
     Expected<glm::vec3> a = unitDirection(entry.at("aim"), place + ".aim");
@@ -730,14 +821,21 @@ Status SceneJsonReader::readLuminaire(const json& entry, const std::string& plac
   const glm::vec3 ref =
       std::abs(aim.x) > 0.99f ? glm::vec3(0.0f, 0.0f, 1.0f) : glm::vec3(1.0f, 0.0f, 0.0f);
   glm::vec3 c0 = glm::normalize(ref - glm::dot(ref, aim) * aim);
-  Expected<double> rotation = optional_number("rotation_deg", 0.0);
+  Expected<double> rotation = optionalNumber(entry, place, "rotation_deg", 0.0);
   if (!rotation) return rotation.error();
   const double r = glm::radians(*rotation);
   c0 = glm::normalize(float(std::cos(r)) * c0 + float(std::sin(r)) * glm::cross(c0, aim));
+  l.nadir = aim;
+  l.c0 = c0;
+  return {};
+}
 
-  // Scale: I_max / 683 W/sr per LDT unit (Wallner eq. 12), times what the user changes.
+Expected<double> SceneJsonReader::luminaireFactor(const json& entry, const std::string& place,
+                                                  const std::string& file,
+                                                  const Photometry& photometry,
+                                                  const LuminaireDistribution& distribution) const {
   double factor = 1.0;
-  Expected<double> dimming = optional_number("dimming", 1.0);
+  Expected<double> dimming = optionalNumber(entry, place, "dimming", 1.0);
   if (!dimming) return dimming.error();
   if (!(*dimming >= 0.0 && *dimming <= 1.0)) {
     return error(place + ".dimming", fmt::format("{} is outside [0, 1]", *dimming));
@@ -747,15 +845,14 @@ Status SceneJsonReader::readLuminaire(const json& entry, const std::string& plac
     Expected<double> lamps = number(entry.at("lamps"), place + ".lamps");
     if (!lamps) return lamps.error();
     const int stated =
-        photometry->lamps.empty() ? photometry->lamp_count : photometry->lamps.front().count;
+        photometry.lamps.empty() ? photometry.lamp_count : photometry.lamps.front().count;
     if (!(*lamps >= 1.0 && *lamps == std::floor(*lamps) && *lamps <= 1000.0)) {
       return error(place + ".lamps",
                    fmt::format("{} is not a whole number from 1 to 1000", *lamps));
     }
-    if (stated <= 0 || photometry->lamp_flux < 0.0) {
-      return error(
-          place + ".lamps",
-          fmt::format("{} gives absolute photometry (no lamp count to scale from)", *file));
+    if (stated <= 0 || photometry.lamp_flux < 0.0) {
+      return error(place + ".lamps",
+                   fmt::format("{} gives absolute photometry (no lamp count to scale from)", file));
     }
     factor *= *lamps / stated;
   }
@@ -765,60 +862,39 @@ Status SceneJsonReader::readLuminaire(const json& entry, const std::string& plac
     if (!(*flux > 0.0 && *flux < 1e9)) {
       return error(place + ".flux_lm", fmt::format("{} lm must be positive and below 1e9", *flux));
     }
-    factor *= *flux / (*distribution)->flux_lumens;
+    factor *= *flux / distribution.flux_lumens;
   }
-  glm::vec3 tint(1.0f);
-  if (entry.contains("colour")) {
-    Expected<glm::vec3> c = colour(entry.at("colour"), place + ".colour", false);
-    if (!c) return c.error();
-    tint = *c;
-  }
-  LuminaireLight l;
-  l.nadir = aim;
-  l.c0 = c0;
-  l.distribution = *distribution;
-  l.scale = tint * float((*distribution)->max_candela / kLumensPerWatt * factor);
+  return factor;
+}
 
-  // An array: count [nx, nz] luminaires spacing [dx, dz] apart along world x and z, centred on
-  // the position.
-  int nx = 1, nz = 1;
-  double dx = 0.0, dz = 0.0;
-  if (entry.contains("array")) {
-    const json& a = entry.at("array");
-    const std::string ap = place + ".array";
-    PENUMBRA_TRY(checkKeys(a, ap, {"count", "spacing"}));
-    if (!a.contains("count") || !a.at("count").is_array() || a.at("count").size() != 2) {
-      return error(ap + ".count", "must be [nx, nz]");
-    }
-    if (!a.contains("spacing") || !a.at("spacing").is_array() || a.at("spacing").size() != 2) {
-      return error(ap + ".spacing", "must be [dx, dz] in metres");
-    }
-    for (int k = 0; k < 2; ++k) {
-      Expected<double> n = number(a.at("count")[size_t(k)], fmt::format("{}.count[{}]", ap, k));
-      if (!n) return n.error();
-      if (!(*n >= 1.0 && *n <= 1000.0 && *n == std::floor(*n))) {
-        return error(fmt::format("{}.count[{}]", ap, k),
-                     fmt::format("{} is not a whole number from 1 to 1000", *n));
-      }
-      Expected<double> d = number(a.at("spacing")[size_t(k)], fmt::format("{}.spacing[{}]", ap, k));
-      if (!d) return d.error();
-      if (!(*d >= 0.0)) {
-        return error(fmt::format("{}.spacing[{}]", ap, k), "must not be negative");
-      }
-      (k == 0 ? nx : nz) = int(*n);
-      (k == 0 ? dx : dz) = *d;
-    }
-    if (size_t(nx) * size_t(nz) > 10000) {
-      return error(ap + ".count", fmt::format("{} x {} luminaires: at most 10000", nx, nz));
-    }
+Status SceneJsonReader::readLuminaireArray(const json& a, const std::string& place,
+                                           LuminaireArray& array) const {
+  const std::string ap = place + ".array";
+  PENUMBRA_TRY(checkKeys(a, ap, {"count", "spacing"}));
+  if (!a.contains("count") || !a.at("count").is_array() || a.at("count").size() != 2) {
+    return error(ap + ".count", "must be [nx, nz]");
   }
-  for (int i = 0; i < nx; ++i) {
-    for (int k = 0; k < nz; ++k) {
-      LuminaireLight li = l;
-      li.position = glm::vec3(
-          *position + glm::dvec3((i - 0.5 * (nx - 1)) * dx, 0.0, (k - 0.5 * (nz - 1)) * dz));
-      scene.lights.push_back(li);
+  if (!a.contains("spacing") || !a.at("spacing").is_array() || a.at("spacing").size() != 2) {
+    return error(ap + ".spacing", "must be [dx, dz] in metres");
+  }
+  for (int k = 0; k < 2; ++k) {
+    Expected<double> n = number(a.at("count")[size_t(k)], fmt::format("{}.count[{}]", ap, k));
+    if (!n) return n.error();
+    if (!(*n >= 1.0 && *n <= 1000.0 && *n == std::floor(*n))) {
+      return error(fmt::format("{}.count[{}]", ap, k),
+                   fmt::format("{} is not a whole number from 1 to 1000", *n));
     }
+    Expected<double> d = number(a.at("spacing")[size_t(k)], fmt::format("{}.spacing[{}]", ap, k));
+    if (!d) return d.error();
+    if (!(*d >= 0.0)) {
+      return error(fmt::format("{}.spacing[{}]", ap, k), "must not be negative");
+    }
+    (k == 0 ? array.nx : array.nz) = int(*n);
+    (k == 0 ? array.dx : array.dz) = *d;
+  }
+  if (size_t(array.nx) * size_t(array.nz) > 10000) {
+    return error(ap + ".count",
+                 fmt::format("{} x {} luminaires: at most 10000", array.nx, array.nz));
   }
   return {};
 }
