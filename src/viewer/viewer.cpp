@@ -105,6 +105,14 @@ class Viewer {
   void handleInput();
   void uploadImage();
   void drawPanels();
+  // The side panel's sections (drawPanels).
+  void drawSessionControls();
+  void drawExposure();
+  void drawLights();
+  bool editLight(Light& light);
+  void drawMaterials();
+  bool editSubsurface(Material& m);
+  void drawFrameTimes();
   void drawLightMarkers();
   Status capture(const std::string& path);
   Status writeStats(const nlohmann::json& frames) const;
@@ -119,6 +127,7 @@ class Viewer {
     const int panel = options_.hide_ui ? 0 : std::min(kPanelWidth, w / 2);
     return Rect{panel, std::max(w - panel, 1), std::max(h, 1)};
   }
+  void drawError(const Rect& r);
   void lightsChanged() {
     if (session_) session_->setLights(scene_.lights);
     session_failed_ = false;
@@ -354,6 +363,19 @@ void Viewer::drawPanels() {
   ImGui::SetNextWindowSize(ImVec2(float(r.x0), float(r.height)));
   ImGui::Begin("Penumbra", nullptr,
                ImGuiWindowFlags_NoMove | ImGuiWindowFlags_NoResize | ImGuiWindowFlags_NoCollapse);
+  drawSessionControls();
+  if (ImGui::CollapsingHeader("exposure", ImGuiTreeNodeFlags_DefaultOpen)) drawExposure();
+  if (ImGui::CollapsingHeader("lights", ImGuiTreeNodeFlags_DefaultOpen)) drawLights();
+  if (ImGui::CollapsingHeader("materials")) drawMaterials();
+  if (ImGui::CollapsingHeader("frame times (ms)", ImGuiTreeNodeFlags_DefaultOpen)) {
+    drawFrameTimes();
+  }
+  ImGui::End();
+  if (!error_.empty()) drawError(r);
+}
+
+// The scene's name, the method, restart and screenshot, and the session's status.
+void Viewer::drawSessionControls() {
   ImGui::TextUnformatted(scene_.source.c_str());
   int method = int(method_);
   std::array<const char*, 6> names{};
@@ -371,144 +393,155 @@ void Viewer::drawPanels() {
     status_line_ = s.ok() ? "wrote " + path : s.error().describe();
   }
   if (!status_line_.empty()) ImGui::TextWrapped("%s", status_line_.c_str());
+}
 
-  if (ImGui::CollapsingHeader("exposure", ImGuiTreeNodeFlags_DefaultOpen)) {
-    int op = options_.tonemap.op == ToneMapOperator::kReinhard ? 0 : 1;
-    const char* ops[] = {"Reinhard (automatic key)", "exposure"};
-    bool changed = ImGui::Combo("operator", &op, ops, 2);
-    options_.tonemap.op = op == 0 ? ToneMapOperator::kReinhard : ToneMapOperator::kExposure;
-    changed |= ImGui::SliderFloat("stops", &options_.tonemap.exposure_stops, -10.0f, 10.0f);
-    if (changed && session_) uploadImage();
+void Viewer::drawExposure() {
+  int op = options_.tonemap.op == ToneMapOperator::kReinhard ? 0 : 1;
+  const char* ops[] = {"Reinhard (automatic key)", "exposure"};
+  bool changed = ImGui::Combo("operator", &op, ops, 2);
+  options_.tonemap.op = op == 0 ? ToneMapOperator::kReinhard : ToneMapOperator::kExposure;
+  changed |= ImGui::SliderFloat("stops", &options_.tonemap.exposure_stops, -10.0f, 10.0f);
+  if (changed && session_) uploadImage();
+}
+
+// The list of lights, adding a point light, and the selected light's editor.
+void Viewer::drawLights() {
+  if (scene_.lights.empty()) ImGui::TextUnformatted("(emitting surfaces only)");
+  for (size_t k = 0; k < scene_.lights.size(); ++k) {
+    const std::string label = fmt::format("{} {}", lightKind(scene_.lights[k]), k);
+    if (ImGui::Selectable(label.c_str(), selected_light_ == int(k))) selected_light_ = int(k);
   }
-
-  if (ImGui::CollapsingHeader("lights", ImGuiTreeNodeFlags_DefaultOpen)) {
-    if (scene_.lights.empty()) ImGui::TextUnformatted("(emitting surfaces only)");
-    for (size_t k = 0; k < scene_.lights.size(); ++k) {
-      const std::string label = fmt::format("{} {}", lightKind(scene_.lights[k]), k);
-      if (ImGui::Selectable(label.c_str(), selected_light_ == int(k))) selected_light_ = int(k);
-    }
-    if (ImGui::Button("add point light")) {
-      const Camera c = currentCamera();
-      scene_.lights.push_back(PointLight{c.look_at + 0.25f * scene_size_ * c.up, glm::vec3(1.0f)});
-      selected_light_ = int(scene_.lights.size() - 1);
-      lightsChanged();
-    }
-    if (selected_light_ >= 0 && selected_light_ < int(scene_.lights.size())) {
-      Light& l = scene_.lights[size_t(selected_light_)];
-      bool changed = false;
-      const float step = 0.005f * scene_size_;
-      std::visit(
-          Overloaded{
-              [&](PointLight& p) {
-                changed |= ImGui::DragFloat3("position", &p.position.x, step);
-                changed |= ImGui::ColorEdit3("intensity W/sr", &p.intensity.x,
-                                             ImGuiColorEditFlags_HDR | ImGuiColorEditFlags_Float);
-              },
-              [&](SpotLight& p) {
-                changed |= ImGui::DragFloat3("position", &p.position.x, step);
-                changed |= ImGui::ColorEdit3("intensity W/sr", &p.intensity.x,
-                                             ImGuiColorEditFlags_HDR | ImGuiColorEditFlags_Float);
-              },
-              [&](DirectionalLight& d) {
-                if (ImGui::DragFloat3("direction", &d.direction.x, 0.01f) &&
-                    glm::length(d.direction) > 1e-6f) {
-                  d.direction = glm::normalize(d.direction);
-                  changed = true;
-                }
-                changed |= ImGui::ColorEdit3("irradiance W/m2", &d.irradiance.x,
-                                             ImGuiColorEditFlags_HDR | ImGuiColorEditFlags_Float);
-              },
-              [&](LuminaireLight& p) {
-                changed |= ImGui::DragFloat3("position", &p.position.x, step);
-                changed |= ImGui::ColorEdit3("scale", &p.scale.x,
-                                             ImGuiColorEditFlags_HDR | ImGuiColorEditFlags_Float);
-              }},
-          l);
-      if (changed) lightsChanged();
-    }
+  if (ImGui::Button("add point light")) {
+    const Camera c = currentCamera();
+    scene_.lights.push_back(PointLight{c.look_at + 0.25f * scene_size_ * c.up, glm::vec3(1.0f)});
+    selected_light_ = int(scene_.lights.size() - 1);
+    lightsChanged();
   }
+  if (selected_light_ >= 0 && selected_light_ < int(scene_.lights.size())) {
+    if (editLight(scene_.lights[size_t(selected_light_)])) lightsChanged();
+  }
+}
 
-  if (ImGui::CollapsingHeader("materials")) {
-    for (size_t k = 0; k < scene_.materials.size(); ++k) {
-      const std::string label = scene_.materials[k].name.empty() ? fmt::format("material {}", k)
-                                                                 : scene_.materials[k].name;
-      if (ImGui::Selectable(fmt::format("{}##{}", label, k).c_str(),
-                            selected_material_ == int(k))) {
-        selected_material_ = int(k);
-      }
-    }
-    if (selected_material_ < int(scene_.materials.size())) {
-      Material& m = scene_.materials[size_t(selected_material_)];
-      bool changed = ImGui::ColorEdit3("reflectance", &m.reflectance.x, ImGuiColorEditFlags_Float);
-      changed |= ImGui::ColorEdit3("emission", &m.emission.x,
-                                   ImGuiColorEditFlags_HDR | ImGuiColorEditFlags_Float);
-      changed |= ImGui::Checkbox("two-sided", &m.two_sided);
-      const std::span<const char* const> presets = subsurfacePresetNames();
-      int preset = -1;
-      if (m.subsurface) {
-        for (size_t p = 0; p < presets.size(); ++p) {
-          if (m.subsurface->preset == presets[p]) preset = int(p);
-        }
-      }
-      const char* shown =
-          m.subsurface ? (preset >= 0 ? presets[size_t(preset)] : "custom") : "opaque";
-      if (ImGui::BeginCombo("subsurface", shown)) {
-        if (ImGui::Selectable("opaque", !m.subsurface)) {
-          m.subsurface.reset();
-          changed = true;
-        }
-        for (size_t p = 0; p < presets.size(); ++p) {
-          if (ImGui::Selectable(presets[p], preset == int(p))) {
-            m.subsurface = subsurfacePreset(presets[p]);
-            changed = true;
-          }
-        }
-        ImGui::EndCombo();
-      }
-      if (m.subsurface) {
-        // Shown per millimetre, as the scene format and Jensen et al.'s table give them.
-        glm::vec3 s = glm::vec3(m.subsurface->sigma_s_prime * 1e-3);
-        glm::vec3 a = glm::vec3(m.subsurface->sigma_a * 1e-3);
-        float eta = float(m.subsurface->eta);
-        bool medium = ImGui::DragFloat3("sigma_s' /mm", &s.x, 0.01f, 1e-4f, 1e3f);
-        medium |= ImGui::DragFloat3("sigma_a /mm", &a.x, 0.0005f, 0.0f, 1e3f);
-        medium |= ImGui::DragFloat("eta", &eta, 0.005f, 1.0f, 3.0f);
-        if (medium) {
-          m.subsurface->sigma_s_prime = glm::max(glm::dvec3(s) * 1e3, glm::dvec3(1e-1));
-          m.subsurface->sigma_a = glm::max(glm::dvec3(a) * 1e3, glm::dvec3(0.0));
-          m.subsurface->eta = std::clamp(double(eta), 1.0, 3.0);
-          m.subsurface->preset.clear();
-          changed = true;
-        }
-      }
-      if (changed) materialsChanged();
+// The light's position (or direction) and power; true when changed.
+bool Viewer::editLight(Light& light) {
+  bool changed = false;
+  const float step = 0.005f * scene_size_;
+  std::visit(
+      Overloaded{
+          [&](PointLight& p) {
+            changed |= ImGui::DragFloat3("position", &p.position.x, step);
+            changed |= ImGui::ColorEdit3("intensity W/sr", &p.intensity.x,
+                                         ImGuiColorEditFlags_HDR | ImGuiColorEditFlags_Float);
+          },
+          [&](SpotLight& p) {
+            changed |= ImGui::DragFloat3("position", &p.position.x, step);
+            changed |= ImGui::ColorEdit3("intensity W/sr", &p.intensity.x,
+                                         ImGuiColorEditFlags_HDR | ImGuiColorEditFlags_Float);
+          },
+          [&](DirectionalLight& d) {
+            if (ImGui::DragFloat3("direction", &d.direction.x, 0.01f) &&
+                glm::length(d.direction) > 1e-6f) {
+              d.direction = glm::normalize(d.direction);
+              changed = true;
+            }
+            changed |= ImGui::ColorEdit3("irradiance W/m2", &d.irradiance.x,
+                                         ImGuiColorEditFlags_HDR | ImGuiColorEditFlags_Float);
+          },
+          [&](LuminaireLight& p) {
+            changed |= ImGui::DragFloat3("position", &p.position.x, step);
+            changed |= ImGui::ColorEdit3("scale", &p.scale.x,
+                                         ImGuiColorEditFlags_HDR | ImGuiColorEditFlags_Float);
+          }},
+      light);
+  return changed;
+}
+
+// The list of materials and the selected material's editor.
+void Viewer::drawMaterials() {
+  for (size_t k = 0; k < scene_.materials.size(); ++k) {
+    const std::string label =
+        scene_.materials[k].name.empty() ? fmt::format("material {}", k) : scene_.materials[k].name;
+    if (ImGui::Selectable(fmt::format("{}##{}", label, k).c_str(), selected_material_ == int(k))) {
+      selected_material_ = int(k);
     }
   }
-
-  if (ImGui::CollapsingHeader("frame times (ms)", ImGuiTreeNodeFlags_DefaultOpen)) {
-    auto plot = [](const char* label, const std::deque<float>& d) {
-      const std::vector<float> v(d.begin(), d.end());
-      const float last = v.empty() ? 0.0f : v.back();
-      ImGui::PlotLines(fmt::format("{} {:.1f}", label, last).c_str(), v.data(), int(v.size()), 0,
-                       nullptr, 0.0f, FLT_MAX, ImVec2(0, 36));
-    };
-    plot("solve", times_.solve);
-    plot("view", times_.view);
-    plot("draw", times_.draw);
-    if (last_build_ms_ > 0.0) ImGui::Text("last build %.0f ms", last_build_ms_);
-    ImGui::Text("%.1f frames per second", ImGui::GetIO().Framerate);
+  if (selected_material_ < int(scene_.materials.size())) {
+    Material& m = scene_.materials[size_t(selected_material_)];
+    bool changed = ImGui::ColorEdit3("reflectance", &m.reflectance.x, ImGuiColorEditFlags_Float);
+    changed |= ImGui::ColorEdit3("emission", &m.emission.x,
+                                 ImGuiColorEditFlags_HDR | ImGuiColorEditFlags_Float);
+    changed |= ImGui::Checkbox("two-sided", &m.two_sided);
+    changed |= editSubsurface(m);
+    if (changed) materialsChanged();
   }
+}
+
+// The material's medium: opaque, a preset, or its coefficients edited; true when changed.
+bool Viewer::editSubsurface(Material& m) {
+  bool changed = false;
+  const std::span<const char* const> presets = subsurfacePresetNames();
+  int preset = -1;
+  if (m.subsurface) {
+    for (size_t p = 0; p < presets.size(); ++p) {
+      if (m.subsurface->preset == presets[p]) preset = int(p);
+    }
+  }
+  const char* shown = m.subsurface ? (preset >= 0 ? presets[size_t(preset)] : "custom") : "opaque";
+  if (ImGui::BeginCombo("subsurface", shown)) {
+    if (ImGui::Selectable("opaque", !m.subsurface)) {
+      m.subsurface.reset();
+      changed = true;
+    }
+    for (size_t p = 0; p < presets.size(); ++p) {
+      if (ImGui::Selectable(presets[p], preset == int(p))) {
+        m.subsurface = subsurfacePreset(presets[p]);
+        changed = true;
+      }
+    }
+    ImGui::EndCombo();
+  }
+  if (m.subsurface) {
+    // Shown per millimetre, as the scene format and Jensen et al.'s table give them.
+    glm::vec3 s = glm::vec3(m.subsurface->sigma_s_prime * 1e-3);
+    glm::vec3 a = glm::vec3(m.subsurface->sigma_a * 1e-3);
+    float eta = float(m.subsurface->eta);
+    bool medium = ImGui::DragFloat3("sigma_s' /mm", &s.x, 0.01f, 1e-4f, 1e3f);
+    medium |= ImGui::DragFloat3("sigma_a /mm", &a.x, 0.0005f, 0.0f, 1e3f);
+    medium |= ImGui::DragFloat("eta", &eta, 0.005f, 1.0f, 3.0f);
+    if (medium) {
+      m.subsurface->sigma_s_prime = glm::max(glm::dvec3(s) * 1e3, glm::dvec3(1e-1));
+      m.subsurface->sigma_a = glm::max(glm::dvec3(a) * 1e3, glm::dvec3(0.0));
+      m.subsurface->eta = std::clamp(double(eta), 1.0, 3.0);
+      m.subsurface->preset.clear();
+      changed = true;
+    }
+  }
+  return changed;
+}
+
+void Viewer::drawFrameTimes() {
+  auto plot = [](const char* label, const std::deque<float>& d) {
+    const std::vector<float> v(d.begin(), d.end());
+    const float last = v.empty() ? 0.0f : v.back();
+    ImGui::PlotLines(fmt::format("{} {:.1f}", label, last).c_str(), v.data(), int(v.size()), 0,
+                     nullptr, 0.0f, FLT_MAX, ImVec2(0, 36));
+  };
+  plot("solve", times_.solve);
+  plot("view", times_.view);
+  plot("draw", times_.draw);
+  if (last_build_ms_ > 0.0) ImGui::Text("last build %.0f ms", last_build_ms_);
+  ImGui::Text("%.1f frames per second", ImGui::GetIO().Framerate);
+}
+
+// The last error, in a window of its own beside the panel, until dismissed.
+void Viewer::drawError(const Rect& r) {
+  ImGui::SetNextWindowPos(ImVec2(float(r.x0 + 10), 10), ImGuiCond_FirstUseEver);
+  ImGui::Begin("error");
+  ImGui::PushStyleColor(ImGuiCol_Text, ImVec4(1.0f, 0.45f, 0.4f, 1.0f));
+  ImGui::TextWrapped("%s", error_.c_str());
+  ImGui::PopStyleColor();
+  if (ImGui::Button("dismiss")) error_.clear();
   ImGui::End();
-
-  if (!error_.empty()) {
-    ImGui::SetNextWindowPos(ImVec2(float(r.x0 + 10), 10), ImGuiCond_FirstUseEver);
-    ImGui::Begin("error");
-    ImGui::PushStyleColor(ImGuiCol_Text, ImVec4(1.0f, 0.45f, 0.4f, 1.0f));
-    ImGui::TextWrapped("%s", error_.c_str());
-    ImGui::PopStyleColor();
-    if (ImGui::Button("dismiss")) error_.clear();
-    ImGui::End();
-  }
 }
 
 Status Viewer::capture(const std::string& path) {

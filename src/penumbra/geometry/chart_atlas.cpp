@@ -443,20 +443,22 @@ uint64_t mortonCode(uint32_t x, uint32_t y) {
 
 namespace {
 
-// Rasterises every chart's footprint at `density` (splitting charts whose parameterisation
-// overlaps itself) and packs them. width > 0: that width and at most max_height rows; else a
-// near-square atlas.
+// The mesh an atlas is built on: its positions, triangles and the faces (sides) it charts.
+struct AtlasMesh {
+  std::span<const glm::vec3> positions;
+  std::span<const glm::uvec3> triangles;
+  std::span<const SurfaceFace> faces;
+};
+
+// The charts' footprints packed, and in a full layout each chart rasterised where it was placed.
 struct Layout {
   std::vector<ChartRaster> rasters;
   PackResult packing;
 };
 
-Expected<Layout> layout(ChartSet& set, double density, int width, int max_height,
-                        const ChartAtlasOptions& options, std::span<const glm::vec3> positions,
-                        std::span<const glm::uvec3> triangles, std::span<const SurfaceFace> faces,
-                        bool full) {
-  Layout out;
-  // Chart sizes first, refusing what cannot fit before rasterising anything.
+// Chart sizes first, refusing what cannot fit before rasterising anything.
+Status checkChartSizes(const ChartSet& set, double density, const ChartAtlasOptions& options,
+                       bool full) {
   uint64_t footprint = 0;
   for (const Chart& chart : set.charts) {
     glm::dvec2 lo(std::numeric_limits<double>::max()), hi(-std::numeric_limits<double>::max());
@@ -483,58 +485,62 @@ Expected<Layout> layout(ChartSet& set, double density, int width, int max_height
                     "largest atlas ({} x {})",
                     density, footprint, options.max_resolution, options.max_resolution));
   }
-  if (Status s = checkMemory(chartAtlasBytes(footprint, 1, footprint) * (full ? 3 : 1),
-                             "the lightmap atlas");
-      !s.ok()) {
-    return s.error();
-  }
-  if (full) {
-    // Charts whose map overlaps itself (a spiral that the projection folds over) are split,
-    // until none does.
-    std::vector<uint8_t> checked(set.charts.size(), 0);
-    for (;;) {
-      std::vector<uint8_t> overlapping(set.charts.size(), 0);
-      parallelRange(set.charts.size(), 1, [&](size_t b, size_t e) {
-        for (size_t c = b; c < e; ++c) {
-          if (c < checked.size() && checked[c]) continue;
-          overlapping[c] =
-              rasterise(set, c, density, positions, triangles, faces, true).overlapping;
-        }
-      });
-      checked.assign(set.charts.size(), 1);
-      bool split_any = false;
-      const size_t count = set.charts.size();
-      for (size_t c = 0; c < count; ++c) {
-        if (!overlapping[c]) continue;
-        if (splitChart(set, c, positions, triangles, faces, options.charts)) {
-          split_any = true;
-          checked[c] = 0;
-          checked.push_back(0);
-        }
+  return checkMemory(chartAtlasBytes(footprint, 1, footprint) * (full ? 3 : 1),
+                     "the lightmap atlas");
+}
+
+// Charts whose map overlaps itself (a spiral that the projection folds over) are split, until
+// none does.
+void splitOverlappingCharts(ChartSet& set, double density, const ChartAtlasOptions& options,
+                            const AtlasMesh& mesh) {
+  std::vector<uint8_t> checked(set.charts.size(), 0);
+  for (;;) {
+    std::vector<uint8_t> overlapping(set.charts.size(), 0);
+    parallelRange(set.charts.size(), 1, [&](size_t b, size_t e) {
+      for (size_t c = b; c < e; ++c) {
+        if (c < checked.size() && checked[c]) continue;
+        overlapping[c] =
+            rasterise(set, c, density, mesh.positions, mesh.triangles, mesh.faces, true)
+                .overlapping;
       }
-      if (!split_any) break;
+    });
+    checked.assign(set.charts.size(), 1);
+    bool split_any = false;
+    const size_t count = set.charts.size();
+    for (size_t c = 0; c < count; ++c) {
+      if (!overlapping[c]) continue;
+      if (splitChart(set, c, mesh.positions, mesh.triangles, mesh.faces, options.charts)) {
+        split_any = true;
+        checked[c] = 0;
+        checked.push_back(0);
+      }
     }
+    if (!split_any) break;
   }
-  // Footprints in every orientation.
+}
+
+// Footprints in every orientation: chart c turned by `turn` quarter turns is
+// profiles[kTurns * c + turn].
+std::vector<Profile> footprintProfiles(ChartSet& set, double density, int padding,
+                                       const AtlasMesh& mesh) {
   const size_t nc = set.charts.size();
   std::vector<Profile> profiles(kTurns * nc);
   parallelRange(nc, 1, [&](size_t b, size_t e) {
     for (size_t c = b; c < e; ++c) {
       for (int turn = 0; turn < kTurns; ++turn) {
-        const ChartRaster r = rasterise(set, c, density, positions, triangles, faces, false);
-        profiles[kTurns * c + size_t(turn)] = profileOf(r.kind, r.w, r.h, options.padding);
+        const ChartRaster r =
+            rasterise(set, c, density, mesh.positions, mesh.triangles, mesh.faces, false);
+        profiles[kTurns * c + size_t(turn)] = profileOf(r.kind, r.w, r.h, padding);
         turnChart(set, c, 1);  // four quarter turns: back as it was
       }
     }
   });
-  uint64_t reserved = 0;
-  int widest = 1;
-  for (size_t c = 0; c < nc; ++c) {
-    const Profile& p = profiles[kTurns * c];
-    reserved += uint64_t(p.w + options.padding) * uint64_t(p.h + options.padding);
-    widest = std::max(widest, std::min(p.w, profiles[kTurns * c + 1].w));
-  }
-  std::vector<uint32_t> order(set.charts.size());
+  return profiles;
+}
+
+// The order charts are packed in: largest first (by shorter, then longer side).
+std::vector<uint32_t> packingOrder(const std::vector<Profile>& profiles) {
+  std::vector<uint32_t> order(profiles.size() / kTurns);
   std::iota(order.begin(), order.end(), 0u);
   auto size = [&](uint32_t c) {
     const Profile& p = profiles[kTurns * c];
@@ -542,28 +548,21 @@ Expected<Layout> layout(ChartSet& set, double density, int width, int max_height
   };
   std::stable_sort(order.begin(), order.end(),
                    [&](uint32_t a, uint32_t b) { return size(a) > size(b); });
-  auto finish = [&]() -> Expected<Layout> {
-    if (!full || !out.packing.fits) return std::move(out);
-    // Turn the charts packed turned, then rasterise them in full where they were placed.
-    for (size_t c = 0; c < nc; ++c) {
-      turnChart(set, c, out.packing.turned[c]);
-    }
-    out.rasters.resize(nc);
-    parallelRange(nc, 1, [&](size_t b, size_t e) {
-      for (size_t c = b; c < e; ++c) {
-        out.rasters[c] = rasterise(set, c, density, positions, triangles, faces, true);
-        const Profile& p = profiles[kTurns * c + out.packing.turned[c]];
-        PENUMBRA_CHECK(out.rasters[c].w == p.w && out.rasters[c].h == p.h);
-      }
-    });
-    return std::move(out);
-  };
-  if (width > 0) {
-    out.packing = pack(profiles, order, width, max_height, options.padding);
-    return finish();
+  return order;
+}
+
+// Near-square: a few widths around the square root of the reserved area, keeping the one with
+// the fewest texels.
+Expected<PackResult> packNearSquare(const std::vector<Profile>& profiles,
+                                    const std::vector<uint32_t>& order, double density,
+                                    const ChartAtlasOptions& options) {
+  uint64_t reserved = 0;
+  int widest = 1;
+  for (size_t c = 0; c < profiles.size() / kTurns; ++c) {
+    const Profile& p = profiles[kTurns * c];
+    reserved += uint64_t(p.w + options.padding) * uint64_t(p.h + options.padding);
+    widest = std::max(widest, std::min(p.w, profiles[kTurns * c + 1].w));
   }
-  // Near-square: a few widths around the square root of the reserved area, keeping the one
-  // with the fewest texels.
   const double side = std::sqrt(double(reserved));
   const double factors[] = {0.9, 1.0, 1.1, 1.25};
   std::vector<PackResult> tries(std::size(factors));
@@ -575,12 +574,13 @@ Expected<Layout> layout(ChartSet& set, double density, int width, int max_height
       tries[i].height = roundUp4(tries[i].height);
     }
   });
+  PackResult best;
   bool found = false;
   for (PackResult& p : tries) {
     if (!p.fits) continue;
-    if (!found || uint64_t(p.width) * uint64_t(p.height) <
-                      uint64_t(out.packing.width) * uint64_t(out.packing.height)) {
-      out.packing = std::move(p);
+    if (!found ||
+        uint64_t(p.width) * uint64_t(p.height) < uint64_t(best.width) * uint64_t(best.height)) {
+      best = std::move(p);
       found = true;
     }
   }
@@ -590,7 +590,45 @@ Expected<Layout> layout(ChartSet& set, double density, int width, int max_height
         fmt::format("{:.4g} texels per metre does not fit the largest atlas ({} x {})", density,
                     options.max_resolution, options.max_resolution));
   }
-  return finish();
+  return best;
+}
+
+// Turn the charts packed turned, then rasterise them in full where they were placed.
+void rasterisePlaced(ChartSet& set, double density, const std::vector<Profile>& profiles,
+                     const AtlasMesh& mesh, Layout& out) {
+  const size_t nc = set.charts.size();
+  for (size_t c = 0; c < nc; ++c) {
+    turnChart(set, c, out.packing.turned[c]);
+  }
+  out.rasters.resize(nc);
+  parallelRange(nc, 1, [&](size_t b, size_t e) {
+    for (size_t c = b; c < e; ++c) {
+      out.rasters[c] = rasterise(set, c, density, mesh.positions, mesh.triangles, mesh.faces, true);
+      const Profile& p = profiles[kTurns * c + out.packing.turned[c]];
+      PENUMBRA_CHECK(out.rasters[c].w == p.w && out.rasters[c].h == p.h);
+    }
+  });
+}
+
+// Rasterises every chart's footprint at `density` (splitting charts whose parameterisation
+// overlaps itself) and packs them. width > 0: that width and at most max_height rows; else a
+// near-square atlas.
+Expected<Layout> layout(ChartSet& set, double density, int width, int max_height,
+                        const ChartAtlasOptions& options, const AtlasMesh& mesh, bool full) {
+  PENUMBRA_TRY(checkChartSizes(set, density, options, full));
+  if (full) splitOverlappingCharts(set, density, options, mesh);
+  const std::vector<Profile> profiles = footprintProfiles(set, density, options.padding, mesh);
+  const std::vector<uint32_t> order = packingOrder(profiles);
+  Layout out;
+  if (width > 0) {
+    out.packing = pack(profiles, order, width, max_height, options.padding);
+  } else {
+    Expected<PackResult> packing = packNearSquare(profiles, order, density, options);
+    if (!packing) return packing.error();
+    out.packing = std::move(*packing);
+  }
+  if (full && out.packing.fits) rasterisePlaced(set, density, profiles, mesh, out);
+  return out;
 }
 
 }  // namespace
@@ -635,11 +673,10 @@ uint64_t chartAtlasBytes(uint64_t width, uint64_t height, uint64_t elements) {
   return width * height * (4 + 4 + 8 + 1 + 4) + elements * (4 + 4 + 8 + 24 + 24 + 12);
 }
 
-Expected<ChartAtlas> buildChartAtlas(std::span<const glm::vec3> positions,
-                                     std::span<const glm::uvec3> triangles,
-                                     std::span<const uint32_t> material_ids,
-                                     std::span<const SurfaceFace> faces,
-                                     const ChartAtlasOptions& options) {
+namespace {
+
+// The options a caller can get wrong, refused before any work.
+Status checkAtlasOptions(std::span<const SurfaceFace> faces, const ChartAtlasOptions& options) {
   if (options.padding < 1 || options.padding > 8) {
     return inputError("", "lightmap atlas", "padding must be in [1, 8] texels");
   }
@@ -653,87 +690,132 @@ Expected<ChartAtlas> buildChartAtlas(std::span<const glm::vec3> positions,
         "", "--lightmap-size",
         fmt::format("{} is out of range [8, {}]", options.resolution, options.max_resolution));
   }
-  ChartAtlas atlas;
-  atlas.faces.assign(faces.begin(), faces.end());
-  atlas.padding = options.padding;
-  atlas.charts = buildCharts(positions, triangles, material_ids, faces, options.charts);
-  if (atlas.charts.charts.empty()) {
-    return inputError("", "", "the lightmap atlas has only degenerate faces");
-  }
-  double total_area = 0.0;
-  for (const Chart& c : atlas.charts.charts) total_area += c.area;
+  return Status();
+}
 
-  double density = options.texel_density;
-  Layout lay;
-  if (by_density) {
-    Expected<Layout> l = layout(atlas.charts, density, 0, options.max_resolution, options,
-                                positions, triangles, faces, true);
-    if (!l) return l.error();
-    lay = std::move(*l);
-  } else {
-    // The largest density whose packing fits resolution x resolution (bisection on a log
-    // scale, footprints only; then the full rasterisation at the density found).
-    const int res = options.resolution;
-    double hi = std::sqrt(double(res) * double(res) / total_area);
-    double lo = 0.0;
-    for (double d = hi / 2.0; d > hi * 1e-4; d /= 2.0) {
-      Expected<Layout> l =
-          layout(atlas.charts, d, res, res, options, positions, triangles, faces, false);
-      if (l && l->packing.fits) {
-        lo = d;
-        break;
-      }
+// The largest density whose packing fits resolution x resolution (bisection on a log
+// scale, footprints only; then the full rasterisation at the density found).
+Expected<double> fittingDensity(ChartSet& charts, const ChartAtlasOptions& options,
+                                const AtlasMesh& mesh) {
+  double total_area = 0.0;
+  for (const Chart& c : charts.charts) total_area += c.area;
+  const int res = options.resolution;
+  double hi = std::sqrt(double(res) * double(res) / total_area);
+  double lo = 0.0;
+  for (double d = hi / 2.0; d > hi * 1e-4; d /= 2.0) {
+    Expected<Layout> l = layout(charts, d, res, res, options, mesh, false);
+    if (l && l->packing.fits) {
+      lo = d;
+      break;
     }
-    if (lo == 0.0) {
-      return inputError("", "--lightmap-size",
-                        fmt::format("the scene's {} charts do not fit a {} x {} atlas",
-                                    atlas.charts.charts.size(), res, res));
-    }
-    for (int it = 0; it < 7; ++it) {
-      const double mid = std::sqrt(lo * hi);
-      Expected<Layout> l =
-          layout(atlas.charts, mid, res, res, options, positions, triangles, faces, false);
-      if (l && l->packing.fits) {
-        lo = mid;
-      } else {
-        hi = mid;
-      }
-    }
-    // The full layout may split charts whose maps overlap themselves and pack differently:
-    // a little less density until it fits.
-    density = lo;
-    for (int attempt = 0;; ++attempt) {
-      Expected<Layout> l =
-          layout(atlas.charts, density, res, res, options, positions, triangles, faces, true);
-      if (!l) return l.error();
-      if (l->packing.fits) {
-        lay = std::move(*l);
-        break;
-      }
-      if (attempt == 20) {
-        return inputError("", "--lightmap-size",
-                          fmt::format("the scene's charts do not fit a {} x {} atlas", res, res));
-      }
-      density *= 0.97;
-    }
-    lay.packing.height = res;
   }
-  atlas.texel_density = density;
-  atlas.width = lay.packing.width;
-  atlas.height = std::max(4, lay.packing.height);
-  const uint64_t texels = uint64_t(atlas.width) * uint64_t(atlas.height);
+  if (lo == 0.0) {
+    return inputError("", "--lightmap-size",
+                      fmt::format("the scene's {} charts do not fit a {} x {} atlas",
+                                  charts.charts.size(), res, res));
+  }
+  for (int it = 0; it < 7; ++it) {
+    const double mid = std::sqrt(lo * hi);
+    Expected<Layout> l = layout(charts, mid, res, res, options, mesh, false);
+    if (l && l->packing.fits) {
+      lo = mid;
+    } else {
+      hi = mid;
+    }
+  }
+  return lo;
+}
+
+// The full layout at `density` texels per metre, or, for a fixed resolution, at the largest
+// density that fits it (`density` is set to the one used).
+Expected<Layout> atlasLayout(ChartSet& charts, double& density, const ChartAtlasOptions& options,
+                             const AtlasMesh& mesh) {
+  if (options.texel_density > 0.0) {
+    return layout(charts, density, 0, options.max_resolution, options, mesh, true);
+  }
+  const Expected<double> fit = fittingDensity(charts, options, mesh);
+  if (!fit) return fit.error();
+  // The full layout may split charts whose maps overlap themselves and pack differently:
+  // a little less density until it fits.
+  const int res = options.resolution;
+  density = *fit;
+  for (int attempt = 0;; ++attempt) {
+    Expected<Layout> l = layout(charts, density, res, res, options, mesh, true);
+    if (!l) return l.error();
+    if (l->packing.fits) {
+      l->packing.height = res;
+      return l;
+    }
+    if (attempt == 20) {
+      return inputError("", "--lightmap-size",
+                        fmt::format("the scene's charts do not fit a {} x {} atlas", res, res));
+    }
+    density *= 0.97;
+  }
+}
+
+// Whether the atlas's texels and elements (one per covered texel) fit in memory.
+Status checkAtlasMemory(const ChartAtlas& atlas, const std::vector<ChartRaster>& rasters) {
   uint64_t elements = 0;
-  for (const ChartRaster& r : lay.rasters) {
+  for (const ChartRaster& r : rasters) {
     for (uint8_t k : r.kind) elements += k == 2;
   }
-  if (Status s =
-          checkMemory(chartAtlasBytes(uint64_t(atlas.width), uint64_t(atlas.height), elements),
-                      fmt::format("a {} x {} lightmap atlas", atlas.width, atlas.height));
-      !s.ok()) {
-    return s.error();
-  }
+  return checkMemory(chartAtlasBytes(uint64_t(atlas.width), uint64_t(atlas.height), elements),
+                     fmt::format("a {} x {} lightmap atlas", atlas.width, atlas.height));
+}
 
-  // Texels and elements.
+// Chart c's texels at its place in the atlas, and an element per covered texel; r is released.
+void placeChart(ChartAtlas& atlas, size_t c, ChartRaster& r, const glm::ivec2& origin) {
+  AtlasChartPlacement& pl = atlas.placement[c];
+  pl.origin = origin;
+  pl.size = glm::ivec2(r.w, r.h);
+  pl.first_element = uint32_t(atlas.element_texel.size());
+  std::sort(r.overlaps.begin(), r.overlaps.end());
+  // Covered texels in Morton (Z) order of their chart-local coordinates, so that every
+  // 2^l x 2^l block of the chart holds a contiguous range of elements (the hierarchy's
+  // clusters, geometry/surface_hierarchy.h).
+  std::vector<std::pair<uint64_t, uint32_t>> covered;
+  for (int y = 0; y < r.h; ++y) {
+    for (int x = 0; x < r.w; ++x) {
+      const size_t i = size_t(y) * size_t(r.w) + size_t(x);
+      if (r.kind[i] == 0) continue;
+      const size_t t = atlas.texelIndex(pl.origin.x + x, pl.origin.y + y);
+      PENUMBRA_CHECK_MSG(atlas.texel_kind[t] == AtlasTexelKind::kEmpty,
+                         "footprints overlap at texel {}", t);
+      atlas.texel_chart[t] = int32_t(c);
+      atlas.texel_face[t] = r.face[i];
+      atlas.texel_barycentric[t] = r.barycentric[i];
+      atlas.texel_kind[t] = r.kind[i] == 1 ? AtlasTexelKind::kBorder : AtlasTexelKind::kInside;
+      if (r.kind[i] == 2) covered.emplace_back(mortonCode(uint32_t(x), uint32_t(y)), uint32_t(i));
+    }
+  }
+  std::sort(covered.begin(), covered.end());
+  for (const auto& [code, i] : covered) {
+    const int x = int(i % uint32_t(r.w)), y = int(i / uint32_t(r.w));
+    const size_t t = atlas.texelIndex(pl.origin.x + x, pl.origin.y + y);
+    atlas.texel_element[t] = int32_t(atlas.element_texel.size());
+    atlas.element_texel.push_back(uint32_t(t));
+    atlas.element_chart.push_back(uint32_t(c));
+    atlas.element_area.push_back(r.area[i]);
+    // The centroid of the pieces for now (moved onto the surface below).
+    atlas.element_position.push_back(r.position[i] / r.area[i]);
+    atlas.element_face.push_back(uint32_t(r.largest_face[i]));
+    const double len = glm::length(r.normal[i]);
+    atlas.element_normal.push_back(len > 0.0 ? r.normal[i] / len : atlas.charts.charts[c].normal);
+    auto ov = std::lower_bound(r.overlaps.begin(), r.overlaps.end(),
+                               std::pair<uint32_t, uint32_t>(i, 0u));
+    for (; ov != r.overlaps.end() && ov->first == i; ++ov) {
+      atlas.element_faces.push_back(ov->second);
+    }
+    atlas.element_face_first.push_back(uint32_t(atlas.element_faces.size()));
+  }
+  pl.element_count = uint32_t(atlas.element_texel.size()) - pl.first_element;
+  r = ChartRaster();  // release as we go
+}
+
+// Texels and elements.
+void placeCharts(ChartAtlas& atlas, Layout& lay) {
+  const uint64_t texels = uint64_t(atlas.width) * uint64_t(atlas.height);
   const size_t nc = atlas.charts.charts.size();
   atlas.texel_chart.assign(texels, -1);
   atlas.texel_face.assign(texels, -1);
@@ -742,68 +824,25 @@ Expected<ChartAtlas> buildChartAtlas(std::span<const glm::vec3> positions,
   atlas.texel_element.assign(texels, -1);
   atlas.placement.resize(nc);
   atlas.element_face_first.push_back(0);
-  for (size_t c = 0; c < nc; ++c) {
-    ChartRaster& r = lay.rasters[c];
-    AtlasChartPlacement& pl = atlas.placement[c];
-    pl.origin = lay.packing.origin[c];
-    pl.size = glm::ivec2(r.w, r.h);
-    pl.first_element = uint32_t(atlas.element_texel.size());
-    std::sort(r.overlaps.begin(), r.overlaps.end());
-    // Covered texels in Morton (Z) order of their chart-local coordinates, so that every
-    // 2^l x 2^l block of the chart holds a contiguous range of elements (the hierarchy's
-    // clusters, geometry/surface_hierarchy.h).
-    std::vector<std::pair<uint64_t, uint32_t>> covered;
-    for (int y = 0; y < r.h; ++y) {
-      for (int x = 0; x < r.w; ++x) {
-        const size_t i = size_t(y) * size_t(r.w) + size_t(x);
-        if (r.kind[i] == 0) continue;
-        const size_t t = atlas.texelIndex(pl.origin.x + x, pl.origin.y + y);
-        PENUMBRA_CHECK_MSG(atlas.texel_kind[t] == AtlasTexelKind::kEmpty,
-                           "footprints overlap at texel {}", t);
-        atlas.texel_chart[t] = int32_t(c);
-        atlas.texel_face[t] = r.face[i];
-        atlas.texel_barycentric[t] = r.barycentric[i];
-        atlas.texel_kind[t] = r.kind[i] == 1 ? AtlasTexelKind::kBorder : AtlasTexelKind::kInside;
-        if (r.kind[i] == 2) covered.emplace_back(mortonCode(uint32_t(x), uint32_t(y)), uint32_t(i));
-      }
-    }
-    std::sort(covered.begin(), covered.end());
-    for (const auto& [code, i] : covered) {
-      const int x = int(i % uint32_t(r.w)), y = int(i / uint32_t(r.w));
-      const size_t t = atlas.texelIndex(pl.origin.x + x, pl.origin.y + y);
-      atlas.texel_element[t] = int32_t(atlas.element_texel.size());
-      atlas.element_texel.push_back(uint32_t(t));
-      atlas.element_chart.push_back(uint32_t(c));
-      atlas.element_area.push_back(r.area[i]);
-      // The centroid of the pieces for now (moved onto the surface below).
-      atlas.element_position.push_back(r.position[i] / r.area[i]);
-      atlas.element_face.push_back(uint32_t(r.largest_face[i]));
-      const double len = glm::length(r.normal[i]);
-      atlas.element_normal.push_back(len > 0.0 ? r.normal[i] / len : atlas.charts.charts[c].normal);
-      auto ov = std::lower_bound(r.overlaps.begin(), r.overlaps.end(),
-                                 std::pair<uint32_t, uint32_t>(i, 0u));
-      for (; ov != r.overlaps.end() && ov->first == i; ++ov) {
-        atlas.element_faces.push_back(ov->second);
-      }
-      atlas.element_face_first.push_back(uint32_t(atlas.element_faces.size()));
-    }
-    pl.element_count = uint32_t(atlas.element_texel.size()) - pl.first_element;
-    r = ChartRaster();  // release as we go
-  }
+  for (size_t c = 0; c < nc; ++c) placeChart(atlas, c, lay.rasters[c], lay.packing.origin[c]);
+}
 
-  // Corner coordinates in texels and UVs.
-  atlas.corner_texel.assign(3 * faces.size(), glm::dvec2(0.0));
-  atlas.uvs.assign(3 * faces.size(), glm::vec2(0.0f));
+// Corner coordinates in texels and UVs.
+void placeCorners(ChartAtlas& atlas, double density) {
+  const size_t nf = atlas.faces.size();
+  atlas.corner_texel.assign(3 * nf, glm::dvec2(0.0));
+  atlas.uvs.assign(3 * nf, glm::vec2(0.0f));
   // The local frame needs each chart's UV minimum; recomputed here (cheap).
-  std::vector<glm::dvec2> chart_min(nc, glm::dvec2(std::numeric_limits<double>::max()));
-  for (size_t f = 0; f < faces.size(); ++f) {
+  std::vector<glm::dvec2> chart_min(atlas.charts.charts.size(),
+                                    glm::dvec2(std::numeric_limits<double>::max()));
+  for (size_t f = 0; f < nf; ++f) {
     const int32_t c = atlas.charts.face_chart[f];
     if (c < 0) continue;
     for (int k = 0; k < 3; ++k) {
       chart_min[size_t(c)] = glm::min(chart_min[size_t(c)], atlas.charts.uv[3 * f + size_t(k)]);
     }
   }
-  for (size_t f = 0; f < faces.size(); ++f) {
+  for (size_t f = 0; f < nf; ++f) {
     const int32_t c = atlas.charts.face_chart[f];
     if (c < 0) continue;
     for (int k = 0; k < 3; ++k) {
@@ -814,10 +853,13 @@ Expected<ChartAtlas> buildChartAtlas(std::span<const glm::vec3> positions,
                                atlas.corner_texel[i].y / double(atlas.height));
     }
   }
+}
 
-  // Element points on the surface: the point of the element's pieces nearest their centroid.
-  // Where a chart bends inside a texel (a scan's charts bend in every texel) the centroid lies
-  // off the surface, inside a convex solid, where shadow rays would start.
+// Element points on the surface: the point of the element's pieces nearest their centroid.
+// Where a chart bends inside a texel (a scan's charts bend in every texel) the centroid lies
+// off the surface, inside a convex solid, where shadow rays would start.
+void moveElementsOntoSurface(ChartAtlas& atlas, std::span<const glm::vec3> positions,
+                             std::span<const glm::uvec3> triangles) {
   atlas.element_barycentric.assign(atlas.elementCount(), glm::vec2(0.0f));
   parallelRange(atlas.elementCount(), 256, [&](size_t b, size_t e_end) {
     for (size_t e = b; e < e_end; ++e) {
@@ -850,11 +892,13 @@ Expected<ChartAtlas> buildChartAtlas(std::span<const glm::vec3> positions,
                               glm::dvec3(positions[tri.z])));
     }
   });
+}
 
-  // Dilation into the padding: empty texels next to a footprint copy a neighbour's chart, face
-  // and barycentrics (4-neighbours first, then diagonals, in a fixed order).
+// Dilation into the padding: empty texels next to a footprint copy a neighbour's chart, face
+// and barycentrics (4-neighbours first, then diagonals, in a fixed order).
+void dilateIntoPadding(ChartAtlas& atlas, int padding) {
   std::vector<AtlasTexelKind> kinds;
-  for (int round = 0; round < options.padding; ++round) {
+  for (int round = 0; round < padding; ++round) {
     kinds = atlas.texel_kind;
     parallelRange(size_t(atlas.height), 16, [&](size_t yb, size_t ye) {
       static constexpr int kDx[8] = {-1, 1, 0, 0, -1, 1, -1, 1};
@@ -878,6 +922,36 @@ Expected<ChartAtlas> buildChartAtlas(std::span<const glm::vec3> positions,
       }
     });
   }
+}
+
+}  // namespace
+
+Expected<ChartAtlas> buildChartAtlas(std::span<const glm::vec3> positions,
+                                     std::span<const glm::uvec3> triangles,
+                                     std::span<const uint32_t> material_ids,
+                                     std::span<const SurfaceFace> faces,
+                                     const ChartAtlasOptions& options) {
+  PENUMBRA_TRY(checkAtlasOptions(faces, options));
+  ChartAtlas atlas;
+  atlas.faces.assign(faces.begin(), faces.end());
+  atlas.padding = options.padding;
+  atlas.charts = buildCharts(positions, triangles, material_ids, faces, options.charts);
+  if (atlas.charts.charts.empty()) {
+    return inputError("", "", "the lightmap atlas has only degenerate faces");
+  }
+
+  double density = options.texel_density;
+  Expected<Layout> lay = atlasLayout(atlas.charts, density, options, {positions, triangles, faces});
+  if (!lay) return lay.error();
+  atlas.texel_density = density;
+  atlas.width = lay->packing.width;
+  atlas.height = std::max(4, lay->packing.height);
+  PENUMBRA_TRY(checkAtlasMemory(atlas, lay->rasters));
+
+  placeCharts(atlas, *lay);
+  placeCorners(atlas, density);
+  moveElementsOntoSurface(atlas, positions, triangles);
+  dilateIntoPadding(atlas, options.padding);
   return atlas;
 }
 

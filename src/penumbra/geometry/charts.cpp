@@ -14,6 +14,7 @@
 #include <cstring>
 #include <limits>
 #include <numeric>
+#include <optional>
 #include <queue>
 #include <unordered_map>
 
@@ -97,34 +98,69 @@ FaceGradients faceGradients(const FaceGeometry& g) {
   return fg;
 }
 
-// Parameterises chart `chart` of `set` (its faces' geometry in `geo`): fills set.uv, set.stretch
-// and the chart's planar / conformal flags.
-void parameterise(ChartSet& set, Chart& chart, const std::vector<FaceGeometry>& geo,
-                  std::span<const SurfaceFace> faces, const ChartOptions& options) {
-  // Chart-local vertices.
+// A chart's own vertices (its faces' welded vertices, numbered in order of first use) and each
+// face corner's vertex: corner[3 i + j] is corner j (oriented) of the chart's face i.
+struct ChartVertices {
+  std::vector<glm::dvec3> position;
+  std::vector<uint32_t> corner;
+};
+
+// Chart-local vertices.
+ChartVertices chartVertices(const Chart& chart, const std::vector<FaceGeometry>& geo) {
+  ChartVertices cv;
   std::unordered_map<uint32_t, uint32_t> local;
-  std::vector<glm::dvec3> vp;
-  std::vector<uint32_t> corner(chart.faces.size() * 3);
-  glm::dvec3 sum_n(0.0);
-  chart.area = 0.0;
+  cv.corner.resize(chart.faces.size() * 3);
   for (size_t i = 0; i < chart.faces.size(); ++i) {
     const FaceGeometry& g = geo[chart.faces[i]];
     for (int j = 0; j < 3; ++j) {
-      auto [it, fresh] = local.emplace(g.v[j], uint32_t(vp.size()));
-      if (fresh) vp.push_back(g.p[j]);
-      corner[3 * i + size_t(j)] = it->second;
+      auto [it, fresh] = local.emplace(g.v[j], uint32_t(cv.position.size()));
+      if (fresh) cv.position.push_back(g.p[j]);
+      cv.corner[3 * i + size_t(j)] = it->second;
     }
-    sum_n += g.normal * g.area;
-    chart.area += g.area;
+  }
+  return cv;
+}
+
+// The chart's area, its area-weighted mean normal, and whether it is planar (every face within
+// options.flat_deg of that normal).
+void chartShape(Chart& chart, const std::vector<FaceGeometry>& geo, const ChartOptions& options) {
+  glm::dvec3 sum_n(0.0);
+  chart.area = 0.0;
+  for (uint32_t f : chart.faces) {
+    sum_n += geo[f].normal * geo[f].area;
+    chart.area += geo[f].area;
   }
   chart.normal = glm::length(sum_n) > 0.0 ? glm::normalize(sum_n) : geo[chart.faces[0]].normal;
   double min_cos = 1.0;
   for (uint32_t f : chart.faces) min_cos = std::min(min_cos, glm::dot(geo[f].normal, chart.normal));
   chart.planar = min_cos >= std::cos(options.flat_deg * kDegree);
+}
 
-  // Orthogonal projection onto the mean normal's plane, axes along the principal direction.
+// Points q moved to their centroid and rotated so that their principal direction is the x axis.
+void principalAlign(std::vector<glm::dvec2>& q) {
+  glm::dvec2 m(0.0);
+  for (const glm::dvec2& p : q) m += p;
+  m /= double(q.size());
+  double sxx = 0.0, syy = 0.0, sxy = 0.0;
+  for (const glm::dvec2& p : q) {
+    const glm::dvec2 d = p - m;
+    sxx += d.x * d.x;
+    syy += d.y * d.y;
+    sxy += d.x * d.y;
+  }
+  const double angle = 0.5 * std::atan2(2.0 * sxy, sxx - syy);
+  const double c = std::cos(angle), s = std::sin(angle);
+  for (glm::dvec2& p : q) {
+    const glm::dvec2 d = p - m;
+    p = glm::dvec2(c * d.x + s * d.y, -s * d.x + c * d.y);  // rotation keeps orientation
+  }
+}
+
+// Orthogonal projection onto the mean normal's plane, axes along the principal direction.
+std::vector<glm::dvec2> planeProjection(const std::vector<glm::dvec3>& vp,
+                                        const glm::dvec3& normal) {
   glm::dvec3 t, b;
-  tangentFrame(chart.normal, t, b);
+  tangentFrame(normal, t, b);
   const size_t nv = vp.size();
   std::vector<glm::dvec2> proj(nv);
   glm::dvec2 mean(0.0);
@@ -133,28 +169,14 @@ void parameterise(ChartSet& set, Chart& chart, const std::vector<FaceGeometry>& 
     mean += proj[v];
   }
   mean /= double(nv);
-  auto principalAlign = [&](std::vector<glm::dvec2>& q) {
-    glm::dvec2 m(0.0);
-    for (const glm::dvec2& p : q) m += p;
-    m /= double(q.size());
-    double sxx = 0.0, syy = 0.0, sxy = 0.0;
-    for (const glm::dvec2& p : q) {
-      const glm::dvec2 d = p - m;
-      sxx += d.x * d.x;
-      syy += d.y * d.y;
-      sxy += d.x * d.y;
-    }
-    const double angle = 0.5 * std::atan2(2.0 * sxy, sxx - syy);
-    const double c = std::cos(angle), s = std::sin(angle);
-    for (glm::dvec2& p : q) {
-      const glm::dvec2 d = p - m;
-      p = glm::dvec2(c * d.x + s * d.y, -s * d.x + c * d.y);  // rotation keeps orientation
-    }
-  };
   principalAlign(proj);
+  return proj;
+}
 
-  // Connected components through shared vertices (union-find): the conformal map with two pins
-  // is determined only on a connected chart (a split chart may fall apart).
+// Connected components through shared vertices (union-find): the conformal map with two pins
+// is determined only on a connected chart (a split chart may fall apart).
+size_t componentCount(const ChartVertices& cv) {
+  const size_t nv = cv.position.size();
   std::vector<uint32_t> parent(nv);
   std::iota(parent.begin(), parent.end(), 0u);
   auto findRoot = [&](uint32_t v) {
@@ -162,104 +184,124 @@ void parameterise(ChartSet& set, Chart& chart, const std::vector<FaceGeometry>& 
     return v;
   };
   size_t components = nv;
-  for (size_t i = 0; i < chart.faces.size(); ++i) {
+  for (size_t i = 0; i < cv.corner.size() / 3; ++i) {
     for (int j = 1; j < 3; ++j) {
-      const uint32_t ra = findRoot(corner[3 * i]), rb = findRoot(corner[3 * i + size_t(j)]);
+      const uint32_t ra = findRoot(cv.corner[3 * i]), rb = findRoot(cv.corner[3 * i + size_t(j)]);
       if (ra != rb) {
         parent[ra] = rb;
         --components;
       }
     }
   }
+  return components;
+}
 
-  std::vector<glm::dvec2> uv = proj;
-  chart.conformal = false;
-  if (!chart.planar && chart.faces.size() > 1 && components == 1) {
-    // Least-squares conformal map (Levy et al. 2002): per face, the Cauchy-Riemann residuals
-    // u_x - v_y and u_y + v_x of the linear map, weighted by sqrt(area) (eq. 4-6), summed in
-    // the least-squares sense; the vertices of least and greatest projected u are pinned at
-    // their projected positions, which fixes translation, rotation and scale.
-    uint32_t pin0 = 0, pin1 = 0;
-    for (uint32_t v = 0; v < nv; ++v) {
-      if (proj[v].x < proj[pin0].x) pin0 = v;
-      if (proj[v].x > proj[pin1].x) pin1 = v;
-    }
-    std::vector<int32_t> column(nv, -1);
-    int32_t free_count = 0;
-    for (uint32_t v = 0; v < nv; ++v) {
-      if (v != pin0 && v != pin1) column[v] = free_count++;
-    }
-    std::vector<Eigen::Triplet<double>> entries;
-    entries.reserve(chart.faces.size() * 12);
-    Eigen::VectorXd rhs = Eigen::VectorXd::Zero(Eigen::Index(2 * chart.faces.size()));
-    Eigen::Index row = 0;
-    for (size_t i = 0; i < chart.faces.size(); ++i, row += 2) {
-      const FaceGeometry& g = geo[chart.faces[i]];
-      if (!(g.area > 0.0)) continue;
-      const FaceGradients fg = faceGradients(g);
-      const double w = std::sqrt(g.area);
-      for (int j = 0; j < 3; ++j) {
-        const uint32_t v = corner[3 * i + size_t(j)];
-        // Row 0: gx u - gy v; row 1: gy u + gx v.
-        const double a0 = w * fg.gx[j], b0 = -w * fg.gy[j];
-        const double a1 = w * fg.gy[j], b1 = w * fg.gx[j];
-        if (column[v] >= 0) {
-          const Eigen::Index cu = 2 * column[v], cv = cu + 1;
-          entries.emplace_back(row, cu, a0);
-          entries.emplace_back(row, cv, b0);
-          entries.emplace_back(row + 1, cu, a1);
-          entries.emplace_back(row + 1, cv, b1);
-        } else {
-          rhs[row] -= a0 * proj[v].x + b0 * proj[v].y;
-          rhs[row + 1] -= a1 * proj[v].x + b1 * proj[v].y;
-        }
-      }
-    }
-    Eigen::SparseMatrix<double> a(row, 2 * Eigen::Index(free_count));
-    a.setFromTriplets(entries.begin(), entries.end());
-    const Eigen::SparseMatrix<double> at = a.transpose();
-    const Eigen::SparseMatrix<double> normal = at * a;
-    Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> solver(normal);
-    bool ok = solver.info() == Eigen::Success;
-    Eigen::VectorXd x;
-    if (ok) {
-      x = solver.solve(at * rhs);
-      ok = solver.info() == Eigen::Success && x.allFinite();
-    }
-    if (ok) {
-      std::vector<glm::dvec2> lscm(nv);
-      for (uint32_t v = 0; v < nv; ++v) {
-        lscm[v] = column[v] < 0 ? proj[v] : glm::dvec2(x[2 * column[v]], x[2 * column[v] + 1]);
-      }
-      // No fold: every face keeps its orientation, and no face shrinks to nearly nothing
-      // (area ratio to the chart's mean above 1e-3).
-      double uv_area = 0.0;
-      std::vector<double> face_uv(chart.faces.size(), 0.0);
-      for (size_t i = 0; i < chart.faces.size() && ok; ++i) {
-        if (!(geo[chart.faces[i]].area > 0.0)) continue;
-        const glm::dvec2 p0 = lscm[corner[3 * i]], p1 = lscm[corner[3 * i + 1]],
-                         p2 = lscm[corner[3 * i + 2]];
-        const double cross = (p1.x - p0.x) * (p2.y - p0.y) - (p1.y - p0.y) * (p2.x - p0.x);
-        if (!(cross > 0.0)) ok = false;
-        face_uv[i] = 0.5 * cross;
-        uv_area += 0.5 * cross;
-      }
-      for (size_t i = 0; i < chart.faces.size() && ok; ++i) {
-        const double a3 = geo[chart.faces[i]].area;
-        if (a3 > 0.0 && face_uv[i] / uv_area < 1e-3 * a3 / chart.area) ok = false;
-      }
-      if (ok && uv_area > 0.0) {
-        // One texel density for the whole scene: the chart's area in the plane equals its area.
-        const double s = std::sqrt(chart.area / uv_area);
-        for (glm::dvec2& p : lscm) p *= s;
-        principalAlign(lscm);
-        uv = std::move(lscm);
-        chart.conformal = true;
+// Least-squares conformal map (Levy et al. 2002): per face, the Cauchy-Riemann residuals
+// u_x - v_y and u_y + v_x of the linear map, weighted by sqrt(area) (eq. 4-6), summed in
+// the least-squares sense; the vertices of least and greatest projected u are pinned at
+// their projected positions, which fixes translation, rotation and scale. Nothing when the
+// solve fails.
+std::optional<std::vector<glm::dvec2>> solveConformal(const Chart& chart,
+                                                      const std::vector<FaceGeometry>& geo,
+                                                      const std::vector<uint32_t>& corner,
+                                                      const std::vector<glm::dvec2>& proj) {
+  const uint32_t nv = uint32_t(proj.size());
+  uint32_t pin0 = 0, pin1 = 0;
+  for (uint32_t v = 0; v < nv; ++v) {
+    if (proj[v].x < proj[pin0].x) pin0 = v;
+    if (proj[v].x > proj[pin1].x) pin1 = v;
+  }
+  std::vector<int32_t> column(nv, -1);
+  int32_t free_count = 0;
+  for (uint32_t v = 0; v < nv; ++v) {
+    if (v != pin0 && v != pin1) column[v] = free_count++;
+  }
+  std::vector<Eigen::Triplet<double>> entries;
+  entries.reserve(chart.faces.size() * 12);
+  Eigen::VectorXd rhs = Eigen::VectorXd::Zero(Eigen::Index(2 * chart.faces.size()));
+  Eigen::Index row = 0;
+  for (size_t i = 0; i < chart.faces.size(); ++i, row += 2) {
+    const FaceGeometry& g = geo[chart.faces[i]];
+    if (!(g.area > 0.0)) continue;
+    const FaceGradients fg = faceGradients(g);
+    const double w = std::sqrt(g.area);
+    for (int j = 0; j < 3; ++j) {
+      const uint32_t v = corner[3 * i + size_t(j)];
+      // Row 0: gx u - gy v; row 1: gy u + gx v.
+      const double a0 = w * fg.gx[j], b0 = -w * fg.gy[j];
+      const double a1 = w * fg.gy[j], b1 = w * fg.gx[j];
+      if (column[v] >= 0) {
+        const Eigen::Index cu = 2 * column[v], cv = cu + 1;
+        entries.emplace_back(row, cu, a0);
+        entries.emplace_back(row, cv, b0);
+        entries.emplace_back(row + 1, cu, a1);
+        entries.emplace_back(row + 1, cv, b1);
+      } else {
+        rhs[row] -= a0 * proj[v].x + b0 * proj[v].y;
+        rhs[row + 1] -= a1 * proj[v].x + b1 * proj[v].y;
       }
     }
   }
+  Eigen::SparseMatrix<double> a(row, 2 * Eigen::Index(free_count));
+  a.setFromTriplets(entries.begin(), entries.end());
+  const Eigen::SparseMatrix<double> at = a.transpose();
+  const Eigen::SparseMatrix<double> normal = at * a;
+  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> solver(normal);
+  if (solver.info() != Eigen::Success) return std::nullopt;
+  const Eigen::VectorXd x = solver.solve(at * rhs);
+  if (solver.info() != Eigen::Success || !x.allFinite()) return std::nullopt;
+  std::vector<glm::dvec2> lscm(nv);
+  for (uint32_t v = 0; v < nv; ++v) {
+    lscm[v] = column[v] < 0 ? proj[v] : glm::dvec2(x[2 * column[v]], x[2 * column[v] + 1]);
+  }
+  return lscm;
+}
 
-  // Corners in the triangles' own order; stretch per face.
+// No fold: every face keeps its orientation, and no face shrinks to nearly nothing
+// (area ratio to the chart's mean above 1e-3). uv_area: the map's area.
+bool foldFree(const Chart& chart, const std::vector<FaceGeometry>& geo,
+              const std::vector<uint32_t>& corner, const std::vector<glm::dvec2>& lscm,
+              double& uv_area) {
+  bool ok = true;
+  uv_area = 0.0;
+  std::vector<double> face_uv(chart.faces.size(), 0.0);
+  for (size_t i = 0; i < chart.faces.size() && ok; ++i) {
+    if (!(geo[chart.faces[i]].area > 0.0)) continue;
+    const glm::dvec2 p0 = lscm[corner[3 * i]], p1 = lscm[corner[3 * i + 1]],
+                     p2 = lscm[corner[3 * i + 2]];
+    const double cross = (p1.x - p0.x) * (p2.y - p0.y) - (p1.y - p0.y) * (p2.x - p0.x);
+    if (!(cross > 0.0)) ok = false;
+    face_uv[i] = 0.5 * cross;
+    uv_area += 0.5 * cross;
+  }
+  for (size_t i = 0; i < chart.faces.size() && ok; ++i) {
+    const double a3 = geo[chart.faces[i]].area;
+    if (a3 > 0.0 && face_uv[i] / uv_area < 1e-3 * a3 / chart.area) ok = false;
+  }
+  return ok;
+}
+
+// The chart's map: the conformal one where it exists without folds, else the projection.
+std::vector<glm::dvec2> chartMap(Chart& chart, const std::vector<FaceGeometry>& geo,
+                                 const ChartVertices& cv, std::vector<glm::dvec2> proj) {
+  chart.conformal = false;
+  if (chart.planar || chart.faces.size() < 2 || componentCount(cv) != 1) return proj;
+  std::optional<std::vector<glm::dvec2>> lscm = solveConformal(chart, geo, cv.corner, proj);
+  if (!lscm) return proj;
+  double uv_area = 0.0;
+  if (!foldFree(chart, geo, cv.corner, *lscm, uv_area) || !(uv_area > 0.0)) return proj;
+  // One texel density for the whole scene: the chart's area in the plane equals its area.
+  const double s = std::sqrt(chart.area / uv_area);
+  for (glm::dvec2& p : *lscm) p *= s;
+  principalAlign(*lscm);
+  chart.conformal = true;
+  return std::move(*lscm);
+}
+
+// Corners in the triangles' own order; stretch per face.
+void writeChartMap(ChartSet& set, const Chart& chart, const std::vector<FaceGeometry>& geo,
+                   std::span<const SurfaceFace> faces, const std::vector<uint32_t>& corner,
+                   const std::vector<glm::dvec2>& uv) {
   for (size_t i = 0; i < chart.faces.size(); ++i) {
     const uint32_t f = chart.faces[i];
     const uint32_t* order = faces[f].back ? kBackOrder : kFrontOrder;
@@ -280,6 +322,17 @@ void parameterise(ChartSet& set, Chart& chart, const std::vector<FaceGeometry>& 
     }
     set.stretch[f] = singularRatio(j00, j01, j10, j11);
   }
+}
+
+// Parameterises chart `chart` of `set` (its faces' geometry in `geo`): fills set.uv, set.stretch
+// and the chart's planar / conformal flags.
+void parameterise(ChartSet& set, Chart& chart, const std::vector<FaceGeometry>& geo,
+                  std::span<const SurfaceFace> faces, const ChartOptions& options) {
+  const ChartVertices cv = chartVertices(chart, geo);
+  chartShape(chart, geo, options);
+  const std::vector<glm::dvec2> uv =
+      chartMap(chart, geo, cv, planeProjection(cv.position, chart.normal));
+  writeChartMap(set, chart, geo, faces, cv.corner, uv);
 }
 
 struct Adjacency {
@@ -418,19 +471,266 @@ void mergeSmallCharts(ChartSet& set, const std::vector<FaceGeometry>& geo, const
   set.charts = std::move(kept);
 }
 
+// Every face's geometry (corners welded by position).
+std::vector<FaceGeometry> faceGeometries(std::span<const glm::vec3> positions,
+                                         std::span<const glm::uvec3> triangles,
+                                         std::span<const SurfaceFace> faces) {
+  const std::vector<uint32_t> weld = weldPositions(positions);
+  std::vector<FaceGeometry> geo(faces.size());
+  for (size_t f = 0; f < faces.size(); ++f) {
+    PENUMBRA_CHECK(faces[f].triangle < triangles.size());
+    geo[f] = faceGeometry(positions, triangles, weld, faces[f]);
+  }
+  return geo;
+}
+
+// The faces by area, largest first (stable): the order charts are seeded in.
+std::vector<uint32_t> seedOrder(const std::vector<FaceGeometry>& geo) {
+  std::vector<uint32_t> seeds(geo.size());
+  std::iota(seeds.begin(), seeds.end(), 0u);
+  std::stable_sort(seeds.begin(), seeds.end(),
+                   [&](uint32_t a, uint32_t b) { return geo[a].area > geo[b].area; });
+  return seeds;
+}
+
+// Connected components of the adjacency: what one chart can span at most. Charts never cross
+// them, so each component grows and relaxes on its own, in parallel, with the same result as
+// one pass over all faces.
+struct Components {
+  std::vector<uint32_t> of;  // per face
+  size_t count = 0;
+};
+
+Components adjacencyComponents(const Adjacency& adj, size_t nf) {
+  Components components;
+  components.of.assign(nf, UINT32_MAX);
+  std::vector<uint32_t> stack;
+  for (uint32_t f0 = 0; f0 < nf; ++f0) {
+    if (components.of[f0] != UINT32_MAX) continue;
+    const uint32_t id = uint32_t(components.count++);
+    components.of[f0] = id;
+    stack.push_back(f0);
+    while (!stack.empty()) {
+      const uint32_t f = stack.back();
+      stack.pop_back();
+      for (uint32_t q = adj.first[f]; q < adj.first[f + 1]; ++q) {
+        const uint32_t g = adj.face[q];
+        if (components.of[g] == UINT32_MAX) {
+          components.of[g] = id;
+          stack.push_back(g);
+        }
+      }
+    }
+  }
+  return components;
+}
+
+// A face a chart may take, reached from its face `from`: cheapest first, then lowest face.
+struct Candidate {
+  double cost;
+  uint32_t face, from;
+  bool operator>(const Candidate& o) const {
+    return cost != o.cost ? cost > o.cost : face > o.face;
+  }
+};
+
+// What charts grow over: the faces, the edges a chart may cross, the options and the cosine of
+// the cone every chart's faces stay within.
+struct Growth {
+  const std::vector<FaceGeometry>& geo;
+  const Adjacency& adj;
+  const ChartOptions& options;
+  double cos_cone;
+};
+
+// Grows one chart, labelled `id` in set.face_chart, from `seed` over unassigned faces (the
+// first pass, and faces that the relaxation below leaves to no chart). Touches only the seed's
+// component.
+void growFrom(const Growth& growth, ChartSet& set, uint32_t seed, int32_t id, Chart& chart) {
+  const std::vector<FaceGeometry>& geo = growth.geo;
+  const Adjacency& adj = growth.adj;
+  glm::dvec3 sum_n = geo[seed].normal * geo[seed].area;
+  double area = geo[seed].area;
+  const glm::dvec3 origin = geo[seed].centroid;
+  std::priority_queue<Candidate, std::vector<Candidate>, std::greater<>> heap;
+  auto accept = [&](uint32_t f) {
+    set.face_chart[f] = id;
+    chart.faces.push_back(f);
+    const glm::dvec3 mean = glm::normalize(sum_n);
+    const double radius = std::sqrt(area / kPi);
+    for (uint32_t k = adj.first[f]; k < adj.first[f + 1]; ++k) {
+      const uint32_t g = adj.face[k];
+      if (set.face_chart[g] >= 0) continue;
+      const double cost = (1.0 - glm::dot(geo[g].normal, mean)) +
+                          growth.options.compactness * glm::length(geo[g].centroid - origin) /
+                              std::max(radius, 1e-30);
+      heap.push({cost, g, f});
+    }
+  };
+  accept(seed);
+  while (!heap.empty()) {
+    const Candidate c = heap.top();
+    heap.pop();
+    if (set.face_chart[c.face] >= 0) continue;
+    // Material and crease rules hold for every edge of the adjacency.
+    const glm::dvec3& n = geo[c.face].normal;
+    if (glm::dot(n, glm::normalize(sum_n)) < growth.cos_cone) continue;
+    sum_n += n * geo[c.face].area;
+    area += geo[c.face].area;
+    accept(c.face);
+  }
+}
+
+// The first pass: a chart grown from every seed (largest face first) that no chart has taken.
+void growCharts(const Growth& growth, ChartSet& set, const std::vector<uint32_t>& seeds,
+                const Components& components) {
+  // Each component's seeds, in the global order (largest face first).
+  std::vector<std::vector<uint32_t>> component_seeds(components.count);
+  for (uint32_t rank = 0; rank < seeds.size(); ++rank) {
+    if (growth.geo[seeds[rank]].area > 0.0) {
+      component_seeds[components.of[seeds[rank]]].push_back(rank);
+    }
+  }
+  // Labelled by the seed's rank while components grow in parallel, then numbered in seed
+  // order.
+  std::vector<std::pair<uint32_t, Chart>> grown;
+  std::vector<std::vector<std::pair<uint32_t, Chart>>> per_component(components.count);
+  parallelRange(components.count, 1, [&](size_t b, size_t e) {
+    for (size_t k = b; k < e; ++k) {
+      for (uint32_t rank : component_seeds[k]) {
+        if (set.face_chart[seeds[rank]] >= 0) continue;
+        Chart chart;
+        growFrom(growth, set, seeds[rank], int32_t(rank), chart);
+        per_component[k].emplace_back(rank, std::move(chart));
+      }
+    }
+  });
+  for (auto& list : per_component) {
+    for (auto& entry : list) grown.push_back(std::move(entry));
+  }
+  std::sort(grown.begin(), grown.end(),
+            [](const auto& a, const auto& b) { return a.first < b.first; });
+  for (auto& entry : grown) {
+    for (uint32_t f : entry.second.faces) set.face_chart[f] = int32_t(set.charts.size());
+    set.charts.push_back(std::move(entry.second));
+  }
+}
+
+// Per chart: its mean normal, centre, radius (of the disc of its area) and its most central
+// face, where the relaxation reseeds it.
+struct ChartSeeds {
+  std::vector<glm::dvec3> normal, centre;
+  std::vector<double> radius;
+  std::vector<uint32_t> seed;
+};
+
+ChartSeeds reseedCharts(const ChartSet& set, const std::vector<FaceGeometry>& geo) {
+  const size_t nc = set.charts.size();
+  ChartSeeds s;
+  s.normal.resize(nc);
+  s.centre.resize(nc);
+  s.radius.resize(nc);
+  s.seed.resize(nc);
+  parallelRange(nc, 64, [&](size_t c_begin, size_t c_end) {
+    for (size_t c = c_begin; c < c_end; ++c) {
+      glm::dvec3 sn(0.0), sc(0.0);
+      double area = 0.0;
+      for (uint32_t f : set.charts[c].faces) {
+        sn += geo[f].normal * geo[f].area;
+        sc += geo[f].centroid * geo[f].area;
+        area += geo[f].area;
+      }
+      s.normal[c] = glm::normalize(sn);
+      s.centre[c] = sc / area;
+      s.radius[c] = std::sqrt(area / kPi);
+      double best = std::numeric_limits<double>::max();
+      for (uint32_t f : set.charts[c].faces) {
+        const double cost = glm::length(geo[f].centroid - s.centre[c]) / s.radius[c] +
+                            2.0 * (1.0 - glm::dot(geo[f].normal, s.normal[c]));
+        if (cost < best) {
+          best = cost;
+          s.seed[c] = f;
+        }
+      }
+    }
+  });
+  return s;
+}
+
+// All charts regrown together from their seeds, each component through one priority queue;
+// set.face_chart is rewritten (faces no chart reaches are left at -1).
+void regrowFromSeeds(const Growth& growth, ChartSet& set, const ChartSeeds& s,
+                     const Components& components) {
+  const std::vector<FaceGeometry>& geo = growth.geo;
+  const Adjacency& adj = growth.adj;
+  const size_t nc = set.charts.size();
+  std::fill(set.face_chart.begin(), set.face_chart.end(), -1);
+  for (size_t c = 0; c < nc; ++c) set.face_chart[s.seed[c]] = int32_t(c);
+  std::vector<std::vector<uint32_t>> component_charts(components.count);
+  for (size_t c = 0; c < nc; ++c) component_charts[components.of[s.seed[c]]].push_back(uint32_t(c));
+  parallelRange(components.count, 1, [&](size_t b, size_t e) {
+    for (size_t k = b; k < e; ++k) {
+      std::priority_queue<Candidate, std::vector<Candidate>, std::greater<>> heap;
+      // The chart a candidate would join is its `from` face's, fixed when it is pushed, so
+      // the cone rule is applied then (material and crease hold for every edge).
+      auto push = [&](uint32_t f, int32_t c) {
+        const glm::dvec3& mean = s.normal[size_t(c)];
+        for (uint32_t q = adj.first[f]; q < adj.first[f + 1]; ++q) {
+          const uint32_t g = adj.face[q];
+          if (set.face_chart[g] >= 0) continue;
+          const double facing = glm::dot(geo[g].normal, mean);
+          if (facing < growth.cos_cone) continue;
+          const double cost =
+              glm::length(geo[g].centroid - geo[s.seed[size_t(c)]].centroid) / s.radius[size_t(c)] +
+              2.0 * (1.0 - facing);
+          heap.push({cost, g, f});
+        }
+      };
+      for (uint32_t c : component_charts[k]) push(s.seed[c], int32_t(c));
+      while (!heap.empty()) {
+        const Candidate cand = heap.top();
+        heap.pop();
+        if (set.face_chart[cand.face] >= 0) continue;
+        const int32_t c = set.face_chart[cand.from];
+        set.face_chart[cand.face] = c;
+        push(cand.face, c);
+      }
+    }
+  });
+}
+
+// Relaxation (Lloyd iterations as in Variational Shape Approximation, Cohen-Steiner, Alliez,
+// Desbrun 2004, with the compactness of D-charts): each chart is reseeded at its most central
+// face and all charts regrow together from their seeds through one priority queue, cost =
+// distance to the seed / the chart's radius + 2 (1 - n . the chart's mean normal), under the
+// same cone, crease and material rules. Charts become compact (round rather than sprawling),
+// which is what packs well.
+void relaxCharts(const Growth& growth, ChartSet& set, const std::vector<uint32_t>& seeds,
+                 const Components& components) {
+  for (int iteration = 0; iteration < growth.options.relax_iterations; ++iteration) {
+    regrowFromSeeds(growth, set, reseedCharts(set, growth.geo), components);
+    for (Chart& chart : set.charts) chart.faces.clear();
+    for (uint32_t f = 0; f < set.face_chart.size(); ++f) {
+      if (set.face_chart[f] >= 0) set.charts[size_t(set.face_chart[f])].faces.push_back(f);
+    }
+    for (uint32_t s : seeds) {
+      if (set.face_chart[s] < 0 && growth.geo[s].area > 0.0) {
+        Chart chart;
+        growFrom(growth, set, s, int32_t(set.charts.size()), chart);
+        set.charts.push_back(std::move(chart));
+      }
+    }
+  }
+}
+
 }  // namespace
 
 ChartSet buildCharts(std::span<const glm::vec3> positions, std::span<const glm::uvec3> triangles,
                      std::span<const uint32_t> material_ids, std::span<const SurfaceFace> faces,
                      const ChartOptions& options) {
   PENUMBRA_CHECK(material_ids.size() == triangles.size());
-  const std::vector<uint32_t> weld = weldPositions(positions);
+  const std::vector<FaceGeometry> geo = faceGeometries(positions, triangles, faces);
   const size_t nf = faces.size();
-  std::vector<FaceGeometry> geo(nf);
-  for (size_t f = 0; f < nf; ++f) {
-    PENUMBRA_CHECK(faces[f].triangle < triangles.size());
-    geo[f] = faceGeometry(positions, triangles, weld, faces[f]);
-  }
   const double cos_cone = std::cos(options.max_cone_deg * kDegree);
   const double cos_crease = std::cos(options.crease_deg * kDegree);
   const Adjacency adj = adjacency(geo, faces, material_ids, cos_crease);
@@ -438,189 +738,12 @@ ChartSet buildCharts(std::span<const glm::vec3> positions, std::span<const glm::
   set.face_chart.assign(nf, -1);
   set.uv.assign(3 * nf, glm::dvec2(0.0));
   set.stretch.assign(nf, 1.0);
-  std::vector<uint32_t> seeds(nf);
-  std::iota(seeds.begin(), seeds.end(), 0u);
-  std::stable_sort(seeds.begin(), seeds.end(),
-                   [&](uint32_t a, uint32_t b) { return geo[a].area > geo[b].area; });
+  const std::vector<uint32_t> seeds = seedOrder(geo);
+  const Components components = adjacencyComponents(adj, nf);
+  const Growth growth{geo, adj, options, cos_cone};
 
-  // Connected components of the adjacency: what one chart can span at most. Charts never cross
-  // them, so each component grows and relaxes on its own, in parallel, with the same result as
-  // one pass over all faces.
-  std::vector<uint32_t> component(nf, UINT32_MAX);
-  size_t component_count = 0;
-  {
-    std::vector<uint32_t> stack;
-    for (uint32_t f0 = 0; f0 < nf; ++f0) {
-      if (component[f0] != UINT32_MAX) continue;
-      const uint32_t id = uint32_t(component_count++);
-      component[f0] = id;
-      stack.push_back(f0);
-      while (!stack.empty()) {
-        const uint32_t f = stack.back();
-        stack.pop_back();
-        for (uint32_t q = adj.first[f]; q < adj.first[f + 1]; ++q) {
-          const uint32_t g = adj.face[q];
-          if (component[g] == UINT32_MAX) {
-            component[g] = id;
-            stack.push_back(g);
-          }
-        }
-      }
-    }
-  }
-  // Each component's seeds, in the global order (largest face first).
-  std::vector<std::vector<uint32_t>> component_seeds(component_count);
-  for (uint32_t rank = 0; rank < nf; ++rank) {
-    if (geo[seeds[rank]].area > 0.0) component_seeds[component[seeds[rank]]].push_back(rank);
-  }
-
-  struct Candidate {
-    double cost;
-    uint32_t face, from;
-    bool operator>(const Candidate& o) const {
-      return cost != o.cost ? cost > o.cost : face > o.face;
-    }
-  };
-  // Grows one chart, labelled `id` in set.face_chart, from `seed` over unassigned faces (the
-  // first pass, and faces that the relaxation below leaves to no chart). Touches only the seed's
-  // component.
-  auto growFrom = [&](uint32_t seed, int32_t id, Chart& chart) {
-    glm::dvec3 sum_n = geo[seed].normal * geo[seed].area;
-    double area = geo[seed].area;
-    const glm::dvec3 origin = geo[seed].centroid;
-    std::priority_queue<Candidate, std::vector<Candidate>, std::greater<>> heap;
-    auto accept = [&](uint32_t f) {
-      set.face_chart[f] = id;
-      chart.faces.push_back(f);
-      const glm::dvec3 mean = glm::normalize(sum_n);
-      const double radius = std::sqrt(area / kPi);
-      for (uint32_t k = adj.first[f]; k < adj.first[f + 1]; ++k) {
-        const uint32_t g = adj.face[k];
-        if (set.face_chart[g] >= 0) continue;
-        const double cost =
-            (1.0 - glm::dot(geo[g].normal, mean)) +
-            options.compactness * glm::length(geo[g].centroid - origin) / std::max(radius, 1e-30);
-        heap.push({cost, g, f});
-      }
-    };
-    accept(seed);
-    while (!heap.empty()) {
-      const Candidate c = heap.top();
-      heap.pop();
-      if (set.face_chart[c.face] >= 0) continue;
-      // Material and crease rules hold for every edge of the adjacency.
-      const glm::dvec3& n = geo[c.face].normal;
-      if (glm::dot(n, glm::normalize(sum_n)) < cos_cone) continue;
-      sum_n += n * geo[c.face].area;
-      area += geo[c.face].area;
-      accept(c.face);
-    }
-  };
-  {
-    // Labelled by the seed's rank while components grow in parallel, then numbered in seed
-    // order.
-    std::vector<std::pair<uint32_t, Chart>> grown;
-    std::vector<std::vector<std::pair<uint32_t, Chart>>> per_component(component_count);
-    parallelRange(component_count, 1, [&](size_t b, size_t e) {
-      for (size_t k = b; k < e; ++k) {
-        for (uint32_t rank : component_seeds[k]) {
-          if (set.face_chart[seeds[rank]] >= 0) continue;
-          Chart chart;
-          growFrom(seeds[rank], int32_t(rank), chart);
-          per_component[k].emplace_back(rank, std::move(chart));
-        }
-      }
-    });
-    for (auto& list : per_component) {
-      for (auto& entry : list) grown.push_back(std::move(entry));
-    }
-    std::sort(grown.begin(), grown.end(),
-              [](const auto& a, const auto& b) { return a.first < b.first; });
-    for (auto& entry : grown) {
-      for (uint32_t f : entry.second.faces) set.face_chart[f] = int32_t(set.charts.size());
-      set.charts.push_back(std::move(entry.second));
-    }
-  }
-
-  // Relaxation (Lloyd iterations as in Variational Shape Approximation, Cohen-Steiner, Alliez,
-  // Desbrun 2004, with the compactness of D-charts): each chart is reseeded at its most central
-  // face and all charts regrow together from their seeds through one priority queue, cost =
-  // distance to the seed / the chart's radius + 2 (1 - n . the chart's mean normal), under the
-  // same cone, crease and material rules. Charts become compact (round rather than sprawling),
-  // which is what packs well.
-  for (int iteration = 0; iteration < options.relax_iterations; ++iteration) {
-    const size_t nc = set.charts.size();
-    std::vector<glm::dvec3> normal(nc), centre(nc);
-    std::vector<double> radius(nc);
-    std::vector<uint32_t> seed(nc);
-    parallelRange(nc, 64, [&](size_t c_begin, size_t c_end) {
-      for (size_t c = c_begin; c < c_end; ++c) {
-        glm::dvec3 sn(0.0), sc(0.0);
-        double area = 0.0;
-        for (uint32_t f : set.charts[c].faces) {
-          sn += geo[f].normal * geo[f].area;
-          sc += geo[f].centroid * geo[f].area;
-          area += geo[f].area;
-        }
-        normal[c] = glm::normalize(sn);
-        centre[c] = sc / area;
-        radius[c] = std::sqrt(area / kPi);
-        double best = std::numeric_limits<double>::max();
-        for (uint32_t f : set.charts[c].faces) {
-          const double cost = glm::length(geo[f].centroid - centre[c]) / radius[c] +
-                              2.0 * (1.0 - glm::dot(geo[f].normal, normal[c]));
-          if (cost < best) {
-            best = cost;
-            seed[c] = f;
-          }
-        }
-      }
-    });
-    std::fill(set.face_chart.begin(), set.face_chart.end(), -1);
-    for (size_t c = 0; c < nc; ++c) set.face_chart[seed[c]] = int32_t(c);
-    std::vector<std::vector<uint32_t>> component_charts(component_count);
-    for (size_t c = 0; c < nc; ++c) component_charts[component[seed[c]]].push_back(uint32_t(c));
-    parallelRange(component_count, 1, [&](size_t b, size_t e) {
-      for (size_t k = b; k < e; ++k) {
-        std::priority_queue<Candidate, std::vector<Candidate>, std::greater<>> heap;
-        // The chart a candidate would join is its `from` face's, fixed when it is pushed, so
-        // the cone rule is applied then (material and crease hold for every edge).
-        auto push = [&](uint32_t f, int32_t c) {
-          const glm::dvec3& mean = normal[size_t(c)];
-          for (uint32_t q = adj.first[f]; q < adj.first[f + 1]; ++q) {
-            const uint32_t g = adj.face[q];
-            if (set.face_chart[g] >= 0) continue;
-            const double facing = glm::dot(geo[g].normal, mean);
-            if (facing < cos_cone) continue;
-            const double cost =
-                glm::length(geo[g].centroid - geo[seed[size_t(c)]].centroid) / radius[size_t(c)] +
-                2.0 * (1.0 - facing);
-            heap.push({cost, g, f});
-          }
-        };
-        for (uint32_t c : component_charts[k]) push(seed[c], int32_t(c));
-        while (!heap.empty()) {
-          const Candidate cand = heap.top();
-          heap.pop();
-          if (set.face_chart[cand.face] >= 0) continue;
-          const int32_t c = set.face_chart[cand.from];
-          set.face_chart[cand.face] = c;
-          push(cand.face, c);
-        }
-      }
-    });
-    for (Chart& chart : set.charts) chart.faces.clear();
-    for (uint32_t f = 0; f < nf; ++f) {
-      if (set.face_chart[f] >= 0) set.charts[size_t(set.face_chart[f])].faces.push_back(f);
-    }
-    for (uint32_t s : seeds) {
-      if (set.face_chart[s] < 0 && geo[s].area > 0.0) {
-        Chart chart;
-        growFrom(s, int32_t(set.charts.size()), chart);
-        set.charts.push_back(std::move(chart));
-      }
-    }
-  }
+  growCharts(growth, set, seeds, components);
+  relaxCharts(growth, set, seeds, components);
   for (Chart& chart : set.charts) std::sort(chart.faces.begin(), chart.faces.end());
   mergeSmallCharts(set, geo, adj, faces, material_ids, options);
   // Each chart writes only its own faces' UVs and stretch.

@@ -66,91 +66,96 @@ struct RayBucketBound {
   float inv_length = 0.0f;  // kBeam: 1 / (c1 - c0)
 };
 
-// The bound of rays i < origins.size() given as the kernel's textures hold them: origins[i] =
-// (o, tmin), directions[i] = (d, far); a ray with far < tmin or d = 0 can hit nothing in the
-// kernel (n . d = 0) and is left out. [clip_lo, clip_hi] holds every triangle to be tested.
-// Contract: directions.size() >= origins.size().
-inline RayBucketBound boundRayBucket(std::span<const glm::vec4> origins,
-                                     std::span<const glm::vec4> directions,
-                                     const glm::vec3& clip_lo, const glm::vec3& clip_hi) {
-  constexpr double kHuge = std::numeric_limits<double>::max();
-  RayBucketBound b;
+// The steps of boundRayBucket (below).
+namespace detail {
+
+inline constexpr double kBucketHuge = std::numeric_limits<double>::max();
+
+// The largest coordinate magnitude of the clip box.
+inline double clipMagnitude(const glm::vec3& clip_lo, const glm::vec3& clip_hi) {
   double magnitude = 0.0;
   for (int a = 0; a < 3; ++a) {
     magnitude = std::max({magnitude, std::fabs(double(clip_lo[a])), std::fabs(double(clip_hi[a]))});
   }
-  if (!std::isfinite(magnitude)) return b;  // kKeepAll
-  const double clip_pad =
-      double(kBucketPad) * magnitude + double(std::numeric_limits<float>::min());
-  // Ray i's chord [t0, t1] in the clip box widened by the pad (so that rounding never shortens
-  // one); false when the ray cannot meet a triangle there.
-  auto chord = [&](size_t i, double& t0, double& t1) {
-    const glm::vec4 o = origins[i], d = directions[i];
-    t0 = o.w, t1 = d.w;
-    if (!(t1 >= t0) || (d.x == 0.0f && d.y == 0.0f && d.z == 0.0f)) return false;
-    for (int a = 0; a < 3; ++a) {
-      const double lo = double(clip_lo[a]) - clip_pad, hi = double(clip_hi[a]) + clip_pad;
-      if (d[a] == 0.0f) {
-        if (o[a] < lo || o[a] > hi) return false;  // parallel to the slab and outside it
-        continue;
-      }
-      const double ta = (lo - o[a]) / d[a], tb = (hi - o[a]) / d[a];
-      t0 = std::max(t0, std::min(ta, tb));
-      t1 = std::min(t1, std::max(ta, tb));
+  return magnitude;
+}
+
+// Ray (o, d)'s chord [t0, t1] in the clip box widened by the pad (so that rounding never
+// shortens one); false when the ray cannot meet a triangle there.
+inline bool rayChord(const glm::vec4& o, const glm::vec4& d, const glm::vec3& clip_lo,
+                     const glm::vec3& clip_hi, double clip_pad, double& t0, double& t1) {
+  t0 = o.w, t1 = d.w;
+  if (!(t1 >= t0) || (d.x == 0.0f && d.y == 0.0f && d.z == 0.0f)) return false;
+  for (int a = 0; a < 3; ++a) {
+    const double lo = double(clip_lo[a]) - clip_pad, hi = double(clip_hi[a]) + clip_pad;
+    if (d[a] == 0.0f) {
+      if (o[a] < lo || o[a] > hi) return false;  // parallel to the slab and outside it
+      continue;
     }
-    return t0 <= t1;
-  };
-  double reach_lo[3] = {kHuge, kHuge, kHuge}, reach_hi[3] = {-kHuge, -kHuge, -kHuge};
+    const double ta = (lo - o[a]) / d[a], tb = (hi - o[a]) / d[a];
+    t0 = std::max(t0, std::min(ta, tb));
+    t1 = std::min(t1, std::max(ta, tb));
+  }
+  return t0 <= t1;
+}
+
+// What the first pass finds over a bucket's rays.
+struct BucketReach {
+  double lo[3] = {kBucketHuge, kBucketHuge, kBucketHuge};
+  double hi[3] = {-kBucketHuge, -kBucketHuge, -kBucketHuge};
   double max_slope[3] = {0.0, 0.0, 0.0};  // per axis a: the largest |d_b / d_a|
   bool nonzero[3] = {true, true, true};   // no direction so far has d_a = 0
-  size_t rays = 0;
-  // First pass: chords, the reach box, and the axes no direction is perpendicular to.
+  size_t rays = 0;                        // rays with a chord
+};
+
+// First pass: chords, the reach box, and the axes no direction is perpendicular to. False when
+// some ray is not finite.
+inline bool reachOfRays(std::span<const glm::vec4> origins, std::span<const glm::vec4> directions,
+                        const glm::vec3& clip_lo, const glm::vec3& clip_hi, double clip_pad,
+                        BucketReach& r) {
   for (size_t i = 0; i < origins.size(); ++i) {
     for (int k = 0; k < 4; ++k) {
-      if (!std::isfinite(origins[i][k]) || !std::isfinite(directions[i][k])) {
-        return RayBucketBound{};  // kKeepAll
-      }
+      if (!std::isfinite(origins[i][k]) || !std::isfinite(directions[i][k])) return false;
     }
-    double t0, t1;
-    if (!chord(i, t0, t1)) continue;
-    ++rays;
     const glm::vec4 o = origins[i], d = directions[i];
+    double t0, t1;
+    if (!rayChord(o, d, clip_lo, clip_hi, clip_pad, t0, t1)) continue;
+    ++r.rays;
     for (int a = 0; a < 3; ++a) {
       const double e0 = o[a] + t0 * d[a], e1 = o[a] + t1 * d[a];
-      reach_lo[a] = std::min({reach_lo[a], e0, e1});
-      reach_hi[a] = std::max({reach_hi[a], e0, e1});
-      nonzero[a] = nonzero[a] && d[a] != 0.0f;
-      if (!nonzero[a]) continue;
+      r.lo[a] = std::min({r.lo[a], e0, e1});
+      r.hi[a] = std::max({r.hi[a], e0, e1});
+      r.nonzero[a] = r.nonzero[a] && d[a] != 0.0f;
+      if (!r.nonzero[a]) continue;
       for (int k = 0; k < 3; ++k) {
-        if (k != a) max_slope[a] = std::max(max_slope[a], std::fabs(double(d[k]) / double(d[a])));
+        if (k == a) continue;
+        r.max_slope[a] = std::max(r.max_slope[a], std::fabs(double(d[k]) / double(d[a])));
       }
     }
   }
-  if (rays == 0) {
-    b.mode = BucketCullMode::kCullAll;
-    return b;
-  }
-  for (int a = 0; a < 3; ++a) {
-    magnitude = std::max({magnitude, std::fabs(reach_lo[a]), std::fabs(reach_hi[a])});
-  }
-  const double pad = double(kBucketPad) * magnitude + double(std::numeric_limits<float>::min());
-  for (int a = 0; a < 3; ++a) {
-    b.reach_lo[a] = float(reach_lo[a] - pad);
-    b.reach_hi[a] = float(reach_hi[a] + pad);
-  }
-  b.mode = BucketCullMode::kBox;
-  // Second pass: where the lines cross the two faces across each candidate axis (the faces as
-  // stored in float, which the test measures from).
-  double q_lo[3][2][3], q_hi[3][2][3];  // [a][face][b]
+  return true;
+}
+
+// The boxes [lo[a][f], hi[a][f]] of the other two coordinates where the bucket's lines cross
+// face f of the reach box across axis a (f = 0 at reach_lo[a], 1 at reach_hi[a]).
+struct BeamFaces {
+  double lo[3][2][3], hi[3][2][3];  // [a][face][b]
+};
+
+// Second pass: where the lines cross the two faces across each candidate axis (the faces as
+// stored in float, in b, which the test measures from).
+inline void crossFaces(std::span<const glm::vec4> origins, std::span<const glm::vec4> directions,
+                       const glm::vec3& clip_lo, const glm::vec3& clip_hi, double clip_pad,
+                       const bool (&nonzero)[3], const RayBucketBound& b, BeamFaces& q) {
   for (int a = 0; a < 3; ++a) {
     for (int f = 0; f < 2; ++f) {
-      for (int k = 0; k < 3; ++k) q_lo[a][f][k] = kHuge, q_hi[a][f][k] = -kHuge;
+      for (int k = 0; k < 3; ++k) q.lo[a][f][k] = kBucketHuge, q.hi[a][f][k] = -kBucketHuge;
     }
   }
   for (size_t i = 0; i < origins.size(); ++i) {
-    double t0, t1;
-    if (!chord(i, t0, t1)) continue;
     const glm::vec4 o = origins[i], d = directions[i];
+    double t0, t1;
+    if (!rayChord(o, d, clip_lo, clip_hi, clip_pad, t0, t1)) continue;
     for (int a = 0; a < 3; ++a) {
       if (!nonzero[a]) continue;
       for (int f = 0; f < 2; ++f) {
@@ -158,37 +163,84 @@ inline RayBucketBound boundRayBucket(std::span<const glm::vec4> origins,
         const double t = (c - double(o[a])) / double(d[a]);
         for (int k = 0; k < 3; ++k) {
           if (k == a) continue;
-          const double q = double(o[k]) + t * double(d[k]);
-          q_lo[a][f][k] = std::min(q_lo[a][f][k], q);
-          q_hi[a][f][k] = std::max(q_hi[a][f][k], q);
+          const double p = double(o[k]) + t * double(d[k]);
+          q.lo[a][f][k] = std::min(q.lo[a][f][k], p);
+          q.hi[a][f][k] = std::max(q.hi[a][f][k], p);
         }
       }
     }
   }
-  // The axis with the narrowest faces (sum of the four widths, in scene units).
-  double best = kHuge;
+}
+
+// The axis with the narrowest faces (sum of the four widths, in scene units): b becomes a beam
+// along it, if any axis qualifies.
+inline void chooseBeamAxis(const BucketReach& r, const BeamFaces& q, RayBucketBound& b) {
+  double best = kBucketHuge;
   for (int a = 0; a < 3; ++a) {
-    if (!nonzero[a] || !(b.reach_hi[a] > b.reach_lo[a]) || !(max_slope[a] < 1e6)) continue;
+    if (!r.nonzero[a] || !(b.reach_hi[a] > b.reach_lo[a]) || !(r.max_slope[a] < 1e6)) continue;
     double width = 0.0;
     for (int f = 0; f < 2; ++f) {
-      for (int k = 0; k < 3; ++k) width += k == a ? 0.0 : q_hi[a][f][k] - q_lo[a][f][k];
+      for (int k = 0; k < 3; ++k) width += k == a ? 0.0 : q.hi[a][f][k] - q.lo[a][f][k];
     }
     if (!(width < best)) continue;
     best = width;
     b.mode = BucketCullMode::kBeam;
     b.axis = a;
   }
-  if (b.mode != BucketCullMode::kBeam) return b;
+}
+
+// The beam's faces along b.axis, widened by pad (1 + 4 max |d_b / d_a|).
+inline void setBeamFaces(const BucketReach& r, const BeamFaces& q, double pad, RayBucketBound& b) {
   const int a = b.axis;
   b.inv_length = 1.0f / (b.reach_hi[a] - b.reach_lo[a]);
-  const double q_pad = pad * (1.0 + 4.0 * max_slope[a]);
+  const double q_pad = pad * (1.0 + 4.0 * r.max_slope[a]);
   for (int k = 0; k < 3; ++k) {
     if (k == a) continue;
-    b.q0_lo[k] = float(q_lo[a][0][k] - q_pad);
-    b.q0_hi[k] = float(q_hi[a][0][k] + q_pad);
-    b.q1_lo[k] = float(q_lo[a][1][k] - q_pad);
-    b.q1_hi[k] = float(q_hi[a][1][k] + q_pad);
+    b.q0_lo[k] = float(q.lo[a][0][k] - q_pad);
+    b.q0_hi[k] = float(q.hi[a][0][k] + q_pad);
+    b.q1_lo[k] = float(q.lo[a][1][k] - q_pad);
+    b.q1_hi[k] = float(q.hi[a][1][k] + q_pad);
   }
+}
+
+}  // namespace detail
+
+// The bound of rays i < origins.size() given as the kernel's textures hold them: origins[i] =
+// (o, tmin), directions[i] = (d, far); a ray with far < tmin or d = 0 can hit nothing in the
+// kernel (n . d = 0) and is left out. [clip_lo, clip_hi] holds every triangle to be tested.
+// Contract: directions.size() >= origins.size().
+inline RayBucketBound boundRayBucket(std::span<const glm::vec4> origins,
+                                     std::span<const glm::vec4> directions,
+                                     const glm::vec3& clip_lo, const glm::vec3& clip_hi) {
+  RayBucketBound b;
+  double magnitude = detail::clipMagnitude(clip_lo, clip_hi);
+  if (!std::isfinite(magnitude)) return b;  // kKeepAll
+  const double clip_pad =
+      double(kBucketPad) * magnitude + double(std::numeric_limits<float>::min());
+  detail::BucketReach reach;
+  if (!detail::reachOfRays(origins, directions, clip_lo, clip_hi, clip_pad, reach)) {
+    return RayBucketBound{};  // kKeepAll
+  }
+  if (reach.rays == 0) {
+    b.mode = BucketCullMode::kCullAll;
+    return b;
+  }
+  // The reach box, padded.
+  for (int a = 0; a < 3; ++a) {
+    magnitude = std::max({magnitude, std::fabs(reach.lo[a]), std::fabs(reach.hi[a])});
+  }
+  const double pad = double(kBucketPad) * magnitude + double(std::numeric_limits<float>::min());
+  for (int a = 0; a < 3; ++a) {
+    b.reach_lo[a] = float(reach.lo[a] - pad);
+    b.reach_hi[a] = float(reach.hi[a] + pad);
+  }
+  b.mode = BucketCullMode::kBox;
+  // The beam, where some axis allows one.
+  detail::BeamFaces faces;
+  detail::crossFaces(origins, directions, clip_lo, clip_hi, clip_pad, reach.nonzero, b, faces);
+  detail::chooseBeamAxis(reach, faces, b);
+  if (b.mode != BucketCullMode::kBeam) return b;
+  detail::setBeamFaces(reach, faces, pad, b);
   return b;
 }
 
