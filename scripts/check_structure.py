@@ -51,9 +51,25 @@ MAX_APP_LINES = 2000
 # pending function may shrink or go, not grow, and no other function may pass the limit; app/
 # may not grow. Lower these as the work lands; the check is complete when they are all gone.
 PENDING_FUNCTIONS = {
+    ("src/penumbra/radiosity/progressive.cpp", "ProgressiveRadiosity::shoot"): 350,
+    ("src/penumbra/radiosity/hemisphere_gl.cpp", "GlHemisphereGather::create"): 259,
+    ("src/penumbra/app/render_matrix.cpp", "renderMatrix"): 207,
+    ("src/penumbra/app/progressive_run.cpp", "runProgressive"): 189,
+    ("src/penumbra/raytrace/whitted.cpp", "WhittedTracer::renderRows"): 184,
+    ("src/penumbra/radiosity/form_factors.cpp", "computeFormFactors"): 168,
+    ("src/penumbra/app/render_whitted.cpp", "renderRayTraced"): 168,
+    ("src/penumbra/radiosity/progressive_gl.cpp", "GlProgressive::create"): 159,
+    ("src/penumbra/app/render_command.cpp", "renderPathTrace"): 152,
+    ("src/penumbra/app/stochastic_run.cpp", "runStochastic"): 139,
+    ("src/penumbra/app/render_sss.cpp", "renderSss"): 139,
+    ("src/penumbra/app/render_progressive.cpp", "renderLightmapRadiosity"): 136,
+    ("src/penumbra/raytrace/hybrid.cpp", "HybridRayEngine::intersect"): 132,
+    ("src/penumbra/raytrace/cpu_packet.cpp", "tracePacket"): 128,
+    ("src/penumbra/raytrace/ray_engine.cpp", "RayEngine::traverseBody"): 124,
 }
-PENDING_APP_LINES = None  # app/'s lines today, while over MAX_APP_LINES
-PENDING_API_COMMAND_LINE = False  # api/ still reaches the methods through the CLI's parser
+PENDING_APP_LINES = 3924  # app/'s lines today, while over MAX_APP_LINES
+PENDING_API_COMMAND_LINE = True  # api/ still reaches the methods through the CLI's parser
+PENDING_MODULE_EDGES = {("api", "app")}  # the same: api/ includes the CLI's session and commands
 
 INCLUDE = re.compile(r'^\s*#\s*include\s+"penumbra/([A-Za-z_]+)/')
 CONTROL = {"if", "for", "while", "switch", "catch", "do", "else", "try", "return", "sizeof",
@@ -72,7 +88,7 @@ def module_of(path, penumbra_root):
     return rel.split(os.sep)[0] if os.sep in rel else None
 
 
-def check_modules(penumbra_root, errors, graph):
+def check_modules(penumbra_root, errors, graph, pending):
     for path in source_files(penumbra_root):
         module = module_of(path, penumbra_root)
         if module is None:
@@ -90,7 +106,9 @@ def check_modules(penumbra_root, errors, graph):
                 if target in (module, "core"):
                     continue
                 graph.setdefault(module, set()).add(target)
-                if target not in ALLOWED[module]:
+                if target not in ALLOWED[module] and (module, target) in PENDING_MODULE_EDGES:
+                    pending.append(f"{path}:{number}: {module} includes {target} (pending)")
+                elif target not in ALLOWED[module]:
                     errors.append(f"{path}:{number}: module {module} may not include {target} "
                                   f"(allowed: core, {', '.join(sorted(ALLOWED[module])) or '-'})")
 
@@ -222,6 +240,30 @@ def long_functions(path):
     return found
 
 
+def find_cycle(graph):
+    """A cycle of the module graph as a list of modules (first == last), or None."""
+    state = {}
+
+    def visit(m, path):
+        state[m] = "open"
+        for n in sorted(graph.get(m, ())):
+            if state.get(n) == "open":
+                return path[path.index(n):] + [n] if n in path else [m, n, m]
+            if n not in state:
+                found = visit(n, path + [n])
+                if found:
+                    return found
+        state[m] = "done"
+        return None
+
+    for m in sorted(graph):
+        if m not in state:
+            found = visit(m, [m])
+            if found:
+                return found
+    return None
+
+
 def module_graph_dot(graph):
     """The modules and their includes, without the edges another path already implies."""
     def reaches(a, b, skip):
@@ -263,7 +305,14 @@ def main(argv):
     penumbra_root = os.path.join(src, "penumbra")
     errors = []
     graph = {}
-    check_modules(penumbra_root, errors, graph)
+    pending = []
+    check_modules(penumbra_root, errors, graph, pending)
+
+    # The graph the sources have, pending edges included, must be acyclic.
+    cycle = find_cycle(graph)
+    if cycle:
+        errors.append(f"{penumbra_root}: modules include each other in a cycle: "
+                      f"{' -> '.join(cycle)}")
 
     longest = []
     for path in source_files(src):
@@ -271,7 +320,6 @@ def main(argv):
             longest.append((length, f"{os.path.relpath(path, os.path.dirname(src))}:{start}",
                             name))
     longest.sort(reverse=True)
-    pending = []
     for length, place, name in longest:
         key = (place.split(":")[0], name)
         ceiling = PENDING_FUNCTIONS.get(key)

@@ -163,10 +163,17 @@ void addReceiverOptions(std::vector<Bound<Options>>& out) {
 
 // ---- penumbra render ----
 
-std::vector<Bound<RenderOptions>> renderBindings() {
+template <typename Options>
+struct Adder {
+  std::vector<Bound<Options>>& b;
+  void operator()(OptionSpec spec, Setter<Options> set) const {
+    b.push_back({std::move(spec), std::move(set)});
+  }
+};
+
+// The scene, the method, the device, the outputs and the image.
+void renderOutputOptions(const Adder<RenderOptions>& add) {
   using R = RenderOptions;
-  std::vector<Bound<R>> b;
-  const auto add = [&](OptionSpec spec, Setter<R> set) { b.push_back({std::move(spec), set}); };
   add({.name = "scene",
        .kind = K::kText,
        .help = "built-in scene name (cornell, furnace, sss, lpv, blobs) or a .json, .obj, .gltf, "
@@ -225,6 +232,11 @@ std::vector<Bound<RenderOptions>> renderBindings() {
                 {"whitted", text(WhittedSettings{}.max_depth), {}},
                 {"photons", text(WhittedSettings{}.max_depth), {}}}},
       field<R>(&R::max_depth));
+}
+
+// Whitted ray tracing and photon mapping.
+void rayTracedOptions(const Adder<RenderOptions>& add) {
+  using R = RenderOptions;
   add({.name = "light-samples",
        .kind = K::kInt,
        .range = range(0, 1024),
@@ -263,6 +275,11 @@ std::vector<Bound<RenderOptions>> renderBindings() {
        .help = "gather rays per diffuse point; 0 reads the global map at the point itself",
        .uses = all({"photons"}, text(PhotonSettings{}.final_gather))},
       field<R>(&R::final_gather));
+}
+
+// Random numbers and tone mapping.
+void samplingOptions(const Adder<RenderOptions>& add) {
+  using R = RenderOptions;
   add({.name = "seed",
        .kind = K::kUnsigned,
        .help = "random seed: the image is a function of the seed, not of the thread count",
@@ -297,6 +314,11 @@ std::vector<Bound<RenderOptions>> renderBindings() {
        .help = "Reinhard key value, the mean image brightness aimed at",
        .uses = all(kAll, "estimated from the image")},
       [](R& o, const OptionValue& v) { o.tonemap.key = float(std::get<double>(v)); });
+}
+
+// The radiosity methods: solver, elements, iterations, the lightmap.
+void radiosityOptions(const Adder<RenderOptions>& add) {
+  using R = RenderOptions;
   add({.name = "solver",
        .kind = K::kChoice,
        .choices = {"jacobi", "gauss-seidel"},
@@ -371,7 +393,12 @@ std::vector<Bound<RenderOptions>> renderBindings() {
                "refine them)",
        .uses = all({"progressive"}, "16")},
       field<R>(&R::shooter_points));
-  addReceiverOptions(b);
+  addReceiverOptions(add.b);
+}
+
+// Normals of the lightmap methods, subsurface scattering and volumes.
+void subsurfaceOptions(const Adder<RenderOptions>& add) {
+  using R = RenderOptions;
   add({.name = "normals",
        .kind = K::kChoice,
        .choices = {"interpolated", "triangle"},
@@ -444,6 +471,11 @@ std::vector<Bound<RenderOptions>> renderBindings() {
        .help = "cosine-distributed rays per surface point",
        .uses = all({"lpv"}, text(LpvOptions{}.surface_rays))},
       field<R>(&R::surface_rays));
+}
+
+// The SSS link cache and the checkpoints.
+void cacheAndCheckpointOptions(const Adder<RenderOptions>& add) {
+  using R = RenderOptions;
   add({.name = "no-cache",
        .kind = K::kFlag,
        .help = "build the links even if the cache holds them, and do not store them",
@@ -469,6 +501,11 @@ std::vector<Bound<RenderOptions>> renderBindings() {
        .help = "where Ctrl-C writes the checkpoint",
        .uses = all(kCheckpointed, "the first output with the extension .checkpoint")},
       field<R>(&R::checkpoint));
+}
+
+// Lighting design: lux images and calculation points.
+void luxOptions(const Adder<RenderOptions>& add) {
+  using R = RenderOptions;
   add({.name = "output-quantity",
        .kind = K::kChoice,
        .choices = {"radiance", "illuminance"},
@@ -525,6 +562,18 @@ std::vector<Bound<RenderOptions>> renderBindings() {
        .help = "hemisphere rays per grid point (a quarter of it per pixel)",
        .uses = all(kLux, "256")},
       field<R>(&R::illuminance_rays));
+}
+
+std::vector<Bound<RenderOptions>> renderBindings() {
+  std::vector<Bound<RenderOptions>> b;
+  const Adder<RenderOptions> add{b};
+  renderOutputOptions(add);
+  rayTracedOptions(add);
+  samplingOptions(add);
+  radiosityOptions(add);
+  subsurfaceOptions(add);
+  cacheAndCheckpointOptions(add);
+  luxOptions(add);
   return b;
 }
 
