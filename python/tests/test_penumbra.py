@@ -244,7 +244,7 @@ def test_bad_input_raises_the_library_message(tmp_path):
     with pytest.raises(penumbra.InputError, match="broken.obj") as e:
         penumbra.load(broken)
     assert e.value.kind == "input" and e.value.exit_code == 2
-    with pytest.raises(ValueError, match="--spp 0 is out of range"):
+    with pytest.raises(ValueError, match="--spp: 0 is out of range"):
         penumbra.render("cornell", spp=0)
     with pytest.raises(penumbra.InputError, match="--no-such-option"):
         penumbra.render("cornell", no_such_option=3)

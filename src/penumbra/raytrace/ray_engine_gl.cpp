@@ -15,11 +15,6 @@
 
 namespace penumbra {
 
-std::vector<std::string> bvhIntersectDefines() {
-  return {fmt::format("MAX_BVH_DEPTH {}", kMaxBvhDepth),
-          fmt::format("RAY_ENGINE_GROUP_SIZE {}", kGroupSize)};
-}
-
 namespace {
 constexpr GLuint kGroupSize = 64;  // local_size_x of bvh_intersect.comp (injected)
 }
@@ -230,6 +225,11 @@ float farBound(const Ray& r, const glm::vec3& lo, const glm::vec3& hi) {
 }
 
 }  // namespace
+
+std::vector<std::string> bvhIntersectDefines() {
+  return {fmt::format("MAX_BVH_DEPTH {}", kMaxBvhDepth),
+          fmt::format("RAY_ENGINE_GROUP_SIZE {}", kGroupSize)};
+}
 
 Expected<GlRasterKernel::Job> GlRasterKernel::submit(const RayBatch& rays,
                                                      std::span<const uint32_t> ray_indices,
