@@ -201,6 +201,186 @@ void appendPart(std::vector<std::byte>& out, PartHeader h, const float* values) 
   std::memcpy(out.data() + at + sizeof(h), values, size_t(h.count) * sizeof(float));
 }
 
+// The rows of the matrix over the ranks: those this rank holds, the rank holding each row, and
+// how many rows this rank evaluates (rows q * ranks + rank, q < computed).
+struct RowShare {
+  uint64_t n = 0;
+  int rank = 0, ranks = 1;
+  Share held;
+  std::vector<int> owner;
+  size_t computed = 0;
+  bool mine(size_t i) const { return owner[i] == rank; }
+};
+
+RowShare shareRows(uint64_t n, int rank, int ranks) {
+  RowShare rows;
+  rows.n = n;
+  rows.rank = rank;
+  rows.ranks = ranks;
+  rows.held = matrixRowBlock(n, rank, ranks);
+  rows.owner.resize(n);
+  for (int r = 0; r < ranks; ++r) {
+    const Share b = matrixRowBlock(n, r, ranks);
+    for (uint64_t i = b.begin; i < b.end; ++i) rows.owner[i] = r;
+  }
+  rows.computed = n > size_t(rank) ? (n - size_t(rank) + size_t(ranks) - 1) / ranks : 0;
+  return rows;
+}
+
+// The entries this rank evaluates for other ranks, per evaluated row q (row i): row i's part,
+// F_ij for j > i (row), and the column part, F_ji (col); empty when not needed.
+struct AwayParts {
+  std::vector<std::vector<float>> row, col;
+};
+
+// Row i's pairs (i, j > i): each entry into the row held here, else into row_out (F_ij, at
+// j - i - 1) or col_out (F_ji).
+void evaluateRow(PairEvaluator& ev, std::span<const ClusterRef> cut,
+                 const FormFactorOptions& options, const RowShare& rows,
+                 const std::vector<double>& area, size_t i, FormFactorMatrix& m, float* row_out,
+                 float* col_out) {
+  const size_t n = rows.n;
+  for (size_t j = i + 1; j < n; ++j) {
+    Rng rng(mixBits(options.seed), i * n + j);
+    const double t = ev.transport(cut[i], cut[j], rng);
+    if (t <= 0.0) continue;
+    const float fij = float(t / area[i]), fji = float(t / area[j]);
+    if (rows.mine(i)) {
+      m.f[(i - rows.held.begin) * n + j] = fij;
+    } else {
+      row_out[j - i - 1] = fij;
+    }
+    if (rows.mine(j)) {
+      m.f[(j - rows.held.begin) * n + i] = fji;
+    } else {
+      col_out[j - i - 1] = fji;
+    }
+  }
+}
+
+// This rank evaluates the pairs (i, j > i) of rows i = rank mod ranks (all rows on one
+// process). Each entry is written by exactly one row: F_ij and F_ji into the rows held here,
+// the others into `away`, the entries for other ranks (row i's part, F_ij, in away.row; the
+// column part, F_ji, in away.col), sent once every pair is done.
+void evaluatePairs(const RadiositySurface& surface, std::span<const ClusterRef> cut,
+                   const FormFactorOptions& options, const ElementPieces& cache,
+                   const RowShare& rows, const std::vector<double>& area, FormFactorMatrix& m,
+                   AwayParts& away, const std::function<void(size_t)>& on_row,
+                   std::atomic<uint64_t>& rays, std::atomic<uint64_t>& refined) {
+  const size_t n = rows.n, rank = size_t(rows.rank), ranks = size_t(rows.ranks);
+  std::atomic<size_t> rows_done{0};
+  away.row.resize(ranks > 1 ? rows.computed : 0);
+  away.col.resize(ranks > 1 ? rows.computed : 0);
+  parallelRange(rows.computed, 1, [&](size_t begin, size_t end) {
+    PairEvaluator ev{surface, options, cache, {}, {}, 0, 0, options.rays, kFewRaysBelow};
+    for (size_t q = begin; q < end; ++q) {
+      const size_t i = q * ranks + rank;
+      float* row_out = nullptr;
+      float* col_out = nullptr;
+      if (ranks > 1) {
+        if (!rows.mine(i)) {
+          away.row[q].assign(n - i - 1, 0.0f);
+          row_out = away.row[q].data();
+        }
+        // Rows are held in contiguous blocks: rows i + 1 .. n - 1 are all held here when the
+        // first and the last are.
+        if (i + 1 < n && (!rows.mine(i + 1) || !rows.mine(n - 1))) {
+          away.col[q].assign(n - i - 1, 0.0f);
+          col_out = away.col[q].data();
+        }
+      }
+      evaluateRow(ev, cut, options, rows, area, i, m, row_out, col_out);
+      const size_t done = rows_done.fetch_add(1) + 1;
+      if (on_row) on_row(std::min<size_t>(n, done * ranks));
+    }
+    rays += ev.rays;
+    refined += ev.refined;
+  });
+}
+
+// The entries of other ranks' rows, per destination rank (and `away` freed as it goes).
+std::vector<std::vector<std::byte>> packAwayParts(const RowShare& rows, AwayParts& away) {
+  const size_t n = rows.n;
+  const int rank = rows.rank, ranks = rows.ranks;
+  std::vector<std::vector<std::byte>> to(static_cast<size_t>(ranks));
+  for (size_t q = 0; q < rows.computed; ++q) {
+    const size_t i = q * size_t(ranks) + size_t(rank);
+    if (!away.row[q].empty()) {
+      appendPart(to[size_t(rows.owner[i])],
+                 {kRowPart, uint32_t(i), uint32_t(i + 1), uint32_t(n - i - 1)}, away.row[q].data());
+    }
+    if (!away.col[q].empty()) {
+      for (int r = 0; r < ranks; ++r) {
+        if (r == rank) continue;
+        const Share b = matrixRowBlock(n, r, ranks);
+        const uint64_t j0 = std::max<uint64_t>(b.begin, i + 1);
+        if (j0 >= b.end) continue;
+        appendPart(to[size_t(r)], {kColumnPart, uint32_t(i), uint32_t(j0), uint32_t(b.end - j0)},
+                   away.col[q].data() + (j0 - i - 1));
+      }
+    }
+    std::vector<float>().swap(away.row[q]);
+    std::vector<float>().swap(away.col[q]);
+  }
+  return to;
+}
+
+// Another rank's parts for the rows held here, into the matrix.
+void unpackParts(const std::vector<std::byte>& bytes, const RowShare& rows, FormFactorMatrix& m) {
+  const size_t n = rows.n;
+  size_t at = 0;
+  while (at + sizeof(PartHeader) <= bytes.size()) {
+    PartHeader h;
+    std::memcpy(&h, bytes.data() + at, sizeof(h));
+    at += sizeof(h);
+    const float* v = reinterpret_cast<const float*>(bytes.data() + at);
+    for (uint32_t k = 0; k < h.count; ++k) {
+      float value;
+      std::memcpy(&value, v + k, sizeof(float));
+      if (h.kind == kRowPart) {
+        m.f[(size_t(h.i) - rows.held.begin) * n + h.j0 + k] = value;
+      } else {
+        m.f[(size_t(h.j0) + k - rows.held.begin) * n + h.i] = value;
+      }
+    }
+    at += size_t(h.count) * sizeof(float);
+  }
+}
+
+// Closed rows sum to 1; none sums to more.
+void closeRows(const RadiositySurface& surface, std::span<const ClusterRef> cut,
+               const FormFactorOptions& options, const RowShare& rows, FormFactorMatrix& m,
+               std::atomic<uint64_t>& rays, std::atomic<uint64_t>& closed_rows) {
+  const size_t n = rows.n;
+  const Share held = rows.held;
+  parallelRange(held.size(), 4, [&](size_t begin, size_t end) {
+    uint64_t traced = 0, closed = 0;
+    for (size_t r = begin; r < end; ++r) {
+      const size_t i = held.begin + r;
+      float* row = &m.f[r * n];
+      double sum = 0.0;
+      for (size_t j = 0; j < n; ++j) sum += row[j];
+      if (!(sum > 0.0)) continue;
+      double target = std::min(sum, 1.0);
+      if (options.probe_rays > 0) {
+        traced += uint64_t(options.probe_rays);
+        const SurfaceHierarchy& h = surface.hierarchy;
+        if (surface.seesOnlyElements(h.elementBegin(cut[i]), h.elementEnd(cut[i]),
+                                     options.probe_rays, mixBits(options.seed) ^ i)) {
+          target = 1.0;
+          ++closed;
+        }
+      }
+      if (target == sum) continue;
+      const double scale = target / sum;
+      m.row_scale[r] = float(scale);
+      for (size_t j = 0; j < n; ++j) row[j] = float(double(row[j]) * scale);
+    }
+    rays += traced;
+    closed_rows += closed;
+  });
+}
+
 }  // namespace
 
 Expected<FormFactorMatrix> computeFormFactors(const RadiositySurface& surface,
@@ -231,135 +411,21 @@ Expected<FormFactorMatrix> computeFormFactors(const RadiositySurface& surface,
   m.row_scale.assign(held.size(), 1.0f);
   std::vector<double> area(n);
   for (size_t i = 0; i < n; ++i) area[i] = surface.hierarchy.level(cut[i].level).area[cut[i].index];
-  std::vector<int> owner(n);
-  for (int r = 0; r < ranks; ++r) {
-    const Share b = matrixRowBlock(n, r, ranks);
-    for (uint64_t i = b.begin; i < b.end; ++i) owner[i] = r;
-  }
-  const auto mine = [&](size_t i) { return owner[i] == rank; };
+  const RowShare rows = shareRows(n, rank, ranks);
 
   const ElementPieces own = pieces ? ElementPieces{} : ElementPieces::build(surface);
   const ElementPieces& cache = pieces ? *pieces : own;
   std::atomic<uint64_t> rays{0}, refined{0}, closed_rows{0};
-  std::atomic<size_t> rows_done{0};
-  // This rank evaluates the pairs (i, j > i) of rows i = rank mod ranks (all rows on one
-  // process). Each entry is written by exactly one row: F_ij and F_ji into the rows held here,
-  // the others into `away`, the entries for other ranks (row i's part, F_ij, in away_row; the
-  // column part, F_ji, in away_col), sent once every pair is done.
-  const size_t computed = n > size_t(rank) ? (n - size_t(rank) + size_t(ranks) - 1) / ranks : 0;
-  std::vector<std::vector<float>> away_row(ranks > 1 ? computed : 0);
-  std::vector<std::vector<float>> away_col(ranks > 1 ? computed : 0);
-  parallelRange(computed, 1, [&](size_t begin, size_t end) {
-    PairEvaluator ev{surface, options, cache, {}, {}, 0, 0, options.rays, kFewRaysBelow};
-    for (size_t q = begin; q < end; ++q) {
-      const size_t i = q * size_t(ranks) + size_t(rank);
-      float* row_out = nullptr;
-      float* col_out = nullptr;
-      if (ranks > 1) {
-        if (!mine(i)) {
-          away_row[q].assign(n - i - 1, 0.0f);
-          row_out = away_row[q].data();
-        }
-        // Rows are held in contiguous blocks: rows i + 1 .. n - 1 are all held here when the
-        // first and the last are.
-        if (i + 1 < n && (!mine(i + 1) || !mine(n - 1))) {
-          away_col[q].assign(n - i - 1, 0.0f);
-          col_out = away_col[q].data();
-        }
-      }
-      for (size_t j = i + 1; j < n; ++j) {
-        Rng rng(mixBits(options.seed), i * n + j);
-        const double t = ev.transport(cut[i], cut[j], rng);
-        if (t <= 0.0) continue;
-        const float fij = float(t / area[i]), fji = float(t / area[j]);
-        if (mine(i)) {
-          m.f[(i - held.begin) * n + j] = fij;
-        } else {
-          row_out[j - i - 1] = fij;
-        }
-        if (mine(j)) {
-          m.f[(j - held.begin) * n + i] = fji;
-        } else {
-          col_out[j - i - 1] = fji;
-        }
-      }
-      const size_t done = rows_done.fetch_add(1) + 1;
-      if (on_row) on_row(std::min<size_t>(n, done * size_t(ranks)));
-    }
-    rays += ev.rays;
-    refined += ev.refined;
-  });
+  // ---- The pairs of this rank's rows ----
+  AwayParts away;
+  evaluatePairs(surface, cut, options, cache, rows, area, m, away, on_row, rays, refined);
   if (ranks > 1) {
     // The entries of other ranks' rows, to them, in one exchange.
-    std::vector<std::vector<std::byte>> to(static_cast<size_t>(ranks));
-    for (size_t q = 0; q < computed; ++q) {
-      const size_t i = q * size_t(ranks) + size_t(rank);
-      if (!away_row[q].empty()) {
-        appendPart(to[size_t(owner[i])],
-                   {kRowPart, uint32_t(i), uint32_t(i + 1), uint32_t(n - i - 1)},
-                   away_row[q].data());
-      }
-      if (!away_col[q].empty()) {
-        for (int r = 0; r < ranks; ++r) {
-          if (r == rank) continue;
-          const Share b = matrixRowBlock(n, r, ranks);
-          const uint64_t j0 = std::max<uint64_t>(b.begin, i + 1);
-          if (j0 >= b.end) continue;
-          appendPart(to[size_t(r)], {kColumnPart, uint32_t(i), uint32_t(j0), uint32_t(b.end - j0)},
-                     away_col[q].data() + (j0 - i - 1));
-        }
-      }
-      std::vector<float>().swap(away_row[q]);
-      std::vector<float>().swap(away_col[q]);
-    }
-    const std::vector<std::vector<std::byte>> from = c.alltoall(std::move(to));
-    for (const std::vector<std::byte>& bytes : from) {
-      size_t at = 0;
-      while (at + sizeof(PartHeader) <= bytes.size()) {
-        PartHeader h;
-        std::memcpy(&h, bytes.data() + at, sizeof(h));
-        at += sizeof(h);
-        const float* v = reinterpret_cast<const float*>(bytes.data() + at);
-        for (uint32_t k = 0; k < h.count; ++k) {
-          float value;
-          std::memcpy(&value, v + k, sizeof(float));
-          if (h.kind == kRowPart) {
-            m.f[(size_t(h.i) - held.begin) * n + h.j0 + k] = value;
-          } else {
-            m.f[(size_t(h.j0) + k - held.begin) * n + h.i] = value;
-          }
-        }
-        at += size_t(h.count) * sizeof(float);
-      }
-    }
+    const std::vector<std::vector<std::byte>> from = c.alltoall(packAwayParts(rows, away));
+    for (const std::vector<std::byte>& bytes : from) unpackParts(bytes, rows, m);
   }
-  // Closed rows sum to 1; none sums to more.
-  parallelRange(held.size(), 4, [&](size_t begin, size_t end) {
-    uint64_t traced = 0, closed = 0;
-    for (size_t r = begin; r < end; ++r) {
-      const size_t i = held.begin + r;
-      float* row = &m.f[r * n];
-      double sum = 0.0;
-      for (size_t j = 0; j < n; ++j) sum += row[j];
-      if (!(sum > 0.0)) continue;
-      double target = std::min(sum, 1.0);
-      if (options.probe_rays > 0) {
-        traced += uint64_t(options.probe_rays);
-        const SurfaceHierarchy& h = surface.hierarchy;
-        if (surface.seesOnlyElements(h.elementBegin(cut[i]), h.elementEnd(cut[i]),
-                                     options.probe_rays, mixBits(options.seed) ^ i)) {
-          target = 1.0;
-          ++closed;
-        }
-      }
-      if (target == sum) continue;
-      const double scale = target / sum;
-      m.row_scale[r] = float(scale);
-      for (size_t j = 0; j < n; ++j) row[j] = float(double(row[j]) * scale);
-    }
-    rays += traced;
-    closed_rows += closed;
-  });
+  // ---- Closed rows ----
+  closeRows(surface, cut, options, rows, m, rays, closed_rows);
   if (stats) {
     const uint64_t counts[3] = {refined.load(), rays.load(), closed_rows.load()};
     const std::vector<uint64_t> total = allreduceSum(c, std::span<const uint64_t>(counts, 3));

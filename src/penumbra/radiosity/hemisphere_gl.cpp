@@ -98,12 +98,8 @@ void chartAdjacency(const ChartAtlas& atlas, const FlatTriangles& flat,
   for (const auto& pr : pairs) adjacency.push_back(pr.second);
 }
 
-}  // namespace
-
-Expected<GlHemisphereGather> GlHemisphereGather::create(
-    const RadiositySurface& surface, const GlProgressiveOptions& gl_options, bool visibility,
-    bool samples, const char* place, std::span<const GlBufferNeed> caller_buffers,
-    uint64_t caller_texture_bytes) {
+// The options create() takes from GlProgressiveOptions, checked.
+Status checkGatherOptions(const GlProgressiveOptions& gl_options, const char* place) {
   if (gl_options.visibility_resolution < 16) {
     return inputError("", place, "the visibility resolution must be at least 16 texels");
   }
@@ -113,23 +109,26 @@ Expected<GlHemisphereGather> GlHemisphereGather::create(
   if (gl_options.gap_fill_passes < 0 || !(gl_options.depth_tolerance >= 0.0f)) {
     return inputError("", place, "gap_fill_passes and depth_tolerance must not be negative");
   }
-  GlHemisphereGather s;
-  const ChartAtlas& atlas = surface.atlas;
-  const SurfaceHierarchy& hierarchy = surface.hierarchy;
-  const FlatTriangles& flat = surface.flat;
-  const size_t n = surface.elementCount();
-  const uint32_t nt = uint32_t(flat.triangles.size());
-  s.width_ = atlas.width;
-  s.height_ = atlas.height;
-  s.visibility_ = visibility;
-  s.depth_tolerance_ = gl_options.depth_tolerance;
-  s.visibility_resolution_ = gl_options.visibility_resolution;
-  const int d = gl_options.visibility_resolution;
+  return {};
+}
 
-  // ---- Occluders: every scene triangle, tessellated for the depth pass by its size in atlas
-  // texels (the longest edge at the atlas's density). ----
-  std::vector<GpuProgressiveTriangle> tris(nt);
+// The depth pass's occluders: every scene triangle with the charts of its faces, its
+// sub-triangles (triangle, code), and the far plane (a little beyond the scene's diagonal).
+struct Occluders {
+  std::vector<GpuProgressiveTriangle> triangles;
   std::vector<glm::uvec2> subs;
+  float far = 1.0f;
+};
+
+// Every scene triangle, tessellated for the depth pass by its size in atlas texels (the longest
+// edge at the atlas's density).
+Occluders buildOccluders(const ChartAtlas& atlas, const FlatTriangles& flat,
+                         int tessellation_texels) {
+  const uint32_t nt = uint32_t(flat.triangles.size());
+  Occluders o;
+  std::vector<GpuProgressiveTriangle>& tris = o.triangles;
+  std::vector<glm::uvec2>& subs = o.subs;
+  tris.resize(nt);
   glm::dvec3 lo(INFINITY), hi(-INFINITY);
   for (uint32_t t = 0; t < nt; ++t) {
     const glm::uvec3 tri = flat.triangles[t];
@@ -146,8 +145,7 @@ Expected<GlHemisphereGather> GlHemisphereGather::create(
     g.back_chart = -1;
     const double edge =
         std::max({glm::length(p[1] - p[0]), glm::length(p[2] - p[1]), glm::length(p[0] - p[2])});
-    const int k =
-        tessellation(int(std::ceil(edge * atlas.texel_density)), gl_options.tessellation_texels);
+    const int k = tessellation(int(std::ceil(edge * atlas.texel_density)), tessellation_texels);
     g.tessellation = uint32_t(k);
     for (const glm::dvec3& v : p) {
       lo = glm::min(lo, v);
@@ -166,63 +164,54 @@ Expected<GlHemisphereGather> GlHemisphereGather::create(
     GpuProgressiveTriangle& g = tris[atlas.faces[f].triangle];
     (atlas.faces[f].back ? g.back_chart : g.front_chart) = c;
   }
-  s.far_ = float(1.01 * glm::length(hi - lo) + 1e-6);
-  s.sub_triangle_count_ = uint32_t(subs.size());
-  std::vector<uint32_t> adjacency_first, adjacency;
-  chartAdjacency(atlas, flat, adjacency_first, adjacency);
+  o.far = float(1.01 * glm::length(hi - lo) + 1e-6);
+  return o;
+}
 
-  // Charts: element ranges and bounding spheres, for the near pass.
-  const size_t nc = atlas.chartCount();
-  s.chart_elements_.resize(nc);
-  s.chart_centre_.resize(nc);
-  s.chart_radius_.assign(nc, 0.0);
-  for (size_t c = 0; c < nc; ++c) {
-    const AtlasChartPlacement& pl = atlas.placement[c];
-    s.chart_elements_[c] = glm::uvec2(pl.first_element, pl.element_count);
-    const ClusterRef root = hierarchy.root(uint32_t(c));
-    s.chart_centre_[c] = hierarchy.level(root.level).position[root.index];
-    for (uint32_t e = pl.first_element; e < pl.first_element + pl.element_count; ++e) {
-      s.chart_radius_[c] =
-          std::max(s.chart_radius_[c], glm::length(atlas.element_position[e] - s.chart_centre_[c]));
-    }
-  }
-
-  // ---- Limits, before allocating ----
+// The device's largest texture, render target and viewport side (at most the option's), and
+// its largest shader storage block.
+void deviceLimits(const GlProgressiveOptions& gl_options, int& max_size, GLint64& max_ssbo) {
   GLint max_texture = 0, max_renderbuffer = 0, viewport[2] = {0, 0};
-  GLint64 max_ssbo = 0;
+  max_ssbo = 0;
   glGetIntegerv(GL_MAX_TEXTURE_SIZE, &max_texture);
   glGetIntegerv(GL_MAX_RENDERBUFFER_SIZE, &max_renderbuffer);
   glGetIntegerv(GL_MAX_VIEWPORT_DIMS, viewport);
   glGetInteger64v(GL_MAX_SHADER_STORAGE_BLOCK_SIZE, &max_ssbo);
-  int max_size = std::min({max_texture, max_renderbuffer, viewport[0], viewport[1]});
+  max_size = std::min({max_texture, max_renderbuffer, viewport[0], viewport[1]});
   if (gl_options.max_texture_size > 0) max_size = std::min(max_size, gl_options.max_texture_size);
-  const uint64_t texels = uint64_t(atlas.width) * uint64_t(atlas.height);
-  // The incident atlas (RGBA32F) and the caller's atlases.
-  const uint64_t atlas_bytes = texels * 16 + caller_texture_bytes;
-  // A batch of tiles x tiles shooter points shares one depth texture (kMaxTiles^2 points per
-  // receiver pass), as many tiles as the texture size allows.
-  s.tiles_ = uint32_t(std::clamp(max_size / std::max(d, 1), 1, kMaxTiles));
-  const uint64_t depth_side = uint64_t(d) * s.tiles_;
-  const uint64_t depth_bytes = depth_side * depth_side * 8;  // depth and triangle id
-  // Element pieces (for the near pairs' exact form factor), 8 corners each.
+}
+
+// Element pieces (for the near pairs' exact form factor), 8 corners each.
+uint64_t elementPieceCount(const ChartAtlas& atlas) {
   uint64_t piece_count = 0;
-  for (size_t e = 0; e < n; ++e) {
+  for (size_t e = 0; e < atlas.elementCount(); ++e) {
     piece_count += atlas.element_face_first[e + 1] - atlas.element_face_first[e];
   }
+  return piece_count;
+}
+
+// The buffers the gather allocates for n elements, nt triangles and their sub-triangles, then
+// the caller's.
+std::vector<GlBufferNeed> bufferNeeds(size_t n, uint64_t texels, uint64_t piece_count, uint32_t nt,
+                                      size_t sub_triangles, size_t adjacency_words,
+                                      std::span<const GlBufferNeed> caller_buffers) {
   std::vector<GlBufferNeed> buffers = {
       {"texel-to-chart map", texels * 4},
       {"element", uint64_t(n) * sizeof(GpuProgressiveElement)},
       {"element position", uint64_t(n) * 24},
       {"element piece", piece_count * 8 * 16},
       {"triangle", uint64_t(nt) * sizeof(GpuProgressiveTriangle)},
-      {"sub-triangle", uint64_t(subs.size()) * 8},
-      {"chart adjacency", uint64_t(adjacency.size() + adjacency_first.size()) * 4},
+      {"sub-triangle", uint64_t(sub_triangles) * 8},
+      {"chart adjacency", uint64_t(adjacency_words) * 4},
   };
   buffers.insert(buffers.end(), caller_buffers.begin(), caller_buffers.end());
-  uint64_t buffer_bytes = sizeof(GpuBatchPoint) * kMaxTiles * kMaxTiles;
-  for (const GlBufferNeed& b : buffers) buffer_bytes += b.bytes;
-  const uint64_t total = atlas_bytes + depth_bytes + buffer_bytes;
-  s.device_bytes_ = total;
+  return buffers;
+}
+
+// The atlas, the depth maps, every buffer and the dispatches within the device's limits.
+Status checkLimits(const ChartAtlas& atlas, int d, int max_size, GLint64 max_ssbo,
+                   uint64_t atlas_bytes, const std::vector<GlBufferNeed>& buffers,
+                   size_t sub_triangles, size_t n, uint32_t nt, const char* place) {
   if (atlas.width > max_size || atlas.height > max_size) {
     return inputError(
         "", place,
@@ -248,10 +237,16 @@ Expected<GlHemisphereGather> GlHemisphereGather::create(
                       b.what, b.bytes, formatBytes(b.bytes), formatBytes(uint64_t(max_ssbo))));
     }
   }
-  if (uint64_t(subs.size()) * 6 > INT32_MAX || n > uint64_t(INT32_MAX)) {
+  if (uint64_t(sub_triangles) * 6 > INT32_MAX || n > uint64_t(INT32_MAX)) {
     return inputError("", place,
                       fmt::format("{} elements in {} triangles exceed the dispatch limits", n, nt));
   }
+  return {};
+}
+
+// The whole (`total` bytes) within the machine's memory on a software rasteriser, or within the
+// free video memory where the driver says.
+Status checkDeviceMemory(uint64_t total, const char* place) {
   if (gl::softwareRenderer()) {
     PENUMBRA_TRY(checkMemory(total, fmt::format("{} on a software OpenGL device", place)));
   } else if (epoxy_has_gl_extension("GL_NVX_gpu_memory_info")) {
@@ -264,37 +259,56 @@ Expected<GlHemisphereGather> GlHemisphereGather::create(
                       formatBytes(total), formatBytes(uint64_t(free_kib) * 1024)));
     }
   }
+  return {};
+}
 
-  // ---- Programs ----
-  {
-    Expected<gl::Program> p =
-        gl::renderProgram("radiosity/progressive_depth.vert", "radiosity/progressive_depth.frag");
+// The depth pass, the far and near receiver passes and (with `samples`) the samples pass.
+Status compilePrograms(bool visibility, bool samples, gl::Program& depth, gl::Program& receive_far,
+                       gl::Program& receive_near, gl::Program& sample) {
+  Expected<gl::Program> p =
+      gl::renderProgram("radiosity/progressive_depth.vert", "radiosity/progressive_depth.frag");
+  if (!p) return p.error();
+  depth = std::move(*p);
+  for (int near = 0; near < 2; ++near) {
+    p = gl::renderProgram("radiosity/progressive_receive.vert",
+                          "radiosity/progressive_receive.frag",
+                          {fmt::format("NEAR_PASS {}", near),
+                           fmt::format("VISIBILITY {}", visibility ? 1 : 0), "SAMPLE_PASS 0"});
     if (!p) return p.error();
-    s.depth_ = std::move(*p);
-    for (int near = 0; near < 2; ++near) {
-      p = gl::renderProgram("radiosity/progressive_receive.vert",
-                            "radiosity/progressive_receive.frag",
-                            {fmt::format("NEAR_PASS {}", near),
-                             fmt::format("VISIBILITY {}", visibility ? 1 : 0), "SAMPLE_PASS 0"});
-      if (!p) return p.error();
-      (near ? s.receive_near_ : s.receive_far_) = std::move(*p);
-    }
-    if (samples) {
-      p = gl::renderProgram(
-          "radiosity/progressive_receive.vert", "radiosity/progressive_receive.frag",
-          {"NEAR_PASS 0", fmt::format("VISIBILITY {}", visibility ? 1 : 0), "SAMPLE_PASS 1"});
-      if (!p) return p.error();
-      s.sample_ = std::move(*p);
-    }
+    (near ? receive_near : receive_far) = std::move(*p);
   }
+  if (samples) {
+    p = gl::renderProgram(
+        "radiosity/progressive_receive.vert", "radiosity/progressive_receive.frag",
+        {"NEAR_PASS 0", fmt::format("VISIBILITY {}", visibility ? 1 : 0), "SAMPLE_PASS 1"});
+    if (!p) return p.error();
+    sample = std::move(*p);
+  }
+  return {};
+}
 
-  // ---- Per-element data (the CPU's elements: exact-coverage points, normals, areas,
-  // reflectances and pieces) ----
-  std::vector<GpuProgressiveElement> elements(n);
-  std::vector<glm::vec4> polygons;  // 8 corners per piece
+// The elements as the GPU reads them: GpuProgressiveElement, their points in double and their
+// pieces (8 corners each).
+struct ElementData {
+  std::vector<GpuProgressiveElement> elements;
+  std::vector<glm::vec4> polygons;
+  std::vector<double> position_d;
+};
+
+// The CPU's elements: exact-coverage points, normals, areas, reflectances and pieces
+// (`piece_count` of them at most), and each one's texel in `element_texel`.
+ElementData elementData(const RadiositySurface& surface, uint64_t piece_count,
+                        std::vector<uint32_t>& element_texel) {
+  const ChartAtlas& atlas = surface.atlas;
+  const FlatTriangles& flat = surface.flat;
+  const size_t n = surface.elementCount();
+  ElementData data;
+  std::vector<GpuProgressiveElement>& elements = data.elements;
+  std::vector<glm::vec4>& polygons = data.polygons;  // 8 corners per piece
+  elements.resize(n);
   polygons.reserve(size_t(piece_count) * 8);
-  std::vector<double> position_d(3 * n);
-  s.element_texel_.resize(n);
+  data.position_d.resize(3 * n);
+  element_texel.resize(n);
   std::vector<std::array<glm::dvec3, 8>> pieces;
   std::vector<int> counts;
   for (size_t e = 0; e < n; ++e) {
@@ -302,7 +316,7 @@ Expected<GlHemisphereGather> GlHemisphereGather::create(
     const glm::dvec3 pos = atlas.element_position[e];
     for (int c = 0; c < 3; ++c) {
       g.position[c] = float(pos[c]);
-      position_d[3 * e + size_t(c)] = pos[c];
+      data.position_d[3 * e + size_t(c)] = pos[c];
       g.reflectance[c] = float(surface.reflectance[e][c]);
       g.normal[c] = float(atlas.element_normal[e][c]);
       g.shading_normal[c] = float(surface.shading_normal[e][c]);
@@ -326,37 +340,123 @@ Expected<GlHemisphereGather> GlHemisphereGather::create(
       ++g.piece_count;
     }
     g.pad = 0;
-    s.element_texel_[e] = atlas.element_texel[e];
+    element_texel[e] = atlas.element_texel[e];
   }
+  return data;
+}
 
-  // ---- Buffers, textures and framebuffers ----
-  s.triangles_ = gl::storageBuffer(tris);
-  s.elements_ = gl::storageBuffer(elements);
-  s.element_position_d_ = gl::storageBuffer(position_d);
-  s.texel_chart_ = gl::storageBuffer(atlas.texel_chart);
-  s.sub_triangles_ = gl::storageBuffer(subs);
-  s.polygons_ = gl::storageBuffer(polygons);
-  s.chart_adjacency_first_ = gl::storageBuffer(adjacency_first);
-  s.chart_adjacency_ = gl::storageBuffer(adjacency);
-  s.batch_ = gl::Buffer(sizeof(GpuBatchPoint) * kMaxTiles * kMaxTiles, nullptr);
-  s.incident_ = gl::texture2D(GL_RGBA32F, atlas.width, atlas.height);
-  s.depth_map_ = gl::texture2D(GL_DEPTH_COMPONENT32F, d * int(s.tiles_), d * int(s.tiles_));
-  glTextureParameteri(s.depth_map_.id(), GL_TEXTURE_COMPARE_MODE, GL_NONE);
-  s.id_map_ = gl::texture2D(GL_R32UI, d * int(s.tiles_), d * int(s.tiles_));
-  s.atlas_fbo_ = gl::createFramebuffer();
-  glNamedFramebufferTexture(s.atlas_fbo_.id(), GL_COLOR_ATTACHMENT0, s.incident_.id(), 0);
-  glNamedFramebufferDrawBuffer(s.atlas_fbo_.id(), GL_COLOR_ATTACHMENT0);
-  s.depth_fbo_ = gl::createFramebuffer();
-  glNamedFramebufferTexture(s.depth_fbo_.id(), GL_DEPTH_ATTACHMENT, s.depth_map_.id(), 0);
-  glNamedFramebufferTexture(s.depth_fbo_.id(), GL_COLOR_ATTACHMENT0, s.id_map_.id(), 0);
-  glNamedFramebufferDrawBuffer(s.depth_fbo_.id(), GL_COLOR_ATTACHMENT0);
-  glNamedFramebufferReadBuffer(s.depth_fbo_.id(), GL_NONE);
-  for (GLuint fbo : {s.atlas_fbo_.id(), s.depth_fbo_.id()}) {
+}  // namespace
+
+void GlHemisphereGather::placeCharts(const ChartAtlas& atlas, const SurfaceHierarchy& hierarchy) {
+  const size_t nc = atlas.chartCount();
+  chart_elements_.resize(nc);
+  chart_centre_.resize(nc);
+  chart_radius_.assign(nc, 0.0);
+  for (size_t c = 0; c < nc; ++c) {
+    const AtlasChartPlacement& pl = atlas.placement[c];
+    chart_elements_[c] = glm::uvec2(pl.first_element, pl.element_count);
+    const ClusterRef root = hierarchy.root(uint32_t(c));
+    chart_centre_[c] = hierarchy.level(root.level).position[root.index];
+    for (uint32_t e = pl.first_element; e < pl.first_element + pl.element_count; ++e) {
+      chart_radius_[c] =
+          std::max(chart_radius_[c], glm::length(atlas.element_position[e] - chart_centre_[c]));
+    }
+  }
+}
+
+Status GlHemisphereGather::createTargets(int d, const char* place) {
+  incident_ = gl::texture2D(GL_RGBA32F, width_, height_);
+  depth_map_ = gl::texture2D(GL_DEPTH_COMPONENT32F, d * int(tiles_), d * int(tiles_));
+  glTextureParameteri(depth_map_.id(), GL_TEXTURE_COMPARE_MODE, GL_NONE);
+  id_map_ = gl::texture2D(GL_R32UI, d * int(tiles_), d * int(tiles_));
+  atlas_fbo_ = gl::createFramebuffer();
+  glNamedFramebufferTexture(atlas_fbo_.id(), GL_COLOR_ATTACHMENT0, incident_.id(), 0);
+  glNamedFramebufferDrawBuffer(atlas_fbo_.id(), GL_COLOR_ATTACHMENT0);
+  depth_fbo_ = gl::createFramebuffer();
+  glNamedFramebufferTexture(depth_fbo_.id(), GL_DEPTH_ATTACHMENT, depth_map_.id(), 0);
+  glNamedFramebufferTexture(depth_fbo_.id(), GL_COLOR_ATTACHMENT0, id_map_.id(), 0);
+  glNamedFramebufferDrawBuffer(depth_fbo_.id(), GL_COLOR_ATTACHMENT0);
+  glNamedFramebufferReadBuffer(depth_fbo_.id(), GL_NONE);
+  for (GLuint fbo : {atlas_fbo_.id(), depth_fbo_.id()}) {
     if (glCheckNamedFramebufferStatus(fbo, GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE) {
       return runtimeError("", fmt::format("{}: a framebuffer is incomplete on this device", place));
     }
   }
-  s.vao_ = gl::createVertexArray();
+  vao_ = gl::createVertexArray();
+  return {};
+}
+
+Expected<GlHemisphereGather> GlHemisphereGather::create(
+    const RadiositySurface& surface, const GlProgressiveOptions& gl_options, bool visibility,
+    bool samples, const char* place, std::span<const GlBufferNeed> caller_buffers,
+    uint64_t caller_texture_bytes) {
+  PENUMBRA_TRY(checkGatherOptions(gl_options, place));
+  GlHemisphereGather s;
+  const ChartAtlas& atlas = surface.atlas;
+  const FlatTriangles& flat = surface.flat;
+  const size_t n = surface.elementCount();
+  const uint32_t nt = uint32_t(flat.triangles.size());
+  s.width_ = atlas.width;
+  s.height_ = atlas.height;
+  s.visibility_ = visibility;
+  s.depth_tolerance_ = gl_options.depth_tolerance;
+  s.visibility_resolution_ = gl_options.visibility_resolution;
+  const int d = gl_options.visibility_resolution;
+
+  // ---- Occluders: every scene triangle, tessellated for the depth pass by its size in atlas
+  // texels (the longest edge at the atlas's density). ----
+  const Occluders occluders = buildOccluders(atlas, flat, gl_options.tessellation_texels);
+  s.far_ = occluders.far;
+  s.sub_triangle_count_ = uint32_t(occluders.subs.size());
+  std::vector<uint32_t> adjacency_first, adjacency;
+  chartAdjacency(atlas, flat, adjacency_first, adjacency);
+
+  // Charts: element ranges and bounding spheres, for the near pass.
+  s.placeCharts(atlas, surface.hierarchy);
+
+  // ---- Limits, before allocating ----
+  int max_size = 0;
+  GLint64 max_ssbo = 0;
+  deviceLimits(gl_options, max_size, max_ssbo);
+  const uint64_t texels = uint64_t(atlas.width) * uint64_t(atlas.height);
+  // The incident atlas (RGBA32F) and the caller's atlases.
+  const uint64_t atlas_bytes = texels * 16 + caller_texture_bytes;
+  // A batch of tiles x tiles shooter points shares one depth texture (kMaxTiles^2 points per
+  // receiver pass), as many tiles as the texture size allows.
+  s.tiles_ = uint32_t(std::clamp(max_size / std::max(d, 1), 1, kMaxTiles));
+  const uint64_t depth_side = uint64_t(d) * s.tiles_;
+  const uint64_t depth_bytes = depth_side * depth_side * 8;  // depth and triangle id
+  const uint64_t piece_count = elementPieceCount(atlas);
+  const std::vector<GlBufferNeed> buffers =
+      bufferNeeds(n, texels, piece_count, nt, occluders.subs.size(),
+                  adjacency.size() + adjacency_first.size(), caller_buffers);
+  uint64_t buffer_bytes = sizeof(GpuBatchPoint) * kMaxTiles * kMaxTiles;
+  for (const GlBufferNeed& b : buffers) buffer_bytes += b.bytes;
+  const uint64_t total = atlas_bytes + depth_bytes + buffer_bytes;
+  s.device_bytes_ = total;
+  PENUMBRA_TRY(checkLimits(atlas, d, max_size, max_ssbo, atlas_bytes, buffers,
+                           occluders.subs.size(), n, nt, place));
+  PENUMBRA_TRY(checkDeviceMemory(total, place));
+
+  // ---- Programs ----
+  PENUMBRA_TRY(
+      compilePrograms(visibility, samples, s.depth_, s.receive_far_, s.receive_near_, s.sample_));
+
+  // ---- Per-element data (the CPU's elements: exact-coverage points, normals, areas,
+  // reflectances and pieces) ----
+  const ElementData data = elementData(surface, piece_count, s.element_texel_);
+
+  // ---- Buffers, textures and framebuffers ----
+  s.triangles_ = gl::storageBuffer(occluders.triangles);
+  s.elements_ = gl::storageBuffer(data.elements);
+  s.element_position_d_ = gl::storageBuffer(data.position_d);
+  s.texel_chart_ = gl::storageBuffer(atlas.texel_chart);
+  s.sub_triangles_ = gl::storageBuffer(occluders.subs);
+  s.polygons_ = gl::storageBuffer(data.polygons);
+  s.chart_adjacency_first_ = gl::storageBuffer(adjacency_first);
+  s.chart_adjacency_ = gl::storageBuffer(adjacency);
+  s.batch_ = gl::Buffer(sizeof(GpuBatchPoint) * kMaxTiles * kMaxTiles, nullptr);
+  PENUMBRA_TRY(s.createTargets(d, place));
   return s;
 }
 

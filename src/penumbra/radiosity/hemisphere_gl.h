@@ -174,6 +174,11 @@ class GlHemisphereGather {
   Expected<std::vector<uint32_t>> coverage(GLuint sent);
 
  private:
+  // Steps of create(): each chart's elements and bounding sphere; the incident atlas, the depth
+  // maps and their framebuffers.
+  void placeCharts(const ChartAtlas& atlas, const SurfaceHierarchy& hierarchy);
+  Status createTargets(int d, const char* place);
+
   int width_ = 0, height_ = 0;
   uint64_t device_bytes_ = 0;
   float far_ = 1.0f;

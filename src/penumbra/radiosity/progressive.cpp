@@ -460,6 +460,369 @@ ProgressiveIteration ProgressiveRadiosity::shootLights() {
   return it;
 }
 
+namespace {
+
+// A convex polygon (up to eight corners) and its corner count.
+using Piece = std::pair<std::array<glm::dvec3, 8>, int>;
+
+// The shooter of one shot as its receivers see it: its points, where receivers start from, the
+// points' pieces and the charts that receive nothing.
+struct ShotGeometry {
+  uint32_t first = 0, last = 0;  // the shooter's elements
+  std::vector<ShooterPoint> points;
+  // Points of level l: [level_first[l], level_end[l]) (the top level first in the list).
+  std::vector<uint32_t> level_first, level_end;
+  bool hierarchical = false;
+  std::vector<uint32_t> roots;  // what receivers start from
+  uint32_t top_level = 0;
+  // Per cluster point (ShooterPoint::pieces): its pieces (hierarchical mode).
+  std::vector<std::vector<Piece>> pieces;
+  // The shooter's elements' own pieces: member_first[m - first] .. member_first[m - first + 1]
+  // in member_polys.
+  std::vector<uint32_t> member_first;
+  std::vector<Piece> member_polys;
+  std::vector<uint8_t> skip;  // per chart: receives nothing
+};
+
+// Shooter points (sec. 3): every cluster under the shooter, level by level from the shooter
+// down to the elements (the descendants at each level are one contiguous range).
+void findShooterPoints(ShotGeometry& shot, const RadiositySurface& surface,
+                       const std::vector<glm::dvec3>& db, ClusterRef root) {
+  std::vector<ShooterPoint>& points = shot.points;
+  std::vector<uint32_t>&level_first = shot.level_first, &level_end = shot.level_end;
+  level_first.assign(root.level + 1, 0);
+  level_end.assign(root.level + 1, 0);
+  std::vector<std::pair<uint32_t, uint32_t>> range(root.level + 1);
+  range[root.level] = {root.index, root.index + 1};
+  for (uint32_t l = root.level; l > 0; --l) {
+    const ClusterLevel& lv = surface.hierarchy.level(l);
+    range[l - 1] = {lv.child_first[range[l].first], lv.child_first[range[l].second]};
+  }
+  // Points from the top (index 0: the shooter) down.
+  uint32_t count = 0;
+  for (uint32_t l = root.level + 1; l-- > 0;) {
+    level_first[l] = count;
+    count += range[l].second - range[l].first;
+    level_end[l] = count;
+  }
+  points.resize(count);
+  // Level 0 first (elements), then each level from its children.
+  for (uint32_t l = 0; l <= root.level; ++l) {
+    const ClusterLevel& lv = surface.hierarchy.level(l);
+    for (uint32_t k = range[l].first; k < range[l].second; ++k) {
+      ShooterPoint& p = points[level_first[l] + (k - range[l].first)];
+      p.cluster = ClusterRef{l, k};
+      p.position = lv.position[k];
+      p.area = lv.area[k];
+      p.first = lv.first[k];
+      p.last = lv.first[k + 1];
+      if (l == 0) {
+        p.element = k;
+        p.residual = db[k];
+        p.normal = surface.shading_normal[k];
+        p.geometric = surface.atlas.element_normal[k];
+        continue;
+      }
+      p.child_first = level_first[l - 1] + (lv.child_first[k] - range[l - 1].first);
+      p.child_count = lv.child_first[k + 1] - lv.child_first[k];
+      glm::dvec3 res(0.0), nrm(0.0);
+      for (uint32_t c = p.child_first; c < p.child_first + p.child_count; ++c) {
+        res += points[c].residual * points[c].area;
+        nrm += points[c].normal * points[c].area;
+      }
+      p.residual = p.area > 0.0 ? res / p.area : glm::dvec3(0.0);
+      const double len = glm::length(nrm);
+      p.normal = len > 0.0 ? nrm / len : lv.normal[k];
+      p.geometric = lv.normal[k];
+    }
+  }
+}
+
+// Where receivers start from, hierarchical or flat; returns the shot's points (the top level's,
+// or the flat level's).
+uint32_t chooseRoots(ShotGeometry& shot, const ProgressiveOptions& options, uint32_t root_level) {
+  shot.hierarchical = options.shooter_top_points > 0;
+  if (shot.hierarchical) {
+    // The top: the finest level with at most shooter_top_points clusters; coarser ones are
+    // above it.
+    uint32_t& top_level = shot.top_level;
+    while (top_level < root_level && shot.level_end[top_level] - shot.level_first[top_level] >
+                                         uint32_t(options.shooter_top_points)) {
+      ++top_level;
+    }
+    for (uint32_t l = top_level + 1; l <= root_level; ++l) {
+      for (uint32_t k = shot.level_first[l]; k < shot.level_end[l]; ++k) {
+        shot.points[k].above_top = true;
+      }
+    }
+    shot.roots = {0};  // the shooter itself (index 0: the top of the list)
+    return shot.level_end[top_level] - shot.level_first[top_level];
+  }
+  const uint32_t l = std::min<uint32_t>(uint32_t(options.shooter_level), root_level);
+  for (uint32_t k = shot.level_first[l]; k < shot.level_end[l]; ++k) shot.roots.push_back(k);
+  return uint32_t(shot.roots.size());
+}
+
+// The points sec. 4's samples pair with: the top level's points, or the flat level's.
+std::vector<uint32_t> samplePoints(const ShotGeometry& shot) {
+  std::vector<uint32_t> sample_points;
+  if (shot.hierarchical) {
+    for (uint32_t k = shot.level_first[shot.top_level]; k < shot.level_end[shot.top_level]; ++k) {
+      sample_points.push_back(k);
+    }
+  } else {
+    sample_points = shot.roots;
+  }
+  return sample_points;
+}
+
+// Sec. 4: element e's sample against the shooter point s: counted when they face each other,
+// with the whole shooter's disc irradiance, and visible when no face is between them.
+void shooterSample(const ShotGeometry& shot, const ShooterPoint& s, const RadiositySurface& surface,
+                   bool visibility, size_t e, uint16_t& counted, uint16_t& visible,
+                   double& irradiance) {
+  const glm::dvec3 pe = surface.atlas.element_position[e], ne = surface.atlas.element_normal[e];
+  const glm::dvec3 d = s.position - pe;
+  if (s.residual == glm::dvec3(0.0) || glm::dot(ne, d) <= 0.0 || glm::dot(s.geometric, d) >= 0.0) {
+    return;
+  }
+  counted = 1;
+  const ShooterPoint& whole = shot.points[0];
+  irradiance =
+      shooterDiscIrradiance(whole.residual, whole.area, whole.position, whole.normal, pe, ne);
+  const glm::dvec3 from = pe + ne * surface.lift, to = s.position + s.geometric * surface.lift;
+  if (!visibility ||
+      !surface.engine.occluded(Ray{glm::vec3(from), 1e-4f, glm::vec3(to - from), 1.0f - 1e-4f})) {
+    visible = 1;
+  }
+}
+
+// The clusters' pieces (for Lambert's form factor to a cluster): its chart's faces clipped to
+// its texels; candidate faces merged up from the elements.
+void findClusterPieces(ShotGeometry& shot, const RadiositySurface& surface, uint32_t root_level) {
+  std::vector<ShooterPoint>& points = shot.points;
+  std::vector<std::vector<uint32_t>> candidates(points.size());
+  for (uint32_t l = 0; l <= root_level; ++l) {
+    for (uint32_t k = shot.level_first[l]; k < shot.level_end[l]; ++k) {
+      std::vector<uint32_t>& c = candidates[k];
+      if (l == 0) {
+        const uint32_t e = points[k].element;
+        c.assign(surface.atlas.element_faces.begin() + surface.atlas.element_face_first[e],
+                 surface.atlas.element_faces.begin() + surface.atlas.element_face_first[e + 1]);
+        std::sort(c.begin(), c.end());
+        continue;
+      }
+      for (uint32_t ch = points[k].child_first; ch < points[k].child_first + points[k].child_count;
+           ++ch) {
+        c.insert(c.end(), candidates[ch].begin(), candidates[ch].end());
+      }
+      std::sort(c.begin(), c.end());
+      c.erase(std::unique(c.begin(), c.end()), c.end());
+    }
+  }
+  std::vector<uint32_t> clusters;
+  for (uint32_t k = 0; k < shot.level_first[0]; ++k) clusters.push_back(k);  // levels above 0
+  shot.pieces.resize(clusters.size());
+  parallelRange(clusters.size(), 64, [&](size_t b, size_t e) {
+    for (size_t i = b; i < e; ++i) {
+      ShooterPoint& p = points[clusters[i]];
+      p.pieces = int32_t(i);
+      const ClusterLevel& lv = surface.hierarchy.level(p.cluster.level);
+      surface.atlas.forEachPiece(lv.lo[p.cluster.index], lv.hi[p.cluster.index],
+                                 candidates[clusters[i]], surface.flat.positions,
+                                 surface.flat.triangles,
+                                 [&](uint32_t, const std::array<glm::dvec3, 8>& corners, int count,
+                                     double) { shot.pieces[i].emplace_back(corners, count); });
+    }
+  });
+}
+
+// The shooter's elements' own pieces (near pairs take Lambert's form factor to them), once
+// per shot.
+void findMemberPieces(ShotGeometry& shot, const ProgressiveRadiosity& solver) {
+  const uint32_t first = shot.first, last = shot.last;
+  shot.member_first.assign(last - first + 1, 0);
+  std::vector<std::vector<Piece>> per(last - first);
+  parallelRange(last - first, 256, [&](size_t b, size_t e) {
+    std::vector<std::array<glm::dvec3, 8>> polys;
+    std::vector<int> counts;
+    for (size_t i = b; i < e; ++i) {
+      solver.elementPieces(first + i, polys, counts);
+      for (size_t q = 0; q < polys.size(); ++q) {
+        if (counts[q] >= 3) per[i].emplace_back(polys[q], counts[q]);
+      }
+    }
+  });
+  for (size_t i = 0; i < per.size(); ++i) {
+    shot.member_polys.insert(shot.member_polys.end(), per[i].begin(), per[i].end());
+    shot.member_first[i + 1] = uint32_t(shot.member_polys.size());
+  }
+}
+
+// Planar charts wholly behind or level with the shooter's bounding sphere receive nothing (the
+// outsides of a room's walls, the back of a panel): skipped before visiting their elements.
+void findSkippedCharts(ShotGeometry& shot, const RadiositySurface& surface, ClusterRef root) {
+  std::vector<uint8_t>& skip = shot.skip;
+  skip.assign(surface.atlas.chartCount(), 0);
+  glm::dvec3 centre = shot.points[0].position;
+  double radius = 0.0;
+  for (uint32_t e = shot.first; e < shot.last; ++e) {
+    radius = std::max(radius, glm::length(surface.atlas.element_position[e] - centre));
+  }
+  for (size_t c = 0; c < surface.atlas.chartCount(); ++c) {
+    const Chart& chart = surface.atlas.charts.charts[c];
+    const AtlasChartPlacement& pl = surface.atlas.placement[c];
+    if (!chart.planar || pl.element_count == 0) continue;
+    const glm::dvec3 p0 = surface.atlas.element_position[pl.first_element];
+    // Planar charts lie within 1 degree of their normal: a margin of that over the sphere.
+    const double margin = radius + 0.02 * glm::length(centre - p0);
+    if (glm::dot(chart.normal, centre - p0) <= -margin) skip[c] = 1;
+  }
+  // A planar chart does not light itself: its points see its other faces edge-on (the
+  // Cornell box's walls bend by half a degree), where a receiver's point a hair behind a
+  // neighbouring face would see that face fill half its hemisphere.
+  const uint32_t own = surface.hierarchy.level(root.level).chart[root.index];
+  if (surface.atlas.charts.charts[own].planar) skip[own] = 1;
+}
+
+enum class Kernel : uint8_t {
+  kDisc,     // eq. 2 with the point's area, position and mean residual
+  kPolygon,  // Lambert's point-to-polygon form factor to a cluster's pieces, mean residual
+  kMembers,  // the same to each member element's own pieces, with its own residual
+};
+struct Pair {
+  uint32_t receiver;
+  uint32_t point;
+  Kernel kernel;
+};
+
+// Receiver r's pairs, from the roots down (see the gather's comment in shoot()).
+void receiverPairs(const ShotGeometry& shot, const ProgressiveReceivers& receivers, size_t r,
+                   std::vector<uint32_t>& stack, std::vector<Pair>& pairs) {
+  const std::vector<ShooterPoint>& points = shot.points;
+  const glm::dvec3 nr = receivers.normal(r), pr = receivers.position(r);
+  stack.assign(shot.roots.rbegin(), shot.roots.rend());
+  while (!stack.empty()) {
+    const uint32_t k = stack.back();
+    stack.pop_back();
+    const ShooterPoint& s = points[k];
+    if (s.residual == glm::dvec3(0.0)) continue;
+    const glm::dvec3 d = s.position - pr;
+    const double d2 = glm::dot(d, d);
+    const bool near = d2 < kNear * kNear * s.area;
+    // Clusters above the top level stand for their children only for receivers farther
+    // than kCoarse of their sizes: to those the whole cluster subtends a few degrees at
+    // most, so one visibility ray loses no penumbra worth resolving.
+    if (shot.hierarchical && s.child_count > 0 &&
+        (near || (s.above_top && d2 < kCoarse * kCoarse * s.area))) {
+      for (uint32_t c = s.child_first + s.child_count; c-- > s.child_first;) {
+        stack.push_back(c);
+      }
+      continue;
+    }
+    if (d2 <= 0.0) continue;
+    // Culled by either plane (the faces' own normals).
+    if (glm::dot(nr, d) <= 0.0 || glm::dot(s.geometric, d) >= 0.0) continue;
+    Kernel kernel = near ? Kernel::kMembers : Kernel::kDisc;
+    if (shot.hierarchical && d2 < kFar * kFar * s.area) {
+      kernel = s.child_count == 0 ? Kernel::kMembers : Kernel::kPolygon;
+    }
+    pairs.push_back(Pair{uint32_t(r), k, kernel});
+  }
+}
+
+// One shadow ray per pair, sorted by point so that the rays from neighbouring texels to one
+// point travel as packets of eight; occluded[k] for pair k.
+void traceShadowRays(const ShotGeometry& shot, const RadiositySurface& surface,
+                     const ProgressiveReceivers& receivers, const std::vector<Pair>& pairs,
+                     std::vector<uint64_t>& order, RayBatch& batch, HitBatch& hits,
+                     std::vector<uint8_t>& occluded) {
+  order.resize(pairs.size());
+  for (size_t k = 0; k < pairs.size(); ++k) order[k] = uint64_t(pairs[k].point) << 32 | k;
+  std::sort(order.begin(), order.end());
+  batch.resize(pairs.size());
+  for (size_t k = 0; k < pairs.size(); ++k) {
+    const Pair& pair = pairs[uint32_t(order[k])];
+    const ShooterPoint& s = shot.points[pair.point];
+    const glm::dvec3 from = receivers.position(pair.receiver) +
+                            receivers.normal(pair.receiver) * surface.lift,
+                     to = s.position + s.geometric * surface.lift;
+    batch.set(k, Ray{glm::vec3(from), 1e-4f, glm::vec3(to - from), 1.0f - 1e-4f});
+  }
+  surface.engine.intersectSerial(batch, hits);
+  occluded.assign(pairs.size(), 0);
+  for (size_t k = 0; k < pairs.size(); ++k) occluded[uint32_t(order[k])] = hits.triangle[k] >= 0;
+}
+
+// Adds a pair's irradiance at the receiver (point pr, shading normal nr) to `incident`.
+void addPair(const ShotGeometry& shot, const std::vector<glm::dvec3>& db, const Pair& pair,
+             const glm::dvec3& pr, const glm::dvec3& nr, glm::dvec3& incident) {
+  const ShooterPoint& s = shot.points[pair.point];
+  if (pair.kernel == Kernel::kPolygon) {
+    double f = 0.0;
+    for (const auto& [poly, count] : shot.pieces[size_t(s.pieces)]) {
+      if (count >= 3) f += pointToPolygonFormFactor<true>(pr, nr, poly.data(), count);
+    }
+    incident += s.residual * f;
+    return;
+  }
+  if (pair.kernel == Kernel::kMembers) {
+    // Near pairs (across an edge, in a corner): eq. 2's disc is a poor stand-in for a
+    // neighbour seen edge-on, so each of the point's elements contributes Lambert's exact
+    // point-to-polygon form factor (kernels/form_factor.h) to its own pieces.
+    for (uint32_t m = s.first; m < s.last; ++m) {
+      if (db[m] == glm::dvec3(0.0)) continue;
+      double f = 0.0;
+      for (uint32_t q = shot.member_first[m - shot.first];
+           q < shot.member_first[m - shot.first + 1]; ++q) {
+        f += pointToPolygonFormFactor<true>(pr, nr, shot.member_polys[q].first.data(),
+                                            shot.member_polys[q].second);
+      }
+      incident += db[m] * f;
+    }
+    return;
+  }
+  const glm::dvec3 d = s.position - pr;
+  const double d2 = glm::dot(d, d);
+  const double inv = 1.0 / std::sqrt(d2);
+  const double cos_r = glm::dot(nr, d) * inv, cos_s = -glm::dot(s.normal, d) * inv;
+  if (cos_r <= 0.0 || cos_s <= 0.0) return;
+  incident += s.residual * discFormFactor(s.area, cos_s, cos_r, d2);
+}
+
+// The gather of shoot() at the receivers [begin, end), block by block: each block's pairs, their
+// shadow rays, then each pair's irradiance added in order.
+void gatherReceivers(const ShotGeometry& shot, const RadiositySurface& surface,
+                     const ProgressiveReceivers& receivers, const std::vector<glm::dvec3>& db,
+                     bool visibility, size_t begin, size_t end, std::vector<glm::dvec3>& incident,
+                     std::atomic<uint64_t>& rays) {
+  std::vector<Pair> pairs;
+  std::vector<uint32_t> stack;
+  std::vector<uint64_t> order;  // (point, pair index): sorted, the pairs by point, stably
+  std::vector<uint8_t> occluded;
+  RayBatch batch;
+  HitBatch hits;
+  for (size_t block = begin; block < end; block += kReceiverBlock) {
+    pairs.clear();
+    for (size_t r = block; r < std::min(end, block + kReceiverBlock); ++r) {
+      if (shot.skip[receivers.chart(r)]) continue;
+      receiverPairs(shot, receivers, r, stack, pairs);
+    }
+    if (visibility && !pairs.empty()) {
+      traceShadowRays(shot, surface, receivers, pairs, order, batch, hits, occluded);
+      rays += pairs.size();
+    }
+    for (size_t k = 0; k < pairs.size(); ++k) {
+      if (visibility && occluded[k]) continue;
+      const size_t r = pairs[k].receiver;
+      // Form factors take the shading normals; culling and shadow rays the faces' own.
+      addPair(shot, db, pairs[k], receivers.position(r), receivers.shadingNormal(r), incident[r]);
+    }
+  }
+}
+
+}  // namespace
+
 ProgressiveIteration ProgressiveRadiosity::shoot(uint32_t shooter) {
   if (shooter == kLights) return shootLights();
   PENUMBRA_CHECK(shooter < shooterCount());
@@ -469,204 +832,35 @@ ProgressiveIteration ProgressiveRadiosity::shoot(uint32_t shooter) {
   it.shooter = shooter;
   const uint32_t first = shooterBegin(shooter), last = shooterEnd(shooter);
   const ClusterRef root = shooters_[shooter];
+  ShotGeometry geometry;
+  geometry.first = first;
+  geometry.last = last;
 
-  // Shooter points (sec. 3): every cluster under the shooter, level by level from the shooter
-  // down to the elements (the descendants at each level are one contiguous range).
-  std::vector<ShooterPoint> points;
-  // Points of level l: [level_first[l], level_end[l]) (the top level first in the list).
-  std::vector<uint32_t> level_first(root.level + 1, 0), level_end(root.level + 1, 0);
-  {
-    std::vector<std::pair<uint32_t, uint32_t>> range(root.level + 1);
-    range[root.level] = {root.index, root.index + 1};
-    for (uint32_t l = root.level; l > 0; --l) {
-      const ClusterLevel& lv = surface_.hierarchy.level(l);
-      range[l - 1] = {lv.child_first[range[l].first], lv.child_first[range[l].second]};
-    }
-    // Points from the top (index 0: the shooter) down.
-    uint32_t count = 0;
-    for (uint32_t l = root.level + 1; l-- > 0;) {
-      level_first[l] = count;
-      count += range[l].second - range[l].first;
-      level_end[l] = count;
-    }
-    points.resize(count);
-    // Level 0 first (elements), then each level from its children.
-    for (uint32_t l = 0; l <= root.level; ++l) {
-      const ClusterLevel& lv = surface_.hierarchy.level(l);
-      for (uint32_t k = range[l].first; k < range[l].second; ++k) {
-        ShooterPoint& p = points[level_first[l] + (k - range[l].first)];
-        p.cluster = ClusterRef{l, k};
-        p.position = lv.position[k];
-        p.area = lv.area[k];
-        p.first = lv.first[k];
-        p.last = lv.first[k + 1];
-        if (l == 0) {
-          p.element = k;
-          p.residual = db_[k];
-          p.normal = surface_.shading_normal[k];
-          p.geometric = surface_.atlas.element_normal[k];
-          continue;
-        }
-        p.child_first = level_first[l - 1] + (lv.child_first[k] - range[l - 1].first);
-        p.child_count = lv.child_first[k + 1] - lv.child_first[k];
-        glm::dvec3 res(0.0), nrm(0.0);
-        for (uint32_t c = p.child_first; c < p.child_first + p.child_count; ++c) {
-          res += points[c].residual * points[c].area;
-          nrm += points[c].normal * points[c].area;
-        }
-        p.residual = p.area > 0.0 ? res / p.area : glm::dvec3(0.0);
-        const double len = glm::length(nrm);
-        p.normal = len > 0.0 ? nrm / len : lv.normal[k];
-        p.geometric = lv.normal[k];
-      }
-    }
-  }
-  const bool hierarchical = options_.shooter_top_points > 0;
-  std::vector<uint32_t> roots;  // what receivers start from
-  uint32_t top_level = 0;
-  if (hierarchical) {
-    // The top: the finest level with at most shooter_top_points clusters; coarser ones are
-    // above it.
-    while (top_level < root.level &&
-           level_end[top_level] - level_first[top_level] > uint32_t(options_.shooter_top_points)) {
-      ++top_level;
-    }
-    for (uint32_t l = top_level + 1; l <= root.level; ++l) {
-      for (uint32_t k = level_first[l]; k < level_end[l]; ++k) points[k].above_top = true;
-    }
-    roots = {0};  // the shooter itself (index 0: the top of the list)
-    it.shooter_points = level_end[top_level] - level_first[top_level];
-  } else {
-    const uint32_t l = std::min<uint32_t>(uint32_t(options_.shooter_level), root.level);
-    for (uint32_t k = level_first[l]; k < level_end[l]; ++k) roots.push_back(k);
-    it.shooter_points = uint32_t(roots.size());
-  }
+  // ---- Shooter points (sec. 3) and where receivers start from ----
+  findShooterPoints(geometry, surface_, db_, root);
+  it.shooter_points = chooseRoots(geometry, options_, root.level);
+
+  // ---- Adaptive subdivision ----
   // Sec. 4 before the shooter's first shot: element e's sample is the pair of it and the
   // shooting point e mod P (the top level's points, or the flat level's), so that the samples of
   // a block spread over the whole shooter and a penumbra counts as a boundary too.
-  {
-    std::vector<uint32_t> sample_points;
-    if (hierarchical) {
-      for (uint32_t k = level_first[top_level]; k < level_end[top_level]; ++k) {
-        sample_points.push_back(k);
-      }
-    } else {
-      sample_points = roots;
-    }
-    subdivideFor(
-        shooter,
-        [&](size_t e, uint16_t& counted, uint16_t& visible, double& irradiance) {
-          const ShooterPoint& s = points[sample_points[e % sample_points.size()]];
-          const glm::dvec3 pe = surface_.atlas.element_position[e],
-                           ne = surface_.atlas.element_normal[e];
-          const glm::dvec3 d = s.position - pe;
-          if (s.residual == glm::dvec3(0.0) || glm::dot(ne, d) <= 0.0 ||
-              glm::dot(s.geometric, d) >= 0.0) {
-            return;
-          }
-          counted = 1;
-          const ShooterPoint& whole = points[0];
-          irradiance = shooterDiscIrradiance(whole.residual, whole.area, whole.position,
-                                             whole.normal, pe, ne);
-          const glm::dvec3 from = pe + ne * surface_.lift,
-                           to = s.position + s.geometric * surface_.lift;
-          if (!options_.visibility ||
-              !surface_.engine.occluded(
-                  Ray{glm::vec3(from), 1e-4f, glm::vec3(to - from), 1.0f - 1e-4f})) {
-            visible = 1;
-          }
-        },
-        it);
-  }
-  // The clusters' pieces (for Lambert's form factor to a cluster): its chart's faces clipped to
-  // its texels; candidate faces merged up from the elements.
-  std::vector<std::vector<std::pair<std::array<glm::dvec3, 8>, int>>> pieces;
-  if (hierarchical) {
-    std::vector<std::vector<uint32_t>> candidates(points.size());
-    for (uint32_t l = 0; l <= root.level; ++l) {
-      for (uint32_t k = level_first[l]; k < level_end[l]; ++k) {
-        std::vector<uint32_t>& c = candidates[k];
-        if (l == 0) {
-          const uint32_t e = points[k].element;
-          c.assign(surface_.atlas.element_faces.begin() + surface_.atlas.element_face_first[e],
-                   surface_.atlas.element_faces.begin() + surface_.atlas.element_face_first[e + 1]);
-          std::sort(c.begin(), c.end());
-          continue;
-        }
-        for (uint32_t ch = points[k].child_first;
-             ch < points[k].child_first + points[k].child_count; ++ch) {
-          c.insert(c.end(), candidates[ch].begin(), candidates[ch].end());
-        }
-        std::sort(c.begin(), c.end());
-        c.erase(std::unique(c.begin(), c.end()), c.end());
-      }
-    }
-    std::vector<uint32_t> clusters;
-    for (uint32_t k = 0; k < level_first[0]; ++k) clusters.push_back(k);  // levels above 0
-    pieces.resize(clusters.size());
-    parallelRange(clusters.size(), 64, [&](size_t b, size_t e) {
-      for (size_t i = b; i < e; ++i) {
-        ShooterPoint& p = points[clusters[i]];
-        p.pieces = int32_t(i);
-        const ClusterLevel& lv = surface_.hierarchy.level(p.cluster.level);
-        surface_.atlas.forEachPiece(
-            lv.lo[p.cluster.index], lv.hi[p.cluster.index], candidates[clusters[i]],
-            surface_.flat.positions, surface_.flat.triangles,
-            [&](uint32_t, const std::array<glm::dvec3, 8>& corners, int count, double) {
-              pieces[i].emplace_back(corners, count);
-            });
-      }
-    });
-  }
-  // The shooter's elements' own pieces (near pairs take Lambert's form factor to them), once
-  // per shot: member_first[m - first] .. member_first[m - first + 1] in member_polys.
-  std::vector<uint32_t> member_first(last - first + 1, 0);
-  std::vector<std::pair<std::array<glm::dvec3, 8>, int>> member_polys;
-  {
-    std::vector<std::vector<std::pair<std::array<glm::dvec3, 8>, int>>> per(last - first);
-    parallelRange(last - first, 256, [&](size_t b, size_t e) {
-      std::vector<std::array<glm::dvec3, 8>> polys;
-      std::vector<int> counts;
-      for (size_t i = b; i < e; ++i) {
-        elementPieces(first + i, polys, counts);
-        for (size_t q = 0; q < polys.size(); ++q) {
-          if (counts[q] >= 3) per[i].emplace_back(polys[q], counts[q]);
-        }
-      }
-    });
-    for (size_t i = 0; i < per.size(); ++i) {
-      member_polys.insert(member_polys.end(), per[i].begin(), per[i].end());
-      member_first[i + 1] = uint32_t(member_polys.size());
-    }
-  }
+  const std::vector<uint32_t> sample_points = samplePoints(geometry);
+  subdivideFor(
+      shooter,
+      [&](size_t e, uint16_t& counted, uint16_t& visible, double& irradiance) {
+        const ShooterPoint& s = geometry.points[sample_points[e % sample_points.size()]];
+        shooterSample(geometry, s, surface_, options_.visibility, e, counted, visible, irradiance);
+      },
+      it);
+
+  // ---- The points' pieces, the power shot and the charts that receive nothing ----
+  if (geometry.hierarchical) findClusterPieces(geometry, surface_, root.level);
+  findMemberPieces(geometry, *this);
   glm::dvec3 shot(0.0);
   for (uint32_t e = first; e < last; ++e) shot += db_[e] * surface_.atlas.element_area[e];
+  findSkippedCharts(geometry, surface_, root);
 
-  // Planar charts wholly behind or level with the shooter's bounding sphere receive nothing (the
-  // outsides of a room's walls, the back of a panel): skipped before visiting their elements.
-  std::vector<uint8_t> skip(surface_.atlas.chartCount(), 0);
-  {
-    glm::dvec3 centre = points[0].position;
-    double radius = 0.0;
-    for (uint32_t e = first; e < last; ++e) {
-      radius = std::max(radius, glm::length(surface_.atlas.element_position[e] - centre));
-    }
-    for (size_t c = 0; c < surface_.atlas.chartCount(); ++c) {
-      const Chart& chart = surface_.atlas.charts.charts[c];
-      const AtlasChartPlacement& pl = surface_.atlas.placement[c];
-      if (!chart.planar || pl.element_count == 0) continue;
-      const glm::dvec3 p0 = surface_.atlas.element_position[pl.first_element];
-      // Planar charts lie within 1 degree of their normal: a margin of that over the sphere.
-      const double margin = radius + 0.02 * glm::length(centre - p0);
-      if (glm::dot(chart.normal, centre - p0) <= -margin) skip[c] = 1;
-    }
-    // A planar chart does not light itself: its points see its other faces edge-on (the
-    // Cornell box's walls bend by half a degree), where a receiver's point a hair behind a
-    // neighbouring face would see that face fill half its hemisphere.
-    const uint32_t own = surface_.hierarchy.level(root.level).chart[root.index];
-    if (surface_.atlas.charts.charts[own].planar) skip[own] = 1;
-  }
-
+  // ---- Gather ----
   // Gather at every receiver (an element, or a cluster standing for its elements: sec. 4) the
   // irradiance sum_s dB_s F_rs (W m^-2); in parallel over
   // chunks of receivers, each writing only its own entries. A receiver's pairs come from the
@@ -676,16 +870,6 @@ ProgressiveIteration ProgressiveRadiosity::shoot(uint32_t shooter) {
   // shadow ray; a chunk's rays are traced together, sorted by point, so the rays from
   // neighbouring texels to one point travel as packets of eight. Each receiver sums its pairs
   // in a fixed order, so the result does not depend on the chunking.
-  enum class Kernel : uint8_t {
-    kDisc,     // eq. 2 with the point's area, position and mean residual
-    kPolygon,  // Lambert's point-to-polygon form factor to a cluster's pieces, mean residual
-    kMembers,  // the same to each member element's own pieces, with its own residual
-  };
-  struct Pair {
-    uint32_t receiver;
-    uint32_t point;
-    Kernel kernel;
-  };
   const size_t n = receivers_.size();
   std::vector<glm::dvec3> incident(n, glm::dvec3(0.0));
   std::atomic<uint64_t> rays{0};
@@ -693,107 +877,14 @@ ProgressiveIteration ProgressiveRadiosity::shoot(uint32_t shooter) {
   // every receiver's irradiance, and the rest of the shot runs alike on all.
   const ReceiverShare share(n, comm_);
   share.forMine([&](size_t begin, size_t end) {
-    std::vector<Pair> pairs;
-    std::vector<uint32_t> stack;
-    std::vector<uint64_t> order;  // (point, pair index): sorted, the pairs by point, stably
-    std::vector<uint8_t> occluded;
-    RayBatch batch;
-    HitBatch hits;
-    for (size_t block = begin; block < end; block += kReceiverBlock) {
-      pairs.clear();
-      for (size_t r = block; r < std::min(end, block + kReceiverBlock); ++r) {
-        if (skip[receivers_.chart(r)]) continue;
-        const glm::dvec3 nr = receivers_.normal(r), pr = receivers_.position(r);
-        stack.assign(roots.rbegin(), roots.rend());
-        while (!stack.empty()) {
-          const uint32_t k = stack.back();
-          stack.pop_back();
-          const ShooterPoint& s = points[k];
-          if (s.residual == glm::dvec3(0.0)) continue;
-          const glm::dvec3 d = s.position - pr;
-          const double d2 = glm::dot(d, d);
-          const bool near = d2 < kNear * kNear * s.area;
-          // Clusters above the top level stand for their children only for receivers farther
-          // than kCoarse of their sizes: to those the whole cluster subtends a few degrees at
-          // most, so one visibility ray loses no penumbra worth resolving.
-          if (hierarchical && s.child_count > 0 &&
-              (near || (s.above_top && d2 < kCoarse * kCoarse * s.area))) {
-            for (uint32_t c = s.child_first + s.child_count; c-- > s.child_first;) {
-              stack.push_back(c);
-            }
-            continue;
-          }
-          if (d2 <= 0.0) continue;
-          // Culled by either plane (the faces' own normals).
-          if (glm::dot(nr, d) <= 0.0 || glm::dot(s.geometric, d) >= 0.0) continue;
-          Kernel kernel = near ? Kernel::kMembers : Kernel::kDisc;
-          if (hierarchical && d2 < kFar * kFar * s.area) {
-            kernel = s.child_count == 0 ? Kernel::kMembers : Kernel::kPolygon;
-          }
-          pairs.push_back(Pair{uint32_t(r), k, kernel});
-        }
-      }
-      if (options_.visibility && !pairs.empty()) {
-        order.resize(pairs.size());
-        for (size_t k = 0; k < pairs.size(); ++k) order[k] = uint64_t(pairs[k].point) << 32 | k;
-        std::sort(order.begin(), order.end());
-        batch.resize(pairs.size());
-        for (size_t k = 0; k < pairs.size(); ++k) {
-          const Pair& pair = pairs[uint32_t(order[k])];
-          const ShooterPoint& s = points[pair.point];
-          const glm::dvec3 from = receivers_.position(pair.receiver) +
-                                  receivers_.normal(pair.receiver) * surface_.lift,
-                           to = s.position + s.geometric * surface_.lift;
-          batch.set(k, Ray{glm::vec3(from), 1e-4f, glm::vec3(to - from), 1.0f - 1e-4f});
-        }
-        surface_.engine.intersectSerial(batch, hits);
-        occluded.assign(pairs.size(), 0);
-        for (size_t k = 0; k < pairs.size(); ++k)
-          occluded[uint32_t(order[k])] = hits.triangle[k] >= 0;
-        rays += pairs.size();
-      }
-      for (size_t k = 0; k < pairs.size(); ++k) {
-        if (options_.visibility && occluded[k]) continue;
-        const size_t r = pairs[k].receiver;
-        const ShooterPoint& s = points[pairs[k].point];
-        // Form factors take the shading normals; culling and shadow rays the faces' own.
-        const glm::dvec3 nr = receivers_.shadingNormal(r), pr = receivers_.position(r);
-        if (pairs[k].kernel == Kernel::kPolygon) {
-          double f = 0.0;
-          for (const auto& [poly, count] : pieces[size_t(s.pieces)]) {
-            if (count >= 3) f += pointToPolygonFormFactor<true>(pr, nr, poly.data(), count);
-          }
-          incident[r] += s.residual * f;
-          continue;
-        }
-        if (pairs[k].kernel == Kernel::kMembers) {
-          // Near pairs (across an edge, in a corner): eq. 2's disc is a poor stand-in for a
-          // neighbour seen edge-on, so each of the point's elements contributes Lambert's exact
-          // point-to-polygon form factor (kernels/form_factor.h) to its own pieces.
-          for (uint32_t m = s.first; m < s.last; ++m) {
-            if (db_[m] == glm::dvec3(0.0)) continue;
-            double f = 0.0;
-            for (uint32_t q = member_first[m - first]; q < member_first[m - first + 1]; ++q) {
-              f += pointToPolygonFormFactor<true>(pr, nr, member_polys[q].first.data(),
-                                                  member_polys[q].second);
-            }
-            incident[r] += db_[m] * f;
-          }
-          continue;
-        }
-        const glm::dvec3 d = s.position - pr;
-        const double d2 = glm::dot(d, d);
-        const double inv = 1.0 / std::sqrt(d2);
-        const double cos_r = glm::dot(nr, d) * inv, cos_s = -glm::dot(s.normal, d) * inv;
-        if (cos_r <= 0.0 || cos_s <= 0.0) continue;
-        incident[r] += s.residual * discFormFactor(s.area, cos_s, cos_r, d2);
-      }
-    }
+    gatherReceivers(geometry, surface_, receivers_, db_, options_.visibility, begin, end, incident,
+                    rays);
   });
 
   share.exchange(incident);
   incident_ = receivers_.toElements(surface_, std::move(incident));
 
+  // ---- Update ----
   // Closed shot: the power arriving equals the power shot (the form factors' sum rule).
   uint64_t probes = 0;
   glm::dvec3 scale(1.0);

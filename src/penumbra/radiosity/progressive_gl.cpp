@@ -43,6 +43,37 @@ GLint uniform(const gl::Program& p, const char* name) {
   return gl::uniformLocation(p.id(), name);
 }
 
+// What create() needs of the CPU solver: the lights shot, the shooter level in range.
+Status checkCpuSolver(const ProgressiveRadiosity& cpu, const char* place) {
+  if (!cpu.lightsShot()) {
+    return inputError(
+        "", place,
+        "the lights (point, spot, directional, luminaires) shoot first, on the CPU (shoot "
+        "ProgressiveRadiosity::kLights before creating the GPU solver)");
+  }
+  if (cpu.options().shooter_level < 0 || cpu.options().shooter_level > 16) {
+    return inputError("", place, "shooter_level must be in [0, 16]");
+  }
+  return {};
+}
+
+// The GL error state after the uploads of create(), as an error naming the bytes when out of
+// memory.
+Status uploadStatus(uint64_t device_bytes) {
+  const GLenum err = glGetError();
+  if (err == GL_OUT_OF_MEMORY) {
+    return runtimeError("", fmt::format("progressive radiosity on the GPU: out of device memory "
+                                        "for {} of textures and buffers",
+                                        formatBytes(device_bytes)));
+  }
+  if (err != GL_NO_ERROR) {
+    return runtimeError(
+        "",
+        fmt::format("OpenGL error 0x{:x} while uploading the progressive radiosity atlas", err));
+  }
+  return {};
+}
+
 }  // namespace
 
 ProgressiveOptions gpuProgressiveOptions(ProgressiveOptions options) {
@@ -61,61 +92,36 @@ int gpuShooterLevel(const ProgressiveRadiosity& cpu, int points) {
   return level;
 }
 
-Expected<GlProgressive> GlProgressive::create(const ProgressiveRadiosity& cpu,
-                                              const GlProgressiveOptions& gl_options) {
-  const ProgressiveOptions& options = cpu.options();
-  // Errors left by earlier work are not ours to report.
-  while (glGetError() != GL_NO_ERROR) continue;
-  const char* place = "progressive radiosity on the GPU";
-  if (!cpu.lightsShot()) {
-    return inputError(
-        "", place,
-        "the lights (point, spot, directional, luminaires) shoot first, on the CPU (shoot "
-        "ProgressiveRadiosity::kLights before creating the GPU solver)");
-  }
-  if (options.shooter_level < 0 || options.shooter_level > 16) {
-    return inputError("", place, "shooter_level must be in [0, 16]");
-  }
-
-  GlProgressive s;
-  s.options_ = options;
-  s.gl_options_ = gl_options;
-  const ChartAtlas& atlas = cpu.atlas();
+Status GlProgressive::placeShooters(const ProgressiveRadiosity& cpu,
+                                    std::vector<GpuShooter>& shooters,
+                                    std::vector<GpuShooterPoint>& points, const char* place) {
   const SurfaceHierarchy& hierarchy = cpu.hierarchy();
-  const size_t n = cpu.elementCount();
   const uint32_t ns = uint32_t(cpu.shooterCount());
-  s.element_count_ = n;
-  s.shooter_count_ = ns;
-  s.width_ = atlas.width;
-  s.height_ = atlas.height;
-
-  // ---- Shooters and their points (the CPU's flat substructuring: clusters of one level) ----
-  const int level = options.shooter_level;
-  std::vector<GpuShooterPoint> points;
-  std::vector<GpuShooter> shooters(ns);
-  s.point_first_.assign(ns + 1, 0);
-  s.point_max_area_.assign(ns, 0.0);
-  s.shooter_elements_.resize(ns);
-  s.shooter_normal_.resize(ns);
-  s.shooter_closed_.resize(ns);
-  s.shooter_centre_.resize(ns);
-  s.shooter_radius_.resize(ns);
+  const int level = options_.shooter_level;
+  shooters.resize(ns);
+  point_first_.assign(ns + 1, 0);
+  point_max_area_.assign(ns, 0.0);
+  shooter_elements_.resize(ns);
+  shooter_normal_.resize(ns);
+  shooter_closed_.resize(ns);
+  shooter_centre_.resize(ns);
+  shooter_radius_.resize(ns);
   uint32_t max_points = 0;
   for (uint32_t sh = 0; sh < ns; ++sh) {
     const uint32_t first = cpu.shooterBegin(sh), last = cpu.shooterEnd(sh);
     shooters[sh] = GpuShooter{first, last - first};
-    s.shooter_elements_[sh] = glm::uvec2(first, last - first);
+    shooter_elements_[sh] = glm::uvec2(first, last - first);
     const ClusterRef c = cpu.shooterCluster(sh);
-    s.shooter_normal_[sh] = hierarchy.level(c.level).normal[c.index];
-    s.shooter_closed_[sh] = cpu.shotClosed(sh) ? 1 : 0;
+    shooter_normal_[sh] = hierarchy.level(c.level).normal[c.index];
+    shooter_closed_[sh] = cpu.shotClosed(sh) ? 1 : 0;
     glm::dvec3 centre = hierarchy.level(c.level).position[c.index];
     double radius = 0.0;
     for (uint32_t e = first; e < last; ++e) {
       radius = std::max(radius, glm::length(cpu.elementPosition(e) - centre));
     }
-    s.shooter_centre_[sh] = centre;
-    s.shooter_radius_[sh] = radius;
-    s.point_first_[sh] = uint32_t(points.size());
+    shooter_centre_[sh] = centre;
+    shooter_radius_[sh] = radius;
+    point_first_[sh] = uint32_t(points.size());
     const std::vector<std::pair<uint32_t, uint32_t>> blocks = cpu.shooterBlocks(sh, level);
     for (const auto& [b0, b1] : blocks) {
       glm::dvec3 position(0.0);
@@ -126,30 +132,34 @@ Expected<GlProgressive> GlProgressive::create(const ProgressiveRadiosity& cpu,
       }
       if (!(area > 0.0)) continue;
       // At level 0 a point is its element (its own point, not a mean of one).
-      s.point_position_.push_back(b1 - b0 == 1 ? cpu.elementPosition(b0) : position / area);
-      s.point_area_.push_back(area);
-      s.point_members_.emplace_back(b0, b1 - b0);
+      point_position_.push_back(b1 - b0 == 1 ? cpu.elementPosition(b0) : position / area);
+      point_area_.push_back(area);
+      point_members_.emplace_back(b0, b1 - b0);
       points.push_back(GpuShooterPoint{b0, b1 - b0});
-      s.point_max_area_[sh] = std::max(s.point_max_area_[sh], area);
+      point_max_area_[sh] = std::max(point_max_area_[sh], area);
     }
-    max_points = std::max(max_points, uint32_t(points.size()) - s.point_first_[sh]);
+    max_points = std::max(max_points, uint32_t(points.size()) - point_first_[sh]);
   }
-  s.point_first_[ns] = uint32_t(points.size());
+  point_first_[ns] = uint32_t(points.size());
   if (ceilDiv(max_points, kPointGroup) > kMaxGroups) {
     return inputError(
         "", place, fmt::format("{} points of one shooter exceed the dispatch limits", max_points));
   }
+  return {};
+}
 
-  // ---- The gather (depth maps and receiver passes), with this solver's own textures and
-  // buffers in its one size and memory check ----
-  const uint64_t texels = uint64_t(atlas.width) * uint64_t(atlas.height);
+Status GlProgressive::createGather(const ProgressiveRadiosity& cpu, size_t point_count,
+                                   const char* place) {
+  const size_t n = element_count_;
+  const uint32_t ns = shooter_count_;
+  const uint64_t texels = uint64_t(width_) * uint64_t(height_);
   const uint64_t groups = ceilDiv(std::max<size_t>(n, 1), kResolveGroup);
   const GlBufferNeed own[] = {
       {"texel-to-element map", texels * 4},
       {"element area", uint64_t(n) * 8},
       {"shooter", uint64_t(ns) * sizeof(GpuShooter)},
-      {"shooter point", uint64_t(points.size()) * sizeof(GpuShooterPoint)},
-      {"shooter point power", uint64_t(points.size()) * 32},
+      {"shooter point", uint64_t(point_count) * sizeof(GpuShooterPoint)},
+      {"shooter point power", uint64_t(point_count) * 32},
       {"shooter power", uint64_t(ns) * 32},
       {"resolve sums", groups * sizeof(GpuResolveSums)},
       // Coarse receivers (at most one per element) and the samples of subdivision.
@@ -157,15 +167,18 @@ Expected<GlProgressive> GlProgressive::create(const ProgressiveRadiosity& cpu,
       {"subdivision sample", uint64_t(n) * 4},
   };
   // Radiosity, residual and two radiance atlases (RGBA32F).
-  Expected<GlHemisphereGather> gather = GlHemisphereGather::create(
-      cpu.surface(), gl_options, options.visibility, options.adaptive, place, own, texels * 4 * 16);
+  Expected<GlHemisphereGather> gather =
+      GlHemisphereGather::create(cpu.surface(), gl_options_, options_.visibility, options_.adaptive,
+                                 place, own, texels * 4 * 16);
   if (!gather) return gather.error();
-  s.gather_ = std::move(*gather);
-  s.device_bytes_ = s.gather_.deviceBytes();
+  gather_ = std::move(*gather);
+  device_bytes_ = gather_.deviceBytes();
+  return {};
+}
 
-  // ---- Programs ----
+Status GlProgressive::compilePasses() {
   const char* pass_names[6] = {"power", "select", "points", "resolve", "radiance", "fill"};
-  gl::Program* passes[6] = {&s.power_, &s.select_, &s.points_, &s.resolve_, &s.radiance_, &s.fill_};
+  gl::Program* passes[6] = {&power_, &select_, &points_, &resolve_, &radiance_, &fill_};
   for (int pass = 0; pass < 6; ++pass) {
     Expected<gl::Program> p = gl::computeProgram("radiosity/progressive.comp",
                                                  {fmt::format("PROGRESSIVE_PASS {}", pass)});
@@ -176,8 +189,43 @@ Expected<GlProgressive> GlProgressive::create(const ProgressiveRadiosity& cpu,
     }
     *passes[pass] = std::move(*p);
   }
+  return {};
+}
+
+Expected<GlProgressive> GlProgressive::create(const ProgressiveRadiosity& cpu,
+                                              const GlProgressiveOptions& gl_options) {
+  const ProgressiveOptions& options = cpu.options();
+  // Errors left by earlier work are not ours to report.
+  while (glGetError() != GL_NO_ERROR) continue;
+  const char* place = "progressive radiosity on the GPU";
+  PENUMBRA_TRY(checkCpuSolver(cpu, place));
+
+  GlProgressive s;
+  s.options_ = options;
+  s.gl_options_ = gl_options;
+  const ChartAtlas& atlas = cpu.atlas();
+  const size_t n = cpu.elementCount();
+  const uint32_t ns = uint32_t(cpu.shooterCount());
+  s.element_count_ = n;
+  s.shooter_count_ = ns;
+  s.width_ = atlas.width;
+  s.height_ = atlas.height;
+
+  // ---- Shooters and their points (the CPU's flat substructuring: clusters of one level) ----
+  std::vector<GpuShooterPoint> points;
+  std::vector<GpuShooter> shooters;
+  PENUMBRA_TRY(s.placeShooters(cpu, shooters, points, place));
+
+  // ---- The gather (depth maps and receiver passes), with this solver's own textures and
+  // buffers in its one size and memory check ----
+  PENUMBRA_TRY(s.createGather(cpu, points.size(), place));
+
+  // ---- Programs ----
+  PENUMBRA_TRY(s.compilePasses());
 
   // ---- Per-element and per-texel data ----
+  const uint64_t texels = uint64_t(atlas.width) * uint64_t(atlas.height);
+  const uint64_t groups = ceilDiv(std::max<size_t>(n, 1), kResolveGroup);
   std::vector<double> element_area(n);
   std::vector<int32_t> texel_element(texels, -1);
   glm::dvec3 rho_area(0.0);
@@ -206,17 +254,7 @@ Expected<GlProgressive> GlProgressive::create(const ProgressiveRadiosity& cpu,
   s.residual_ = gl::texture2D(GL_RGBA32F, atlas.width, atlas.height);
   for (gl::Texture& t : s.radiance_maps_) t = gl::texture2D(GL_RGBA32F, atlas.width, atlas.height);
 
-  const GLenum err = glGetError();
-  if (err == GL_OUT_OF_MEMORY) {
-    return runtimeError("", fmt::format("progressive radiosity on the GPU: out of device memory "
-                                        "for {} of textures and buffers",
-                                        formatBytes(s.device_bytes_)));
-  }
-  if (err != GL_NO_ERROR) {
-    return runtimeError(
-        "",
-        fmt::format("OpenGL error 0x{:x} while uploading the progressive radiosity atlas", err));
-  }
+  PENUMBRA_TRY(uploadStatus(s.device_bytes_));
   PENUMBRA_TRY(s.upload(cpu.state()));
   return s;
 }

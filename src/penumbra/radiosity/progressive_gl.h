@@ -196,6 +196,13 @@ class GlProgressive {
 
  private:
   GlProgressive() = default;
+  // Steps of create(): the shooters and their points (the CPU's flat substructuring) into
+  // `shooters` and `points` and the per-shooter data; the gather with this solver's own buffers
+  // and textures in its one size and memory check; the compute passes.
+  Status placeShooters(const ProgressiveRadiosity& cpu, std::vector<GpuShooter>& shooters,
+                       std::vector<GpuShooterPoint>& points, const char* place);
+  Status createGather(const ProgressiveRadiosity& cpu, size_t point_count, const char* place);
+  Status compilePasses();
   // Runs the per-shooter power pass (pass 0).
   void dispatchPower();
   // One receiver pass over the receivers [first, first + count) (or, with `elements`, the

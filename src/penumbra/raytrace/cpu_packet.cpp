@@ -126,10 +126,11 @@ PENUMBRA_AVX2_TARGET inline void trianglePacket(const Packet& p, const TriangleB
   tmax = _mm256_blendv_ps(tmax, t, take);
 }
 
-}  // namespace
-
-PENUMBRA_AVX2_TARGET void tracePacket(const RayEngine& engine, const RayBatch& rays, size_t first,
-                                      HitBatch& hits) {
+// The packet of rays [first, first + 8): origins, safe reciprocal directions and their common
+// signs, and the watertight test's common axis permutation (the first ray's) with each ray's
+// shear.
+[[gnu::always_inline]] PENUMBRA_AVX2_TARGET inline Packet makePacket(const RayBatch& rays,
+                                                                     size_t first) {
   Packet p;
   p.o[0] = loadLanes(rays.ox, first);
   p.o[1] = loadLanes(rays.oy, first);
@@ -152,100 +153,109 @@ PENUMBRA_AVX2_TARGET void tracePacket(const RayEngine& engine, const RayBatch& r
   p.sy = _mm256_load_ps(sy);
   p.sz = _mm256_load_ps(sz);
   p.tmin = loadLanes(rays.tmin, first);
-  __m256 tmax = loadLanes(rays.tmax, first);
+  return p;
+}
 
-  PacketHits h{_mm256_set1_epi32(-1), _mm256_setzero_ps(), _mm256_setzero_ps(),
-               _mm256_setzero_ps()};
-  // The wide quantised tree the single rays walk (accel/wide_bvh.h). A node's children are
-  // tested against all eight rays; each child entered goes with the lanes that entered it and
-  // their entry distances, so a popped entry is culled lane by lane against the hits found
-  // since. Children are visited nearest first, judged by their nearest lane's entry.
-  struct alignas(32) Entry {
-    __m256 mask, t_entry;
-    int32_t ref;
-  };
-  Entry stack[kMaxBvhDepth * 7 + 8];
-  int sp = 0;
-  const LargeVector<Bvh8QNode>& nodes = engine.wideNodes();
-  const __m256 inf = _mm256_set1_ps(std::numeric_limits<float>::infinity());
-  int32_t ref = engine.wideRoot();
-  __m256 mask = _mm256_cmp_ps(p.tmin, tmax, _CMP_LE_OQ);
-  for (;;) {
-    if (bvh8IsLeaf(ref)) {
-      if (ref != Bvh8Node::kEmpty) {
-        const TriangleBlock8& block = engine.blocks()[bvh8LeafIndex(ref)];
-        const uint32_t count = bvh8LeafCount(ref);
-        for (uint32_t lane = 0; lane < count; ++lane) {
-          trianglePacket(p, block, int(lane), mask, h, tmax, rays, first);
-        }
-      }
-    } else {
-      const Bvh8QNode& n = nodes[size_t(ref)];
-      // The children's near and far planes for the packet's direction signs, dequantised
-      // as the single-ray test does (origin + q * scale).
-      alignas(32) float near_plane[3][8], far_plane[3][8];
-      const uint8_t* lo[3] = {n.lo_x, n.lo_y, n.lo_z};
-      const uint8_t* hi[3] = {n.hi_x, n.hi_y, n.hi_z};
-      for (int a = 0; a < 3; ++a) {
-        _mm256_store_ps(near_plane[a],
-                        BoxTester::planeAvx2(p.neg[a] ? hi[a] : lo[a], n.origin[a], n.scale[a]));
-        _mm256_store_ps(far_plane[a],
-                        BoxTester::planeAvx2(p.neg[a] ? lo[a] : hi[a], n.origin[a], n.scale[a]));
-      }
-      int entered = 0;
-      int32_t child_ref[8];
-      __m256 child_mask[8], child_t[8];
-      float key[8];
-      for (uint32_t valid = n.valid; valid; valid &= valid - 1) {
-        const int c = __builtin_ctz(valid);
-        __m256 tn = p.tmin, tf = tmax;
-        for (int a = 0; a < 3; ++a) {
-          tn = _mm256_max_ps(
-              tn, _mm256_mul_ps(_mm256_sub_ps(_mm256_set1_ps(near_plane[a][c]), p.o[a]), p.inv[a]));
-          tf = _mm256_min_ps(
-              tf, _mm256_mul_ps(_mm256_sub_ps(_mm256_set1_ps(far_plane[a][c]), p.o[a]), p.inv[a]));
-        }
-        tf = _mm256_mul_ps(tf, _mm256_set1_ps(kFarScale));
-        const __m256 m = _mm256_and_ps(mask, _mm256_cmp_ps(tn, tf, _CMP_LE_OQ));
-        if (_mm256_movemask_ps(m) == 0) continue;
-        // The nearest entry among the lanes that enter.
-        __m256 t = _mm256_blendv_ps(inf, tn, m);
-        t = _mm256_min_ps(t, _mm256_permute_ps(t, 0b10110001));
-        t = _mm256_min_ps(t, _mm256_permute_ps(t, 0b01001110));
-        t = _mm256_min_ps(t, _mm256_permute2f128_ps(t, t, 1));
-        // Insertion by key, farthest first.
-        const float k = _mm256_cvtss_f32(t);
-        int j = entered++;
-        while (j > 0 && key[j - 1] < k) {
-          key[j] = key[j - 1], child_ref[j] = child_ref[j - 1];
-          child_mask[j] = child_mask[j - 1], child_t[j] = child_t[j - 1];
-          --j;
-        }
-        key[j] = k, child_ref[j] = n.child[c], child_mask[j] = m, child_t[j] = tn;
-      }
-      if (entered > 0) {
-        for (int j = 0; j < entered; ++j) engine.prefetchChild(child_ref[j]);
-        for (int j = 0; j < entered - 1; ++j) {
-          stack[sp++] = Entry{child_mask[j], child_t[j], child_ref[j]};
-        }
-        ref = child_ref[entered - 1];
-        mask = child_mask[entered - 1];
-        continue;
-      }
-    }
-    // The next entry with a lane still entering before its hit.
-    bool found = false;
-    while (sp > 0) {
-      --sp;
-      mask = _mm256_and_ps(stack[sp].mask, _mm256_cmp_ps(stack[sp].t_entry, tmax, _CMP_LE_OQ));
-      if (_mm256_movemask_ps(mask) != 0) {
-        ref = stack[sp].ref;
-        found = true;
-        break;
-      }
-    }
-    if (!found) break;
+// A child entered, with the lanes that entered it and their entry distances: a popped entry is
+// culled lane by lane against the hits found since.
+struct alignas(32) PacketEntry {
+  __m256 mask, t_entry;
+  int32_t ref;
+};
+
+// A leaf's triangles against the packet's lanes in `mask`.
+[[gnu::always_inline]] PENUMBRA_AVX2_TARGET inline void packetLeaf(
+    const RayEngine& engine, int32_t ref, const Packet& p, __m256 mask, PacketHits& h, __m256& tmax,
+    const RayBatch& rays, size_t first) {
+  if (ref == Bvh8Node::kEmpty) return;
+  const TriangleBlock8& block = engine.blocks()[bvh8LeafIndex(ref)];
+  const uint32_t count = bvh8LeafCount(ref);
+  for (uint32_t lane = 0; lane < count; ++lane) {
+    trianglePacket(p, block, int(lane), mask, h, tmax, rays, first);
   }
+}
+
+// A node's children tested against all eight rays (the lanes in `mask`): the children entered
+// go on the stack but the nearest, judged by their nearest lane's entry, which becomes `ref`
+// with its lanes in `mask`. False when none is entered.
+[[gnu::always_inline]] PENUMBRA_AVX2_TARGET inline bool packetChildren(const RayEngine& engine,
+                                                                       const Bvh8QNode& n,
+                                                                       const Packet& p, __m256 tmax,
+                                                                       PacketEntry* stack, int& sp,
+                                                                       int32_t& ref, __m256& mask) {
+  const __m256 inf = _mm256_set1_ps(std::numeric_limits<float>::infinity());
+  // The children's near and far planes for the packet's direction signs, dequantised
+  // as the single-ray test does (origin + q * scale).
+  alignas(32) float near_plane[3][8], far_plane[3][8];
+  const uint8_t* lo[3] = {n.lo_x, n.lo_y, n.lo_z};
+  const uint8_t* hi[3] = {n.hi_x, n.hi_y, n.hi_z};
+  for (int a = 0; a < 3; ++a) {
+    _mm256_store_ps(near_plane[a],
+                    BoxTester::planeAvx2(p.neg[a] ? hi[a] : lo[a], n.origin[a], n.scale[a]));
+    _mm256_store_ps(far_plane[a],
+                    BoxTester::planeAvx2(p.neg[a] ? lo[a] : hi[a], n.origin[a], n.scale[a]));
+  }
+  int entered = 0;
+  int32_t child_ref[8];
+  __m256 child_mask[8], child_t[8];
+  float key[8];
+  for (uint32_t valid = n.valid; valid; valid &= valid - 1) {
+    const int c = __builtin_ctz(valid);
+    __m256 tn = p.tmin, tf = tmax;
+    for (int a = 0; a < 3; ++a) {
+      tn = _mm256_max_ps(
+          tn, _mm256_mul_ps(_mm256_sub_ps(_mm256_set1_ps(near_plane[a][c]), p.o[a]), p.inv[a]));
+      tf = _mm256_min_ps(
+          tf, _mm256_mul_ps(_mm256_sub_ps(_mm256_set1_ps(far_plane[a][c]), p.o[a]), p.inv[a]));
+    }
+    tf = _mm256_mul_ps(tf, _mm256_set1_ps(kFarScale));
+    const __m256 m = _mm256_and_ps(mask, _mm256_cmp_ps(tn, tf, _CMP_LE_OQ));
+    if (_mm256_movemask_ps(m) == 0) continue;
+    // The nearest entry among the lanes that enter.
+    __m256 t = _mm256_blendv_ps(inf, tn, m);
+    t = _mm256_min_ps(t, _mm256_permute_ps(t, 0b10110001));
+    t = _mm256_min_ps(t, _mm256_permute_ps(t, 0b01001110));
+    t = _mm256_min_ps(t, _mm256_permute2f128_ps(t, t, 1));
+    // Insertion by key, farthest first.
+    const float k = _mm256_cvtss_f32(t);
+    int j = entered++;
+    while (j > 0 && key[j - 1] < k) {
+      key[j] = key[j - 1], child_ref[j] = child_ref[j - 1];
+      child_mask[j] = child_mask[j - 1], child_t[j] = child_t[j - 1];
+      --j;
+    }
+    key[j] = k, child_ref[j] = n.child[c], child_mask[j] = m, child_t[j] = tn;
+  }
+  if (entered == 0) return false;
+  for (int j = 0; j < entered; ++j) engine.prefetchChild(child_ref[j]);
+  for (int j = 0; j < entered - 1; ++j) {
+    stack[sp++] = PacketEntry{child_mask[j], child_t[j], child_ref[j]};
+  }
+  ref = child_ref[entered - 1];
+  mask = child_mask[entered - 1];
+  return true;
+}
+
+// The next entry with a lane still entering before its hit (its reference and lanes into `ref`
+// and `mask`); false when the stack runs out.
+[[gnu::always_inline]] PENUMBRA_AVX2_TARGET inline bool popPacketEntry(const PacketEntry* stack,
+                                                                       int& sp, __m256 tmax,
+                                                                       int32_t& ref, __m256& mask) {
+  while (sp > 0) {
+    --sp;
+    mask = _mm256_and_ps(stack[sp].mask, _mm256_cmp_ps(stack[sp].t_entry, tmax, _CMP_LE_OQ));
+    if (_mm256_movemask_ps(mask) != 0) {
+      ref = stack[sp].ref;
+      return true;
+    }
+  }
+  return false;
+}
+
+// The packet's hits to hits[first, first + 8).
+[[gnu::always_inline]] PENUMBRA_AVX2_TARGET inline void storePacketHits(const PacketHits& h,
+                                                                        size_t first,
+                                                                        HitBatch& hits) {
   alignas(32) int32_t id[8];
   alignas(32) float t[8], u[8], v[8];
   _mm256_store_si256(reinterpret_cast<__m256i*>(id), h.id);
@@ -255,6 +265,35 @@ PENUMBRA_AVX2_TARGET void tracePacket(const RayEngine& engine, const RayBatch& r
   for (int k = 0; k < 8; ++k) {
     hits.set(first + size_t(k), id[k] >= 0 ? Hit{id[k], t[k], u[k], v[k]} : Hit{});
   }
+}
+
+}  // namespace
+
+PENUMBRA_AVX2_TARGET void tracePacket(const RayEngine& engine, const RayBatch& rays, size_t first,
+                                      HitBatch& hits) {
+  const Packet p = makePacket(rays, first);
+  __m256 tmax = loadLanes(rays.tmax, first);
+
+  PacketHits h{_mm256_set1_epi32(-1), _mm256_setzero_ps(), _mm256_setzero_ps(),
+               _mm256_setzero_ps()};
+  // The wide quantised tree the single rays walk (accel/wide_bvh.h). A node's children are
+  // tested against all eight rays; each child entered goes with the lanes that entered it and
+  // their entry distances, so a popped entry is culled lane by lane against the hits found
+  // since. Children are visited nearest first, judged by their nearest lane's entry.
+  PacketEntry stack[kMaxBvhDepth * 7 + 8];
+  int sp = 0;
+  const LargeVector<Bvh8QNode>& nodes = engine.wideNodes();
+  int32_t ref = engine.wideRoot();
+  __m256 mask = _mm256_cmp_ps(p.tmin, tmax, _CMP_LE_OQ);
+  for (;;) {
+    if (bvh8IsLeaf(ref)) {
+      packetLeaf(engine, ref, p, mask, h, tmax, rays, first);
+    } else if (packetChildren(engine, nodes[size_t(ref)], p, tmax, stack, sp, ref, mask)) {
+      continue;
+    }
+    if (!popPacketEntry(stack, sp, tmax, ref, mask)) break;
+  }
+  storePacketHits(h, first, hits);
 }
 
 #else

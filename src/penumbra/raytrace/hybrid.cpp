@@ -146,136 +146,190 @@ void HybridRayEngine::traverse(uint32_t start, const Ray& ray, Hit& hit,
   }
 }
 
-Status HybridRayEngine::intersect(const RayBatch& rays, HitBatch& hits, HybridStats* stats) const {
-  const size_t n = rays.size();
-  const uint32_t r_min = options_.r_min, capacity = options_.cache_rays;
-  std::vector<Hit> best(n);
-  HybridStats local;
-  local.gpu_cells = cells_.size();
+namespace {
 
-  struct Pending {
-    GlRasterKernel::Job job;
-    std::vector<uint32_t> rays;
-  };
-  std::deque<Pending> pending;
-  std::vector<std::vector<uint32_t>> spare;  // ray lists of collected jobs, for reuse
-  std::vector<Hit> out(size_t(gpu_.tile()) * size_t(gpu_.tile()));
-  auto collectOne = [&](Pending& p) {
-    gpu_.collect(p.job, out.data());
-    for (size_t k = 0; k < p.rays.size(); ++k) keepNearest(best[p.rays[k]], out[k]);
-    spare.push_back(std::move(p.rays));
-  };
-  // Collect what the GPU has finished, without waiting.
-  auto collectReady = [&] {
-    while (!pending.empty() && GlRasterKernel::ready(pending.front().job)) {
-      collectOne(pending.front());
-      pending.pop_front();
-    }
-  };
+// A GPU job in flight and the rays it carries.
+struct Pending {
+  GlRasterKernel::Job job;
+  std::vector<uint32_t> rays;
+};
 
-  // The ray cache of each GPU cell that rays entered (sec. 5.3, 6.2), made on the first ray:
-  // cells without rays cost nothing. Cache ids number the rays a cell received; ray_of maps
-  // them back to ray indices.
-  struct CellCache {
-    uint32_t cell;
-    RayCache cache;
-    std::vector<uint32_t> ray_of;   // cache id -> ray index
-    std::vector<uint32_t> arrived;  // rays of the current chunk, in order, not yet inserted
-  };
-  std::vector<CellCache> active;
-  std::vector<int32_t> active_of(cells_.size(), -1);  // cell -> index in `active`
-  std::vector<uint32_t> bucket;
+// The ray cache of each GPU cell that rays entered (sec. 5.3, 6.2), made on the first ray:
+// cells without rays cost nothing. Cache ids number the rays a cell received; ray_of maps
+// them back to ray indices.
+struct CellCache {
+  uint32_t cell;
+  RayCache cache;
+  std::vector<uint32_t> ray_of;   // cache id -> ray index
+  std::vector<uint32_t> arrived;  // rays of the current chunk, in order, not yet inserted
+};
 
-  // Takes the cache's fullest bucket (exactly R_min rays) to the GPU with the cell's triangles.
-  auto submitBucket = [&](CellCache& cc) -> Status {
-    cc.cache.nextBucket(bucket);
-    PENUMBRA_CHECK(bucket.size() == r_min);
-    std::vector<uint32_t> ray_indices;
-    if (!spare.empty()) {
-      ray_indices = std::move(spare.back());
-      spare.pop_back();
-    }
-    ray_indices.clear();
-    for (uint32_t id : bucket) ray_indices.push_back(cc.ray_of[id]);
-    const Cell& cell = cells_[cc.cell];
-    Expected<GlRasterKernel::Job> job = gpu_.submit(rays, ray_indices, cell.first, cell.count);
-    if (!job) return job.error();
-    if (stats) {
-      local.gpu_triangles += cell.count;
-      local.gpu_triangles_culled += gpu_.culledTriangles(job->bound, cell.first, cell.count);
-    }
-    pending.push_back({std::move(*job), std::move(ray_indices)});
-    ++local.gpu_batches;
-    local.gpu_ray_cells += r_min;
-    return {};
-  };
+}  // namespace
 
-  constexpr size_t kChunk = 4096;
-  std::vector<std::vector<uint32_t>> cells_of(kChunk);
-  std::vector<uint32_t> touched;  // indices in `active` with arrivals in this chunk
-  for (size_t begin = 0; begin < n; begin += kChunk) {
-    const size_t m = std::min(kChunk, n - begin);
-    // CPU: traverse, intersecting non-cell leaves, noting the cells each ray enters.
+// One intersect() call: the nearest hit so far per ray, the GPU jobs in flight and the caches
+// of the cells rays entered.
+class HybridRayEngine::Batch {
+ public:
+  static constexpr size_t kChunk = 4096;
+
+  Batch(const HybridRayEngine& engine, const RayBatch& rays, HybridStats* stats)
+      : engine_(engine),
+        rays_(rays),
+        stats_(stats),
+        best_(rays.size()),
+        out_(size_t(engine.gpu_.tile()) * size_t(engine.gpu_.tile())),
+        active_of_(engine.cells_.size(), -1),
+        cells_of_(kChunk) {
+    local_.gpu_cells = engine.cells_.size();
+  }
+
+  // CPU: traverse, intersecting non-cell leaves, noting the cells each ray enters.
+  void traverseChunk(size_t begin, size_t m) {
     parallelRange(m, 64, [&](size_t b, size_t e) {
       for (size_t i = b; i < e; ++i) {
-        cells_of[i].clear();
+        cells_of_[i].clear();
         Hit h;
-        traverse(0, rays.get(begin + i), h, &cells_of[i]);
-        best[begin + i] = h;
+        engine_.traverse(0, rays_.get(begin + i), h, &cells_of_[i]);
+        best_[begin + i] = h;
       }
     });
-    touched.clear();
+  }
+
+  // The chunk's rays as arrivals at the caches of the cells they entered, in order.
+  void noteArrivals(size_t begin, size_t m) {
+    touched_.clear();
     for (size_t i = 0; i < m; ++i) {
-      for (uint32_t c : cells_of[i]) {
-        if (active_of[c] < 0) {
-          active_of[c] = int32_t(active.size());
-          active.push_back({c, RayCache(RayCacheOptions{r_min, c}), {}, {}});
+      for (uint32_t c : cells_of_[i]) {
+        if (active_of_[c] < 0) {
+          active_of_[c] = int32_t(active_.size());
+          active_.push_back({c, RayCache(RayCacheOptions{engine_.options_.r_min, c}), {}, {}});
         }
-        CellCache& cc = active[size_t(active_of[c])];
-        if (cc.arrived.empty()) touched.push_back(uint32_t(active_of[c]));
+        CellCache& cc = active_[size_t(active_of_[c])];
+        if (cc.arrived.empty()) touched_.push_back(uint32_t(active_of_[c]));
         cc.arrived.push_back(uint32_t(begin + i));
       }
     }
-    // "As rays are generated, they are added to the cache" (sec. 5.3), each chunk's arrivals in
-    // a random order; whenever the cache is full its fullest bucket goes to the GPU.
-    for (uint32_t a : touched) {
-      CellCache& cc = active[a];
+  }
+
+  // "As rays are generated, they are added to the cache" (sec. 5.3), each chunk's arrivals in
+  // a random order; whenever the cache is full its fullest bucket goes to the GPU.
+  Status cacheArrivals() {
+    const uint32_t capacity = engine_.options_.cache_rays;
+    for (uint32_t a : touched_) {
+      CellCache& cc = active_[a];
       for (size_t k = 0; k < cc.arrived.size();) {
         const size_t take = std::min(cc.arrived.size() - k, size_t(capacity) - cc.cache.size());
         const std::span<const uint32_t> part(cc.arrived.data() + k, take);
-        cc.cache.insert(rays, part);
+        cc.cache.insert(rays_, part);
         cc.ray_of.insert(cc.ray_of.end(), part.begin(), part.end());
         k += take;
         while (cc.cache.size() >= capacity) PENUMBRA_TRY(submitBucket(cc));
       }
       cc.arrived.clear();
     }
-    collectReady();
+    return {};
   }
+
+  // Collect what the GPU has finished, without waiting.
+  void collectReady() {
+    while (!pending_.empty() && GlRasterKernel::ready(pending_.front().job)) {
+      collectOne(pending_.front());
+      pending_.pop_front();
+    }
+  }
+
   // The ray tracer needs a result: full buckets go to the GPU, the short remainder of each
   // cache is forced to the CPU (sec. 6.2) while the GPU finishes.
-  std::vector<std::pair<uint32_t, uint32_t>> forced;  // (ray, cell)
-  for (CellCache& cc : active) {
-    while (cc.cache.size() >= r_min) PENUMBRA_TRY(submitBucket(cc));
-    cc.cache.nextBucket(bucket);
-    for (uint32_t id : bucket) forced.emplace_back(cc.ray_of[id], cc.cell);
-    collectReady();
-  }
-  local.forced_ray_cells = forced.size();
-  std::vector<Hit> forced_hits(forced.size());
-  parallelRange(forced.size(), 64, [&](size_t b, size_t e) {
-    for (size_t i = b; i < e; ++i) {
-      Hit h;
-      traverse(cells_[forced[i].second].node, rays.get(forced[i].first), h, nullptr);
-      forced_hits[i] = h;
+  Status drain() {
+    std::vector<std::pair<uint32_t, uint32_t>> forced;  // (ray, cell)
+    for (CellCache& cc : active_) {
+      while (cc.cache.size() >= engine_.options_.r_min) PENUMBRA_TRY(submitBucket(cc));
+      cc.cache.nextBucket(bucket_);
+      for (uint32_t id : bucket_) forced.emplace_back(cc.ray_of[id], cc.cell);
+      collectReady();
     }
-  });
-  for (size_t i = 0; i < forced.size(); ++i) keepNearest(best[forced[i].first], forced_hits[i]);
-  for (Pending& p : pending) collectOne(p);
+    local_.forced_ray_cells = forced.size();
+    std::vector<Hit> forced_hits(forced.size());
+    parallelRange(forced.size(), 64, [&](size_t b, size_t e) {
+      for (size_t i = b; i < e; ++i) {
+        Hit h;
+        engine_.traverse(engine_.cells_[forced[i].second].node, rays_.get(forced[i].first), h,
+                         nullptr);
+        forced_hits[i] = h;
+      }
+    });
+    for (size_t i = 0; i < forced.size(); ++i) keepNearest(best_[forced[i].first], forced_hits[i]);
+    for (Pending& p : pending_) collectOne(p);
+    return {};
+  }
 
-  hits.resize(n);
-  for (size_t i = 0; i < n; ++i) hits.set(i, best[i]);
-  if (stats) *stats = local;
+  void write(HitBatch& hits) const {
+    hits.resize(rays_.size());
+    for (size_t i = 0; i < rays_.size(); ++i) hits.set(i, best_[i]);
+    if (stats_) *stats_ = local_;
+  }
+
+ private:
+  void collectOne(Pending& p) {
+    engine_.gpu_.collect(p.job, out_.data());
+    for (size_t k = 0; k < p.rays.size(); ++k) keepNearest(best_[p.rays[k]], out_[k]);
+    spare_.push_back(std::move(p.rays));
+  }
+
+  // Takes the cache's fullest bucket (exactly R_min rays) to the GPU with the cell's triangles.
+  Status submitBucket(CellCache& cc) {
+    const uint32_t r_min = engine_.options_.r_min;
+    cc.cache.nextBucket(bucket_);
+    PENUMBRA_CHECK(bucket_.size() == r_min);
+    std::vector<uint32_t> ray_indices;
+    if (!spare_.empty()) {
+      ray_indices = std::move(spare_.back());
+      spare_.pop_back();
+    }
+    ray_indices.clear();
+    for (uint32_t id : bucket_) ray_indices.push_back(cc.ray_of[id]);
+    const Cell& cell = engine_.cells_[cc.cell];
+    Expected<GlRasterKernel::Job> job =
+        engine_.gpu_.submit(rays_, ray_indices, cell.first, cell.count);
+    if (!job) return job.error();
+    if (stats_) {
+      local_.gpu_triangles += cell.count;
+      local_.gpu_triangles_culled +=
+          engine_.gpu_.culledTriangles(job->bound, cell.first, cell.count);
+    }
+    pending_.push_back({std::move(*job), std::move(ray_indices)});
+    ++local_.gpu_batches;
+    local_.gpu_ray_cells += r_min;
+    return {};
+  }
+
+  const HybridRayEngine& engine_;
+  const RayBatch& rays_;
+  HybridStats* stats_;
+  HybridStats local_;
+  std::vector<Hit> best_;
+  std::deque<Pending> pending_;
+  std::vector<std::vector<uint32_t>> spare_;  // ray lists of collected jobs, for reuse
+  std::vector<Hit> out_;
+  std::vector<CellCache> active_;
+  std::vector<int32_t> active_of_;  // cell -> index in `active_`
+  std::vector<uint32_t> bucket_;
+  std::vector<std::vector<uint32_t>> cells_of_;  // per ray of the chunk: the cells it entered
+  std::vector<uint32_t> touched_;                // indices in `active_` with arrivals in this chunk
+};
+
+Status HybridRayEngine::intersect(const RayBatch& rays, HitBatch& hits, HybridStats* stats) const {
+  const size_t n = rays.size();
+  Batch batch(*this, rays, stats);
+  for (size_t begin = 0; begin < n; begin += Batch::kChunk) {
+    const size_t m = std::min(Batch::kChunk, n - begin);
+    batch.traverseChunk(begin, m);
+    batch.noteArrivals(begin, m);
+    PENUMBRA_TRY(batch.cacheArrivals());
+    batch.collectReady();
+  }
+  PENUMBRA_TRY(batch.drain());
+  batch.write(hits);
   return {};
 }
 

@@ -62,6 +62,7 @@ class HybridRayEngine {
   const HybridOptions& options() const { return options_; }  // cache_rays resolved
 
  private:
+  class Batch;  // one intersect() call's state (hybrid.cpp)
   struct Cell {
     uint32_t node;   // canonical BVH node at the cell's root
     uint32_t first;  // its triangles are slots [first, first + count) in leaf order

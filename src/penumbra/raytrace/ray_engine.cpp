@@ -126,6 +126,34 @@ PENUMBRA_AVX2_TARGET inline int32_t pushChildrenAvx2(const Bvh8QNode& node, uint
 }
 #endif
 
+namespace {
+
+// The block's `count` triangles against the ray within [tmin, tmax]: bit i set for a hit of
+// triangle i, with its t, u, v.
+template <bool kAvx2>
+[[gnu::always_inline]] inline uint32_t intersectLeaf(const WatertightRay& wr,
+                                                     const TriangleBlock8& block, uint32_t count,
+                                                     float tmin, float tmax, float* t, float* u,
+                                                     float* v) {
+#if PENUMBRA_HAVE_AVX2_KERNELS
+  if constexpr (kAvx2) return intersectBlockAvx2(wr, block, count, tmin, tmax, t, u, v);
+#endif
+  return intersectBlockScalar(wr, block, count, tmin, tmax, t, u, v);
+}
+
+// The node's children against the ray within [tmin, tmax]: bit i set when child i is entered,
+// at t_near[i].
+template <bool kAvx2>
+[[gnu::always_inline]] inline uint32_t testChildren(const BoxTester& boxes, const Bvh8QNode& node,
+                                                    float tmin, float tmax, float* t_near) {
+#if PENUMBRA_HAVE_AVX2_KERNELS
+  if constexpr (kAvx2) return boxes.testAvx2(node, tmin, tmax, t_near);
+#endif
+  return boxes.testScalar(node, tmin, tmax, t_near);
+}
+
+}  // namespace
+
 template <bool kAnyHit, bool kAvx2>
 [[gnu::always_inline]] inline bool RayEngine::traverseBody(const Ray& ray, Hit& hit) const {
   if (root_ == Bvh8Node::kEmpty || !(ray.tmin <= ray.tmax)) return false;
@@ -155,15 +183,8 @@ template <bool kAnyHit, bool kAvx2>
           have_wr = true;
         }
         alignas(32) float t[8], u[8], v[8];
-        uint32_t mask;
-#if PENUMBRA_HAVE_AVX2_KERNELS
-        if constexpr (kAvx2) {
-          mask = intersectBlockAvx2(wr, block, bvh8LeafCount(ref), ray.tmin, tmax, t, u, v);
-        } else
-#endif
-        {
-          mask = intersectBlockScalar(wr, block, bvh8LeafCount(ref), ray.tmin, tmax, t, u, v);
-        }
+        uint32_t mask =
+            intersectLeaf<kAvx2>(wr, block, bvh8LeafCount(ref), ray.tmin, tmax, t, u, v);
         if constexpr (kAnyHit) {
           if (mask) return true;
         }
@@ -181,15 +202,7 @@ template <bool kAnyHit, bool kAvx2>
         break;
       }
       const Bvh8QNode& node = nodes_[size_t(ref)];
-      uint32_t mask;
-#if PENUMBRA_HAVE_AVX2_KERNELS
-      if constexpr (kAvx2) {
-        mask = boxes.testAvx2(node, ray.tmin, tmax, t_near);
-      } else
-#endif
-      {
-        mask = boxes.testScalar(node, ray.tmin, tmax, t_near);
-      }
+      uint32_t mask = testChildren<kAvx2>(boxes, node, ray.tmin, tmax, t_near);
       if (mask == 0) break;
       // Start fetching every child entered: their lines arrive while this node is sorted and
       // the nearest child visited.

@@ -41,6 +41,214 @@ constexpr size_t kMaxGeneration = size_t(1) << 17;
 // keeps at most about 1 / kFaintBranch rays per generation for each camera ray.
 constexpr float kFaintBranch = 1e-4f;
 
+// The camera rays of a wave (rows from y0, `samples` of them), jittered within their pixels.
+void cameraRays(const CameraRays& cam, uint64_t seed, size_t width, size_t spp, size_t y0,
+                size_t samples, std::vector<TreeNode>& nodes) {
+  nodes.resize(samples);
+  parallelRange(samples, 1024, [&](size_t b, size_t e) {
+    for (size_t i = b; i < e; ++i) {
+      const size_t local_pixel = i / spp, s = i % spp;
+      const size_t x = local_pixel % width, y = y0 + local_pixel / width;
+      const uint64_t key = mixBits((uint64_t(y) * width + x) * spp + s + 1);
+      Rng rng(seed, key);
+      const float jx = rng.uniform(), jy = rng.uniform();
+      nodes[i] =
+          TreeNode{cam.ray(float(x) + jx, float(y) + jy), glm::vec3(1.0f), uint32_t(i), 0, key};
+    }
+  });
+}
+
+// The ray trees of a wave of pixel samples, generation by generation, into sample_sum; the
+// buffers are reused by every generation.
+class WaveTracer {
+ public:
+  WaveTracer(const WhittedTracer& tracer, const glm::vec3& environment,
+             const WhittedSettings& settings, RayQueries& queries, WhittedStats& stats,
+             const DiffuseShading& shading, uint64_t seed, size_t cap)
+      : tracer_(tracer),
+        environment_(environment),
+        settings_(settings),
+        queries_(queries),
+        stats_(stats),
+        shading_(shading),
+        seed_(seed),
+        cap_(cap) {}
+
+  std::vector<glm::vec3> sample_sum;  // per pixel sample of the wave
+
+  // One generation: its rays, its shading and shadow rays, then its children, chunk by chunk,
+  // each chunk with all its descendants.
+  Status generation(const std::vector<TreeNode>& nodes) {
+    throwIfInterrupted();  // a caller of the library asked to stop (core/interrupt.h)
+    const size_t n = nodes.size();
+    if (n == 0) return {};
+    // 1. This generation's rays, as one batch.
+    batch_.resize(n);
+    for (size_t k = 0; k < n; ++k) batch_.set(k, nodes[k].ray);
+    PENUMBRA_TRY(queries_.intersect(batch_, hits_));
+    stats_.rays += n;
+    // 2. Shade: emission and the environment, the children of mirrors and glass, the shadow
+    //    queries of diffuse vertices.
+    value_.assign(n, glm::vec3(0.0f));
+    diffuse_.assign(n, 0);
+    child_offset_.assign(n + 1, 0);
+    shadow_.resize(n * cap_);
+    shadow_count_.assign(n, 0);
+    if (vertices_.size() < n) vertices_.resize(n);
+    std::vector<std::array<TreeNode, 2>> children(n);
+    parallelRange(n, 256, [&](size_t b, size_t e) {
+      for (size_t k = b; k < e; ++k) shade(nodes[k], k, children[k]);
+    });
+    // 3. The shadow rays, as one batch.
+    PENUMBRA_TRY(traceShadowRays(n));
+    // 4. The hook's radiance at this generation's diffuse vertices.
+    PENUMBRA_TRY(addShading(nodes));
+    // 5. Sum into the pixel samples in node order (so any thread count gives the same sums).
+    for (size_t k = 0; k < n; ++k) {
+      glm::vec3 direct(0.0f);
+      for (int q = 0; q < shadow_count_[k]; ++q) direct += shadow_[k * cap_ + size_t(q)].value;
+      stats_.diffuse_vertices += diffuse_[k];
+      sample_sum[nodes[k].sample] += value_[k] + nodes[k].weight * direct;
+    }
+    // 6. The next generation: the reflected and refracted rays, in their parents' order.
+    const std::vector<TreeNode> next = nextGeneration(children);
+    for (size_t c0 = 0; c0 < next.size(); c0 += kMaxGeneration) {
+      const size_t c1 = std::min(next.size(), c0 + kMaxGeneration);
+      const std::vector<TreeNode> chunk(next.begin() + std::ptrdiff_t(c0),
+                                        next.begin() + std::ptrdiff_t(c1));
+      PENUMBRA_TRY(generation(chunk));
+    }
+    return {};
+  }
+
+ private:
+  // Node k's hit: its emission or the environment, its reflected and refracted rays (kept in
+  // `children` until the generation's order is known), or its diffuse vertex's shadow queries.
+  void shade(const TreeNode& node, size_t k, std::array<TreeNode, 2>& children) {
+    const Hit hit = hits_.get(k);
+    if (!hit.hit()) {
+      value_[k] = node.weight * environment_;
+      return;
+    }
+    const SurfaceHit h = tracer_.geometry().surfaceHit(hit, node.ray.dir);
+    const Material& mat = *h.material;
+    if (mat.isEmissive() && h.front) value_[k] = node.weight * mat.emission;
+    if (mat.isSpecular()) {
+      if (node.depth >= settings_.max_depth) return;
+      // The reflected and refracted rays, kept until the generation's order is known.
+      const SpecularLobes lobes = specularLobes(mat, h.geometric_normal, h.dir);
+      for (int l = 0; l < lobes.count; ++l) {
+        const SpecularLobe& lobe = lobes.lobe[l];
+        children[size_t(l)] =
+            TreeNode{Ray{offsetOrigin(h.point, h.offset, h.geometric_normal, lobe.dir), 0.0f,
+                         lobe.dir, kRayInfinity},
+                     node.weight * lobe.weight, node.sample, node.depth + 1,
+                     mixBits(node.key * 2 + uint64_t(l) + 1)};
+      }
+      child_offset_[k + 1] = uint32_t(lobes.count);
+      return;
+    }
+    if (mat.reflectance == glm::vec3(0.0f)) return;
+    if (!mat.two_sided && !h.front) return;
+    DiffuseVertex& v = vertices_[k];
+    v.point = h.point;
+    v.offset = h.offset;
+    v.normal = h.normal;
+    v.reflectance = mat.reflectance;
+    v.key = node.key;
+    diffuse_[k] = 1;
+    Rng rng(seed_, node.key);
+    rng.advance(2);  // past the camera jitter of a root
+    shadow_count_[k] = tracer_.directQueries(v, settings_.light_samples, rng, &shadow_[k * cap_]);
+  }
+
+  // The shadow queries of the generation's n nodes that need a ray, traced as one batch; the
+  // occluded ones bring nothing.
+  Status traceShadowRays(size_t n) {
+    shadow_slot_.clear();
+    for (size_t k = 0; k < n; ++k) {
+      for (int q = 0; q < shadow_count_[k]; ++q) {
+        if (shadow_[k * cap_ + size_t(q)].trace) shadow_slot_.push_back(k * cap_ + size_t(q));
+      }
+    }
+    batch_.resize(shadow_slot_.size());
+    for (size_t j = 0; j < shadow_slot_.size(); ++j) batch_.set(j, shadow_[shadow_slot_[j]].ray);
+    PENUMBRA_TRY(queries_.occluded(batch_, occluded_));
+    stats_.shadow_rays += shadow_slot_.size();
+    for (size_t j = 0; j < shadow_slot_.size(); ++j) {
+      if (occluded_[j]) shadow_[shadow_slot_[j]].value = glm::vec3(0.0f);
+    }
+    return {};
+  }
+
+  // The shading hook's radiance at the diffuse vertices, added to their nodes' values.
+  Status addShading(const std::vector<TreeNode>& nodes) {
+    if (!shading_) return {};
+    const size_t n = nodes.size();
+    vertex_node_.clear();
+    for (size_t k = 0; k < n; ++k) {
+      if (diffuse_[k]) vertex_node_.push_back(uint32_t(k));
+    }
+    std::vector<DiffuseVertex> batch_vertices(vertex_node_.size());
+    for (size_t j = 0; j < vertex_node_.size(); ++j) batch_vertices[j] = vertices_[vertex_node_[j]];
+    extra_.assign(vertex_node_.size(), glm::vec3(0.0f));
+    PENUMBRA_TRY(shading_(batch_vertices, extra_, queries_));
+    for (size_t j = 0; j < vertex_node_.size(); ++j) {
+      value_[vertex_node_[j]] += nodes[vertex_node_[j]].weight * extra_[j];
+    }
+    return {};
+  }
+
+  // The children of the generation's nodes, in their parents' order.
+  std::vector<TreeNode> nextGeneration(const std::vector<std::array<TreeNode, 2>>& children) {
+    const size_t n = children.size();
+    for (size_t k = 0; k < n; ++k) child_offset_[k + 1] += child_offset_[k];
+    std::vector<TreeNode> next(child_offset_[n]);
+    for (size_t k = 0; k < n; ++k) {
+      for (uint32_t l = 0; l < child_offset_[k + 1] - child_offset_[k]; ++l) {
+        next[child_offset_[k] + l] = children[k][l];
+      }
+    }
+    // Children that carry nothing (a black mirror) are dropped; faint ones go on by Russian
+    // roulette.
+    size_t kept = 0;
+    for (TreeNode& c : next) {
+      const float w = std::max({c.weight.x, c.weight.y, c.weight.z});
+      if (!(w > 0.0f)) continue;
+      if (w < kFaintBranch) {
+        Rng rng(seed_, c.key);
+        if (rng.uniform() * kFaintBranch >= w) continue;
+        c.weight *= kFaintBranch / w;
+      }
+      next[kept++] = c;
+    }
+    next.resize(kept);
+    return next;
+  }
+
+  const WhittedTracer& tracer_;
+  const glm::vec3 environment_;
+  const WhittedSettings& settings_;
+  RayQueries& queries_;
+  WhittedStats& stats_;
+  const DiffuseShading& shading_;
+  const uint64_t seed_;
+  const size_t cap_;  // shadow queries per node
+
+  std::vector<glm::vec3> value_;  // per node: what it adds to its sample
+  std::vector<uint8_t> diffuse_;  // per node: it ended on a diffuse surface
+  std::vector<DiffuseVertex> vertices_;
+  std::vector<uint32_t> vertex_node_;
+  std::vector<glm::vec3> extra_;
+  std::vector<uint32_t> child_offset_;
+  std::vector<ShadowQuery> shadow_;
+  std::vector<int> shadow_count_;
+  std::vector<size_t> shadow_slot_;
+  std::vector<uint8_t> occluded_;
+  RayBatch batch_;
+  HitBatch hits_;
+};
+
 }  // namespace
 
 WhittedTracer::WhittedTracer(const Scene& scene)
@@ -115,170 +323,19 @@ Status WhittedTracer::renderRows(const Camera& camera, const WhittedSettings& se
   const size_t rows_per_wave = std::max<size_t>(1, kWaveQueries / cap / (width * spp));
   const uint64_t seed = mixBits(settings.seed);
 
+  WaveTracer wave(*this, environment_, settings, queries, stats, shading, seed, cap);
   std::vector<TreeNode> nodes;
-  std::vector<glm::vec3> sample_sum;  // per pixel sample of the wave
-  std::vector<glm::vec3> value;       // per node: what it adds to its sample
-  std::vector<uint8_t> diffuse;       // per node: it ended on a diffuse surface
-  std::vector<DiffuseVertex> vertices;
-  std::vector<uint32_t> vertex_node;
-  std::vector<glm::vec3> extra;
-  std::vector<uint32_t> child_offset;
-  std::vector<ShadowQuery> shadow;
-  std::vector<int> shadow_count;
-  std::vector<size_t> shadow_slot;
-  std::vector<uint8_t> occluded;
-  RayBatch batch;
-  HitBatch hits;
-
   for (size_t y0 = size_t(y_begin); y0 < size_t(y_end); y0 += rows_per_wave) {
     const size_t y1 = std::min(size_t(y_end), y0 + rows_per_wave);
     const size_t samples = (y1 - y0) * width * spp;
-    sample_sum.assign(samples, glm::vec3(0.0f));
+    wave.sample_sum.assign(samples, glm::vec3(0.0f));
     // The camera rays, jittered within their pixels.
-    nodes.resize(samples);
-    parallelRange(samples, 1024, [&](size_t b, size_t e) {
-      for (size_t i = b; i < e; ++i) {
-        const size_t local_pixel = i / spp, s = i % spp;
-        const size_t x = local_pixel % width, y = y0 + local_pixel / width;
-        const uint64_t key = mixBits((uint64_t(y) * width + x) * spp + s + 1);
-        Rng rng(seed, key);
-        const float jx = rng.uniform(), jy = rng.uniform();
-        nodes[i] =
-            TreeNode{cam.ray(float(x) + jx, float(y) + jy), glm::vec3(1.0f), uint32_t(i), 0, key};
-      }
-    });
-    // One generation: its rays, its shading and shadow rays, then its children, chunk by chunk,
-    // each chunk with all its descendants.
-    std::function<Status(const std::vector<TreeNode>&)> generation =
-        [&](const std::vector<TreeNode>& nodes) -> Status {
-      throwIfInterrupted();  // a caller of the library asked to stop (core/interrupt.h)
-      const size_t n = nodes.size();
-      if (n == 0) return {};
-      // 1. This generation's rays, as one batch.
-      batch.resize(n);
-      for (size_t k = 0; k < n; ++k) batch.set(k, nodes[k].ray);
-      PENUMBRA_TRY(queries.intersect(batch, hits));
-      stats.rays += n;
-      // 2. Shade: emission and the environment, the children of mirrors and glass, the shadow
-      //    queries of diffuse vertices.
-      value.assign(n, glm::vec3(0.0f));
-      diffuse.assign(n, 0);
-      child_offset.assign(n + 1, 0);
-      shadow.resize(n * cap);
-      shadow_count.assign(n, 0);
-      if (vertices.size() < n) vertices.resize(n);
-      std::vector<std::array<TreeNode, 2>> children(n);
-      parallelRange(n, 256, [&](size_t b, size_t e) {
-        for (size_t k = b; k < e; ++k) {
-          const TreeNode& node = nodes[k];
-          const Hit hit = hits.get(k);
-          if (!hit.hit()) {
-            value[k] = node.weight * environment_;
-            continue;
-          }
-          const SurfaceHit h = geometry_.surfaceHit(hit, node.ray.dir);
-          const Material& mat = *h.material;
-          if (mat.isEmissive() && h.front) value[k] = node.weight * mat.emission;
-          if (mat.isSpecular()) {
-            if (node.depth >= settings.max_depth) continue;
-            // The reflected and refracted rays, kept until the generation's order is known.
-            const SpecularLobes lobes = specularLobes(mat, h.geometric_normal, h.dir);
-            for (int l = 0; l < lobes.count; ++l) {
-              const SpecularLobe& lobe = lobes.lobe[l];
-              children[k][size_t(l)] =
-                  TreeNode{Ray{offsetOrigin(h.point, h.offset, h.geometric_normal, lobe.dir), 0.0f,
-                               lobe.dir, kRayInfinity},
-                           node.weight * lobe.weight, node.sample, node.depth + 1,
-                           mixBits(node.key * 2 + uint64_t(l) + 1)};
-            }
-            child_offset[k + 1] = uint32_t(lobes.count);
-            continue;
-          }
-          if (mat.reflectance == glm::vec3(0.0f)) continue;
-          if (!mat.two_sided && !h.front) continue;
-          DiffuseVertex& v = vertices[k];
-          v.point = h.point;
-          v.offset = h.offset;
-          v.normal = h.normal;
-          v.reflectance = mat.reflectance;
-          v.key = node.key;
-          diffuse[k] = 1;
-          Rng rng(seed, node.key);
-          rng.advance(2);  // past the camera jitter of a root
-          shadow_count[k] = directQueries(v, settings.light_samples, rng, &shadow[k * cap]);
-        }
-      });
-      // 3. The shadow rays, as one batch.
-      shadow_slot.clear();
-      for (size_t k = 0; k < n; ++k) {
-        for (int q = 0; q < shadow_count[k]; ++q) {
-          if (shadow[k * cap + size_t(q)].trace) shadow_slot.push_back(k * cap + size_t(q));
-        }
-      }
-      batch.resize(shadow_slot.size());
-      for (size_t j = 0; j < shadow_slot.size(); ++j) batch.set(j, shadow[shadow_slot[j]].ray);
-      PENUMBRA_TRY(queries.occluded(batch, occluded));
-      stats.shadow_rays += shadow_slot.size();
-      for (size_t j = 0; j < shadow_slot.size(); ++j) {
-        if (occluded[j]) shadow[shadow_slot[j]].value = glm::vec3(0.0f);
-      }
-      // 4. The hook's radiance at this generation's diffuse vertices.
-      if (shading) {
-        vertex_node.clear();
-        for (size_t k = 0; k < n; ++k) {
-          if (diffuse[k]) vertex_node.push_back(uint32_t(k));
-        }
-        std::vector<DiffuseVertex> batch_vertices(vertex_node.size());
-        for (size_t j = 0; j < vertex_node.size(); ++j)
-          batch_vertices[j] = vertices[vertex_node[j]];
-        extra.assign(vertex_node.size(), glm::vec3(0.0f));
-        PENUMBRA_TRY(shading(batch_vertices, extra, queries));
-        for (size_t j = 0; j < vertex_node.size(); ++j) {
-          value[vertex_node[j]] += nodes[vertex_node[j]].weight * extra[j];
-        }
-      }
-      // 5. Sum into the pixel samples in node order (so any thread count gives the same sums).
-      for (size_t k = 0; k < n; ++k) {
-        glm::vec3 direct(0.0f);
-        for (int q = 0; q < shadow_count[k]; ++q) direct += shadow[k * cap + size_t(q)].value;
-        stats.diffuse_vertices += diffuse[k];
-        sample_sum[nodes[k].sample] += value[k] + nodes[k].weight * direct;
-      }
-      // 6. The next generation: the reflected and refracted rays, in their parents' order.
-      for (size_t k = 0; k < n; ++k) child_offset[k + 1] += child_offset[k];
-      std::vector<TreeNode> next(child_offset[n]);
-      for (size_t k = 0; k < n; ++k) {
-        for (uint32_t l = 0; l < child_offset[k + 1] - child_offset[k]; ++l) {
-          next[child_offset[k] + l] = children[k][l];
-        }
-      }
-      // Children that carry nothing (a black mirror) are dropped; faint ones go on by Russian
-      // roulette.
-      size_t kept = 0;
-      for (TreeNode& c : next) {
-        const float w = std::max({c.weight.x, c.weight.y, c.weight.z});
-        if (!(w > 0.0f)) continue;
-        if (w < kFaintBranch) {
-          Rng rng(seed, c.key);
-          if (rng.uniform() * kFaintBranch >= w) continue;
-          c.weight *= kFaintBranch / w;
-        }
-        next[kept++] = c;
-      }
-      next.resize(kept);
-      for (size_t c0 = 0; c0 < next.size(); c0 += kMaxGeneration) {
-        const size_t c1 = std::min(next.size(), c0 + kMaxGeneration);
-        const std::vector<TreeNode> chunk(next.begin() + std::ptrdiff_t(c0),
-                                          next.begin() + std::ptrdiff_t(c1));
-        PENUMBRA_TRY(generation(chunk));
-      }
-      return {};
-    };
-    PENUMBRA_TRY(generation(nodes));
+    cameraRays(cam, seed, width, spp, y0, samples, nodes);
+    PENUMBRA_TRY(wave.generation(nodes));
     // Pixels: the mean of their samples, summed in order.
     for (size_t local_pixel = 0; local_pixel < samples / spp; ++local_pixel) {
       glm::dvec3 sum(0.0);
-      for (size_t s = 0; s < spp; ++s) sum += glm::dvec3(sample_sum[local_pixel * spp + s]);
+      for (size_t s = 0; s < spp; ++s) sum += glm::dvec3(wave.sample_sum[local_pixel * spp + s]);
       const size_t x = local_pixel % width, y = y0 + local_pixel / width;
       rows[(y - size_t(y_begin)) * width + x] = glm::vec3(sum / double(spp));
     }
