@@ -171,6 +171,82 @@ struct Adder {
   }
 };
 
+// ---- Options render and bake take alike for the lightmap methods ----
+
+// The solve: elements, the iteration cap, the tolerance, the form factors' rays, the shooters'
+// points and the normals.
+template <typename Options>
+void addSolveOptions(std::vector<Bound<Options>>& b) {
+  const Adder<Options> add{b};
+  add({.name = "elements",
+       .kind = K::kInt,
+       .range = range(1, 1 << 28),
+       .help = "matrix: unknowns (clusters of the lightmap's hierarchy); progressive, "
+               "stochastic: about this many lightmap texels",
+       .uses = {{"matrix", text(kMatrixDefaultElements), {}},
+                {"progressive", text(kProgressiveDefaultElements), {}},
+                {"stochastic", text(kProgressiveDefaultElements), {}}}},
+      field<Options>(&Options::elements));
+  add({.name = "iterations",
+       .kind = K::kInt,
+       .range = range(1, 1 << 20),
+       .help = "iteration cap (progressive: shooters; stochastic: random operators; counted "
+               "over resumed runs)",
+       .uses = {{"matrix", text(kIterationCapDefault), {}},
+                {"progressive", text(kIterationCapDefault), {}},
+                {"stochastic", text(kIterationCapDefault) + ", none with --time-limit", {}}}},
+      field<Options>(&Options::iterations));
+  add({.name = "tolerance",
+       .kind = K::kReal,
+       .range = range(0, 1e30, /*open_lo=*/true),
+       .help = "matrix: stop when the mean squared residual of MB - E over the mean squared "
+               "emission is at most this; progressive: when the unshot fraction of the emitted "
+               "power is",
+       .uses = {{"matrix", "1e-6", {}}, {"progressive", "1e-3", {}}}},
+      field<Options>(&Options::tolerance));
+  add({.name = "ff-rays",
+       .kind = K::kInt,
+       .range = range(1, 1024),
+       .help = "shadow rays per pair of clusters that exchange a noticeable share of their light",
+       .uses = all({"matrix"}, "4")},
+      field<Options>(&Options::ff_rays));
+  add({.name = "shooter-points",
+       .kind = K::kInt,
+       .range = range(1, 4096),
+       .help = "points a shooter starts from (its texels grouped in blocks; nearer receivers "
+               "refine them)",
+       .uses = all({"progressive"}, "16")},
+      field<Options>(&Options::shooter_points));
+  add({.name = "normals",
+       .kind = K::kChoice,
+       .choices = {"interpolated", "triangle"},
+       .help = "interpolated (shading normals across triangles) or triangle (each triangle's "
+               "own normal)",
+       .uses = all(kLightmap, "interpolated")},
+      field<Options>(&Options::normals));
+}
+
+// Checkpoints of progressive and stochastic radiosity; `where` is the checkpoint's default place.
+template <typename Options>
+void addCheckpointOptions(std::vector<Bound<Options>>& b, const std::string& where) {
+  const Adder<Options> add{b};
+  add({.name = "resume",
+       .kind = K::kText,
+       .help = "continue from this checkpoint (written on Ctrl-C)",
+       .uses = all(kCheckpointed)},
+      field<Options>(&Options::resume));
+  add({.name = "keep-checkpoint",
+       .kind = K::kFlag,
+       .help = "keep the --resume checkpoint after the run completes",
+       .uses = all(kCheckpointed, "off")},
+      field<Options>(&Options::keep_checkpoint));
+  add({.name = "checkpoint",
+       .kind = K::kText,
+       .help = "where Ctrl-C writes the checkpoint",
+       .uses = all(kCheckpointed, where)},
+      field<Options>(&Options::checkpoint));
+}
+
 // The scene, the method, the device, the outputs and the image.
 void renderOutputOptions(const Adder<RenderOptions>& add) {
   using R = RenderOptions;
@@ -326,44 +402,12 @@ void radiosityOptions(const Adder<RenderOptions>& add) {
                "CPU only)",
        .uses = all({"matrix"}, "gauss-seidel on the CPU, jacobi on the GPU")},
       field<R>(&R::solver));
-  add({.name = "elements",
-       .kind = K::kInt,
-       .range = range(1, 1 << 28),
-       .help = "matrix: unknowns (clusters of the lightmap's hierarchy); progressive, "
-               "stochastic: about this many lightmap texels",
-       .uses = {{"matrix", text(kMatrixDefaultElements), {}},
-                {"progressive", text(kProgressiveDefaultElements), {}},
-                {"stochastic", text(kProgressiveDefaultElements), {}}}},
-      field<R>(&R::elements));
-  add({.name = "iterations",
-       .kind = K::kInt,
-       .range = range(1, 1 << 20),
-       .help = "iteration cap (progressive: shooters; stochastic: random operators; counted "
-               "over resumed runs)",
-       .uses = {{"matrix", text(kIterationCapDefault), {}},
-                {"progressive", text(kIterationCapDefault), {}},
-                {"stochastic", text(kIterationCapDefault) + ", none with --time-limit", {}}}},
-      field<R>(&R::iterations));
-  add({.name = "tolerance",
-       .kind = K::kReal,
-       .range = range(0, 1e30, /*open_lo=*/true),
-       .help = "matrix: stop when the mean squared residual of MB - E over the mean squared "
-               "emission is at most this; progressive: when the unshot fraction of the emitted "
-               "power is",
-       .uses = {{"matrix", "1e-6", {}}, {"progressive", "1e-3", {}}}},
-      field<R>(&R::tolerance));
   add({.name = "precision",
        .kind = K::kChoice,
        .choices = {"fp32", "fp16"},
        .help = "form-factor storage: fp32, or fp16 as the paper stores them",
        .uses = all({"matrix"}, "fp32")},
       field<R>(&R::precision));
-  add({.name = "ff-rays",
-       .kind = K::kInt,
-       .range = range(1, 1024),
-       .help = "shadow rays per pair of clusters that exchange a noticeable share of their light",
-       .uses = all({"matrix"}, "4")},
-      field<R>(&R::ff_rays));
   add({.name = "relight-frames",
        .kind = K::kInt,
        .range = range(0, 10000),
@@ -386,26 +430,13 @@ void radiosityOptions(const Adder<RenderOptions>& add) {
                "(sss: from --lightmap-size)",
        .uses = all({"matrix", "progressive", "stochastic", "sss"})},
       field<R>(&R::texel_density));
-  add({.name = "shooter-points",
-       .kind = K::kInt,
-       .range = range(1, 4096),
-       .help = "points a shooter starts from (its texels grouped in blocks; nearer receivers "
-               "refine them)",
-       .uses = all({"progressive"}, "16")},
-      field<R>(&R::shooter_points));
+  addSolveOptions(add.b);
   addReceiverOptions(add.b);
 }
 
 // Normals of the lightmap methods, subsurface scattering and volumes.
 void subsurfaceOptions(const Adder<RenderOptions>& add) {
   using R = RenderOptions;
-  add({.name = "normals",
-       .kind = K::kChoice,
-       .choices = {"interpolated", "triangle"},
-       .help = "interpolated (shading normals across triangles) or triangle (each triangle's "
-               "own normal)",
-       .uses = all(kLightmap, "interpolated")},
-      field<R>(&R::normals));
   add({.name = "lightmap-size",
        .kind = K::kInt,
        .range = range(8, 16384),
@@ -476,6 +507,7 @@ void subsurfaceOptions(const Adder<RenderOptions>& add) {
 // The SSS link cache and the checkpoints.
 void cacheAndCheckpointOptions(const Adder<RenderOptions>& add) {
   using R = RenderOptions;
+  addCheckpointOptions(add.b, "the first output with the extension .checkpoint");
   add({.name = "no-cache",
        .kind = K::kFlag,
        .help = "build the links even if the cache holds them, and do not store them",
@@ -486,21 +518,6 @@ void cacheAndCheckpointOptions(const Adder<RenderOptions>& add) {
        .help = "pass 1 without shadow rays, as the paper's vertex-program lighting",
        .uses = all({"sss"}, "off")},
       field<R>(&R::no_shadows));
-  add({.name = "resume",
-       .kind = K::kText,
-       .help = "continue from this checkpoint (written on Ctrl-C)",
-       .uses = all(kCheckpointed)},
-      field<R>(&R::resume));
-  add({.name = "keep-checkpoint",
-       .kind = K::kFlag,
-       .help = "keep the --resume checkpoint after the run completes",
-       .uses = all(kCheckpointed, "off")},
-      field<R>(&R::keep_checkpoint));
-  add({.name = "checkpoint",
-       .kind = K::kText,
-       .help = "where Ctrl-C writes the checkpoint",
-       .uses = all(kCheckpointed, "the first output with the extension .checkpoint")},
-      field<R>(&R::checkpoint));
 }
 
 // Lighting design: lux images and calculation points.
@@ -606,42 +623,12 @@ std::vector<Bound<BakeOptions>> bakeBindings() {
       field<B>(&B::output));
   add({.name = "stats", .kind = K::kText, .help = "write statistics to this JSON file"},
       field<B>(&B::stats));
-  add({.name = "elements",
-       .kind = K::kInt,
-       .range = range(1, 1 << 28),
-       .help = "matrix: unknowns (clusters) over a lightmap of max(40000, 4 N) texels; "
-               "progressive, stochastic: about this many lightmap texels",
-       .uses = {{"matrix", text(kMatrixDefaultElements), {}},
-                {"progressive", text(kProgressiveDefaultElements), {}},
-                {"stochastic", text(kProgressiveDefaultElements), {}}}},
-      field<B>(&B::elements));
-  add({.name = "iterations",
-       .kind = K::kInt,
-       .range = range(1, 1 << 20),
-       .help = "iteration cap",
-       .uses = {{"matrix", text(kIterationCapDefault), {}},
-                {"progressive", text(kIterationCapDefault), {}},
-                {"stochastic", text(kIterationCapDefault) + ", none with --time-limit", {}}}},
-      field<B>(&B::iterations));
-  add({.name = "tolerance",
-       .kind = K::kReal,
-       .range = range(0, 1e30, /*open_lo=*/true),
-       .help = "matrix: stop when the mean squared residual of MB - E is at most this; "
-               "progressive: when the unshot fraction of the emitted power is",
-       .uses = {{"matrix", "1e-6", {}}, {"progressive", "1e-3", {}}}},
-      field<B>(&B::tolerance));
   add({.name = "solver",
        .kind = K::kChoice,
        .choices = {"jacobi", "gauss-seidel"},
        .help = "jacobi (eq. 4 of the paper) or gauss-seidel",
        .uses = all({"matrix"}, "gauss-seidel")},
       field<B>(&B::solver));
-  add({.name = "ff-rays",
-       .kind = K::kInt,
-       .range = range(1, 1024),
-       .help = "shadow rays per pair of clusters that exchange a noticeable share of their light",
-       .uses = all({"matrix"}, "4")},
-      field<B>(&B::ff_rays));
   add({.name = "texel-density",
        .kind = K::kReal,
        .range = range(0, 1e9, /*open_lo=*/true),
@@ -657,39 +644,14 @@ std::vector<Bound<BakeOptions>> bakeBindings() {
        .help = "without --texel-density: an N x N lightmap at the largest density that fits",
        .uses = all(kLightmap)},
       field<B>(&B::lightmap_size));
-  add({.name = "shooter-points",
-       .kind = K::kInt,
-       .range = range(1, 4096),
-       .help = "points a shooter starts from (see render)",
-       .uses = all({"progressive"}, "16")},
-      field<B>(&B::shooter_points));
+  addSolveOptions(b);
   addReceiverOptions(b);
+  addCheckpointOptions(b, "DIR/SCENE.checkpoint");
   add({.name = "seed",
        .kind = K::kUnsigned,
        .help = "random seed",
        .uses = all({"stochastic"}, "0")},
       field<B>(&B::seed));
-  add({.name = "normals",
-       .kind = K::kChoice,
-       .choices = {"interpolated", "triangle"},
-       .help = "interpolated or triangle (see render)",
-       .uses = all(kLightmap, "interpolated")},
-      field<B>(&B::normals));
-  add({.name = "resume",
-       .kind = K::kText,
-       .help = "continue from this checkpoint (written on Ctrl-C)",
-       .uses = all(kCheckpointed)},
-      field<B>(&B::resume));
-  add({.name = "keep-checkpoint",
-       .kind = K::kFlag,
-       .help = "keep the --resume checkpoint after the bake completes",
-       .uses = all(kCheckpointed, "off")},
-      field<B>(&B::keep_checkpoint));
-  add({.name = "checkpoint",
-       .kind = K::kText,
-       .help = "where Ctrl-C writes the checkpoint",
-       .uses = all(kCheckpointed, "DIR/SCENE.checkpoint")},
-      field<B>(&B::checkpoint));
   return b;
 }
 
