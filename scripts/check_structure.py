@@ -53,8 +53,6 @@ MAX_APP_LINES = 2000
 PENDING_FUNCTIONS = {
     ("src/penumbra/app/render_matrix.cpp", "renderMatrix"): 207,
     ("src/penumbra/app/progressive_run.cpp", "runProgressive"): 189,
-    ("src/penumbra/app/render_whitted.cpp", "renderRayTraced"): 168,
-    ("src/penumbra/app/render_command.cpp", "renderPathTrace"): 152,
     ("src/penumbra/app/stochastic_run.cpp", "runStochastic"): 139,
     ("src/penumbra/app/render_sss.cpp", "renderSss"): 139,
     ("src/penumbra/app/render_progressive.cpp", "renderLightmapRadiosity"): 136,

@@ -20,6 +20,7 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <optional>
 
@@ -32,22 +33,59 @@ std::string sceneStem(const std::string& scene) {
   return p.has_extension() ? p.stem().string() : scene;
 }
 
+// The path tracer's image on the CPU (`device_name` empty) or as a wavefront through the named
+// Ray Engine back end, over the MPI ranks when there are several (rank 0 gets the image).
+Expected<Image> renderImage(const PathTracer& tracer, const Camera& camera,
+                            const PathTracerSettings& settings, const std::string& device_name,
+                            const std::function<void(int)>& on_rows, PathTracerStats* stats_out,
+                            std::optional<DistributedRenderStats>* distributed_out) {
+  Communicator& comm = currentCommunicator();
+  // Devices: the CPU traces paths one by one; gpu and hybrid advance them as a wavefront whose
+  // batches go to the Ray Engine's GPU kernel or its CPU/GPU split (same image).
+  std::unique_ptr<OwnedRayQueries> queries;
+  if (!device_name.empty()) {
+    Expected<std::unique_ptr<OwnedRayQueries>> q =
+        OwnedRayQueries::make(device_name, tracer.geometry());
+    if (!q) return q.error();
+    queries = std::move(*q);
+  }
+  PathTracerStats& stats = *stats_out;
+  std::optional<DistributedRenderStats>& distributed = *distributed_out;
+  Image image;
+  if (comm.distributed()) {
+    // Blocks of rows handed out on demand; rank 0 gets the image (cluster/distributed_render.h).
+    Timer timer;
+    std::atomic<int> rows_in{0};
+    distributed.emplace();
+    image = renderOverRanks(
+        comm, settings.width, settings.height, rowBlockSize(settings.height, comm.size()),
+        [&](int y0, int y1, std::span<glm::vec3> out) -> uint64_t {
+          if (!queries) return tracer.renderRows(camera, settings, y0, y1, out);
+          Expected<uint64_t> rays =
+              tracer.renderRowsWavefront(camera, settings, y0, y1, *queries, out);
+          if (!rays) throw ClusterError(rays.error().describe());
+          return *rays;
+        },
+        [&](int rows) { on_rows(rows_in += rows); }, &*distributed);
+    stats.rays = distributed->rays;
+    stats.seconds = timer.seconds();
+  } else if (!queries) {
+    image = tracer.render(camera, settings, &stats, on_rows);
+  } else {
+    Expected<Image> img = tracer.renderWavefront(camera, settings, *queries, &stats, on_rows);
+    if (!img) return img.error();
+    image = std::move(*img);
+  }
+  return image;
+}
+
 Status renderPathTrace(const RenderOptions& options, const CommonOptions& common) {
   // Over several processes (mpirun): every rank loads and checks, then they agree to start.
   Communicator& comm = currentCommunicator();
   ReadyGate gate(comm);
-  std::vector<std::string> outputs = options.outputs;
-  if (outputs.empty() && defaultsOutputs()) outputs.push_back(sceneStem(options.scene) + ".png");
-  for (const std::string& out : outputs) {
-    if (!isSupportedImageExtension(out)) {
-      return inputError(out, "",
-                        fmt::format("unsupported image format '{}' (use .exr, .hdr, "
-                                    ".pfm or .png)",
-                                    extensionOf(out)));
-    }
-    PENUMBRA_TRY(checkOutputPath(out));
-  }
-  if (!options.stats.empty()) PENUMBRA_TRY(checkOutputPath(options.stats));
+  Expected<std::vector<std::string>> checked = checkRenderOutputs(options, 1);
+  if (!checked) return checked.error();
+  const std::vector<std::string>& outputs = *checked;
 
   Timer load_timer;
   Expected<Scene> scene = loadCommandScene(options.scene);
@@ -94,42 +132,13 @@ Status renderPathTrace(const RenderOptions& options, const CommonOptions& common
                     !common.quiet && comm.root() && Progress::stderrIsTerminal());
   // Both renderers report the number of rows finished so far (from any thread).
   const auto on_rows = [&](int rows) { progress.reach(uint64_t(rows)); };
-  // Devices: the CPU traces paths one by one; gpu and hybrid advance them as a wavefront whose
-  // batches go to the Ray Engine's GPU kernel or its CPU/GPU split (same image).
-  std::unique_ptr<OwnedRayQueries> queries;
-  if (device->device != Device::kCpu) {
-    Expected<std::unique_ptr<OwnedRayQueries>> q =
-        OwnedRayQueries::make(device_name, tracer.geometry());
-    if (!q) return q.error();
-    queries = std::move(*q);
-  }
   PathTracerStats stats;
-  Image image;
   std::optional<DistributedRenderStats> distributed;
-  if (comm.distributed()) {
-    // Blocks of rows handed out on demand; rank 0 gets the image (cluster/distributed_render.h).
-    Timer timer;
-    std::atomic<int> rows_in{0};
-    distributed.emplace();
-    image = renderOverRanks(
-        comm, settings.width, settings.height, rowBlockSize(settings.height, comm.size()),
-        [&](int y0, int y1, std::span<glm::vec3> out) -> uint64_t {
-          if (!queries) return tracer.renderRows(camera, settings, y0, y1, out);
-          Expected<uint64_t> rays =
-              tracer.renderRowsWavefront(camera, settings, y0, y1, *queries, out);
-          if (!rays) throw ClusterError(rays.error().describe());
-          return *rays;
-        },
-        [&](int rows) { on_rows(rows_in += rows); }, &*distributed);
-    stats.rays = distributed->rays;
-    stats.seconds = timer.seconds();
-  } else if (!queries) {
-    image = tracer.render(camera, settings, &stats, on_rows);
-  } else {
-    Expected<Image> img = tracer.renderWavefront(camera, settings, *queries, &stats, on_rows);
-    if (!img) return img.error();
-    image = std::move(*img);
-  }
+  Expected<Image> rendered =
+      renderImage(tracer, camera, settings, device->device == Device::kCpu ? "" : device_name,
+                  on_rows, &stats, &distributed);
+  if (!rendered) return rendered.error();
+  const Image& image = *rendered;
   progress.finish();
   if (!comm.root()) return {};  // rank 0 writes the outputs
 

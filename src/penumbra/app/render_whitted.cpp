@@ -23,6 +23,86 @@
 
 namespace penumbra {
 
+namespace {
+
+WhittedSettings whittedSettings(const RenderOptions& options) {
+  WhittedSettings ws;
+  ws.width = options.width.value_or(ws.width);
+  ws.height = options.height.value_or(ws.height);
+  ws.spp = options.spp.value_or(ws.spp);
+  ws.max_depth = options.max_depth.value_or(ws.max_depth);
+  ws.light_samples = options.light_samples.value_or(ws.light_samples);
+  ws.seed = options.seed.value_or(0);
+  return ws;
+}
+
+PhotonSettings photonSettings(const RenderOptions& options, uint64_t seed) {
+  PhotonSettings ps;
+  ps.seed = seed;
+  if (options.method != "photons") return ps;
+  if (options.photons) ps.photons = *options.photons;
+  if (options.caustic_photons) ps.caustic_photons = *options.caustic_photons;
+  ps.gather_count = options.gather_count.value_or(ps.gather_count);
+  ps.final_gather = options.final_gather.value_or(ps.final_gather);
+  if (options.gather_radius) ps.gather_radius = float(*options.gather_radius);
+  return ps;
+}
+
+Status checkRayTracedMemory(const WhittedSettings& ws, const PhotonSettings& ps, bool photons) {
+  // The image (about 40 bytes per pixel with its samples and files), a wave of the ray tree and
+  // a chunk of gather rays (bounded by whitted.cpp's and photon_map.cpp's chunk sizes: about
+  // 384 MiB together at most) and the photons (a global photon lands about four times; 64 bytes
+  // each with its index).
+  const uint64_t image_bytes =
+      uint64_t(ws.width) * uint64_t(ws.height) * (40 + 4 * uint64_t(ws.spp));
+  const uint64_t wave_bytes = uint64_t(384) << 20;
+  const uint64_t photon_bytes = photons ? (ps.photons * 4 + ps.caustic_photons) * 64 : 0;
+  return checkMemory(image_bytes + wave_bytes + photon_bytes,
+                     photons ? fmt::format("a {}x{} image with {} + {} photons", ws.width,
+                                           ws.height, ps.photons, ps.caustic_photons)
+                             : fmt::format("a {}x{} image", ws.width, ws.height));
+}
+
+// The photon maps (global and caustic) shot through `queries`, and the diffuse shading that
+// gathers them; their figures go to j["photons"].
+Expected<DiffuseShading> shootAndGather(const Scene& scene, const WhittedTracer& tracer,
+                                        const PhotonSettings& ps, RayQueries& queries, bool show,
+                                        PhotonMaps* maps, uint64_t* gather_rays,
+                                        nlohmann::json* j) {
+  PhotonStats pstats;
+  Progress progress("photons", ps.photons + ps.caustic_photons, show);
+  Expected<PhotonMaps> shot = shootPhotons(scene, tracer.geometry(), ps, queries, &pstats,
+                                           [&](uint64_t traced) { progress.reach(traced); });
+  if (!shot) return shot.error();
+  progress.finish();
+  *maps = std::move(*shot);
+  DiffuseShading shading = photonShading(tracer.geometry(), *maps, ps, gather_rays);
+  const double emitted = double(pstats.emitted + pstats.caustic_emitted);
+  const double photons_per_s = pstats.seconds > 0.0 ? emitted / pstats.seconds : 0.0;
+  spdlog::info(
+      "{} + {} photons in {:.2f} s ({:.3g} photons/s, {:.3g} rays/s): {} global and {} "
+      "caustic stored; gather radius {:.4g} m",
+      pstats.emitted, pstats.caustic_emitted, pstats.seconds, photons_per_s,
+      pstats.seconds > 0.0 ? double(pstats.rays) / pstats.seconds : 0.0, pstats.stored,
+      pstats.caustic_stored, maps->radius);
+  (*j)["photons"] = {{"emitted", pstats.emitted},
+                     {"caustic_emitted", pstats.caustic_emitted},
+                     {"stored", pstats.stored},
+                     {"caustic_stored", pstats.caustic_stored},
+                     {"rays", pstats.rays},
+                     {"seconds", pstats.seconds},
+                     {"photons_per_s", photons_per_s},
+                     {"build_seconds", pstats.build_seconds},
+                     {"precompute_seconds", pstats.precompute_seconds},
+                     {"gather_count", ps.gather_count},
+                     {"gather_radius", maps->radius},
+                     {"final_gather", ps.final_gather},
+                     {"memory_bytes", maps->global.memoryBytes() + maps->caustic.memoryBytes()}};
+  return shading;
+}
+
+}  // namespace
+
 Status renderRayTraced(const RenderOptions& options, const CommonOptions& common) {
   const bool photons = options.method == "photons";
   // Over several processes (mpirun): every rank loads and checks, then they agree to start; each
@@ -33,34 +113,9 @@ Status renderRayTraced(const RenderOptions& options, const CommonOptions& common
   if (!checked) return checked.error();
   const std::vector<std::string>& outputs = *checked;
   // Which options apply, and their ranges: methods/registry.cpp.
-  WhittedSettings ws;
-  ws.width = options.width.value_or(512);
-  ws.height = options.height.value_or(512);
-  ws.spp = options.spp.value_or(4);
-  ws.max_depth = options.max_depth.value_or(ws.max_depth);
-  ws.light_samples = options.light_samples.value_or(ws.light_samples);
-  ws.seed = options.seed.value_or(0);
-  PhotonSettings ps;
-  ps.seed = ws.seed;
-  if (photons) {
-    if (options.photons) ps.photons = *options.photons;
-    if (options.caustic_photons) ps.caustic_photons = *options.caustic_photons;
-    ps.gather_count = options.gather_count.value_or(ps.gather_count);
-    ps.final_gather = options.final_gather.value_or(ps.final_gather);
-    if (options.gather_radius) ps.gather_radius = float(*options.gather_radius);
-  }
-  // The image (about 40 bytes per pixel with its samples and files), a wave of the ray tree and
-  // a chunk of gather rays (bounded by whitted.cpp's and photon_map.cpp's chunk sizes: about
-  // 384 MiB together at most) and the photons (a global photon lands about four times; 64 bytes
-  // each with its index).
-  const uint64_t image_bytes =
-      uint64_t(ws.width) * uint64_t(ws.height) * (40 + 4 * uint64_t(ws.spp));
-  const uint64_t wave_bytes = uint64_t(384) << 20;
-  const uint64_t photon_bytes = photons ? (ps.photons * 4 + ps.caustic_photons) * 64 : 0;
-  PENUMBRA_TRY(checkMemory(image_bytes + wave_bytes + photon_bytes,
-                           photons ? fmt::format("a {}x{} image with {} + {} photons", ws.width,
-                                                 ws.height, ps.photons, ps.caustic_photons)
-                                   : fmt::format("a {}x{} image", ws.width, ws.height)));
+  const WhittedSettings ws = whittedSettings(options);
+  const PhotonSettings ps = photonSettings(options, ws.seed);
+  PENUMBRA_TRY(checkRayTracedMemory(ws, ps, photons));
 
   Timer load_timer;
   Expected<Scene> scene = loadCommandScene(options.scene);
@@ -106,35 +161,10 @@ Status renderRayTraced(const RenderOptions& options, const CommonOptions& common
   DiffuseShading shading;
   uint64_t gather_rays = 0;
   if (photons) {
-    PhotonStats pstats;
-    Progress progress("photons", ps.photons + ps.caustic_photons, show);
-    Expected<PhotonMaps> shot = shootPhotons(*scene, tracer.geometry(), ps, **queries, &pstats,
-                                             [&](uint64_t traced) { progress.reach(traced); });
+    Expected<DiffuseShading> shot =
+        shootAndGather(*scene, tracer, ps, **queries, show, &maps, &gather_rays, &j);
     if (!shot) return shot.error();
-    progress.finish();
-    maps = std::move(*shot);
-    shading = photonShading(tracer.geometry(), maps, ps, &gather_rays);
-    const double emitted = double(pstats.emitted + pstats.caustic_emitted);
-    const double photons_per_s = pstats.seconds > 0.0 ? emitted / pstats.seconds : 0.0;
-    spdlog::info(
-        "{} + {} photons in {:.2f} s ({:.3g} photons/s, {:.3g} rays/s): {} global and {} "
-        "caustic stored; gather radius {:.4g} m",
-        pstats.emitted, pstats.caustic_emitted, pstats.seconds, photons_per_s,
-        pstats.seconds > 0.0 ? double(pstats.rays) / pstats.seconds : 0.0, pstats.stored,
-        pstats.caustic_stored, maps.radius);
-    j["photons"] = {{"emitted", pstats.emitted},
-                    {"caustic_emitted", pstats.caustic_emitted},
-                    {"stored", pstats.stored},
-                    {"caustic_stored", pstats.caustic_stored},
-                    {"rays", pstats.rays},
-                    {"seconds", pstats.seconds},
-                    {"photons_per_s", photons_per_s},
-                    {"build_seconds", pstats.build_seconds},
-                    {"precompute_seconds", pstats.precompute_seconds},
-                    {"gather_count", ps.gather_count},
-                    {"gather_radius", maps.radius},
-                    {"final_gather", ps.final_gather},
-                    {"memory_bytes", maps.global.memoryBytes() + maps.caustic.memoryBytes()}};
+    shading = std::move(*shot);
   }
   Progress progress("rendering", uint64_t(ws.height), show);
   WhittedStats stats;
