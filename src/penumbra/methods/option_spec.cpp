@@ -75,10 +75,6 @@ std::string OptionSpec::usesText(size_t methods) const {
   return fmt::format("{}", fmt::join(parts, "; "));
 }
 
-std::string OptionSpec::flag() const {
-  return positional ? std::string("SCENE") : "--" + name;
-}
-
 const OptionSpec* findOption(const std::vector<OptionSpec>& specs, const std::string& name) {
   std::string key = name;
   while (!key.empty() && key[0] == '-') key.erase(0, 1);
@@ -242,16 +238,9 @@ Expected<OptionValue> parseOption(const OptionSpec& spec, const std::string& tex
   // The message shows the value as it was written.
   if (spec.kind == OptionKind::kInt || spec.kind == OptionKind::kReal ||
       spec.kind == OptionKind::kUnsigned) {
-    const double v = std::visit(
-        [](const auto& x) -> double {
-          using T = std::decay_t<decltype(x)>;
-          if constexpr (std::is_arithmetic_v<T>) {
-            return double(x);
-          } else {
-            return 0.0;
-          }
-        },
-        *value);
+    const double v = spec.kind == OptionKind::kInt        ? double(std::get<int64_t>(*value))
+                     : spec.kind == OptionKind::kUnsigned ? double(std::get<uint64_t>(*value))
+                                                          : std::get<double>(*value);
     PENUMBRA_TRY(checkNumber(spec, v, text, method, file, where));
     return value;
   }

@@ -65,8 +65,6 @@ struct OptionSpec {
   std::optional<OptionRange> rangeFor(const std::string& method) const;
   // The names of the methods that take it, "pathtrace, whitted".
   std::string owners() const;
-  // "--name", or "SCENE" for the positional.
-  std::string flag() const;
   // Who takes it and the defaults, grouped: "512" when every one of the command's `methods`
   // takes it with one default, else "pathtrace: 64; whitted, photons: 4" or "whitted, photons";
   // empty when every method takes it without a default.
