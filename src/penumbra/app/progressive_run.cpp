@@ -31,53 +31,10 @@ namespace {
 // at 11,000 (docs/performance.md); 700 leaves a margin.
 constexpr uint64_t kBytesPerElement = 700;
 
-}  // namespace
-
-Status checkLightmapPlan(const Scene& scene, const LightmapResolution& resolution,
-                         std::optional<uint64_t> checkpoint_elements, const std::string& method,
-                         uint64_t bytes_per_element) {
-  // The texels the plan asks for, from the option that sizes the lightmap, counted before
-  // anything is built.
-  const uint64_t expected =
-      checkpoint_elements ? *checkpoint_elements : expectedLightmapElements(scene, resolution);
-  const char* sized_by = checkpoint_elements        ? "the checkpoint's lightmap"
-                         : resolution.texel_density ? "--texel-density"
-                         : resolution.size          ? "--lightmap-size"
-                                                    : "--elements";
-  if (expected > uint64_t(UINT32_MAX)) {
-    return inputError("", sized_by,
-                      fmt::format("{} with {} lightmap texels: more than a lightmap can index",
-                                  method, expected));
-  }
-  return checkMemory(expected * bytes_per_element,
-                     fmt::format("{} with {} lightmap texels ({})", method, expected, sized_by));
-}
-
-Status checkProgressiveRunOptions(const ProgressiveRunOptions& o) {
-  if (o.texel_density && !(*o.texel_density > 0.0 && std::isfinite(*o.texel_density))) {
-    return inputError("", "--texel-density", "must be a positive number of texels per metre");
-  }
-  if (!(o.tolerance >= 0.0 && o.tolerance <= 1.0)) {
-    return inputError("", "--tolerance", "is the unshot fraction of the emitted power: in [0, 1]");
-  }
-  if (!o.resume.empty() && o.lightmap_size) {
-    return inputError("", "--resume",
-                      "the checkpoint fixes the lightmap: leave out --lightmap-size");
-  }
-  if (!o.checkpoint.empty()) PENUMBRA_TRY(checkOutputPath(o.checkpoint));
-  if (Status s = checkSubdivisionOptions(o.subdivision); !s.ok()) {
-    return inputError("", "--boundary/--finest-level/--min-share", s.error().message);
-  }
-  return {};
-}
-
-Expected<ProgressiveRun> runProgressive(const Scene& scene, const ProgressiveRunOptions& options,
-                                        const CommonOptions& common, ReadyGate* gate) {
-  ProgressiveRun run;
-  if (options.device == "hybrid") {
-    return inputError("", "--device", "hybrid applies to the Ray Engine (trace, pathtrace)");
-  }
-  ProgressiveOptions po;
+// The solver's options from the command's, fixed by the checkpoint when resuming (read into
+// `info`), and the lightmap's size checked against the memory.
+Status prepareProgressive(const Scene& scene, const ProgressiveRunOptions& options,
+                          ProgressiveOptions& po, std::optional<ProgressiveCheckpointInfo>& info) {
   po.max_iterations = options.iterations;
   po.convergence = options.tolerance;
   po.shooter_top_points = options.shooter_points;
@@ -85,7 +42,6 @@ Expected<ProgressiveRun> runProgressive(const Scene& scene, const ProgressiveRun
   po.adaptive = options.adaptive;
   po.receiver_level = options.receiver_level;
   po.subdivision = options.subdivision;
-  std::optional<ProgressiveCheckpointInfo> info;
   if (!options.resume.empty()) {
     Expected<ProgressiveCheckpointInfo> i = readProgressiveCheckpointInfo(options.resume);
     if (!i) return i.error();
@@ -124,69 +80,16 @@ Expected<ProgressiveRun> runProgressive(const Scene& scene, const ProgressiveRun
   PENUMBRA_TRY(checkLightmapPlan(scene, resolution,
                                  info ? std::optional<uint64_t>(info->elements) : std::nullopt,
                                  "progressive radiosity", kBytesPerElement));
+  return {};
+}
 
-  Communicator& comm = currentCommunicator();
-  Expected<std::string> device_name =
-      radiosityDeviceOverRanks(comm, options.device, "progressive radiosity");
-  if (!device_name) return device_name.error();
-  Expected<DeviceChoice> device = chooseDevice(*device_name);
-  if (!device) return device.error();
-  const bool gpu = device->device == Device::kGpu;
-  run.device = device->name();
-  if (gpu && info && info->shooter_top_points > 0) {
-    return inputError(options.resume, "",
-                      "was written by the CPU's hierarchical shooter; continue it with --device "
-                      "cpu");
-  }
-  if (gate) PENUMBRA_TRY(gate->open());
-  if (common.dry_run) {
-    run.dry_run = true;
-    return run;
-  }
-  if (gpu) {
-    if (options.shading_normals) spdlog::info("--device gpu: form factors use the faces' normals");
-    po = gpuProgressiveOptions(po);
-  }
-
-  const Timer build_timer;
-  Expected<ProgressiveRadiosity> built = ProgressiveRadiosity::build(scene, po);
-  if (!built) {
-    // Resuming, the lightmap's size comes from the checkpoint, not from an option.
-    if (info && built.error().file.empty()) {
-      return inputError(options.resume, "",
-                        fmt::format("its lightmap ({} texels per metre) cannot be built: {}",
-                                    info->texel_density, built.error().message));
-    }
-    return built.error();
-  }
-  if (gpu && !info) {
-    po.shooter_level = gpuShooterLevel(*built, options.shooter_points);
-    PENUMBRA_TRY(built->setShooterLevel(po.shooter_level));
-  }
-  run.solver.emplace(std::move(*built));
+// The solve: Ctrl-C stops it between two iterations and writes a checkpoint; the lightmap
+// into `run`.
+Status solveProgressive(ProgressiveRun& run, const Scene& scene,
+                        const ProgressiveRunOptions& options, const CommonOptions& common,
+                        Communicator& comm, std::optional<GlProgressive>& gl, bool gpu,
+                        const ProgressiveOptions& po) {
   ProgressiveRadiosity& pr = *run.solver;
-  pr.setCommunicator(&comm);
-  if (info) {
-    PENUMBRA_TRY(resumeProgressiveCheckpoint(options.resume, scene, pr));
-    run.resumed_iterations = pr.iterations();
-    spdlog::info("{}: resumed after {} iterations, {:.3g} of the emitted power unshot",
-                 options.resume, pr.iterations(), pr.unshotFraction());
-  }
-  std::optional<GlProgressive> gl;
-  if (gpu) {
-    // Point, spot and directional lights shoot first, on the CPU (ray-traced shadows); the GPU
-    // continues from that state.
-    if (!pr.lightsShot()) {
-      const ProgressiveIteration it = pr.shoot(ProgressiveRadiosity::kLights);
-      run.history.push_back(it.unshot_fraction);
-      run.shooters.push_back("lights");
-      run.iteration_seconds.push_back(it.seconds);
-    }
-    Expected<GlProgressive> g = GlProgressive::create(pr);
-    if (!g) return g.error();
-    gl.emplace(std::move(*g));
-  }
-  run.build_seconds = build_timer.seconds();
   // From here Ctrl-C stops between two iterations and writes a checkpoint. The line below is
   // printed once it does (scripts may wait for it before sending SIGINT).
   const InterruptScope interrupt;
@@ -258,6 +161,122 @@ Expected<ProgressiveRun> runProgressive(const Scene& scene, const ProgressiveRun
         run.stats.unshot_fraction, run.stats.total_iterations, options.tolerance);
   }
   if (!run.lightmap) run.lightmap = pr.radianceImage(false);
+  return {};
+}
+
+}  // namespace
+
+Status checkLightmapPlan(const Scene& scene, const LightmapResolution& resolution,
+                         std::optional<uint64_t> checkpoint_elements, const std::string& method,
+                         uint64_t bytes_per_element) {
+  // The texels the plan asks for, from the option that sizes the lightmap, counted before
+  // anything is built.
+  const uint64_t expected =
+      checkpoint_elements ? *checkpoint_elements : expectedLightmapElements(scene, resolution);
+  const char* sized_by = checkpoint_elements        ? "the checkpoint's lightmap"
+                         : resolution.texel_density ? "--texel-density"
+                         : resolution.size          ? "--lightmap-size"
+                                                    : "--elements";
+  if (expected > uint64_t(UINT32_MAX)) {
+    return inputError("", sized_by,
+                      fmt::format("{} with {} lightmap texels: more than a lightmap can index",
+                                  method, expected));
+  }
+  return checkMemory(expected * bytes_per_element,
+                     fmt::format("{} with {} lightmap texels ({})", method, expected, sized_by));
+}
+
+Status checkProgressiveRunOptions(const ProgressiveRunOptions& o) {
+  if (o.texel_density && !(*o.texel_density > 0.0 && std::isfinite(*o.texel_density))) {
+    return inputError("", "--texel-density", "must be a positive number of texels per metre");
+  }
+  if (!(o.tolerance >= 0.0 && o.tolerance <= 1.0)) {
+    return inputError("", "--tolerance", "is the unshot fraction of the emitted power: in [0, 1]");
+  }
+  if (!o.resume.empty() && o.lightmap_size) {
+    return inputError("", "--resume",
+                      "the checkpoint fixes the lightmap: leave out --lightmap-size");
+  }
+  if (!o.checkpoint.empty()) PENUMBRA_TRY(checkOutputPath(o.checkpoint));
+  if (Status s = checkSubdivisionOptions(o.subdivision); !s.ok()) {
+    return inputError("", "--boundary/--finest-level/--min-share", s.error().message);
+  }
+  return {};
+}
+
+Expected<ProgressiveRun> runProgressive(const Scene& scene, const ProgressiveRunOptions& options,
+                                        const CommonOptions& common, ReadyGate* gate) {
+  ProgressiveRun run;
+  if (options.device == "hybrid") {
+    return inputError("", "--device", "hybrid applies to the Ray Engine (trace, pathtrace)");
+  }
+  ProgressiveOptions po;
+  std::optional<ProgressiveCheckpointInfo> info;
+  PENUMBRA_TRY(prepareProgressive(scene, options, po, info));
+
+  Communicator& comm = currentCommunicator();
+  Expected<std::string> device_name =
+      radiosityDeviceOverRanks(comm, options.device, "progressive radiosity");
+  if (!device_name) return device_name.error();
+  Expected<DeviceChoice> device = chooseDevice(*device_name);
+  if (!device) return device.error();
+  const bool gpu = device->device == Device::kGpu;
+  run.device = device->name();
+  if (gpu && info && info->shooter_top_points > 0) {
+    return inputError(options.resume, "",
+                      "was written by the CPU's hierarchical shooter; continue it with --device "
+                      "cpu");
+  }
+  if (gate) PENUMBRA_TRY(gate->open());
+  if (common.dry_run) {
+    run.dry_run = true;
+    return run;
+  }
+  if (gpu) {
+    if (options.shading_normals) spdlog::info("--device gpu: form factors use the faces' normals");
+    po = gpuProgressiveOptions(po);
+  }
+
+  const Timer build_timer;
+  Expected<ProgressiveRadiosity> built = ProgressiveRadiosity::build(scene, po);
+  if (!built) {
+    // Resuming, the lightmap's size comes from the checkpoint, not from an option.
+    if (info && built.error().file.empty()) {
+      return inputError(options.resume, "",
+                        fmt::format("its lightmap ({} texels per metre) cannot be built: {}",
+                                    info->texel_density, built.error().message));
+    }
+    return built.error();
+  }
+  if (gpu && !info) {
+    po.shooter_level = gpuShooterLevel(*built, options.shooter_points);
+    PENUMBRA_TRY(built->setShooterLevel(po.shooter_level));
+  }
+  run.solver.emplace(std::move(*built));
+  ProgressiveRadiosity& pr = *run.solver;
+  pr.setCommunicator(&comm);
+  if (info) {
+    PENUMBRA_TRY(resumeProgressiveCheckpoint(options.resume, scene, pr));
+    run.resumed_iterations = pr.iterations();
+    spdlog::info("{}: resumed after {} iterations, {:.3g} of the emitted power unshot",
+                 options.resume, pr.iterations(), pr.unshotFraction());
+  }
+  std::optional<GlProgressive> gl;
+  if (gpu) {
+    // Point, spot and directional lights shoot first, on the CPU (ray-traced shadows); the GPU
+    // continues from that state.
+    if (!pr.lightsShot()) {
+      const ProgressiveIteration it = pr.shoot(ProgressiveRadiosity::kLights);
+      run.history.push_back(it.unshot_fraction);
+      run.shooters.push_back("lights");
+      run.iteration_seconds.push_back(it.seconds);
+    }
+    Expected<GlProgressive> g = GlProgressive::create(pr);
+    if (!g) return g.error();
+    gl.emplace(std::move(*g));
+  }
+  run.build_seconds = build_timer.seconds();
+  PENUMBRA_TRY(solveProgressive(run, scene, options, common, comm, gl, gpu, po));
   return run;
 }
 

@@ -29,17 +29,12 @@
 
 namespace penumbra {
 
-Status renderLightmapRadiosity(const RenderOptions& options, const CommonOptions& common,
-                               bool* interrupted) {
-  // Over several processes (mpirun, progressive only): every rank loads and checks, then they
-  // agree to start; rank 0 draws and writes.
-  Communicator& comm = currentCommunicator();
-  ReadyGate gate(comm);
-  const bool stochastic = options.method == "stochastic";
-  std::vector<std::string> outputs = options.outputs;
-  const std::filesystem::path scene_path(options.scene);
-  const std::string stem = scene_path.has_extension() ? scene_path.stem().string() : options.scene;
-  if (outputs.empty() && defaultsOutputs()) outputs.push_back(stem + ".png");
+namespace {
+
+// The outputs and the options that do not apply to the lightmap methods, checked before
+// anything is loaded.
+Status checkLightmapRenderOptions(const RenderOptions& options,
+                                  const std::vector<std::string>& outputs, bool stochastic) {
   for (const std::string& out : outputs) {
     if (!isSupportedImageExtension(out)) {
       return inputError(out, "",
@@ -62,6 +57,74 @@ Status renderLightmapRadiosity(const RenderOptions& options, const CommonOptions
     return inputError("", options.adaptive ? "--adaptive" : "--receiver-level",
                       "applies to --method progressive only");
   }
+  return {};
+}
+
+// Lux: the lightmap's radiance gathered over each point's hemisphere.
+Expected<std::optional<IlluminanceReport>> lightmapIlluminance(
+    const Scene& scene, const RadiositySurface& surface, const Image& lightmap,
+    const Camera& camera, const std::optional<IlluminanceRequest>& lux) {
+  if (!lux) return std::optional<IlluminanceReport>();
+  const LightmapLookup lookup(surface.flat.positions, surface.flat.triangles, surface.atlas,
+                              lightmap);
+  Expected<IlluminanceReport> r = illuminanceReport(
+      scene, surface.engine, surface.flat, camera, *lux, [&](const Ray& ray, const Hit& hit, Rng&) {
+        return lookup.radiance(ray.dir, hit.triangle, hit.u, hit.v);
+      });
+  if (!r) return r.error();
+  return std::optional<IlluminanceReport>(std::move(*r));
+}
+
+// The summary line.
+void logLightmapSummary(const std::optional<ProgressiveRun>& progressive,
+                        const std::optional<StochasticRun>& stoch,
+                        const std::vector<std::string>& outputs) {
+  if (stoch) {
+    spdlog::info("{} iterations, estimated error {:.3g}, {:.2f} s; wrote {}",
+                 stoch->stats.total_iterations, stoch->stats.error, stoch->stats.seconds,
+                 fmt::join(outputs, ", "));
+  } else {
+    spdlog::info("{} iterations, {:.3g} of the emitted power unshot, {:.2f} s; wrote {}",
+                 progressive->stats.total_iterations, progressive->stats.unshot_fraction,
+                 progressive->stats.seconds, fmt::join(outputs, ", "));
+  }
+}
+
+// The stats: the view's settings and times, the solve's stats and the lux.
+Status writeLightmapStats(const RenderOptions& options, const Scene& scene,
+                          const Timer& total_timer, double view_seconds, int width, int height,
+                          int spp, const std::optional<ProgressiveRun>& progressive,
+                          const std::optional<StochasticRun>& stoch, double tolerance,
+                          const nlohmann::json& lux_stats) {
+  if (!wantsStats(options.stats)) return {};
+  nlohmann::json j = {{"method", options.method},
+                      {"scene", scene.source},
+                      {"seconds", total_timer.seconds()},
+                      {"view_seconds", view_seconds},
+                      {"threads", threadCount()},
+                      {"width", width},
+                      {"height", height},
+                      {"spp", spp}};
+  j.update(stoch ? stochasticStatsJson(*stoch) : progressiveStatsJson(*progressive, tolerance));
+  j.update(lux_stats);
+  PENUMBRA_TRY(emitStats(options.stats, j));
+  return {};
+}
+
+}  // namespace
+
+Status renderLightmapRadiosity(const RenderOptions& options, const CommonOptions& common,
+                               bool* interrupted) {
+  // Over several processes (mpirun, progressive only): every rank loads and checks, then they
+  // agree to start; rank 0 draws and writes.
+  Communicator& comm = currentCommunicator();
+  ReadyGate gate(comm);
+  const bool stochastic = options.method == "stochastic";
+  std::vector<std::string> outputs = options.outputs;
+  const std::filesystem::path scene_path(options.scene);
+  const std::string stem = scene_path.has_extension() ? scene_path.stem().string() : options.scene;
+  if (outputs.empty() && defaultsOutputs()) outputs.push_back(stem + ".png");
+  PENUMBRA_TRY(checkLightmapRenderOptions(options, outputs, stochastic));
   const std::string checkpoint =
       !options.checkpoint.empty() ? options.checkpoint
       : outputs.empty()
@@ -123,46 +186,17 @@ Status renderLightmapRadiosity(const RenderOptions& options, const CommonOptions
                                          surface.atlas, lightmap, camera, view);
   const double view_seconds = view_timer.seconds();
   // Lux: the lightmap's radiance gathered over each point's hemisphere.
-  std::optional<IlluminanceReport> report;
-  if (lux) {
-    const LightmapLookup lookup(surface.flat.positions, surface.flat.triangles, surface.atlas,
-                                lightmap);
-    Expected<IlluminanceReport> r =
-        illuminanceReport(*scene, surface.engine, surface.flat, camera, *lux,
-                          [&](const Ray& ray, const Hit& hit, Rng&) {
-                            return lookup.radiance(ray.dir, hit.triangle, hit.u, hit.v);
-                          });
-    if (!r) return r.error();
-    report = std::move(*r);
-  }
+  Expected<std::optional<IlluminanceReport>> report =
+      lightmapIlluminance(*scene, surface, lightmap, camera, lux);
+  if (!report) return report.error();
   nlohmann::json lux_stats = nlohmann::json::object();
-  emitImage(renderedValues(options, image, report ? &*report : nullptr));
+  emitImage(renderedValues(options, image, *report ? &**report : nullptr));
   PENUMBRA_TRY(
-      writeRenderOutputs(options, outputs, image, report ? &*report : nullptr, &lux_stats));
-  if (stochastic) {
-    spdlog::info("{} iterations, estimated error {:.3g}, {:.2f} s; wrote {}",
-                 stoch->stats.total_iterations, stoch->stats.error, stoch->stats.seconds,
-                 fmt::join(outputs, ", "));
-  } else {
-    spdlog::info("{} iterations, {:.3g} of the emitted power unshot, {:.2f} s; wrote {}",
-                 progressive->stats.total_iterations, progressive->stats.unshot_fraction,
-                 progressive->stats.seconds, fmt::join(outputs, ", "));
-  }
+      writeRenderOutputs(options, outputs, image, *report ? &**report : nullptr, &lux_stats));
+  logLightmapSummary(progressive, stoch, outputs);
 
-  if (wantsStats(options.stats)) {
-    nlohmann::json j = {{"method", options.method},
-                        {"scene", scene->source},
-                        {"seconds", total_timer.seconds()},
-                        {"view_seconds", view_seconds},
-                        {"threads", threadCount()},
-                        {"width", width},
-                        {"height", height},
-                        {"spp", spp}};
-    j.update(stochastic ? stochasticStatsJson(*stoch)
-                        : progressiveStatsJson(*progressive, ro.tolerance));
-    j.update(lux_stats);
-    PENUMBRA_TRY(emitStats(options.stats, j));
-  }
+  PENUMBRA_TRY(writeLightmapStats(options, *scene, total_timer, view_seconds, width, height, spp,
+                                  progressive, stoch, ro.tolerance, lux_stats));
   return {};
 }
 

@@ -27,6 +27,75 @@ namespace {
 // the two sums (5 x 24), the element's pieces (about 2 x 200) and the level sums (about 11).
 constexpr uint64_t kBytesPerElement = 900;
 
+// The solve: Ctrl-C stops it between two iterations and writes a checkpoint; the lightmap
+// into `run`.
+Status solveStochastic(StochasticRun& run, const Scene& scene, const StochasticRunOptions& options,
+                       const CommonOptions& common, const StochasticOptions& so,
+                       std::optional<GlStochastic>& gl) {
+  StochasticRadiosity& sr = *run.solver;
+  // From here Ctrl-C stops between two iterations and writes a checkpoint. The line below is
+  // printed once it does (scripts may wait for it before sending SIGINT).
+  const InterruptScope interrupt;
+  spdlog::info("{}: {} lightmap texels in a {}x{} atlas ({:.1f} texels/m), burn-in {} iterations{}",
+               scene.source, sr.elementCount(), sr.atlas().width, sr.atlas().height,
+               sr.atlas().texel_density, sr.burnIn(), gl ? ", on the GPU" : "");
+
+  // Progress: iterations against the cap (or the time against the limit), with the iteration
+  // and the running error estimate.
+  const bool by_time = options.time_limit > 0.0;
+  Progress progress("iterating", by_time ? 1000 : uint64_t(std::max(so.iterations, 1)),
+                    !common.quiet && Progress::stderrIsTerminal());
+  const Timer solve_timer;
+  Status device_error;
+  const auto after = [&](const StochasticIteration& it) {
+    double error = 1.0;
+    if (gl && gl->averaged() >= 2) {
+      Expected<double> e = gl->errorEstimate();
+      if (e) {
+        error = *e;
+      } else if (device_error) {
+        device_error = e.error();
+      }
+    } else if (!gl && sr.averaged() >= 2) {
+      error = sr.errorEstimate();
+    }
+    run.history.push_back(error);
+    progress.setNote(fmt::format("iteration {}, error ~{:.3g}", it.iteration, error));
+    progress.reach(
+        by_time ? uint64_t(std::min(solve_timer.seconds() / options.time_limit, 1.0) * 1000.0)
+                : uint64_t(it.iteration));
+  };
+  const auto stop = [&] { return InterruptScope::requested() || !device_error; };
+  if (gl) {
+    Expected<StochasticStats> st = gl->solve(after, stop);
+    if (!st) return st.error();
+    PENUMBRA_TRY(device_error);
+    run.stats = *st;
+    Expected<StochasticState> state = gl->download();
+    if (!state) return state.error();
+    PENUMBRA_TRY(sr.setState(std::move(*state)));
+  } else {
+    run.stats = sr.solve(after, stop);
+  }
+  progress.finish();
+  if (run.stats.interrupted) {
+    run.interrupted = true;
+    PENUMBRA_TRY(writeStochasticCheckpoint(options.checkpoint, scene, sr));
+    spdlog::warn(
+        "interrupted after {} iterations (estimated error {:.3g}): checkpoint written to {}; "
+        "continue with --resume {}",
+        run.stats.total_iterations, run.stats.error, options.checkpoint, options.checkpoint);
+  } else if (!options.resume.empty() && !options.keep_checkpoint) {
+    if (OutputTransaction* t = OutputTransaction::current()) t->removeOnCommit(options.resume);
+  }
+  if (sr.averaged() == 0) {
+    spdlog::warn("stopped within the burn-in ({} of {} iterations): the estimate is one iterate",
+                 sr.iterations(), sr.burnIn());
+  }
+  run.lightmap = sr.radianceImage();
+  return {};
+}
+
 }  // namespace
 
 Status checkStochasticRunOptions(const StochasticRunOptions& o) {
@@ -124,66 +193,7 @@ Expected<StochasticRun> runStochastic(const Scene& scene, const StochasticRunOpt
     gl.emplace(std::move(*g));
   }
   run.build_seconds = build_timer.seconds();
-  // From here Ctrl-C stops between two iterations and writes a checkpoint. The line below is
-  // printed once it does (scripts may wait for it before sending SIGINT).
-  const InterruptScope interrupt;
-  spdlog::info("{}: {} lightmap texels in a {}x{} atlas ({:.1f} texels/m), burn-in {} iterations{}",
-               scene.source, sr.elementCount(), sr.atlas().width, sr.atlas().height,
-               sr.atlas().texel_density, sr.burnIn(), gl ? ", on the GPU" : "");
-
-  // Progress: iterations against the cap (or the time against the limit), with the iteration
-  // and the running error estimate.
-  const bool by_time = options.time_limit > 0.0;
-  Progress progress("iterating", by_time ? 1000 : uint64_t(std::max(so.iterations, 1)),
-                    !common.quiet && Progress::stderrIsTerminal());
-  const Timer solve_timer;
-  Status device_error;
-  const auto after = [&](const StochasticIteration& it) {
-    double error = 1.0;
-    if (gl && gl->averaged() >= 2) {
-      Expected<double> e = gl->errorEstimate();
-      if (e) {
-        error = *e;
-      } else if (device_error) {
-        device_error = e.error();
-      }
-    } else if (!gl && sr.averaged() >= 2) {
-      error = sr.errorEstimate();
-    }
-    run.history.push_back(error);
-    progress.setNote(fmt::format("iteration {}, error ~{:.3g}", it.iteration, error));
-    progress.reach(
-        by_time ? uint64_t(std::min(solve_timer.seconds() / options.time_limit, 1.0) * 1000.0)
-                : uint64_t(it.iteration));
-  };
-  const auto stop = [&] { return InterruptScope::requested() || !device_error; };
-  if (gl) {
-    Expected<StochasticStats> st = gl->solve(after, stop);
-    if (!st) return st.error();
-    PENUMBRA_TRY(device_error);
-    run.stats = *st;
-    Expected<StochasticState> state = gl->download();
-    if (!state) return state.error();
-    PENUMBRA_TRY(sr.setState(std::move(*state)));
-  } else {
-    run.stats = sr.solve(after, stop);
-  }
-  progress.finish();
-  if (run.stats.interrupted) {
-    run.interrupted = true;
-    PENUMBRA_TRY(writeStochasticCheckpoint(options.checkpoint, scene, sr));
-    spdlog::warn(
-        "interrupted after {} iterations (estimated error {:.3g}): checkpoint written to {}; "
-        "continue with --resume {}",
-        run.stats.total_iterations, run.stats.error, options.checkpoint, options.checkpoint);
-  } else if (!options.resume.empty() && !options.keep_checkpoint) {
-    if (OutputTransaction* t = OutputTransaction::current()) t->removeOnCommit(options.resume);
-  }
-  if (sr.averaged() == 0) {
-    spdlog::warn("stopped within the burn-in ({} of {} iterations): the estimate is one iterate",
-                 sr.iterations(), sr.burnIn());
-  }
-  run.lightmap = sr.radianceImage();
+  PENUMBRA_TRY(solveStochastic(run, scene, options, common, so, gl));
   return run;
 }
 
