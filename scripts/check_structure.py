@@ -54,7 +54,7 @@ PENDING_FUNCTIONS = {
     ("src/penumbra/app/render_matrix.cpp", "renderMatrix"): 207,
     ("src/penumbra/app/render_sss.cpp", "renderSss"): 139,
 }
-PENDING_APP_LINES = 3987  # app/'s lines today, while over MAX_APP_LINES
+PENDING_APP_LINES = 4026  # app/'s lines today (split run functions add signatures), while over MAX_APP_LINES
 PENDING_API_COMMAND_LINE = True  # api/ still reaches the methods through the CLI's parser
 PENDING_MODULE_EDGES = {("api", "app")}  # the same: api/ includes the CLI's session and commands
 
