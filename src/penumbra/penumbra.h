@@ -3,9 +3,10 @@
 // TBB, GL or glm headers, so a caller's build needs nothing but this file and the library.
 //
 // Every call does what the command-line tool's command of the same name does, with the same
-// options (docs/cli.md), the same checks and the same messages: the library decides, the CLI and
-// the bindings only pass options. Scenes and results stay in memory; files are written only
-// where the options name them (-o, --stats; `bake` writes its output directory as the CLI does).
+// options (docs/cli.md), the same checks and the same messages: the library runs the method, and
+// the CLI, this API and the bindings only pass options to it. Scenes and results stay in memory;
+// files are written only where the options name them (-o, --stats; `bake` writes its output
+// directory as the CLI does).
 //
 // Errors are exceptions of type penumbra::api::Error carrying the library's one-line message
 // (the file and the place in it, for bad input). Calls run one at a time in a process (a second
@@ -15,10 +16,13 @@
 #include <cstddef>
 #include <cstdint>
 #include <functional>
+#include <initializer_list>
 #include <memory>
 #include <span>
 #include <stdexcept>
 #include <string>
+#include <utility>
+#include <variant>
 #include <vector>
 
 namespace penumbra {
@@ -109,13 +113,37 @@ struct Result {
   bool interrupted = false;
 };
 
-// `penumbra render`: `options` are the command's options as the CLI takes them, e.g.
-// {"--method", "matrix", "--elements", "4000"}. Images are written only where -o names them.
+// An option's value, of the kind docs/cli.md gives the option: true or false for a flag, a whole
+// number, a number, numbers (--boundary), a word or a path; a repeatable option (-o) also takes
+// several paths.
+using OptionValue =
+    std::variant<bool, int64_t, double, std::vector<double>, std::string, std::vector<std::string>>;
+
+// Options by name, typed: Options{{"method", "matrix"}, {"elements", 4000}}. A name is the
+// command line's without the dashes, with '-' or '_' ("max_depth"). Each value is checked as the
+// command line's is: its kind, its range for the method, and that the method takes it; an error
+// names the option.
+struct Options {
+  Options() = default;
+  Options(std::initializer_list<std::pair<std::string, OptionValue>> list) : values(list) {}
+  Options& set(const std::string& name, OptionValue value) {
+    values.emplace_back(name, std::move(value));
+    return *this;
+  }
+  std::vector<std::pair<std::string, OptionValue>> values;
+};
+
+// `penumbra render` with typed options: render(scene, Options{{"method", "matrix"}}). Images are
+// written only where "output" names them; the result holds them in memory.
+Result render(const Scene& scene, const Options& options, const ProgressCallback& progress = {});
+// The same with the command line's words, e.g. {"--method", "matrix", "--elements", "4000"}: a
+// convenience parsed by the same descriptions.
 Result render(const Scene& scene, const std::vector<std::string>& options = {},
               const ProgressCallback& progress = {});
 
-// `penumbra bake`: writes the lightmap files into -o DIR (default ".") as the CLI does and
+// `penumbra bake`: writes the lightmap files into "output" DIR (default ".") as the CLI does and
 // returns the atlas.
+Result bake(const Scene& scene, const Options& options, const ProgressCallback& progress = {});
 Result bake(const Scene& scene, const std::vector<std::string>& options = {},
             const ProgressCallback& progress = {});
 
@@ -159,8 +187,12 @@ bool mpiAvailable();
 // radiosity with --solver jacobi and progressive radiosity give one process's result bit for
 // bit; --solver gauss-seidel becomes block Gauss-Seidel (docs/scaling.md). For trace, rank 0's
 // rays are traced (the others pass none). Only rank 0 writes files.
+Result render(const Communicator& comm, const Scene& scene, const Options& options,
+              const ProgressCallback& progress = {});
 Result render(const Communicator& comm, const Scene& scene,
               const std::vector<std::string>& options = {}, const ProgressCallback& progress = {});
+Result bake(const Communicator& comm, const Scene& scene, const Options& options,
+            const ProgressCallback& progress = {});
 Result bake(const Communicator& comm, const Scene& scene,
             const std::vector<std::string>& options = {}, const ProgressCallback& progress = {});
 Hits trace(const Communicator& comm, const Scene& scene, std::span<const float> rays,

@@ -1,7 +1,7 @@
 #include "viewer/viewer.h"
 
 #include "penumbra/app/commands.h"
-#include "penumbra/app/stats_file.h"
+#include "penumbra/methods/stats_file.h"
 #include "penumbra/core/file_util.h"
 #include "penumbra/core/timer.h"
 #include "penumbra/gpu/storage.h"

@@ -1,10 +1,8 @@
-// The public API (penumbra.h): each call runs the CLI's command of the same name in a session
-// (app/session.h), so that options, checks, defaults and messages are the command line's.
+// The public API (penumbra.h): each call parses its options with the library's descriptions
+// (methods/option_input.h) and runs the library's render or bake (methods/render.h), as the CLI
+// does, so that options, checks, defaults and messages are the command line's.
 #include "penumbra/penumbra.h"
 
-#include "penumbra/app/commands.h"
-#include "penumbra/app/session.h"
-#include "penumbra/app/trace_run.h"
 #include "penumbra/cluster/communicator.h"
 #include "penumbra/core/check.h"
 #include "penumbra/core/interrupt.h"
@@ -15,6 +13,10 @@
 #include "penumbra/io/image_io.h"
 #include "penumbra/io/ray_file.h"
 #include "penumbra/io/scene_io.h"
+#include "penumbra/methods/option_input.h"
+#include "penumbra/methods/render.h"
+#include "penumbra/methods/run_context.h"
+#include "penumbra/methods/trace.h"
 #include "penumbra/scene/scene.h"
 
 #include <fmt/format.h>
@@ -24,6 +26,7 @@
 #include <mutex>
 #include <new>
 #include <optional>
+#include <type_traits>
 
 namespace penumbra::api {
 
@@ -94,21 +97,21 @@ auto guarded(Work&& work) -> decltype(work()) {
   }
 }
 
-// The communicator a call with one runs over (cluster/communicator.h), current while it lives.
+// The communicator a call with one runs over (cluster/communicator.h), null for this process
+// alone.
 class OverCommunicator {
  public:
-  explicit OverCommunicator(const Communicator& comm) {
-    if (comm.mpi_fortran_handle < 0) return;  // this process alone
+  explicit OverCommunicator(const Communicator* comm) {
+    if (!comm || comm->mpi_fortran_handle < 0) return;  // this process alone
     Expected<std::unique_ptr<penumbra::Communicator>> c =
-        wrapMpiCommunicator(comm.mpi_fortran_handle);
+        wrapMpiCommunicator(comm->mpi_fortran_handle);
     if (!c) throw toApiError(c.error());
     comm_ = std::move(*c);
-    scope_.emplace(*comm_);
   }
+  penumbra::Communicator* get() const { return comm_.get(); }
 
  private:
   std::unique_ptr<penumbra::Communicator> comm_;
-  std::optional<CommunicatorScope> scope_;
 };
 
 // The name a command is given for the scene: what its default file names derive from.
@@ -117,28 +120,79 @@ std::string commandSceneName(const penumbra::Scene& scene) {
   return source.starts_with("builtin:") ? source.substr(8) : source;
 }
 
-Result runCommand(const char* command, const Scene& scene, const std::vector<std::string>& options,
-                  const ProgressCallback& progress) {
+// The typed options as the library's named values (methods/option_input.h).
+std::vector<NamedValue> namedValues(const Options& options) {
+  std::vector<NamedValue> out;
+  for (const auto& [name, value] : options.values) {
+    // A whole number >= 0 as JSON's unsigned, which the options of unsigned kind ask for.
+    const auto json = [](const auto& v) {
+      if constexpr (std::is_same_v<std::decay_t<decltype(v)>, int64_t>) {
+        return v >= 0 ? nlohmann::json(uint64_t(v)) : nlohmann::json(v);
+      } else {
+        return nlohmann::json(v);
+      }
+    };
+    out.emplace_back(name, std::visit(json, value));
+  }
+  return out;
+}
+
+Result toApiResult(RunResult&& run) {
+  Result result;
+  result.interrupted = run.interrupted;
+  for (const penumbra::Image& image : run.images) result.images.push_back(toApiImage(image));
+  if (!run.stats.is_null()) result.stats_json = run.stats.dump();
+  return result;
+}
+
+// Runs render or bake (`run`) on `scene` with the options `parse` gives: the library's call with
+// the caller's progress, stop requests, communicator and results kept in memory.
+template <typename Options_, typename Parse, typename Run>
+Result runCall(const Scene& scene, Parse parse, Run run, const ProgressCallback& progress,
+               const Communicator* comm) {
   return guarded([&] {
     CallScope call(progress);
-    CommandSession session;
-    session.scene =
+    const OverCommunicator over(comm);
+    Options_ defaults;
+    defaults.scene = commandSceneName(scene.internal());
+    auto input = parse(std::move(defaults));
+    if (!input) throw toApiError(input.error());
+    initLogging(input->common.quiet);
+    const auto thread_limit = limitThreads(input->common.threads);
+    RunContext context;
+    context.scene =
         std::shared_ptr<const penumbra::Scene>(std::shared_ptr<void>(), &scene.internal());
-    const SessionScope open(session);
-    std::vector<std::string> args = {"penumbra", command, commandSceneName(scene.internal())};
-    args.insert(args.end(), options.begin(), options.end());
-    const int code = runCommandLine(args);
-    if (session.error) throw toApiError(*session.error);
-    Result result;
-    if (code == 130 || code == 143) {
-      result.interrupted = true;
-    } else if (code != 0) {
-      throw Error(ErrorKind::kRuntime, fmt::format("{} failed (exit code {})", command, code));
-    }
-    for (const penumbra::Image& image : session.images) result.images.push_back(toApiImage(image));
-    if (!session.stats.is_null()) result.stats_json = session.stats.dump();
-    return result;
+    context.given = input->given;
+    context.progress = progress;
+    context.stop_on_request = true;
+    context.keep_results = true;
+    context.communicator = over.get();
+    Expected<RunResult> result = run(std::move(input->options), input->common, context);
+    if (!result) throw toApiError(result.error());
+    return toApiResult(std::move(*result));
   });
+}
+
+Result renderWith(const Scene& scene, const std::vector<std::string>* words, const Options* typed,
+                  const ProgressCallback& progress, const Communicator* comm) {
+  return runCall<RenderOptions>(
+      scene,
+      [&](RenderOptions defaults) {
+        return words ? renderInputFromWords(*words, std::move(defaults))
+                     : renderInputFromValues(namedValues(*typed), std::move(defaults));
+      },
+      &renderScene, progress, comm);
+}
+
+Result bakeWith(const Scene& scene, const std::vector<std::string>* words, const Options* typed,
+                const ProgressCallback& progress, const Communicator* comm) {
+  return runCall<BakeOptions>(
+      scene,
+      [&](BakeOptions defaults) {
+        return words ? bakeInputFromWords(*words, std::move(defaults))
+                     : bakeInputFromValues(namedValues(*typed), std::move(defaults));
+      },
+      &bakeScene, progress, comm);
 }
 
 }  // namespace
@@ -258,12 +312,20 @@ std::vector<uint32_t> Scene::flatIndices() const {
 
 Result render(const Scene& scene, const std::vector<std::string>& options,
               const ProgressCallback& progress) {
-  return runCommand("render", scene, options, progress);
+  return renderWith(scene, &options, nullptr, progress, nullptr);
+}
+
+Result render(const Scene& scene, const Options& options, const ProgressCallback& progress) {
+  return renderWith(scene, nullptr, &options, progress, nullptr);
 }
 
 Result bake(const Scene& scene, const std::vector<std::string>& options,
             const ProgressCallback& progress) {
-  return runCommand("bake", scene, options, progress);
+  return bakeWith(scene, &options, nullptr, progress, nullptr);
+}
+
+Result bake(const Scene& scene, const Options& options, const ProgressCallback& progress) {
+  return bakeWith(scene, nullptr, &options, progress, nullptr);
 }
 
 bool mpiAvailable() {
@@ -272,19 +334,29 @@ bool mpiAvailable() {
 
 Result render(const Communicator& comm, const Scene& scene, const std::vector<std::string>& options,
               const ProgressCallback& progress) {
-  OverCommunicator over(comm);
-  return render(scene, options, progress);
+  return renderWith(scene, &options, nullptr, progress, &comm);
+}
+
+Result render(const Communicator& comm, const Scene& scene, const Options& options,
+              const ProgressCallback& progress) {
+  return renderWith(scene, nullptr, &options, progress, &comm);
 }
 
 Result bake(const Communicator& comm, const Scene& scene, const std::vector<std::string>& options,
             const ProgressCallback& progress) {
-  OverCommunicator over(comm);
-  return bake(scene, options, progress);
+  return bakeWith(scene, &options, nullptr, progress, &comm);
+}
+
+Result bake(const Communicator& comm, const Scene& scene, const Options& options,
+            const ProgressCallback& progress) {
+  return bakeWith(scene, nullptr, &options, progress, &comm);
 }
 
 Hits trace(const Communicator& comm, const Scene& scene, std::span<const float> rays,
            const TraceOptions& options) {
-  OverCommunicator over(comm);
+  const OverCommunicator over(&comm);
+  std::optional<CommunicatorScope> scope;
+  if (over.get()) scope.emplace(*over.get());
   return trace(scene, rays, options);
 }
 

@@ -1,5 +1,4 @@
 #include "penumbra/app/commands.h"
-#include "penumbra/app/session.h"
 #include "penumbra/cluster/communicator.h"
 
 #include "penumbra/core/file_util.h"
@@ -35,9 +34,7 @@ namespace penumbra {
 
 int reportError(const Error& error) {
   const Communicator& comm = currentCommunicator();
-  if (CommandSession* session = CommandSession::current()) {
-    session->error = error;  // the caller reports it
-  } else if (comm.root()) {
+  if (comm.root()) {
     std::fprintf(stderr, "penumbra: error: %s\n", error.describe().c_str());
   } else if (error.report_on_this_rank || thisRankReports()) {
     // An error rank 0 does not have (cluster/communicator.h: agreeReady); rank 0 names this rank.
@@ -375,12 +372,9 @@ int runParsed(CommandLine& c) {
   initLogging(c.common.quiet || !comm.root());
   if (!comm.root()) spdlog::set_level(spdlog::level::err);
   setThisProcessWritesOutputs(comm.root());
-  // Signals and the thread limit are the process's: the CLI takes them; a program calling the
-  // library through a session keeps its own signal handlers, and the limit lasts for the call.
-  if (CommandSession::current() == nullptr) {
-    installInterruptHandlers();
-    if (comm.distributed()) interruptSignalsEndDistributedRun(comm.rank(), comm.size());
-  }
+  // Signals are the process's: the CLI takes them.
+  installInterruptHandlers();
+  if (comm.distributed()) interruptSignalsEndDistributedRun(comm.rank(), comm.size());
   auto thread_limit = limitThreads(threadsPerRank(comm, c.common.threads));
   std::vector<std::string> given;
   if (c.render_cmd->parsed()) {
@@ -438,9 +432,8 @@ int parseAndRun(int argc, char** argv) {
   }
 
   const std::string first = argc > 1 ? argv[1] : "";
-  const bool session = CommandSession::current() != nullptr;
-  if (first == "view" && !session) return runView(argc, argv);
-  if (first == "methods" && !session) return runMethods(argc, argv);
+  if (first == "view") return runView(argc, argv);
+  if (first == "methods") return runMethods(argc, argv);
   if (!first.empty() && first[0] != '-' && first != "render" && first != "bake" &&
       first != "trace" && first != "rays" && first != "info") {
     return reportError(inputError(
@@ -452,7 +445,6 @@ int parseAndRun(int argc, char** argv) {
   try {
     c.app.parse(argc, argv);
   } catch (const CLI::Success& e) {
-    if (session) return reportError(inputError("", "", "--help and --version: see the CLI"));
     return c.app.exit(e);
   } catch (const CLI::ParseError& e) {
     return reportError(inputError("", "", fmt::format("{} (see penumbra --help)", e.what())));
@@ -461,14 +453,6 @@ int parseAndRun(int argc, char** argv) {
 }
 
 }  // namespace
-
-int runCommandLine(const std::vector<std::string>& args) {
-  std::vector<std::string> words = args;
-  std::vector<char*> argv;
-  for (std::string& w : words) argv.push_back(w.data());
-  argv.push_back(nullptr);
-  return parseAndRun(int(words.size()), argv.data());
-}
 
 namespace {
 

@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <atomic>
 #include <fstream>
 #include <string>
 
@@ -38,7 +39,16 @@ bool memAvailable(uint64_t* out) {
   return false;
 }
 
+// The caller's budget (MemoryBudgetScope), 0 for none.
+std::atomic<uint64_t> g_budget{0};
+
 }  // namespace
+
+MemoryBudgetScope::MemoryBudgetScope(uint64_t bytes) : previous_(g_budget.exchange(bytes)) {}
+
+MemoryBudgetScope::~MemoryBudgetScope() {
+  g_budget = previous_;
+}
 
 uint64_t physicalMemoryBytes() {
   const long pages = ::sysconf(_SC_PHYS_PAGES);
@@ -78,6 +88,7 @@ MemoryBudget availableMemory() {
              limit < (uint64_t(1) << 60)) {
     consider(limit > current ? limit - current : 0, "the cgroup's memory limit");
   }
+  if (const uint64_t budget = g_budget.load(); budget > 0) consider(budget, "the caller's budget");
   return b;
 }
 

@@ -23,6 +23,20 @@ struct MemoryBudget {
 };
 MemoryBudget availableMemory();
 
+// A caller's own limit on what the work may allocate (methods/run_context.h: memory_budget), in
+// force while the object lives: availableMemory() is then at most `bytes`, "limited by the
+// caller's budget". 0 sets no limit. Scopes nest; the innermost one applies.
+class MemoryBudgetScope {
+ public:
+  explicit MemoryBudgetScope(uint64_t bytes);
+  ~MemoryBudgetScope();
+  MemoryBudgetScope(const MemoryBudgetScope&) = delete;
+  MemoryBudgetScope& operator=(const MemoryBudgetScope&) = delete;
+
+ private:
+  uint64_t previous_;
+};
+
 // An input error when `bytes` exceeds 90% of availableMemory(), naming `what`, both amounts and
 // the limit that applies. Callers estimate from counts, before allocating.
 Status checkMemory(uint64_t bytes, const std::string& what);

@@ -2,10 +2,6 @@
 // Hart 2003, sec. 4) on the CPU or the GPU; with --frames N the scene's lights orbit the scene
 // once while the links stay, and every frame costs only the three passes (their times are in
 // the stats).
-#include "penumbra/app/commands.h"
-#include "penumbra/app/device.h"
-#include "penumbra/app/session.h"
-#include "penumbra/app/stats_file.h"
 #include "penumbra/core/file_util.h"
 #include "penumbra/core/memory.h"
 #include "penumbra/core/parallel.h"
@@ -13,6 +9,10 @@
 #include "penumbra/core/timer.h"
 #include "penumbra/io/image_io.h"
 #include "penumbra/io/scene_io.h"
+#include "penumbra/methods/device.h"
+#include "penumbra/methods/render.h"
+#include "penumbra/methods/run_context.h"
+#include "penumbra/methods/stats_file.h"
 #include "penumbra/render/sss_frames.h"
 #include "penumbra/subsurface/sss.h"
 #include "penumbra/subsurface/sss_cache.h"
@@ -52,8 +52,7 @@ Status renderSss(const RenderOptions& options, const CommonOptions& common) {
                   fmt::format("a {}x{} image at {} samples per pixel", width, height, spp)));
 
   const Timer total_timer;
-  Expected<Scene> scene = loadCommandScene(options.scene);
-  if (!scene) return scene.error();
+  const Scene* const scene = &runScene();
   for (const std::string& w : scene->warnings) spdlog::warn("{}", w);
   for (const std::string& w : diffuseStandInWarnings(*scene, "sss")) spdlog::warn("{}", w);
   SssOptions so;

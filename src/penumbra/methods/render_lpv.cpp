@@ -3,16 +3,16 @@
 // (`blobs`) moves and remeshes, any other scene's lights orbit it once, and every frame runs the
 // whole method again (voxelisation, injection, propagation, shading: no precomputation), with each
 // stage's milliseconds in the stats, as the paper's Table 1.
-#include "penumbra/app/commands.h"
-#include "penumbra/app/device.h"
-#include "penumbra/app/session.h"
-#include "penumbra/app/stats_file.h"
 #include "penumbra/core/file_util.h"
 #include "penumbra/core/memory.h"
 #include "penumbra/core/parallel.h"
 #include "penumbra/core/timer.h"
 #include "penumbra/io/image_io.h"
 #include "penumbra/io/scene_io.h"
+#include "penumbra/methods/device.h"
+#include "penumbra/methods/render.h"
+#include "penumbra/methods/run_context.h"
+#include "penumbra/methods/stats_file.h"
 #include "penumbra/scene/animation.h"
 #include "penumbra/subsurface/lpv.h"
 
@@ -46,8 +46,8 @@ Status renderLpv(const RenderOptions& options, const CommonOptions& common) {
   lo.surface_rays = options.surface_rays.value_or(lo.surface_rays);
 
   const Timer total_timer;
-  Expected<Scene> scene = loadCommandScene(options.scene);
-  if (!scene) return scene.error();
+  Scene scene_copy = runScene();  // the instances placed and the lights added below
+  Scene* const scene = &scene_copy;
   for (const std::string& w : scene->warnings) spdlog::warn("{}", w);
   for (const std::string& w : diffuseStandInWarnings(*scene, "lpv")) spdlog::warn("{}", w);
   // Declared before the solver, so that its GPU objects go before the context does.

@@ -4,9 +4,9 @@
 // iterations with the estimate so far and a checkpoint (radiosity/stochastic_checkpoint.h).
 #pragma once
 
-#include "penumbra/app/commands.h"
 #include "penumbra/core/expected.h"
 #include "penumbra/core/image.h"
+#include "penumbra/methods/render.h"
 #include "penumbra/radiosity/radiosity_surface.h"
 #include "penumbra/radiosity/stochastic.h"
 #include "penumbra/scene/scene.h"

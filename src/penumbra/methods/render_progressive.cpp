@@ -2,13 +2,6 @@
 // lightmap itself, progressive refinement radiosity (Wallner, sec. 2-3) and stochastic radiosity
 // (Barsi and Jakab), viewed from the camera through the lightmap with bilinear filtering, as a
 // lightmapped scene is displayed.
-#include "penumbra/app/commands.h"
-#include "penumbra/app/device.h"
-#include "penumbra/app/illuminance_output.h"
-#include "penumbra/app/progressive_run.h"
-#include "penumbra/app/session.h"
-#include "penumbra/app/stats_file.h"
-#include "penumbra/app/stochastic_run.h"
 #include "penumbra/cluster/communicator.h"
 #include "penumbra/core/file_util.h"
 #include "penumbra/core/memory.h"
@@ -17,6 +10,13 @@
 #include "penumbra/core/timer.h"
 #include "penumbra/io/image_io.h"
 #include "penumbra/io/scene_io.h"
+#include "penumbra/methods/device.h"
+#include "penumbra/methods/illuminance_output.h"
+#include "penumbra/methods/progressive_run.h"
+#include "penumbra/methods/render.h"
+#include "penumbra/methods/run_context.h"
+#include "penumbra/methods/stats_file.h"
+#include "penumbra/methods/stochastic_run.h"
 #include "penumbra/radiosity/progressive.h"
 #include "penumbra/render/lightmap_view.h"
 
@@ -147,8 +147,7 @@ Status renderLightmapRadiosity(const RenderOptions& options, const CommonOptions
                            fmt::format("a {}x{} image", width, height)));
 
   const Timer total_timer;
-  Expected<Scene> scene = loadCommandScene(options.scene);
-  if (!scene) return scene.error();
+  const Scene* const scene = &runScene();
   for (const std::string& w : scene->warnings) spdlog::warn("{}", w);
   for (const std::string& w : diffuseStandInWarnings(*scene, options.method)) spdlog::warn("{}", w);
   if (lux) PENUMBRA_TRY(checkIlluminanceRequest(*scene, *lux));

@@ -1,15 +1,15 @@
-#include "penumbra/app/progressive_run.h"
+#include "penumbra/methods/progressive_run.h"
 
 #include "penumbra/cluster/communicator.h"
 
-#include "penumbra/app/device.h"
-#include "penumbra/app/stats_file.h"
 #include "penumbra/cluster/communicator.h"
 #include "penumbra/core/file_util.h"
 #include "penumbra/core/interrupt.h"
 #include "penumbra/core/memory.h"
 #include "penumbra/core/progress.h"
 #include "penumbra/core/timer.h"
+#include "penumbra/methods/device.h"
+#include "penumbra/methods/stats_file.h"
 #include "penumbra/radiosity/progressive_checkpoint.h"
 #include "penumbra/radiosity/progressive_gl.h"
 #include "penumbra/radiosity/radiosity_surface.h"

@@ -4,10 +4,10 @@
 // checkpoint (radiosity/progressive_checkpoint.h).
 #pragma once
 
-#include "penumbra/app/commands.h"
 #include "penumbra/cluster/communicator.h"
 #include "penumbra/core/expected.h"
 #include "penumbra/core/image.h"
+#include "penumbra/methods/render.h"
 #include "penumbra/radiosity/progressive.h"
 #include "penumbra/scene/scene.h"
 

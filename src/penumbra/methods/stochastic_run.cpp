@@ -1,7 +1,7 @@
-#include "penumbra/app/stochastic_run.h"
+#include "penumbra/methods/stochastic_run.h"
 
-#include "penumbra/app/device.h"
-#include "penumbra/app/progressive_run.h"
+#include "penumbra/methods/device.h"
+#include "penumbra/methods/progressive_run.h"
 
 #include "penumbra/core/file_util.h"
 #include "penumbra/core/interrupt.h"

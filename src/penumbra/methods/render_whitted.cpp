@@ -1,16 +1,16 @@
 // `penumbra render --method whitted | photons`: Whitted ray tracing and photon mapping, the Ray
 // Engine paper's other applications, traced in batches through the chosen back end.
-#include "penumbra/app/commands.h"
-#include "penumbra/app/device.h"
-#include "penumbra/app/illuminance_output.h"
-#include "penumbra/app/session.h"
-#include "penumbra/app/stats_file.h"
 #include "penumbra/cluster/distributed_render.h"
 #include "penumbra/core/memory.h"
 #include "penumbra/core/parallel.h"
 #include "penumbra/core/progress.h"
 #include "penumbra/core/timer.h"
 #include "penumbra/io/scene_io.h"
+#include "penumbra/methods/device.h"
+#include "penumbra/methods/illuminance_output.h"
+#include "penumbra/methods/render.h"
+#include "penumbra/methods/run_context.h"
+#include "penumbra/methods/stats_file.h"
 #include "penumbra/raytrace/photon_map.h"
 #include "penumbra/raytrace/ray_queries.h"
 #include "penumbra/raytrace/whitted.h"
@@ -118,8 +118,7 @@ Status renderRayTraced(const RenderOptions& options, const CommonOptions& common
   PENUMBRA_TRY(checkRayTracedMemory(ws, ps, photons));
 
   Timer load_timer;
-  Expected<Scene> scene = loadCommandScene(options.scene);
-  if (!scene) return scene.error();
+  const Scene* const scene = &runScene();
   for (const std::string& w : scene->warnings) spdlog::warn("{}", w);
   const Camera camera = scene->camera ? *scene->camera : defaultCamera(*scene);
   const double load_seconds = load_timer.seconds();

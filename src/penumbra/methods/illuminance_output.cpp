@@ -1,4 +1,4 @@
-#include "penumbra/app/illuminance_output.h"
+#include "penumbra/methods/illuminance_output.h"
 
 #include "penumbra/core/file_util.h"
 #include "penumbra/io/image_io.h"

@@ -1,12 +1,6 @@
 // `penumbra render --method matrix`: matrix radiosity (Carr, Hall, Hart 2003, sec. 3) on the
 // scene's elements, viewed from the camera with smooth interpolation, optionally as a sequence
 // of relit frames (dynamic relighting: the form factors are computed once).
-#include "penumbra/app/commands.h"
-#include "penumbra/app/device.h"
-#include "penumbra/app/illuminance_output.h"
-#include "penumbra/app/matrix_build.h"
-#include "penumbra/app/session.h"
-#include "penumbra/app/stats_file.h"
 #include "penumbra/cluster/communicator.h"
 #include "penumbra/core/file_util.h"
 #include "penumbra/core/memory.h"
@@ -15,6 +9,12 @@
 #include "penumbra/core/timer.h"
 #include "penumbra/io/image_io.h"
 #include "penumbra/io/scene_io.h"
+#include "penumbra/methods/device.h"
+#include "penumbra/methods/illuminance_output.h"
+#include "penumbra/methods/matrix_build.h"
+#include "penumbra/methods/render.h"
+#include "penumbra/methods/run_context.h"
+#include "penumbra/methods/stats_file.h"
 #include "penumbra/radiosity/jacobi_gl.h"
 #include "penumbra/radiosity/matrix_radiosity.h"
 #include "penumbra/render/lightmap_view.h"
@@ -69,8 +69,7 @@ Status renderMatrix(const RenderOptions& options, const CommonOptions& common) {
                            fmt::format("a {}x{} image", width, height)));
 
   const Timer total_timer;
-  Expected<Scene> scene = loadCommandScene(options.scene);
-  if (!scene) return scene.error();
+  const Scene* const scene = &runScene();
   for (const std::string& w : scene->warnings) spdlog::warn("{}", w);
   for (const std::string& w : diffuseStandInWarnings(*scene, "matrix")) spdlog::warn("{}", w);
   if (lux) PENUMBRA_TRY(checkIlluminanceRequest(*scene, *lux));

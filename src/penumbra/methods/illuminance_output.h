@@ -2,7 +2,7 @@
 // render/illuminance.h (what to compute from the options, what to write and report).
 #pragma once
 
-#include "penumbra/app/commands.h"
+#include "penumbra/methods/render.h"
 #include "penumbra/render/illuminance.h"
 
 #include <nlohmann/json.hpp>

@@ -2,7 +2,7 @@
 // form factors' progress on the terminal (rank 0's), over the current communicator's ranks.
 #pragma once
 
-#include "penumbra/app/commands.h"
+#include "penumbra/methods/render.h"
 #include "penumbra/radiosity/matrix_radiosity.h"
 
 namespace penumbra {

@@ -1,9 +1,7 @@
-// `penumbra render`: loads a scene, runs the chosen method, writes images and stats.
-#include "penumbra/app/commands.h"
-#include "penumbra/app/device.h"
-#include "penumbra/app/illuminance_output.h"
-#include "penumbra/app/session.h"
-#include "penumbra/app/stats_file.h"
+// --method pathtrace: the reference path tracer (raytrace/path_tracer.h) on the CPU, as a wavefront
+// through the Ray Engine's GPU or hybrid back end, or over MPI ranks in blocks of rows.
+#include "penumbra/methods/render.h"
+
 #include "penumbra/cluster/distributed_render.h"
 #include "penumbra/core/file_util.h"
 #include "penumbra/core/interrupt.h"
@@ -13,7 +11,11 @@
 #include "penumbra/core/timer.h"
 #include "penumbra/io/image_io.h"
 #include "penumbra/io/scene_io.h"
+#include "penumbra/methods/device.h"
+#include "penumbra/methods/illuminance_output.h"
 #include "penumbra/methods/registry.h"
+#include "penumbra/methods/run_context.h"
+#include "penumbra/methods/stats_file.h"
 #include "penumbra/raytrace/path_tracer.h"
 #include "penumbra/raytrace/ray_queries.h"
 
@@ -27,11 +29,6 @@
 namespace penumbra {
 
 namespace {
-
-std::string sceneStem(const std::string& scene) {
-  const std::filesystem::path p(scene);
-  return p.has_extension() ? p.stem().string() : scene;
-}
 
 // The path tracer's image on the CPU (`device_name` empty) or as a wavefront through the named
 // Ray Engine back end, over the MPI ranks when there are several (rank 0 gets the image).
@@ -79,6 +76,8 @@ Expected<Image> renderImage(const PathTracer& tracer, const Camera& camera,
   return image;
 }
 
+}  // namespace
+
 Status renderPathTrace(const RenderOptions& options, const CommonOptions& common) {
   // Over several processes (mpirun): every rank loads and checks, then they agree to start.
   Communicator& comm = currentCommunicator();
@@ -88,8 +87,7 @@ Status renderPathTrace(const RenderOptions& options, const CommonOptions& common
   const std::vector<std::string>& outputs = *checked;
 
   Timer load_timer;
-  Expected<Scene> scene = loadCommandScene(options.scene);
-  if (!scene) return scene.error();
+  const Scene* const scene = &runScene();
   for (const std::string& w : scene->warnings) spdlog::warn("{}", w);
 
   PathTracerSettings settings;
@@ -192,75 +190,6 @@ Status renderPathTrace(const RenderOptions& options, const CommonOptions& common
     PENUMBRA_TRY(emitStats(options.stats, j));
   }
   return {};
-}
-
-}  // namespace
-
-std::string sequenceFrameName(const std::string& path, int frame) {
-  const std::filesystem::path p(path);
-  std::filesystem::path out = p.parent_path();
-  out /= fmt::format("{}_{:04d}{}", p.stem().string(), frame, p.extension().string());
-  return out.string();
-}
-
-Expected<std::vector<std::string>> checkRenderOutputs(const RenderOptions& options, int frames) {
-  std::vector<std::string> outputs = options.outputs;
-  if (outputs.empty() && defaultsOutputs()) outputs.push_back(sceneStem(options.scene) + ".png");
-  for (const std::string& out : outputs) {
-    if (!isSupportedImageExtension(out)) {
-      return inputError(out, "",
-                        fmt::format("unsupported image format '{}' (use .exr, .hdr, .pfm or .png)",
-                                    extensionOf(out)));
-    }
-    if (frames > 1) {
-      const std::string dir = std::filesystem::path(out).parent_path().string();
-      if (!dir.empty()) PENUMBRA_TRY(OutputTransaction::current()->createDirectories(dir));
-    }
-    PENUMBRA_TRY(checkOutputPath(frames > 1 ? sequenceFrameName(out, 0) : out));
-  }
-  if (!options.stats.empty()) PENUMBRA_TRY(checkOutputPath(options.stats));
-  return outputs;
-}
-
-int runRender(RenderOptions options, const CommonOptions& common,
-              const std::vector<std::string>& given) {
-  if (Status s = checkDistributedMethod(currentCommunicator(), "render", options.method); !s) {
-    return reportError(s.error());
-  }
-  // The scene file's "settings" for the method, checked as the command line's values are; the
-  // command line's win.
-  const auto [settings, settings_file] = commandSceneSettings(options.scene);
-  if (Expected<std::vector<std::string>> set =
-          applySceneSettings(options, settings, settings_file, given);
-      !set) {
-    return reportError(set.error());
-  }
-  // Every output is placed at the end, together, or none is (core/file_util.h).
-  OutputTransaction transaction;
-  Status s;
-  bool interrupted = false;
-  if (options.method == "pathtrace") {
-    s = renderPathTrace(options, common);
-  } else if (options.method == "whitted" || options.method == "photons") {
-    s = renderRayTraced(options, common);
-  } else if (options.method == "matrix") {
-    s = renderMatrix(options, common);
-  } else if (options.method == "progressive" || options.method == "stochastic") {
-    s = renderLightmapRadiosity(options, common, &interrupted);
-  } else if (options.method == "sss") {
-    s = renderSss(options, common);
-  } else if (options.method == "lpv") {
-    s = renderLpv(options, common);
-  } else {
-    s = inputError("", "",
-                   fmt::format("unknown --method '{}' (available: pathtrace, whitted, photons, "
-                               "matrix, progressive, stochastic, sss, lpv)",
-                               options.method));
-  }
-  if (s.ok() && common.dry_run) return reportDryRun();  // the transaction removes what it made
-  if (s.ok()) s = transaction.commit();
-  if (!s.ok()) return reportError(s.error());
-  return interrupted ? InterruptScope::exitCode() : 0;
 }
 
 }  // namespace penumbra

@@ -3,15 +3,31 @@
 // library's API (penumbra.h: trace) both run it.
 #pragma once
 
-#include "penumbra/app/commands.h"
 #include "penumbra/cluster/communicator.h"
+#include "penumbra/core/expected.h"
 #include "penumbra/kernels/ray.h"
 #include "penumbra/scene/scene.h"
 
 #include <cstdint>
+#include <optional>
+#include <string>
 #include <vector>
 
 namespace penumbra {
+
+// `penumbra trace`'s options.
+struct TraceOptions {
+  std::string mesh;
+  // --device hybrid: GPU cells hold t_min..t_max triangles; r_min rays per GPU pass (sec. 6.2);
+  // each cell's ray cache holds cache_rays rays (sec. 5.3; unset: 4 r_min).
+  uint32_t t_min = 64, t_max = 1024, r_min = 256;
+  std::optional<uint32_t> cache_rays;
+  std::string rays;
+  std::string output;
+  std::string stats;
+  std::string device = "auto";
+  bool occlusion = false;  // any hit: one byte per ray instead of closest hits
+};
 
 struct TraceRun {
   HitBatch hits;                  // closest hits (empty with --occlusion)

@@ -1,4 +1,4 @@
-#include "penumbra/app/stats_file.h"
+#include "penumbra/methods/stats_file.h"
 
 #include "penumbra/core/file_util.h"
 

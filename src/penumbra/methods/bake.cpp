@@ -9,12 +9,6 @@
 //
 // All outputs are staged in a hidden directory inside DIR and renamed into place only once every
 // file is complete, so a failed run leaves no output (and removes DIR if it created it).
-#include "penumbra/app/commands.h"
-#include "penumbra/app/matrix_build.h"
-#include "penumbra/app/progressive_run.h"
-#include "penumbra/app/session.h"
-#include "penumbra/app/stats_file.h"
-#include "penumbra/app/stochastic_run.h"
 #include "penumbra/cluster/communicator.h"
 #include "penumbra/core/file_util.h"
 #include "penumbra/core/interrupt.h"
@@ -24,6 +18,12 @@
 #include "penumbra/io/gltf_writer.h"
 #include "penumbra/io/image_io.h"
 #include "penumbra/io/scene_io.h"
+#include "penumbra/methods/matrix_build.h"
+#include "penumbra/methods/progressive_run.h"
+#include "penumbra/methods/render.h"
+#include "penumbra/methods/run_context.h"
+#include "penumbra/methods/stats_file.h"
+#include "penumbra/methods/stochastic_run.h"
 #include "penumbra/radiosity/matrix_radiosity.h"
 #include "penumbra/render/lightmap_mesh.h"
 
@@ -307,8 +307,7 @@ Status bake(const BakeOptions& options, const CommonOptions& common, bool* inter
   if (!options.stats.empty()) PENUMBRA_TRY(checkOutputPath(options.stats));
 
   const Timer total_timer;
-  Expected<Scene> scene = loadCommandScene(options.scene);
-  if (!scene) return scene.error();
+  const Scene* const scene = &runScene();
   for (const std::string& w : scene->warnings) spdlog::warn("{}", w);
   for (const std::string& w : diffuseStandInWarnings(*scene, options.method)) spdlog::warn("{}", w);
   bool any_emitter = false;
@@ -388,14 +387,17 @@ Status bake(const BakeOptions& options, const CommonOptions& common, bool* inter
 
 }  // namespace
 
-int runBake(const BakeOptions& options, const CommonOptions& common) {
+Expected<RunResult> bakeScene(BakeOptions options, const CommonOptions& common,
+                              const RunContext& context) {
+  RunScope run(context);
   OutputTransaction transaction;
   bool interrupted = false;
-  Status s = bake(options, common, &interrupted);
-  if (s.ok() && common.dry_run) return reportDryRun();  // the transaction removes what it made
-  if (s.ok()) s = transaction.commit();
-  if (!s.ok()) return reportError(s.error());
-  return interrupted ? InterruptScope::exitCode() : 0;
+  PENUMBRA_TRY(bake(options, common, &interrupted));
+  if (common.dry_run) return RunResult{};  // the transaction removes what it made
+  PENUMBRA_TRY(transaction.commit());
+  RunResult result = std::move(run.result());
+  result.interrupted = interrupted;
+  return result;
 }
 
 }  // namespace penumbra

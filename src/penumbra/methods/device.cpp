@@ -1,4 +1,4 @@
-#include "penumbra/app/device.h"
+#include "penumbra/methods/device.h"
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>

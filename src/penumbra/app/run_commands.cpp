@@ -1,0 +1,54 @@
+// `penumbra render` and `penumbra bake` on the command line: the scene loaded, the library's run
+// called (methods/render.h), its error printed. How a method runs is the library's.
+#include "penumbra/app/commands.h"
+#include "penumbra/cluster/communicator.h"
+#include "penumbra/core/interrupt.h"
+#include "penumbra/io/scene_io.h"
+
+#include <memory>
+
+namespace penumbra {
+
+namespace {
+
+// The command's scene, loaded on every rank of an MPI job (each agrees it has it before any
+// goes on, so that a rank that cannot read the file stops the job instead of leaving the others
+// waiting).
+Expected<std::shared_ptr<const Scene>> loadCommandScene(const std::string& name) {
+  Expected<Scene> scene = loadScene(name);
+  Communicator& comm = currentCommunicator();
+  if (comm.distributed()) {
+    PENUMBRA_TRY(agreeReady(comm, scene ? Status{} : Status(scene.error())));
+  }
+  if (!scene) return scene.error();
+  return std::make_shared<const Scene>(std::move(*scene));
+}
+
+// The exit code of a finished run.
+int exitCode(const Expected<RunResult>& run, const CommonOptions& common) {
+  if (!run) return reportError(run.error());
+  if (common.dry_run) return reportDryRun();
+  return run->interrupted ? InterruptScope::exitCode() : 0;
+}
+
+}  // namespace
+
+int runRender(RenderOptions options, const CommonOptions& common,
+              const std::vector<std::string>& given) {
+  Expected<std::shared_ptr<const Scene>> scene = loadCommandScene(options.scene);
+  if (!scene) return reportError(scene.error());
+  RunContext context;
+  context.scene = *scene;
+  context.given = given;
+  return exitCode(renderScene(std::move(options), common, context), common);
+}
+
+int runBake(const BakeOptions& options, const CommonOptions& common) {
+  Expected<std::shared_ptr<const Scene>> scene = loadCommandScene(options.scene);
+  if (!scene) return reportError(scene.error());
+  RunContext context;
+  context.scene = *scene;
+  return exitCode(bakeScene(options, common, context), common);
+}
+
+}  // namespace penumbra
