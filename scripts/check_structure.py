@@ -50,10 +50,7 @@ MAX_APP_LINES = 2000
 # What the library still has to bring under the limits, each at its size today: a pending
 # function may shrink or go, not grow, and no other function may pass the limit; app/ may not
 # grow. Lower these as the run logic moves into the methods; the check is whole when they are gone.
-PENDING_FUNCTIONS = {
-    ("src/penumbra/methods/render_matrix.cpp", "renderMatrix"): 206,
-    ("src/penumbra/methods/render_sss.cpp", "renderSss"): 138,
-}
+PENDING_FUNCTIONS = {}
 PENDING_APP_LINES = 0  # app/ is under MAX_APP_LINES
 PENDING_API_COMMAND_LINE = False
 PENDING_MODULE_EDGES = set()
@@ -355,9 +352,9 @@ def main(argv):
     if errors:
         print(f"check_structure: {len(errors)} violation(s)", file=sys.stderr)
         return 1
-    print(f"check_structure: modules form a DAG; no function over {MAX_FUNCTION_LINES} lines but "
-          f"{len(pending)} pending item(s) listed above; app/ {app_lines} "
-          "lines")
+    left = f", except {len(pending)} pending item(s) listed above" if pending else ""
+    print(f"check_structure: modules form a DAG; no function over {MAX_FUNCTION_LINES} lines"
+          f"{left}; app/ {app_lines} lines; api/ calls no command line")
     return 0
 
 

@@ -39,6 +39,190 @@ glm::vec3 relightTint(int f, int n) {
                    1.0f + 0.8f * std::cos(a + 2.0943951f));
 }
 
+// What the options ask of a matrix render, checked before the scene is loaded.
+struct MatrixSetup {
+  int frames = 1;
+  std::vector<std::string> outputs;
+  int width = 512, height = 512, spp = 4;
+  std::optional<IlluminanceRequest> lux;
+};
+
+// The options' checks, in the order the command makes them.
+Expected<MatrixSetup> checkMatrixOptions(const RenderOptions& options) {
+  MatrixSetup setup;
+  setup.frames = options.relight_frames > 1 ? options.relight_frames : 1;
+  Expected<std::vector<std::string>> checked = checkRenderOutputs(options, setup.frames);
+  if (!checked) return checked.error();
+  setup.outputs = *checked;
+  if (options.max_depth) {
+    return inputError("", "--max-depth", "applies to --method pathtrace only");
+  }
+  setup.width = options.width.value_or(512);
+  setup.height = options.height.value_or(512);
+  setup.spp = options.spp.value_or(4);
+  // Ranges: methods/registry.cpp.
+  if (setup.frames > 1 && !options.grid_csv.empty()) {
+    return inputError("", "--grid-csv", "writes one frame's table: not with --relight-frames");
+  }
+  if (wantsIlluminance(options)) {
+    Expected<IlluminanceRequest> r = illuminanceRequest(options, setup.width, setup.height);
+    if (!r) return r.error();
+    setup.lux = *r;
+  }
+  PENUMBRA_TRY(checkMemory(uint64_t(setup.width) * uint64_t(setup.height) * 40,
+                           fmt::format("a {}x{} image", setup.width, setup.height)));
+  return setup;
+}
+
+// The solver the options ask for on this device; gauss-seidel runs on the CPU only.
+Expected<MatrixSolver> chooseMatrixSolver(const RenderOptions& options, bool gpu) {
+  const MatrixSolver solver =
+      options.solver
+          ? (*options.solver == "jacobi" ? MatrixSolver::kJacobi : MatrixSolver::kGaussSeidel)
+          : (gpu ? MatrixSolver::kJacobi : MatrixSolver::kGaussSeidel);
+  if (gpu && solver != MatrixSolver::kJacobi) {
+    return inputError("", "--solver",
+                      "gauss-seidel is sequential and runs on the CPU only (use --device cpu, "
+                      "or --solver jacobi on the GPU)");
+  }
+  return solver;
+}
+
+// What the frames leave for the stats.
+struct MatrixFrameTotals {
+  nlohmann::json frame_stats = nlohmann::json::array();
+  nlohmann::json lux_stats = nlohmann::json::object();  // the last frame's
+  SolveStats last;
+  double solve_seconds = 0.0, view_seconds = 0.0;
+};
+
+// Solves each frame (relit when there are several), and on rank 0 draws and writes it.
+Status renderMatrixFrames(const RenderOptions& options, const CommonOptions& common,
+                          Communicator& comm, const MatrixSetup& setup, const Scene& scene,
+                          MatrixRadiosity& mr, std::optional<GlJacobi>& gl, MatrixSolver solver,
+                          const Camera& camera, const LightmapViewSettings& view,
+                          MatrixFrameTotals& totals) {
+  const int frames = setup.frames;
+  const std::optional<IlluminanceRequest>& lux = setup.lux;
+  std::vector<Material> materials = scene.materials;
+  SolveStats& last = totals.last;
+  for (int f = 0; f < frames; ++f) {
+    if (frames > 1) {
+      const glm::vec3 tint = relightTint(f, frames);
+      for (size_t m = 0; m < materials.size(); ++m) {
+        materials[m].emission = scene.materials[m].emission * tint;
+      }
+      mr.applyMaterials(materials);
+      if (gl) PENUMBRA_TRY(gl->setMaterials(mr.system->reflectance, mr.system->emission));
+    }
+    SolveOptions so;
+    so.solver = solver;
+    so.max_iterations = iterationCap(options.iterations);
+    so.tolerance = options.tolerance.value_or(1e-6);
+    Progress progress(frames > 1 ? fmt::format("solving frame {}", f) : std::string("solving"),
+                      uint64_t(so.max_iterations),
+                      !common.quiet && comm.root() && Progress::stderrIsTerminal());
+    auto on_iteration = [&](int k, double) { progress.reach(uint64_t(k + 1)); };
+    if (gl) {
+      Expected<SolveStats> s = gl->solve(mr.radiosity, so, on_iteration);
+      if (!s) return s.error();
+      last = std::move(*s);
+    } else {
+      last = mr.solve(so, on_iteration);
+    }
+    progress.finish();
+    totals.solve_seconds += last.seconds;
+    if (!last.converged) {
+      spdlog::warn("not converged: residual {:.3g} after {} iterations (tolerance {:.3g})",
+                   last.residual, last.iterations, so.tolerance);
+    }
+    const Timer view_timer;
+    const Image lightmap = mr.radianceImage(options.shading == "smooth");
+    if (!comm.root()) continue;  // rank 0 draws and writes
+    const Image image = renderLightmapView(mr.surface.flat.positions, mr.surface.flat.triangles,
+                                           mr.surface.atlas, lightmap, camera, view);
+    totals.view_seconds += view_timer.seconds();
+    // Lux: the lightmap's radiance gathered over each point's hemisphere (each frame's).
+    std::optional<IlluminanceReport> report;
+    if (lux) {
+      const LightmapLookup lookup(mr.surface.flat.positions, mr.surface.flat.triangles,
+                                  mr.surface.atlas, lightmap);
+      Expected<IlluminanceReport> r =
+          illuminanceReport(scene, mr.surface.engine, mr.surface.flat, camera, *lux,
+                            [&](const Ray& ray, const Hit& hit, Rng&) {
+                              return lookup.radiance(ray.dir, hit.triangle, hit.u, hit.v);
+                            });
+      if (!r) return r.error();
+      report = std::move(*r);
+    }
+    emitImage(renderedValues(options, image, report ? &*report : nullptr));
+    if (frames == 1) {
+      PENUMBRA_TRY(writeRenderOutputs(options, setup.outputs, image, report ? &*report : nullptr,
+                                      &totals.lux_stats));
+    } else {
+      for (const std::string& out : setup.outputs) {
+        PENUMBRA_TRY(writeRenderOutputs(options, {out}, image, report ? &*report : nullptr,
+                                        &totals.lux_stats, sequenceFrameName(out, f)));
+      }
+    }
+    spdlog::info("{}{} iterations ({}), residual {:.3g}, {:.3f} s",
+                 frames > 1 ? fmt::format("frame {}: ", f) : "", last.iterations,
+                 matrixSolverName(solver), last.residual, last.seconds);
+    totals.frame_stats.push_back({{"iterations", last.iterations},
+                                  {"residual", last.residual},
+                                  {"converged", last.converged},
+                                  {"seconds", last.seconds}});
+  }
+  return {};
+}
+
+// The render's stats (--stats).
+nlohmann::json matrixStats(const RenderOptions& options, Communicator& comm,
+                           const MatrixSetup& setup, const DeviceChoice& device, const Scene& scene,
+                           const Timer& total_timer, MatrixSolver solver,
+                           const MatrixRadiosityOptions& mo, const MatrixRadiosity& mr,
+                           double build_seconds, const MatrixFrameTotals& totals) {
+  const SolveStats& last = totals.last;
+  nlohmann::json j = {{"method", "matrix"},
+                      {"device", device.name()},
+                      {"scene", scene.source},
+                      {"seconds", total_timer.seconds()},
+                      {"solver", matrixSolverName(solver)},
+                      {"precision", matrixPrecisionName(mo.precision)},
+                      {"elements", mr.size()},
+                      {"lightmap_elements", mr.surface.elementCount()},
+                      {"atlas_width", mr.surface.atlas.width},
+                      {"atlas_height", mr.surface.atlas.height},
+                      {"texel_density", mr.surface.atlas.texel_density},
+                      {"matrix_bytes", mr.system->matrixBytes()},
+                      {"form_factor_seconds", mr.form_factor_stats.seconds},
+                      {"form_factor_pairs", mr.form_factor_stats.pairs},
+                      {"form_factor_rays", mr.form_factor_stats.rays},
+                      {"form_factor_refined", mr.form_factor_stats.refined},
+                      {"closed_rows", mr.form_factor_stats.closed_rows},
+                      {"rays", mr.form_factor_stats.rays},
+                      {"build_seconds", build_seconds},
+                      {"solve_seconds", totals.solve_seconds},
+                      {"view_seconds", totals.view_seconds},
+                      {"iterations", last.iterations},
+                      {"residual", last.residual},
+                      {"converged", last.converged},
+                      {"tolerance", options.tolerance.value_or(1e-6)},
+                      {"history", last.history},
+                      {"threads", threadCount()},
+                      {"width", setup.width},
+                      {"height", setup.height},
+                      {"spp", setup.spp}};
+  if (setup.frames > 1) j["frames"] = totals.frame_stats;
+  if (comm.distributed()) {
+    j["ranks"] = comm.size();
+    j["mpi"] = comm.describe();
+    j["matrix_bytes_per_rank"] = mr.system->matrixBytes();
+  }
+  j.update(totals.lux_stats);
+  return j;
+}
+
 }  // namespace
 
 Status renderMatrix(const RenderOptions& options, const CommonOptions& common) {
@@ -46,33 +230,14 @@ Status renderMatrix(const RenderOptions& options, const CommonOptions& common) {
   // holds a block of the matrix's rows (radiosity/matrix_radiosity.h), rank 0 draws and writes.
   Communicator& comm = currentCommunicator();
   ReadyGate gate(comm);
-  const int frames = options.relight_frames > 1 ? options.relight_frames : 1;
-  Expected<std::vector<std::string>> checked = checkRenderOutputs(options, frames);
-  if (!checked) return checked.error();
-  const std::vector<std::string>& outputs = *checked;
-  if (options.max_depth) {
-    return inputError("", "--max-depth", "applies to --method pathtrace only");
-  }
-  const int width = options.width.value_or(512), height = options.height.value_or(512);
-  const int spp = options.spp.value_or(4);
-  // Ranges: methods/registry.cpp.
-  std::optional<IlluminanceRequest> lux;
-  if (frames > 1 && !options.grid_csv.empty()) {
-    return inputError("", "--grid-csv", "writes one frame's table: not with --relight-frames");
-  }
-  if (wantsIlluminance(options)) {
-    Expected<IlluminanceRequest> r = illuminanceRequest(options, width, height);
-    if (!r) return r.error();
-    lux = *r;
-  }
-  PENUMBRA_TRY(checkMemory(uint64_t(width) * uint64_t(height) * 40,
-                           fmt::format("a {}x{} image", width, height)));
+  Expected<MatrixSetup> setup = checkMatrixOptions(options);
+  if (!setup) return setup.error();
 
   const Timer total_timer;
   const Scene* const scene = &runScene();
   for (const std::string& w : scene->warnings) spdlog::warn("{}", w);
   for (const std::string& w : diffuseStandInWarnings(*scene, "matrix")) spdlog::warn("{}", w);
-  if (lux) PENUMBRA_TRY(checkIlluminanceRequest(*scene, *lux));
+  if (setup->lux) PENUMBRA_TRY(checkIlluminanceRequest(*scene, *setup->lux));
   bool any_emitter = !scene->lights.empty();
   for (const Material& m : scene->materials) any_emitter |= m.isEmissive();
   if (!any_emitter) {
@@ -94,15 +259,8 @@ Status renderMatrix(const RenderOptions& options, const CommonOptions& common) {
   Expected<DeviceChoice> device = chooseDevice(*device_name);
   if (!device) return device.error();
   const bool gpu = device->device == Device::kGpu;
-  const MatrixSolver solver =
-      options.solver
-          ? (*options.solver == "jacobi" ? MatrixSolver::kJacobi : MatrixSolver::kGaussSeidel)
-          : (gpu ? MatrixSolver::kJacobi : MatrixSolver::kGaussSeidel);
-  if (gpu && solver != MatrixSolver::kJacobi) {
-    return inputError("", "--solver",
-                      "gauss-seidel is sequential and runs on the CPU only (use --device cpu, "
-                      "or --solver jacobi on the GPU)");
-  }
+  Expected<MatrixSolver> solver = chooseMatrixSolver(options, gpu);
+  if (!solver) return solver.error();
   PENUMBRA_TRY(gate.open());
   if (common.dry_run) return {};
 
@@ -127,123 +285,19 @@ Status renderMatrix(const RenderOptions& options, const CommonOptions& common) {
 
   const Camera camera = scene->camera ? *scene->camera : defaultCamera(*scene);
   LightmapViewSettings view;
-  view.width = width;
-  view.height = height;
-  view.spp = spp;
+  view.width = setup->width;
+  view.height = setup->height;
+  view.spp = setup->spp;
   view.seed = options.seed.value_or(0);
-  std::vector<Material> materials = scene->materials;
-  nlohmann::json frame_stats = nlohmann::json::array();
-  nlohmann::json lux_stats = nlohmann::json::object();  // the last frame's
-  SolveStats last;
-  double solve_seconds = 0.0, view_seconds = 0.0;
-  for (int f = 0; f < frames; ++f) {
-    if (frames > 1) {
-      const glm::vec3 tint = relightTint(f, frames);
-      for (size_t m = 0; m < materials.size(); ++m) {
-        materials[m].emission = scene->materials[m].emission * tint;
-      }
-      mr.applyMaterials(materials);
-      if (gl) PENUMBRA_TRY(gl->setMaterials(mr.system->reflectance, mr.system->emission));
-    }
-    SolveOptions so;
-    so.solver = solver;
-    so.max_iterations = iterationCap(options.iterations);
-    so.tolerance = options.tolerance.value_or(1e-6);
-    Progress progress(frames > 1 ? fmt::format("solving frame {}", f) : std::string("solving"),
-                      uint64_t(so.max_iterations),
-                      !common.quiet && comm.root() && Progress::stderrIsTerminal());
-    auto on_iteration = [&](int k, double) { progress.reach(uint64_t(k + 1)); };
-    if (gl) {
-      Expected<SolveStats> s = gl->solve(mr.radiosity, so, on_iteration);
-      if (!s) return s.error();
-      last = std::move(*s);
-    } else {
-      last = mr.solve(so, on_iteration);
-    }
-    progress.finish();
-    solve_seconds += last.seconds;
-    if (!last.converged) {
-      spdlog::warn("not converged: residual {:.3g} after {} iterations (tolerance {:.3g})",
-                   last.residual, last.iterations, so.tolerance);
-    }
-    const Timer view_timer;
-    const Image lightmap = mr.radianceImage(options.shading == "smooth");
-    if (!comm.root()) continue;  // rank 0 draws and writes
-    const Image image = renderLightmapView(mr.surface.flat.positions, mr.surface.flat.triangles,
-                                           mr.surface.atlas, lightmap, camera, view);
-    view_seconds += view_timer.seconds();
-    // Lux: the lightmap's radiance gathered over each point's hemisphere (each frame's).
-    std::optional<IlluminanceReport> report;
-    if (lux) {
-      const LightmapLookup lookup(mr.surface.flat.positions, mr.surface.flat.triangles,
-                                  mr.surface.atlas, lightmap);
-      Expected<IlluminanceReport> r =
-          illuminanceReport(*scene, mr.surface.engine, mr.surface.flat, camera, *lux,
-                            [&](const Ray& ray, const Hit& hit, Rng&) {
-                              return lookup.radiance(ray.dir, hit.triangle, hit.u, hit.v);
-                            });
-      if (!r) return r.error();
-      report = std::move(*r);
-    }
-    emitImage(renderedValues(options, image, report ? &*report : nullptr));
-    if (frames == 1) {
-      PENUMBRA_TRY(
-          writeRenderOutputs(options, outputs, image, report ? &*report : nullptr, &lux_stats));
-    } else {
-      for (const std::string& out : outputs) {
-        PENUMBRA_TRY(writeRenderOutputs(options, {out}, image, report ? &*report : nullptr,
-                                        &lux_stats, sequenceFrameName(out, f)));
-      }
-    }
-    spdlog::info("{}{} iterations ({}), residual {:.3g}, {:.3f} s",
-                 frames > 1 ? fmt::format("frame {}: ", f) : "", last.iterations,
-                 matrixSolverName(solver), last.residual, last.seconds);
-    frame_stats.push_back({{"iterations", last.iterations},
-                           {"residual", last.residual},
-                           {"converged", last.converged},
-                           {"seconds", last.seconds}});
-  }
+  MatrixFrameTotals totals;
+  PENUMBRA_TRY(renderMatrixFrames(options, common, comm, *setup, *scene, mr, gl, *solver, camera,
+                                  view, totals));
 
   if (!comm.root()) return {};
   if (wantsStats(options.stats)) {
-    nlohmann::json j = {{"method", "matrix"},
-                        {"device", device->name()},
-                        {"scene", scene->source},
-                        {"seconds", total_timer.seconds()},
-                        {"solver", matrixSolverName(solver)},
-                        {"precision", matrixPrecisionName(mo.precision)},
-                        {"elements", n},
-                        {"lightmap_elements", mr.surface.elementCount()},
-                        {"atlas_width", mr.surface.atlas.width},
-                        {"atlas_height", mr.surface.atlas.height},
-                        {"texel_density", mr.surface.atlas.texel_density},
-                        {"matrix_bytes", mr.system->matrixBytes()},
-                        {"form_factor_seconds", mr.form_factor_stats.seconds},
-                        {"form_factor_pairs", mr.form_factor_stats.pairs},
-                        {"form_factor_rays", mr.form_factor_stats.rays},
-                        {"form_factor_refined", mr.form_factor_stats.refined},
-                        {"closed_rows", mr.form_factor_stats.closed_rows},
-                        {"rays", mr.form_factor_stats.rays},
-                        {"build_seconds", build_seconds},
-                        {"solve_seconds", solve_seconds},
-                        {"view_seconds", view_seconds},
-                        {"iterations", last.iterations},
-                        {"residual", last.residual},
-                        {"converged", last.converged},
-                        {"tolerance", options.tolerance.value_or(1e-6)},
-                        {"history", last.history},
-                        {"threads", threadCount()},
-                        {"width", width},
-                        {"height", height},
-                        {"spp", spp}};
-    if (frames > 1) j["frames"] = frame_stats;
-    if (comm.distributed()) {
-      j["ranks"] = comm.size();
-      j["mpi"] = comm.describe();
-      j["matrix_bytes_per_rank"] = mr.system->matrixBytes();
-    }
-    j.update(lux_stats);
-    PENUMBRA_TRY(emitStats(options.stats, j));
+    PENUMBRA_TRY(
+        emitStats(options.stats, matrixStats(options, comm, *setup, *device, *scene, total_timer,
+                                             *solver, mo, mr, build_seconds, totals)));
   }
   return {};
 }
