@@ -115,9 +115,9 @@ struct ProgressBridge {
 // Runs a render or bake with the GIL released; Ctrl-C raises KeyboardInterrupt once the work has
 // stopped (progressive radiosity has then written its checkpoint, as the CLI does).
 py::tuple runCommand(penumbra::api::Result (*command)(const penumbra::api::Scene&,
-                                                      const std::vector<std::string>&,
+                                                      const penumbra::api::Options&,
                                                       const penumbra::api::ProgressCallback&),
-                     const penumbra::api::Scene& scene, const std::vector<std::string>& options,
+                     const penumbra::api::Scene& scene, const penumbra::api::Options& options,
                      py::object progress) {
   ProgressBridge bridge{std::move(progress)};
   penumbra::api::Result result;
@@ -234,20 +234,56 @@ PYBIND11_MODULE(_penumbra, m) {
                " triangles, " + std::to_string(s.lightCount()) + " lights>";
       });
 
+  // Keyword arguments as typed values (bool, int, float, a list of floats, str, a list of str),
+  // checked by the library's descriptions of the options (InputError naming the option).
   m.def(
       "_render",
-      [](const penumbra::api::Scene& scene, const std::vector<std::string>& options,
+      [](const penumbra::api::Scene& scene,
+         const std::vector<std::pair<std::string, penumbra::api::OptionValue>>& options,
          py::object progress) {
-        return runCommand(&penumbra::api::render, scene, options, std::move(progress));
+        penumbra::api::Options typed;
+        typed.values = options;
+        return runCommand(&penumbra::api::render, scene, typed, std::move(progress));
       },
       py::arg("scene"), py::arg("options"), py::arg("progress") = py::none());
   m.def(
       "_bake",
-      [](const penumbra::api::Scene& scene, const std::vector<std::string>& options,
+      [](const penumbra::api::Scene& scene,
+         const std::vector<std::pair<std::string, penumbra::api::OptionValue>>& options,
          py::object progress) {
-        return runCommand(&penumbra::api::bake, scene, options, std::move(progress));
+        penumbra::api::Options typed;
+        typed.values = options;
+        return runCommand(&penumbra::api::bake, scene, typed, std::move(progress));
       },
       py::arg("scene"), py::arg("options"), py::arg("progress") = py::none());
+  m.def("_methods", [] {
+    py::list out;
+    for (const penumbra::api::MethodDescription& d : penumbra::api::methods()) {
+      py::dict method;
+      method["name"] = d.name, method["summary"] = d.summary, method["source"] = d.source;
+      method["bakes"] = d.bakes;
+      out.append(method);
+    }
+    return out;
+  });
+  m.def(
+      "_options",
+      [](const std::string& command) {
+        py::list out;
+        for (const penumbra::api::OptionDescription& d : penumbra::api::options(command)) {
+          py::dict o;
+          o["name"] = d.name, o["kind"] = d.kind, o["help"] = d.help, o["unit"] = d.unit;
+          py::list uses;
+          for (const penumbra::api::OptionDescription::Use& u : d.methods) {
+            uses.append(py::make_tuple(u.method, u.default_value, u.range));
+          }
+          o["range"] = d.range, o["choices"] = d.choices, o["methods"] = uses;
+          o["repeatable"] = d.repeatable;
+          out.append(o);
+        }
+        return out;
+      },
+      py::arg("command"));
 
   m.def(
       "_trace",

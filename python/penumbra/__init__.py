@@ -3,7 +3,10 @@
 Every function runs the library's command of the same name (``penumbra render``, ``bake``,
 ``trace``) with the same options, checks and messages as the command-line tool: keyword
 arguments are its options with ``-`` written ``_`` (``spp=64`` is ``--spp 64``, ``no_cache=True``
-is ``--no-cache``). Images come back as NumPy float32 arrays (H x W x 3, linear), statistics as
+is ``--no-cache``), passed as typed values and checked by the library's descriptions of the
+options (a wrong type, a value out of the method's range or an option another method owns raises
+:class:`InputError` naming it, before any work). ``help(penumbra.render)`` lists every option;
+:func:`methods` lists the methods. Images come back as NumPy float32 arrays (H x W x 3, linear), statistics as
 dicts. The work runs with the GIL released; Ctrl-C stops it and raises KeyboardInterrupt. Bad
 input raises :class:`InputError` (a :class:`ValueError`) with the library's message, naming the
 file and the place in it. See docs/python.md.
@@ -19,7 +22,7 @@ from typing import Callable, Optional, Union
 import numpy as np
 
 from ._penumbra import Error, InputError, Scene, version
-from ._penumbra import _bake, _read_image, _render, _trace, _write_image
+from ._penumbra import _bake, _methods, _options, _read_image, _render, _trace, _write_image
 
 __all__ = [
     "Error",
@@ -29,6 +32,7 @@ __all__ = [
     "BakeResult",
     "load",
     "from_arrays",
+    "methods",
     "render",
     "bake",
     "trace",
@@ -128,30 +132,55 @@ def _scene(scene) -> Scene:
     return scene if isinstance(scene, Scene) else load(scene)
 
 
-def _options(options: dict) -> list:
-    """Keyword arguments as the CLI's words: ``spp=64`` -> ``--spp 64``; True -> the flag alone;
-    False and None -> nothing; a list or tuple -> the option once with every value."""
-    words = []
+def _values(options: dict) -> list:
+    """Keyword arguments as the library's typed values: ``None`` leaves an option unset; paths
+    become strings, NumPy scalars and arrays Python numbers and lists."""
+    values = []
     for key, value in options.items():
-        flag = "--" + key.replace("_", "-")
-        if value is None or value is False:
+        if value is None:
             continue
-        if value is True:
-            words.append(flag)
-        elif isinstance(value, (list, tuple)):
-            for v in value:
-                words += [flag, _word(v)]
-        else:
-            words += [flag, _word(value)]
-    return words
+        if isinstance(value, os.PathLike):
+            value = os.fspath(value)
+        elif isinstance(value, np.ndarray):
+            value = value.tolist()
+        elif isinstance(value, np.generic):
+            value = value.item()
+        elif isinstance(value, tuple):
+            value = list(value)
+        if isinstance(value, list):
+            value = [os.fspath(v) if isinstance(v, os.PathLike) else v for v in value]
+        values.append((key, value))
+    return values
 
 
-def _word(value) -> str:
-    if isinstance(value, os.PathLike):
-        return os.fspath(value)
-    if isinstance(value, float):
-        return repr(value)
-    return str(value)
+def methods() -> list:
+    """The methods, each a dict: ``name``, ``summary``, ``source`` (the paper), ``bakes``, and
+    ``options``: the names of the render options that only some methods take and this one does."""
+    own = {}
+    for o in _options("render"):
+        for method, _, _ in o["methods"]:
+            own.setdefault(method, []).append(o["name"].replace("-", "_"))
+    return [dict(m, options=own.get(m["name"], [])) for m in _methods()]
+
+
+def _option_help(command: str) -> str:
+    """The options of ``command`` as a docstring section, from the library's descriptions."""
+    lines = []
+    for o in _options(command):
+        kind = o["kind"]
+        if o["choices"]:
+            kind = " | ".join(repr(c) for c in o["choices"])
+        details = [kind]
+        if o["unit"]:
+            details.append(o["unit"])
+        if o["range"]:
+            details.append(o["range"])
+        taken = ", ".join(m + (f": {d}" if d else "") + (f" in {r}" if r else "")
+                          for m, d, r in o["methods"])
+        lines.append(f"    {o['name'].replace('-', '_')} ({'; '.join(details)})"
+                     + (f" [{taken}]" if taken else ""))
+        lines.append(f"        {o['help']}")
+    return "\n".join(lines)
 
 
 def render(
@@ -166,8 +195,8 @@ def render(
     whitted, photons, matrix, progressive, stochastic, sss or lpv; the other options are ``penumbra render``'s
     (``device="gpu"``, ``spp=256``, ``output="out.exr"``, ``threads=2``, ...). ``progress(stage,
     fraction)`` is called now and then. Log lines go to stderr unless ``quiet``."""
-    words = ["--method", method] + _options(options) + (["--quiet"] if quiet else [])
-    images, stats = _render(_scene(scene), words, progress)
+    values = [("method", method), ("quiet", quiet)] + _values(options)
+    images, stats = _render(_scene(scene), values, progress)
     return RenderResult(
         image=images[-1] if images else None,
         images=images,
@@ -189,9 +218,8 @@ def bake(
     ``method``: matrix, progressive or stochastic; the other options are ``penumbra bake``'s. On
     Ctrl-C a progressive bake writes its checkpoint first (``resume=`` continues it)."""
     out = os.fspath(output)
-    words = ["--method", method, "--output", out] + _options(options)
-    words += ["--quiet"] if quiet else []
-    images, stats = _bake(_scene(scene), words, progress)
+    values = [("method", method), ("output", out), ("quiet", quiet)] + _values(options)
+    images, stats = _bake(_scene(scene), values, progress)
     stats = json.loads(stats) if stats else {}
     files = [os.path.join(out, f) for f in stats.get("outputs", [])] if isinstance(
         stats.get("outputs"), list) else []
@@ -220,3 +248,9 @@ def trace(
                     cache_rays, quiet)
     result["stats"] = json.loads(result["stats"])
     return result
+
+
+render.__doc__ += "\n\nOptions (the methods that take one, with their defaults, in brackets):\n" + \
+    _option_help("render")
+bake.__doc__ += "\n\nOptions (the methods that take one, with their defaults, in brackets):\n" + \
+    _option_help("bake")

@@ -244,12 +244,44 @@ def test_bad_input_raises_the_library_message(tmp_path):
     with pytest.raises(penumbra.InputError, match="broken.obj") as e:
         penumbra.load(broken)
     assert e.value.kind == "input" and e.value.exit_code == 2
-    with pytest.raises(ValueError, match="--spp: 0 is out of range"):
+    with pytest.raises(ValueError, match="spp: 0 is out of range"):
         penumbra.render("cornell", spp=0)
-    with pytest.raises(penumbra.InputError, match="--no-such-option"):
+    with pytest.raises(penumbra.InputError, match="no_such_option: is not an option"):
         penumbra.render("cornell", no_such_option=3)
     with pytest.raises(penumbra.InputError, match="unknown --method 'nope'"):
         penumbra.render("cornell", "nope")
+
+
+def test_keyword_arguments_are_typed_and_checked_before_any_work():
+    # Each keyword is its option's typed value, checked by the library's description of it.
+    with pytest.raises(penumbra.InputError, match='spp: must be an integer, not "64"'):
+        penumbra.render("cornell", spp="64")
+    with pytest.raises(penumbra.InputError, match="width: must be an integer"):
+        penumbra.render("cornell", width=32.5)
+    with pytest.raises(penumbra.InputError,
+                       match="light-samples: applies to --method whitted and photons only"):
+        penumbra.render("cornell", light_samples=2)
+    with pytest.raises(penumbra.InputError, match="boundary"):
+        penumbra.render("cornell", "progressive", adaptive=True, boundary=[0.5])
+    # NumPy numbers and paths are what users pass; a number where a real is asked is fine.
+    a = penumbra.render("cornell", spp=np.int64(2), width=8, height=8, max_depth=3)
+    b = penumbra.render("cornell", spp=2, width=8, height=8, max_depth=3)
+    np.testing.assert_array_equal(a.image, b.image)
+    assert a.stats["max_depth"] == 3
+
+
+def test_help_and_methods_come_from_the_descriptions():
+    doc = penumbra.render.__doc__
+    assert "spp (int; [1, 4096]) [pathtrace: 64 in [1, 1048576], whitted: 4" in doc
+    assert "light_samples (int" in doc and "[whitted" in doc
+    assert "texel_density" in penumbra.bake.__doc__
+    listed = {m["name"]: m for m in penumbra.methods()}
+    assert set(listed) == {"pathtrace", "whitted", "photons", "matrix", "progressive",
+                           "stochastic", "sss", "lpv"}
+    assert "spp" in listed["pathtrace"]["options"]
+    assert "light_samples" in listed["whitted"]["options"]
+    assert "light_samples" not in listed["pathtrace"]["options"]
+    assert listed["matrix"]["bakes"] and not listed["pathtrace"]["bakes"]
 
 
 def test_bad_arrays_raise_naming_the_place():

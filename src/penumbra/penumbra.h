@@ -133,6 +133,37 @@ struct Options {
   std::vector<std::pair<std::string, OptionValue>> values;
 };
 
+// The methods and their options, from the library's own descriptions (the CLI's --help and
+// docs/cli.md are made from the same): what bindings build their keyword arguments and help from.
+struct MethodDescription {
+  std::string name;     // as --method takes it
+  std::string summary;  // one line
+  std::string source;   // the paper it implements, or why it is here
+  bool bakes = false;   // bake takes it too
+};
+struct OptionDescription {
+  std::string name;  // as the command line's, without the dashes ("max-depth")
+  std::string kind;  // flag, int, unsigned, real, reals, choice or text
+  std::string help;
+  std::string unit;                  // "m", "s", ... or empty
+  std::string range;                 // "[1, 65536]", or empty
+  std::vector<std::string> choices;  // kind choice
+  // The methods that take it, each with its default as users read it ("" when it has none or
+  // it is computed) and its own range where it differs from `range`; empty when every method of
+  // the command takes it.
+  struct Use {
+    std::string method;
+    std::string default_value;
+    std::string range;
+  };
+  std::vector<Use> methods;
+  bool repeatable = false;  // may be given several times (-o a.png -o a.exr)
+};
+std::vector<MethodDescription> methods();
+// The options of `command` ("render" or "bake"), then those every command takes (threads, quiet,
+// dry-run).
+std::vector<OptionDescription> options(const std::string& command);
+
 // `penumbra render` with typed options: render(scene, Options{{"method", "matrix"}}). Images are
 // written only where "output" names them; the result holds them in memory.
 Result render(const Scene& scene, const Options& options, const ProgressCallback& progress = {});

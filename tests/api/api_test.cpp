@@ -39,6 +39,54 @@ TEST(Api, RenderGivesTheImageAndStatsAndWritesNothingUnasked) {
   EXPECT_EQ(api::readImage(exr).rgb, a.images[0].rgb);
 }
 
+// Typed options give the string form's result, and are checked by the same descriptions: a value
+// of the wrong kind, out of the method's range or of another method is refused by name.
+TEST(Api, TypedOptionsAreTheStringFormsAndCheckedTheSameWay) {
+  const api::Scene scene = api::Scene::load("cornell");
+  const api::Result words =
+      api::render(scene, {"--method", "matrix", "--elements", "400", "--width", "24", "--height",
+                          "16", "--tonemap", "exposure"});
+  const api::Result typed = api::render(scene, api::Options{{"method", "matrix"},
+                                                            {"elements", 400},
+                                                            {"width", 24},
+                                                            {"height", 16},
+                                                            {"tonemap", "exposure"}});
+  ASSERT_EQ(words.images.size(), 1u);
+  ASSERT_EQ(typed.images.size(), 1u);
+  EXPECT_EQ(words.images[0].rgb, typed.images[0].rgb);
+  const auto refused = [&](const api::Options& options, const std::string& part) {
+    try {
+      (void)api::render(scene, options);
+      ADD_FAILURE() << part << ": no error";
+    } catch (const api::Error& e) {
+      EXPECT_EQ(e.kind(), api::ErrorKind::kInput);
+      EXPECT_NE(std::string(e.what()).find(part), std::string::npos) << e.what();
+    }
+  };
+  refused({{"spp", "64"}}, "spp: must be an integer");
+  refused({{"spp", 0}}, "spp: 0 is out of range");
+  refused({{"width", 2.5}}, "width: must be an integer");
+  refused({{"light_samples", 2}}, "applies to --method whitted and photons only");
+  refused({{"max-depth", true}}, "max-depth: must be an integer");
+  refused({{"elements", -1}, {"method", "matrix"}}, "elements");
+
+  // The descriptions themselves, for bindings.
+  const std::vector<api::MethodDescription> methods = api::methods();
+  EXPECT_EQ(methods.size(), 8u);
+  bool spp = false;
+  for (const api::OptionDescription& o : api::options("render")) {
+    if (o.name != "spp") continue;
+    spp = true;
+    EXPECT_EQ(o.kind, "int");
+    ASSERT_FALSE(o.methods.empty());
+    EXPECT_EQ(o.range, "[1, 4096]");
+    EXPECT_EQ(o.methods[0].method, "pathtrace");
+    EXPECT_EQ(o.methods[0].default_value, "64");
+    EXPECT_EQ(o.methods[0].range, "[1, 1048576]");
+  }
+  EXPECT_TRUE(spp);
+}
+
 TEST(Api, ErrorsCarryTheirKindAndTheLibrarysMessage) {
   try {
     (void)api::Scene::load("/no/such/scene.obj");

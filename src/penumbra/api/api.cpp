@@ -14,6 +14,7 @@
 #include "penumbra/io/ray_file.h"
 #include "penumbra/io/scene_io.h"
 #include "penumbra/methods/option_input.h"
+#include "penumbra/methods/registry.h"
 #include "penumbra/methods/render.h"
 #include "penumbra/methods/run_context.h"
 #include "penumbra/methods/trace.h"
@@ -326,6 +327,40 @@ Result bake(const Scene& scene, const std::vector<std::string>& options,
 
 Result bake(const Scene& scene, const Options& options, const ProgressCallback& progress) {
   return bakeWith(scene, nullptr, &options, progress, nullptr);
+}
+
+std::vector<MethodDescription> methods() {
+  std::vector<MethodDescription> out;
+  for (const MethodInfo& m : methodInfos()) out.push_back({m.name, m.summary, m.source, m.bakes});
+  return out;
+}
+
+std::vector<OptionDescription> options(const std::string& command) {
+  if (command != "render" && command != "bake") {
+    throw Error(ErrorKind::kInput, fmt::format("options of '{}': use render or bake", command));
+  }
+  static const char* const kKinds[] = {"flag",  "int",    "unsigned", "real",
+                                       "reals", "choice", "text"};
+  std::vector<OptionDescription> out;
+  const auto add = [&](const std::vector<OptionSpec>& specs) {
+    for (const OptionSpec& s : specs) {
+      if (s.positional) continue;
+      OptionDescription& d = out.emplace_back();
+      d.name = s.name;
+      d.kind = kKinds[int(s.kind)];
+      d.help = s.help;
+      d.unit = s.unit;
+      if (s.range) d.range = s.range->describe();
+      d.choices = s.choices;
+      for (const OptionUse& u : s.uses) {
+        d.methods.push_back({u.method, u.default_value, u.range ? u.range->describe() : ""});
+      }
+      d.repeatable = s.repeatable;
+    }
+  };
+  add(command == "render" ? renderOptionSpecs() : bakeOptionSpecs());
+  add(commonOptionSpecs());
+  return out;
 }
 
 bool mpiAvailable() {

@@ -2,9 +2,9 @@
 
 #include "penumbra/core/memory.h"
 #include "penumbra/core/timer.h"
-#include "penumbra/radiosity/jacobi_gl.h"
 #include "penumbra/radiosity/matrix_radiosity.h"
 #include "penumbra/radiosity/progressive.h"
+#include "penumbra/radiosity/radiosity_solvers.h"
 #include "penumbra/radiosity/stochastic.h"
 #include "penumbra/raytrace/path_tracer.h"
 #include "penumbra/render/lightmap_view.h"
@@ -93,7 +93,8 @@ struct LiveSession::State {
   int sample = 0, row = 0, band = 8;
   // Radiosity.
   std::optional<MatrixRadiosity> matrix;
-  std::optional<GlJacobi> jacobi;  // the GPU's solve (LiveSettings::gpu)
+  std::unique_ptr<MatrixRadiositySolver>
+      matrix_solver;  // on the CPU or the GPU (LiveSettings::gpu)
   // The lights or the materials changed: the direct term and the system's emission and
   // reflectance are set again (and uploaded) before the next iterations.
   bool relight = false;
@@ -258,12 +259,11 @@ Status LiveSession::State::buildSolver(LiveStep& step) {
       matrix_iterations = 0;
       matrix_converged = false;
       relight = false;
-      jacobi.reset();
-      if (settings.gpu) {
-        Expected<GlJacobi> gl = GlJacobi::create(*matrix->system);
-        if (!gl) return gl.error();
-        jacobi.emplace(std::move(*gl));
-      }
+      matrix_solver.reset();
+      Expected<std::unique_ptr<MatrixRadiositySolver>> solver = MatrixRadiositySolver::create(
+          *matrix, settings.gpu ? SolverDevice::kGpu : SolverDevice::kCpu);
+      if (!solver) return solver.error();
+      matrix_solver = std::move(*solver);
       break;
     }
     case LiveMethod::kProgressive: {
@@ -367,9 +367,7 @@ Expected<bool> LiveSession::State::solveSome(double budget, bool all) {
       if (relight) {
         matrix->setLights(scene.lights);
         matrix->applyMaterials(scene.materials);
-        if (jacobi) {
-          PENUMBRA_TRY(jacobi->setMaterials(matrix->system->reflectance, matrix->system->emission));
-        }
+        PENUMBRA_TRY(matrix_solver->relight());
         relight = false;
         matrix_iterations = 0;
         matrix_converged = false;
@@ -383,15 +381,10 @@ Expected<bool> LiveSession::State::solveSome(double budget, bool all) {
         so.max_iterations = all ? iterations() - matrix_iterations
                                 : std::min(matrix_chunk, iterations() - matrix_iterations);
         so.tolerance = kMatrixTolerance;
-        SolveStats st;
-        if (jacobi) {
-          so.solver = MatrixSolver::kJacobi;
-          Expected<SolveStats> gs = jacobi->solve(matrix->radiosity, so);
-          if (!gs) return gs.error();
-          st = std::move(*gs);
-        } else {
-          st = matrix->solve(so);
-        }
+        so.solver = matrix_solver->defaultSolver();
+        Expected<SolveStats> solved = matrix_solver->solve(so);
+        if (!solved) return solved.error();
+        const SolveStats& st = *solved;
         matrix_iterations += st.iterations;
         matrix_residual = st.residual;
         matrix_converged = st.converged;

@@ -1,8 +1,6 @@
 #include "penumbra/methods/progressive_run.h"
 
 #include "penumbra/cluster/communicator.h"
-
-#include "penumbra/cluster/communicator.h"
 #include "penumbra/core/file_util.h"
 #include "penumbra/core/interrupt.h"
 #include "penumbra/core/memory.h"
@@ -12,6 +10,7 @@
 #include "penumbra/methods/stats_file.h"
 #include "penumbra/radiosity/progressive_checkpoint.h"
 #include "penumbra/radiosity/progressive_gl.h"
+#include "penumbra/radiosity/radiosity_solvers.h"
 #include "penumbra/radiosity/radiosity_surface.h"
 
 #include <fmt/format.h>
@@ -87,8 +86,9 @@ Status prepareProgressive(const Scene& scene, const ProgressiveRunOptions& optio
 // into `run`.
 Status solveProgressive(ProgressiveRun& run, const Scene& scene,
                         const ProgressiveRunOptions& options, const CommonOptions& common,
-                        Communicator& comm, std::optional<GlProgressive>& gl, bool gpu,
+                        Communicator& comm, ProgressiveSolver& solver,
                         const ProgressiveOptions& po) {
+  const bool gpu = solver.device() == SolverDevice::kGpu;
   ProgressiveRadiosity& pr = *run.solver;
   // From here Ctrl-C stops between two iterations and writes a checkpoint. The line below is
   // printed once it does (scripts may wait for it before sending SIGINT).
@@ -123,21 +123,15 @@ Status solveProgressive(ProgressiveRun& run, const Scene& scene,
     }
     return false;
   };
-  if (gl) {
-    Expected<ProgressiveStats> st = gl->solve(after, stop);
-    if (!st) return st.error();
-    run.stats = *st;
-    // The solution back into the CPU object (checkpoints, stats, baking), and the lightmap
-    // through the GPU's own post-process (sec. 3.1).
-    Expected<ProgressiveState> state = gl->download();
-    if (!state) return state.error();
-    PENUMBRA_TRY(pr.setState(std::move(*state)));
-    Expected<Image> lightmap = gl->radianceImage();
-    if (!lightmap) return lightmap.error();
-    run.lightmap = std::move(*lightmap);
-  } else {
-    run.stats = pr.solve(after, stop);
-  }
+  Expected<ProgressiveStats> st = solver.solve(after, stop);
+  if (!st) return st.error();
+  run.stats = *st;
+  // The solution into the CPU object (checkpoints, stats, baking), and the lightmap (on the GPU
+  // through its own post-process, sec. 3.1).
+  PENUMBRA_TRY(solver.sync());
+  Expected<Image> lightmap = solver.radianceImage();
+  if (!lightmap) return lightmap.error();
+  run.lightmap = std::move(*lightmap);
   progress.finish();
   if (run.stats.interrupted) {
     run.interrupted = true;
@@ -160,7 +154,6 @@ Status solveProgressive(ProgressiveRun& run, const Scene& scene,
         "(tolerance {:.3g})",
         run.stats.unshot_fraction, run.stats.total_iterations, options.tolerance);
   }
-  if (!run.lightmap) run.lightmap = pr.radianceImage(false);
   return {};
 }
 
@@ -261,22 +254,11 @@ Expected<ProgressiveRun> runProgressive(const Scene& scene, const ProgressiveRun
     spdlog::info("{}: resumed after {} iterations, {:.3g} of the emitted power unshot",
                  options.resume, pr.iterations(), pr.unshotFraction());
   }
-  std::optional<GlProgressive> gl;
-  if (gpu) {
-    // Point, spot and directional lights shoot first, on the CPU (ray-traced shadows); the GPU
-    // continues from that state.
-    if (!pr.lightsShot()) {
-      const ProgressiveIteration it = pr.shoot(ProgressiveRadiosity::kLights);
-      run.history.push_back(it.unshot_fraction);
-      run.shooters.push_back("lights");
-      run.iteration_seconds.push_back(it.seconds);
-    }
-    Expected<GlProgressive> g = GlProgressive::create(pr);
-    if (!g) return g.error();
-    gl.emplace(std::move(*g));
-  }
+  Expected<std::unique_ptr<ProgressiveSolver>> solver =
+      ProgressiveSolver::create(pr, gpu ? SolverDevice::kGpu : SolverDevice::kCpu);
+  if (!solver) return solver.error();
   run.build_seconds = build_timer.seconds();
-  PENUMBRA_TRY(solveProgressive(run, scene, options, common, comm, gl, gpu, po));
+  PENUMBRA_TRY(solveProgressive(run, scene, options, common, comm, **solver, po));
   return run;
 }
 

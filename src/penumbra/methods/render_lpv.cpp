@@ -4,6 +4,7 @@
 // whole method again (voxelisation, injection, propagation, shading: no precomputation), with each
 // stage's milliseconds in the stats, as the paper's Table 1.
 #include "penumbra/core/file_util.h"
+#include "penumbra/core/interrupt.h"
 #include "penumbra/core/memory.h"
 #include "penumbra/core/parallel.h"
 #include "penumbra/core/timer.h"
@@ -70,6 +71,7 @@ Status renderLpv(const RenderOptions& options, const CommonOptions& common) {
   nlohmann::json frame_stats = nlohmann::json::array();
   double frame_sum = 0.0;
   for (int f = 0; f < frames; ++f) {
+    throwIfInterrupted();  // a caller's stop request ends the sequence between two frames
     if (frames > 1 && animation) {
       Expected<Scene> at = (*animation)(double(f) / double(frames));
       if (!at) return at.error();

@@ -15,8 +15,8 @@
 #include "penumbra/methods/render.h"
 #include "penumbra/methods/run_context.h"
 #include "penumbra/methods/stats_file.h"
-#include "penumbra/radiosity/jacobi_gl.h"
 #include "penumbra/radiosity/matrix_radiosity.h"
+#include "penumbra/radiosity/radiosity_solvers.h"
 #include "penumbra/render/lightmap_view.h"
 
 #include <fmt/format.h>
@@ -99,9 +99,9 @@ struct MatrixFrameTotals {
 // Solves each frame (relit when there are several), and on rank 0 draws and writes it.
 Status renderMatrixFrames(const RenderOptions& options, const CommonOptions& common,
                           Communicator& comm, const MatrixSetup& setup, const Scene& scene,
-                          MatrixRadiosity& mr, std::optional<GlJacobi>& gl, MatrixSolver solver,
-                          const Camera& camera, const LightmapViewSettings& view,
-                          MatrixFrameTotals& totals) {
+                          MatrixRadiosity& mr, MatrixRadiositySolver& device_solver,
+                          MatrixSolver solver, const Camera& camera,
+                          const LightmapViewSettings& view, MatrixFrameTotals& totals) {
   const int frames = setup.frames;
   const std::optional<IlluminanceRequest>& lux = setup.lux;
   std::vector<Material> materials = scene.materials;
@@ -113,7 +113,7 @@ Status renderMatrixFrames(const RenderOptions& options, const CommonOptions& com
         materials[m].emission = scene.materials[m].emission * tint;
       }
       mr.applyMaterials(materials);
-      if (gl) PENUMBRA_TRY(gl->setMaterials(mr.system->reflectance, mr.system->emission));
+      PENUMBRA_TRY(device_solver.relight());
     }
     SolveOptions so;
     so.solver = solver;
@@ -123,13 +123,9 @@ Status renderMatrixFrames(const RenderOptions& options, const CommonOptions& com
                       uint64_t(so.max_iterations),
                       !common.quiet && comm.root() && Progress::stderrIsTerminal());
     auto on_iteration = [&](int k, double) { progress.reach(uint64_t(k + 1)); };
-    if (gl) {
-      Expected<SolveStats> s = gl->solve(mr.radiosity, so, on_iteration);
-      if (!s) return s.error();
-      last = std::move(*s);
-    } else {
-      last = mr.solve(so, on_iteration);
-    }
+    Expected<SolveStats> solved = device_solver.solve(so, on_iteration);
+    if (!solved) return solved.error();
+    last = std::move(*solved);
     progress.finish();
     totals.solve_seconds += last.seconds;
     if (!last.converged) {
@@ -276,12 +272,9 @@ Status renderMatrix(const RenderOptions& options, const CommonOptions& common) {
       scene->source, n, mr.surface.elementCount(), mr.surface.atlas.width, mr.surface.atlas.height,
       double(n) * double(n) * 1e-6, mr.form_factor_stats.seconds, mr.form_factor_stats.rays);
 
-  std::optional<GlJacobi> gl;
-  if (gpu) {
-    Expected<GlJacobi> g = GlJacobi::create(*mr.system);
-    if (!g) return g.error();
-    gl.emplace(std::move(*g));
-  }
+  Expected<std::unique_ptr<MatrixRadiositySolver>> device_solver =
+      MatrixRadiositySolver::create(mr, gpu ? SolverDevice::kGpu : SolverDevice::kCpu);
+  if (!device_solver) return device_solver.error();
 
   const Camera camera = scene->camera ? *scene->camera : defaultCamera(*scene);
   LightmapViewSettings view;
@@ -290,8 +283,8 @@ Status renderMatrix(const RenderOptions& options, const CommonOptions& common) {
   view.spp = setup->spp;
   view.seed = options.seed.value_or(0);
   MatrixFrameTotals totals;
-  PENUMBRA_TRY(renderMatrixFrames(options, common, comm, *setup, *scene, mr, gl, *solver, camera,
-                                  view, totals));
+  PENUMBRA_TRY(renderMatrixFrames(options, common, comm, *setup, *scene, mr, **device_solver,
+                                  *solver, camera, view, totals));
 
   if (!comm.root()) return {};
   if (wantsStats(options.stats)) {

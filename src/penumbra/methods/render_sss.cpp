@@ -3,6 +3,7 @@
 // once while the links stay, and every frame costs only the three passes (their times are in
 // the stats).
 #include "penumbra/core/file_util.h"
+#include "penumbra/core/interrupt.h"
 #include "penumbra/core/memory.h"
 #include "penumbra/core/parallel.h"
 #include "penumbra/core/progress.h"
@@ -111,6 +112,7 @@ Status renderSssFrames(const RenderOptions& options, const std::vector<std::stri
                        SssFrameTotals& totals) {
   const glm::vec3 centre = sceneCentre(scene);
   for (int f = 0; f < frames; ++f) {
+    throwIfInterrupted();  // a caller's stop request ends the sequence between two frames
     const std::vector<Light> lights =
         frames > 1
             ? orbitLights(scene.lights, centre, 2.0f * 3.14159265f * float(f) / float(frames))

@@ -8,8 +8,8 @@
 #include "penumbra/core/memory.h"
 #include "penumbra/core/progress.h"
 #include "penumbra/core/timer.h"
+#include "penumbra/radiosity/radiosity_solvers.h"
 #include "penumbra/radiosity/stochastic_checkpoint.h"
-#include "penumbra/radiosity/stochastic_gl.h"
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
@@ -31,14 +31,15 @@ constexpr uint64_t kBytesPerElement = 900;
 // into `run`.
 Status solveStochastic(StochasticRun& run, const Scene& scene, const StochasticRunOptions& options,
                        const CommonOptions& common, const StochasticOptions& so,
-                       std::optional<GlStochastic>& gl) {
+                       StochasticSolver& solver) {
   StochasticRadiosity& sr = *run.solver;
   // From here Ctrl-C stops between two iterations and writes a checkpoint. The line below is
   // printed once it does (scripts may wait for it before sending SIGINT).
   const InterruptScope interrupt;
   spdlog::info("{}: {} lightmap texels in a {}x{} atlas ({:.1f} texels/m), burn-in {} iterations{}",
                scene.source, sr.elementCount(), sr.atlas().width, sr.atlas().height,
-               sr.atlas().texel_density, sr.burnIn(), gl ? ", on the GPU" : "");
+               sr.atlas().texel_density, sr.burnIn(),
+               solver.device() == SolverDevice::kGpu ? ", on the GPU" : "");
 
   // Progress: iterations against the cap (or the time against the limit), with the iteration
   // and the running error estimate.
@@ -49,15 +50,13 @@ Status solveStochastic(StochasticRun& run, const Scene& scene, const StochasticR
   Status device_error;
   const auto after = [&](const StochasticIteration& it) {
     double error = 1.0;
-    if (gl && gl->averaged() >= 2) {
-      Expected<double> e = gl->errorEstimate();
+    if (solver.averaged() >= 2) {
+      Expected<double> e = solver.errorEstimate();
       if (e) {
         error = *e;
       } else if (device_error) {
         device_error = e.error();
       }
-    } else if (!gl && sr.averaged() >= 2) {
-      error = sr.errorEstimate();
     }
     run.history.push_back(error);
     progress.setNote(fmt::format("iteration {}, error ~{:.3g}", it.iteration, error));
@@ -66,17 +65,11 @@ Status solveStochastic(StochasticRun& run, const Scene& scene, const StochasticR
                 : uint64_t(it.iteration));
   };
   const auto stop = [&] { return InterruptScope::requested() || !device_error; };
-  if (gl) {
-    Expected<StochasticStats> st = gl->solve(after, stop);
-    if (!st) return st.error();
-    PENUMBRA_TRY(device_error);
-    run.stats = *st;
-    Expected<StochasticState> state = gl->download();
-    if (!state) return state.error();
-    PENUMBRA_TRY(sr.setState(std::move(*state)));
-  } else {
-    run.stats = sr.solve(after, stop);
-  }
+  Expected<StochasticStats> st = solver.solve(after, stop);
+  if (!st) return st.error();
+  PENUMBRA_TRY(device_error);
+  run.stats = *st;
+  PENUMBRA_TRY(solver.sync());  // the state into the CPU object: checkpoints and the lightmap
   progress.finish();
   if (run.stats.interrupted) {
     run.interrupted = true;
@@ -186,14 +179,11 @@ Expected<StochasticRun> runStochastic(const Scene& scene, const StochasticRunOpt
   // On the GPU the iterate and the average live on the device from here
   // (radiosity/stochastic_gl.h); the CPU solver takes the state back for checkpoints and the
   // lightmap.
-  std::optional<GlStochastic> gl;
-  if (device->device == Device::kGpu) {
-    Expected<GlStochastic> g = GlStochastic::create(sr);
-    if (!g) return g.error();
-    gl.emplace(std::move(*g));
-  }
+  Expected<std::unique_ptr<StochasticSolver>> solver = StochasticSolver::create(
+      sr, device->device == Device::kGpu ? SolverDevice::kGpu : SolverDevice::kCpu);
+  if (!solver) return solver.error();
   run.build_seconds = build_timer.seconds();
-  PENUMBRA_TRY(solveStochastic(run, scene, options, common, so, gl));
+  PENUMBRA_TRY(solveStochastic(run, scene, options, common, so, **solver));
   return run;
 }
 
