@@ -1,13 +1,14 @@
 #include "viewer/viewer.h"
 
-#include "penumbra/app/commands.h"
-#include "penumbra/methods/stats_file.h"
 #include "penumbra/core/file_util.h"
 #include "penumbra/core/timer.h"
 #include "penumbra/gpu/storage.h"
 #include "penumbra/interactive/live_session.h"
+#include "penumbra/interactive/live_settings.h"
 #include "penumbra/io/image_io.h"
 #include "penumbra/io/scene_io.h"
+#include "penumbra/methods/render.h"
+#include "penumbra/methods/stats_file.h"
 #include "penumbra/raytrace/camera_rays.h"
 #include "penumbra/scene/media.h"
 #include "viewer/orbit_camera.h"
@@ -108,6 +109,7 @@ class Viewer {
   // The side panel's sections (drawPanels).
   void drawSessionControls();
   void drawExposure();
+  void drawMethodOptions();
   void drawLights();
   bool editLight(Light& light);
   void drawMaterials();
@@ -364,6 +366,7 @@ void Viewer::drawPanels() {
   ImGui::Begin("Penumbra", nullptr,
                ImGuiWindowFlags_NoMove | ImGuiWindowFlags_NoResize | ImGuiWindowFlags_NoCollapse);
   drawSessionControls();
+  if (ImGui::CollapsingHeader("method options")) drawMethodOptions();
   if (ImGui::CollapsingHeader("exposure", ImGuiTreeNodeFlags_DefaultOpen)) drawExposure();
   if (ImGui::CollapsingHeader("lights", ImGuiTreeNodeFlags_DefaultOpen)) drawLights();
   if (ImGui::CollapsingHeader("materials")) drawMaterials();
@@ -393,6 +396,54 @@ void Viewer::drawSessionControls() {
     status_line_ = s.ok() ? "wrote " + path : s.error().describe();
   }
   if (!status_line_.empty()) ImGui::TextWrapped("%s", status_line_.c_str());
+}
+
+// The live method's options, from their descriptions (interactive/live_settings.h): each one's
+// value (the method's default until set), its range and help; a value is checked as `render`
+// checks it, and a change restarts the session.
+void Viewer::drawMethodOptions() {
+  LiveSettings settings = liveSettings();
+  bool changed = false;
+  for (const OptionSpec* spec : liveOptionSpecs(method_)) {
+    const OptionValue current = liveOptionValue(settings, method_, *spec);
+    const std::string label =
+        spec->unit.empty() ? spec->name : fmt::format("{} ({})", spec->name, spec->unit);
+    ImGui::PushID(spec->name.c_str());
+    OptionValue edited = current;
+    bool edit = false;
+    if (const int64_t* i = std::get_if<int64_t>(&current)) {
+      int64_t v = *i;
+      edit = ImGui::InputScalar(label.c_str(), ImGuiDataType_S64, &v, nullptr, nullptr, nullptr,
+                                ImGuiInputTextFlags_EnterReturnsTrue);
+      edited = v;
+    } else if (const uint64_t* u = std::get_if<uint64_t>(&current)) {
+      uint64_t v = *u;
+      edit = ImGui::InputScalar(label.c_str(), ImGuiDataType_U64, &v, nullptr, nullptr, nullptr,
+                                ImGuiInputTextFlags_EnterReturnsTrue);
+      edited = v;
+    }
+    if (ImGui::IsItemHovered()) {
+      const std::optional<OptionRange> range = spec->rangeFor(std::string(liveMethodName(method_)));
+      ImGui::SetTooltip("%s%s", spec->help.c_str(),
+                        range ? fmt::format(" {}", range->describe()).c_str() : "");
+    }
+    ImGui::PopID();
+    if (!edit || edited == current) continue;
+    const Status s = setLiveOption(settings, method_, *spec, edited);
+    if (!s) {
+      status_line_ = s.error().describe();
+      continue;
+    }
+    changed = true;
+  }
+  if (!changed) return;
+  options_.spp = settings.spp;
+  options_.seed = settings.seed;
+  options_.elements = settings.elements;
+  options_.iterations = settings.iterations;
+  options_.lpv = settings.lpv;
+  status_line_.clear();
+  startSession();
 }
 
 void Viewer::drawExposure() {

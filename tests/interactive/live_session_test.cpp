@@ -4,11 +4,13 @@
 // tolerance; the path tracer, its lights swapped without a new BVH, gives the same image bit
 // for bit.
 #include "penumbra/interactive/live_session.h"
+#include "penumbra/interactive/live_settings.h"
 #include "penumbra/io/scene_io.h"
 
 #include <gtest/gtest.h>
 #include <glm/geometric.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -90,6 +92,60 @@ TEST(LiveSession, PathTracerWithMovedLightsIsAFreshRender) {
   EXPECT_EQ(
       std::memcmp(moved.pixels.data(), want.pixels.data(), want.pixels.size() * sizeof(glm::vec3)),
       0);
+}
+
+}  // namespace
+}  // namespace penumbra
+
+namespace penumbra {
+namespace {
+
+std::vector<std::string> names(const std::vector<const OptionSpec*>& specs) {
+  std::vector<std::string> out;
+  for (const OptionSpec* s : specs) out.push_back(s->name);
+  return out;
+}
+
+// A live session's options come from `render`'s descriptions: the same set per method, the same
+// defaults and ranges, and the scene's settings for what the caller leaves to the method.
+TEST(LiveSettings, AreRendersOptionsCheckedByTheirDescriptions) {
+  EXPECT_EQ(names(liveOptionSpecs(LiveMethod::kPathTrace)),
+            (std::vector<std::string>{"spp", "seed"}));
+  EXPECT_EQ(names(liveOptionSpecs(LiveMethod::kMatrix)),
+            (std::vector<std::string>{"spp", "seed", "elements", "iterations"}));
+  const std::vector<std::string> lpv = names(liveOptionSpecs(LiveMethod::kLpv));
+  EXPECT_NE(std::find(lpv.begin(), lpv.end(), "grid"), lpv.end());
+  EXPECT_EQ(std::find(lpv.begin(), lpv.end(), "elements"), lpv.end());
+
+  LiveSettings settings;
+  const OptionSpec& spp = *liveOptionSpecs(LiveMethod::kPathTrace)[0];
+  EXPECT_EQ(std::get<int64_t>(liveOptionValue(settings, LiveMethod::kPathTrace, spp)), 64);
+  EXPECT_EQ(std::get<int64_t>(liveOptionValue(settings, LiveMethod::kMatrix, spp)), 4);
+  // The path tracer's own range, not the others'.
+  EXPECT_TRUE(setLiveOption(settings, LiveMethod::kPathTrace, spp, OptionValue(int64_t(65536))));
+  EXPECT_EQ(settings.spp, 65536);
+  const Status refused =
+      setLiveOption(settings, LiveMethod::kMatrix, spp, OptionValue(int64_t(65536)));
+  ASSERT_FALSE(refused.ok());
+  EXPECT_NE(refused.error().describe().find("--spp"), std::string::npos)
+      << refused.error().describe();
+
+  // The scene's settings fill what the caller left; the caller's values win.
+  Scene scene = litCornell(lightAt(0));
+  scene.settings = {{"matrix", {{"elements", 300}, {"iterations", 7}, {"spp", 2}}}};
+  LiveSettings mine;
+  mine.elements = 500;
+  Expected<LiveSettings> resolved = resolveLiveSettings(scene, LiveMethod::kMatrix, mine);
+  ASSERT_TRUE(resolved.ok()) << resolved.error().describe();
+  EXPECT_EQ(resolved->elements, 500u);
+  EXPECT_EQ(resolved->iterations, 7);
+  EXPECT_EQ(resolved->spp, 2);
+  scene.settings = {{"matrix", {{"iterations", 0}}}};
+  Expected<LiveSession> bad =
+      LiveSession::create(scene, LiveMethod::kMatrix, LiveSettings{}, defaultCamera(scene));
+  ASSERT_FALSE(bad.ok());
+  EXPECT_NE(bad.error().describe().find("settings.matrix.iterations"), std::string::npos)
+      << bad.error().describe();
 }
 
 }  // namespace

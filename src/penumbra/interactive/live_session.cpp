@@ -2,6 +2,7 @@
 
 #include "penumbra/core/memory.h"
 #include "penumbra/core/timer.h"
+#include "penumbra/interactive/live_settings.h"
 #include "penumbra/radiosity/matrix_radiosity.h"
 #include "penumbra/radiosity/progressive.h"
 #include "penumbra/radiosity/radiosity_solvers.h"
@@ -137,15 +138,16 @@ LiveSession::LiveSession(LiveSession&&) noexcept = default;
 LiveSession& LiveSession::operator=(LiveSession&&) noexcept = default;
 LiveSession::~LiveSession() = default;
 
-Expected<LiveSession> LiveSession::create(Scene scene, LiveMethod method,
-                                          const LiveSettings& settings, const Camera& camera) {
-  if (settings.width < 1 || settings.width > (1 << 14) || settings.height < 1 ||
-      settings.height > (1 << 14)) {
+Expected<LiveSession> LiveSession::create(Scene scene, LiveMethod method, const LiveSettings& given,
+                                          const Camera& camera) {
+  if (given.width < 1 || given.width > (1 << 14) || given.height < 1 || given.height > (1 << 14)) {
     return inputError("", "--width/--height", "must be in [1, 16384]");
   }
-  if (settings.spp < 0 || settings.spp > (1 << 20)) {
-    return inputError("", "--spp", "must be in [1, 1048576]");
-  }
+  // The method's options checked by their descriptions, as `render` checks them, and the scene's
+  // settings for those the caller left to the method (interactive/live_settings.h).
+  Expected<LiveSettings> resolved = resolveLiveSettings(scene, method, given);
+  if (!resolved) return resolved.error();
+  const LiveSettings& settings = *resolved;
   const bool subsurface = method == LiveMethod::kSss || method == LiveMethod::kLpv;
   if (settings.gpu && !liveMethodHasGpu(method)) {
     return inputError(
@@ -468,8 +470,8 @@ Status LiveSession::State::drawView() {
     }
     case LiveMethod::kSss: {
       if (!sss_frames) {
-        SssViewSettings view{settings.width, settings.height, spp(), settings.seed};
-        Expected<SssFrames> frames = SssFrames::create(*sss, camera, view, settings.gpu);
+        const SssViewSettings frame_view{settings.width, settings.height, spp(), settings.seed};
+        Expected<SssFrames> frames = SssFrames::create(*sss, camera, frame_view, settings.gpu);
         if (!frames) return frames.error();
         sss_frames = std::make_unique<SssFrames>(std::move(*frames));
       }
