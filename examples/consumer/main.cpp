@@ -33,8 +33,8 @@ void check(bool ok, const std::string& what) {
 
 void checkRender() {
   const penumbra::api::Scene scene = penumbra::api::Scene::load("cornell");
-  const penumbra::api::Result result =
-      penumbra::api::render(scene, {"--spp", "16", "--width", "32", "--height", "32", "--quiet"});
+  const penumbra::api::Result result = penumbra::api::render(
+      scene, penumbra::api::Options{{"spp", 16}, {"width", 32}, {"height", 32}, {"quiet", true}});
   check(result.images.size() == 1, "render gives one image");
   if (result.images.empty()) return;
   const penumbra::api::Image& image = result.images.front();

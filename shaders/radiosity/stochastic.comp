@@ -18,6 +18,7 @@
 //             difference of the odd and even means and of the mean (luminance).
 
 #include "radiosity/progressive_layout.glsl"
+#include "radiosity/stochastic_layout.glsl"
 
 double luminance(dvec3 b) { return 0.3LF * b.x + 0.59LF * b.y + 0.11LF * b.z; }
 
@@ -61,14 +62,6 @@ layout(std430, binding = STOCHASTIC_SSBO_SUMS) readonly buffer Sums { double sum
 layout(std430, binding = STOCHASTIC_SSBO_CHILD_FIRST) readonly buffer ChildFirst { uint child_first[]; };
 // Per chart: its root's level and index.
 layout(std430, binding = STOCHASTIC_SSBO_ROOTS) readonly buffer Roots { uvec2 roots[]; };
-struct GpuStochasticSelection {
-  uint element;
-  uint found;  // 0 when nothing has weight
-  double probability;
-  double power;
-  double pad;
-  dvec4 value;  // the texel's radiosity B_j (W m^-2)
-};
 layout(std430, binding = STOCHASTIC_SSBO_ITERATE) readonly buffer Iterate { dvec4 iterate[]; };
 layout(std430, binding = STOCHASTIC_SSBO_SELECTION) writeonly buffer Selection { GpuStochasticSelection selection; };
 uniform uint chart_count;

@@ -12,6 +12,7 @@
 #include "penumbra/radiosity/hemisphere_gl.h"
 #include "penumbra/radiosity/jacobi_gl.h"
 #include "penumbra/radiosity/progressive_gl.h"
+#include "penumbra/radiosity/stochastic_gl.h"
 #include "penumbra/raytrace/gpu_layout.h"
 #include "penumbra/raytrace/lights.h"
 #include "penumbra/subsurface/sss_gl.h"
@@ -398,6 +399,17 @@ TEST(GpuLayout, JacobiMatchesCpp) {
                     {LAYOUT_MEMBER(T, reflectance), LAYOUT_MEMBER(T, self_form_factor),
                      LAYOUT_MEMBER(T, emission), LAYOUT_MEMBER(T, pad)}});
   }
+}
+
+TEST(GpuLayout, StochasticSelectionMatchesCpp) {
+  PENUMBRA_GL_OR_SKIP();
+  using T = GpuStochasticSelection;
+  expectMirrored(
+      {"GpuStochasticSelection",
+       "#include \"radiosity/stochastic_layout.glsl\"\n",
+       sizeof(T),
+       {LAYOUT_MEMBER(T, element), LAYOUT_MEMBER(T, found), LAYOUT_MEMBER(T, probability),
+        LAYOUT_MEMBER(T, power), LAYOUT_MEMBER(T, pad), LAYOUT_MEMBER(T, value)}});
 }
 
 // The check itself can fail: a GLSL copy of GpuProgressiveElement with `position` and

@@ -422,7 +422,7 @@ Hits trace(const Scene& scene, std::span<const float> rays, const TraceOptions& 
     if (options.cache_rays > 0) to.cache_rays = options.cache_rays;
     initLogging(options.quiet);
     const auto thread_limit = limitThreads(options.threads);
-    // Over several ranks: rank 0's rays shared out, the answers on rank 0 (app/trace_run.h).
+    // Over several ranks: rank 0's rays shared out, the answers on rank 0 (methods/trace.h).
     penumbra::Communicator& comm = currentCommunicator();
     if (comm.distributed()) {
       const Status ready = agreeReady(comm, checkTraceOptions(to));

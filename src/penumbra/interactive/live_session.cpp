@@ -457,8 +457,8 @@ Status LiveSession::State::drawView() {
         lightmap_view.emplace(surface.flat.positions, surface.flat.triangles, surface.atlas, camera,
                               viewSettings());
       }
-      // As `render` shows each method's solution (app/render_matrix.cpp,
-      // app/progressive_run.cpp, app/stochastic_run.cpp).
+      // As `render` shows each method's solution (methods/render_matrix.cpp,
+      // methods/progressive_run.cpp, methods/stochastic_run.cpp).
       const Image lightmap = method == LiveMethod::kMatrix ? matrix->radianceImage(true)
                              : method == LiveMethod::kProgressive
                                  ? progressive->radianceImage(false)

@@ -99,7 +99,7 @@ struct RenderOptions : LightmapMethodOptions {
   // --method lpv (Børlum et al. 2011): grid cells along each object's longest side, propagation
   // steps, steps left out of the accumulation, injection texels per side of each light's map.
   std::optional<int> grid, steps, skip_steps, rsm_resolution, surface_samples, surface_rays;
-  // Lighting design (render/illuminance.h, app/illuminance_output.h): images of lux instead of
+  // Lighting design (render/illuminance.h, methods/illuminance_output.h): images of lux instead of
   // radiance, false colour with a legend, and a work plane's grid of calculation points.
   std::string output_quantity = "radiance";  // or illuminance
   bool false_colour = false;

@@ -29,7 +29,7 @@ Status writeRenderOutputs(const RenderOptions& options, const std::vector<std::s
                           const Image& radiance, const IlluminanceReport* report,
                           nlohmann::json* stats, const std::string& frame_name = "");
 
-// The values a render gives back in memory (app/session.h): lux in every channel with
+// The values a render gives back in memory (methods/run_context.h): lux in every channel with
 // --output-quantity illuminance, else the radiance.
 Image renderedValues(const RenderOptions& options, const Image& radiance,
                      const IlluminanceReport* report);
