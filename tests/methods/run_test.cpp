@@ -211,6 +211,34 @@ TEST(MethodRun, SceneSettingsFillWhatTheCallerLeft) {
       << refused.error().describe();
 }
 
+// A bake takes the scene's settings for its method too: the lightmap's and the solver's.
+TEST(MethodRun, BakeTakesTheScenesSettingsForItsMethod) {
+  TempDir dir;
+  Scene box = *load("cornell");
+  box.settings = {{"stochastic", {{"iterations", 12}, {"seed", 3}, {"spp", 2}}}};
+  RunContext context;
+  context.keep_results = true;
+  context.scene = std::make_shared<const Scene>(box);
+  BakeOptions defaults;
+  defaults.scene = "cornell";
+  Expected<BakeInput> input = bakeInputFromWords(
+      {"--method", "stochastic", "--elements", "2000", "-o", dir.file("out"), "--quiet"}, defaults);
+  ASSERT_TRUE(input.ok()) << input.error().describe();
+  context.given = input->given;
+  Expected<RunResult> run = bakeScene(input->options, input->common, context);
+  ASSERT_TRUE(run.ok()) << run.error().describe();
+  EXPECT_EQ(run->stats["iterations"], 12);
+  EXPECT_EQ(run->stats["seed"], 3);
+  EXPECT_TRUE(std::filesystem::exists(dir.file("out/cornell.gltf")));
+
+  box.settings = {{"stochastic", {{"iterations", -1}}}};
+  context.scene = std::make_shared<const Scene>(box);
+  Expected<RunResult> refused = bakeScene(input->options, input->common, context);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_NE(refused.error().describe().find("settings.stochastic.iterations"), std::string::npos)
+      << refused.error().describe();
+}
+
 TEST(OptionInput, WordsAndValuesAreCheckedAsTheCommandLinesAre) {
   // The words: the command line's syntax and checks.
   Expected<RenderInput> words =

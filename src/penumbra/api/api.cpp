@@ -27,7 +27,6 @@
 #include <mutex>
 #include <new>
 #include <optional>
-#include <type_traits>
 
 namespace penumbra::api {
 
@@ -125,15 +124,7 @@ std::string commandSceneName(const penumbra::Scene& scene) {
 std::vector<NamedValue> namedValues(const Options& options) {
   std::vector<NamedValue> out;
   for (const auto& [name, value] : options.values) {
-    // A whole number >= 0 as JSON's unsigned, which the options of unsigned kind ask for.
-    const auto json = [](const auto& v) {
-      if constexpr (std::is_same_v<std::decay_t<decltype(v)>, int64_t>) {
-        return v >= 0 ? nlohmann::json(uint64_t(v)) : nlohmann::json(v);
-      } else {
-        return nlohmann::json(v);
-      }
-    };
-    out.emplace_back(name, std::visit(json, value));
+    out.emplace_back(name, std::visit([](const auto& v) { return nlohmann::json(v); }, value));
   }
   return out;
 }

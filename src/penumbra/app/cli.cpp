@@ -386,7 +386,7 @@ int runParsed(CommandLine& c) {
   if (c.bake_cmd->parsed()) {
     Status s = applyDescribed(c.bake_options, bakeOptionSpecs(), c.bake, setBakeOption, &given);
     if (!s) return reportError(s.error());
-    return runBake(c.bake, c.common);
+    return runBake(c.bake, c.common, given);
   }
   if (c.trace_cmd->parsed()) return runTrace(c.trace, c.common);
   if (c.info_cmd->parsed()) return runInfo(c.info, c.common);

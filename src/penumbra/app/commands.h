@@ -34,7 +34,8 @@ struct InfoOptions {
 // `given`: the options the command line set (the scene file's settings apply to the others).
 int runRender(RenderOptions options, const CommonOptions& common,
               const std::vector<std::string>& given = {});
-int runBake(const BakeOptions& options, const CommonOptions& common);
+int runBake(const BakeOptions& options, const CommonOptions& common,
+            const std::vector<std::string>& given = {});
 int runTrace(const TraceOptions& options, const CommonOptions& common);
 int runInfo(const InfoOptions& options, const CommonOptions& common);
 int runRays(const RaysOptions& options, const CommonOptions& common);

@@ -43,11 +43,13 @@ int runRender(RenderOptions options, const CommonOptions& common,
   return exitCode(renderScene(std::move(options), common, context), common);
 }
 
-int runBake(const BakeOptions& options, const CommonOptions& common) {
+int runBake(const BakeOptions& options, const CommonOptions& common,
+            const std::vector<std::string>& given) {
   Expected<std::shared_ptr<const Scene>> scene = loadCommandScene(options.scene);
   if (!scene) return reportError(scene.error());
   RunContext context;
   context.scene = *scene;
+  context.given = given;
   return exitCode(bakeScene(options, common, context), common);
 }
 

@@ -20,6 +20,7 @@
 #include "penumbra/io/scene_io.h"
 #include "penumbra/methods/matrix_build.h"
 #include "penumbra/methods/progressive_run.h"
+#include "penumbra/methods/registry.h"
 #include "penumbra/methods/render.h"
 #include "penumbra/methods/run_context.h"
 #include "penumbra/methods/stats_file.h"
@@ -390,6 +391,10 @@ Status bake(const BakeOptions& options, const CommonOptions& common, bool* inter
 Expected<RunResult> bakeScene(BakeOptions options, const CommonOptions& common,
                               const RunContext& context) {
   RunScope run(context);
+  // The scene's "settings" for the method, checked as the caller's values are; the caller's win.
+  Expected<std::vector<std::string>> set =
+      applySceneSettings(options, context.scene->settings, context.scene->source, context.given);
+  if (!set) return set.error();
   OutputTransaction transaction;
   bool interrupted = false;
   PENUMBRA_TRY(bake(options, common, &interrupted));

@@ -268,7 +268,11 @@ Expected<OptionValue> optionFromJson(const OptionSpec& spec, const nlohmann::jso
       v = value.get<int64_t>();
       break;
     case OptionKind::kUnsigned:
-      if (!value.is_number_unsigned()) return wrong("a non-negative integer");
+      // A whole number >= 0, however the JSON holds it (parsed files hold it unsigned, values
+      // built in code signed).
+      if (!value.is_number_integer() || (!value.is_number_unsigned() && value.get<int64_t>() < 0)) {
+        return wrong("a non-negative integer");
+      }
       v = value.get<uint64_t>();
       break;
     case OptionKind::kReal:

@@ -788,14 +788,20 @@ Status checkOptionsTaken(const std::vector<OptionSpec>& specs, const std::string
   return {};
 }
 
-Expected<std::vector<std::string>> applySceneSettings(RenderOptions& options,
-                                                      const nlohmann::json& settings,
-                                                      const std::string& file,
-                                                      const std::vector<std::string>& given) {
+namespace {
+
+// applySceneSettings for either command: every method's settings checked against render's
+// descriptions (the settings' vocabulary); the running method's applied through `specs`, the
+// command's own (bake takes fewer), under the caller's.
+template <typename Options>
+Expected<std::vector<std::string>> applySettings(
+    Options& options, const std::vector<OptionSpec>& specs,
+    void (*set_option)(Options&, const OptionSpec&, const OptionValue&),
+    const nlohmann::json& settings, const std::string& file,
+    const std::vector<std::string>& given) {
   std::vector<std::string> set;
   if (settings.is_null()) return set;
   if (!settings.is_object()) return inputError(file, "settings", "must be an object");
-  const std::vector<OptionSpec>& specs = renderOptionSpecs();
   for (const auto& [method, values] : settings.items()) {
     const std::string where = "settings." + method;
     if (!findMethod(method)) {
@@ -803,8 +809,8 @@ Expected<std::vector<std::string>> applySceneSettings(RenderOptions& options,
     }
     if (!values.is_object()) return inputError(file, where, "must be an object");
     for (const auto& [key, value] : values.items()) {
-      const OptionSpec* spec = findOption(specs, key);
-      // Settings describe how a method runs; where its results go stays on the command line.
+      const OptionSpec* spec = findOption(renderOptionSpecs(), key);
+      // Settings describe how a method runs; where its results go stays with the caller.
       if (!spec || spec->uses.empty() || spec->kind == OptionKind::kText ||
           key.find('-') != std::string::npos) {
         return inputError(file, where + "." + key,
@@ -817,15 +823,34 @@ Expected<std::vector<std::string>> applySceneSettings(RenderOptions& options,
       }
       Expected<OptionValue> v = optionFromJson(*spec, value, method, file, where + "." + key);
       if (!v) return v.error();
-      // Every method's settings are checked; the running method's apply, under the command
-      // line's.
+      // Every method's settings are checked; the running method's apply, under the caller's.
       if (method != options.method) continue;
       if (std::find(given.begin(), given.end(), spec->name) != given.end()) continue;
-      setRenderOption(options, *spec, *v);
+      const OptionSpec* own = findOption(specs, spec->name);
+      if (!own || !own->takenBy(method)) continue;  // a render setting this command lacks
+      Expected<OptionValue> mine = optionFromJson(*own, value, method, file, where + "." + key);
+      if (!mine) return mine.error();
+      set_option(options, *own, *mine);
       set.push_back(spec->name);
     }
   }
   return set;
+}
+
+}  // namespace
+
+Expected<std::vector<std::string>> applySceneSettings(RenderOptions& options,
+                                                      const nlohmann::json& settings,
+                                                      const std::string& file,
+                                                      const std::vector<std::string>& given) {
+  return applySettings(options, renderOptionSpecs(), &setRenderOption, settings, file, given);
+}
+
+Expected<std::vector<std::string>> applySceneSettings(BakeOptions& options,
+                                                      const nlohmann::json& settings,
+                                                      const std::string& file,
+                                                      const std::vector<std::string>& given) {
+  return applySettings(options, bakeOptionSpecs(), &setBakeOption, settings, file, given);
 }
 
 std::string optionReferenceMarkdown() {

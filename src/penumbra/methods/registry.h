@@ -51,6 +51,12 @@ Expected<std::vector<std::string>> applySceneSettings(RenderOptions& options,
                                                       const nlohmann::json& settings,
                                                       const std::string& file,
                                                       const std::vector<std::string>& given);
+// The same for `bake`: the settings of the method it bakes that bake takes (the lightmap's and the
+// solver's; the view's, such as width and spp, are render's alone).
+Expected<std::vector<std::string>> applySceneSettings(BakeOptions& options,
+                                                      const nlohmann::json& settings,
+                                                      const std::string& file,
+                                                      const std::vector<std::string>& given);
 
 // The option reference of docs/cli.md (Markdown), made from the descriptions.
 std::string optionReferenceMarkdown();
