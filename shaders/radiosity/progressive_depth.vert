@@ -14,6 +14,9 @@
 layout(std430, binding = PROGRESSIVE_SSBO_TRIANGLES) readonly buffer Triangles { GpuProgressiveTriangle triangles[]; };
 // Per sub-triangle: (triangle, sub-triangle code).
 layout(std430, binding = PROGRESSIVE_SSBO_SUB_TRIANGLES) readonly buffer SubTriangles { uvec2 sub_triangles[]; };
+#ifndef MAX_BATCH_POINTS
+#error "MAX_BATCH_POINTS comes from the host (radiosity/hemisphere_gl.h: batchPointDefines)"
+#endif
 layout(std140, binding = PROGRESSIVE_UBO_BATCH) uniform Batch { GpuBatchPoint batch[MAX_BATCH_POINTS]; };
 
 uniform Hemisphere hemisphere;  // all but the origin, which is the batch's point

@@ -44,7 +44,8 @@ struct GpuBatchPoint {
   uvec4 members;    // x: first element, y: count, z: its index among the shooter's points
 };
 
-#define MAX_BATCH_POINTS 16
+// MAX_BATCH_POINTS, the points of a batch, is defined by the host (radiosity/hemisphere_gl.h:
+// batchPointDefines) for the passes that read the batch.
 
 struct GpuSelection {  // 16 bytes: the winner of the shooter selection
   double power;        // its residual power, luminance (W); 0 when nothing is left

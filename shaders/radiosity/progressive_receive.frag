@@ -40,6 +40,9 @@ uniform uint sample_points;  // the shooter's points
 layout(std430, binding = PROGRESSIVE_SSBO_POLYGONS) readonly buffer Polygons { vec4 polygons[]; };
 // Receiver points in double, for the near-pair test in the CPU's precision.
 layout(std430, binding = PROGRESSIVE_SSBO_ELEMENT_POSITION_D) readonly buffer ReceiverPositionD { double receiver_position[]; };
+#ifndef MAX_BATCH_POINTS
+#error "MAX_BATCH_POINTS comes from the host (radiosity/hemisphere_gl.h: batchPointDefines)"
+#endif
 layout(std140, binding = PROGRESSIVE_UBO_BATCH) uniform Batch { GpuBatchPoint batch[MAX_BATCH_POINTS]; };
 
 layout(binding = PROGRESSIVE_TEXTURE_DEPTH_MAP) uniform sampler2D depth_map;     // tiles of linear depth, Algorithm 1

@@ -23,7 +23,6 @@ constexpr int kMaxTessellation = 64;  // sub-triangle grid per triangle (code: 8
 // float rounding of coplanar geometry; the CPU lifts its shadow rays by 1e-5 of the scene too).
 constexpr float kOnPlane = 1e-5f;
 constexpr int kMaxTiles = kProgressiveBatchTiles;
-static_assert(kMaxTiles * kMaxTiles == 16, "MAX_BATCH_POINTS in progressive_layout.glsl");
 
 GLint uniform(const gl::Program& p, const char* name) {
   return gl::uniformLocation(p.id(), name);
@@ -262,25 +261,34 @@ Status checkDeviceMemory(uint64_t total, const char* place) {
   return {};
 }
 
+}  // namespace
+
+std::vector<std::string> batchPointDefines() {
+  return {fmt::format("MAX_BATCH_POINTS {}", kMaxTiles * kMaxTiles)};
+}
+
+namespace {
+
 // The depth pass, the far and near receiver passes and (with `samples`) the samples pass.
 Status compilePrograms(bool visibility, bool samples, gl::Program& depth, gl::Program& receive_far,
                        gl::Program& receive_near, gl::Program& sample) {
-  Expected<gl::Program> p =
-      gl::renderProgram("radiosity/progressive_depth.vert", "radiosity/progressive_depth.frag");
+  Expected<gl::Program> p = gl::renderProgram(
+      "radiosity/progressive_depth.vert", "radiosity/progressive_depth.frag", batchPointDefines());
   if (!p) return p.error();
   depth = std::move(*p);
   for (int near = 0; near < 2; ++near) {
-    p = gl::renderProgram("radiosity/progressive_receive.vert",
-                          "radiosity/progressive_receive.frag",
-                          {fmt::format("NEAR_PASS {}", near),
-                           fmt::format("VISIBILITY {}", visibility ? 1 : 0), "SAMPLE_PASS 0"});
+    p = gl::renderProgram(
+        "radiosity/progressive_receive.vert", "radiosity/progressive_receive.frag",
+        {fmt::format("NEAR_PASS {}", near), fmt::format("VISIBILITY {}", visibility ? 1 : 0),
+         "SAMPLE_PASS 0", batchPointDefines()[0]});
     if (!p) return p.error();
     (near ? receive_near : receive_far) = std::move(*p);
   }
   if (samples) {
-    p = gl::renderProgram(
-        "radiosity/progressive_receive.vert", "radiosity/progressive_receive.frag",
-        {"NEAR_PASS 0", fmt::format("VISIBILITY {}", visibility ? 1 : 0), "SAMPLE_PASS 1"});
+    p = gl::renderProgram("radiosity/progressive_receive.vert",
+                          "radiosity/progressive_receive.frag",
+                          {"NEAR_PASS 0", fmt::format("VISIBILITY {}", visibility ? 1 : 0),
+                           "SAMPLE_PASS 1", batchPointDefines()[0]});
     if (!p) return p.error();
     sample = std::move(*p);
   }

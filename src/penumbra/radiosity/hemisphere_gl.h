@@ -33,6 +33,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <span>
+#include <string>
 #include <vector>
 
 namespace penumbra {
@@ -97,6 +98,9 @@ static_assert(sizeof(GpuBatchPoint) == 96 && offsetof(GpuBatchPoint, position_f)
 // Shooter points per receiver pass (MAX_BATCH_POINTS in progressive_layout.glsl): a 4 x 4 grid
 // of depth maps in one texture.
 inline constexpr int kProgressiveBatchTiles = 4;
+// The batch's size for the passes that read it: MAX_BATCH_POINTS, kProgressiveBatchTiles^2 (the
+// shaders have no value of their own).
+std::vector<std::string> batchPointDefines();
 
 // A buffer a caller of the gather will allocate, for the one memory and size check.
 struct GlBufferNeed {
