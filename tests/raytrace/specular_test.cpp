@@ -15,7 +15,10 @@
 #include "support/test_util.h"
 
 #include <gtest/gtest.h>
+
+#include <algorithm>
 #include <glm/geometric.hpp>
+#include <span>
 
 #include <cmath>
 
@@ -179,13 +182,14 @@ TEST(Specular, GlassSphereInFurnaceKeepsTheFurnaceValue) {
   // Light caught by total internal reflection between the facets loses what its branch carries
   // when the depth limit cuts it: a few pixels are darker; every other one is exact, up to the
   // branches fainter than 1e-4, which go on by Russian roulette (whitted.cpp) and move a pixel by
-  // a few 1e-4 at most.
+  // a few 1e-4 at most. Which pixels have a sample on such a path depends on where the samples
+  // fall: 94-95% of them are exact with stratified or independent jitter.
   size_t exact = 0;
   for (const glm::vec3& c : w->pixels) {
     EXPECT_LE(c.x, 0.7f + 5e-4f);
     exact += std::fabs(c.x - 0.7f) < 2e-4f;
   }
-  EXPECT_GT(exact, w->pixels.size() * 95 / 100);
+  EXPECT_GT(exact, w->pixels.size() * 93 / 100);
   EXPECT_NEAR(meanLuminance(*w), 0.7, 0.7 * 0.01);
   PhotonSettings photon_settings;
   photon_settings.photons = 20000;
@@ -458,22 +462,42 @@ TEST(Photons, GlassSphereCausticMatchesPathTracer) {
   Expected<PhotonMaps> maps = shootPhotons(s, whitted.geometry(), photon_settings, cpu, &stats);
   ASSERT_TRUE(maps.ok());
   EXPECT_GT(stats.caustic_stored, 100000u);
+  // Both estimates converged enough that their noise stays well inside the 3% compared: the
+  // region's mean moves by up to 2.5% between sample patterns at 4 to 16 view rays per pixel (the
+  // final gather's noise), and the path tracer's caustic (found only by paths that reach the lamp
+  // through the glass) by about 2% at 1,024 spp; at 64 and 4,096 both are within 0.6% of their
+  // values at 8,192 spp.
   WhittedSettings ws;
   ws.width = ws.height = size;
-  ws.spp = 4;
+  ws.spp = 64;
   ws.light_samples = 4;
   Expected<Image> ph = whitted.render(cam, ws, cpu, nullptr, {},
                                       photonShading(whitted.geometry(), *maps, photon_settings));
   ASSERT_TRUE(ph.ok());
 
+  // The path tracer on the region's rows only.
+  int y_first = size, y_last = -1;
+  for (int y = 0; y < size; ++y) {
+    for (int x = 0; x < size; ++x) {
+      if (!region[size_t(y) * size + size_t(x)]) continue;
+      y_first = std::min(y_first, y);
+      y_last = std::max(y_last, y);
+    }
+  }
   PathTracer pt(s);
   PathTracerSettings ps;
   ps.width = ps.height = size;
-  ps.spp = 1024;
-  const Image p = pt.render(cam, ps);
+  ps.spp = 4096;
+  Image p(size, size);
+  (void)pt.renderRows(
+      cam, ps, y_first, y_last + 1,
+      std::span<glm::vec3>(p.pixels).subspan(size_t(y_first) * size_t(size),
+                                             size_t(y_last + 1 - y_first) * size_t(size)));
   const double m_ph = meanLuminance(*ph, &region), m_pt = meanLuminance(p, &region);
   // The direct light alone (Whitted), to show the caustic is most of what the region receives.
-  Expected<Image> direct = whitted.render(cam, ws, cpu);
+  WhittedSettings direct_settings = ws;
+  direct_settings.spp = 4;
+  Expected<Image> direct = whitted.render(cam, direct_settings, cpu);
   ASSERT_TRUE(direct.ok());
   const double m_direct = meanLuminance(*direct, &region);
   std::printf(
@@ -508,7 +532,9 @@ TEST(Photons, RealScenesAgreeWithThePathTracer) {
     Expected<Image> ph = whitted.render(cam, ws, cpu, nullptr, {},
                                         photonShading(whitted.geometry(), *maps, photon_settings));
     ASSERT_TRUE(ph.ok());
-    Expected<Image> direct = whitted.render(cam, ws, cpu);
+    WhittedSettings direct_settings = ws;
+    direct_settings.spp = 4;
+    Expected<Image> direct = whitted.render(cam, direct_settings, cpu);
     ASSERT_TRUE(direct.ok());
     PathTracer pt(*s);
     PathTracerSettings ps;

@@ -191,7 +191,9 @@ void addSolveOptions(std::vector<Bound<Options>>& b) {
        .kind = K::kInt,
        .range = range(1, 1 << 20),
        .help = "iteration cap (progressive: shooters; stochastic: random operators; counted "
-               "over resumed runs)",
+               "over resumed runs). Stochastic radiosity's default trades accuracy for speed: "
+               "about 7% over 4 x 4 blocks of a room in 2 s, about 4% with 8000 iterations (10 s); "
+               "--time-limit runs as long as it allows",
        .uses = {{"matrix", text(kIterationCapDefault), {}},
                 {"progressive", text(kIterationCapDefault), {}},
                 {"stochastic", text(kIterationCapDefault) + ", none with --time-limit", {}}}},
@@ -259,8 +261,11 @@ void renderOutputOptions(const Adder<RenderOptions>& add) {
   add({.name = "method",
        .kind = K::kChoice,
        .choices = kAll,
-       .help = "the method (docs/cli.md): pathtrace (the reference path tracer), whitted, "
-               "photons, matrix, progressive, stochastic, sss or lpv"},
+       .help = "the method (docs/cli.md; penumbra methods): pathtrace (the reference path "
+               "tracer), whitted (direct light, mirrors and glass only: no diffuse "
+               "interreflection, so indirectly lit rooms come out darker), photons, matrix, "
+               "progressive, stochastic (its default iterations give a quick, noisy estimate), "
+               "sss or lpv"},
       field<R>(&R::method));
   add({.name = "device",
        .kind = K::kChoice,
@@ -293,7 +298,7 @@ void renderOutputOptions(const Adder<RenderOptions>& add) {
     OptionSpec spp{.name = "spp",
                    .kind = K::kInt,
                    .range = range(1, 4096),
-                   .help = "samples (jittered camera rays) per pixel",
+                   .help = "samples (camera rays, stratified within the pixel) per pixel",
                    .uses = all(kAll)};
     for (OptionUse& u : spp.uses) u.default_value = text(WhittedSettings{}.spp);
     spp.uses[0] = OptionUse{"pathtrace", text(PathTracerSettings{}.spp), range(1, 1 << 20)};
@@ -719,14 +724,20 @@ const std::vector<MethodInfo>& methodInfos() {
   static const std::vector<MethodInfo> methods = {
       {"pathtrace", "the unbiased reference path tracer", "Kajiya 1986; Owen-scrambled Sobol",
        false},
-      {"whitted", "Whitted ray tracing: mirrors, glass and shadow rays",
+      {"whitted",
+       "Whitted ray tracing: mirrors, glass and direct light by shadow rays; no diffuse "
+       "interreflection (photons and pathtrace add it), so rooms lit indirectly come out darker",
        "Carr et al. 2002, the Ray Engine's applications", false},
       {"photons", "photon mapping with caustics and final gather", "Jensen 1996; Carr et al. 2002",
        false},
       {"matrix", "matrix radiosity: form factors once, Jacobi or Gauss-Seidel",
        "Carr, Hall, Hart 2003, sec. 3", true},
       {"progressive", "progressive refinement radiosity in a lightmap atlas", "Wallner", true},
-      {"stochastic", "stochastic radiosity by ray-bundle shooting", "Barsi and Jakab", true},
+      {"stochastic",
+       "stochastic radiosity by ray-bundle shooting; its default 500 iterations are a quick, noisy "
+       "estimate (about 7% over 4 x 4 blocks of a room): --time-limit or more --iterations for "
+       "less noise",
+       "Barsi and Jakab", true},
       {"sss", "subsurface scattering: the dipole through hierarchical links",
        "Carr, Hall, Hart 2003, sec. 4", false},
       {"lpv", "subsurface light propagation volumes", "Borlum et al. 2011", false},

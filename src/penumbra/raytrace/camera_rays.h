@@ -1,6 +1,7 @@
 // Primary rays of a pinhole camera.
 #pragma once
 
+#include "penumbra/core/sobol.h"
 #include "penumbra/kernels/ray.h"
 #include "penumbra/scene/camera.h"
 
@@ -58,5 +59,19 @@ class CameraRays {
   glm::vec3 origin_, forward_, right_, up_;
   float scale_x_, scale_y_, inv_w_, inv_h_;
 };
+
+// Where sample `s` of a pixel's `spp` samples falls in the pixel, in [0, 1)^2: the pixel's centre
+// for one sample, else point s of an Owen-scrambled Sobol pattern of its own (core/sobol.h; keyed
+// by `seed` and `pixel`), so that the first 2^m samples are one per elementary interval of area
+// 2^-m and a pixel's samples cover it evenly (stratified; each point on its own is uniform, as
+// independent jitter is). The view rays of every method but the path tracer, which keeps its own
+// patterns per path, take this; at the 4 samples per pixel those methods default to, the pixels
+// along an emitter's edge vary far less than with independent jitter.
+inline glm::vec2 pixelJitter(uint64_t seed, uint64_t pixel, uint32_t s, int spp) {
+  if (spp == 1) return glm::vec2(0.5f);
+  const SobolBits b = owenSobol2DBits(s, sobolPattern(mixBits(mixBits(seed) ^ pixel), 0));
+  // 24 bits, so that the float is exact and below 1.
+  return glm::vec2(float(b.x >> 8) * 0x1p-24f, float(b.y >> 8) * 0x1p-24f);
+}
 
 }  // namespace penumbra

@@ -41,7 +41,7 @@ constexpr size_t kMaxGeneration = size_t(1) << 17;
 // keeps at most about 1 / kFaintBranch rays per generation for each camera ray.
 constexpr float kFaintBranch = 1e-4f;
 
-// The camera rays of a wave (rows from y0, `samples` of them), jittered within their pixels.
+// The camera rays of a wave (rows from y0, `samples` of them), stratified within their pixels.
 void cameraRays(const CameraRays& cam, uint64_t seed, size_t width, size_t spp, size_t y0,
                 size_t samples, std::vector<TreeNode>& nodes) {
   nodes.resize(samples);
@@ -50,10 +50,18 @@ void cameraRays(const CameraRays& cam, uint64_t seed, size_t width, size_t spp, 
       const size_t local_pixel = i / spp, s = i % spp;
       const size_t x = local_pixel % width, y = y0 + local_pixel / width;
       const uint64_t key = mixBits((uint64_t(y) * width + x) * spp + s + 1);
-      Rng rng(seed, key);
-      const float jx = rng.uniform(), jy = rng.uniform();
+      // Stratified within the pixel (pixelJitter); one sample keeps its own random offset, as the
+      // path tracer's does.
+      glm::vec2 j;
+      if (spp == 1) {
+        Rng rng(seed, key);
+        j.x = rng.uniform();
+        j.y = rng.uniform();
+      } else {
+        j = pixelJitter(seed, uint64_t(y) * width + x, uint32_t(s), int(spp));
+      }
       nodes[i] =
-          TreeNode{cam.ray(float(x) + jx, float(y) + jy), glm::vec3(1.0f), uint32_t(i), 0, key};
+          TreeNode{cam.ray(float(x) + j.x, float(y) + j.y), glm::vec3(1.0f), uint32_t(i), 0, key};
     }
   });
 }

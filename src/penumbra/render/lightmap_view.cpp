@@ -58,15 +58,12 @@ glm::vec3 LightmapLookup::radiance(const glm::vec3& ray_dir, int32_t triangle, f
 
 namespace {
 
-// Sample s of pixel (x, y): the jittered ray (the pixel's centre for one sample per pixel).
-Ray viewRay(const CameraRays& rays, const LightmapViewSettings& settings, int x, int y, Rng& rng) {
-  const float jx = settings.spp == 1 ? 0.5f : rng.uniform();
-  const float jy = settings.spp == 1 ? 0.5f : rng.uniform();
-  return rays.ray(float(x) + jx, float(y) + jy);
-}
-
-Rng pixelRng(const LightmapViewSettings& settings, int x, int y) {
-  return Rng(mixBits(settings.seed), uint64_t(y) * uint64_t(settings.width) + uint64_t(x));
+// Sample s of pixel (x, y): its ray through the pixel's stratified jitter (raytrace/camera_rays.h:
+// pixelJitter; the pixel's centre for one sample per pixel).
+Ray viewRay(const CameraRays& rays, const LightmapViewSettings& settings, int x, int y, int s) {
+  const uint64_t pixel = uint64_t(y) * uint64_t(settings.width) + uint64_t(x);
+  const glm::vec2 j = pixelJitter(settings.seed, pixel, uint32_t(s), settings.spp);
+  return rays.ray(float(x) + j.x, float(y) + j.y);
 }
 
 }  // namespace
@@ -82,10 +79,9 @@ LightmapView::LightmapView(std::span<const glm::vec3> positions,
   parallelRange(size_t(settings.height), 1, [&](size_t y0, size_t y1) {
     for (size_t y = y0; y < y1; ++y) {
       for (int x = 0; x < settings.width; ++x) {
-        Rng rng = pixelRng(settings, x, int(y));
         Sample* out = samples_.data() + (y * size_t(settings.width) + size_t(x)) * spp;
         for (size_t s = 0; s < spp; ++s) {
-          const Ray ray = viewRay(rays, settings, x, int(y), rng);
+          const Ray ray = viewRay(rays, settings, x, int(y), int(s));
           const Hit hit = engine.intersect(ray);
           out[s] = {ray.dir, hit.triangle, hit.u, hit.v};
         }
@@ -122,10 +118,9 @@ Image renderLightmapView(std::span<const glm::vec3> positions,
   parallelRange(size_t(settings.height), 1, [&](size_t y0, size_t y1) {
     for (size_t y = y0; y < y1; ++y) {
       for (int x = 0; x < settings.width; ++x) {
-        Rng rng = pixelRng(settings, x, int(y));
         glm::vec3 sum(0.0f);
         for (int s = 0; s < settings.spp; ++s) {
-          const Ray ray = viewRay(rays, settings, x, int(y), rng);
+          const Ray ray = viewRay(rays, settings, x, int(y), s);
           const Hit hit = engine.intersect(ray);
           sum += lookup.radiance(ray.dir, hit.triangle, hit.u, hit.v);
         }

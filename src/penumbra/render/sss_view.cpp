@@ -44,11 +44,9 @@ SssView SssView::trace(const SssSolver& solver, const Camera& camera,
     for (size_t y = y0; y < y1; ++y) {
       for (int x = 0; x < settings.width; ++x) {
         const uint32_t pixel = uint32_t(y * size_t(settings.width) + size_t(x));
-        Rng rng(mixBits(settings.seed), pixel);
         for (int k = 0; k < settings.spp; ++k) {
-          const float jx = settings.spp == 1 ? 0.5f : rng.uniform();
-          const float jy = settings.spp == 1 ? 0.5f : rng.uniform();
-          const Ray ray = rays.ray(float(x) + jx, float(y) + jy);
+          const glm::vec2 j = pixelJitter(settings.seed, pixel, uint32_t(k), settings.spp);
+          const Ray ray = rays.ray(float(x) + j.x, float(y) + j.y);
           const Hit hit = s.engine.intersect(ray);
           if (!hit.hit()) {
             v.emitted_[pixel] += solver.scene().environment * w;  // the sky

@@ -256,11 +256,9 @@ Image LpvSolver::render(const Scene& scene, const Camera& camera, int width, int
       for (size_t y = y0; y < y1; ++y) {
         for (int x = 0; x < width; ++x) {
           const uint32_t pixel = uint32_t(y * size_t(width) + size_t(x));
-          Rng rng(mixBits(seed), pixel);
           for (int k = 0; k < spp; ++k) {
-            const float jx = spp == 1 ? 0.5f : rng.uniform();
-            const float jy = spp == 1 ? 0.5f : rng.uniform();
-            const Ray ray = rays.ray(float(x) + jx, float(y) + jy);
+            const glm::vec2 j = pixelJitter(seed, pixel, uint32_t(k), spp);
+            const Ray ray = rays.ray(float(x) + j.x, float(y) + j.y);
             const Hit hit = engine_.intersect(ray);
             if (!hit.hit()) {
               view_.emitted[pixel] += scene.environment * w;
