@@ -1,0 +1,95 @@
+#!/usr/bin/env python3
+"""Every method at its defaults against the path tracer (docs/performance.md, "Every method at its
+defaults"): the Cornell box at 64 x 64 and scenes/room.json at 64 x 48, each method run with no
+option but the image size, compared with a 4,096-spp path-traced reference by the mean luminance
+and the relative error of the mean over each block of a 4 x 4 grid. The bar: the mean within 2%,
+every block within 5%.
+
+  defaults_audit.py PENUMBRA [OUT_DIR] [--seeds N]
+
+prints one row per method and scene (seconds from --stats, mean ratio, block RMS, worst block);
+--seeds N repeats each method with --seed 0 .. N-1 and reports the worst of them. Needs numpy.
+"""
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+
+import numpy as np
+
+ROOT = os.path.normpath(os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
+SCENES = [("cornell", "cornell", 64, 64), ("room", os.path.join(ROOT, "scenes", "room.json"), 64, 48)]
+METHODS = ["pathtrace", "whitted", "photons", "matrix", "progressive", "stochastic"]
+REFERENCE_SPP = 4096
+
+
+def read_pfm(path):
+    with open(path, "rb") as f:
+        kind = f.readline().strip()
+        width, height = map(int, f.readline().split())
+        scale = float(f.readline())
+        data = np.frombuffer(f.read(), dtype="<f4" if scale < 0 else ">f4")
+    channels = 3 if kind == b"PF" else 1
+    image = data[: width * height * channels].astype(np.float64).reshape(height, width, channels)
+    return np.repeat(image, 3, axis=2) if channels == 1 else image
+
+
+def luminance(image):
+    return image @ np.array([0.2126, 0.7152, 0.0722])
+
+
+def compare(path, reference):
+    a, r = luminance(read_pfm(path)), luminance(read_pfm(reference))
+    h, w = a.shape
+    ys = np.linspace(0, h, 5).round().astype(int)
+    xs = np.linspace(0, w, 5).round().astype(int)
+    errors = np.array([a[ys[i]:ys[i + 1], xs[j]:xs[j + 1]].mean() /
+                       r[ys[i]:ys[i + 1], xs[j]:xs[j + 1]].mean() - 1.0
+                       for i in range(4) for j in range(4)])
+    worst = errors[np.argmax(np.abs(errors))]
+    return a.mean() / r.mean(), float(np.sqrt((errors ** 2).mean())), float(worst)
+
+
+def render(penumbra, scene, width, height, out, args):
+    stats = out + ".json"
+    subprocess.run([penumbra, "render", scene, "--width", str(width), "--height", str(height),
+                    "--quiet", "-o", out, "--stats", stats, *args], check=True)
+    with open(stats) as f:
+        return json.load(f).get("seconds", float("nan"))
+
+
+def main(argv):
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("penumbra")
+    parser.add_argument("out_dir", nargs="?")
+    parser.add_argument("--seeds", type=int, default=1)
+    args = parser.parse_args(argv[1:])
+    penumbra, seeds = args.penumbra, args.seeds
+    out_dir = args.out_dir or tempfile.mkdtemp(prefix="penumbra-audit-")
+    os.makedirs(out_dir, exist_ok=True)
+    print("| method | scene | seconds | mean / reference | 4 x 4 blocks: RMS | worst block | "
+          "meets 2% / 5% |")
+    print("|---|---|---|---|---|---|---|")
+    for name, scene, width, height in SCENES:
+        reference = os.path.join(out_dir, f"ref_{name}.pfm")
+        if not os.path.exists(reference):
+            render(penumbra, scene, width, height, reference, ["--spp", str(REFERENCE_SPP)])
+        for method in METHODS:
+            rows = []
+            for seed in range(seeds):
+                out = os.path.join(out_dir, f"{method}_{name}_{seed}.pfm")
+                seconds = render(penumbra, scene, width, height, out,
+                                 ["--method", method, "--seed", str(seed)])
+                rows.append((seconds, *compare(out, reference)))
+            # The worst seed: the largest worst block, then the mean furthest from 1.
+            seconds, mean, rms, worst = max(rows, key=lambda r: (abs(r[3]), abs(r[1] - 1.0)))
+            meets = abs(mean - 1.0) <= 0.02 and abs(worst) <= 0.05
+            print(f"| {method} | {name} | {seconds:.2f} | {mean:.4f} | {100 * rms:.2f}% | "
+                  f"{100 * worst:+.2f}% | {'yes' if meets else 'no'} |")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv))
