@@ -337,7 +337,7 @@ Status WhittedTracer::renderRows(const Camera& camera, const WhittedSettings& se
     const size_t y1 = std::min(size_t(y_end), y0 + rows_per_wave);
     const size_t samples = (y1 - y0) * width * spp;
     wave.sample_sum.assign(samples, glm::vec3(0.0f));
-    // The camera rays, jittered within their pixels.
+    // The camera rays, stratified within their pixels.
     cameraRays(cam, seed, width, spp, y0, samples, nodes);
     PENUMBRA_TRY(wave.generation(nodes));
     // Pixels: the mean of their samples, summed in order.

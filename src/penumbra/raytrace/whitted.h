@@ -42,7 +42,7 @@ namespace penumbra {
 struct WhittedSettings {
   int width = 512;
   int height = 512;
-  int spp = 4;            // jittered camera rays per pixel (antialiasing)
+  int spp = 4;            // camera rays per pixel, stratified (pixelJitter; antialiasing)
   int max_depth = 8;      // mirror and glass generations after the camera ray
   int light_samples = 8;  // shadow rays per diffuse vertex to the emissive triangles (and to the
                           // environment); delta lights take one each

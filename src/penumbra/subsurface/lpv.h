@@ -103,7 +103,7 @@ class LpvSolver {
   Status useGpu();
   bool onGpu() const { return gpu_ != nullptr; }
 
-  // The image of the last update's state from `camera` (w x h, spp jittered samples per pixel
+  // The image of the last update's state from `camera` (w x h, spp samples per pixel, stratified (raytrace/camera_rays.h: pixelJitter)
   // from `seed`); adds its seconds to times->shade when given.
   // The camera's samples are traced once and kept while the geometry, the camera and the image
   // settings stay (a moving light costs only the lookups and the opaque surfaces' shadow rays).
