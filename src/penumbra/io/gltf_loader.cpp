@@ -392,10 +392,10 @@ Expected<uint32_t> GltfReader::materialFor(int gltf_material, const std::string&
   }
   if (gm.normalTexture.index >= 0) {
     // Wallner sec. 3.3: a tangent-space normal map on TEXCOORD_0 (scene/material.h).
-    const std::string where = place + ".normalTexture";
+    const std::string texture_place = place + ".normalTexture";
     const int tex = gm.normalTexture.index;
     if (size_t(tex) >= model_.textures.size()) {
-      return inputError(path_, where, fmt::format("texture {} does not exist", tex));
+      return inputError(path_, texture_place, fmt::format("texture {} does not exist", tex));
     }
     const int source = model_.textures[size_t(tex)].source;
     const auto bytes = image_bytes_.find(source);

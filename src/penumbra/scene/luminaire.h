@@ -74,11 +74,11 @@ struct LuminaireLight {
 // (eq. 14: the azimuth and its mirror image 1 - azimuth on the other side of the C0-C180 plane).
 // Single precision, as shaders/common/luminaire.glsl computes it.
 inline void luminaireTexCoords(const LuminaireLight& l, const glm::vec3& d, float& xt, float& yt) {
-  constexpr float kPi = 3.14159265358979f;
+  constexpr float kPiF = 3.14159265358979f;
   const float cos_g = std::clamp(glm::dot(d, l.nadir), -1.0f, 1.0f);
-  xt = std::acos(cos_g) / kPi;
+  xt = std::acos(cos_g) / kPiF;
   const float x = glm::dot(d, l.c0), y = glm::dot(d, l.c90());
-  float phi = std::atan2(y, x) / (2.0f * kPi);  // (-1/2, 1/2]
+  float phi = std::atan2(y, x) / (2.0f * kPiF);  // (-1/2, 1/2]
   if (phi < 0.0f) phi += 1.0f;
   yt = phi >= 1.0f ? 0.0f : phi;
 }
@@ -117,7 +117,7 @@ glm::dvec3 luminairePower(const LuminaireLight& l);
 // the cell's largest corner. Uses a few uniform numbers from `uniform()` per attempt.
 template <typename Uniform>
 glm::vec3 sampleLuminaireDirection(const LuminaireLight& l, Uniform&& uniform) {
-  constexpr double kPi = 3.14159265358979323846;
+  constexpr double kPiD = 3.14159265358979323846;
   const LuminaireDistribution& t = *l.distribution;
   const int cells_per_row = t.gamma_count - 1;
   for (int attempt = 0; attempt < 256; ++attempt) {
@@ -125,9 +125,9 @@ glm::vec3 sampleLuminaireDirection(const LuminaireLight& l, Uniform&& uniform) {
     const size_t cell =
         size_t(std::upper_bound(t.cell_cdf.begin(), t.cell_cdf.end() - 1, u) - t.cell_cdf.begin());
     const int ci = int(cell) / cells_per_row, gi = int(cell) % cells_per_row;
-    const double g0 = kPi * gi / cells_per_row, g1 = kPi * (gi + 1) / cells_per_row;
+    const double g0 = kPiD * gi / cells_per_row, g1 = kPiD * (gi + 1) / cells_per_row;
     const double cos_g = std::cos(g0) + double(uniform()) * (std::cos(g1) - std::cos(g0));
-    const double c = 2.0 * kPi * (ci + double(uniform())) / t.c_count;
+    const double c = 2.0 * kPiD * (ci + double(uniform())) / t.c_count;
     const double sin_g = std::sqrt(std::max(0.0, 1.0 - cos_g * cos_g));
     const glm::vec3 d =
         glm::normalize(float(sin_g * std::cos(c)) * l.c0 + float(sin_g * std::sin(c)) * l.c90() +
