@@ -74,21 +74,6 @@ int threadsPerRank(const Communicator& comm, int requested) {
   return std::max(1, cores / localRanks());
 }
 
-Status checkDistributedMethod(const Communicator& comm, const std::string& command,
-                              const std::string& method) {
-  if (!comm.distributed()) return {};
-  const bool runs = method == "matrix" || method == "progressive" ||
-                    (command == "render" &&
-                     (method == "pathtrace" || method == "whitted" || method == "photons"));
-  if (runs) return {};
-  return inputError(
-      "", "--method",
-      fmt::format("{} {} runs on one process; over {} ranks {} runs {} (docs/scaling.md)", command,
-                  method, comm.size(), command,
-                  command == "render" ? "pathtrace, whitted, photons, matrix and progressive"
-                                      : "matrix and progressive"));
-}
-
 Expected<std::string> radiosityDeviceOverRanks(const Communicator& comm,
                                                const std::string& requested,
                                                const std::string& method) {

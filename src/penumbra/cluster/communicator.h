@@ -257,12 +257,6 @@ T allreduceSum(Communicator& comm, T mine) {
   return allreduceSum(comm, std::span<const T>(&mine, 1))[0];
 }
 
-// Whether `command` (render, bake) runs `method` over several ranks: pathtrace (render), matrix
-// and progressive do (and trace); the others are refused on more than one rank, naming those
-// that do.
-Status checkDistributedMethod(const Communicator& comm, const std::string& command,
-                              const std::string& method);
-
 // The --device a radiosity method (`method`: its name for the message) runs on: `requested` on
 // one process; over several ranks the CPU (the GPU solvers work on one device), refusing an
 // explicit gpu or hybrid.

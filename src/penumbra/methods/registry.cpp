@@ -723,16 +723,17 @@ void setOption(Options& options, const OptionSpec& spec, const OptionValue& valu
 const std::vector<MethodInfo>& methodInfos() {
   static const std::vector<MethodInfo> methods = {
       {"pathtrace", "the unbiased reference path tracer", "Kajiya 1986; Owen-scrambled Sobol",
-       false},
+       false, true},
       {"whitted",
        "Whitted ray tracing: mirrors, glass and direct light by shadow rays; no diffuse "
        "interreflection (photons and pathtrace add it), so rooms lit indirectly come out darker",
-       "Carr et al. 2002, the Ray Engine's applications", false},
+       "Carr et al. 2002, the Ray Engine's applications", false, true},
       {"photons", "photon mapping with caustics and final gather", "Jensen 1996; Carr et al. 2002",
-       false},
+       false, true},
       {"matrix", "matrix radiosity: form factors once, Jacobi or Gauss-Seidel",
-       "Carr, Hall, Hart 2003, sec. 3", true},
-      {"progressive", "progressive refinement radiosity in a lightmap atlas", "Wallner", true},
+       "Carr, Hall, Hart 2003, sec. 3", true, true},
+      {"progressive", "progressive refinement radiosity in a lightmap atlas", "Wallner", true,
+       true},
       {"stochastic",
        "stochastic radiosity by ray-bundle shooting; its default 500 iterations are a quick, noisy "
        "estimate (about 7% over 4 x 4 blocks of a room): --time-limit or more --iterations for "
@@ -750,6 +751,28 @@ const MethodInfo* findMethod(const std::string& name) {
     if (m.name == name) return &m;
   }
   return nullptr;
+}
+
+Status checkDistributedMethod(const Communicator& comm, const std::string& command,
+                              const std::string& method) {
+  if (!comm.distributed()) return {};
+  const auto runs = [&](const MethodInfo& m) {
+    return m.over_ranks && (command != "bake" || m.bakes);
+  };
+  const MethodInfo* info = findMethod(method);
+  if (info && runs(*info)) return {};
+  std::vector<std::string> names;
+  for (const MethodInfo& m : methodInfos()) {
+    if (runs(m)) names.push_back(m.name);
+  }
+  const std::string list =
+      names.size() > 1
+          ? fmt::format("{} and {}", fmt::join(names.begin(), names.end() - 1, ", "), names.back())
+          : names.front();
+  return inputError("", "--method",
+                    fmt::format("{} {} runs on one process; over {} ranks {} runs {} "
+                                "(docs/scaling.md)",
+                                command, method, comm.size(), command, list));
 }
 
 std::string methodNames(bool bake) {

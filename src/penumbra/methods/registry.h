@@ -3,6 +3,7 @@
 // in docs/cli.md (a test keeps them equal) are all made from these descriptions.
 #pragma once
 
+#include "penumbra/cluster/communicator.h"
 #include "penumbra/core/expected.h"
 #include "penumbra/methods/command_options.h"
 #include "penumbra/methods/option_spec.h"
@@ -19,6 +20,8 @@ struct MethodInfo {
   std::string summary;  // one line
   std::string source;   // the paper or the reason it is here
   bool bakes = false;   // `penumbra bake --method NAME` too
+  // Shares its work over the ranks of an MPI job (docs/scaling.md): the others run on one process.
+  bool over_ranks = false;
 };
 
 // Every method `render` takes, in the order the docs list them.
@@ -26,6 +29,12 @@ const std::vector<MethodInfo>& methodInfos();
 const MethodInfo* findMethod(const std::string& name);
 // "pathtrace, whitted, ..." (bake: the methods that bake).
 std::string methodNames(bool bake = false);
+
+// Whether `command` (render, bake) runs `method` over the ranks of `comm`: the methods marked
+// over_ranks do (and bake only those that bake); on more than one rank the others are refused,
+// naming those that run there.
+Status checkDistributedMethod(const Communicator& comm, const std::string& command,
+                              const std::string& method);
 
 // The options of `penumbra render` and `penumbra bake`, with the methods that take each.
 const std::vector<OptionSpec>& renderOptionSpecs();
