@@ -83,7 +83,7 @@ struct RenderOptions : LightmapMethodOptions {
   std::string resume;
   std::string checkpoint;
   bool keep_checkpoint = false;  // keep --resume's file after the run completes
-  // progressive: top-level points per shooter (0: the paper's flat scheme), and normals
+  // progressive: top-level points per shooter (radiosity/progressive.h: hierarchical), and normals
   // (interpolated or triangle).
   int shooter_points = 16;
   std::string normals = "interpolated";
