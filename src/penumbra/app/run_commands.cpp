@@ -24,33 +24,31 @@ Expected<std::shared_ptr<const Scene>> loadCommandScene(const std::string& name)
   return std::make_shared<const Scene>(std::move(*scene));
 }
 
-// The exit code of a finished run.
-int exitCode(const Expected<RunResult>& run, const CommonOptions& common) {
-  if (!run) return reportError(run.error());
+// Loads the command's scene and runs `run` (renderScene or bakeScene) on it: the exit code.
+template <typename Options, typename Run>
+int runCommand(Options options, const CommonOptions& common, const std::vector<std::string>& given,
+               Run run) {
+  Expected<std::shared_ptr<const Scene>> scene = loadCommandScene(options.scene);
+  if (!scene) return reportError(scene.error());
+  RunContext context;
+  context.scene = *scene;
+  context.given = given;
+  const Expected<RunResult> result = run(std::move(options), common, context);
+  if (!result) return reportError(result.error());
   if (common.dry_run) return reportDryRun();
-  return run->interrupted ? InterruptScope::exitCode() : 0;
+  return result->interrupted ? InterruptScope::exitCode() : 0;
 }
 
 }  // namespace
 
 int runRender(RenderOptions options, const CommonOptions& common,
               const std::vector<std::string>& given) {
-  Expected<std::shared_ptr<const Scene>> scene = loadCommandScene(options.scene);
-  if (!scene) return reportError(scene.error());
-  RunContext context;
-  context.scene = *scene;
-  context.given = given;
-  return exitCode(renderScene(std::move(options), common, context), common);
+  return runCommand(std::move(options), common, given, &renderScene);
 }
 
 int runBake(const BakeOptions& options, const CommonOptions& common,
             const std::vector<std::string>& given) {
-  Expected<std::shared_ptr<const Scene>> scene = loadCommandScene(options.scene);
-  if (!scene) return reportError(scene.error());
-  RunContext context;
-  context.scene = *scene;
-  context.given = given;
-  return exitCode(bakeScene(options, common, context), common);
+  return runCommand(options, common, given, &bakeScene);
 }
 
 }  // namespace penumbra

@@ -390,19 +390,14 @@ Status bake(const BakeOptions& options, const CommonOptions& common, bool* inter
 
 Expected<RunResult> bakeScene(BakeOptions options, const CommonOptions& common,
                               const RunContext& context) {
-  RunScope run(context);
-  // The scene's "settings" for the method, checked as the caller's values are; the caller's win.
-  Expected<std::vector<std::string>> set =
-      applySceneSettings(options, context.scene->settings, context.scene->source, context.given);
-  if (!set) return set.error();
-  OutputTransaction transaction;
-  bool interrupted = false;
-  PENUMBRA_TRY(bake(options, common, &interrupted));
-  if (common.dry_run) return RunResult{};  // the transaction removes what it made
-  PENUMBRA_TRY(transaction.commit());
-  RunResult result = std::move(run.result());
-  result.interrupted = interrupted;
-  return result;
+  return runInScope(context, common.dry_run, [&](bool* interrupted) -> Status {
+    // The scene's "settings" for the method, checked as the caller's values are; the caller's
+    // win.
+    Expected<std::vector<std::string>> set =
+        applySceneSettings(options, context.scene->settings, context.scene->source, context.given);
+    if (!set) return set.error();
+    return bake(options, common, interrupted);
+  });
 }
 
 }  // namespace penumbra

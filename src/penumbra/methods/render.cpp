@@ -86,21 +86,15 @@ Status runMethod(const RenderOptions& options, const CommonOptions& common, bool
 
 Expected<RunResult> renderScene(RenderOptions options, const CommonOptions& common,
                                 const RunContext& context) {
-  RunScope run(context);
-  PENUMBRA_TRY(checkDistributedMethod(currentCommunicator(), "render", options.method));
-  // The scene's "settings" for the method, checked as the caller's values are; the caller's win.
-  Expected<std::vector<std::string>> set =
-      applySceneSettings(options, context.scene->settings, context.scene->source, context.given);
-  if (!set) return set.error();
-  // Every output is placed at the end, together, or none is (core/file_util.h).
-  OutputTransaction transaction;
-  bool interrupted = false;
-  PENUMBRA_TRY(runMethod(options, common, &interrupted));
-  if (common.dry_run) return RunResult{};  // the transaction removes what it made
-  PENUMBRA_TRY(transaction.commit());
-  RunResult result = std::move(run.result());
-  result.interrupted = interrupted;
-  return result;
+  return runInScope(context, common.dry_run, [&](bool* interrupted) -> Status {
+    PENUMBRA_TRY(checkDistributedMethod(currentCommunicator(), "render", options.method));
+    // The scene's "settings" for the method, checked as the caller's values are; the caller's
+    // win.
+    Expected<std::vector<std::string>> set =
+        applySceneSettings(options, context.scene->settings, context.scene->source, context.given);
+    if (!set) return set.error();
+    return runMethod(options, common, interrupted);
+  });
 }
 
 }  // namespace penumbra

@@ -1,6 +1,7 @@
 #include "penumbra/methods/run_context.h"
 
 #include "penumbra/core/check.h"
+#include "penumbra/core/file_util.h"
 #include "penumbra/methods/stats_file.h"
 
 #include <atomic>
@@ -30,6 +31,19 @@ RunScope::~RunScope() {
 
 RunScope* RunScope::current() {
   return g_run.load();
+}
+
+Expected<RunResult> runInScope(const RunContext& context, bool dry_run,
+                               const std::function<Status(bool* interrupted)>& run) {
+  RunScope scope(context);
+  OutputTransaction transaction;
+  bool interrupted = false;
+  PENUMBRA_TRY(run(&interrupted));
+  if (dry_run) return RunResult{};  // the transaction removes what it made
+  PENUMBRA_TRY(transaction.commit());
+  RunResult result = std::move(scope.result());
+  result.interrupted = interrupted;
+  return result;
 }
 
 const Scene& runScene() {

@@ -84,6 +84,12 @@ class RunScope {
   RunScope* previous_ = nullptr;
 };
 
+// A run of a method: `run(&interrupted)` inside a RunScope for `context` and an output transaction
+// (core/file_util.h), so that every output is placed at the end, together, or none is; with
+// `dry_run` nothing is placed. Returns what the run handed back through the scope.
+Expected<RunResult> runInScope(const RunContext& context, bool dry_run,
+                               const std::function<Status(bool* interrupted)>& run);
+
 // The run's scene: the current scope's (methods run only inside one).
 const Scene& runScene();
 // Whether the run makes its statistics: a --stats file is named, or the caller keeps them.
