@@ -103,10 +103,11 @@ class LpvSolver {
   Status useGpu();
   bool onGpu() const { return gpu_ != nullptr; }
 
-  // The image of the last update's state from `camera` (w x h, spp samples per pixel, stratified (raytrace/camera_rays.h: pixelJitter)
-  // from `seed`); adds its seconds to times->shade when given.
-  // The camera's samples are traced once and kept while the geometry, the camera and the image
-  // settings stay (a moving light costs only the lookups and the opaque surfaces' shadow rays).
+  // The image of the last update's state from `camera` (w x h, spp samples per pixel, stratified
+  // (raytrace/camera_rays.h: pixelJitter) from `seed`); adds its seconds to times->shade when
+  // given. The camera's samples are traced once and kept while the geometry, the camera and the
+  // image settings stay (a moving light costs only the lookups and the opaque surfaces' shadow
+  // rays).
   Image render(const Scene& scene, const Camera& camera, int width, int height, int spp,
                uint64_t seed, LpvFrameTimes* times = nullptr);
 
