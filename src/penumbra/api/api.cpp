@@ -56,19 +56,22 @@ std::mutex& callMutex() {
   return m;
 }
 
-// What a call holds while it runs: the lock, the caller's progress callback (and stops at an
-// interrupt request), a request made before the call forgotten and one made during it kept.
+// What a call holds while it runs: the lock, and a stop request made before the call forgotten
+// and one made during it kept. render and bake hand the progress callback and the stop to the
+// library's run (methods/run_context.h); a call outside it (trace) has its long work stop at a
+// request through a progress observer of its own (`observe_stops`).
 class CallScope {
  public:
-  explicit CallScope(const ProgressCallback& progress) : lock_(callMutex()) {
+  explicit CallScope(bool observe_stops = false) : lock_(callMutex()) {
     clearInterrupt();
     keepInterruptRequests(true);
-    observer_.report = progress;
-    observer_.stop_on_interrupt = true;
-    setProgressObserver(&observer_);
+    if (observe_stops) {
+      observer_.stop_on_interrupt = true;
+      setProgressObserver(&observer_);
+    }
   }
   ~CallScope() {
-    setProgressObserver(nullptr);
+    if (observer_.stop_on_interrupt) setProgressObserver(nullptr);
     keepInterruptRequests(false);
   }
   CallScope(const CallScope&) = delete;
@@ -143,14 +146,13 @@ template <typename Options_, typename Parse, typename Run>
 Result runCall(const Scene& scene, Parse parse, Run run, const ProgressCallback& progress,
                const Communicator* comm) {
   return guarded([&] {
-    CallScope call(progress);
+    const CallScope call;
     const OverCommunicator over(comm);
     Options_ defaults;
     defaults.scene = commandSceneName(scene.internal());
     auto input = parse(std::move(defaults));
     if (!input) throw toApiError(input.error());
     initLogging(input->common.quiet);
-    const auto thread_limit = limitThreads(input->common.threads);
     RunContext context;
     context.scene =
         std::shared_ptr<const penumbra::Scene>(std::shared_ptr<void>(), &scene.internal());
@@ -388,7 +390,7 @@ Hits trace(const Communicator& comm, const Scene& scene, std::span<const float> 
 
 Hits trace(const Scene& scene, std::span<const float> rays, const TraceOptions& options) {
   return guarded([&] {
-    CallScope call({});
+    const CallScope call(/*observe_stops=*/true);
     if (rays.size() % 8 != 0) {
       throw Error(ErrorKind::kInput,
                   fmt::format("rays: {} values is not eight per ray (ox oy oz tmin dx dy dz tmax)",

@@ -383,7 +383,7 @@ Expected<bool> LiveSession::State::solveSome(double budget, bool all) {
         so.max_iterations = all ? iterations() - matrix_iterations
                                 : std::min(matrix_chunk, iterations() - matrix_iterations);
         so.tolerance = kMatrixTolerance;
-        so.solver = matrix_solver->defaultSolver();
+        so.solver = *matrixSolverFor(matrix_solver->device());
         Expected<SolveStats> solved = matrix_solver->solve(so);
         if (!solved) return solved.error();
         const SolveStats& st = *solved;

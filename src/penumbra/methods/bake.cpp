@@ -44,12 +44,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// "cornell" for a built-in name, "room" for "scenes/room.json".
-std::string sceneStem(const std::string& scene) {
-  const fs::path p(scene);
-  return p.has_extension() ? p.stem().string() : p.filename().string();
-}
-
 fs::path normalDirectory(const std::string& dir) {
   fs::path p = fs::path(dir).lexically_normal();
   if (p.filename().empty() && p.has_parent_path()) p = p.parent_path();  // "out/" -> "out"
@@ -390,7 +384,7 @@ Status bake(const BakeOptions& options, const CommonOptions& common, bool* inter
 
 Expected<RunResult> bakeScene(BakeOptions options, const CommonOptions& common,
                               const RunContext& context) {
-  return runInScope(context, common.dry_run, [&](bool* interrupted) -> Status {
+  return runInScope(context, common, [&](bool* interrupted) -> Status {
     // The scene's "settings" for the method, checked as the caller's values are; the caller's
     // win.
     Expected<std::vector<std::string>> set =

@@ -28,14 +28,12 @@
 
 namespace penumbra {
 
-namespace {
+namespace {}  // namespace
 
 std::string sceneStem(const std::string& scene) {
   const std::filesystem::path p(scene);
-  return p.has_extension() ? p.stem().string() : scene;
+  return p.has_extension() ? p.stem().string() : p.filename().string();
 }
-
-}  // namespace
 
 std::string sequenceFrameName(const std::string& path, int frame) {
   const std::filesystem::path p(path);
@@ -86,7 +84,7 @@ Status runMethod(const RenderOptions& options, const CommonOptions& common, bool
 
 Expected<RunResult> renderScene(RenderOptions options, const CommonOptions& common,
                                 const RunContext& context) {
-  return runInScope(context, common.dry_run, [&](bool* interrupted) -> Status {
+  return runInScope(context, common, [&](bool* interrupted) -> Status {
     PENUMBRA_TRY(checkDistributedMethod(currentCommunicator(), "render", options.method));
     // The scene's "settings" for the method, checked as the caller's values are; the caller's
     // win.

@@ -36,6 +36,9 @@ Status renderLpv(const RenderOptions& options, const CommonOptions& common);
 // --method whitted and photons (render_whitted.cpp).
 Status renderRayTraced(const RenderOptions& options, const CommonOptions& common);
 
+// The name outputs are named after when none is given: "cornell" for a built-in scene, "room" for
+// "scenes/room.json" (render's SCENE.png, bake's SCENE.gltf, ...).
+std::string sceneStem(const std::string& scene);
 // out.png -> out_0007.png: frame f of a sequence.
 std::string sequenceFrameName(const std::string& path, int frame);
 // The render's image outputs (SCENE.png when none is given and the caller keeps no results), each

@@ -74,20 +74,6 @@ Expected<MatrixSetup> checkMatrixOptions(const RenderOptions& options) {
   return setup;
 }
 
-// The solver the options ask for on this device; gauss-seidel runs on the CPU only.
-Expected<MatrixSolver> chooseMatrixSolver(const RenderOptions& options, bool gpu) {
-  const MatrixSolver solver =
-      options.solver
-          ? (*options.solver == "jacobi" ? MatrixSolver::kJacobi : MatrixSolver::kGaussSeidel)
-          : (gpu ? MatrixSolver::kJacobi : MatrixSolver::kGaussSeidel);
-  if (gpu && solver != MatrixSolver::kJacobi) {
-    return inputError("", "--solver",
-                      "gauss-seidel is sequential and runs on the CPU only (use --device cpu, "
-                      "or --solver jacobi on the GPU)");
-  }
-  return solver;
-}
-
 // What the frames leave for the stats.
 struct MatrixFrameTotals {
   nlohmann::json frame_stats = nlohmann::json::array();
@@ -255,7 +241,12 @@ Status renderMatrix(const RenderOptions& options, const CommonOptions& common) {
   Expected<DeviceChoice> device = chooseDevice(*device_name);
   if (!device) return device.error();
   const bool gpu = device->device == Device::kGpu;
-  Expected<MatrixSolver> solver = chooseMatrixSolver(options, gpu);
+  Expected<MatrixSolver> solver = matrixSolverFor(
+      gpu ? SolverDevice::kGpu : SolverDevice::kCpu,
+      options.solver
+          ? std::optional<MatrixSolver>(*options.solver == "jacobi" ? MatrixSolver::kJacobi
+                                                                    : MatrixSolver::kGaussSeidel)
+          : std::nullopt);
   if (!solver) return solver.error();
   PENUMBRA_TRY(gate.open());
   if (common.dry_run) return {};

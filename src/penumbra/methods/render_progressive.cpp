@@ -121,8 +121,7 @@ Status renderLightmapRadiosity(const RenderOptions& options, const CommonOptions
   ReadyGate gate(comm);
   const bool stochastic = options.method == "stochastic";
   std::vector<std::string> outputs = options.outputs;
-  const std::filesystem::path scene_path(options.scene);
-  const std::string stem = scene_path.has_extension() ? scene_path.stem().string() : options.scene;
+  const std::string stem = sceneStem(options.scene);
   if (outputs.empty() && defaultsOutputs()) outputs.push_back(stem + ".png");
   PENUMBRA_TRY(checkLightmapRenderOptions(options, outputs, stochastic));
   const std::string checkpoint =

@@ -2,6 +2,7 @@
 
 #include "penumbra/core/check.h"
 #include "penumbra/core/file_util.h"
+#include "penumbra/core/parallel.h"
 #include "penumbra/methods/stats_file.h"
 
 #include <atomic>
@@ -33,13 +34,14 @@ RunScope* RunScope::current() {
   return g_run.load();
 }
 
-Expected<RunResult> runInScope(const RunContext& context, bool dry_run,
+Expected<RunResult> runInScope(const RunContext& context, const CommonOptions& common,
                                const std::function<Status(bool* interrupted)>& run) {
   RunScope scope(context);
+  const auto thread_limit = limitThreads(threadsPerRank(currentCommunicator(), common.threads));
   OutputTransaction transaction;
   bool interrupted = false;
   PENUMBRA_TRY(run(&interrupted));
-  if (dry_run) return RunResult{};  // the transaction removes what it made
+  if (common.dry_run) return RunResult{};  // the transaction removes what it made
   PENUMBRA_TRY(transaction.commit());
   RunResult result = std::move(scope.result());
   result.interrupted = interrupted;

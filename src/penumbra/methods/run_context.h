@@ -13,6 +13,7 @@
 #include "penumbra/core/image.h"
 #include "penumbra/core/memory.h"
 #include "penumbra/core/progress.h"
+#include "penumbra/methods/command_options.h"
 #include "penumbra/scene/scene.h"
 
 #include <nlohmann/json.hpp>
@@ -84,10 +85,11 @@ class RunScope {
   RunScope* previous_ = nullptr;
 };
 
-// A run of a method: `run(&interrupted)` inside a RunScope for `context` and an output transaction
+// A run of a method: `run(&interrupted)` inside a RunScope for `context`, on common.threads
+// threads (0: every core, shared among the ranks of this machine), and in an output transaction
 // (core/file_util.h), so that every output is placed at the end, together, or none is; with
-// `dry_run` nothing is placed. Returns what the run handed back through the scope.
-Expected<RunResult> runInScope(const RunContext& context, bool dry_run,
+// common.dry_run nothing is placed. Returns what the run handed back through the scope.
+Expected<RunResult> runInScope(const RunContext& context, const CommonOptions& common,
                                const std::function<Status(bool* interrupted)>& run);
 
 // The run's scene: the current scope's (methods run only inside one).

@@ -13,6 +13,18 @@ const char* solverDeviceName(SolverDevice device) {
   return device == SolverDevice::kGpu ? "gpu" : "cpu";
 }
 
+Expected<MatrixSolver> matrixSolverFor(SolverDevice device, std::optional<MatrixSolver> requested) {
+  const bool gpu = device == SolverDevice::kGpu;
+  const MatrixSolver solver =
+      requested.value_or(gpu ? MatrixSolver::kJacobi : MatrixSolver::kGaussSeidel);
+  if (gpu && solver != MatrixSolver::kJacobi) {
+    return inputError("", "--solver",
+                      "gauss-seidel is sequential and runs on the CPU only (use --device cpu, "
+                      "or --solver jacobi on the GPU)");
+  }
+  return solver;
+}
+
 namespace {
 
 // ---- Matrix radiosity ----
@@ -21,7 +33,6 @@ class CpuMatrixSolver final : public MatrixRadiositySolver {
  public:
   explicit CpuMatrixSolver(MatrixRadiosity& system) : system_(system) {}
   SolverDevice device() const override { return SolverDevice::kCpu; }
-  MatrixSolver defaultSolver() const override { return MatrixSolver::kGaussSeidel; }
   // applyMaterials / setLights changed the system the CPU iterates on.
   Status relight() override { return {}; }
   Expected<SolveStats> solve(const SolveOptions& options,
@@ -38,17 +49,12 @@ class GpuMatrixSolver final : public MatrixRadiositySolver {
   GpuMatrixSolver(MatrixRadiosity& system, GlJacobi jacobi)
       : system_(system), jacobi_(std::move(jacobi)) {}
   SolverDevice device() const override { return SolverDevice::kGpu; }
-  MatrixSolver defaultSolver() const override { return MatrixSolver::kJacobi; }
   Status relight() override {
     return jacobi_.setMaterials(system_.system->reflectance, system_.system->emission);
   }
   Expected<SolveStats> solve(const SolveOptions& options,
                              const std::function<void(int, double)>& after_iteration) override {
-    if (options.solver != MatrixSolver::kJacobi) {
-      return inputError("", "--solver",
-                        "gauss-seidel is sequential and runs on the CPU only (use --device cpu, "
-                        "or --solver jacobi on the GPU)");
-    }
+    PENUMBRA_TRY(matrixSolverFor(SolverDevice::kGpu, options.solver));
     return jacobi_.solve(system_.radiosity, options, after_iteration);
   }
 

@@ -18,12 +18,19 @@
 
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 
 namespace penumbra {
 
 enum class SolverDevice { kCpu, kGpu };
 const char* solverDeviceName(SolverDevice device);
+
+// The iteration `device` runs: `requested` when given, else the device's own (Gauss-Seidel on
+// the CPU, which converges in about half the iterations, sec. 3; Jacobi on the GPU). Gauss-Seidel
+// is sequential: asked of the GPU, an input error naming --solver.
+Expected<MatrixSolver> matrixSolverFor(SolverDevice device,
+                                       std::optional<MatrixSolver> requested = std::nullopt);
 
 class MatrixRadiositySolver {
  public:
@@ -34,9 +41,6 @@ class MatrixRadiositySolver {
   virtual ~MatrixRadiositySolver() = default;
 
   virtual SolverDevice device() const = 0;
-  // The iteration a device runs when none is asked for: Gauss-Seidel on the CPU (it converges in
-  // about half the iterations, sec. 3), Jacobi on the GPU (the only one it runs).
-  virtual MatrixSolver defaultSolver() const = 0;
   // Dynamic relighting (sec. 1, 3): after MatrixRadiosity::setLights / applyMaterials changed
   // the system's emission and reflectance, the solve uses them; F stays, and the current B is
   // the warm start.

@@ -60,18 +60,23 @@ class CameraRays {
   float scale_x_, scale_y_, inv_w_, inv_h_;
 };
 
+// The key of pixel `pixel`'s Sobol patterns (core/sobol.h: sobolPattern) for a render seeded
+// `seed`; pattern 0 places its samples in the pixel. The path tracer's paths and every other
+// method's view rays (pixelJitter) take their pixel positions from it.
+inline uint64_t pixelPatternKey(uint64_t seed, uint64_t pixel) {
+  return mixBits(mixBits(seed) ^ pixel);
+}
+
 // Where sample `s` of a pixel's `spp` samples falls in the pixel, in [0, 1)^2: the pixel's centre
-// for one sample, else point s of an Owen-scrambled Sobol pattern of its own (core/sobol.h; keyed
-// by `seed` and `pixel`), so that the first 2^m samples are one per elementary interval of area
-// 2^-m and a pixel's samples cover it evenly (stratified; each point on its own is uniform, as
-// independent jitter is). The view rays of every method but the path tracer, which keeps its own
-// patterns per path, take this; at the 4 samples per pixel those methods default to, the pixels
-// along an emitter's edge vary far less than with independent jitter.
+// for one sample, else the path tracer's own position for it (point s of the pixel's pattern 0),
+// so that the first 2^m samples are one per elementary interval of area 2^-m and a pixel's
+// samples cover it evenly (stratified; each point on its own is uniform, as independent jitter
+// is). At the 4 samples per pixel the view rays default to, the pixels along an emitter's edge
+// vary far less than with independent jitter.
 inline glm::vec2 pixelJitter(uint64_t seed, uint64_t pixel, uint32_t s, int spp) {
   if (spp == 1) return glm::vec2(0.5f);
-  const SobolBits b = owenSobol2DBits(s, sobolPattern(mixBits(mixBits(seed) ^ pixel), 0));
-  // 24 bits, so that the float is exact and below 1.
-  return glm::vec2(float(b.x >> 8) * 0x1p-24f, float(b.y >> 8) * 0x1p-24f);
+  const SobolPoint p = owenSobol2D(s, sobolPattern(pixelPatternKey(seed, pixel), 0));
+  return glm::vec2(p.u, p.v);
 }
 
 }  // namespace penumbra

@@ -350,7 +350,7 @@ PathState PathTracer::startPath(const CameraRays& cam, const PathTracerSettings&
   PathState p;
   p.rng = sampleRng(settings.seed, pixel, uint64_t(sample), settings.spp);
   p.low_discrepancy = settings.low_discrepancy;
-  p.ld_key = mixBits(mixBits(settings.seed) ^ pixel);
+  p.ld_key = pixelPatternKey(settings.seed, pixel);
   p.ld_reversed_index = reverseBits32(uint32_t(sample));
   if (!p.low_discrepancy) {
     const float jx = p.rng.uniform(), jy = p.rng.uniform();
