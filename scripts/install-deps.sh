@@ -11,7 +11,7 @@ packages=(
   # the photon map's kd-tree
   libnanoflann-dev
   # file formats
-  libtinyobjloader-dev libtinygltf-dev libstb-dev libopenexr-dev
+  libtinyobjloader-dev libtinygltf-dev libstb-dev libopenexr-dev libwebp-dev
   # OpenGL 4.5 through EGL (Mesa llvmpipe where there is no GPU) and the viewer
   libepoxy-dev libegl-dev libgl-dev libegl-mesa0 libgl1-mesa-dri libglfw3-dev libimgui-dev
   # the viewer's tests: a virtual X display with Mesa's GLX

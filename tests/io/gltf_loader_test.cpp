@@ -92,17 +92,7 @@ std::string writeGltf(const TempDir& dir, const std::string& name, TestGltf g) {
 }
 
 std::string writeGlb(const TempDir& dir, const std::string& name, const TestGltf& g) {
-  std::string json_chunk = g.doc.dump();
-  while (json_chunk.size() % 4 != 0) json_chunk += ' ';
-  std::string bin_chunk = g.bin;
-  while (bin_chunk.size() % 4 != 0) bin_chunk += '\0';
-  std::string out = "glTF";
-  const uint32_t total = static_cast<uint32_t>(12 + 8 + json_chunk.size() + 8 + bin_chunk.size());
-  append<uint32_t>(out, {2u, total, static_cast<uint32_t>(json_chunk.size()), 0x4E4F534Au});
-  out += json_chunk;
-  append<uint32_t>(out, {static_cast<uint32_t>(bin_chunk.size()), 0x004E4942u});
-  out += bin_chunk;
-  return dir.write(name, out);
+  return dir.write(name, test::glbBytes(g.doc, g.bin));
 }
 
 void expectNear(const glm::vec3& a, const glm::vec3& b, float tol = 1e-5f) {
@@ -508,19 +498,17 @@ TEST(GltfLoad, HostileFilesAreRefusedBeforeTheWork) {
   }
 }
 
-TEST(GltfLoad, TexturesAndUnsupportedThingsWarn) {
+TEST(GltfLoad, AMissingTextureImageIsAnErrorNamingTheMaterialAndTheFile) {
   TempDir dir;
   TestGltf g = makeTestGltf();
   g.doc["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"] = {{"index", 0}};
   g.doc["textures"] = json::array({{{"source", 0}}});
   g.doc["images"] = json::array({{{"uri", "nowhere.png"}}});
-  Expected<Scene> s = loadGltf(writeGltf(dir, "tex.gltf", g));
-  ASSERT_TRUE(s.ok()) << s.error().describe();
-  bool warned = false;
-  for (const std::string& w : s->warnings) {
-    warned = warned || w.find("baseColorTexture") != std::string::npos;
-  }
-  EXPECT_TRUE(warned);
+  const std::string path = writeGltf(dir, "tex.gltf", g);
+  Expected<Scene> s = loadGltf(path);
+  ASSERT_FALSE(s.ok());
+  EXPECT_TRUE(test::errorNames(s, path, "nowhere.png"));
+  EXPECT_TRUE(test::errorNames(s, path, "'lamp'"));
 }
 
 TEST(GltfLoad, NormalTextureIsReadAsDataWithItsScale) {

@@ -14,6 +14,26 @@
 
 namespace penumbra::test {
 
+std::string glbBytes(const nlohmann::json& doc, const std::string& bin) {
+  auto append32 = [](std::string& out, uint32_t v) {
+    out.append(reinterpret_cast<const char*>(&v), 4);
+  };
+  std::string json_chunk = doc.dump();
+  while (json_chunk.size() % 4 != 0) json_chunk += ' ';
+  std::string bin_chunk = bin;
+  while (bin_chunk.size() % 4 != 0) bin_chunk += '\0';
+  std::string out = "glTF";
+  append32(out, 2u);
+  append32(out, uint32_t(12 + 8 + json_chunk.size() + 8 + bin_chunk.size()));
+  append32(out, uint32_t(json_chunk.size()));
+  append32(out, 0x4E4F534Au);
+  out += json_chunk;
+  append32(out, uint32_t(bin_chunk.size()));
+  append32(out, 0x004E4942u);
+  out += bin_chunk;
+  return out;
+}
+
 double testLuminaireCandela(double c_degrees, double gamma_degrees) {
   const double c = glm::radians(c_degrees), g = glm::radians(gamma_degrees);
   if (gamma_degrees <= 90.0) {

@@ -78,6 +78,9 @@ inline void addQuad(Mesh& m, glm::vec3 o, glm::vec3 u, glm::vec3 v, uint32_t mat
 }
 
 // RFC 4648 base64 (for data: URIs in glTF files written by tests).
+// A binary glTF (GLB, glTF 2.0 sec. 4.4): the JSON chunk and the BIN chunk, each padded to 4 bytes.
+std::string glbBytes(const nlohmann::json& doc, const std::string& bin);
+
 inline std::string base64(const std::string& in) {
   static const char* const kChars =
       "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";

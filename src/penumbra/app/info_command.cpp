@@ -104,6 +104,31 @@ int printPhotometry(const InfoOptions& options) {
   return 0;
 }
 
+// A material's textures (the image, its size and encoding, the UV set it reads) and coverage.
+void printTexturesAndCoverage(const Material& m) {
+  auto texture = [](const char* slot, const std::optional<TextureBinding>& b) {
+    if (!b) return;
+    const Texture& t = *b->texture;
+    fmt::print("    {} '{}': {} x {}, {}, UV set {}{}\n", slot, t.source(), t.width(), t.height(),
+               t.encoding() == TexelEncoding::kSrgb8     ? "8-bit sRGB"
+               : t.encoding() == TexelEncoding::kLinear8 ? "8-bit"
+                                                         : "16-bit",
+               b->uv_set, b->sampler.nearest ? ", nearest" : "");
+  };
+  texture("reflectance texture", m.reflectance_texture);
+  texture("emission texture", m.emission_texture);
+  texture("coverage texture", m.coverage_texture);
+  if (m.alpha_mode == AlphaMode::kMask) {
+    fmt::print("    cut-out: covered where alpha >= {:.3g} (alpha factor {:.3g})\n", m.alpha_cutoff,
+               m.alpha);
+  } else if (m.alpha_mode == AlphaMode::kBlend) {
+    fmt::print(
+        "    partial coverage: light passes with probability 1 - alpha (alpha factor "
+        "{:.3g})\n",
+        m.alpha);
+  }
+}
+
 }  // namespace
 
 int runInfo(const InfoOptions& options, const CommonOptions&) {
@@ -126,9 +151,13 @@ int runInfo(const InfoOptions& options, const CommonOptions&) {
              bounds.lo.y, bounds.lo.z, bounds.hi.x, bounds.hi.y, bounds.hi.z);
   fmt::print("meshes     {}\n", s.meshes.size());
   for (const Mesh& m : s.meshes) {
-    fmt::print("  {:<20} {:>9} triangles {:>9} vertices{}{}\n", m.name.empty() ? "-" : m.name,
+    std::string sets;
+    for (size_t k = 0; k <= m.extra_uvs.size(); ++k) {
+      if (!m.uvSet(uint32_t(k)).empty()) sets += (sets.empty() ? "" : " ") + std::to_string(k);
+    }
+    fmt::print("  {:<20} {:>9} triangles {:>9} vertices{}{}{}\n", m.name.empty() ? "-" : m.name,
                m.triangles.size(), m.positions.size(), m.normals.empty() ? "" : ", normals",
-               m.uvs.empty() ? "" : ", uvs");
+               sets.empty() ? "" : ", uv sets " + sets, m.colors.empty() ? "" : ", colours");
   }
   fmt::print("materials  {}\n", s.materials.size());
   for (const Material& m : s.materials) {
@@ -147,6 +176,7 @@ int runInfo(const InfoOptions& options, const CommonOptions&) {
                  m.emission.z);
     }
     fmt::print("\n");
+    printTexturesAndCoverage(m);
     if (const std::optional<Subsurface>& ss = m.subsurface) {
       // Per millimetre, as the scene gives them; the diffusion length 1 / sigma_tr in mm.
       const glm::dvec3 sp = ss->sigma_s_prime * 1e-3, a = ss->sigma_a * 1e-3;

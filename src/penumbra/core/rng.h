@@ -35,4 +35,15 @@ inline uint64_t mixBits(uint64_t v) {
   return v;
 }
 
+// The same for 32 bits ("lowbias32", C. Wellons' hash-prospector), where shaders must compute
+// the same numbers without 64-bit integers.
+inline uint32_t mixBits32(uint32_t x) {
+  x ^= x >> 16;
+  x *= 0x7feb352du;
+  x ^= x >> 15;
+  x *= 0x846ca68bu;
+  x ^= x >> 16;
+  return x;
+}
+
 }  // namespace penumbra

@@ -107,6 +107,8 @@ struct LiveSession::State {
   std::optional<StochasticRadiosity> stochastic;
   // The radiosity methods' view: the camera's hits, kept while the camera and the surface stay.
   std::optional<LightmapView> lightmap_view;
+  // The textures' detail the view shows (made with the view: materials change it).
+  std::shared_ptr<const LightmapDetail> lightmap_detail;
   // Subsurface. The frames hold a pointer to the solver: both on the heap.
   std::unique_ptr<SssSolver> sss;
   std::unique_ptr<SssFrames> sss_frames;
@@ -221,6 +223,7 @@ void LiveSession::setMaterials(const std::vector<Material>& materials) {
   State& s = *s_;
   s.scene.materials = materials;
   s.solve = s.view = true;
+  s.lightmap_view.reset();  // its texture detail follows the materials
   if (s.method == LiveMethod::kMatrix) {
     // Dynamic relighting: new reflectances and emissions, the form factors stay.
     s.relight = true;
@@ -453,9 +456,10 @@ Status LiveSession::State::drawView() {
       // The camera's hits are kept when they fit in memory; else traced for every view.
       const uint64_t hit_bytes = uint64_t(settings.width) * uint64_t(settings.height) *
                                  uint64_t(spp()) * kLightmapViewBytesPerSample;
+      if (!lightmap_view) lightmap_detail = surface.lightmapDetail();
       if (!lightmap_view && checkMemory(hit_bytes, "the view's hits").ok()) {
         lightmap_view.emplace(surface.flat.positions, surface.flat.triangles, surface.atlas, camera,
-                              viewSettings());
+                              viewSettings(), lightmap_detail.get());
       }
       // As `render` shows each method's solution (methods/render_matrix.cpp,
       // methods/progressive_run.cpp, methods/stochastic_run.cpp).
@@ -465,7 +469,8 @@ Status LiveSession::State::drawView() {
                                  : stochastic->radianceImage();
       image = lightmap_view ? lightmap_view->render(lightmap)
                             : renderLightmapView(surface.flat.positions, surface.flat.triangles,
-                                                 surface.atlas, lightmap, camera, viewSettings());
+                                                 surface.atlas, lightmap, camera, viewSettings(),
+                                                 lightmap_detail.get());
       break;
     }
     case LiveMethod::kSss: {

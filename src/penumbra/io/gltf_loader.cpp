@@ -6,8 +6,11 @@
 //   - units are metres; the default scene's node hierarchy is flattened into world space, normals
 //     transformed by the inverse transpose; a node whose world transform mirrors (negative
 //     determinant) has its triangles' winding flipped so front faces stay counter-clockwise;
-//   - base colour factor (rgb) -> reflectance; emissive factor x
-//     KHR_materials_emissive_strength -> emission, taken as radiance in W m^-2 sr^-1;
+//   - base colour factor (rgb) -> reflectance, times baseColorTexture and COLOR_0; emissive
+//     factor x KHR_materials_emissive_strength -> emission, taken as radiance in W m^-2 sr^-1,
+//     times emissiveTexture; alphaMode and alphaCutoff -> cut-outs (scene/material.h);
+//   - textures through their sampler, texCoord and KHR_texture_transform; images in PNG, JPEG
+//     and WebP (EXT_texture_webp), a missing or undecodable one an error naming the material;
 //   - KHR_lights_punctual intensities are photometric (cd for point and spot, lx for directional)
 //     and become radiometric by dividing by 683 lm/W and multiplying by the light's linear colour;
 //   - lights and cameras look down their node's local -Z; a camera's up is the node's local +Y.
@@ -17,6 +20,7 @@
 #include "penumbra/io/json_guard.h"
 #include "penumbra/io/scene_io.h"
 #include "penumbra/io/subsurface_json.h"
+#include "penumbra/io/texture_loader.h"
 #include "penumbra/scene/media.h"
 
 #include <tiny_gltf.h>
@@ -54,10 +58,8 @@ constexpr uint64_t kLoadedBytesPerTriangle = 64;
 // implementations use between photometric and radiometric quantities.
 constexpr double kLumensPerWatt = 683.0;
 
-// Textures: normalTexture is read (a PNG normal map on TEXCOORD_0); the others are not used yet
-// (a missing image is not an error).
-// Images are not decoded by tinygltf: their bytes are kept (by image index) for the textures
-// Penumbra reads (normalTexture), and decoded there as data (io/image_io.h).
+// Images are not decoded by tinygltf: their bytes are kept (by image index), and decoded when a
+// material reads them (io/texture_loader.h; normal maps as data, io/image_io.h).
 bool keepImageBytes(tinygltf::Image*, const int image_index, std::string*, std::string*, int, int,
                     const unsigned char* bytes, int size, void* user) {
   auto* kept = static_cast<std::map<int, std::string>*>(user);
@@ -233,7 +235,7 @@ class GltfReader {
   Status addPrimitive(const tinygltf::Node& node, int mesh_index, size_t primitive_index,
                       const glm::dmat4& world_from_object);
   // A primitive's attributes into `mesh`: POSITION (`pos`, accessor `accessor`) and NORMAL in
-  // world space, TEXCOORD_0 as it is; `where` names the primitive for messages.
+  // world space, the TEXCOORD_n sets as they are; `where` names the primitive for messages.
   Status readPositions(const AccessorView& pos, int accessor, const std::string& where,
                        const glm::dmat4& world_from_object, Mesh& mesh);
   Status readNormals(const tinygltf::Primitive& prim, const std::string& where, size_t nv,
@@ -248,6 +250,13 @@ class GltfReader {
   Status addLight(int node_index, const glm::dmat4& world_from_light);
   Status addCamera(int node_index, int camera_index, const glm::dmat4& world_from_camera);
   Expected<uint32_t> materialFor(int gltf_material, const std::string& where);
+  // A textureInfo as a binding: its image (EXT_texture_webp's first), sampler, texCoord and
+  // KHR_texture_transform. `colour`: an sRGB colour texture; `place` names the material slot.
+  Expected<TextureBinding> textureBinding(int texture_index, int tex_coord,
+                                          const tinygltf::ExtensionMap& extensions, bool colour,
+                                          const std::string& place);
+  Status readColours(const tinygltf::Primitive& prim, const std::string& where, size_t nv,
+                     Mesh& mesh);
   // PENUMBRA_materials_subsurface, else KHR_materials_volume with KHR_materials_transmission read
   // as a scattering medium (docs/scene-format.md).
   Status readSubsurface(const tinygltf::Material& gm, const std::string& place, Material& m);
@@ -261,6 +270,7 @@ class GltfReader {
   // mirror (Material::scattering).
   Status readSpecular(const tinygltf::Material& gm, const std::string& place, Material& m);
   std::vector<int> material_map_;  // glTF material -> scene material, -1 until used
+  TextureCache textures_;
   int default_material_ = -1;
   std::vector<int> parent_;        // per node, -1 for a root
   std::vector<glm::dmat4> world_;  // per node, once visited
@@ -360,11 +370,24 @@ Expected<uint32_t> GltfReader::materialFor(int gltf_material, const std::string&
     return inputError(path_, place, "pbrMetallicRoughness.baseColorFactor needs 4 numbers");
   }
   m.reflectance = glm::vec3(base[0], base[1], base[2]);
+  m.alpha = float(base[3]);
   m.two_sided = gm.doubleSided;
+  const std::string label = fmt::format("{} ('{}')", place, m.name);
   if (gm.pbrMetallicRoughness.baseColorTexture.index >= 0) {
-    scene_.warnings.push_back(
-        fmt::format("{}: {} ('{}'): baseColorTexture is not used yet, only baseColorFactor", path_,
-                    place, m.name));
+    const tinygltf::TextureInfo& info = gm.pbrMetallicRoughness.baseColorTexture;
+    Expected<TextureBinding> b = textureBinding(info.index, info.texCoord, info.extensions, true,
+                                                label + ".baseColorTexture");
+    if (!b) return b.error();
+    m.reflectance_texture = std::move(*b);
+  }
+  if (gm.alphaMode == "MASK") {
+    m.alpha_mode = AlphaMode::kMask;
+    m.alpha_cutoff = float(gm.alphaCutoff);
+  } else if (gm.alphaMode == "BLEND") {
+    m.alpha_mode = AlphaMode::kBlend;
+  } else if (gm.alphaMode != "OPAQUE" && !gm.alphaMode.empty()) {
+    return inputError(path_, label + ".alphaMode",
+                      fmt::format("'{}' is not OPAQUE, MASK or BLEND", gm.alphaMode));
   }
   double strength = 1.0;
   auto ext = gm.extensions.find("KHR_materials_emissive_strength");
@@ -386,9 +409,11 @@ Expected<uint32_t> GltfReader::materialFor(int gltf_material, const std::string&
         glm::dvec3(gm.emissiveFactor[0], gm.emissiveFactor[1], gm.emissiveFactor[2]) * strength);
   }
   if (gm.emissiveTexture.index >= 0) {
-    scene_.warnings.push_back(
-        fmt::format("{}: {} ('{}'): emissiveTexture is not used yet, only emissiveFactor", path_,
-                    place, m.name));
+    Expected<TextureBinding> b =
+        textureBinding(gm.emissiveTexture.index, gm.emissiveTexture.texCoord,
+                       gm.emissiveTexture.extensions, true, label + ".emissiveTexture");
+    if (!b) return b.error();
+    m.emission_texture = std::move(*b);
   }
   if (gm.normalTexture.index >= 0) {
     // Wallner sec. 3.3: a tangent-space normal map on TEXCOORD_0 (scene/material.h).
@@ -420,6 +445,110 @@ Expected<uint32_t> GltfReader::materialFor(int gltf_material, const std::string&
   mapped = static_cast<int>(scene_.materials.size());
   scene_.materials.push_back(std::move(m));
   return static_cast<uint32_t>(mapped);
+}
+
+Expected<TextureBinding> GltfReader::textureBinding(int texture_index, int tex_coord,
+                                                    const tinygltf::ExtensionMap& extensions,
+                                                    bool colour, const std::string& place) {
+  if (texture_index < 0 || size_t(texture_index) >= model_.textures.size()) {
+    return inputError(path_, place, fmt::format("texture {} does not exist", texture_index));
+  }
+  const tinygltf::Texture& texture = model_.textures[size_t(texture_index)];
+  TextureBinding binding;
+  // The image: EXT_texture_webp's source when given (its fallback may be absent), else source.
+  int source = texture.source;
+  auto webp = texture.extensions.find("EXT_texture_webp");
+  if (webp != texture.extensions.end() && webp->second.IsObject() && webp->second.Has("source") &&
+      webp->second.Get("source").IsInt()) {
+    source = webp->second.Get("source").GetNumberAsInt();
+  }
+  if (source < 0 || size_t(source) >= model_.images.size()) {
+    return inputError(
+        path_, place,
+        fmt::format("texture {} has no image ({} does not exist)", texture_index, source));
+  }
+  const tinygltf::Image& image = model_.images[size_t(source)];
+  const std::string name = image.uri.empty() || image.uri.rfind("data:", 0) == 0
+                               ? fmt::format("{} image {}", path_, source)
+                               : (std::filesystem::path(path_).parent_path() / image.uri).string();
+  const auto bytes = image_bytes_.find(source);
+  if (bytes == image_bytes_.end()) {
+    return inputError(path_, place,
+                      fmt::format("image '{}' (image {}) cannot be read: the file is missing or "
+                                  "unreadable",
+                                  name, source));
+  }
+  Expected<std::shared_ptr<const Texture>> t =
+      textures_.bytes(name, bytes->second, colour, path_, place);
+  if (!t) return t.error();
+  binding.texture = *t;
+  if (texture.sampler >= 0) {
+    if (size_t(texture.sampler) >= model_.samplers.size()) {
+      return inputError(path_, place, fmt::format("sampler {} does not exist", texture.sampler));
+    }
+    const tinygltf::Sampler& sampler = model_.samplers[size_t(texture.sampler)];
+    auto wrap = [&](int mode, const char* axis) -> Expected<TextureWrap> {
+      switch (mode) {
+        case TINYGLTF_TEXTURE_WRAP_REPEAT:
+          return TextureWrap::kRepeat;
+        case TINYGLTF_TEXTURE_WRAP_CLAMP_TO_EDGE:
+          return TextureWrap::kClampToEdge;
+        case TINYGLTF_TEXTURE_WRAP_MIRRORED_REPEAT:
+          return TextureWrap::kMirroredRepeat;
+        default:
+          return inputError(path_, fmt::format("sampler {}.{}", texture.sampler, axis),
+                            fmt::format("{} is not a glTF wrap mode", mode));
+      }
+    };
+    Expected<TextureWrap> s = wrap(sampler.wrapS, "wrapS");
+    if (!s) return s.error();
+    Expected<TextureWrap> t_wrap = wrap(sampler.wrapT, "wrapT");
+    if (!t_wrap) return t_wrap.error();
+    binding.sampler.wrap_s = *s;
+    binding.sampler.wrap_t = *t_wrap;
+    binding.sampler.nearest = sampler.magFilter == TINYGLTF_TEXTURE_FILTER_NEAREST;
+  }
+  int uv_set = tex_coord;
+  auto transform = extensions.find("KHR_texture_transform");
+  if (transform != extensions.end() && transform->second.IsObject()) {
+    const tinygltf::Value& x = transform->second;
+    const std::string where = place + ".extensions.KHR_texture_transform";
+    auto vec2 = [&](const char* key, glm::vec2 fallback) -> Expected<glm::vec2> {
+      if (!x.Has(key)) return fallback;
+      const tinygltf::Value& v = x.Get(key);
+      if (!v.IsArray() || v.ArrayLen() != 2 || !v.Get(0).IsNumber() || !v.Get(1).IsNumber()) {
+        return inputError(path_, where, fmt::format("{} must be two numbers", key));
+      }
+      const glm::dvec2 d(v.Get(0).GetNumberAsDouble(), v.Get(1).GetNumberAsDouble());
+      if (!std::isfinite(d.x) || !std::isfinite(d.y) || std::abs(d.x) > 1e6 ||
+          std::abs(d.y) > 1e6) {
+        return inputError(path_, where, fmt::format("{} must be finite, within 1e6", key));
+      }
+      return glm::vec2(d);
+    };
+    Expected<glm::vec2> offset = vec2("offset", glm::vec2(0.0f));
+    if (!offset) return offset.error();
+    Expected<glm::vec2> scale = vec2("scale", glm::vec2(1.0f));
+    if (!scale) return scale.error();
+    double rotation = 0.0;
+    if (x.Has("rotation")) {
+      if (!x.Get("rotation").IsNumber() || !std::isfinite(x.Get("rotation").GetNumberAsDouble())) {
+        return inputError(path_, where, "rotation must be a number");
+      }
+      rotation = x.Get("rotation").GetNumberAsDouble();
+    }
+    if (x.Has("texCoord")) {
+      if (!x.Get("texCoord").IsInt())
+        return inputError(path_, where, "texCoord must be an integer");
+      uv_set = x.Get("texCoord").GetNumberAsInt();
+    }
+    binding.setTransform(*offset, float(std::remainder(rotation, 2.0 * std::numbers::pi)), *scale);
+  }
+  if (uv_set < 0 || uv_set > 7) {
+    return inputError(path_, place, fmt::format("texCoord {} is not a UV set (0 to 7)", uv_set));
+  }
+  binding.uv_set = uint32_t(uv_set);
+  return binding;
 }
 
 namespace {
@@ -754,6 +883,7 @@ Status GltfReader::addPrimitive(const tinygltf::Node& node, int mesh_index, size
   PENUMBRA_TRY(readPositions(*pos, pos_it->second, where, world_from_object, mesh));
   PENUMBRA_TRY(readNormals(prim, where, nv, world_from_object, mesh));
   PENUMBRA_TRY(readUvs(prim, where, nv, mesh));
+  PENUMBRA_TRY(readColours(prim, where, nv, mesh));
   Expected<std::vector<uint32_t>> seq = vertexSequence(prim, where, nv);
   if (!seq.ok()) return seq.error();
 
@@ -814,21 +944,62 @@ Status GltfReader::readNormals(const tinygltf::Primitive& prim, const std::strin
 
 Status GltfReader::readUvs(const tinygltf::Primitive& prim, const std::string& where, size_t nv,
                            Mesh& mesh) {
-  auto uv_it = prim.attributes.find("TEXCOORD_0");
-  if (uv_it == prim.attributes.end()) return {};
-  Expected<AccessorView> uv =
-      view(uv_it->second, where + " TEXCOORD_0", TINYGLTF_TYPE_VEC2,
+  // TEXCOORD_0 .. TEXCOORD_7: set n in mesh.uvSet(n); a set after a missing one stays empty.
+  for (int set = 0; set < 8; ++set) {
+    const std::string attribute = fmt::format("TEXCOORD_{}", set);
+    auto uv_it = prim.attributes.find(attribute);
+    if (uv_it == prim.attributes.end()) continue;
+    Expected<AccessorView> uv =
+        view(uv_it->second, where + " " + attribute, TINYGLTF_TYPE_VEC2,
+             {TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE,
+              TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT});
+    if (!uv.ok()) return uv.error();
+    if (uv->count != nv) {
+      return inputError(path_, fmt::format("accessor {} ({} {})", uv_it->second, where, attribute),
+                        fmt::format("count {} differs from POSITION's {}", uv->count, nv));
+    }
+    if (set > 0 && mesh.extra_uvs.size() < size_t(set)) mesh.extra_uvs.resize(size_t(set));
+    std::vector<glm::vec2>& uvs = set == 0 ? mesh.uvs : mesh.extra_uvs[size_t(set - 1)];
+    uvs.resize(nv);
+    mesh.uv_origin_top = true;  // glTF: (0, 0) is the top-left of an image
+    for (size_t i = 0; i < nv; ++i) uvs[i] = glm::vec2(uv->component(i, 0), uv->component(i, 1));
+  }
+  return {};
+}
+
+Status GltfReader::readColours(const tinygltf::Primitive& prim, const std::string& where, size_t nv,
+                               Mesh& mesh) {
+  auto it = prim.attributes.find("COLOR_0");
+  if (it == prim.attributes.end()) return {};
+  if (it->second < 0 || size_t(it->second) >= model_.accessors.size()) {
+    return inputError(path_, where + " COLOR_0",
+                      fmt::format("accessor {} does not exist", it->second));
+  }
+  const int type = model_.accessors[size_t(it->second)].type == TINYGLTF_TYPE_VEC3
+                       ? TINYGLTF_TYPE_VEC3
+                       : TINYGLTF_TYPE_VEC4;
+  Expected<AccessorView> c =
+      view(it->second, where + " COLOR_0", type,
            {TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE,
             TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT});
-  if (!uv.ok()) return uv.error();
-  if (uv->count != nv) {
-    return inputError(path_, fmt::format("accessor {} ({} TEXCOORD_0)", uv_it->second, where),
-                      fmt::format("count {} differs from POSITION's {}", uv->count, nv));
+  if (!c.ok()) return c.error();
+  const std::string place = fmt::format("accessor {} ({} COLOR_0)", it->second, where);
+  if (c->count != nv) {
+    return inputError(path_, place,
+                      fmt::format("count {} differs from POSITION's {}", c->count, nv));
   }
-  mesh.uvs.resize(nv);
-  mesh.uv_origin_top = true;  // glTF: (0, 0) is the top-left of an image
+  if (c->component_type != TINYGLTF_COMPONENT_TYPE_FLOAT && !c->normalized) {
+    return inputError(path_, place, "integer colours must be normalized");
+  }
+  mesh.colors.resize(nv);
   for (size_t i = 0; i < nv; ++i) {
-    mesh.uvs[i] = glm::vec2(uv->component(i, 0), uv->component(i, 1));
+    glm::vec4 v(1.0f);
+    for (int k = 0; k < c->components; ++k) v[k] = float(c->component(i, k));
+    if (!(v.x >= 0.0f && v.x <= 1.0f && v.y >= 0.0f && v.y <= 1.0f && v.z >= 0.0f && v.z <= 1.0f &&
+          v.w >= 0.0f && v.w <= 1.0f)) {
+      return inputError(path_, fmt::format("{}, vertex {}", place, i), "colour is outside [0, 1]");
+    }
+    mesh.colors[i] = v;
   }
   return {};
 }
@@ -978,8 +1149,10 @@ Status GltfReader::addCamera(int node_index, int camera_index,
 }
 
 const char* const kSupportedExtensions[] = {
-    "KHR_lights_punctual",  "KHR_materials_emissive_strength", "PENUMBRA_materials_subsurface",
-    "KHR_materials_volume", "KHR_materials_transmission",      "KHR_materials_ior"};
+    "KHR_lights_punctual",           "KHR_materials_emissive_strength",
+    "PENUMBRA_materials_subsurface", "KHR_materials_volume",
+    "KHR_materials_transmission",    "KHR_materials_ior",
+    "KHR_texture_transform",         "EXT_texture_webp"};
 
 Status GltfReader::read() {
   for (const std::string& ext : model_.extensionsRequired) {

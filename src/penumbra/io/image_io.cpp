@@ -30,8 +30,12 @@
 #define STB_IMAGE_WRITE_IMPLEMENTATION
 #define STBI_ONLY_PNG
 #define STBI_ONLY_HDR
+#define STBI_ONLY_JPEG
+#define STBI_ONLY_BMP
+#define STBI_ONLY_TGA
 #include <stb_image.h>
 #include <stb_image_write.h>
+#include <webp/decode.h>
 
 #include <algorithm>
 #include <array>
@@ -656,6 +660,113 @@ Expected<Image> decodePngData(const std::string& name, const std::string& bytes)
   } catch (const std::exception& e) {
     return runtimeError(name, std::string("cannot decode: ") + e.what());
   }
+}
+
+namespace {
+
+// The format of a texture's bytes, by signature; TGA, which has none, by its name.
+enum class TextureFormat { kPng, kJpeg, kWebp, kBmp, kTga, kUnknown };
+
+TextureFormat textureFormatOf(const std::string& name, std::string_view bytes) {
+  if (bytes.substr(0, 8) == std::string_view("\x89PNG\r\n\x1a\n", 8)) return TextureFormat::kPng;
+  if (bytes.substr(0, 3) == std::string_view("\xff\xd8\xff", 3)) return TextureFormat::kJpeg;
+  if (bytes.size() >= 12 && bytes.substr(0, 4) == "RIFF" && bytes.substr(8, 4) == "WEBP") {
+    return TextureFormat::kWebp;
+  }
+  if (bytes.substr(0, 2) == "BM") return TextureFormat::kBmp;
+  if (extensionOf(name) == ".tga") return TextureFormat::kTga;
+  return TextureFormat::kUnknown;
+}
+
+Expected<TextureTexels> decodeTextureBytes(const std::string& name, std::string_view bytes) {
+  if (bytes.size() > size_t(std::numeric_limits<int>::max())) {
+    return inputError(name, "", "image file too large");
+  }
+  const TextureFormat format = textureFormatOf(name, bytes);
+  if (format == TextureFormat::kUnknown) {
+    return inputError(name, "",
+                      "not a PNG, JPEG, WebP, BMP or TGA image (no signature of any of them)");
+  }
+  TextureTexels out;
+  auto check_size = [&](int w, int h, int channels_in_file, size_t bytes_per_channel) -> Status {
+    if (w <= 0 || h <= 0 || int64_t(w) * int64_t(h) > kMaxReadPixels) {
+      return inputError(name, "", fmt::format("unsupported image size {} x {}", w, h));
+    }
+    // Compressed formats expand at most about 1032:1 (deflate); refuse a header that claims
+    // more than the file can hold before allocating it.
+    const uint64_t raw = uint64_t(w) * uint64_t(h) * uint64_t(std::max(channels_in_file, 1));
+    if (format != TextureFormat::kBmp && format != TextureFormat::kTga &&
+        raw > 1100 * uint64_t(bytes.size()) + 4096) {
+      return inputError(name, "",
+                        fmt::format("claims {} x {} pixels, more than its {} bytes can hold", w, h,
+                                    bytes.size()));
+    }
+    // The texels, the pyramid (a third more) and the decoder's own buffer.
+    const uint64_t need = uint64_t(w) * uint64_t(h) * 4 * bytes_per_channel * 7 / 3;
+    if (Status m = checkMemory(need, fmt::format("decoding a {} x {} texture", w, h)); !m.ok()) {
+      return inputError(name, "", m.error().message);
+    }
+    return {};
+  };
+  if (format == TextureFormat::kWebp) {
+    const auto* data = reinterpret_cast<const uint8_t*>(bytes.data());
+    WebPBitstreamFeatures features;
+    if (WebPGetFeatures(data, bytes.size(), &features) != VP8_STATUS_OK) {
+      return inputError(name, "", "malformed WebP image");
+    }
+    PENUMBRA_TRY(check_size(features.width, features.height, 4, 1));
+    int w = 0, h = 0;
+    uint8_t* rgba = WebPDecodeRGBA(data, bytes.size(), &w, &h);
+    if (!rgba) return inputError(name, "", "malformed WebP image (cannot decode)");
+    out.width = w;
+    out.height = h;
+    out.channels = features.has_alpha ? 4 : 3;
+    out.rgba8.assign(rgba, rgba + 4 * size_t(w) * size_t(h));
+    WebPFree(rgba);
+    return out;
+  }
+  const auto* data = reinterpret_cast<const stbi_uc*>(bytes.data());
+  const int len = int(bytes.size());
+  int w = 0, h = 0, n = 0;
+  if (!stbi_info_from_memory(data, len, &w, &h, &n)) {
+    return inputError(name, "", std::string("not a readable image: ") + stbi_failure_reason());
+  }
+  const bool sixteen = format == TextureFormat::kPng && stbi_is_16_bit_from_memory(data, len);
+  PENUMBRA_TRY(check_size(w, h, n, sixteen ? 2 : 1));
+  out.channels = n;
+  if (sixteen) {
+    std::unique_ptr<stbi_us, StbFree> texels(stbi_load_16_from_memory(data, len, &w, &h, &n, 4));
+    if (!texels) {
+      return inputError(name, "", std::string("malformed image: ") + stbi_failure_reason());
+    }
+    out.sixteen_bit = true;
+    out.rgba16.assign(texels.get(), texels.get() + 4 * size_t(w) * size_t(h));
+  } else {
+    std::unique_ptr<stbi_uc, StbFree> texels(stbi_load_from_memory(data, len, &w, &h, &n, 4));
+    if (!texels) {
+      return inputError(name, "", std::string("malformed image: ") + stbi_failure_reason());
+    }
+    out.rgba8.assign(texels.get(), texels.get() + 4 * size_t(w) * size_t(h));
+  }
+  out.width = w;
+  out.height = h;
+  return out;
+}
+
+}  // namespace
+
+Expected<TextureTexels> decodeTextureImage(const std::string& name, std::string_view bytes) {
+  try {
+    return decodeTextureBytes(name, bytes);
+  } catch (const std::exception& e) {
+    return runtimeError(name, std::string("cannot decode: ") + e.what());
+  }
+}
+
+Expected<TextureTexels> readTextureImage(const std::string& path) {
+  Expected<std::string> bytes = readFile(path);
+  if (!bytes) return bytes.error();
+  return decodeTextureImage(path, *bytes);
 }
 
 Expected<Image> readImageData(const std::string& path) {

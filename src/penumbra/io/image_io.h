@@ -10,6 +10,7 @@
 #include <cstdint>
 #include <span>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace penumbra {
@@ -34,5 +35,21 @@ Expected<Image> readImage(const std::string& path);
 Expected<Image> readImageData(const std::string& path);
 // The same for PNG bytes in memory (an image embedded in a glTF file); `name` for messages.
 Expected<Image> decodePngData(const std::string& name, const std::string& bytes);
+
+// A texture image's texels as its file holds them: RGBA, 8 or 16 bits per channel (16 for 16-bit
+// PNGs only), grey expanded to RGB and a missing alpha set to the maximum, top row first.
+struct TextureTexels {
+  int width = 0;
+  int height = 0;
+  int channels = 0;  // in the file: 1 grey, 2 grey and alpha, 3 RGB, 4 RGBA
+  bool sixteen_bit = false;
+  std::vector<uint8_t> rgba8;
+  std::vector<uint16_t> rgba16;
+};
+// Decodes a PNG (8 or 16 bits), JPEG, WebP (libwebp), BMP or TGA image, recognised by its
+// signature (TGA, which has none, by a ".tga" name); `name` for messages. Sizes are checked
+// against the file and the memory available before decoding.
+Expected<TextureTexels> decodeTextureImage(const std::string& name, std::string_view bytes);
+Expected<TextureTexels> readTextureImage(const std::string& path);
 
 }  // namespace penumbra

@@ -8,9 +8,15 @@
 // are fan-triangulated here (v0 v1 v2, v0 v2 v3, ...) so that triangle i is the i-th triangle in
 // file order. MTL files are read here too (so a missing one is a warning, not a failure):
 // Kd -> reflectance, Ke -> emission; illum 3 and 5 (ray-traced reflection) make a mirror of Ks,
-// illum 4, 6, 7 and 9 (ray-traced refraction) glass of index Ni filtered by Tf.
+// illum 4, 6, 7 and 9 (ray-traced refraction) glass of index Ni filtered by Tf. Textures:
+// map_Kd gives the reflectance in place of Kd (as Blender's importer reads it: Blender's exporter
+// writes Kd 0.8 beside a texture), map_Ke the emission (times Ke when Ke is not zero), map_d a
+// cut-out (covered where its alpha, or its grey for a file without alpha, is at least 0.5);
+// d < 1 without map_d is partial coverage. Their -o, -s and -clamp options apply. Texture files
+// are looked for beside the OBJ file, then beside each material library, with '\\' read as '/'.
 #include "penumbra/core/file_util.h"
 #include "penumbra/io/scene_io.h"
+#include "penumbra/io/texture_loader.h"
 
 #include <tiny_obj_loader.h>
 
@@ -437,17 +443,88 @@ Status parseWithTinyObj(const std::string& path, const std::string& clean,
   return {};
 }
 
-// One MTL material: Kd -> reflectance, Ke -> emission; illum 3 and 5 a mirror of Ks, illum 4, 6,
-// 7 and 9 glass of index Ni filtered by Tf.
+// Where an MTL texture file is: `name` ('\\' read as '/') in the first of `dirs` that has it, else
+// in the first (for the message).
+std::string findTextureFile(std::string name, const std::vector<std::string>& dirs) {
+  std::replace(name.begin(), name.end(), '\\', '/');
+  if (std::filesystem::path(name).is_absolute()) return name;
+  for (const std::string& dir : dirs) {
+    const std::filesystem::path candidate = std::filesystem::path(dir) / name;
+    std::error_code ec;
+    if (std::filesystem::is_regular_file(candidate, ec)) return candidate.string();
+  }
+  return (std::filesystem::path(dirs.front()) / name).string();
+}
+
+// An MTL map statement's texture as a binding: the file, -clamp, and -s / -o as the UV transform
+// u' = s u + o.
+Expected<TextureBinding> objTexture(const std::string& path, const std::string& material,
+                                    const char* statement, const std::string& name,
+                                    const tinyobj::texture_option_t& option, bool colour,
+                                    const std::vector<std::string>& dirs, TextureCache& textures) {
+  const std::string place = fmt::format("material '{}' {}", material, statement);
+  for (int k = 0; k < 2; ++k) {
+    if (!std::isfinite(option.scale[k]) || !std::isfinite(option.origin_offset[k]) ||
+        std::abs(option.scale[k]) > 1e6 || std::abs(option.origin_offset[k]) > 1e6) {
+      return inputError(path, place, "-s and -o must be finite numbers within 1e6");
+    }
+  }
+  Expected<std::shared_ptr<const Texture>> t =
+      textures.file(findTextureFile(name, dirs), colour, path, place);
+  if (!t) return t.error();
+  TextureBinding b;
+  b.texture = *t;
+  b.row_u = glm::vec3(option.scale[0], 0.0f, option.origin_offset[0]);
+  b.row_v = glm::vec3(0.0f, option.scale[1], option.origin_offset[1]);
+  if (option.clamp) {
+    b.sampler.wrap_s = TextureWrap::kClampToEdge;
+    b.sampler.wrap_t = TextureWrap::kClampToEdge;
+  }
+  return b;
+}
+
+// One MTL material: Kd -> reflectance, Ke -> emission, the textures (see the top of the file);
+// illum 3 and 5 a mirror of Ks, illum 4, 6, 7 and 9 glass of index Ni filtered by Tf.
 Expected<Material> objMaterial(const std::string& path, const tinyobj::material_t& m,
+                               const std::vector<std::string>& texture_dirs, TextureCache& textures,
                                Scene& scene) {
   Material mat;
   mat.name = m.name;
   mat.reflectance = glm::vec3(m.diffuse[0], m.diffuse[1], m.diffuse[2]);
   mat.emission = glm::vec3(m.emission[0], m.emission[1], m.emission[2]);
   if (!m.diffuse_texname.empty()) {
-    scene.warnings.push_back(fmt::format("{}: material '{}': texture '{}' is not used yet (Kd is)",
-                                         path, m.name, m.diffuse_texname));
+    Expected<TextureBinding> b = objTexture(path, m.name, "map_Kd", m.diffuse_texname,
+                                            m.diffuse_texopt, true, texture_dirs, textures);
+    if (!b) return b.error();
+    mat.reflectance_texture = std::move(*b);
+    mat.reflectance = glm::vec3(1.0f);
+  }
+  if (!m.emissive_texname.empty()) {
+    Expected<TextureBinding> b = objTexture(path, m.name, "map_Ke", m.emissive_texname,
+                                            m.emissive_texopt, true, texture_dirs, textures);
+    if (!b) return b.error();
+    mat.emission_texture = std::move(*b);
+    if (mat.emission == glm::vec3(0.0f)) mat.emission = glm::vec3(1.0f);
+  }
+  // map_Kd's own alpha is not coverage in MTL; map_d (or d) is.
+  mat.alpha_from_reflectance = false;
+  if (!m.alpha_texname.empty()) {
+    Expected<TextureBinding> b = objTexture(path, m.name, "map_d", m.alpha_texname, m.alpha_texopt,
+                                            false, texture_dirs, textures);
+    if (!b) return b.error();
+    mat.coverage_texture = std::move(*b);
+    mat.alpha_mode = AlphaMode::kMask;
+    mat.alpha_cutoff = 0.5f;
+  } else if (m.dissolve < 1.0f) {
+    if (!(m.dissolve >= 0.0f)) {
+      return inputError(path, fmt::format("material '{}'", m.name),
+                        fmt::format("d {} is outside [0, 1]", m.dissolve));
+    }
+    mat.alpha_mode = AlphaMode::kBlend;
+    mat.alpha = float(m.dissolve);
+    scene.warnings.push_back(
+        fmt::format("{}: material '{}': d {} lets {:.0f}% of the light through it", path, m.name,
+                    m.dissolve, 100.0 * (1.0 - m.dissolve)));
   }
   const auto colour = [](const tinyobj::real_t* c) {
     return glm::clamp(glm::vec3(c[0], c[1], c[2]), glm::vec3(0.0f), glm::vec3(1.0f));
@@ -626,8 +703,14 @@ Expected<Scene> loadObj(const std::string& path) {
   PENUMBRA_TRY(parseWithTinyObj(path, clean, *mtl_text, reader));
 
   const std::vector<tinyobj::material_t>& obj_materials = reader.GetMaterials();
+  std::vector<std::string> texture_dirs = {std::filesystem::path(path).parent_path().string()};
+  for (const auto& [name, line] : scan.material_libraries) {
+    texture_dirs.push_back(
+        std::filesystem::path(resolveRelativeTo(path, name)).parent_path().string());
+  }
+  TextureCache textures;
   for (const tinyobj::material_t& m : obj_materials) {
-    Expected<Material> mat = objMaterial(path, m, scene);
+    Expected<Material> mat = objMaterial(path, m, texture_dirs, textures, scene);
     if (!mat) return mat.error();
     scene.materials.push_back(std::move(*mat));
   }

@@ -11,6 +11,7 @@
 #include "penumbra/io/luminaire_io.h"
 #include "penumbra/io/scene_io.h"
 #include "penumbra/io/subsurface_json.h"
+#include "penumbra/io/texture_loader.h"
 #include "penumbra/scene/animation.h"
 #include "penumbra/scene/builtin.h"
 #include "penumbra/scene/media.h"
@@ -27,6 +28,7 @@
 #include <filesystem>
 #include <functional>
 #include <map>
+#include <numbers>
 #include <optional>
 #include <string>
 #include <type_traits>
@@ -118,8 +120,14 @@ class SceneJsonReader {
   Expected<glm::vec3> environment(const json& j, const std::string& place) const;
 
   Status readMaterials(const json& root, Scene& scene);
+  TextureCache textures_;
   Status readMaterial(const json& entry, const std::string& place, const std::string& name,
                       bool named, Scene& scene);
+  // A texture slot: a file name, or {"file", "uv_set", "wrap", "filter", "offset", "scale",
+  // "rotation"} (docs/scene-format.md). `colour`: an sRGB colour image.
+  Expected<TextureBinding> readTexture(const json& entry, const std::string& place, bool colour);
+  // "alpha", "alpha_mode", "alpha_cutoff" and "coverage_texture".
+  Status readCoverage(const json& entry, const std::string& place, Material& m);
   // "type" (diffuse, mirror, glass), "specular" and "ior" (Material::scattering).
   Status readScattering(const json& entry, const std::string& place, Material& m);
   Status readMesh(const json& entry, const std::string& place, Scene& scene);
@@ -297,19 +305,138 @@ Status SceneJsonReader::readMaterials(const json& root, Scene& scene) {
   return {};
 }
 
+Expected<TextureBinding> SceneJsonReader::readTexture(const json& entry, const std::string& place,
+                                                      bool colour) {
+  const json* spec = &entry;
+  json object;
+  if (entry.is_string()) {
+    object = json{{"file", entry}};
+    spec = &object;
+  } else if (!entry.is_object()) {
+    return error(place,
+                 fmt::format("must be a file name or an object, not {}", jsonTypeName(entry)));
+  }
+  PENUMBRA_TRY(
+      checkKeys(*spec, place, {"file", "uv_set", "wrap", "filter", "offset", "scale", "rotation"}));
+  if (!spec->contains("file")) return error(place + ".file", "missing");
+  Expected<std::string> file = string(spec->at("file"), place + ".file");
+  if (!file) return file.error();
+  Expected<std::string> resolved = existingFile(*file, place + ".file");
+  if (!resolved) return resolved.error();
+  Expected<std::shared_ptr<const Texture>> t = textures_.file(*resolved, colour, path_, place);
+  if (!t) return t.error();
+  TextureBinding b;
+  b.texture = *t;
+  if (spec->contains("uv_set")) {
+    const json& v = spec->at("uv_set");
+    if (!v.is_number_integer() || v.get<int64_t>() < 0 || v.get<int64_t>() > 7) {
+      return error(place + ".uv_set", "must be an integer from 0 to 7");
+    }
+    b.uv_set = uint32_t(v.get<int64_t>());
+  }
+  if (spec->contains("wrap")) {
+    Expected<std::string> w = string(spec->at("wrap"), place + ".wrap");
+    if (!w) return w.error();
+    if (*w == "repeat") {
+      b.sampler.wrap_s = b.sampler.wrap_t = TextureWrap::kRepeat;
+    } else if (*w == "clamp") {
+      b.sampler.wrap_s = b.sampler.wrap_t = TextureWrap::kClampToEdge;
+    } else if (*w == "mirror") {
+      b.sampler.wrap_s = b.sampler.wrap_t = TextureWrap::kMirroredRepeat;
+    } else {
+      return error(place + ".wrap", fmt::format("'{}' is not repeat, clamp or mirror", *w));
+    }
+  }
+  if (spec->contains("filter")) {
+    Expected<std::string> f = string(spec->at("filter"), place + ".filter");
+    if (!f) return f.error();
+    if (*f != "linear" && *f != "nearest") {
+      return error(place + ".filter", fmt::format("'{}' is not linear or nearest", *f));
+    }
+    b.sampler.nearest = *f == "nearest";
+  }
+  auto pair = [&](const char* key, glm::vec2 fallback) -> Expected<glm::vec2> {
+    if (!spec->contains(key)) return fallback;
+    const json& v = spec->at(key);
+    if (!v.is_array() || v.size() != 2 || !v[0].is_number() || !v[1].is_number()) {
+      return error(place + "." + key, "must be two numbers");
+    }
+    const glm::dvec2 d(v[0].get<double>(), v[1].get<double>());
+    if (!(std::abs(d.x) <= 1e6 && std::abs(d.y) <= 1e6)) {
+      return error(place + "." + key, "must be finite, within 1e6");
+    }
+    return glm::vec2(d);
+  };
+  Expected<glm::vec2> offset = pair("offset", glm::vec2(0.0f));
+  if (!offset) return offset.error();
+  Expected<glm::vec2> scale = pair("scale", glm::vec2(1.0f));
+  if (!scale) return scale.error();
+  double rotation = 0.0;
+  if (spec->contains("rotation")) {
+    Expected<double> r = number(spec->at("rotation"), place + ".rotation");
+    if (!r) return r.error();
+    if (!(std::abs(*r) <= 1e6)) return error(place + ".rotation", "must be within 1e6 radians");
+    rotation = *r;
+  }
+  b.setTransform(*offset, float(std::remainder(rotation, 2.0 * std::numbers::pi)), *scale);
+  return b;
+}
+
+Status SceneJsonReader::readCoverage(const json& entry, const std::string& place, Material& m) {
+  if (entry.contains("alpha")) {
+    Expected<double> a = number(entry.at("alpha"), place + ".alpha");
+    if (!a) return a.error();
+    if (!(*a >= 0.0 && *a <= 1.0)) return error(place + ".alpha", "must be in [0, 1]");
+    m.alpha = float(*a);
+  }
+  if (entry.contains("alpha_cutoff")) {
+    Expected<double> a = number(entry.at("alpha_cutoff"), place + ".alpha_cutoff");
+    if (!a) return a.error();
+    if (!(*a >= 0.0 && *a <= 1.0)) return error(place + ".alpha_cutoff", "must be in [0, 1]");
+    m.alpha_cutoff = float(*a);
+  }
+  if (entry.contains("coverage_texture")) {
+    Expected<TextureBinding> b =
+        readTexture(entry.at("coverage_texture"), place + ".coverage_texture", false);
+    if (!b) return b.error();
+    m.coverage_texture = std::move(*b);
+  }
+  if (entry.contains("alpha_mode")) {
+    Expected<std::string> mode = string(entry.at("alpha_mode"), place + ".alpha_mode");
+    if (!mode) return mode.error();
+    if (*mode == "opaque") {
+      m.alpha_mode = AlphaMode::kOpaque;
+    } else if (*mode == "mask") {
+      m.alpha_mode = AlphaMode::kMask;
+    } else if (*mode == "blend") {
+      m.alpha_mode = AlphaMode::kBlend;
+    } else {
+      return error(place + ".alpha_mode", fmt::format("'{}' is not opaque, mask or blend", *mode));
+    }
+  } else if (m.coverage_texture || m.alpha < 1.0f) {
+    // Coverage given without a mode: a mask for a texture, partial for a constant.
+    m.alpha_mode = m.coverage_texture ? AlphaMode::kMask : AlphaMode::kBlend;
+  }
+  return {};
+}
+
 Status SceneJsonReader::readMaterial(const json& entry, const std::string& place,
                                      const std::string& name, bool named, Scene& scene) {
   if (!entry.is_object()) {
     return error(place, fmt::format("must be an object, not {}", jsonTypeName(entry)));
   }
   if (named) {
-    PENUMBRA_TRY(checkKeys(entry, place,
-                           {"name", "type", "reflectance", "specular", "ior", "emission",
-                            "two_sided", "subsurface", "normal_map", "normal_scale"}));
+    PENUMBRA_TRY(
+        checkKeys(entry, place,
+                  {"name", "type", "reflectance", "specular", "ior", "emission", "two_sided",
+                   "subsurface", "normal_map", "normal_scale", "reflectance_texture",
+                   "emission_texture", "alpha", "alpha_mode", "alpha_cutoff", "coverage_texture"}));
   } else {
-    PENUMBRA_TRY(checkKeys(entry, place,
-                           {"type", "reflectance", "specular", "ior", "emission", "two_sided",
-                            "subsurface", "normal_map", "normal_scale"}));
+    PENUMBRA_TRY(
+        checkKeys(entry, place,
+                  {"type", "reflectance", "specular", "ior", "emission", "two_sided", "subsurface",
+                   "normal_map", "normal_scale", "reflectance_texture", "emission_texture", "alpha",
+                   "alpha_mode", "alpha_cutoff", "coverage_texture"}));
   }
   Material m;
   m.name = name;
@@ -324,6 +451,21 @@ Status SceneJsonReader::readMaterial(const json& entry, const std::string& place
     if (!e.ok()) return e.error();
     m.emission = *e;
   }
+  if (entry.contains("reflectance_texture")) {
+    Expected<TextureBinding> b =
+        readTexture(entry.at("reflectance_texture"), place + ".reflectance_texture", true);
+    if (!b) return b.error();
+    m.reflectance_texture = std::move(*b);
+    if (!entry.contains("reflectance")) m.reflectance = glm::vec3(1.0f);
+  }
+  if (entry.contains("emission_texture")) {
+    Expected<TextureBinding> b =
+        readTexture(entry.at("emission_texture"), place + ".emission_texture", true);
+    if (!b) return b.error();
+    m.emission_texture = std::move(*b);
+    if (!entry.contains("emission")) m.emission = glm::vec3(1.0f);
+  }
+  PENUMBRA_TRY(readCoverage(entry, place, m));
   if (entry.contains("two_sided")) {
     if (!entry.at("two_sided").is_boolean()) {
       return error(place + ".two_sided", fmt::format("must be true or false, not {}",

@@ -121,14 +121,15 @@ Status renderMatrixFrames(const RenderOptions& options, const CommonOptions& com
     const Timer view_timer;
     const Image lightmap = mr.radianceImage(options.shading == "smooth");
     if (!comm.root()) continue;  // rank 0 draws and writes
+    const std::shared_ptr<const LightmapDetail> detail = mr.surface.lightmapDetail();
     const Image image = renderLightmapView(mr.surface.flat.positions, mr.surface.flat.triangles,
-                                           mr.surface.atlas, lightmap, camera, view);
+                                           mr.surface.atlas, lightmap, camera, view, detail.get());
     totals.view_seconds += view_timer.seconds();
     // Lux: the lightmap's radiance gathered over each point's hemisphere (each frame's).
     std::optional<IlluminanceReport> report;
     if (lux) {
       const LightmapLookup lookup(mr.surface.flat.positions, mr.surface.flat.triangles,
-                                  mr.surface.atlas, lightmap);
+                                  mr.surface.atlas, lightmap, detail.get());
       Expected<IlluminanceReport> r =
           illuminanceReport(scene, mr.surface.engine, mr.surface.flat, camera, *lux,
                             [&](const Ray& ray, const Hit& hit, Rng&) {

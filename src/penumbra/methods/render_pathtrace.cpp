@@ -1,6 +1,7 @@
 // --method pathtrace: the reference path tracer (raytrace/path_tracer.h) on the CPU, as a wavefront
 // through the Ray Engine's GPU or hybrid back end, or over MPI ranks in blocks of rows.
 #include "penumbra/methods/render.h"
+#include "penumbra/raytrace/cutout_filter.h"
 
 #include "penumbra/cluster/distributed_render.h"
 #include "penumbra/core/file_util.h"
@@ -144,7 +145,8 @@ Status renderPathTrace(const RenderOptions& options, const CommonOptions& common
   std::optional<IlluminanceReport> report;
   if (lux) {
     const FlatTriangles flat = flattenScene(*scene);
-    const RayEngine engine = RayEngine::build(flat.positions, flat.triangles);
+    RayEngine engine = RayEngine::build(flat.positions, flat.triangles);
+    engine.setHitFilter(sceneCutouts(*scene));
     Expected<IlluminanceReport> r = illuminanceReport(
         *scene, engine, flat, camera, *lux, [&](const Ray& ray, const Hit&, Rng& rng) {
           uint64_t rays = 0;

@@ -65,8 +65,9 @@ Expected<std::optional<IlluminanceReport>> lightmapIlluminance(
     const Scene& scene, const RadiositySurface& surface, const Image& lightmap,
     const Camera& camera, const std::optional<IlluminanceRequest>& lux) {
   if (!lux) return std::optional<IlluminanceReport>();
+  const std::shared_ptr<const LightmapDetail> detail = surface.lightmapDetail();
   const LightmapLookup lookup(surface.flat.positions, surface.flat.triangles, surface.atlas,
-                              lightmap);
+                              lightmap, detail.get());
   Expected<IlluminanceReport> r = illuminanceReport(
       scene, surface.engine, surface.flat, camera, *lux, [&](const Ray& ray, const Hit& hit, Rng&) {
         return lookup.radiance(ray.dir, hit.triangle, hit.u, hit.v);
@@ -180,8 +181,9 @@ Status renderLightmapRadiosity(const RenderOptions& options, const CommonOptions
   view.spp = spp;
   view.seed = options.seed.value_or(0);
   const Image& lightmap = stochastic ? *stoch->lightmap : *progressive->lightmap;
-  const Image image = renderLightmapView(surface.flat.positions, surface.flat.triangles,
-                                         surface.atlas, lightmap, camera, view);
+  const Image image =
+      renderLightmapView(surface.flat.positions, surface.flat.triangles, surface.atlas, lightmap,
+                         camera, view, surface.lightmapDetail().get());
   const double view_seconds = view_timer.seconds();
   // Lux: the lightmap's radiance gathered over each point's hemisphere.
   Expected<std::optional<IlluminanceReport>> report =

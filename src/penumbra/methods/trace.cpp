@@ -10,6 +10,7 @@
 #include "penumbra/methods/device.h"
 #include "penumbra/methods/stats_file.h"
 #include "penumbra/methods/trace.h"
+#include "penumbra/raytrace/cutout_filter.h"
 #include "penumbra/raytrace/hybrid.h"
 #include "penumbra/raytrace/ray_engine.h"
 #include "penumbra/raytrace/ray_engine_gl.h"
@@ -42,6 +43,22 @@ Status checkTraceOptions(const TraceOptions& options) {
   return {};
 }
 
+namespace {
+
+// Cut-outs (materials with alphaMode MASK or BLEND, MTL map_d) are holes for the rays; the GPU
+// back ends do not test them.
+Expected<std::shared_ptr<const HitFilter>> traceCutouts(const Scene& scene, Device device) {
+  std::shared_ptr<const HitFilter> cutouts = sceneCutouts(scene);
+  if (cutouts && device != Device::kCpu) {
+    return inputError(scene.source, "",
+                      "the scene has cut-outs (alpha-masked or partly covering materials), which "
+                      "trace answers on the CPU only: use --device cpu");
+  }
+  return cutouts;
+}
+
+}  // namespace
+
 Expected<TraceRun> traceScene(const Scene& scene, const RayBatch& rays, const TraceOptions& options,
                               bool dry_run) {
   PENUMBRA_TRY(checkTraceOptions(options));
@@ -49,12 +66,13 @@ Expected<TraceRun> traceScene(const Scene& scene, const RayBatch& rays, const Tr
   const bool hybrid = options.device == "hybrid";
   Expected<DeviceChoice> device = chooseDevice(hybrid ? "gpu" : options.device);
   if (!device) return device.error();
+  Expected<std::shared_ptr<const HitFilter>> cutouts = traceCutouts(scene, device->device);
+  if (!cutouts) return cutouts.error();
   TraceRun run;
   if (dry_run) return run;
   const FlatTriangles flat = flattenScene(scene);
   const std::vector<glm::vec3>& positions = flat.positions;
   const std::vector<glm::uvec3>& triangles = flat.triangles;
-
   // The answers' buffers are made before the clock starts, as a caller of the library would
   // hold them: trace_seconds is the intersection alone (docs/cli.md).
   HitBatch& hits = run.hits;
@@ -118,7 +136,8 @@ Expected<TraceRun> traceScene(const Scene& scene, const RayBatch& rays, const Tr
         {"renderer", info.renderer}, {"version", info.version}, {"software", info.software}};
   } else {
     Timer build_timer;
-    const RayEngine engine = RayEngine::build(positions, triangles);
+    RayEngine engine = RayEngine::build(positions, triangles);
+    engine.setHitFilter(*cutouts);
     build_seconds = build_timer.seconds();
     Timer trace_timer;
     if (options.occlusion) {

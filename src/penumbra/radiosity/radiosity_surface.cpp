@@ -5,6 +5,7 @@
 #include "penumbra/geometry/shading_normals.h"
 #include "penumbra/geometry/tangents.h"
 #include "penumbra/kernels/sampling.h"
+#include "penumbra/raytrace/cutout_filter.h"
 #include "penumbra/raytrace/lights.h"
 
 #include <glm/geometric.hpp>
@@ -101,6 +102,13 @@ Expected<RadiositySurface> RadiositySurface::build(const Scene& scene,
   s.atlas = std::move(*atlas);
   s.hierarchy = SurfaceHierarchy::build(s.atlas);
   s.engine = RayEngine::build(s.flat.positions, s.flat.triangles);
+  {
+    auto textures = std::make_shared<const SurfaceTextures>(scene);
+    if (textures->any() || textures->hasCutouts()) {
+      s.textures = std::move(textures);
+      s.engine.setHitFilter(cutoutFilter(s.textures));
+    }
+  }
   s.bounds = s.engine.bounds();
   s.lift = 1e-5 * double(glm::length(s.bounds.hi - s.bounds.lo));
   s.has_side.assign(2 * s.flat.triangles.size(), 0);
@@ -150,6 +158,7 @@ Expected<RadiositySurface> RadiositySurface::build(const Scene& scene,
     }
     s.applyNormalMaps(scene, face_normals);
   }
+  if (s.textures) s.integrateTextures();
   s.applyMaterials(scene.materials);
   std::vector<uint8_t> known(s.atlas.texel_kind.size(), 0);
   for (size_t e = 0; e < s.elementCount(); ++e) known[s.atlas.element_texel[e]] = 1;
@@ -199,16 +208,87 @@ void RadiositySurface::applyNormalMaps(const Scene& scene,
   }
 }
 
+void RadiositySurface::integrateTextures() {
+  const size_t n = elementCount();
+  texture_reflectance.assign(n, glm::dvec3(1.0));
+  texture_emission.assign(n, glm::dvec3(1.0));
+  // Each element's pieces (its texel square clipped to each face it covers), in the faces'
+  // barycentrics, and the texture means over them weighted by area.
+  parallelRange(n, 256, [&](size_t begin, size_t end) {
+    for (size_t e = begin; e < end; ++e) {
+      const glm::ivec2 texel = atlas.texelOf(e);
+      const glm::dvec2 lo(texel), hi(glm::dvec2(texel) + 1.0);
+      SurfaceTextures::Mean sum;
+      sum.reflectance = sum.emission = glm::dvec3(0.0);
+      sum.coverage = 0.0;
+      double area = 0.0;
+      bool varies = false;
+      for (uint32_t k = atlas.element_face_first[e]; k < atlas.element_face_first[e + 1]; ++k) {
+        const uint32_t f = atlas.element_faces[k];
+        const uint32_t t = atlas.faces[f].triangle;
+        if (!textures->varies(t) && !textures->isCutout(t)) continue;
+        varies = true;
+        const glm::dvec2 t0(atlas.corner_texel[3 * size_t(f)]),
+            t1(atlas.corner_texel[3 * size_t(f) + 1]), t2(atlas.corner_texel[3 * size_t(f) + 2]);
+        glm::dvec2 poly[8];
+        const int count = clipTriangleToRect(t0, t1, t2, lo, hi, poly);
+        if (count < 3) continue;
+        const glm::dvec2 e1 = t1 - t0, e2 = t2 - t0;
+        const double det = e1.x * e2.y - e1.y * e2.x;
+        if (det == 0.0) continue;
+        glm::vec2 bary[8];
+        double piece_area = 0.0;
+        for (int c = 0; c < count; ++c) {
+          const glm::dvec2 d = poly[c] - t0;
+          bary[c] = glm::vec2(float((d.x * e2.y - d.y * e2.x) / det),
+                              float((e1.x * d.y - e1.y * d.x) / det));
+        }
+        for (int c = 1; c + 1 < count; ++c) {
+          const glm::dvec2 a = poly[c] - poly[0], b = poly[c + 1] - poly[0];
+          piece_area += 0.5 * std::abs(a.x * b.y - a.y * b.x);
+        }
+        const SurfaceTextures::Mean m =
+            textures->mean(t, std::span<const glm::vec2>(bary, size_t(count)), false);
+        sum.reflectance += piece_area * m.reflectance;
+        sum.emission += piece_area * m.emission;
+        area += piece_area;
+      }
+      if (varies && area > 0.0) {
+        texture_reflectance[e] = sum.reflectance / area;
+        texture_emission[e] = sum.emission / area;
+      }
+    }
+  });
+}
+
 void RadiositySurface::applyMaterials(std::span<const Material> materials) {
   const size_t n = elementCount();
   reflectance.resize(n);
   emission.resize(n);
+  const bool textured = !texture_reflectance.empty();
   for (size_t e = 0; e < n; ++e) {
     const Material& m = materials[material[e]];
     const bool back = atlas.faces[atlas.element_face[e]].back;
     reflectance[e] = glm::dvec3(m.reflectance);
     emission[e] = back ? glm::dvec3(0.0) : std::numbers::pi * glm::dvec3(m.emission);
+    if (textured) {
+      reflectance[e] *= texture_reflectance[e];
+      emission[e] *= texture_emission[e];
+    }
   }
+}
+
+std::shared_ptr<const LightmapDetail> RadiositySurface::lightmapDetail() const {
+  if (!textures) return nullptr;
+  auto detail = std::make_shared<LightmapDetail>();
+  detail->textures = textures;
+  // Per texel: the mean reflectance (stored as radiance pi rho / pi) and the mean emitted
+  // radiance (emission holds pi Le), gap-filled as the lightmap is.
+  std::vector<glm::dvec3> rho(elementCount());
+  for (size_t e = 0; e < rho.size(); ++e) rho[e] = std::numbers::pi * reflectance[e];
+  detail->mean_reflectance = radianceImage(rho);
+  detail->mean_emission = radianceImage(emission);
+  return detail;
 }
 
 std::vector<glm::dvec3> RadiositySurface::lightIrradiance(std::span<const Light> lights,

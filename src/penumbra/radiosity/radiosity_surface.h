@@ -20,10 +20,12 @@
 #include "penumbra/raytrace/lights.h"
 #include "penumbra/raytrace/ray_engine.h"
 #include "penumbra/scene/scene.h"
+#include "penumbra/scene/surface_textures.h"
 
 #include <glm/vec3.hpp>
 
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <span>
 #include <vector>
@@ -76,14 +78,28 @@ struct RadiositySurface {
   std::vector<glm::dvec3> shading_normal;
   std::vector<uint32_t> material;  // Scene::materials index
   double total_area = 0.0;         // m^2, both sides of two-sided surfaces
+  // Textures, vertex colours and cut-outs (null when the scene has none; the engine's cut-out
+  // filter reads it too), and per element what they make of the material's factors: the mean
+  // over the element's pieces of texture x vertex colour x coverage for reflectance and of
+  // texture x coverage for emission (SurfaceTextures::mean); empty when null.
+  std::shared_ptr<const SurfaceTextures> textures;
+  std::vector<glm::dvec3> texture_reflectance;
+  std::vector<glm::dvec3> texture_emission;
 
   // Builds the atlas over the scene's faces (the scene must have passed validateScene).
   static Expected<RadiositySurface> build(const Scene& scene, const ChartAtlasOptions& atlas,
                                           bool shading_normals);
 
   size_t elementCount() const { return atlas.elementCount(); }
-  // Sets reflectance and emission from the materials (relighting: the geometry stays).
+  // Sets reflectance and emission from the materials (relighting: the geometry stays): each
+  // material's factors times the element's texture means.
   void applyMaterials(std::span<const Material> materials);
+  // What the view needs to show the textures' detail over a lightmap of this surface
+  // (render/lightmap_view.h, scene/surface_textures.h); null when the scene has no textures or
+  // cut-outs.
+  std::shared_ptr<const LightmapDetail> lightmapDetail() const;
+  // Fills texture_reflectance and texture_emission (textures is set).
+  void integrateTextures();
   // Perturbs the shading normals of the elements on the front of materials with a normal map
   // (Wallner sec. 3.3; scene/material.h); `corner_normals` as cornerShadingNormals gives them.
   void applyNormalMaps(const Scene& scene, std::span<const glm::vec3> corner_normals);

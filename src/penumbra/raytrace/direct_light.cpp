@@ -90,7 +90,8 @@ bool emitterQuery(const SceneGeometry& g, const glm::vec3& p, float p_offset, co
   const float pdf_area = g.emitter_pick_pdf[tri] / g.areas[tri];
   const float pdf_light = pdf_area * d2 / cos_l;  // solid-angle measure
   const float pdf_bsdf = cos_s * kInvPi;
-  const glm::vec3& le = g.materials[g.material_ids[tri]].emission;
+  const glm::vec3 le = g.emissionSampled(tri, b.x, b.y);
+  if (le == glm::vec3(0.0f)) return false;
   const float w = weight * (mis ? powerHeuristic(pdf_light, pdf_bsdf) : 1.0f);
   // Aim at q lifted off the light towards p, so the shadow ray cannot hit the light itself.
   const glm::vec3 target = offsetOrigin(q, g.surfaceOffset(tri), nl, -d);

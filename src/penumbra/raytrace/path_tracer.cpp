@@ -219,7 +219,7 @@ int PathTracer::shade(PathState& s, const Hit& hit, const PathTracerSettings& se
           geometry_.emitter_pick_pdf[tri] / geometry_.areas[tri] * glm::dot(d, d) / cos_front;
       w = powerHeuristic(s.prev_pdf, pdf_light);
     }
-    s.result += s.beta * mat.emission * w;
+    s.result += s.beta * geometry_.emissionAt(tri, hit.u, hit.v) * w;
   }
   if (settings.max_depth > 0 && s.depth >= settings.max_depth) return 0;
   // Translucent: the smooth boundary of the medium; `reflectance` plays no part.
@@ -232,9 +232,10 @@ int PathTracer::shade(PathState& s, const Hit& hit, const PathTracerSettings& se
     shadeSpecular(s, mat, tri, p, p_offset, settings);
     return 0;
   }
-  if (mat.reflectance == glm::vec3(0.0f)) return 0;
   // One-sided surfaces (Material::two_sided false) have a black back face.
   if (!mat.two_sided && !(cos_front > 0.0f)) return 0;
+  const glm::vec3 rho = geometry_.reflectanceAt(tri, hit.u, hit.v);
+  if (rho == glm::vec3(0.0f)) return 0;
 
   // Surfaces reflect on both sides: shade with the normal facing the incoming ray.
   const glm::vec3 n = cos_front > 0.0f ? ng : -ng;
@@ -248,19 +249,19 @@ int PathTracer::shade(PathState& s, const Hit& hit, const PathTracerSettings& se
     // The path ends here with this vertex's direct light: the emitter samples with full weight
     // (no bounce follows to share it with) and, under an environment, one cosine-weighted ray
     // towards it (f cos / pdf = rho).
-    count = directQueries(p, p_offset, n, mat.reflectance, u.light_x, u.light_y, false, queries);
+    count = directQueries(p, p_offset, n, rho, u.light_x, u.light_y, false, queries);
     if (environment_ != glm::vec3(0.0f)) {
       const glm::vec3 wi =
           Frame::fromNormal(n).toWorld(sampleCosineHemisphere(u.bounce.x, u.bounce.y));
       if (glm::dot(n, wi) > 0.0f) {
         queries[count++] = ShadowQuery{Ray{offsetOrigin(p, p_offset, n, wi), 0.0f, wi, kInfinity},
-                                       mat.reflectance * environment_, true};
+                                       rho * environment_, true};
       }
     }
     return count;
   }
   if (!in_medium) {
-    count = directQueries(p, p_offset, n, mat.reflectance, u.light_x, u.light_y, true, queries);
+    count = directQueries(p, p_offset, n, rho, u.light_x, u.light_y, true, queries);
   }
   s.specular = in_medium;
 
@@ -269,7 +270,7 @@ int PathTracer::shade(PathState& s, const Hit& hit, const PathTracerSettings& se
   const glm::vec3 wi = Frame::fromNormal(n).toWorld(local);
   const float cos_s = glm::dot(n, wi);
   if (cos_s <= 0.0f) return count;
-  s.beta *= mat.reflectance;
+  s.beta *= rho;
   s.prev_pdf = cos_s * kInvPi;
   s.prev_point = p;
 

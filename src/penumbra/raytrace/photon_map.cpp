@@ -341,7 +341,7 @@ class PhotonEmitter {
         const uint32_t tri = g_.emitters[pick.index];
         const glm::vec2 b = sampleTriangleBarycentrics(pick.u, rng.uniform());
         const glm::dvec3 nl(g_.normals[tri]);
-        const glm::dvec3 le(g_.materials[g_.material_ids[tri]].emission);
+        const glm::dvec3 le(g_.emissionSampled(tri, b.x, b.y));
         const double pdf_area = double(g_.emitter_pick_pdf[tri]) / double(g_.areas[tri]);
         const glm::vec3 q = g_.point(tri, b.x, b.y);
         const glm::dvec3 x(
@@ -483,15 +483,16 @@ Expected<std::vector<Photon>> tracePhotons(const PhotonEmitter& emitter, const S
             continue;
           }
           if (caustic && !ph.specular_seen) continue;  // not a caustic path
-          if (mat.reflectance == glm::vec3(0.0f)) continue;
+          const glm::vec3 rho = h.reflectance;
+          if (rho == glm::vec3(0.0f)) continue;
           if (!mat.two_sided && !h.front) continue;
-          slot[k] = Photon{h.point, ph.power, h.normal, mat.reflectance, ph.diffuse_seen};
+          slot[k] = Photon{h.point, ph.power, h.normal, rho, ph.diffuse_seen};
           has_slot[k] = 1;
           if (caustic) continue;  // caustic photons end at their first diffuse surface
           // Russian roulette by reflectance (Jensen 2001 sec. 5.2), then a cosine bounce.
-          const float q = std::max({mat.reflectance.x, mat.reflectance.y, mat.reflectance.z});
+          const float q = std::max({rho.x, rho.y, rho.z});
           if (rng.uniform() >= q) continue;
-          ph.power *= mat.reflectance / q;
+          ph.power *= rho / q;
           const glm::vec3 wi = Frame::fromNormal(h.normal).toWorld(
               sampleCosineHemisphere(rng.uniform(), rng.uniform()));
           if (!(glm::dot(wi, h.normal) > 0.0f)) continue;

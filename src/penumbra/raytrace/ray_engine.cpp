@@ -154,7 +154,39 @@ template <bool kAvx2>
 
 }  // namespace
 
-template <bool kAnyHit, bool kAvx2>
+void RayEngine::setHitFilter(std::shared_ptr<const HitFilter> filter) {
+  filter_ = std::move(filter);
+  filtered_bits_.clear();
+  if (!filter_) return;
+  const size_t n = triangleCount();
+  filtered_bits_.assign((n + 63) / 64, 0);
+  bool any = false;
+  for (size_t t = 0; t < n; ++t) {
+    if (filter_->filtered(uint32_t(t))) {
+      filtered_bits_[t / 64] |= uint64_t(1) << (t % 64);
+      any = true;
+    }
+  }
+  // Nothing to ask: the unfiltered kernels.
+  if (!any) {
+    filter_.reset();
+    filtered_bits_.clear();
+  }
+}
+
+uint32_t RayEngine::filterHits(const TriangleBlock8& block, uint32_t mask, const float* u,
+                               const float* v, const Ray& ray) const {
+  for (uint32_t m = mask; m; m &= m - 1) {
+    const int i = __builtin_ctz(m);
+    const uint32_t tri = uint32_t(block.id[i]);
+    if ((filtered_bits_[tri / 64] >> (tri % 64)) & 1) {
+      if (!filter_->stops(tri, u[i], v[i], ray)) mask &= ~(1u << i);
+    }
+  }
+  return mask;
+}
+
+template <bool kAnyHit, bool kAvx2, bool kFilter>
 [[gnu::always_inline]] inline bool RayEngine::traverseBody(const Ray& ray, Hit& hit) const {
   if (root_ == Bvh8Node::kEmpty || !(ray.tmin <= ray.tmax)) return false;
   const BoxTester boxes(ray.origin, ray.dir);
@@ -185,6 +217,9 @@ template <bool kAnyHit, bool kAvx2>
         alignas(32) float t[8], u[8], v[8];
         uint32_t mask =
             intersectLeaf<kAvx2>(wr, block, bvh8LeafCount(ref), ray.tmin, tmax, t, u, v);
+        if constexpr (kFilter) {
+          if (mask) mask = filterHits(block, mask, u, v, ray);
+        }
         if constexpr (kAnyHit) {
           if (mask) return true;
         }
@@ -268,23 +303,30 @@ template <bool kAnyHit, bool kAvx2>
 // The two instruction sets' traversals: the same body, compiled once for AVX2 and once for the
 // build's target; which one runs is decided per engine at build time (cpuHasAvx2).
 #if PENUMBRA_HAVE_AVX2_KERNELS
-template <bool kAnyHit>
+template <bool kAnyHit, bool kFilter>
 PENUMBRA_AVX2_TARGET bool RayEngine::traverseAvx2(const Ray& ray, Hit& hit) const {
-  return traverseBody<kAnyHit, true>(ray, hit);
+  return traverseBody<kAnyHit, true, kFilter>(ray, hit);
 }
 #endif
 
-template <bool kAnyHit>
+template <bool kAnyHit, bool kFilter>
 bool RayEngine::traverseScalar(const Ray& ray, Hit& hit) const {
-  return traverseBody<kAnyHit, false>(ray, hit);
+  return traverseBody<kAnyHit, false, kFilter>(ray, hit);
 }
 
 template <bool kAnyHit>
 bool RayEngine::traverse(const Ray& ray, Hit& hit) const {
+  // Cut-outs take their own instantiation: opaque scenes keep the kernels without the test.
+  if (filter_) [[unlikely]] {
 #if PENUMBRA_HAVE_AVX2_KERNELS
-  if (isa_ == CpuIsa::kAvx2) return traverseAvx2<kAnyHit>(ray, hit);
+    if (isa_ == CpuIsa::kAvx2) return traverseAvx2<kAnyHit, true>(ray, hit);
 #endif
-  return traverseScalar<kAnyHit>(ray, hit);
+    return traverseScalar<kAnyHit, true>(ray, hit);
+  }
+#if PENUMBRA_HAVE_AVX2_KERNELS
+  if (isa_ == CpuIsa::kAvx2) return traverseAvx2<kAnyHit, false>(ray, hit);
+#endif
+  return traverseScalar<kAnyHit, false>(ray, hit);
 }
 
 void RayEngine::useIsa(CpuIsa isa) {
@@ -307,7 +349,8 @@ bool RayEngine::occluded(const Ray& ray) const {
 // rays then pay one failed test per eight rays.
 void RayEngine::intersectRange(const RayBatch& rays, size_t begin, size_t end,
                                HitBatch& hits) const {
-  const bool packets = isa_ == CpuIsa::kAvx2;
+  // Packets have no cut-out test: with a filter every ray goes alone.
+  const bool packets = isa_ == CpuIsa::kAvx2 && !filter_;
   for (size_t i = begin; i < end; i += kPacketSize) {
     const size_t group_end = std::min(end, i + kPacketSize);
     if (packets && group_end - i == kPacketSize && packetEligible(rays, i)) {

@@ -14,10 +14,25 @@
 #include <glm/vec3.hpp>
 
 #include <cstdint>
+#include <memory>
 #include <span>
 #include <vector>
 
 namespace penumbra {
+
+// Triangles rays may pass through (cut-outs, scene/material.h AlphaMode): the engine asks the
+// filter at every hit on a flagged triangle whether it stops the ray, and goes on past it when
+// not, for closest hits and occlusion alike. An engine without a filter runs the kernels without
+// the test.
+class HitFilter {
+ public:
+  virtual ~HitFilter() = default;
+  // Whether triangle `triangle` needs asking.
+  virtual bool filtered(uint32_t triangle) const = 0;
+  // Whether `ray`'s hit on `triangle` at barycentrics (u, v) stops it. The answer must depend on
+  // nothing but the arguments, so that every query of the same ray agrees.
+  virtual bool stops(uint32_t triangle, float u, float v, const Ray& ray) const = 0;
+};
 
 // The instruction sets the CPU back end has kernels for.
 enum class CpuIsa { kScalar, kAvx2 };
@@ -42,6 +57,10 @@ class RayEngine {
     o.intersection_cost = 2.0f;
     return o;
   }
+
+  // Sets the cut-out filter (none: null), or removes it.
+  void setHitFilter(std::shared_ptr<const HitFilter> filter);
+  const HitFilter* hitFilter() const { return filter_.get(); }
 
   // Single-ray conveniences.
   Hit intersect(const Ray& ray) const;
@@ -104,12 +123,15 @@ class RayEngine {
   template <bool kAnyHit>
   bool traverse(const Ray& ray, Hit& hit) const;
   void intersectRange(const RayBatch& rays, size_t begin, size_t end, HitBatch& hits) const;
-  template <bool kAnyHit>
+  template <bool kAnyHit, bool kFilter>
   bool traverseAvx2(const Ray& ray, Hit& hit) const;
-  template <bool kAnyHit>
+  template <bool kAnyHit, bool kFilter>
   bool traverseScalar(const Ray& ray, Hit& hit) const;
-  template <bool kAnyHit, bool kAvx2>
+  template <bool kAnyHit, bool kAvx2, bool kFilter>
   bool traverseBody(const Ray& ray, Hit& hit) const;
+  // The hits of `mask` on the block that the filter lets stop the ray.
+  uint32_t filterHits(const TriangleBlock8& block, uint32_t mask, const float* u, const float* v,
+                      const Ray& ray) const;
 
   Bvh bvh_;                          // canonical binary tree (other layouts)
   LargeVector<Bvh8QNode> nodes_;     // what single rays traverse; nodes_[0] is the root
@@ -117,6 +139,8 @@ class RayEngine {
   CpuIsa isa_ = CpuIsa::kScalar;
   LargeVector<TriangleBlock8> blocks_;   // one per leaf, vertices copied in
   std::vector<uint32_t> block_of_node_;  // block index by canonical node (leaves only)
+  std::shared_ptr<const HitFilter> filter_;
+  std::vector<uint64_t> filtered_bits_;  // per triangle: filter_->filtered()
 };
 
 }  // namespace penumbra

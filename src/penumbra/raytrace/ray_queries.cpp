@@ -8,6 +8,13 @@ Expected<std::unique_ptr<OwnedRayQueries>> OwnedRayQueries::make(const std::stri
                                                                  const SceneGeometry& geometry) {
   auto out = std::unique_ptr<OwnedRayQueries>(new OwnedRayQueries());
   out->back_end_ = back_end;
+  if (back_end != "cpu" && geometry.engine.hitFilter()) {
+    return inputError("", "--device",
+                      fmt::format("the scene has cut-outs (alpha-masked or partly covering "
+                                  "materials), which the {} back end does not test: use "
+                                  "--device cpu",
+                                  back_end));
+  }
   if (back_end == "cpu") {
     out->queries_ = std::make_unique<CpuRayQueries>(geometry.engine);
   } else if (back_end == "gpu") {

@@ -2,6 +2,7 @@
 
 #include "penumbra/core/color.h"
 #include "penumbra/kernels/sampling.h"
+#include "penumbra/raytrace/cutout_filter.h"
 
 #include <glm/geometric.hpp>
 
@@ -36,17 +37,24 @@ SceneGeometry SceneGeometry::build(const Scene& scene) {
         glm::dot(glm::abs(g.normals[i]), 2.0f * kGamma7 * m) + 64.0f * 0x1p-24f * magnitude;
   }
   g.engine = RayEngine::build(g.positions, g.triangles);
+  g.textures = std::make_shared<const SurfaceTextures>(scene);
+  g.engine.setHitFilter(cutoutFilter(g.textures));
 
   g.emitter_pick_pdf.assign(nt, 0.0f);
   double total = 0.0;
   std::vector<double> power;
   for (size_t i = 0; i < nt; ++i) {
     const Material& m = g.materials[g.material_ids[i]];
-    const double p = double(luminance(m.emission)) * g.areas[i];
     if (m.isEmissive() && g.areas[i] > 0.0f) {
-      // A coloured emitter with zero luminance still needs to be sampled.
-      const double w =
-          p > 0.0 ? p : double(std::max({m.emission.x, m.emission.y, m.emission.z})) * g.areas[i];
+      // A textured or cut-out emitter by its mean emission over the triangle.
+      const bool varies = g.textures->varies(uint32_t(i)) || g.textures->isCutout(uint32_t(i));
+      const glm::vec3 le =
+          varies ? glm::vec3(g.textures->triangleMean(uint32_t(i)).emission) : m.emission;
+      const double p = double(luminance(le)) * g.areas[i];
+      // A coloured emitter with zero luminance still needs to be sampled; a textured one that is
+      // black all over does not.
+      const double w = p > 0.0 ? p : double(std::max({le.x, le.y, le.z})) * g.areas[i];
+      if (!(w > 0.0)) continue;
       g.emitters.push_back(uint32_t(i));
       power.push_back(w);
       total += w;

@@ -4,6 +4,7 @@
 
 #include "penumbra/raytrace/ray_engine.h"
 #include "penumbra/scene/scene.h"
+#include "penumbra/scene/surface_textures.h"
 
 #include <glm/common.hpp>
 #include <glm/geometric.hpp>
@@ -11,6 +12,7 @@
 
 #include <algorithm>
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 namespace penumbra {
@@ -34,6 +36,9 @@ struct SurfaceHit {
   glm::vec3 normal{0.0f};            // facing the arriving ray
   glm::vec3 dir{0.0f};               // unit direction of the arriving ray
   bool front = false;                // it arrived on the front face
+  // The material's reflectance and emission at the point, textures applied.
+  glm::vec3 reflectance{0.0f};
+  glm::vec3 emission{0.0f};
 };
 
 struct SceneGeometry {
@@ -43,6 +48,8 @@ struct SceneGeometry {
   std::vector<glm::vec3> normals;  // unit geometric normal per triangle (front = CCW side)
   std::vector<float> areas;        // m^2 per triangle
   std::vector<Material> materials;
+  // Textures, vertex colours and cut-outs per triangle (the engine's hit filter holds it too).
+  std::shared_ptr<const SurfaceTextures> textures;
   RayEngine engine;
 
   // Emissive triangles, picked with probability proportional to emitted power (luminance of
@@ -66,6 +73,32 @@ struct SceneGeometry {
     const float within = float(uint64_t(u) - lo) * emitter_width_inverse[k];
     return {uint32_t(k), std::min(within, 1.0f - 0x1p-24f)};
   }
+  // The reflectance at a hit (barycentrics b1, b2): the material's, or its textures' there.
+  glm::vec3 reflectanceAt(uint32_t triangle, float b1, float b2) const {
+    return textures->varies(triangle) ? textures->reflectance(triangle, glm::vec2(b1, b2))
+                                      : materials[material_ids[triangle]].reflectance;
+  }
+  // The emitted radiance of a surface a ray stopped on.
+  glm::vec3 emissionAt(uint32_t triangle, float b1, float b2) const {
+    return textures->varies(triangle) ? textures->emission(triangle, glm::vec2(b1, b2))
+                                      : materials[material_ids[triangle]].emission;
+  }
+  // The emitted radiance at a point sampled on an emitter (next-event estimation, photon
+  // emission): emissionAt() times the chance the surface is there at all (zero in a cut-out's
+  // hole, alpha on a partly covering surface).
+  glm::vec3 emissionSampled(uint32_t triangle, float b1, float b2) const {
+    if (!textures->varies(triangle) && !textures->isCutout(triangle)) {
+      return materials[material_ids[triangle]].emission;
+    }
+    const glm::vec2 b(b1, b2);
+    glm::vec3 le = textures->emission(triangle, b);
+    if (textures->isCutout(triangle)) {
+      const Material& m = materials[material_ids[triangle]];
+      const float a = textures->alpha(triangle, b);
+      le *= m.alpha_mode == AlphaMode::kMask ? (a >= m.alpha_cutoff ? 1.0f : 0.0f) : a;
+    }
+    return le;
+  }
   glm::vec3 point(uint32_t triangle, float b1, float b2) const {
     const glm::uvec3 t = triangles[triangle];
     return (1.0f - b1 - b2) * positions[t.x] + b1 * positions[t.y] + b2 * positions[t.z];
@@ -81,6 +114,8 @@ struct SceneGeometry {
     h.dir = glm::normalize(ray_dir);
     h.front = glm::dot(h.geometric_normal, h.dir) < 0.0f;
     h.normal = h.front ? h.geometric_normal : -h.geometric_normal;
+    h.reflectance = reflectanceAt(h.triangle, hit.u, hit.v);
+    h.emission = emissionAt(h.triangle, hit.u, hit.v);
     return h;
   }
   // How far to move a ray origin on `triangle` along the unit normal so that the ray cannot hit

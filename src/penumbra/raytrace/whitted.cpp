@@ -140,7 +140,7 @@ class WaveTracer {
     }
     const SurfaceHit h = tracer_.geometry().surfaceHit(hit, node.ray.dir);
     const Material& mat = *h.material;
-    if (mat.isEmissive() && h.front) value_[k] = node.weight * mat.emission;
+    if (mat.isEmissive() && h.front) value_[k] = node.weight * h.emission;
     if (mat.isSpecular()) {
       if (node.depth >= settings_.max_depth) return;
       // The reflected and refracted rays, kept until the generation's order is known.
@@ -156,13 +156,13 @@ class WaveTracer {
       child_offset_[k + 1] = uint32_t(lobes.count);
       return;
     }
-    if (mat.reflectance == glm::vec3(0.0f)) return;
+    if (h.reflectance == glm::vec3(0.0f)) return;
     if (!mat.two_sided && !h.front) return;
     DiffuseVertex& v = vertices_[k];
     v.point = h.point;
     v.offset = h.offset;
     v.normal = h.normal;
-    v.reflectance = mat.reflectance;
+    v.reflectance = h.reflectance;
     v.key = node.key;
     diffuse_[k] = 1;
     Rng rng(seed_, node.key);

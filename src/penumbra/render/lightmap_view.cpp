@@ -4,11 +4,13 @@
 #include "penumbra/core/parallel.h"
 #include "penumbra/core/rng.h"
 #include "penumbra/raytrace/camera_rays.h"
+#include "penumbra/raytrace/cutout_filter.h"
 #include "penumbra/raytrace/ray_engine.h"
 
 #include <glm/common.hpp>
 #include <glm/geometric.hpp>
 
+#include <algorithm>
 #include <cmath>
 
 namespace penumbra {
@@ -30,8 +32,12 @@ glm::vec3 sampleBilinear(const Image& lightmap, glm::vec2 uv) {
 
 LightmapLookup::LightmapLookup(std::span<const glm::vec3> positions,
                                std::span<const glm::uvec3> triangles, const ChartAtlas& atlas,
-                               const Image& lightmap)
-    : positions_(positions), triangles_(triangles), atlas_(&atlas), lightmap_(&lightmap) {
+                               const Image& lightmap, const LightmapDetail* detail)
+    : positions_(positions),
+      triangles_(triangles),
+      atlas_(&atlas),
+      lightmap_(&lightmap),
+      detail_(detail && detail->textures && detail->textures->any() ? detail : nullptr) {
   PENUMBRA_CHECK(atlas.uvs.size() == 3 * atlas.faces.size());
   PENUMBRA_CHECK(lightmap.width == atlas.width && lightmap.height == atlas.height);
   face_of_.assign(2 * triangles.size(), -1);
@@ -53,7 +59,23 @@ glm::vec3 LightmapLookup::radiance(const glm::vec3& ray_dir, int32_t triangle, f
   const size_t c = 3 * size_t(f);
   const glm::vec2 uv =
       (1.0f - u - v) * atlas_->uvs[c] + u * atlas_->uvs[c + 1] + v * atlas_->uvs[c + 2];
-  return sampleBilinear(*lightmap_, uv);
+  const glm::vec3 l = sampleBilinear(*lightmap_, uv);
+  if (!detail_ || !detail_->textures->varies(uint32_t(t))) return l;
+  // The texture's detail: the lightmap's irradiance (its mean albedo divided out) times the
+  // albedo at the hit, plus the emission at the hit.
+  const glm::vec3 rho_mean = sampleBilinear(detail_->mean_reflectance, uv);
+  const glm::vec3 le_mean = sampleBilinear(detail_->mean_emission, uv);
+  const glm::vec2 b(u, v);
+  const glm::vec3 rho = detail_->textures->reflectance(uint32_t(t), b);
+  const bool front = atlas_->faces[size_t(f)].back == false;
+  const glm::vec3 le = front ? detail_->textures->emission(uint32_t(t), b) : glm::vec3(0.0f);
+  glm::vec3 out;
+  for (int k = 0; k < 3; ++k) {
+    // A texel that reflects (almost) nothing on average keeps the lightmap's value.
+    out[k] = rho_mean[k] > 1e-4f ? rho[k] * std::max(l[k] - le_mean[k], 0.0f) / rho_mean[k] + le[k]
+                                 : l[k] - le_mean[k] + le[k];
+  }
+  return glm::max(out, glm::vec3(0.0f));
 }
 
 namespace {
@@ -70,9 +92,15 @@ Ray viewRay(const CameraRays& rays, const LightmapViewSettings& settings, int x,
 
 LightmapView::LightmapView(std::span<const glm::vec3> positions,
                            std::span<const glm::uvec3> triangles, const ChartAtlas& atlas,
-                           const Camera& camera, const LightmapViewSettings& settings)
-    : positions_(positions), triangles_(triangles), atlas_(&atlas), settings_(settings) {
-  const RayEngine engine = RayEngine::build(positions, triangles);
+                           const Camera& camera, const LightmapViewSettings& settings,
+                           const LightmapDetail* detail)
+    : positions_(positions),
+      triangles_(triangles),
+      atlas_(&atlas),
+      settings_(settings),
+      detail_(detail) {
+  RayEngine engine = RayEngine::build(positions, triangles);
+  if (detail) engine.setHitFilter(cutoutFilter(detail->textures));
   const CameraRays rays(camera, settings.width, settings.height);
   const size_t spp = size_t(settings.spp);
   samples_.resize(size_t(settings.width) * size_t(settings.height) * spp);
@@ -91,7 +119,7 @@ LightmapView::LightmapView(std::span<const glm::vec3> positions,
 }
 
 Image LightmapView::render(const Image& lightmap) const {
-  const LightmapLookup lookup(positions_, triangles_, *atlas_, lightmap);
+  const LightmapLookup lookup(positions_, triangles_, *atlas_, lightmap, detail_);
   Image image(settings_.width, settings_.height);
   const size_t spp = size_t(settings_.spp);
   parallelRange(image.pixels.size(), 1024, [&](size_t p0, size_t p1) {
@@ -110,9 +138,10 @@ Image LightmapView::render(const Image& lightmap) const {
 Image renderLightmapView(std::span<const glm::vec3> positions,
                          std::span<const glm::uvec3> triangles, const ChartAtlas& atlas,
                          const Image& lightmap, const Camera& camera,
-                         const LightmapViewSettings& settings) {
-  const LightmapLookup lookup(positions, triangles, atlas, lightmap);
-  const RayEngine engine = RayEngine::build(positions, triangles);
+                         const LightmapViewSettings& settings, const LightmapDetail* detail) {
+  const LightmapLookup lookup(positions, triangles, atlas, lightmap, detail);
+  RayEngine engine = RayEngine::build(positions, triangles);
+  if (detail) engine.setHitFilter(cutoutFilter(detail->textures));
   const CameraRays rays(camera, settings.width, settings.height);
   Image image(settings.width, settings.height);
   parallelRange(size_t(settings.height), 1, [&](size_t y0, size_t y1) {

@@ -6,10 +6,12 @@
 #include "penumbra/core/image.h"
 #include "penumbra/geometry/chart_atlas.h"
 #include "penumbra/scene/camera.h"
+#include "penumbra/scene/surface_textures.h"
 
 #include <glm/vec3.hpp>
 
 #include <cstdint>
+#include <memory>
 #include <span>
 #include <vector>
 
@@ -27,11 +29,13 @@ struct LightmapViewSettings {
 glm::vec3 sampleBilinear(const Image& lightmap, glm::vec2 uv);
 
 // The radiance a ray sees in a lightmap: its hit read through the face on the side the ray sees
-// (bilinear at the hit's lightmap UV); black where that side has no face and for misses.
+// (bilinear at the hit's lightmap UV), with texture detail when `detail` is given; black where
+// that side has no face and for misses.
 class LightmapLookup {
  public:
   LightmapLookup(std::span<const glm::vec3> positions, std::span<const glm::uvec3> triangles,
-                 const ChartAtlas& atlas, const Image& lightmap);
+                 const ChartAtlas& atlas, const Image& lightmap,
+                 const LightmapDetail* detail = nullptr);
   glm::vec3 radiance(const glm::vec3& ray_dir, int32_t triangle, float u, float v) const;
 
  private:
@@ -39,18 +43,20 @@ class LightmapLookup {
   std::span<const glm::uvec3> triangles_;
   const ChartAtlas* atlas_;
   const Image* lightmap_;
+  const LightmapDetail* detail_;
   std::vector<int32_t> face_of_;  // the face of each side of each triangle, -1 where none
 };
 
 // The same view for one lightmap after another (a solver refining, a scene relit, the camera
 // still): the camera's hits are traced once, at construction, and each image costs only the
 // lookups. render() gives renderLightmapView's image bit for bit. Keeps spp hits per pixel (24
-// bytes each); `positions`, `triangles` and `atlas` must outlive it.
+// bytes each); `positions`, `triangles`, `atlas` and `detail` must outlive it.
 inline constexpr uint64_t kLightmapViewBytesPerSample = 24;
 class LightmapView {
  public:
   LightmapView(std::span<const glm::vec3> positions, std::span<const glm::uvec3> triangles,
-               const ChartAtlas& atlas, const Camera& camera, const LightmapViewSettings& settings);
+               const ChartAtlas& atlas, const Camera& camera, const LightmapViewSettings& settings,
+               const LightmapDetail* detail = nullptr);
   Image render(const Image& lightmap) const;
 
  private:
@@ -63,6 +69,7 @@ class LightmapView {
   std::span<const glm::uvec3> triangles_;
   const ChartAtlas* atlas_;
   LightmapViewSettings settings_;
+  const LightmapDetail* detail_;
   std::vector<Sample> samples_;  // spp per pixel, in pixel order
   static_assert(sizeof(Sample) == kLightmapViewBytesPerSample);
 };
@@ -74,6 +81,7 @@ class LightmapView {
 Image renderLightmapView(std::span<const glm::vec3> positions,
                          std::span<const glm::uvec3> triangles, const ChartAtlas& atlas,
                          const Image& lightmap, const Camera& camera,
-                         const LightmapViewSettings& settings);
+                         const LightmapViewSettings& settings,
+                         const LightmapDetail* detail = nullptr);
 
 }  // namespace penumbra

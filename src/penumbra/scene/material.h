@@ -8,6 +8,7 @@
 #pragma once
 
 #include "penumbra/core/image.h"
+#include "penumbra/scene/texture.h"
 
 #include <glm/vec3.hpp>
 
@@ -49,6 +50,14 @@ enum class Scattering : uint8_t {
                 // filters the light once as it enters (1 = clear glass)
 };
 
+// How a surface covers what lies behind it (glTF 2.0 sec. 3.9.4, alphaMode): every method's rays
+// and raster passes see through the uncovered part (docs/algorithms.md, "Cut-outs").
+enum class AlphaMode : uint8_t {
+  kOpaque,  // alpha is ignored: the surface covers everything
+  kMask,    // a cut-out: covered where alpha >= alpha_cutoff, a hole elsewhere
+  kBlend,   // partial coverage: light passes with probability 1 - alpha
+};
+
 struct Material {
   std::string name;
   glm::vec3 reflectance{0.8f};
@@ -70,6 +79,22 @@ struct Material {
   std::string normal_map_source;  // the file, for messages
   float normal_scale = 1.0f;
 
+  // Textures (scene/texture.h; docs/scene-format.md), each read through its UV set, sampler and
+  // transform. `reflectance_texture` multiplies `reflectance` (glTF baseColorTexture times
+  // baseColorFactor, MTL map_Kd times Kd) and its alpha multiplies `alpha`;
+  // `emission_texture` multiplies `emission` (glTF emissiveTexture, MTL map_Ke). A mesh's
+  // vertex colours (Mesh::colors) multiply reflectance and alpha too.
+  std::optional<TextureBinding> reflectance_texture;
+  std::optional<TextureBinding> emission_texture;
+  // Coverage from a texture of its own (MTL map_d): its alpha channel when the file has one,
+  // else its first channel, as stored; multiplies `alpha`.
+  std::optional<TextureBinding> coverage_texture;
+  float alpha = 1.0f;  // coverage factor: glTF baseColorFactor's alpha, MTL d
+  // Whether reflectance_texture's alpha multiplies `alpha` (glTF: yes; MTL: no, map_d does).
+  bool alpha_from_reflectance = true;
+  AlphaMode alpha_mode = AlphaMode::kOpaque;
+  float alpha_cutoff = 0.5f;  // kMask: covered where alpha >= alpha_cutoff
+
   Scattering scattering = Scattering::kDiffuse;
   glm::vec3 specular{1.0f};  // mirror reflectance, or glass transmittance (see Scattering)
   float ior = 1.5f;          // glass: index of refraction relative to the outside
@@ -77,6 +102,16 @@ struct Material {
   bool isEmissive() const { return emission.x > 0.0f || emission.y > 0.0f || emission.z > 0.0f; }
   bool isTranslucent() const { return subsurface.has_value(); }
   bool isSpecular() const { return scattering != Scattering::kDiffuse; }
+  bool isTextured() const { return reflectance_texture || emission_texture || coverage_texture; }
+  // Whether rays may pass through some of the surface.
+  bool hasCutouts() const {
+    if (alpha_mode == AlphaMode::kOpaque) return false;
+    if (coverage_texture) return true;
+    if (alpha_from_reflectance && reflectance_texture && reflectance_texture->texture->hasAlpha()) {
+      return true;
+    }
+    return alpha_mode == AlphaMode::kMask ? alpha < alpha_cutoff : alpha < 1.0f;
+  }
 };
 
 }  // namespace penumbra

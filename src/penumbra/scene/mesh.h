@@ -4,6 +4,7 @@
 
 #include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
+#include <glm/vec4.hpp>
 
 #include <cstdint>
 #include <string>
@@ -15,7 +16,13 @@ struct Mesh {
   std::string name;
   std::vector<glm::vec3> positions;  // metres
   std::vector<glm::vec3> normals;    // empty, or one unit shading normal per position
-  std::vector<glm::vec2> uvs;        // empty, or one per position
+  std::vector<glm::vec2> uvs;        // empty, or one per position (UV set 0, glTF TEXCOORD_0)
+  // UV sets 1, 2, ... (glTF TEXCOORD_1 ...): extra_uvs[k] is set k + 1, each empty or one per
+  // position.
+  std::vector<std::vector<glm::vec2>> extra_uvs;
+  // Vertex colours (glTF COLOR_0), linear RGBA in [0, 1]: empty, or one per position. They
+  // multiply the material's reflectance and alpha.
+  std::vector<glm::vec4> colors;
   // The UVs' v axis: false (OBJ, PLY, JSON) v grows up the image, its origin at the bottom-left;
   // true (glTF) v grows down from the top-left. Images are looked up accordingly.
   bool uv_origin_top = false;
@@ -23,6 +30,12 @@ struct Mesh {
   std::vector<uint32_t> material_ids;  // one per triangle, index into Scene::materials
 
   size_t triangleCount() const { return triangles.size(); }
+  // UV set k (empty when the mesh has none).
+  const std::vector<glm::vec2>& uvSet(uint32_t k) const {
+    static const std::vector<glm::vec2> kNone;
+    if (k == 0) return uvs;
+    return k - 1 < extra_uvs.size() ? extra_uvs[k - 1] : kNone;
+  }
 };
 
 }  // namespace penumbra

@@ -123,6 +123,81 @@ std::vector<Light> orbitLights(std::span<const Light> lights, const glm::vec3& c
   return out;
 }
 
+namespace {
+
+// A material's coverage and texture slots (scene/material.h).
+Status checkCoverage(const Scene& scene, const Material& m, const std::string& place) {
+  if (!(m.alpha >= 0.0f && m.alpha <= 1.0f)) {
+    return inputError(scene.source, place, fmt::format("alpha {} is outside [0, 1]", m.alpha));
+  }
+  if (!(m.alpha_cutoff >= 0.0f && m.alpha_cutoff <= 1.0f)) {
+    return inputError(scene.source, place,
+                      fmt::format("alpha cutoff {} is outside [0, 1]", m.alpha_cutoff));
+  }
+  for (const auto* binding : {&m.reflectance_texture, &m.emission_texture, &m.coverage_texture}) {
+    if (!*binding) continue;
+    const TextureBinding& b = **binding;
+    if (!b.texture) return inputError(scene.source, place, "a texture slot has no image");
+    if (!finite3(b.row_u) || !finite3(b.row_v)) {
+      return inputError(
+          scene.source, place,
+          fmt::format("the texture transform of '{}' is not finite", b.texture->source()));
+    }
+  }
+  return {};
+}
+
+// The UV sets and vertex colours of a mesh: one per vertex, finite, colours in [0, 1].
+Status checkMeshAttributes(const Scene& scene, const Mesh& mesh, const std::string& where) {
+  for (size_t set = 0; set <= mesh.extra_uvs.size(); ++set) {
+    const std::vector<glm::vec2>& uvs = mesh.uvSet(uint32_t(set));
+    if (!uvs.empty() && uvs.size() != mesh.positions.size()) {
+      return inputError(scene.source, where,
+                        fmt::format("UV set {} has {} texture coordinates for {} vertices", set,
+                                    uvs.size(), mesh.positions.size()));
+    }
+    for (size_t i = 0; i < uvs.size(); ++i) {
+      if (!std::isfinite(uvs[i].x) || !std::isfinite(uvs[i].y)) {
+        return inputError(scene.source,
+                          fmt::format("{}, texture coordinate {} of UV set {}", where, i, set),
+                          "not a finite number");
+      }
+    }
+  }
+  if (!mesh.colors.empty() && mesh.colors.size() != mesh.positions.size()) {
+    return inputError(scene.source, where, "vertex colour count differs from vertex count");
+  }
+  for (size_t i = 0; i < mesh.colors.size(); ++i) {
+    const glm::vec4 c = mesh.colors[i];
+    if (!(c.x >= 0.0f && c.x <= 1.0f && c.y >= 0.0f && c.y <= 1.0f && c.z >= 0.0f && c.z <= 1.0f &&
+          c.w >= 0.0f && c.w <= 1.0f)) {
+      return inputError(scene.source, fmt::format("{}, vertex colour {}", where, i),
+                        "outside [0, 1]");
+    }
+  }
+  return {};
+}
+
+// Warns about textures that read a UV set a mesh lacks (those triangles take the mean).
+void warnMissingUvSets(Scene& scene, const Mesh& mesh, const std::string& where) {
+  std::vector<uint8_t> used(scene.materials.size(), 0);
+  for (uint32_t id : mesh.material_ids) used[id] = 1;
+  for (size_t mi = 0; mi < used.size(); ++mi) {
+    if (!used[mi]) continue;
+    const Material& m = scene.materials[mi];
+    for (const auto* binding : {&m.reflectance_texture, &m.emission_texture, &m.coverage_texture}) {
+      if (*binding && mesh.uvSet((*binding)->uv_set).empty()) {
+        scene.warnings.push_back(fmt::format(
+            "{}: {} has no UV set {}, which material '{}' reads '{}' through: its triangles "
+            "take the texture's mean",
+            scene.source, where, (*binding)->uv_set, m.name, (*binding)->texture->source()));
+      }
+    }
+  }
+}
+
+}  // namespace
+
 Status validateScene(Scene& scene) {
   if (!finite3(scene.environment) || glm::any(glm::lessThan(scene.environment, glm::vec3(0.0f)))) {
     return inputError(scene.source, "environment",
@@ -148,6 +223,7 @@ Status validateScene(Scene& scene) {
         return inputError(scene.source, place + ": subsurface", s.error().message);
       }
     }
+    PENUMBRA_TRY(checkCoverage(scene, m, place));
     if (m.isSpecular()) {
       if (!finite3(m.specular) || glm::any(glm::lessThan(m.specular, glm::vec3(0.0f))) ||
           glm::any(glm::greaterThan(m.specular, glm::vec3(1.0f)))) {
@@ -189,12 +265,7 @@ Status validateScene(Scene& scene) {
       // A zero normal carries no direction; shading falls back to the geometric normal.
       n = len > 0.0f ? n / len : glm::vec3(0.0f);
     }
-    for (size_t i = 0; i < mesh.uvs.size(); ++i) {
-      if (!std::isfinite(mesh.uvs[i].x) || !std::isfinite(mesh.uvs[i].y)) {
-        return inputError(scene.source, fmt::format("{}, texture coordinate {}", where, i),
-                          "not a finite number");
-      }
-    }
+    PENUMBRA_TRY(checkMeshAttributes(scene, mesh, where));
     if (mesh.material_ids.size() != mesh.triangles.size()) {
       return inputError(scene.source, where, "every triangle needs a material");
     }
@@ -218,6 +289,7 @@ Status validateScene(Scene& scene) {
         ++degenerate;
       }
     }
+    warnMissingUvSets(scene, mesh, where);
     if (degenerate > 0 && degenerate == mesh.triangles.size()) {
       return inputError(scene.source, where, "every triangle is degenerate (zero area)");
     }

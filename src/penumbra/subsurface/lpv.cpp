@@ -6,6 +6,7 @@
 #include "penumbra/core/timer.h"
 #include "penumbra/kernels/dipole.h"
 #include "penumbra/raytrace/camera_rays.h"
+#include "penumbra/raytrace/cutout_filter.h"
 #include "penumbra/raytrace/lights.h"
 #include "penumbra/subsurface/lpv_gl.h"
 #include "penumbra/subsurface/lpv_sh.h"
@@ -129,6 +130,7 @@ Status LpvSolver::rebuild(const Scene& scene, FlatTriangles flat) {
   stale_ = false;
   flat_ = std::move(flat);
   engine_ = RayEngine::build(flat_.positions, flat_.triangles);
+  engine_.setHitFilter(sceneCutouts(scene));  // light reaches the medium through cut-outs
   Bounds3 bounds;
   for (const glm::vec3& p : flat_.positions) bounds.extend(p);
   lift_ = 1e-5 * double(glm::length(bounds.hi - bounds.lo));
