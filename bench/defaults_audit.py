@@ -5,7 +5,7 @@ option but the image size, compared with a 4,096-spp path-traced reference by th
 and the relative error of the mean over each block of a 4 x 4 grid. The bar: the mean within 2%,
 every block within 5%.
 
-  defaults_audit.py PENUMBRA [OUT_DIR] [--seeds N]
+  defaults_audit.py PENUMBRA [OUT_DIR] [--seeds N] [--scenes NAME,...] [--methods NAME,...]
 
 prints one row per method and scene (seconds from --stats, mean ratio, block RMS, worst block);
 --seeds N repeats each method with --seed 0 .. N-1 and reports the worst of them. Needs numpy.
@@ -20,7 +20,8 @@ import tempfile
 import numpy as np
 
 ROOT = os.path.normpath(os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
-SCENES = [("cornell", "cornell", 64, 64), ("room", os.path.join(ROOT, "scenes", "room.json"), 64, 48)]
+SCENES = [("cornell", "cornell", 64, 64), ("room", os.path.join(ROOT, "scenes", "room.json"), 64, 48),
+          ("textured", os.path.join(ROOT, "scenes", "textured_room", "room.glb"), 96, 64)]
 METHODS = ["pathtrace", "whitted", "photons", "matrix", "progressive", "stochastic"]
 REFERENCE_SPP = 4096
 
@@ -65,18 +66,22 @@ def main(argv):
     parser.add_argument("penumbra")
     parser.add_argument("out_dir", nargs="?")
     parser.add_argument("--seeds", type=int, default=1)
+    parser.add_argument("--scenes", default=",".join(s[0] for s in SCENES))
+    parser.add_argument("--methods", default=",".join(METHODS))
     args = parser.parse_args(argv[1:])
+    scenes = [s for s in SCENES if s[0] in args.scenes.split(",")]
+    methods = [m for m in METHODS if m in args.methods.split(",")]
     penumbra, seeds = args.penumbra, args.seeds
     out_dir = args.out_dir or tempfile.mkdtemp(prefix="penumbra-audit-")
     os.makedirs(out_dir, exist_ok=True)
     print("| method | scene | seconds | mean / reference | 4 x 4 blocks: RMS | worst block | "
           "meets 2% / 5% |")
     print("|---|---|---|---|---|---|---|")
-    for name, scene, width, height in SCENES:
+    for name, scene, width, height in scenes:
         reference = os.path.join(out_dir, f"ref_{name}.pfm")
         if not os.path.exists(reference):
             render(penumbra, scene, width, height, reference, ["--spp", str(REFERENCE_SPP)])
-        for method in METHODS:
+        for method in methods:
             rows = []
             for seed in range(seeds):
                 out = os.path.join(out_dir, f"{method}_{name}_{seed}.pfm")

@@ -8,6 +8,7 @@
 #include "penumbra/raytrace/camera_rays.h"
 #include "penumbra/raytrace/scene_geometry.h"
 #include "penumbra/render/lightmap_view.h"
+#include "penumbra/scene/builtin.h"
 #include "support/textured_scenes.h"
 
 #include <gtest/gtest.h>
@@ -109,15 +110,57 @@ TEST(TextureRadiosity, ChequeredFurnaceTakesTheMeanAlbedo) {
   EXPECT_NEAR(mb / ma / expected, 1.0, 0.01);
 }
 
-TEST(TextureRadiosity, HalfMaskedQuadCastsHalfTheShadow) {
-  const uint8_t on[4] = {0, 0, 0, 255}, off[4] = {0, 0, 0, 0};
-  Material lattice;
+// The furnace with a lattice inside that is all holes: light passes it untouched, so every wall
+// element keeps 2 pi. The lattice's elements still have area and receive irradiance; the power
+// books and the closure of shots and rows must count only what they intercept (none of it).
+TEST(TextureRadiosity, AnOpenLatticeInTheFurnaceChangesNothing) {
+  Scene s = *builtinScene("furnace");
+  Material open = test::maskedLattice(AlphaMode::kMask);
+  open.alpha = 0.0f;  // nothing covered
+  s.materials.push_back(open);
+  Mesh lattice;
   lattice.name = "lattice";
-  lattice.reflectance = glm::vec3(0.0f);
-  lattice.reflectance_texture = TextureBinding{};
-  lattice.reflectance_texture->texture = test::makeTexture(test::chequer(64, 64, 8, on, off), true);
-  lattice.alpha_mode = AlphaMode::kMask;
-  const Scene s = test::floorUnderOccluder(lattice, 2.0f);
+  lattice.positions = {{-0.5f, 0, 0.5f}, {0.5f, 0, 0.5f}, {0.5f, 0, -0.5f}, {-0.5f, 0, -0.5f}};
+  lattice.uvs = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
+  lattice.triangles = {{0, 1, 2}, {0, 2, 3}};
+  lattice.material_ids = {1, 1};
+  s.meshes.push_back(lattice);
+  ASSERT_TRUE(validateScene(s).ok());
+  const double expected = 2.0 * kPi;
+  auto worstWall = [&](auto radiosity, const ChartAtlas& atlas, size_t n) {
+    double worst = 0.0;
+    for (size_t e = 0; e < n; ++e) {
+      const SurfaceFace& face = atlas.faces[atlas.element_face[e]];
+      if (face.back || face.triangle >= 12) continue;  // the cube's inside
+      worst = std::max(worst, std::abs(radiosity(e) / expected - 1.0));
+    }
+    return worst;
+  };
+  ProgressiveOptions o;
+  o.atlas.texel_density = 6.0;
+  o.convergence = 1e-4;
+  o.max_iterations = 4000;
+  Expected<ProgressiveRadiosity> pr = ProgressiveRadiosity::build(s, o);
+  ASSERT_TRUE(pr.ok()) << pr.error().describe();
+  ASSERT_TRUE(pr->solve().converged);
+  EXPECT_LT(
+      worstWall([&](size_t e) { return pr->radiosity(e).x; }, pr->atlas(), pr->elementCount()),
+      0.03);
+  MatrixRadiosityOptions mo;
+  mo.elements = 600;
+  mo.lightmap.texel_density = 6.0;
+  Expected<MatrixRadiosity> mr = buildMatrixRadiosity(s, mo);
+  ASSERT_TRUE(mr.ok()) << mr.error().describe();
+  SolveOptions so;
+  so.tolerance = 1e-8;
+  so.max_iterations = 400;
+  ASSERT_TRUE(mr->solve(so).converged);
+  const std::vector<glm::dvec3> b = mr->elementRadiosity(false);
+  EXPECT_LT(worstWall([&](size_t e) { return b[e].x; }, mr->surface.atlas, b.size()), 0.03);
+}
+
+TEST(TextureRadiosity, HalfMaskedQuadCastsHalfTheShadow) {
+  const Scene s = test::floorUnderOccluder(test::maskedLattice(AlphaMode::kMask), 2.0f);
   ProgressiveOptions o;
   o.atlas.texel_density = 16.0;  // elements of 1/4 of a cell
   Expected<ProgressiveRadiosity> pr = ProgressiveRadiosity::build(s, o);

@@ -78,20 +78,8 @@ TEST(TextureTransport, ChequeredFurnaceFollowsTheMeanAlbedo) {
   EXPECT_LT(worst_block, 0.05);
 }
 
-Material maskedOccluder(AlphaMode mode) {
-  // Alpha 1 and 0 cells (8 x 8); black, so nothing reflects off it.
-  const uint8_t on[4] = {0, 0, 0, 255}, off[4] = {0, 0, 0, 0};
-  Material m;
-  m.name = "lattice";
-  m.reflectance = glm::vec3(0.0f);
-  m.reflectance_texture = TextureBinding{};
-  m.reflectance_texture->texture = test::makeTexture(test::chequer(64, 64, 8, on, off), true);
-  m.alpha_mode = mode;
-  return m;
-}
-
 TEST(TextureTransport, HalfMaskedQuadCastsHalfTheShadow) {
-  const Scene s = test::floorUnderOccluder(maskedOccluder(AlphaMode::kMask), 2.0f);
+  const Scene s = test::floorUnderOccluder(test::maskedLattice(AlphaMode::kMask), 2.0f);
   const SceneGeometry g = SceneGeometry::build(s);
   ASSERT_NE(g.engine.hitFilter(), nullptr);
   // Vertical rays up from a grid under the occluder: half of them pass (every cell is 1/4 m,
@@ -220,7 +208,7 @@ TEST(TextureTransport, EmissiveTextureFluxIsItsMeanTimesTheArea) {
 }
 
 TEST(TextureTransport, OpaqueScenesKeepTheUnfilteredEngine) {
-  Scene s = test::floorUnderOccluder(maskedOccluder(AlphaMode::kOpaque), 1.0f);
+  Scene s = test::floorUnderOccluder(test::maskedLattice(AlphaMode::kOpaque), 1.0f);
   EXPECT_EQ(SceneGeometry::build(s).engine.hitFilter(), nullptr);
   EXPECT_EQ(sceneCutouts(s), nullptr);
 }

@@ -55,6 +55,17 @@ Mesh quad(const std::string& name, glm::vec3 o, glm::vec3 u, glm::vec3 v, uint32
 
 }  // namespace
 
+Material maskedLattice(AlphaMode mode) {
+  const uint8_t on[4] = {0, 0, 0, 255}, off[4] = {0, 0, 0, 0};
+  Material m;
+  m.name = "lattice";
+  m.reflectance = glm::vec3(0.0f);  // nothing reflects off it
+  m.reflectance_texture = TextureBinding{};
+  m.reflectance_texture->texture = makeTexture(chequer(64, 64, 8, on, off), true);
+  m.alpha_mode = mode;
+  return m;
+}
+
 Scene floorUnderOccluder(const Material& occluder, float irradiance) {
   Scene s;
   s.source = "test:floor-under-occluder";

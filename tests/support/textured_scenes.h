@@ -18,6 +18,9 @@ std::shared_ptr<const Texture> makeTexture(const Rgba8Image& image, bool colour)
 // pattern, and every point's irradiance is close to it when the cells are small.
 Scene chequeredFurnace(uint8_t dark, uint8_t light);
 
+// A black lattice: 8 x 8 cells of alpha 1 and 0 (half of it covered), in alpha mode `mode`.
+Material maskedLattice(AlphaMode mode);
+
 // A floor (y = 0, 4 x 4 m, reflectance 0.5) under a black 2 x 2 m occluder at y = 1 whose
 // material is `occluder` (its UVs run over [0, 1]^2), lit by a directional light straight down
 // of irradiance `irradiance` (W m^-2).

@@ -214,6 +214,29 @@ Status checkGltfJson(const std::string& path, std::string_view text, const std::
   return {};
 }
 
+namespace {
+
+// A tinygltf value as JSON (extension objects are parsed by the same code as the JSON scene's).
+nlohmann::json toJson(const tinygltf::Value& v) {
+  if (v.IsBool()) return v.Get<bool>();
+  if (v.IsInt()) return v.GetNumberAsInt();
+  if (v.IsNumber()) return v.GetNumberAsDouble();
+  if (v.IsString()) return v.Get<std::string>();
+  if (v.IsArray()) {
+    nlohmann::json a = nlohmann::json::array();
+    for (size_t i = 0; i < v.ArrayLen(); ++i) a.push_back(toJson(v.Get(int(i))));
+    return a;
+  }
+  if (v.IsObject()) {
+    nlohmann::json o = nlohmann::json::object();
+    for (const std::string& k : v.Keys()) o[k] = toJson(v.Get(k));
+    return o;
+  }
+  return nullptr;
+}
+
+}  // namespace
+
 class GltfReader {
  public:
   GltfReader(const std::string& path, const tinygltf::Model& model,
@@ -511,38 +534,20 @@ Expected<TextureBinding> GltfReader::textureBinding(int texture_index, int tex_c
   int uv_set = tex_coord;
   auto transform = extensions.find("KHR_texture_transform");
   if (transform != extensions.end() && transform->second.IsObject()) {
-    const tinygltf::Value& x = transform->second;
+    const nlohmann::json x = toJson(transform->second);
     const std::string where = place + ".extensions.KHR_texture_transform";
-    auto vec2 = [&](const char* key, glm::vec2 fallback) -> Expected<glm::vec2> {
-      if (!x.Has(key)) return fallback;
-      const tinygltf::Value& v = x.Get(key);
-      if (!v.IsArray() || v.ArrayLen() != 2 || !v.Get(0).IsNumber() || !v.Get(1).IsNumber()) {
-        return inputError(path_, where, fmt::format("{} must be two numbers", key));
+    PENUMBRA_TRY(readTextureTransform(x, path_, where, binding));
+    if (x.contains("texCoord")) {
+      if (!x.at("texCoord").is_number_integer()) {
+        return inputError(path_, where + ".texCoord", "must be an integer");
       }
-      const glm::dvec2 d(v.Get(0).GetNumberAsDouble(), v.Get(1).GetNumberAsDouble());
-      if (!std::isfinite(d.x) || !std::isfinite(d.y) || std::abs(d.x) > 1e6 ||
-          std::abs(d.y) > 1e6) {
-        return inputError(path_, where, fmt::format("{} must be finite, within 1e6", key));
+      const int64_t t = x.at("texCoord").get<int64_t>();
+      if (t < 0 || t > 7) {
+        return inputError(path_, where + ".texCoord",
+                          fmt::format("{} is not a UV set (0 to 7)", t));
       }
-      return glm::vec2(d);
-    };
-    Expected<glm::vec2> offset = vec2("offset", glm::vec2(0.0f));
-    if (!offset) return offset.error();
-    Expected<glm::vec2> scale = vec2("scale", glm::vec2(1.0f));
-    if (!scale) return scale.error();
-    double rotation = 0.0;
-    if (x.Has("rotation")) {
-      if (!x.Get("rotation").IsNumber() || !std::isfinite(x.Get("rotation").GetNumberAsDouble())) {
-        return inputError(path_, where, "rotation must be a number");
-      }
-      rotation = x.Get("rotation").GetNumberAsDouble();
+      uv_set = int(t);
     }
-    if (x.Has("texCoord")) {
-      if (!x.Get("texCoord").IsInt())
-        return inputError(path_, where, "texCoord must be an integer");
-      uv_set = x.Get("texCoord").GetNumberAsInt();
-    }
-    binding.setTransform(*offset, float(std::remainder(rotation, 2.0 * std::numbers::pi)), *scale);
   }
   if (uv_set < 0 || uv_set > 7) {
     return inputError(path_, place, fmt::format("texCoord {} is not a UV set (0 to 7)", uv_set));
@@ -550,29 +555,6 @@ Expected<TextureBinding> GltfReader::textureBinding(int texture_index, int tex_c
   binding.uv_set = uint32_t(uv_set);
   return binding;
 }
-
-namespace {
-
-// A tinygltf value as JSON (extension objects are parsed by the same code as the JSON scene's).
-nlohmann::json toJson(const tinygltf::Value& v) {
-  if (v.IsBool()) return v.Get<bool>();
-  if (v.IsInt()) return v.GetNumberAsInt();
-  if (v.IsNumber()) return v.GetNumberAsDouble();
-  if (v.IsString()) return v.Get<std::string>();
-  if (v.IsArray()) {
-    nlohmann::json a = nlohmann::json::array();
-    for (size_t i = 0; i < v.ArrayLen(); ++i) a.push_back(toJson(v.Get(int(i))));
-    return a;
-  }
-  if (v.IsObject()) {
-    nlohmann::json o = nlohmann::json::object();
-    for (const std::string& k : v.Keys()) o[k] = toJson(v.Get(k));
-    return o;
-  }
-  return nullptr;
-}
-
-}  // namespace
 
 Status GltfReader::readSubsurface(const tinygltf::Material& gm, const std::string& place,
                                   Material& m) {

@@ -355,30 +355,7 @@ Expected<TextureBinding> SceneJsonReader::readTexture(const json& entry, const s
     }
     b.sampler.nearest = *f == "nearest";
   }
-  auto pair = [&](const char* key, glm::vec2 fallback) -> Expected<glm::vec2> {
-    if (!spec->contains(key)) return fallback;
-    const json& v = spec->at(key);
-    if (!v.is_array() || v.size() != 2 || !v[0].is_number() || !v[1].is_number()) {
-      return error(place + "." + key, "must be two numbers");
-    }
-    const glm::dvec2 d(v[0].get<double>(), v[1].get<double>());
-    if (!(std::abs(d.x) <= 1e6 && std::abs(d.y) <= 1e6)) {
-      return error(place + "." + key, "must be finite, within 1e6");
-    }
-    return glm::vec2(d);
-  };
-  Expected<glm::vec2> offset = pair("offset", glm::vec2(0.0f));
-  if (!offset) return offset.error();
-  Expected<glm::vec2> scale = pair("scale", glm::vec2(1.0f));
-  if (!scale) return scale.error();
-  double rotation = 0.0;
-  if (spec->contains("rotation")) {
-    Expected<double> r = number(spec->at("rotation"), place + ".rotation");
-    if (!r) return r.error();
-    if (!(std::abs(*r) <= 1e6)) return error(place + ".rotation", "must be within 1e6 radians");
-    rotation = *r;
-  }
-  b.setTransform(*offset, float(std::remainder(rotation, 2.0 * std::numbers::pi)), *scale);
+  PENUMBRA_TRY(readTextureTransform(*spec, path_, place, b));
   return b;
 }
 

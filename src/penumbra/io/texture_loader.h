@@ -5,6 +5,8 @@
 #include "penumbra/core/expected.h"
 #include "penumbra/scene/texture.h"
 
+#include <nlohmann/json.hpp>
+
 #include <map>
 #include <memory>
 #include <string>
@@ -30,5 +32,11 @@ class TextureCache {
  private:
   std::map<std::pair<std::string, bool>, std::shared_ptr<const Texture>> cache_;
 };
+
+// KHR_texture_transform's "offset" and "scale" (two numbers each, within 1e6) and "rotation"
+// (radians, within 1e6) from `spec` (the glTF extension's object, or a JSON scene's texture slot,
+// which uses the same names) into the binding's transform; errors name `file` and `place`.
+Status readTextureTransform(const nlohmann::json& spec, const std::string& file,
+                            const std::string& place, TextureBinding& binding);
 
 }  // namespace penumbra

@@ -146,7 +146,7 @@ Status renderPathTrace(const RenderOptions& options, const CommonOptions& common
   if (lux) {
     const FlatTriangles flat = flattenScene(*scene);
     RayEngine engine = RayEngine::build(flat.positions, flat.triangles);
-    engine.setHitFilter(sceneCutouts(*scene));
+    engine.setHitFilter(cutoutFilter(tracer.geometry().textures));
     Expected<IlluminanceReport> r = illuminanceReport(
         *scene, engine, flat, camera, *lux, [&](const Ray& ray, const Hit&, Rng& rng) {
           uint64_t rays = 0;

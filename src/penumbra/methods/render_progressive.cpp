@@ -63,11 +63,11 @@ Status checkLightmapRenderOptions(const RenderOptions& options,
 // Lux: the lightmap's radiance gathered over each point's hemisphere.
 Expected<std::optional<IlluminanceReport>> lightmapIlluminance(
     const Scene& scene, const RadiositySurface& surface, const Image& lightmap,
-    const Camera& camera, const std::optional<IlluminanceRequest>& lux) {
+    const LightmapDetail* detail, const Camera& camera,
+    const std::optional<IlluminanceRequest>& lux) {
   if (!lux) return std::optional<IlluminanceReport>();
-  const std::shared_ptr<const LightmapDetail> detail = surface.lightmapDetail();
   const LightmapLookup lookup(surface.flat.positions, surface.flat.triangles, surface.atlas,
-                              lightmap, detail.get());
+                              lightmap, detail);
   Expected<IlluminanceReport> r = illuminanceReport(
       scene, surface.engine, surface.flat, camera, *lux, [&](const Ray& ray, const Hit& hit, Rng&) {
         return lookup.radiance(ray.dir, hit.triangle, hit.u, hit.v);
@@ -181,13 +181,13 @@ Status renderLightmapRadiosity(const RenderOptions& options, const CommonOptions
   view.spp = spp;
   view.seed = options.seed.value_or(0);
   const Image& lightmap = stochastic ? *stoch->lightmap : *progressive->lightmap;
-  const Image image =
-      renderLightmapView(surface.flat.positions, surface.flat.triangles, surface.atlas, lightmap,
-                         camera, view, surface.lightmapDetail().get());
+  const std::shared_ptr<const LightmapDetail> detail = surface.lightmapDetail();
+  const Image image = renderLightmapView(surface.flat.positions, surface.flat.triangles,
+                                         surface.atlas, lightmap, camera, view, detail.get());
   const double view_seconds = view_timer.seconds();
   // Lux: the lightmap's radiance gathered over each point's hemisphere.
   Expected<std::optional<IlluminanceReport>> report =
-      lightmapIlluminance(*scene, surface, lightmap, camera, lux);
+      lightmapIlluminance(*scene, surface, lightmap, detail.get(), camera, lux);
   if (!report) return report.error();
   nlohmann::json lux_stats = nlohmann::json::object();
   emitImage(renderedValues(options, image, *report ? &**report : nullptr));

@@ -347,19 +347,33 @@ void unpackParts(const std::vector<std::byte>& bytes, const RowShare& rows, Form
   }
 }
 
-// Closed rows sum to 1; none sums to more.
+// Closed rows sum to 1; none sums to more. What a row sends to a cut-out cluster is
+// intercepted only in its covered share (RadiositySurface::coverage), the rest reaching what lies
+// behind it, which the row also holds: the sum counts each cluster by its coverage.
 void closeRows(const RadiositySurface& surface, std::span<const ClusterRef> cut,
                const FormFactorOptions& options, const RowShare& rows, FormFactorMatrix& m,
                std::atomic<uint64_t>& rays, std::atomic<uint64_t>& closed_rows) {
   const size_t n = rows.n;
   const Share held = rows.held;
+  std::vector<double> covered(n, 1.0);  // per cluster of the cut, area-weighted
+  if (!surface.coverage.empty()) {
+    const SurfaceHierarchy& h = surface.hierarchy;
+    for (size_t j = 0; j < n; ++j) {
+      double c = 0.0, a = 0.0;
+      for (uint32_t e = h.elementBegin(cut[j]); e < h.elementEnd(cut[j]); ++e) {
+        c += surface.coverage[e] * surface.atlas.element_area[e];
+        a += surface.atlas.element_area[e];
+      }
+      if (a > 0.0) covered[j] = c / a;
+    }
+  }
   parallelRange(held.size(), 4, [&](size_t begin, size_t end) {
     uint64_t traced = 0, closed = 0;
     for (size_t r = begin; r < end; ++r) {
       const size_t i = held.begin + r;
       float* row = &m.f[r * n];
       double sum = 0.0;
-      for (size_t j = 0; j < n; ++j) sum += row[j];
+      for (size_t j = 0; j < n; ++j) sum += row[j] * covered[j];
       if (!(sum > 0.0)) continue;
       double target = std::min(sum, 1.0);
       if (options.probe_rays > 0) {

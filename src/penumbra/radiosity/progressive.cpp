@@ -243,9 +243,11 @@ glm::dvec3 ProgressiveRadiosity::applyIncident(const glm::dvec3& scale, uint32_t
         const glm::dvec3 gain = surface_.reflectance[r] * in;
         b_[r] += gain;
         db_[r] += gain;
-        const double a = surface_.atlas.element_area[r];
+        // A cut-out intercepts its covered share; the rest goes on to what lies behind it.
+        const double a = surface_.atlas.element_area[r] * surface_.coverageOf(r);
         k.arrived += in * a;
-        k.absorbed += (glm::dvec3(1.0) - surface_.reflectance[r]) * in * a;
+        k.absorbed += (glm::dvec3(surface_.coverageOf(r)) - surface_.reflectance[r]) * in *
+                      surface_.atlas.element_area[r];
         k.reflected += gain * a;
       }
       shooter_power_[s] = residualPower(uint32_t(s));
@@ -267,7 +269,7 @@ glm::dvec3 ProgressiveRadiosity::closedScale(const glm::dvec3& shot) const {
   parallelRange(shooterCount(), 16, [&](size_t b, size_t e) {
     for (size_t s = b; s < e; ++s) {
       for (uint32_t r = shooterBegin(uint32_t(s)); r < shooterEnd(uint32_t(s)); ++r) {
-        part[s] += incident_[r] * surface_.atlas.element_area[r];
+        part[s] += incident_[r] * surface_.atlas.element_area[r] * surface_.coverageOf(r);
       }
     }
   });

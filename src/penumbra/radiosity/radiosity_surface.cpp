@@ -212,22 +212,26 @@ void RadiositySurface::integrateTextures() {
   const size_t n = elementCount();
   texture_reflectance.assign(n, glm::dvec3(1.0));
   texture_emission.assign(n, glm::dvec3(1.0));
+  if (textures->hasCutouts()) coverage.assign(n, 1.0);
   // Each element's pieces (its texel square clipped to each face it covers), in the faces'
   // barycentrics, and the texture means over them weighted by area.
   parallelRange(n, 256, [&](size_t begin, size_t end) {
     for (size_t e = begin; e < end; ++e) {
       const glm::ivec2 texel = atlas.texelOf(e);
       const glm::dvec2 lo(texel), hi(glm::dvec2(texel) + 1.0);
-      SurfaceTextures::Mean sum;
-      sum.reflectance = sum.emission = glm::dvec3(0.0);
-      sum.coverage = 0.0;
-      double area = 0.0;
+      const uint32_t first = atlas.element_face_first[e], last = atlas.element_face_first[e + 1];
       bool varies = false;
-      for (uint32_t k = atlas.element_face_first[e]; k < atlas.element_face_first[e + 1]; ++k) {
+      for (uint32_t k = first; k < last; ++k) {
+        const uint32_t t = atlas.faces[atlas.element_faces[k]].triangle;
+        varies = varies || textures->varies(t) || textures->isCutout(t);
+      }
+      if (!varies) continue;
+      // Every piece counts, those of plain faces with the factors alone (mean() gives 1).
+      glm::dvec3 reflectance_sum(0.0), emission_sum(0.0);
+      double coverage_sum = 0.0, area = 0.0;
+      for (uint32_t k = first; k < last; ++k) {
         const uint32_t f = atlas.element_faces[k];
         const uint32_t t = atlas.faces[f].triangle;
-        if (!textures->varies(t) && !textures->isCutout(t)) continue;
-        varies = true;
         const glm::dvec2 t0(atlas.corner_texel[3 * size_t(f)]),
             t1(atlas.corner_texel[3 * size_t(f) + 1]), t2(atlas.corner_texel[3 * size_t(f) + 2]);
         glm::dvec2 poly[8];
@@ -249,13 +253,15 @@ void RadiositySurface::integrateTextures() {
         }
         const SurfaceTextures::Mean m =
             textures->mean(t, std::span<const glm::vec2>(bary, size_t(count)), false);
-        sum.reflectance += piece_area * m.reflectance;
-        sum.emission += piece_area * m.emission;
+        reflectance_sum += piece_area * m.reflectance;
+        emission_sum += piece_area * m.emission;
+        coverage_sum += piece_area * m.coverage;
         area += piece_area;
       }
-      if (varies && area > 0.0) {
-        texture_reflectance[e] = sum.reflectance / area;
-        texture_emission[e] = sum.emission / area;
+      if (area > 0.0) {
+        texture_reflectance[e] = reflectance_sum / area;
+        texture_emission[e] = emission_sum / area;
+        if (!coverage.empty()) coverage[e] = coverage_sum / area;
       }
     }
   });

@@ -85,6 +85,12 @@ struct RadiositySurface {
   std::shared_ptr<const SurfaceTextures> textures;
   std::vector<glm::dvec3> texture_reflectance;
   std::vector<glm::dvec3> texture_emission;
+  // Per element, the share of its area that is there at all (cut-outs: what a ray arriving at
+  // it stops on); empty when every element covers its area. Light arriving at an element is
+  // intercepted in this share, the rest passes on to what lies behind; the power books and the
+  // closure of rows and shots count it so.
+  std::vector<double> coverage;
+  double coverageOf(size_t e) const { return coverage.empty() ? 1.0 : coverage[e]; }
 
   // Builds the atlas over the scene's faces (the scene must have passed validateScene).
   static Expected<RadiositySurface> build(const Scene& scene, const ChartAtlasOptions& atlas,

@@ -32,6 +32,12 @@ float meanLevel(const Texture& texture, double area, int samples) {
   return float(std::min(level, double(texture.levelCount() - 1)));
 }
 
+// The channel of a coverage texture (MTL map_d) that holds coverage: alpha when its file has one,
+// else the first (a grey mask).
+int coverageChannel(const Texture& t) {
+  return t.fileChannels() == 2 || t.fileChannels() == 4 ? 3 : 0;
+}
+
 }  // namespace
 
 SurfaceTextures::SurfaceTextures(const Scene& scene) {
@@ -137,7 +143,7 @@ float SurfaceTextures::coverageOf(const Material& m, uint32_t tri, glm::vec2 b,
   if (m.coverage_texture) {
     const TextureBinding& binding = *m.coverage_texture;
     const Texture& tex = *binding.texture;
-    const int channel = tex.fileChannels() == 2 || tex.fileChannels() == 4 ? 3 : 0;
+    const int channel = coverageChannel(tex);
     glm::vec2 st;
     a *= imageCoordinates(tri, binding, b, st) ? sampleTexture(tex, binding.sampler, st)[channel]
                                                : tex.mean()[channel];
@@ -248,7 +254,7 @@ SurfaceTextures::Mean SurfaceTextures::mean(uint32_t tri, std::span<const glm::v
           }
           if (cover.binding) {
             const Texture& tex = *cover.binding->texture;
-            const int channel = tex.fileChannels() == 2 || tex.fileChannels() == 4 ? 3 : 0;
+            const int channel = coverageChannel(tex);
             alpha *= cover.mapped ? read(cover, p, mask ? 0.0f : cover.level)[channel]
                                   : tex.mean()[channel];
           }
