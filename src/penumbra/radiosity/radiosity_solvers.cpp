@@ -166,25 +166,10 @@ Expected<std::unique_ptr<MatrixRadiositySolver>> MatrixRadiositySolver::create(
   return {std::make_unique<GpuMatrixSolver>(system, std::move(*jacobi))};
 }
 
-namespace {
-
-// The GPU's hemispherical and parallel projections do not test cut-outs yet.
-Status checkGpuCutouts(const RadiositySurface& surface, const char* method) {
-  if (surface.textures && surface.textures->hasCutouts()) {
-    return inputError("", "--device",
-                      fmt::format("the scene has cut-outs (alpha-masked or partly covering "
-                                  "materials), which {} does not test on the GPU: use --device cpu",
-                                  method));
-  }
-  return {};
-}
-
-}  // namespace
-
 Expected<std::unique_ptr<ProgressiveSolver>> ProgressiveSolver::create(ProgressiveRadiosity& cpu,
                                                                        SolverDevice device) {
   if (device == SolverDevice::kCpu) return {std::make_unique<CpuProgressiveSolver>(cpu)};
-  PENUMBRA_TRY(checkGpuCutouts(cpu.surface(), "progressive radiosity"));
+  PENUMBRA_TRY(refuseGpuCutouts(cpu.surface(), "progressive radiosity"));
   // Point, spot and directional lights shoot first, on the CPU (ray-traced shadows); the GPU
   // continues from that state.
   std::optional<ProgressiveIteration> lights;
@@ -197,7 +182,7 @@ Expected<std::unique_ptr<ProgressiveSolver>> ProgressiveSolver::create(Progressi
 Expected<std::unique_ptr<StochasticSolver>> StochasticSolver::create(StochasticRadiosity& cpu,
                                                                      SolverDevice device) {
   if (device == SolverDevice::kCpu) return {std::make_unique<CpuStochasticSolver>(cpu)};
-  PENUMBRA_TRY(checkGpuCutouts(cpu.surface(), "stochastic radiosity"));
+  PENUMBRA_TRY(refuseGpuCutouts(cpu.surface(), "stochastic radiosity"));
   Expected<GlStochastic> gl = GlStochastic::create(cpu);
   if (!gl) return gl.error();
   return {std::make_unique<GpuStochasticSolver>(cpu, std::move(*gl))};

@@ -61,6 +61,7 @@ Expected<GlSss> GlSss::create(const SssSolver& solver) {
   g.elements_count_ = n;
   g.links_per_element_ = links.per_element;
   g.shadows_ = solver.shadows();
+  if (g.shadows_) PENUMBRA_TRY(refuseGpuCutouts(s, "the sss method"));
 
   for (auto [program, pass] : {std::pair{&g.irradiance_rays_, 0}, {&g.irradiance_sum_, 1}}) {
     std::vector<std::string> defines = gpuLightDefines();
