@@ -24,18 +24,24 @@ uniform uint tiles;             // tiles x tiles depth maps in the texture
 
 out float gl_ClipDistance[4];
 flat out uint v_triangle;
+// For cut-outs (progressive_depth.frag): the barycentric parameters on the triangle, and the
+// shooter point (the partly covering surfaces' hash).
+out vec2 v_param;
+flat out vec3 v_origin;
 
 void main() {
   const uint sub = uint(gl_VertexID) / 6u, corner = uint(gl_VertexID) % 6u;
   const uint k = uint(gl_InstanceID);
   Hemisphere h = hemisphere;
-  h.origin = batch[k].position_f.xyz;
+  h.origin = batch[k].position_f.xyz + batch[k].eye.xyz;
   const uvec2 st = sub_triangles[sub];
   v_triangle = st.x;
+  v_origin = h.origin;
   const ClippedPiece piece = clipSubTriangle(h, triangles[st.x], st.y);
   const int fan = int(corner / 3u);  // 0: (0, 1, 2), 1: (0, 2, 3)
   const int c = int(corner % 3u);
   const int index = c == 0 ? 0 : fan + c;
+  v_param = piece.param[index];
   if (piece.count < 3 + fan) {
     gl_Position = vec4(0.0, 0.0, 2.0, 1.0);  // the same point for all three: no fragment
     for (int i = 0; i < 4; ++i) gl_ClipDistance[i] = -1.0;

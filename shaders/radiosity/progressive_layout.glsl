@@ -42,6 +42,7 @@ struct GpuBatchPoint {
   vec4 position_f;  // xyz as float (the hemisphere's origin), w = area
   vec4 residual;    // area-weighted mean dB of its elements (W m^-2)
   uvec4 members;    // x: first element, y: count, z: its index among the shooter's points
+  vec4 eye;         // xyz: where its visibility is taken from, off position_f (cut-outs)
 };
 
 // MAX_BATCH_POINTS, the points of a batch, is defined by the host (radiosity/hemisphere_gl.h:

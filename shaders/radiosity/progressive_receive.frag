@@ -27,6 +27,7 @@
 #include "radiosity/progressive_hemisphere.glsl"
 #include "radiosity/progressive_form_factor.glsl"
 #include "common/watertight.glsl"
+#include "common/cutout.glsl"
 
 layout(std430, binding = PROGRESSIVE_SSBO_TRIANGLES) readonly buffer Triangles { GpuProgressiveTriangle triangles[]; };
 layout(std430, binding = PROGRESSIVE_SSBO_ELEMENTS) readonly buffer Elements { GpuProgressiveElement elements[]; };
@@ -88,7 +89,8 @@ bool nextTo(int seen, int chart) {
 // segment from the element to the point crosses (the watertight ray-triangle test) occludes:
 // next to an edge, neighbouring triangles' sub-triangle tessellations part by up to a texel, so
 // the texel may show the element's own (two-sided) wall where the face over the edge blocks it,
-// and light would reach the inside of a closed box past its edges.
+// and light would reach the inside of a closed box past its edges. A cut-out that a texel sees
+// occludes only where the segment meets it covered (common/cutout.glsl).
 bool visibleFromShooter(vec3 image, uint k, int chart, vec3 receiver, vec3 normal) {
   const int size = textureSize(depth_map, 0).x / int(tiles);
   const ivec2 origin = ivec2(tileOrigin(k, tiles)) * size;
@@ -96,16 +98,23 @@ bool visibleFromShooter(vec3 image, uint k, int chart, vec3 receiver, vec3 norma
                          ivec2(size - 1));
   const float threshold = image.z * (1.0 - depth_tolerance) - 1e-7;
   const bool clear = texelFetch(depth_map, origin + px, 0).r >= threshold;
+  // A cut-out seen at the texel: the texel's centre met it covered, but the segment may pass
+  // through an opening beside that (the mask's detail is finer than a texel's reach); the
+  // segment test below decides, exactly, where the segment meets it.
+  bool cut = false;
   if (!clear) {
     const uint seen = texelFetch(id_map, origin + px, 0).r;
-    if (seen == 0xffffffffu ||
-        !(nextTo(triangles[seen].front_chart, chart) || nextTo(triangles[seen].back_chart, chart))) {
+#ifdef CUTOUTS
+    cut = seen != 0xffffffffu && cutoutPossible(seen);
+#endif
+    if (!cut && (seen == 0xffffffffu || !(nextTo(triangles[seen].front_chart, chart) ||
+                                          nextTo(triangles[seen].back_chart, chart)))) {
       return false;
     }
   }
   // The segment's ends lifted off their surfaces, as the CPU's shadow rays are.
   const vec3 from = receiver + normal * hemisphere.on_plane;
-  const vec3 to = batch[k].position_f.xyz + hemisphere.normal * hemisphere.on_plane;
+  const vec3 to = batch[k].position_f.xyz + batch[k].eye.xyz + hemisphere.normal * hemisphere.on_plane;
   const WatertightRay segment = makeWatertightRay(from, to - from);
   float farthest = 0.0;
   for (int dy = -1; dy <= 1; ++dy) {
@@ -117,10 +126,19 @@ bool visibleFromShooter(vec3 image, uint k, int chart, vec3 receiver, vec3 norma
       const uint id = texelFetch(id_map, origin + q, 0).r;
       const GpuProgressiveTriangle t = triangles[id];
       float hit, u, v;
-      if (intersectTriangle(segment, t.p0, t.p1, t.p2, 1e-4, 1.0 - 1e-4, hit, u, v)) return false;
+      if (intersectTriangle(segment, t.p0, t.p1, t.p2, 1e-4, 1.0 - 1e-4, hit, u, v)) {
+#ifdef CUTOUTS
+        // A cut-out occludes only where the segment meets it covered (the depth pass's test).
+        if (cutoutPossible(id) &&
+            !cutoutStops(id, vec2(u, v), cutoutRayUniform(from, to - from, id))) {
+          continue;
+        }
+#endif
+        return false;
+      }
     }
   }
-  return clear || farthest >= threshold;
+  return clear || cut || farthest >= threshold;
 }
 
 // Whether receiver r (its point in double: pr) and batch point k make a pair of this pass:
@@ -141,7 +159,7 @@ bool isPair(dvec3 pr, GpuProgressiveElement r, vec3 nr, uint k) {
 bool seenFrom(GpuProgressiveElement r, GpuProgressiveTriangle rt, uint k) {
 #if VISIBILITY
   Hemisphere h = hemisphere;
-  h.origin = batch[k].position_f.xyz;
+  h.origin = batch[k].position_f.xyz + batch[k].eye.xyz;
   vec3 image;
   return backProject(h, rt, r.barycentric, image) &&
          visibleFromShooter(image, k, texel_chart[r.texel], r.position, r.normal);

@@ -8,6 +8,8 @@
 #define RAY_ENGINE_SSBO_TRIANGLES 1
 #define RAY_ENGINE_SSBO_RAYS 2
 #define RAY_ENGINE_SSBO_HITS 3
+// Cut-outs (common/cutout.glsl): four buffers from here.
+#define RAY_ENGINE_SSBO_CUTOUTS 4
 #define RAY_ENGINE_TEXTURE_RAY_ORIGINS 0
 #define RAY_ENGINE_TEXTURE_RAY_DIRECTIONS 1
 

@@ -2,9 +2,12 @@
 #include "raytrace/bindings.glsl"
 // The Ray Engine's general GPU kernel: one invocation per ray traverses the binary BVH (the
 // canonical tree of accel/bvh.h, uploaded as is) near child first, with the watertight test in
-// the leaves; closest hit, exact ties to the lower triangle index, as on the CPU.
+// the leaves; closest hit, exact ties to the lower triangle index, as on the CPU. With cut-outs
+// (compiled with CUTOUT_SSBO_FIRST) a hit where the surface is a hole is passed over, as the
+// CPU's hit filter does, with the same hash of the ray for partly covering surfaces.
 #include "raytrace/layout.glsl"
 #include "common/watertight.glsl"
+#include "common/cutout.glsl"
 
 layout(local_size_x = RAY_ENGINE_GROUP_SIZE) in;
 
@@ -54,6 +57,13 @@ void main() {
           GpuTriangle tri = triangles[k];
           float t, u, v;
           if (intersectTriangle(wr, tri.p0, tri.p1, tri.p2, ray.tmin, tmax, t, u, v)) {
+#ifdef CUTOUTS
+            const uint id = uint(tri.id);
+            if (cutoutPossible(id) &&
+                !cutoutStops(id, vec2(u, v), cutoutRayUniform(ray.org, ray.dir, id))) {
+              continue;
+            }
+#endif
             if (t < tmax || (t == tmax && (!found || tri.id < hit.triangle))) {
               found = true;
               tmax = t;

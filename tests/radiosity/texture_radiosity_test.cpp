@@ -179,7 +179,9 @@ TEST(TextureRadiosity, HalfMaskedQuadCastsHalfTheShadow) {
   EXPECT_NEAR(sum / area, expected, 0.03 * expected);
   // The lattice's own elements reflect only where it is there.
   for (size_t e = 0; e < pr->elementCount(); ++e) {
-    if (pr->elementPosition(e).y > 0.5) EXPECT_EQ(pr->reflectance(e), glm::dvec3(0.0));
+    if (pr->elementPosition(e).y > 0.5) {
+      EXPECT_EQ(pr->reflectance(e), glm::dvec3(0.0));
+    }
   }
 }
 

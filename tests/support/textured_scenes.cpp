@@ -102,4 +102,17 @@ Scene emitterOverFloor(const Material& emitter, float height) {
   return s;
 }
 
+Scene emitterOverLattice(const Material& lattice) {
+  Scene s;
+  s.source = "test:emitter-over-lattice";
+  s.materials.push_back({"floor", glm::vec3(0.5f), glm::vec3(0.0f)});
+  s.materials.push_back(lattice);
+  s.materials.push_back({"emitter", glm::vec3(0.0f), glm::vec3(10.0f)});
+  s.meshes.push_back(quad("floor", {-2, 0, 2}, {4, 0, 0}, {0, 0, -4}, 0));
+  s.meshes.push_back(quad("lattice", {-1, 1, 1}, {2, 0, 0}, {0, 0, -2}, 1));
+  s.meshes.push_back(quad("emitter", {-0.5f, 2, -0.5f}, {1, 0, 0}, {0, 0, 1}, 2));
+  PENUMBRA_CHECK(validateScene(s).ok());
+  return s;
+}
+
 }  // namespace penumbra::test

@@ -34,4 +34,9 @@ Material chequeredScreen();
 // emitter's material is `emitter` (its UVs run over [0, 1]^2).
 Scene emitterOverFloor(const Material& emitter, float height);
 
+// A 1 x 1 m emitter of radiance 10 facing down at y = 2 over a 2 x 2 m `lattice` (black, its UVs
+// over [0, 1]^2) at y = 1 over a 4 x 4 m floor of reflectance 0.5: the floor under the lattice
+// sees the emitter through its openings only.
+Scene emitterOverLattice(const Material& lattice);
+
 }  // namespace penumbra::test

@@ -45,16 +45,21 @@ Status checkTraceOptions(const TraceOptions& options) {
 
 namespace {
 
-// Cut-outs (materials with alphaMode MASK or BLEND, MTL map_d) are holes for the rays; the GPU
-// back ends do not test them.
-Expected<std::shared_ptr<const HitFilter>> traceCutouts(const Scene& scene, Device device) {
-  std::shared_ptr<const HitFilter> cutouts = sceneCutouts(scene);
-  if (cutouts && device != Device::kCpu) {
+// Cut-outs (materials with alphaMode MASK or BLEND, MTL map_d) are holes for the rays: the CPU's
+// hit filter and the GPU kernel's test read the same textures; the hybrid split's CPU cells do
+// not test them.
+Expected<std::shared_ptr<const SurfaceTextures>> traceCutouts(const Scene& scene, bool hybrid) {
+  bool any = false;
+  for (const Material& m : scene.materials) any = any || m.alpha_mode != AlphaMode::kOpaque;
+  if (!any) return std::shared_ptr<const SurfaceTextures>();
+  auto textures = std::make_shared<const SurfaceTextures>(scene);
+  if (!textures->hasCutouts()) return std::shared_ptr<const SurfaceTextures>();
+  if (hybrid) {
     return inputError(scene.source, "",
                       "the scene has cut-outs (alpha-masked or partly covering materials), which "
-                      "trace answers on the CPU only: use --device cpu");
+                      "the hybrid back end does not test: use --device cpu or gpu");
   }
-  return cutouts;
+  return textures;
 }
 
 }  // namespace
@@ -66,7 +71,7 @@ Expected<TraceRun> traceScene(const Scene& scene, const RayBatch& rays, const Tr
   const bool hybrid = options.device == "hybrid";
   Expected<DeviceChoice> device = chooseDevice(hybrid ? "gpu" : options.device);
   if (!device) return device.error();
-  Expected<std::shared_ptr<const HitFilter>> cutouts = traceCutouts(scene, device->device);
+  Expected<std::shared_ptr<const SurfaceTextures>> cutouts = traceCutouts(scene, hybrid);
   if (!cutouts) return cutouts.error();
   TraceRun run;
   if (dry_run) return run;
@@ -123,7 +128,7 @@ Expected<TraceRun> traceScene(const Scene& scene, const RayBatch& rays, const Tr
                     {"gpu_triangles_culled", hs.gpu_triangles_culled}};
   } else if (device->device == Device::kGpu) {
     Timer build_timer;
-    Expected<GlRayEngine> engine = GlRayEngine::build(positions, triangles);
+    Expected<GlRayEngine> engine = GlRayEngine::build(positions, triangles, {}, cutouts->get());
     if (!engine) return engine.error();
     glFinish();
     build_seconds = build_timer.seconds();
@@ -137,7 +142,7 @@ Expected<TraceRun> traceScene(const Scene& scene, const RayBatch& rays, const Tr
   } else {
     Timer build_timer;
     RayEngine engine = RayEngine::build(positions, triangles);
-    engine.setHitFilter(*cutouts);
+    engine.setHitFilter(cutoutFilter(*cutouts));
     build_seconds = build_timer.seconds();
     Timer trace_timer;
     if (options.occlusion) {

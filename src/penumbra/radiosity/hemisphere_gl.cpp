@@ -1,4 +1,5 @@
 #include "penumbra/radiosity/hemisphere_gl.h"
+#include "penumbra/radiosity/cutout_jitter.h"
 #include "radiosity/progressive_bindings.glsl"
 
 #include "penumbra/core/memory.h"
@@ -270,25 +271,30 @@ std::vector<std::string> batchPointDefines() {
 namespace {
 
 // The depth pass, the far and near receiver passes and (with `samples`) the samples pass.
-Status compilePrograms(bool visibility, bool samples, gl::Program& depth, gl::Program& receive_far,
-                       gl::Program& receive_near, gl::Program& sample) {
-  Expected<gl::Program> p = gl::renderProgram(
-      "radiosity/progressive_depth.vert", "radiosity/progressive_depth.frag", batchPointDefines());
+Status compilePrograms(bool visibility, bool samples, bool cutouts, gl::Program& depth,
+                       gl::Program& receive_far, gl::Program& receive_near, gl::Program& sample) {
+  std::vector<std::string> depth_defines = batchPointDefines();
+  if (cutouts) depth_defines.push_back(cutoutDefine(PROGRESSIVE_SSBO_CUTOUTS));
+  Expected<gl::Program> p = gl::renderProgram("radiosity/progressive_depth.vert",
+                                              "radiosity/progressive_depth.frag", depth_defines);
   if (!p) return p.error();
   depth = std::move(*p);
+  const auto receiveDefines = [&](int near, int sample) {
+    std::vector<std::string> d = {fmt::format("NEAR_PASS {}", near),
+                                  fmt::format("VISIBILITY {}", visibility ? 1 : 0),
+                                  fmt::format("SAMPLE_PASS {}", sample), batchPointDefines()[0]};
+    if (cutouts) d.push_back(cutoutDefine(PROGRESSIVE_SSBO_CUTOUTS));
+    return d;
+  };
   for (int near = 0; near < 2; ++near) {
-    p = gl::renderProgram(
-        "radiosity/progressive_receive.vert", "radiosity/progressive_receive.frag",
-        {fmt::format("NEAR_PASS {}", near), fmt::format("VISIBILITY {}", visibility ? 1 : 0),
-         "SAMPLE_PASS 0", batchPointDefines()[0]});
+    p = gl::renderProgram("radiosity/progressive_receive.vert",
+                          "radiosity/progressive_receive.frag", receiveDefines(near, 0));
     if (!p) return p.error();
     (near ? receive_near : receive_far) = std::move(*p);
   }
   if (samples) {
     p = gl::renderProgram("radiosity/progressive_receive.vert",
-                          "radiosity/progressive_receive.frag",
-                          {"NEAR_PASS 0", fmt::format("VISIBILITY {}", visibility ? 1 : 0),
-                           "SAMPLE_PASS 1", batchPointDefines()[0]});
+                          "radiosity/progressive_receive.frag", receiveDefines(0, 1));
     if (!p) return p.error();
     sample = std::move(*p);
   }
@@ -440,6 +446,11 @@ Expected<GlHemisphereGather> GlHemisphereGather::create(
                   adjacency.size() + adjacency_first.size(), caller_buffers);
   uint64_t buffer_bytes = sizeof(GpuBatchPoint) * kMaxTiles * kMaxTiles;
   for (const GlBufferNeed& b : buffers) buffer_bytes += b.bytes;
+  // Cut-outs: holes in the depth pass (raytrace/gpu_cutouts.h).
+  const bool cutouts = visibility && surface.textures && surface.textures->hasCutouts();
+  GpuCutoutData cutout_data;
+  if (cutouts) cutout_data = buildGpuCutouts(*surface.textures, nt);
+  buffer_bytes += cutout_data.bytes();
   const uint64_t total = atlas_bytes + depth_bytes + buffer_bytes;
   s.device_bytes_ = total;
   PENUMBRA_TRY(checkLimits(atlas, d, max_size, max_ssbo, atlas_bytes, buffers,
@@ -447,8 +458,8 @@ Expected<GlHemisphereGather> GlHemisphereGather::create(
   PENUMBRA_TRY(checkDeviceMemory(total, place));
 
   // ---- Programs ----
-  PENUMBRA_TRY(
-      compilePrograms(visibility, samples, s.depth_, s.receive_far_, s.receive_near_, s.sample_));
+  PENUMBRA_TRY(compilePrograms(visibility, samples, cutouts, s.depth_, s.receive_far_,
+                               s.receive_near_, s.sample_));
 
   // ---- Per-element data (the CPU's elements: exact-coverage points, normals, areas,
   // reflectances and pieces) ----
@@ -464,11 +475,17 @@ Expected<GlHemisphereGather> GlHemisphereGather::create(
   s.chart_adjacency_first_ = gl::storageBuffer(adjacency_first);
   s.chart_adjacency_ = gl::storageBuffer(adjacency);
   s.batch_ = gl::Buffer(sizeof(GpuBatchPoint) * kMaxTiles * kMaxTiles, nullptr);
+  if (cutouts) {
+    Expected<GlCutouts> c = GlCutouts::create(cutout_data, place);
+    if (!c) return c.error();
+    s.cutouts_ = std::move(*c);
+  }
   PENUMBRA_TRY(s.createTargets(d, place));
   return s;
 }
 
 void GlHemisphereGather::setShooter(const glm::dvec3& normal, double near_factor) {
+  shooter_normal_ = normal;
   setHemisphere(depth_, normal, far_);
   glProgramUniform1ui(depth_.id(), uniform(depth_, "tiles"), tiles_);
   for (const gl::Program* r : {&receive_far_, &receive_near_, &sample_}) {
@@ -509,7 +526,18 @@ std::vector<glm::uvec2> GlHemisphereGather::nearCharts(
 
 void GlHemisphereGather::prepareBatch(std::span<const GpuBatchPoint> points) {
   const uint32_t count = uint32_t(std::min<size_t>(points.size(), batchSize()));
-  batch_.upload(points.data(), count * sizeof(GpuBatchPoint));
+  std::array<GpuBatchPoint, kMaxTiles * kMaxTiles> batch{};
+  std::copy_n(points.begin(), count, batch.begin());
+  ++batches_;
+  for (uint32_t k = 0; k < count; ++k) {
+    GpuBatchPoint& b = batch[k];
+    const glm::dvec3 eye = cutouts_ ? cutoutJitter(shooter_normal_, b.position[3],
+                                                   batches_ << 32 | (uint64_t(b.members[0]) + k))
+                                    : glm::dvec3(0.0);
+    for (int c = 0; c < 3; ++c) b.eye[c] = float(eye[c]);
+    b.eye[3] = 0.0f;
+  }
+  batch_.upload(batch.data(), count * sizeof(GpuBatchPoint));
   batch_.bindBase(GL_UNIFORM_BUFFER, PROGRESSIVE_UBO_BATCH);
   for (const gl::Program* r : {&receive_far_, &receive_near_, &sample_}) {
     if (r->id() != 0) glProgramUniform1ui(r->id(), uniform(*r, "batch_count"), count);
@@ -534,6 +562,7 @@ void GlHemisphereGather::prepareBatch(std::span<const GpuBatchPoint> points) {
   glUseProgram(depth_.id());
   triangles_.bindBase(GL_SHADER_STORAGE_BUFFER, PROGRESSIVE_SSBO_TRIANGLES);
   sub_triangles_.bindBase(GL_SHADER_STORAGE_BUFFER, PROGRESSIVE_SSBO_SUB_TRIANGLES);
+  if (cutouts_) cutouts_->bind(PROGRESSIVE_SSBO_CUTOUTS);
   glBindVertexArray(vao_.id());
   glDrawArraysInstanced(GL_TRIANGLES, 0, GLsizei(6 * sub_triangle_count_), GLsizei(count));
   glBindVertexArray(0);
@@ -575,6 +604,7 @@ void GlHemisphereGather::draw(Pass pass, uint32_t first, uint32_t count, const R
   texel_chart_.bindBase(GL_SHADER_STORAGE_BUFFER, PROGRESSIVE_SSBO_TEXEL_CHART);
   chart_adjacency_first_.bindBase(GL_SHADER_STORAGE_BUFFER, PROGRESSIVE_SSBO_ADJACENCY_FIRST);
   chart_adjacency_.bindBase(GL_SHADER_STORAGE_BUFFER, PROGRESSIVE_SSBO_ADJACENCY);
+  if (cutouts_) cutouts_->bind(PROGRESSIVE_SSBO_CUTOUTS);
   glBindVertexArray(vao_.id());
   // One point of size 1 at each receiver's texel centre: exactly one fragment per receiver (the
   // paper rasterises the receiver triangles through their lightmap UVs; every fragment of a

@@ -17,6 +17,8 @@
 //    member element's pieces times that element's value in the caller's "sent" atlas (a second
 //    pass over the charts that can be that close). The irradiance (W m^-2) adds into the
 //    incident atlas by blending.
+//    Cut-outs are holes in the depth pass (raytrace/gpu_cutouts.h), so that a receiver behind
+//    a lattice sees the shooter through its openings as the CPU's shadow rays do.
 //  - Samples pass (sec. 4, optional): per element, whether it faces and sees its paired point.
 //
 // The callers own what is shot (their residual or sent atlases), the receivers' layout (the
@@ -26,12 +28,14 @@
 #include "penumbra/core/expected.h"
 #include "penumbra/gpu/objects.h"
 #include "penumbra/radiosity/radiosity_surface.h"
+#include "penumbra/raytrace/gpu_cutouts.h"
 
 #include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
 
 #include <cstddef>
 #include <cstdint>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
@@ -91,10 +95,14 @@ struct GpuBatchPoint {
   float position_f[4];
   float residual[4];    // its area-weighted mean radiosity to shoot (W m^-2)
   uint32_t members[4];  // first element, count, its index among the shooter's points
-  uint32_t pad[4];      // std140 array stride: a multiple of the dvec4 alignment (32)
+  // Where its visibility is taken from, off `position` (cut-outs: radiosity/cutout_jitter.h);
+  // set by GlHemisphereGather::prepareBatch. Also pads the std140 array stride to a multiple of
+  // the dvec4 alignment (32).
+  float eye[4];
 };
 static_assert(sizeof(GpuBatchPoint) == 96 && offsetof(GpuBatchPoint, position_f) == 32 &&
-              offsetof(GpuBatchPoint, residual) == 48 && offsetof(GpuBatchPoint, members) == 64);
+              offsetof(GpuBatchPoint, residual) == 48 && offsetof(GpuBatchPoint, members) == 64 &&
+              offsetof(GpuBatchPoint, eye) == 80);
 // Shooter points per receiver pass (MAX_BATCH_POINTS in progressive_layout.glsl): a 4 x 4 grid
 // of depth maps in one texture.
 inline constexpr int kProgressiveBatchTiles = 4;
@@ -153,7 +161,8 @@ class GlHemisphereGather {
   // The samples pass's pairing: element e with the shooter's point e mod `points`.
   void setSamplePoints(uint32_t points);
   void clearIncident();
-  // The batch's points as the passes' uniforms, and their depth maps (Algorithm 1).
+  // The batch's points as the passes' uniforms, and their depth maps (Algorithm 1). With
+  // cut-outs, each point's visibility is taken from a spot of its disc (its `eye`, set here).
   void prepareBatch(std::span<const GpuBatchPoint> points);
   // Charts that can hold near pairs (d^2 < near^2 A) with a shooter in the sphere (centre,
   // radius) whose largest point has area `max_point_area`: their ranges in `ranges` (per chart,
@@ -186,6 +195,8 @@ class GlHemisphereGather {
   int width_ = 0, height_ = 0;
   uint64_t device_bytes_ = 0;
   float far_ = 1.0f;
+  glm::dvec3 shooter_normal_{0.0, 0.0, 1.0};
+  uint64_t batches_ = 0;  // batches prepared (the cut-out jitter's key)
   bool visibility_ = true;
   float depth_tolerance_ = 1e-4f;
   int visibility_resolution_ = 512;
@@ -203,6 +214,7 @@ class GlHemisphereGather {
   gl::Texture incident_, depth_map_, id_map_;
   gl::Framebuffer atlas_fbo_, depth_fbo_;
   gl::VertexArray vao_;
+  std::optional<GlCutouts> cutouts_;  // the depth pass's holes, when the scene has cut-outs
 };
 
 }  // namespace penumbra

@@ -1,4 +1,5 @@
 #include "penumbra/radiosity/progressive.h"
+#include "penumbra/radiosity/cutout_jitter.h"
 
 #include "penumbra/geometry/shading_normals.h"
 #include "penumbra/kernels/form_factor.h"
@@ -743,12 +744,16 @@ void traceShadowRays(const ShotGeometry& shot, const RadiositySurface& surface,
   for (size_t k = 0; k < pairs.size(); ++k) order[k] = uint64_t(pairs[k].point) << 32 | k;
   std::sort(order.begin(), order.end());
   batch.resize(pairs.size());
+  const bool jitter = surface.textures && surface.textures->hasCutouts();
   for (size_t k = 0; k < pairs.size(); ++k) {
     const Pair& pair = pairs[uint32_t(order[k])];
     const ShooterPoint& s = shot.points[pair.point];
-    const glm::dvec3 from = receivers.position(pair.receiver) +
-                            receivers.normal(pair.receiver) * surface.lift,
-                     to = s.position + s.geometric * surface.lift;
+    const glm::dvec3 from =
+        receivers.position(pair.receiver) + receivers.normal(pair.receiver) * surface.lift;
+    glm::dvec3 to = s.position + s.geometric * surface.lift;
+    if (jitter) {
+      to += cutoutJitter(s.geometric, s.area, uint64_t(pair.receiver) << 32 | pair.point);
+    }
     batch.set(k, Ray{glm::vec3(from), 1e-4f, glm::vec3(to - from), 1.0f - 1e-4f});
   }
   surface.engine.intersectSerial(batch, hits);

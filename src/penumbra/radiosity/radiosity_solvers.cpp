@@ -169,7 +169,6 @@ Expected<std::unique_ptr<MatrixRadiositySolver>> MatrixRadiositySolver::create(
 Expected<std::unique_ptr<ProgressiveSolver>> ProgressiveSolver::create(ProgressiveRadiosity& cpu,
                                                                        SolverDevice device) {
   if (device == SolverDevice::kCpu) return {std::make_unique<CpuProgressiveSolver>(cpu)};
-  PENUMBRA_TRY(refuseGpuCutouts(cpu.surface(), "progressive radiosity"));
   // Point, spot and directional lights shoot first, on the CPU (ray-traced shadows); the GPU
   // continues from that state.
   std::optional<ProgressiveIteration> lights;
@@ -182,7 +181,6 @@ Expected<std::unique_ptr<ProgressiveSolver>> ProgressiveSolver::create(Progressi
 Expected<std::unique_ptr<StochasticSolver>> StochasticSolver::create(StochasticRadiosity& cpu,
                                                                      SolverDevice device) {
   if (device == SolverDevice::kCpu) return {std::make_unique<CpuStochasticSolver>(cpu)};
-  PENUMBRA_TRY(refuseGpuCutouts(cpu.surface(), "stochastic radiosity"));
   Expected<GlStochastic> gl = GlStochastic::create(cpu);
   if (!gl) return gl.error();
   return {std::make_unique<GpuStochasticSolver>(cpu, std::move(*gl))};

@@ -8,7 +8,6 @@
 #include "penumbra/raytrace/cutout_filter.h"
 #include "penumbra/raytrace/lights.h"
 
-#include <fmt/format.h>
 #include <glm/geometric.hpp>
 
 #include <algorithm>
@@ -414,16 +413,6 @@ Image RadiositySurface::radianceImage(std::span<const glm::dvec3> radiosity) con
 
 Image RadiositySurface::radianceImage(std::span<const glm::vec3> radiosity) const {
   return radianceImageOf(*this, radiosity);
-}
-
-Status refuseGpuCutouts(const RadiositySurface& surface, const char* method) {
-  if (surface.textures && surface.textures->hasCutouts()) {
-    return inputError("", "--device",
-                      fmt::format("the scene has cut-outs (alpha-masked or partly covering "
-                                  "materials), which {} does not test on the GPU: use --device cpu",
-                                  method));
-  }
-  return {};
 }
 
 }  // namespace penumbra

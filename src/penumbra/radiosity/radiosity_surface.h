@@ -140,8 +140,4 @@ struct RadiositySurface {
   Image radianceImage(std::span<const glm::vec3> radiosity) const;
 };
 
-// The GPU passes over a surface (hemispherical and parallel projections, the GL Ray Engine) do
-// not test cut-outs: an input error naming `method` when the surface has some, else nothing.
-Status refuseGpuCutouts(const RadiositySurface& surface, const char* method);
-
 }  // namespace penumbra

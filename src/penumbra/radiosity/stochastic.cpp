@@ -1,4 +1,5 @@
 #include "penumbra/radiosity/stochastic.h"
+#include "penumbra/radiosity/cutout_jitter.h"
 
 #include "penumbra/core/check.h"
 #include "penumbra/core/parallel.h"
@@ -224,10 +225,14 @@ uint64_t StochasticRadiosity::shoot(uint32_t j, double p, double weight,
     if (options_.visibility) {
       batch.resize(receivers.size());
       const glm::dvec3 to = pj + nj * surface_.lift;
+      // Cut-outs: each pair's ray leaves from a spot of j's disc (cutout_jitter.h).
+      const bool jitter = surface_.textures && surface_.textures->hasCutouts();
       for (size_t k = 0; k < receivers.size(); ++k) {
         const uint32_t r = receivers[k];
         const glm::dvec3 fr = atlas.element_position[r] + atlas.element_normal[r] * surface_.lift;
-        batch.set(k, Ray{glm::vec3(fr), 1e-4f, glm::vec3(to - fr), 1.0f - 1e-4f});
+        const glm::dvec3 end =
+            jitter ? to + cutoutJitter(nj, aj, uint64_t(r) << 32 | uint64_t(j)) : to;
+        batch.set(k, Ray{glm::vec3(fr), 1e-4f, glm::vec3(end - fr), 1.0f - 1e-4f});
       }
       surface_.engine.intersectSerial(batch, hits);
       rays += receivers.size();

@@ -21,7 +21,8 @@ constexpr GLuint kGroupSize = 64;  // local_size_x of bvh_intersect.comp (inject
 
 Expected<GlRayEngine> GlRayEngine::build(std::span<const glm::vec3> positions,
                                          std::span<const glm::uvec3> triangles,
-                                         const BvhBuildOptions& options) {
+                                         const BvhBuildOptions& options,
+                                         const SurfaceTextures* cutouts) {
   GlRayEngine e;
   GLint64 max_ssbo = 0;
   glGetInteger64v(GL_MAX_SHADER_STORAGE_BLOCK_SIZE, &max_ssbo);
@@ -33,8 +34,16 @@ Expected<GlRayEngine> GlRayEngine::build(std::span<const glm::vec3> positions,
                         triangles.size(), formatBytes(triangles.size() * sizeof(GpuTriangle)),
                         formatBytes(uint64_t(max_ssbo))));
   }
-  Expected<gl::Program> program =
-      gl::computeProgram("raytrace/bvh_intersect.comp", bvhIntersectDefines());
+  std::vector<std::string> defines = bvhIntersectDefines();
+  const bool filter = cutouts && cutouts->hasCutouts();
+  if (filter) {
+    Expected<GlCutouts> c =
+        GlCutouts::create(buildGpuCutouts(*cutouts, triangles.size()), "the GPU Ray Engine");
+    if (!c) return c.error();
+    e.cutouts_ = std::move(*c);
+    defines.push_back(cutoutDefine(RAY_ENGINE_SSBO_CUTOUTS));
+  }
+  Expected<gl::Program> program = gl::computeProgram("raytrace/bvh_intersect.comp", defines);
   if (!program) return program.error();
   e.program_ = std::move(*program);
 
@@ -75,6 +84,7 @@ Status GlRayEngine::run(const RayBatch& rays, bool any_hit, std::vector<GpuHit>&
   triangles_.bindBase(GL_SHADER_STORAGE_BUFFER, RAY_ENGINE_SSBO_TRIANGLES);
   ray_buf.bindBase(GL_SHADER_STORAGE_BUFFER, RAY_ENGINE_SSBO_RAYS);
   hit_buf.bindBase(GL_SHADER_STORAGE_BUFFER, RAY_ENGINE_SSBO_HITS);
+  if (cutouts_) cutouts_->bind(RAY_ENGINE_SSBO_CUTOUTS);
   for (size_t begin = 0; begin < n; begin += slice) {
     const size_t m = std::min(slice, n - begin);
     for (size_t i = 0; i < m; ++i) {
@@ -111,6 +121,7 @@ Status GlRayEngine::traceResident(const gl::Buffer& rays, const gl::Buffer& hits
   triangles_.bindBase(GL_SHADER_STORAGE_BUFFER, RAY_ENGINE_SSBO_TRIANGLES);
   rays.bindBase(GL_SHADER_STORAGE_BUFFER, RAY_ENGINE_SSBO_RAYS);
   hits.bindBase(GL_SHADER_STORAGE_BUFFER, RAY_ENGINE_SSBO_HITS);
+  if (cutouts_) cutouts_->bind(RAY_ENGINE_SSBO_CUTOUTS);
   glDispatchCompute(GLuint((count + kGroupSize - 1) / kGroupSize), 1, 1);
   glUseProgram(0);
   const GLenum err = glGetError();

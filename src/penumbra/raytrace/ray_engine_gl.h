@@ -11,9 +11,11 @@
 #include "penumbra/gpu/objects.h"
 #include "penumbra/kernels/bucket_cull.h"
 #include "penumbra/kernels/ray.h"
+#include "penumbra/raytrace/gpu_cutouts.h"
 
 #include <glm/vec3.hpp>
 
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
@@ -27,10 +29,13 @@ std::vector<std::string> bvhIntersectDefines();
 class GlRayEngine {
  public:
   // Builds the canonical BVH and uploads it with the triangles in leaf order. Fails (as a
-  // value) when the shader does not compile or the buffers exceed the device's limits.
+  // value) when the shader does not compile or the buffers exceed the device's limits. With
+  // `cutouts` (the triangles' textures, when some have cut-outs), rays pass through holes as
+  // the CPU's hit filter lets them (raytrace/gpu_cutouts.h); without, the kernel has no test.
   static Expected<GlRayEngine> build(std::span<const glm::vec3> positions,
                                      std::span<const glm::uvec3> triangles,
-                                     const BvhBuildOptions& options = {});
+                                     const BvhBuildOptions& options = {},
+                                     const SurfaceTextures* cutouts = nullptr);
 
   // Closest hits in input order.
   Status intersect(const RayBatch& rays, HitBatch& hits) const;
@@ -50,6 +55,7 @@ class GlRayEngine {
 
   gl::Program program_;
   gl::Buffer nodes_, triangles_;
+  std::optional<GlCutouts> cutouts_;
   size_t triangle_count_ = 0;
   int64_t max_ssbo_bytes_ = 0;
 };

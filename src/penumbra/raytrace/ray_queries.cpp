@@ -8,17 +8,18 @@ Expected<std::unique_ptr<OwnedRayQueries>> OwnedRayQueries::make(const std::stri
                                                                  const SceneGeometry& geometry) {
   auto out = std::unique_ptr<OwnedRayQueries>(new OwnedRayQueries());
   out->back_end_ = back_end;
-  if (back_end != "cpu" && geometry.engine.hitFilter()) {
+  if (back_end == "hybrid" && geometry.engine.hitFilter()) {
     return inputError("", "--device",
-                      fmt::format("the scene has cut-outs (alpha-masked or partly covering "
-                                  "materials), which the {} back end does not test: use "
-                                  "--device cpu",
-                                  back_end));
+                      "the scene has cut-outs (alpha-masked or partly covering materials), which "
+                      "the hybrid back end does not test: use --device cpu or gpu");
   }
   if (back_end == "cpu") {
     out->queries_ = std::make_unique<CpuRayQueries>(geometry.engine);
   } else if (back_end == "gpu") {
-    Expected<GlRayEngine> e = GlRayEngine::build(geometry.positions, geometry.triangles);
+    // The GPU kernel tests the cut-outs the CPU engine's filter does (raytrace/gpu_cutouts.h).
+    Expected<GlRayEngine> e =
+        GlRayEngine::build(geometry.positions, geometry.triangles, {},
+                           geometry.engine.hitFilter() ? geometry.textures.get() : nullptr);
     if (!e) return e.error();
     out->gl_.emplace(std::move(*e));
     out->queries_ = std::make_unique<GpuRayQueries>(*out->gl_);

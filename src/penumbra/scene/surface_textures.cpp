@@ -172,6 +172,36 @@ bool SurfaceTextures::stops(uint32_t tri, glm::vec2 b, float u) const {
   return m.alpha_mode == AlphaMode::kMask ? a >= m.alpha_cutoff : u < a;
 }
 
+SurfaceTextures::CutoutSource SurfaceTextures::cutoutSource(uint32_t tri) const {
+  const Material& m = material(tri);
+  const glm::vec2 corners[3] = {glm::vec2(0.0f), glm::vec2(1.0f, 0.0f), glm::vec2(0.0f, 1.0f)};
+  CutoutSource out;
+  float constant = m.alpha;
+  // As alpha() and coverageOf() read them: the base colour's alpha when the material takes its
+  // coverage from there, times the coverage texture's channel.
+  const auto lookup = [&](const TextureBinding& binding, int channel, CutoutSource::Lookup& l) {
+    const Texture& tex = *binding.texture;
+    if (!has_uvs_[binding.uv_set][tri]) {
+      constant *= tex.mean()[channel];
+      return;
+    }
+    if (channel == 3 && !tex.hasAlpha()) return;
+    l.binding = &binding;
+    l.channel = channel;
+    for (int c = 0; c < 3; ++c) imageCoordinates(tri, binding, corners[c], l.st[c]);
+  };
+  if (m.alpha_mode != AlphaMode::kOpaque) {
+    if (m.alpha_from_reflectance && m.reflectance_texture) {
+      lookup(*m.reflectance_texture, 3, out.lookups[0]);
+    }
+    if (m.coverage_texture) {
+      lookup(*m.coverage_texture, coverageChannel(*m.coverage_texture->texture), out.lookups[1]);
+    }
+  }
+  for (int c = 0; c < 3; ++c) out.factor[c] = constant * colour(tri, corners[c]).w;
+  return out;
+}
+
 SurfaceTextures::Mean SurfaceTextures::triangleMean(uint32_t tri, bool factors) const {
   const glm::vec2 corners[3] = {glm::vec2(0.0f), glm::vec2(1.0f, 0.0f), glm::vec2(0.0f, 1.0f)};
   return mean(tri, corners, factors);

@@ -51,6 +51,23 @@ class SurfaceTextures {
   // (uniform in [0, 1), the caller's random number).
   bool stops(uint32_t tri, glm::vec2 b, float u) const;
 
+  // What a GPU pass needs to answer stops() for cut-out triangle `tri` as the CPU does
+  // (raytrace/gpu_cutouts.h): alpha(b) = factor(b) x lookup 0 x lookup 1, where the factor and
+  // each lookup's image coordinates are linear in the barycentrics (given at the three corners)
+  // and a lookup reads one channel of its texture on the finest level with its sampler. A lookup
+  // that cannot vary (no UV set, an alpha channel that is 1 everywhere) is folded into the
+  // factor.
+  struct CutoutSource {
+    struct Lookup {
+      const TextureBinding* binding = nullptr;  // null: none
+      int channel = 3;
+      glm::vec2 st[3]{};
+    };
+    Lookup lookups[2];
+    float factor[3] = {1.0f, 1.0f, 1.0f};
+  };
+  CutoutSource cutoutSource(uint32_t tri) const;
+
   // Means over a convex polygon of triangle `tri` given by its corners' barycentrics: the
   // reflected and emitted parts weighted by coverage (what a radiosity element of that area
   // reflects and emits), and the coverage itself. Without `factors`, the material's reflectance

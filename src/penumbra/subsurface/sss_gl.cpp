@@ -61,7 +61,6 @@ Expected<GlSss> GlSss::create(const SssSolver& solver) {
   g.elements_count_ = n;
   g.links_per_element_ = links.per_element;
   g.shadows_ = solver.shadows();
-  if (g.shadows_) PENUMBRA_TRY(refuseGpuCutouts(s, "the sss method"));
 
   for (auto [program, pass] : {std::pair{&g.irradiance_rays_, 0}, {&g.irradiance_sum_, 1}}) {
     std::vector<std::string> defines = gpuLightDefines();
@@ -76,7 +75,9 @@ Expected<GlSss> GlSss::create(const SssSolver& solver) {
     if (!p) return p.error();
     *program = std::move(*p);
   }
-  Expected<GlRayEngine> engine = GlRayEngine::build(s.flat.positions, s.flat.triangles);
+  // The lights' shadow rays pass through cut-outs as the CPU's do (raytrace/gpu_cutouts.h).
+  Expected<GlRayEngine> engine =
+      GlRayEngine::build(s.flat.positions, s.flat.triangles, {}, s.textures.get());
   if (!engine) return engine.error();
   g.engine_ = std::move(*engine);
 
