@@ -6,6 +6,7 @@ and the relative error of the mean over each block of a 4 x 4 grid. The bar: the
 every block within 5%.
 
   defaults_audit.py PENUMBRA [OUT_DIR] [--seeds N] [--scenes NAME,...] [--methods NAME,...]
+                    [--device cpu|gpu]
 
 prints one row per method and scene (seconds from --stats, mean ratio, block RMS, worst block);
 --seeds N repeats each method with --seed 0 .. N-1 and reports the worst of them. Needs numpy.
@@ -68,6 +69,7 @@ def main(argv):
     parser.add_argument("--seeds", type=int, default=1)
     parser.add_argument("--scenes", default=",".join(s[0] for s in SCENES))
     parser.add_argument("--methods", default=",".join(METHODS))
+    parser.add_argument("--device", default="", help="--device for the methods (not the reference)")
     args = parser.parse_args(argv[1:])
     scenes = [s for s in SCENES if s[0] in args.scenes.split(",")]
     methods = [m for m in METHODS if m in args.methods.split(",")]
@@ -84,9 +86,11 @@ def main(argv):
         for method in methods:
             rows = []
             for seed in range(seeds):
-                out = os.path.join(out_dir, f"{method}_{name}_{seed}.pfm")
+                tag = f"_{args.device}" if args.device else ""
+                out = os.path.join(out_dir, f"{method}{tag}_{name}_{seed}.pfm")
+                extra = ["--device", args.device] if args.device else []
                 seconds = render(penumbra, scene, width, height, out,
-                                 ["--method", method, "--seed", str(seed)])
+                                 ["--method", method, "--seed", str(seed)] + extra)
                 rows.append((seconds, *compare(out, reference)))
             # The worst seed: the largest worst block, then the mean furthest from 1.
             seconds, mean, rms, worst = max(rows, key=lambda r: (abs(r[3]), abs(r[1] - 1.0)))

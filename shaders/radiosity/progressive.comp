@@ -125,6 +125,9 @@ layout(local_size_x = 256) in;
 layout(std430, binding = PROGRESSIVE_SSBO_ELEMENTS) readonly buffer Elements { GpuProgressiveElement elements[]; };
 layout(std430, binding = PROGRESSIVE_SSBO_SUMS) writeonly buffer Sums { GpuResolveSums sums[]; };
 layout(std430, binding = PROGRESSIVE_SSBO_ELEMENT_AREA) readonly buffer ElementArea { double element_area[]; };
+// Its covered share (cut-outs): it intercepts that share of what arrives, the rest goes on to
+// what lies behind it (ProgressiveRadiosity::applyIncident).
+layout(std430, binding = PROGRESSIVE_SSBO_ELEMENT_COVERAGE) readonly buffer ElementCoverage { double element_coverage[]; };
 layout(binding = PROGRESSIVE_IMAGE_RESIDUAL, rgba32f) uniform image2D residual;
 layout(binding = PROGRESSIVE_IMAGE_RADIOSITY, rgba32f) uniform image2D radiosity;
 layout(binding = PROGRESSIVE_TEXTURE_INCIDENT_MAP) uniform sampler2D incident_map;
@@ -159,8 +162,9 @@ void main() {
         // The shooter's own dB is zeroed before it gains (a curved chart lights itself).
         imageStore(residual, xy, vec4(vec3((own ? dvec3(0.0) : dvec3(db.rgb)) + gain), db.a));
       }
-      in_a = inc * a;
-      ab_a = (dvec3(1.0) - rho) * inc * a;
+      const double c = element_coverage[e];
+      in_a = inc * a * c;
+      ab_a = (dvec3(c) - rho) * inc * a;
       re_a = gain * a;
     } else if (apply && own) {
       imageStore(residual, xy, vec4(0.0, 0.0, 0.0, 1.0));

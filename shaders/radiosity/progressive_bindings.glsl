@@ -31,6 +31,7 @@
 #define PROGRESSIVE_SSBO_SAMPLES 20
 // The depth pass's cut-outs (common/cutout.glsl): four buffers from here.
 #define PROGRESSIVE_SSBO_CUTOUTS 21
+#define PROGRESSIVE_SSBO_ELEMENT_COVERAGE 25
 #define PROGRESSIVE_TEXTURE_DEPTH_MAP 0
 #define PROGRESSIVE_TEXTURE_RESIDUAL_MAP 1
 #define PROGRESSIVE_TEXTURE_ID_MAP 2

@@ -249,7 +249,7 @@ glm::dvec3 ProgressiveRadiosity::applyIncident(const glm::dvec3& scale, uint32_t
         k.arrived += in * a;
         k.absorbed += (glm::dvec3(surface_.coverageOf(r)) - surface_.reflectance[r]) * in *
                       surface_.atlas.element_area[r];
-        k.reflected += gain * a;
+        k.reflected += gain * surface_.atlas.element_area[r];  // B is per element area
       }
       shooter_power_[s] = residualPower(uint32_t(s));
     }

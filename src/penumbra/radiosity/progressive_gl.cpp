@@ -157,6 +157,7 @@ Status GlProgressive::createGather(const ProgressiveRadiosity& cpu, size_t point
   const GlBufferNeed own[] = {
       {"texel-to-element map", texels * 4},
       {"element area", uint64_t(n) * 8},
+      {"element coverage", uint64_t(n) * 8},
       {"shooter", uint64_t(ns) * sizeof(GpuShooter)},
       {"shooter point", uint64_t(point_count) * sizeof(GpuShooterPoint)},
       {"shooter point power", uint64_t(point_count) * 32},
@@ -229,8 +230,10 @@ Expected<GlProgressive> GlProgressive::create(const ProgressiveRadiosity& cpu,
   std::vector<double> element_area(n);
   std::vector<int32_t> texel_element(texels, -1);
   glm::dvec3 rho_area(0.0);
+  std::vector<double> element_coverage(n);
   for (size_t e = 0; e < n; ++e) {
     element_area[e] = cpu.elementArea(e);
+    element_coverage[e] = cpu.surface().coverageOf(e);
     texel_element[cpu.elementTexel(e)] = int32_t(e);
     s.total_area_ += cpu.elementArea(e);
     rho_area += cpu.reflectance(e) * cpu.elementArea(e);
@@ -241,6 +244,7 @@ Expected<GlProgressive> GlProgressive::create(const ProgressiveRadiosity& cpu,
   // ---- Buffers and textures ----
   s.shooters_ = gl::storageBuffer(shooters);
   s.element_area_ = gl::storageBuffer(element_area);
+  s.element_coverage_ = gl::storageBuffer(element_coverage);
   s.texel_element_ = gl::storageBuffer(texel_element);
   s.points_buf_ = gl::storageBuffer(points);
   s.point_power_ = gl::Buffer(std::max<size_t>(points.size(), 1) * 32, nullptr, 0);
@@ -462,6 +466,7 @@ Expected<GpuResolveSums> GlProgressive::resolve(uint32_t shooter, const glm::dve
   gather_.elements().bindBase(GL_SHADER_STORAGE_BUFFER, PROGRESSIVE_SSBO_ELEMENTS);
   sums_.bindBase(GL_SHADER_STORAGE_BUFFER, PROGRESSIVE_SSBO_SUMS);
   element_area_.bindBase(GL_SHADER_STORAGE_BUFFER, PROGRESSIVE_SSBO_ELEMENT_AREA);
+  element_coverage_.bindBase(GL_SHADER_STORAGE_BUFFER, PROGRESSIVE_SSBO_ELEMENT_COVERAGE);
   glBindImageTexture(PROGRESSIVE_IMAGE_RESIDUAL, residual_.id(), 0, GL_FALSE, 0, GL_READ_WRITE,
                      GL_RGBA32F);
   glBindImageTexture(PROGRESSIVE_IMAGE_RADIOSITY, radiosity_.id(), 0, GL_FALSE, 0, GL_READ_WRITE,

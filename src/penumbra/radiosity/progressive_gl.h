@@ -263,6 +263,7 @@ class GlProgressive {
 
   GlHemisphereGather gather_;  // depth maps and receiver passes (Algorithm 1, Fig. 3)
   gl::Program power_, select_, points_, resolve_, radiance_, fill_;
+  gl::Buffer element_coverage_;  // per element, its covered share (cut-outs; 1 elsewhere)
   gl::Buffer shooters_, texel_element_, element_area_, points_buf_, point_power_, shooter_power_,
       selection_, sums_, receivers_buf_, receiver_position_d_, samples_;
   gl::Texture radiosity_, residual_;
