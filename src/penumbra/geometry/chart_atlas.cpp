@@ -494,6 +494,7 @@ Status checkChartSizes(const ChartSet& set, double density, const ChartAtlasOpti
 void splitOverlappingCharts(ChartSet& set, double density, const ChartAtlasOptions& options,
                             const AtlasMesh& mesh) {
   std::vector<uint8_t> checked(set.charts.size(), 0);
+  ChartSplitter splitter(mesh.positions, mesh.triangles, mesh.faces, options.charts);
   for (;;) {
     std::vector<uint8_t> overlapping(set.charts.size(), 0);
     parallelRange(set.charts.size(), 1, [&](size_t b, size_t e) {
@@ -509,7 +510,7 @@ void splitOverlappingCharts(ChartSet& set, double density, const ChartAtlasOptio
     const size_t count = set.charts.size();
     for (size_t c = 0; c < count; ++c) {
       if (!overlapping[c]) continue;
-      if (splitChart(set, c, mesh.positions, mesh.triangles, mesh.faces, options.charts)) {
+      if (splitter.split(set, c)) {
         split_any = true;
         checked[c] = 0;
         checked.push_back(0);

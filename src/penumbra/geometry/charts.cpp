@@ -753,15 +753,29 @@ ChartSet buildCharts(std::span<const glm::vec3> positions, std::span<const glm::
   return set;
 }
 
-bool splitChart(ChartSet& set, size_t c, std::span<const glm::vec3> positions,
-                std::span<const glm::uvec3> triangles, std::span<const SurfaceFace> faces,
-                const ChartOptions& options) {
+struct ChartSplitter::Scratch {
+  std::vector<FaceGeometry> geo;  // indexed by face; only the split chart's faces are read
+};
+
+ChartSplitter::ChartSplitter(std::span<const glm::vec3> positions,
+                             std::span<const glm::uvec3> triangles,
+                             std::span<const SurfaceFace> faces, const ChartOptions& options)
+    : positions_(positions),
+      triangles_(triangles),
+      faces_(faces),
+      options_(options),
+      weld_(weldPositions(positions)),
+      scratch_(std::make_unique<Scratch>()) {}
+
+ChartSplitter::~ChartSplitter() = default;
+
+bool ChartSplitter::split(ChartSet& set, size_t c) {
   PENUMBRA_CHECK(c < set.charts.size());
   if (set.charts[c].faces.size() < 2) return false;
-  const std::vector<uint32_t> weld = weldPositions(positions);
-  std::vector<FaceGeometry> geo(faces.size());
+  std::vector<FaceGeometry>& geo = scratch_->geo;
+  if (geo.size() < faces_.size()) geo.resize(faces_.size());
   for (uint32_t f : set.charts[c].faces)
-    geo[f] = faceGeometry(positions, triangles, weld, faces[f]);
+    geo[f] = faceGeometry(positions_, triangles_, weld_, faces_[f]);
   // Faces ordered along the chart's principal direction in the plane (its u axis).
   std::vector<std::pair<double, uint32_t>> key;
   for (uint32_t f : set.charts[c].faces) {
@@ -779,9 +793,15 @@ bool splitChart(ChartSet& set, size_t c, std::span<const glm::vec3> positions,
   for (uint32_t f : b.faces) set.face_chart[f] = id_b;
   set.charts[c] = std::move(a);
   set.charts.push_back(std::move(b));
-  parameterise(set, set.charts[c], geo, faces, options);
-  parameterise(set, set.charts.back(), geo, faces, options);
+  parameterise(set, set.charts[c], geo, faces_, options_);
+  parameterise(set, set.charts.back(), geo, faces_, options_);
   return true;
+}
+
+bool splitChart(ChartSet& set, size_t c, std::span<const glm::vec3> positions,
+                std::span<const glm::uvec3> triangles, std::span<const SurfaceFace> faces,
+                const ChartOptions& options) {
+  return ChartSplitter(positions, triangles, faces, options).split(set, c);
 }
 
 }  // namespace penumbra

@@ -31,6 +31,7 @@
 #include <glm/vec3.hpp>
 
 #include <cstdint>
+#include <memory>
 #include <span>
 #include <vector>
 
@@ -88,5 +89,26 @@ ChartSet buildCharts(std::span<const glm::vec3> positions, std::span<const glm::
 bool splitChart(ChartSet& set, size_t c, std::span<const glm::vec3> positions,
                 std::span<const glm::uvec3> triangles, std::span<const SurfaceFace> faces,
                 const ChartOptions& options);
+
+// splitChart for many charts of one mesh: the welded vertices and the per-face scratch are made
+// once (a split costs its chart's faces, not the mesh's).
+class ChartSplitter {
+ public:
+  ChartSplitter(std::span<const glm::vec3> positions, std::span<const glm::uvec3> triangles,
+                std::span<const SurfaceFace> faces, const ChartOptions& options);
+  ~ChartSplitter();
+  ChartSplitter(const ChartSplitter&) = delete;
+  ChartSplitter& operator=(const ChartSplitter&) = delete;
+  bool split(ChartSet& set, size_t c);
+
+ private:
+  struct Scratch;
+  std::span<const glm::vec3> positions_;
+  std::span<const glm::uvec3> triangles_;
+  std::span<const SurfaceFace> faces_;
+  ChartOptions options_;
+  std::vector<uint32_t> weld_;
+  std::unique_ptr<Scratch> scratch_;
+};
 
 }  // namespace penumbra
