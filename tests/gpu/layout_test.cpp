@@ -13,6 +13,7 @@
 #include "penumbra/radiosity/jacobi_gl.h"
 #include "penumbra/radiosity/progressive_gl.h"
 #include "penumbra/radiosity/stochastic_gl.h"
+#include "penumbra/raytrace/gpu_cutouts.h"
 #include "penumbra/raytrace/gpu_layout.h"
 #include "penumbra/raytrace/lights.h"
 #include "penumbra/subsurface/sss_gl.h"
@@ -288,15 +289,25 @@ TEST(GpuLayout, ProgressiveRadiosityMatchesCpp) {
 
 TEST(GpuLayout, BatchPointUniformMatchesCpp) {
   PENUMBRA_GL_OR_SKIP();
-  // std140, in the uniform block Batch. The C++ side's `pad` has no GLSL twin: it only rounds
-  // the C++ size up to the std140 array stride (a multiple of dvec4's 32), which is checked.
+  // std140, in the uniform block Batch; `eye` also rounds the size up to the std140 array stride
+  // (a multiple of dvec4's 32), which is checked.
   using T = GpuBatchPoint;
   expectMirrored({"GpuBatchPoint",
                   kProgressive,
                   sizeof(T),
                   {LAYOUT_MEMBER(T, position), LAYOUT_MEMBER(T, position_f),
-                   LAYOUT_MEMBER(T, residual), LAYOUT_MEMBER(T, members)},
+                   LAYOUT_MEMBER(T, residual), LAYOUT_MEMBER(T, members), LAYOUT_MEMBER(T, eye)},
                   Block::kStd140Uniform});
+}
+
+TEST(GpuLayout, CutoutMatchesCpp) {
+  PENUMBRA_GL_OR_SKIP();
+  using T = GpuCutout;
+  expectMirrored({"GpuCutout",
+                  "#define CUTOUT_SSBO_FIRST 0\n#include \"common/cutout.glsl\"\n",
+                  sizeof(T),
+                  {LAYOUT_MEMBER(T, st), LAYOUT_MEMBER(T, factor), LAYOUT_MEMBER(T, cutoff),
+                   LAYOUT_MEMBER(T, texture), LAYOUT_MEMBER(T, pad)}});
 }
 
 TEST(GpuLayout, LightMatchesCpp) {
