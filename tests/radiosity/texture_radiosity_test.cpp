@@ -16,11 +16,18 @@
 #include <cmath>
 #include <cstdio>
 #include <numbers>
+#include <vector>
 
 namespace penumbra {
 namespace {
 
 constexpr double kPi = std::numbers::pi;
+
+std::vector<glm::dvec3> radiosityOf(const ProgressiveRadiosity& pr) {
+  std::vector<glm::dvec3> b(pr.elementCount());
+  for (size_t e = 0; e < b.size(); ++e) b[e] = pr.radiosity(e);
+  return b;
+}
 
 // Inside the furnace (the faces' fronts): the area-weighted means of radiosity and reflectance.
 struct FurnaceMeans {
@@ -167,16 +174,8 @@ TEST(TextureRadiosity, HalfMaskedQuadCastsHalfTheShadow) {
   ASSERT_TRUE(pr.ok()) << pr.error().describe();
   pr->solve();
   // The floor under the lattice: B = rho E vis (the lattice is black: no other light).
-  double sum = 0.0, area = 0.0;
-  for (size_t e = 0; e < pr->elementCount(); ++e) {
-    const glm::dvec3 p = pr->elementPosition(e);
-    if (std::abs(p.y) > 1e-6 || std::abs(p.x) > 1.0 || std::abs(p.z) > 1.0) continue;
-    if (pr->atlas().faces[pr->atlas().element_face[e]].back) continue;
-    sum += pr->elementArea(e) * pr->radiosity(e).x;
-    area += pr->elementArea(e);
-  }
   const double expected = 0.5 * 2.0 * 0.5;
-  EXPECT_NEAR(sum / area, expected, 0.03 * expected);
+  EXPECT_NEAR(test::floorMeanUnder(pr->atlas(), radiosityOf(*pr)), expected, 0.03 * expected);
   // The lattice's own elements reflect only where it is there.
   for (size_t e = 0; e < pr->elementCount(); ++e) {
     if (pr->elementPosition(e).y > 0.5) {
@@ -204,15 +203,7 @@ TEST(TextureRadiosity, AHalfOpenLatticePassesHalfAnAreaLightsLight) {
           ProgressiveRadiosity::build(test::emitterOverLattice(k == 0 ? open : half), o);
       ASSERT_TRUE(pr.ok()) << pr.error().describe();
       pr->solve();
-      double sum = 0.0, area = 0.0;
-      for (size_t e = 0; e < pr->elementCount(); ++e) {
-        const glm::dvec3 p = pr->elementPosition(e);
-        if (std::abs(p.y) > 1e-6 || std::abs(p.x) > 1.0 || std::abs(p.z) > 1.0) continue;
-        if (pr->atlas().faces[pr->atlas().element_face[e]].back) continue;
-        sum += pr->elementArea(e) * pr->radiosity(e).x;
-        area += pr->elementArea(e);
-      }
-      floor[k] = sum / area;
+      floor[k] = test::floorMeanUnder(pr->atlas(), radiosityOf(*pr));
     }
     std::printf("%.0f texels/m: the half-open lattice passes %.4f of the open one's light\n",
                 density, floor[1] / floor[0]);

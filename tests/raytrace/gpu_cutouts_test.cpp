@@ -101,19 +101,6 @@ TEST(GpuCutouts, RayEngineStopsWhereTheCpuFilterStops) {
   expectSameStops("MASK, nearest, mirrored, transformed", moved, 0.5);
 }
 
-// The floor under the lattice (|x|, |z| < 1): area-weighted mean radiosity.
-double floorMean(const ChartAtlas& atlas, const std::vector<glm::dvec3>& b) {
-  double sum = 0.0, area = 0.0;
-  for (size_t e = 0; e < b.size(); ++e) {
-    const glm::dvec3 p = atlas.element_position[e];
-    if (std::abs(p.y) > 1e-6 || std::abs(p.x) > 1.0 || std::abs(p.z) > 1.0) continue;
-    if (atlas.faces[atlas.element_face[e]].back) continue;
-    sum += atlas.element_area[e] * b[e].x;
-    area += atlas.element_area[e];
-  }
-  return sum / area;
-}
-
 // Every ray from the emitter to the floor under the lattice crosses the lattice: an open one
 // lets all of it through, a half-masked one half (its cells are small against the penumbrae).
 TEST(GpuCutouts, ProgressiveAndStochasticDepthMapsLetHalfTheLightThrough) {
@@ -141,8 +128,8 @@ TEST(GpuCutouts, ProgressiveAndStochasticDepthMapsLetHalfTheLightThrough) {
     cpu->solve();
     std::vector<glm::dvec3> b_cpu(cpu->elementCount());
     for (size_t e = 0; e < b_cpu.size(); ++e) b_cpu[e] = cpu->radiosity(e);
-    progressive[k][0] = floorMean(cpu->atlas(), b_cpu);
-    progressive[k][1] = floorMean(cpu->atlas(), st->radiosity);
+    progressive[k][0] = test::floorMeanUnder(cpu->atlas(), b_cpu);
+    progressive[k][1] = test::floorMeanUnder(cpu->atlas(), st->radiosity);
 
     StochasticOptions so;
     so.atlas.texel_density = 8.0;
@@ -155,9 +142,9 @@ TEST(GpuCutouts, ProgressiveAndStochasticDepthMapsLetHalfTheLightThrough) {
     ASSERT_TRUE(g->solve().ok());
     Expected<std::vector<glm::dvec3>> b = g->radiosity();
     ASSERT_TRUE(b.ok());
-    stochastic[k][1] = floorMean(sr->atlas(), *b);
+    stochastic[k][1] = test::floorMeanUnder(sr->atlas(), *b);
     sr->solve();
-    stochastic[k][0] = floorMean(sr->atlas(), sr->radiosity());
+    stochastic[k][0] = test::floorMeanUnder(sr->atlas(), sr->radiosity());
   }
   std::printf(
       "floor under the lattice, open / half-masked: progressive CPU %.4f / %.4f, GPU "

@@ -102,6 +102,18 @@ Scene emitterOverFloor(const Material& emitter, float height) {
   return s;
 }
 
+double floorMeanUnder(const ChartAtlas& atlas, std::span<const glm::dvec3> radiosity) {
+  double sum = 0.0, area = 0.0;
+  for (size_t e = 0; e < radiosity.size(); ++e) {
+    const glm::dvec3 p = atlas.element_position[e];
+    if (std::abs(p.y) > 1e-6 || std::abs(p.x) > 1.0 || std::abs(p.z) > 1.0) continue;
+    if (atlas.faces[atlas.element_face[e]].back) continue;
+    sum += atlas.element_area[e] * radiosity[e].x;
+    area += atlas.element_area[e];
+  }
+  return sum / area;
+}
+
 Scene emitterOverLattice(const Material& lattice) {
   Scene s;
   s.source = "test:emitter-over-lattice";

@@ -2,10 +2,14 @@
 // tests/radiosity/texture_radiosity_test.cpp).
 #pragma once
 
+#include "penumbra/geometry/chart_atlas.h"
 #include "penumbra/scene/scene.h"
 #include "support/image_files.h"
 
+#include <glm/vec3.hpp>
+
 #include <memory>
+#include <span>
 
 namespace penumbra::test {
 
@@ -38,5 +42,9 @@ Scene emitterOverFloor(const Material& emitter, float height);
 // over [0, 1]^2) at y = 1 over a 4 x 4 m floor of reflectance 0.5: the floor under the lattice
 // sees the emitter through its openings only.
 Scene emitterOverLattice(const Material& lattice);
+
+// The area-weighted mean red radiosity of the floor's elements under the occluder or lattice
+// of floorUnderOccluder and emitterOverLattice (y = 0, |x|, |z| < 1, front faces).
+double floorMeanUnder(const ChartAtlas& atlas, std::span<const glm::dvec3> radiosity);
 
 }  // namespace penumbra::test

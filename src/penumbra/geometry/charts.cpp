@@ -798,10 +798,4 @@ bool ChartSplitter::split(ChartSet& set, size_t c) {
   return true;
 }
 
-bool splitChart(ChartSet& set, size_t c, std::span<const glm::vec3> positions,
-                std::span<const glm::uvec3> triangles, std::span<const SurfaceFace> faces,
-                const ChartOptions& options) {
-  return ChartSplitter(positions, triangles, faces, options).split(set, c);
-}
-
 }  // namespace penumbra

@@ -83,15 +83,9 @@ ChartSet buildCharts(std::span<const glm::vec3> positions, std::span<const glm::
                      std::span<const uint32_t> material_ids, std::span<const SurfaceFace> faces,
                      const ChartOptions& options);
 
-// Splits chart c of `set` in two across its principal direction (for charts whose
-// parameterisation overlaps itself), re-parameterising both halves; the second half is
-// appended. Returns false when the chart has a single face.
-bool splitChart(ChartSet& set, size_t c, std::span<const glm::vec3> positions,
-                std::span<const glm::uvec3> triangles, std::span<const SurfaceFace> faces,
-                const ChartOptions& options);
-
-// splitChart for many charts of one mesh: the welded vertices and the per-face scratch are made
-// once (a split costs its chart's faces, not the mesh's).
+// Splits charts of one mesh's chart set (for charts whose parameterisation overlaps itself).
+// The welded vertices and the per-face scratch are made once, so a split costs its chart's
+// faces, not the mesh's.
 class ChartSplitter {
  public:
   ChartSplitter(std::span<const glm::vec3> positions, std::span<const glm::uvec3> triangles,
@@ -99,6 +93,8 @@ class ChartSplitter {
   ~ChartSplitter();
   ChartSplitter(const ChartSplitter&) = delete;
   ChartSplitter& operator=(const ChartSplitter&) = delete;
+  // Splits chart c of `set` in two across its principal direction, re-parameterising both
+  // halves; the second half is appended. Returns false when the chart has a single face.
   bool split(ChartSet& set, size_t c);
 
  private:

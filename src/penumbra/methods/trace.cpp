@@ -49,12 +49,8 @@ namespace {
 // hit filter and the GPU kernel's test read the same textures; the hybrid split's CPU cells do
 // not test them.
 Expected<std::shared_ptr<const SurfaceTextures>> traceCutouts(const Scene& scene, bool hybrid) {
-  bool any = false;
-  for (const Material& m : scene.materials) any = any || m.alpha_mode != AlphaMode::kOpaque;
-  if (!any) return std::shared_ptr<const SurfaceTextures>();
-  auto textures = std::make_shared<const SurfaceTextures>(scene);
-  if (!textures->hasCutouts()) return std::shared_ptr<const SurfaceTextures>();
-  if (hybrid) {
+  std::shared_ptr<const SurfaceTextures> textures = sceneCutoutTextures(scene);
+  if (textures && hybrid) {
     return inputError(scene.source, "",
                       "the scene has cut-outs (alpha-masked or partly covering materials), which "
                       "the hybrid back end does not test: use --device cpu or gpu");

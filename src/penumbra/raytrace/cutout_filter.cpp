@@ -25,11 +25,16 @@ std::shared_ptr<const HitFilter> cutoutFilter(std::shared_ptr<const SurfaceTextu
   return std::make_shared<const CutoutFilter>(std::move(textures));
 }
 
-std::shared_ptr<const HitFilter> sceneCutouts(const Scene& scene) {
+std::shared_ptr<const SurfaceTextures> sceneCutoutTextures(const Scene& scene) {
   bool any = false;
   for (const Material& m : scene.materials) any = any || m.alpha_mode != AlphaMode::kOpaque;
   if (!any) return nullptr;
-  return cutoutFilter(std::make_shared<const SurfaceTextures>(scene));
+  auto textures = std::make_shared<const SurfaceTextures>(scene);
+  return textures->hasCutouts() ? textures : nullptr;
+}
+
+std::shared_ptr<const HitFilter> sceneCutouts(const Scene& scene) {
+  return cutoutFilter(sceneCutoutTextures(scene));
 }
 
 }  // namespace penumbra

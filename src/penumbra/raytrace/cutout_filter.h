@@ -26,7 +26,11 @@ class CutoutFilter final : public HitFilter {
 // The filter for the scene's cut-outs, or null when no ray can pass through any triangle.
 std::shared_ptr<const HitFilter> cutoutFilter(std::shared_ptr<const SurfaceTextures> textures);
 
-// The same for a scene (flattenScene's triangle order), or null.
+// The textures of a scene (flattenScene's triangle order) when rays can pass through some
+// triangle, else null: what the CPU filter and the GPU test (gpu_cutouts.h) read.
+std::shared_ptr<const SurfaceTextures> sceneCutoutTextures(const Scene& scene);
+
+// The filter for a scene's cut-outs, or null.
 std::shared_ptr<const HitFilter> sceneCutouts(const Scene& scene);
 
 // A uniform number in [0, 1) from a ray and a triangle (the blend decision).
