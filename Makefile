@@ -45,9 +45,10 @@ test-asan: deps
 
 # The sanitizer job .ci/run runs: the tests of the modules that take input and build from it
 # (tests/CMakeLists.txt: penumbra_fast_tests) at -O0, which compiles in about half the time,
-# less the few of them that take more than about 2 s without sanitizers.
+# less the few of them that take more than about 2 s without sanitizers and the command-line
+# tests that run a whole solve (their solvers' own suites are not in this job either).
 ASAN_FAST_BUILD ?= build-asan-fast
-ASAN_SLOW_TESTS = Cli.Progressive*:Cli.Signals*:Cli.TraceOnTheGpu*:ChartAtlas.Bunny*:SurfaceHierarchy.CutGives*:Readme.*
+ASAN_SLOW_TESTS = Cli.Progressive*:Cli.Stochastic*:Cli.Lpv*:Cli.MatrixRadiosity*:Cli.Bake*:Cli.PathTracerSamplers*:Cli.Signals*:Cli.TraceOnTheGpu*:ChartAtlas.Bunny*:SurfaceHierarchy.CutGives*:Readme.*
 test-asan-fast: deps
 	cmake -S . -B $(ASAN_FAST_BUILD) -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DPENUMBRA_SANITIZE=ON \
 	  -DPENUMBRA_BUILD_BENCH=OFF -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O0 -g1"

@@ -12,7 +12,8 @@
 //  2 points:   the shooter's points (substructuring, sec. 3): per cluster of one level (a
 //              contiguous range of elements) the sum of dB * area in double; read back, it gives
 //              the power shot (the books), the points with something to shoot, and their
-//              area-weighted mean dB.
+//              area-weighted mean dB; and the sum of luminance(dB) * area * position, which
+//              places each point at its power's centroid (as on the CPU).
 //  3 resolve:  after all shooter points: B += rho * scale * incident, dB += the same (eq. 1,
 //              progressive form; scale = 1 unless the shot is closed), the shooter's dB = 0,
 //              and per work group the sums of incident * area, (1 - rho) incident * area and
@@ -110,14 +111,18 @@ void main() {
   const uint p = point_first + k;
   const GpuShooterPoint s = points[p];
   dvec3 sum = dvec3(0.0);
+  dvec4 moment = dvec4(0.0);  // sum of luminance(dB) area position, sum of luminance(dB) area
   for (uint q = 0u; q < s.member_count; ++q) {
     const uint e = s.member_first + q;
     const uint texel = elements[e].texel;
     const dvec3 db = dvec3(imageLoad(residual, ivec2(int(texel % uint(atlas_width)),
                                                       int(texel / uint(atlas_width)))).rgb);
     sum += db * element_area[e];
+    const double w = (0.3LF * db.r + 0.59LF * db.g + 0.11LF * db.b) * element_area[e];
+    moment += dvec4(dvec3(elements[e].position) * w, w);
   }
-  point_power[p] = dvec4(sum, 0.0LF);
+  point_power[2u * p] = dvec4(sum, 0.0LF);
+  point_power[2u * p + 1u] = moment;
 }
 
 #elif PROGRESSIVE_PASS == 3

@@ -34,7 +34,7 @@ struct GpuShooterPoint {  // 8 bytes: a cluster of a shooter, a contiguous range
   uint member_count;
 };
 
-// One shooter point of a batch (std140, 96 bytes), in the uniform block the depth and receiver
+// One shooter point of a batch (std140, 128 bytes), in the uniform block the depth and receiver
 // passes share: the points of a batch are the same for every fragment, so they are read as
 // uniforms rather than from storage buffers.
 struct GpuBatchPoint {
@@ -43,6 +43,8 @@ struct GpuBatchPoint {
   vec4 residual;    // area-weighted mean dB of its elements (W m^-2)
   uvec4 members;    // x: first element, y: count, z: its index among the shooter's points
   vec4 eye;         // xyz: where its visibility is taken from, off position_f (cut-outs)
+  uvec4 pieces;     // x: its first polygon in point_polygons, y: their count (0: discs only)
+  vec4 pad;         // the std140 array stride (a multiple of 32)
 };
 
 // MAX_BATCH_POINTS, the points of a batch, is defined by the host (radiosity/hemisphere_gl.h:

@@ -6,13 +6,14 @@
 // most for). The element (the CPU solver's: its exact-coverage centroid, normal, area and
 // reflectance) is back-projected into each point's depth map (progressive_hemisphere.glsl),
 // compared with the depth there and at the 8 neighbouring texels of the map (Fig. 3), and, if
-// visible, gathers the irradiance dB_s F_rs (W m^-2) with eq. 2's disc form factor, or for pairs
-// closer than kNear shooter element sizes with Lambert's exact form factor to each of the
-// shooter point's elements' pieces (as the CPU solver does). The sum is added into the incident
-// target by blending.
+// visible, gathers the irradiance dB_s F_rs (W m^-2) as the CPU solver does: with eq. 2's disc
+// form factor for pairs kFar point sizes apart or more, Lambert's exact form factor to the
+// point's pieces (its faces clipped to its texels) with its mean dB nearer, and for pairs closer
+// than kNear sizes Lambert's form factor to each of the point's elements' own pieces. The sum is
+// added into the incident target by blending.
 //
-// Two programs come from this file: NEAR_PASS 0 gathers the far pairs with eq. 2's disc over all
-// receivers; NEAR_PASS 1 the near pairs (closer than kNear shooter element sizes) with the exact
+// Two programs come from this file: NEAR_PASS 0 gathers the far pairs (disc or point pieces)
+// over all receivers; NEAR_PASS 1 the near pairs (closer than kNear shooter element sizes) with the exact
 // form factor, drawn only for the charts that can be that close to the shooter
 // (progressive_gl.cpp), so that the heavy polygon code runs only where it is needed. VISIBILITY
 // (ProgressiveOptions::visibility) compiles the depth test in or out.
@@ -39,6 +40,8 @@ uniform uint sample_points;  // the shooter's points
 // Element pieces (its faces clipped to its texel, in world space), 8 corners each (xyz, padded
 // by repeating the last corner).
 layout(std430, binding = PROGRESSIVE_SSBO_POLYGONS) readonly buffer Polygons { vec4 polygons[]; };
+// Shooter points' pieces (their faces clipped to their texels), 8 corners each, as above.
+layout(std430, binding = PROGRESSIVE_SSBO_POINT_POLYGONS) readonly buffer PointPolygons { vec4 point_polygons[]; };
 // Receiver points in double, for the near-pair test in the CPU's precision.
 layout(std430, binding = PROGRESSIVE_SSBO_ELEMENT_POSITION_D) readonly buffer ReceiverPositionD { double receiver_position[]; };
 #ifndef MAX_BATCH_POINTS
@@ -60,7 +63,8 @@ uniform uint batch_count;       // points in the batch
 uniform uint tiles;             // tiles x tiles depth maps in depth_map, tile k for point k
 uniform int atlas_width;
 uniform float depth_tolerance;  // relative
-uniform float near_factor;      // kNear: exact form factor when d^2 < kNear^2 A_s
+uniform float near_factor;      // kNear: the members' form factors when d^2 < kNear^2 A_s
+uniform float far_factor;       // kFar: the point's pieces' form factor when d^2 < kFar^2 A_s
 uniform bool count_mode;        // diagnostics: add 1 per fragment that gets through
 
 flat in uint v_element;
@@ -80,12 +84,14 @@ bool nextTo(int seen, int chart) {
 // nothing nearer than the element (up to the tolerance), or when that texel sees the element's
 // own surface or a surface touching it (a triangle with a face in its chart or in a chart that
 // shares a corner with it: its surface seen at a grazing angle, rasterised slightly nearer, or
-// the neighbouring face across an edge) and one of its eight neighbours (within the tile) sees
-// nothing nearer. The paper's neighbourhood prevents false occlusion of surfaces seen at grazing
-// angles; asking that the centre see a connected surface keeps it from letting light past an
-// unconnected occluder's silhouette (the inner faces of a box lit from outside, the ceiling
-// 0.8 mm above the Cornell box's light).
-// Either way, a triangle that one of the nine texels sees nearer than the element and that the
+// the neighbouring face across an edge). Asking that the centre see a connected surface keeps
+// the test from letting light past an unconnected occluder's silhouette (the inner faces of a
+// box lit from outside, the ceiling 0.8 mm above the Cornell box's light). The paper's
+// neighbourhood asks besides that one of the eight neighbouring texels see nothing nearer; near
+// the horizon of a point's map (a ceiling seen from the top of a wall) every one of them can
+// hold the element's own surface a little nearer, and that test hid 10-16% of the light in the
+// Cornell box's corners, so the texels' triangles are tested exactly instead:
+// a triangle that one of the nine texels sees nearer than the element and that the
 // segment from the element to the point crosses (the watertight ray-triangle test) occludes:
 // next to an edge, neighbouring triangles' sub-triangle tessellations part by up to a texel, so
 // the texel may show the element's own (two-sided) wall where the face over the edge blocks it,
@@ -116,12 +122,10 @@ bool visibleFromShooter(vec3 image, uint k, int chart, vec3 receiver, vec3 norma
   const vec3 from = receiver + normal * hemisphere.on_plane;
   const vec3 to = batch[k].position_f.xyz + batch[k].eye.xyz + hemisphere.normal * hemisphere.on_plane;
   const WatertightRay segment = makeWatertightRay(from, to - from);
-  float farthest = 0.0;
   for (int dy = -1; dy <= 1; ++dy) {
     for (int dx = -1; dx <= 1; ++dx) {
       const ivec2 q = clamp(px + ivec2(dx, dy), ivec2(0), ivec2(size - 1));
       const float depth = texelFetch(depth_map, origin + q, 0).r;
-      farthest = max(farthest, depth);
       if (depth >= threshold) continue;
       const uint id = texelFetch(id_map, origin + q, 0).r;
       const GpuProgressiveTriangle t = triangles[id];
@@ -138,7 +142,7 @@ bool visibleFromShooter(vec3 image, uint k, int chart, vec3 receiver, vec3 norma
       }
     }
   }
-  return clear || cut || farthest >= threshold;
+  return true;
 }
 
 // Whether receiver r (its point in double: pr) and batch point k make a pair of this pass:
@@ -188,8 +192,23 @@ vec3 gatherNear(GpuProgressiveElement r, vec3 nr, uint k) {
   return sum;
 }
 #else
-// Far pairs: eq. 2's disc (m = 1) times the point's mean dB (W m^-2).
-vec3 gatherFar(GpuProgressiveElement r, vec3 nr, uint k) {
+// Far pairs: eq. 2's disc (m = 1) times the point's mean dB, or nearer than kFar of its sizes
+// (decided in the CPU's precision, as isPair does) Lambert's form factor to its pieces (W m^-2).
+vec3 gatherFar(dvec3 pr, GpuProgressiveElement r, vec3 nr, uint k) {
+  const dvec3 dd = batch[k].position.xyz - pr;
+  const double dd2 = dd.x * dd.x + dd.y * dd.y + dd.z * dd.z;
+  if (batch[k].pieces.y > 0u &&
+      dd2 < double(far_factor) * double(far_factor) * batch[k].position.w) {
+    float f = 0.0;
+    for (uint piece = 0u; piece < batch[k].pieces.y; ++piece) {
+      vec3 poly[8];
+      for (int c = 0; c < 8; ++c) {
+        poly[c] = point_polygons[8u * (batch[k].pieces.x + piece) + uint(c)].xyz;
+      }
+      f += pointToPolygonFormFactor(r.position, nr, poly);
+    }
+    return batch[k].residual.rgb * f;
+  }
   const vec3 d = batch[k].position_f.xyz - r.position;
   const float d2 = dot(d, d);
   const float inv = inversesqrt(d2);
@@ -237,7 +256,7 @@ void main() {
 #if NEAR_PASS
     sum += gatherNear(r, r.shading_normal, k);
 #else
-    sum += gatherFar(r, r.shading_normal, k);
+    sum += gatherFar(pr, r, r.shading_normal, k);
 #endif
   }
   if (sum == vec3(0.0)) discard;  // nothing to add

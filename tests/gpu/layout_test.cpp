@@ -289,14 +289,15 @@ TEST(GpuLayout, ProgressiveRadiosityMatchesCpp) {
 
 TEST(GpuLayout, BatchPointUniformMatchesCpp) {
   PENUMBRA_GL_OR_SKIP();
-  // std140, in the uniform block Batch; `eye` also rounds the size up to the std140 array stride
-  // (a multiple of dvec4's 32), which is checked.
+  // std140, in the uniform block Batch; `pad` rounds the size up to the std140 array stride (a
+  // multiple of dvec4's 32), which is checked.
   using T = GpuBatchPoint;
   expectMirrored({"GpuBatchPoint",
                   kProgressive,
                   sizeof(T),
                   {LAYOUT_MEMBER(T, position), LAYOUT_MEMBER(T, position_f),
-                   LAYOUT_MEMBER(T, residual), LAYOUT_MEMBER(T, members), LAYOUT_MEMBER(T, eye)},
+                   LAYOUT_MEMBER(T, residual), LAYOUT_MEMBER(T, members), LAYOUT_MEMBER(T, eye),
+                   LAYOUT_MEMBER(T, pieces), LAYOUT_MEMBER(T, pad)},
                   Block::kStd140Uniform});
 }
 

@@ -37,6 +37,7 @@ Status prepareProgressive(const Scene& scene, const ProgressiveRunOptions& optio
   po.max_iterations = options.iterations;
   po.convergence = options.tolerance;
   po.shooter_top_points = options.shooter_points;
+  po.shooter_min_points = options.shooter_points;  // the flat scheme's (the GPU's)
   po.shading_normals = options.shading_normals;
   po.adaptive = options.adaptive;
   po.receiver_level = options.receiver_level;
@@ -50,6 +51,7 @@ Status prepareProgressive(const Scene& scene, const ProgressiveRunOptions& optio
     // the interrupted one would have).
     po.shooter_level = info->shooter_level;
     po.shooter_top_points = info->shooter_top_points;
+    po.shooter_min_points = info->shooter_min_points;
     po.receiver_level = info->receiver_level;
     po.adaptive = info->adaptive != 0;
     po.subdivision = info->subdivision;

@@ -96,13 +96,17 @@ struct GpuBatchPoint {
   float residual[4];    // its area-weighted mean radiosity to shoot (W m^-2)
   uint32_t members[4];  // first element, count, its index among the shooter's points
   // Where its visibility is taken from, off `position` (cut-outs: radiosity/cutout_jitter.h);
-  // set by GlHemisphereGather::prepareBatch. Also pads the std140 array stride to a multiple of
-  // the dvec4 alignment (32).
+  // set by GlHemisphereGather::prepareBatch.
   float eye[4];
+  // Its pieces (its faces clipped to its texels) in the point polygons
+  // (PROGRESSIVE_SSBO_POINT_POLYGONS): first, count. Pairs nearer than far_factor of its sizes
+  // take Lambert's form factor to them; with none, eq. 2's disc serves every far pair.
+  uint32_t pieces[4];
+  float pad[4];  // the std140 array stride: a multiple of the dvec4 alignment (32)
 };
-static_assert(sizeof(GpuBatchPoint) == 96 && offsetof(GpuBatchPoint, position_f) == 32 &&
+static_assert(sizeof(GpuBatchPoint) == 128 && offsetof(GpuBatchPoint, position_f) == 32 &&
               offsetof(GpuBatchPoint, residual) == 48 && offsetof(GpuBatchPoint, members) == 64 &&
-              offsetof(GpuBatchPoint, eye) == 80);
+              offsetof(GpuBatchPoint, eye) == 80 && offsetof(GpuBatchPoint, pieces) == 96);
 // Shooter points per receiver pass (MAX_BATCH_POINTS in progressive_layout.glsl): a 4 x 4 grid
 // of depth maps in one texture.
 inline constexpr int kProgressiveBatchTiles = 4;
@@ -156,8 +160,10 @@ class GlHemisphereGather {
   // The incident irradiance atlas (RGBA32F) the receiver passes add into.
   const gl::Texture& incident() const { return incident_; }
 
-  // The shooter's hemisphere (its pole, unit) and the near pairs' factor for the next batches.
-  void setShooter(const glm::dvec3& normal, double near_factor);
+  // The shooter's hemisphere (its pole, unit) and, for the next batches, the factors of the
+  // near pairs (d^2 < near^2 A, the near pass) and of the pairs that take Lambert's form factor
+  // to the point's pieces in the far pass (d^2 < far^2 A, when the point has pieces).
+  void setShooter(const glm::dvec3& normal, double near_factor, double far_factor);
   // The samples pass's pairing: element e with the shooter's point e mod `points`.
   void setSamplePoints(uint32_t points);
   void clearIncident();

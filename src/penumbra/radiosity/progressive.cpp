@@ -30,9 +30,11 @@ constexpr double kPiD = std::numbers::pi;
 constexpr uint32_t kNoElement = std::numeric_limits<uint32_t>::max();
 
 // A shooter point: a cluster of the hierarchy under the shooter (substructuring, Wallner sec. 3:
-// its area-weighted mean position, summed area and area-weighted mean dB), with its children one
-// level finer (elements at level 0).
+// its position, summed area and area-weighted mean dB), with its children one level finer
+// (elements at level 0).
 struct ShooterPoint {
+  // Clusters: the centroid of their elements' residual power (luminance(dB) times area), or
+  // the hierarchy's area-weighted centroid when they have none.
   glm::dvec3 position{0.0};
   double area = 0.0;
   glm::dvec3 residual{0.0};
@@ -49,13 +51,13 @@ struct ShooterPoint {
 }  // namespace
 
 constexpr double kNear = kProgressiveNear;
-// Hierarchical mode: eq. 2's disc only for points farther than this many of their sizes, and
-// Lambert's exact point-to-polygon form factor to the cluster's pieces nearer (from kNear on; a
-// cluster nearer than kNear sizes is refined). The disc's error falls with the square of
-// size / distance: with discs from 3 sizes on, the furnace's worst element was 1.4% off, from 8
-// sizes on 0.81% (the flat scheme's), but discs alone needed refining down to 8 sizes, which
-// at millions of elements costs hundreds of pairs per receiver.
-constexpr double kFar = 8.0;
+// Eq. 2's disc only for points farther than this many of their sizes, and Lambert's exact
+// point-to-polygon form factor to the cluster's pieces nearer (from kNear on; nearer than kNear
+// sizes a cluster is refined, or in flat mode its members take their own pieces). The disc's error
+// falls with the square of size / distance: with discs from 3 sizes on, the furnace's worst element
+// was 1.4% off, from 8 sizes on 0.81% (the flat scheme's), but discs alone needed refining down to
+// 8 sizes, which at millions of elements costs hundreds of pairs per receiver.
+constexpr double kFar = kProgressiveFar;
 // Hierarchical mode: clusters coarser than the top level (up to the whole shooter) serve
 // receivers farther than this many of their sizes (a small shooter far away shoots as one
 // point).
@@ -144,6 +146,9 @@ Expected<ProgressiveRadiosity> ProgressiveRadiosity::build(const Scene& scene,
   }
   if (options.shooter_level < 0 || options.shooter_level > 16) {
     return inputError("", "progressive radiosity", "shooter_level must be in [0, 16]");
+  }
+  if (options.shooter_min_points < 0 || options.shooter_min_points > 4096) {
+    return inputError("", "progressive radiosity", "shooter_min_points must be in [0, 4096]");
   }
   if (options.shooter_top_points < 0) {
     return inputError("", "progressive radiosity", "shooter_top_points must not be negative");
@@ -304,8 +309,7 @@ uint32_t ProgressiveRadiosity::selectShooter() const {
   return best;
 }
 
-std::vector<std::pair<uint32_t, uint32_t>> ProgressiveRadiosity::shooterBlocks(uint32_t s,
-                                                                               int level) const {
+std::vector<ClusterRef> ProgressiveRadiosity::shooterBlocks(uint32_t s, int level) const {
   PENUMBRA_CHECK(s < shooterCount());
   const ClusterRef root = shooters_[s];
   // The descendants at a level are one contiguous range of that level's clusters.
@@ -316,10 +320,40 @@ std::vector<std::pair<uint32_t, uint32_t>> ProgressiveRadiosity::shooterBlocks(u
     lo = lv.child_first[lo];
     hi = lv.child_first[hi];
   }
-  const ClusterLevel& lv = surface_.hierarchy.level(l);
-  std::vector<std::pair<uint32_t, uint32_t>> blocks;
-  for (uint32_t k = lo; k < hi; ++k) blocks.emplace_back(lv.first[k], lv.first[k + 1]);
+  std::vector<ClusterRef> blocks;
+  for (uint32_t k = lo; k < hi; ++k) blocks.push_back(ClusterRef{l, k});
   return blocks;
+}
+
+int ProgressiveRadiosity::flatLevel(uint32_t s) const {
+  PENUMBRA_CHECK(s < shooterCount());
+  int level = std::min(options_.shooter_level, int(shooters_[s].level));
+  while (level > 0 && shooterBlocks(s, level).size() < size_t(options_.shooter_min_points)) {
+    --level;
+  }
+  return level;
+}
+
+void ProgressiveRadiosity::clusterPieces(ClusterRef c,
+                                         std::vector<std::array<glm::dvec3, 8>>& polygons,
+                                         std::vector<int>& counts) const {
+  polygons.clear();
+  counts.clear();
+  const ChartAtlas& atlas = surface_.atlas;
+  std::vector<uint32_t> candidates;
+  for (uint32_t e = surface_.hierarchy.elementBegin(c); e < surface_.hierarchy.elementEnd(c); ++e) {
+    candidates.insert(candidates.end(), atlas.element_faces.begin() + atlas.element_face_first[e],
+                      atlas.element_faces.begin() + atlas.element_face_first[e + 1]);
+  }
+  std::sort(candidates.begin(), candidates.end());
+  candidates.erase(std::unique(candidates.begin(), candidates.end()), candidates.end());
+  const ClusterLevel& lv = surface_.hierarchy.level(c.level);
+  atlas.forEachPiece(lv.lo[c.index], lv.hi[c.index], candidates, surface_.flat.positions,
+                     surface_.flat.triangles,
+                     [&](uint32_t, const std::array<glm::dvec3, 8>& corners, int count, double) {
+                       polygons.push_back(corners);
+                       counts.push_back(count);
+                     });
 }
 
 bool ProgressiveRadiosity::shotClosed(uint32_t shooter, uint64_t* traced) const {
@@ -528,11 +562,19 @@ void findShooterPoints(ShotGeometry& shot, const RadiositySurface& surface,
       }
       p.child_first = level_first[l - 1] + (lv.child_first[k] - range[l - 1].first);
       p.child_count = lv.child_first[k + 1] - lv.child_first[k];
-      glm::dvec3 res(0.0), nrm(0.0);
+      glm::dvec3 res(0.0), nrm(0.0), pos(0.0);
+      double power = 0.0;
       for (uint32_t c = p.child_first; c < p.child_first + p.child_count; ++c) {
         res += points[c].residual * points[c].area;
         nrm += points[c].normal * points[c].area;
+        const double w = residualLuminance(points[c].residual) * points[c].area;
+        pos += points[c].position * w;
+        power += w;
       }
+      // The point shoots from its power's centroid: a cluster whose elements are partly
+      // unlit (the floor under a box) would otherwise shoot its power from a point in the dark
+      // part, and its shadow rays would lose it all (the Cornell box's tall box was 7% dark).
+      if (power > 0.0) p.position = pos / power;
       p.residual = p.area > 0.0 ? res / p.area : glm::dvec3(0.0);
       const double len = glm::length(nrm);
       p.normal = len > 0.0 ? nrm / len : lv.normal[k];
@@ -541,9 +583,10 @@ void findShooterPoints(ShotGeometry& shot, const RadiositySurface& surface,
   }
 }
 
-// Where receivers start from, hierarchical or flat; returns the shot's points (the top level's,
-// or the flat level's).
-uint32_t chooseRoots(ShotGeometry& shot, const ProgressiveOptions& options, uint32_t root_level) {
+// Where receivers start from, hierarchical or flat (from `flat_level`); returns the shot's
+// points (the top level's, or the flat level's).
+uint32_t chooseRoots(ShotGeometry& shot, const ProgressiveOptions& options, uint32_t root_level,
+                     uint32_t flat_level) {
   shot.hierarchical = options.shooter_top_points > 0;
   if (shot.hierarchical) {
     // The top: the finest level with at most shooter_top_points clusters; coarser ones are
@@ -561,7 +604,7 @@ uint32_t chooseRoots(ShotGeometry& shot, const ProgressiveOptions& options, uint
     shot.roots = {0};  // the shooter itself (index 0: the top of the list)
     return shot.level_end[top_level] - shot.level_first[top_level];
   }
-  const uint32_t l = std::min<uint32_t>(uint32_t(options.shooter_level), root_level);
+  const uint32_t l = std::min(flat_level, root_level);
   for (uint32_t k = shot.level_first[l]; k < shot.level_end[l]; ++k) shot.roots.push_back(k);
   return uint32_t(shot.roots.size());
 }
@@ -727,7 +770,9 @@ void receiverPairs(const ShotGeometry& shot, const ProgressiveReceivers& receive
     // Culled by either plane (the faces' own normals).
     if (glm::dot(nr, d) <= 0.0 || glm::dot(s.geometric, d) >= 0.0) continue;
     Kernel kernel = near ? Kernel::kMembers : Kernel::kDisc;
-    if (shot.hierarchical && d2 < kFar * kFar * s.area) {
+    // Between kNear and kFar sizes: Lambert's form factor to the cluster's pieces (an element's
+    // are its own: kMembers).
+    if ((shot.hierarchical || !near) && d2 < kFar * kFar * s.area) {
       kernel = s.child_count == 0 ? Kernel::kMembers : Kernel::kPolygon;
     }
     pairs.push_back(Pair{uint32_t(r), k, kernel});
@@ -845,7 +890,7 @@ ProgressiveIteration ProgressiveRadiosity::shoot(uint32_t shooter) {
 
   // ---- Shooter points (sec. 3) and where receivers start from ----
   findShooterPoints(geometry, surface_, db_, root);
-  it.shooter_points = chooseRoots(geometry, options_, root.level);
+  it.shooter_points = chooseRoots(geometry, options_, root.level, uint32_t(flatLevel(shooter)));
 
   // ---- Adaptive subdivision ----
   // Sec. 4 before the shooter's first shot: element e's sample is the pair of it and the
@@ -861,7 +906,7 @@ ProgressiveIteration ProgressiveRadiosity::shoot(uint32_t shooter) {
       it);
 
   // ---- The points' pieces, the power shot and the charts that receive nothing ----
-  if (geometry.hierarchical) findClusterPieces(geometry, surface_, root.level);
+  findClusterPieces(geometry, surface_, root.level);
   findMemberPieces(geometry, *this);
   glm::dvec3 shot(0.0);
   for (uint32_t e = first; e < last; ++e) shot += db_[e] * surface_.atlas.element_area[e];

@@ -25,12 +25,15 @@
 //    front of it that faces it: dB_r += rho_r dB_s F_rs, B_r += the same; then dB_s = 0.
 //    Visibility: one Ray Engine shadow ray per (receiver, shooter point) pair, the rays of a
 //    block of receivers sorted by point so that they travel as packets. The shooter points
-//    (substructuring, sec. 3) are the shooter's clusters in the hierarchy:
+//    (substructuring, sec. 3) are the shooter's clusters in the hierarchy, each at the centroid
+//    of its residual power (luminance(dB) times area; a cluster half under a box shoots from its
+//    lit half, not from a point under the box that its shadow rays would find hidden):
 //     - flat (shooter_top_points = 0, the paper's scheme and the GPU path's): every cluster of
 //       level `shooter_level` is a point; eq. 2's disc
 //         F_rs = A_s cos(phi_s) cos(phi_r) / (pi d^2 + A_s)                  (eq. 2, m = 1)
-//       except for pairs nearer than kProgressiveNear point sizes, where each member element
-//       counts with Lambert's exact point-to-polygon form factor to its own pieces;
+//       for pairs kProgressiveFar point sizes apart or more, Lambert's form factor to the
+//       point's pieces with its mean dB nearer, and for pairs nearer than kProgressiveNear
+//       sizes each member element's own Lambert form factor to its own pieces;
 //     - hierarchical (the default): the first level under the shooter with at most
 //       shooter_top_points clusters is the top; a receiver takes a cluster as one point unless
 //       nearer than kProgressiveNear of its sizes (then its children, down to elements), and
@@ -85,6 +88,10 @@ namespace penumbra {
 // exact point-to-polygon form factor instead of eq. 2's disc (and, in the hierarchical mode,
 // clusters that near are refined).
 inline constexpr double kProgressiveNear = 3.0;
+// Eq. 2's disc serves pairs at least this many point sizes apart; nearer ones (from
+// kProgressiveNear on) take Lambert's exact form factor to the point's pieces (its faces clipped
+// to its texels) with its mean dB. The disc's error falls with the square of size / distance.
+inline constexpr double kProgressiveFar = 8.0;
 
 // Lightmap texels when the caller names no density (radiosity/radiosity_surface.h).
 inline constexpr uint32_t kProgressiveDefaultElements = kDefaultLightmapElements;
@@ -102,6 +109,10 @@ struct ProgressiveOptions {
   // path's).
   int shooter_top_points = 16;
   int shooter_level = 0;
+  // The flat scheme: a shooter with fewer than this many clusters at `shooter_level` shoots
+  // from the coarsest finer level that has them (or from its elements), so that a small emitter
+  // does not cast its whole light, and its shadows, from one point (flatLevel).
+  int shooter_min_points = 16;
   // Shooters are chart roots, or the largest clusters under a root with at most this many
   // elements.
   uint32_t shooter_elements = 1u << 16;
@@ -264,6 +275,9 @@ class ProgressiveRadiosity {
   const ProgressiveOptions& options() const { return options_; }
   // The flat scheme's level (ProgressiveOptions::shooter_level), in [0, 16].
   Status setShooterLevel(int level);
+  // The level shooter s shoots from in the flat scheme: shooter_level (at most the shooter's
+  // own), made finer while it has fewer than shooter_min_points clusters there.
+  int flatLevel(uint32_t s) const;
   // Energy totals as booked, and the unshot power recomputed from the elements' dB (W).
   const EnergyBalance& balance() const { return balance_; }
   glm::dvec3 unshotPower() const;
@@ -295,8 +309,13 @@ class ProgressiveRadiosity {
   uint32_t shooterBegin(uint32_t s) const { return surface_.hierarchy.elementBegin(shooters_[s]); }
   uint32_t shooterEnd(uint32_t s) const { return surface_.hierarchy.elementEnd(shooters_[s]); }
   // The flat substructuring's points of shooter s (sec. 3): its clusters at `level` (at most
-  // the shooter's own level), each as its element range [first, second).
-  std::vector<std::pair<uint32_t, uint32_t>> shooterBlocks(uint32_t s, int level) const;
+  // the shooter's own level); cluster c holds the elements [hierarchy().elementBegin(c),
+  // hierarchy().elementEnd(c)).
+  std::vector<ClusterRef> shooterBlocks(uint32_t s, int level) const;
+  // A cluster's pieces in world space: its elements' faces clipped to its texels (one convex
+  // polygon per face), what Lambert's form factor to the cluster integrates over.
+  void clusterPieces(ClusterRef c, std::vector<std::array<glm::dvec3, 8>>& polygons,
+                     std::vector<int>& counts) const;
   const glm::dvec3& radiosity(size_t e) const { return b_[e]; }
   const glm::dvec3& residual(size_t e) const { return db_[e]; }
   const glm::dvec3& reflectance(size_t e) const { return surface_.reflectance[e]; }

@@ -18,8 +18,8 @@ namespace penumbra {
 namespace {
 
 constexpr char kMagic[16] = {'P', 'E', 'N', 'U', 'M', 'B', 'R', 'A',
-                             '-', 'P', 'R', 'G', 'R', 'S', 'V', '3'};
-constexpr size_t kHeaderBytes = 16 + 8 + 8 + 6 * 4 + 8 + 12 * 8 + 3 * 4 + 3 * 8 + 8;
+                             '-', 'P', 'R', 'G', 'R', 'S', 'V', '4'};
+constexpr size_t kHeaderBytes = 16 + 8 + 8 + 7 * 4 + 8 + 12 * 8 + 3 * 4 + 3 * 8 + 8;
 
 // Body bytes: B and dB per element (48), its receiver's level (1), then a flag per shooter and
 // the lights.
@@ -40,8 +40,8 @@ Expected<ProgressiveCheckpointInfo> parseHeader(const std::string& path, const s
   EnergyBalance b;
   bool ok = r.get(info.fingerprint) && r.get(info.texel_density) && r.get(info.atlas_width) &&
             r.get(info.atlas_height) && r.get(info.shooter_level) &&
-            r.get(info.shooter_top_points) && r.get(info.iterations) && r.get(info.lights_shot) &&
-            r.get(info.elements);
+            r.get(info.shooter_top_points) && r.get(info.shooter_min_points) &&
+            r.get(info.iterations) && r.get(info.lights_shot) && r.get(info.elements);
   for (glm::dvec3* v : {&b.emitted, &b.absorbed, &b.unshot, &b.escaped}) {
     for (int c = 0; c < 3; ++c) ok = ok && r.get((*v)[c]);
   }
@@ -56,7 +56,8 @@ Expected<ProgressiveCheckpointInfo> parseHeader(const std::string& path, const s
   if (!(info.texel_density > 0.0 && info.texel_density < 1e9) || info.atlas_width <= 0 ||
       info.atlas_height <= 0 || info.atlas_width > 16384 || info.atlas_height > 16384 ||
       info.shooter_level < 0 || info.shooter_level > 16 || info.shooter_top_points < 0 ||
-      info.shooter_top_points > 4096 || info.iterations < 0 || info.lights_shot < 0 ||
+      info.shooter_top_points > 4096 || info.shooter_min_points < 0 ||
+      info.shooter_min_points > 4096 || info.iterations < 0 || info.lights_shot < 0 ||
       info.lights_shot > 1 || info.elements == 0 ||
       info.elements > uint64_t(info.atlas_width) * uint64_t(info.atlas_height) ||
       info.receiver_level < 0 || info.receiver_level > 16 || info.adaptive < 0 ||
@@ -86,6 +87,7 @@ Status writeProgressiveCheckpoint(const std::string& path, const Scene& scene,
   w.put(int32_t(solver.atlas().height));
   w.put(int32_t(solver.options().shooter_level));
   w.put(int32_t(solver.options().shooter_top_points));
+  w.put(int32_t(solver.options().shooter_min_points));
   w.put(int32_t(state.iterations));
   w.put(int32_t(state.lights_shot ? 1 : 0));
   w.put(uint64_t(solver.elementCount()));
@@ -156,7 +158,8 @@ Status resumeProgressiveCheckpoint(const std::string& path, const Scene& scene,
                                   solver.atlas().width, solver.atlas().height));
   }
   if (info->shooter_level != solver.options().shooter_level ||
-      info->shooter_top_points != solver.options().shooter_top_points) {
+      info->shooter_top_points != solver.options().shooter_top_points ||
+      info->shooter_min_points != solver.options().shooter_min_points) {
     return inputError(path, "", "was written with other substructuring options");
   }
   const SubdivisionOptions& sub = solver.options().subdivision;

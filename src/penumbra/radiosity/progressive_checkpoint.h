@@ -4,16 +4,14 @@
 // double precision and the shooter order is deterministic).
 //
 // File layout (little-endian, docs/cli.md "Checkpoints"):
-//   header (204 bytes): magic "PENUMBRA-PRGRSV3" (16), uint64 scene fingerprint, double texel
+//   header (208 bytes): magic "PENUMBRA-PRGRSV4" (16), uint64 scene fingerprint, double texel
 //   density, int32 atlas width, int32 atlas height, int32 shooter level, int32 shooter top
-//   points, int32 iterations, uint64 elements, then the energy books (emitted, absorbed,
-//   unshot, escaped: 4 x 3 doubles), the receivers' options (int32 receiver level, int32
-//   adaptive, int32 finest level, double b_l, double b_u, double minimum share) and uint64 the
-//   number of subdivision flags
-//   body: per element B (3 doubles) then dB (3 doubles), elements in the solver's order; per
-//   element the level of its receiver (uint8); the subdivision flags (uint8 per shooter, then
-//   the lights)
-//   trailer: uint64 FNV-1a hash of everything before it.
+//   points, int32 shooter minimum points, int32 iterations, uint64 elements, then the energy books
+//   (emitted, absorbed, unshot, escaped: 4 x 3 doubles), the receivers' options (int32 receiver
+//   level, int32 adaptive, int32 finest level, double b_l, double b_u, double minimum share) and
+//   uint64 the number of subdivision flags body: per element B (3 doubles) then dB (3 doubles),
+//   elements in the solver's order; per element the level of its receiver (uint8); the subdivision
+//   flags (uint8 per shooter, then the lights) trailer: uint64 FNV-1a hash of everything before it.
 // The fingerprint hashes the flattened scene (positions, triangles, materials' reflectance and
 // emission) with the atlas's size and the normals setting, so a checkpoint is refused for
 // another scene, lightmap or setting.
@@ -35,6 +33,7 @@ struct ProgressiveCheckpointInfo {
   int atlas_width = 0, atlas_height = 0;
   int shooter_level = 0;
   int shooter_top_points = 0;
+  int shooter_min_points = 0;
   int iterations = 0;
   int lights_shot = 1;  // 0 or 1
   uint64_t elements = 0;

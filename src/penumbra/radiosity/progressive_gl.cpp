@@ -94,10 +94,10 @@ int gpuShooterLevel(const ProgressiveRadiosity& cpu, int points) {
 
 Status GlProgressive::placeShooters(const ProgressiveRadiosity& cpu,
                                     std::vector<GpuShooter>& shooters,
-                                    std::vector<GpuShooterPoint>& points, const char* place) {
+                                    std::vector<GpuShooterPoint>& points,
+                                    std::vector<glm::vec4>& polygons, const char* place) {
   const SurfaceHierarchy& hierarchy = cpu.hierarchy();
   const uint32_t ns = uint32_t(cpu.shooterCount());
-  const int level = options_.shooter_level;
   shooters.resize(ns);
   point_first_.assign(ns + 1, 0);
   point_max_area_.assign(ns, 0.0);
@@ -122,8 +122,10 @@ Status GlProgressive::placeShooters(const ProgressiveRadiosity& cpu,
     shooter_centre_[sh] = centre;
     shooter_radius_[sh] = radius;
     point_first_[sh] = uint32_t(points.size());
-    const std::vector<std::pair<uint32_t, uint32_t>> blocks = cpu.shooterBlocks(sh, level);
-    for (const auto& [b0, b1] : blocks) {
+    std::vector<std::array<glm::dvec3, 8>> pieces;
+    std::vector<int> counts;
+    for (const ClusterRef block : cpu.shooterBlocks(sh, cpu.flatLevel(sh))) {
+      const uint32_t b0 = hierarchy.elementBegin(block), b1 = hierarchy.elementEnd(block);
       glm::dvec3 position(0.0);
       double area = 0.0;
       for (uint32_t e = b0; e < b1; ++e) {
@@ -136,6 +138,22 @@ Status GlProgressive::placeShooters(const ProgressiveRadiosity& cpu,
       point_area_.push_back(area);
       point_members_.emplace_back(b0, b1 - b0);
       points.push_back(GpuShooterPoint{b0, b1 - b0});
+      // Its pieces (an element's own at level 0, as the CPU's kMembers), 8 corners each, padded
+      // by repeating the last.
+      if (block.level == 0) {
+        cpu.elementPieces(b0, pieces, counts);
+      } else {
+        cpu.clusterPieces(block, pieces, counts);
+      }
+      glm::uvec2 range(uint32_t(polygons.size() / 8), 0u);
+      for (size_t q = 0; q < pieces.size(); ++q) {
+        if (counts[q] < 3) continue;
+        for (int k = 0; k < 8; ++k) {
+          polygons.emplace_back(glm::vec3(pieces[q][size_t(std::min(k, counts[q] - 1))]), 0.0f);
+        }
+        ++range.y;
+      }
+      point_pieces_.push_back(range);
       point_max_area_[sh] = std::max(point_max_area_[sh], area);
     }
     max_points = std::max(max_points, uint32_t(points.size()) - point_first_[sh]);
@@ -149,7 +167,7 @@ Status GlProgressive::placeShooters(const ProgressiveRadiosity& cpu,
 }
 
 Status GlProgressive::createGather(const ProgressiveRadiosity& cpu, size_t point_count,
-                                   const char* place) {
+                                   size_t point_corners, const char* place) {
   const size_t n = element_count_;
   const uint32_t ns = shooter_count_;
   const uint64_t texels = uint64_t(width_) * uint64_t(height_);
@@ -160,7 +178,8 @@ Status GlProgressive::createGather(const ProgressiveRadiosity& cpu, size_t point
       {"element coverage", uint64_t(n) * 8},
       {"shooter", uint64_t(ns) * sizeof(GpuShooter)},
       {"shooter point", uint64_t(point_count) * sizeof(GpuShooterPoint)},
-      {"shooter point power", uint64_t(point_count) * 32},
+      {"shooter point power", uint64_t(point_count) * 64},
+      {"shooter point pieces", uint64_t(point_corners) * 16},
       {"shooter power", uint64_t(ns) * 32},
       {"resolve sums", groups * sizeof(GpuResolveSums)},
       // Coarse receivers (at most one per element) and the samples of subdivision.
@@ -215,11 +234,12 @@ Expected<GlProgressive> GlProgressive::create(const ProgressiveRadiosity& cpu,
   // ---- Shooters and their points (the CPU's flat substructuring: clusters of one level) ----
   std::vector<GpuShooterPoint> points;
   std::vector<GpuShooter> shooters;
-  PENUMBRA_TRY(s.placeShooters(cpu, shooters, points, place));
+  std::vector<glm::vec4> point_polygons;
+  PENUMBRA_TRY(s.placeShooters(cpu, shooters, points, point_polygons, place));
 
   // ---- The gather (depth maps and receiver passes), with this solver's own textures and
   // buffers in its one size and memory check ----
-  PENUMBRA_TRY(s.createGather(cpu, points.size(), place));
+  PENUMBRA_TRY(s.createGather(cpu, points.size(), point_polygons.size(), place));
 
   // ---- Programs ----
   PENUMBRA_TRY(s.compilePasses());
@@ -247,7 +267,9 @@ Expected<GlProgressive> GlProgressive::create(const ProgressiveRadiosity& cpu,
   s.element_coverage_ = gl::storageBuffer(element_coverage);
   s.texel_element_ = gl::storageBuffer(texel_element);
   s.points_buf_ = gl::storageBuffer(points);
-  s.point_power_ = gl::Buffer(std::max<size_t>(points.size(), 1) * 32, nullptr, 0);
+  s.point_power_ = gl::Buffer(std::max<size_t>(points.size(), 1) * 64, nullptr, 0);
+  if (point_polygons.empty()) point_polygons.emplace_back(0.0f);
+  s.point_polygons_ = gl::storageBuffer(point_polygons);
   s.shooter_power_ = gl::Buffer(std::max<size_t>(ns, 1) * 32, nullptr, 0);
   s.selection_ = gl::Buffer(sizeof(GpuSelection), nullptr, 0);
   s.sums_ = gl::Buffer(size_t(groups) * sizeof(GpuResolveSums), nullptr, 0);
@@ -491,29 +513,29 @@ Expected<GpuResolveSums> GlProgressive::resolve(uint32_t shooter, const glm::dve
   return total;
 }
 
-void GlProgressive::prepareBatch(const std::vector<uint32_t>& active,
-                                 const std::vector<glm::dvec3>& active_residual,
-                                 uint32_t point_first, uint32_t first, uint32_t count) {
+void GlProgressive::prepareBatch(const ActivePoints& active, uint32_t point_first, uint32_t first,
+                                 uint32_t count) {
   std::array<GpuBatchPoint, kProgressiveBatchTiles * kProgressiveBatchTiles> points{};
   for (uint32_t k = 0; k < count; ++k) {
-    const uint32_t p = active[first + k];
+    const uint32_t p = active.index[first + k];
     GpuBatchPoint& b = points[k];
     for (int c = 0; c < 3; ++c) {
-      b.position[c] = point_position_[p][c];
-      b.position_f[c] = float(point_position_[p][c]);
-      b.residual[c] = float(active_residual[first + k][c]);
+      b.position[c] = active.position[first + k][c];
+      b.position_f[c] = float(active.position[first + k][c]);
+      b.residual[c] = float(active.residual[first + k][c]);
     }
     b.position[3] = point_area_[p];
     b.position_f[3] = float(point_area_[p]);
     b.members[0] = point_members_[p].x;
     b.members[1] = point_members_[p].y;
     b.members[2] = p - point_first;
+    b.pieces[0] = point_pieces_[p].x;
+    b.pieces[1] = point_pieces_[p].y;
   }
   gather_.prepareBatch(std::span<const GpuBatchPoint>(points.data(), count));
 }
 
-Status GlProgressive::subdivide(uint32_t shooter, const std::vector<uint32_t>& active,
-                                const std::vector<glm::dvec3>& active_residual,
+Status GlProgressive::subdivide(uint32_t shooter, const ActivePoints& active,
                                 const glm::dvec3& shot, ProgressiveIteration& it) {
   const Timer timer;
   subdivided_[shooter] = 1;
@@ -527,9 +549,9 @@ Status GlProgressive::subdivide(uint32_t shooter, const std::vector<uint32_t>& a
   glClearNamedBufferData(samples_.id(), GL_R32UI, GL_RED_INTEGER, GL_UNSIGNED_INT, &zero);
   gather_.setSamplePoints(point_count);
   const uint32_t batch = gather_.batchSize();
-  for (uint32_t first = 0; first < uint32_t(active.size()); first += batch) {
-    const uint32_t count = std::min(batch, uint32_t(active.size()) - first);
-    prepareBatch(active, active_residual, point_first, first, count);
+  for (uint32_t first = 0; first < uint32_t(active.index.size()); first += batch) {
+    const uint32_t count = std::min(batch, uint32_t(active.index.size()) - first);
+    prepareBatch(active, point_first, first, count);
     drawReceivers(GlHemisphereGather::Pass::kSamples, 0, uint32_t(n), /*elements=*/true);
   }
   glUseProgram(0);
@@ -570,8 +592,9 @@ Expected<ProgressiveIteration> GlProgressive::shoot(uint32_t shooter) {
   const uint32_t point_first = point_first_[shooter];
   const uint32_t point_count = point_first_[shooter + 1] - point_first;
 
-  // Shooter points: dB sums per cluster (substructuring, sec. 3).
-  std::vector<glm::dvec4> point_power(point_count);
+  // Shooter points: dB sums per cluster (substructuring, sec. 3), and their power-weighted
+  // positions.
+  std::vector<glm::dvec4> point_power(2 * size_t(point_count));
   if (point_count > 0) {
     glUseProgram(points_.id());
     glUniform1ui(uniform(points_, "point_first"), point_first);
@@ -586,37 +609,42 @@ Expected<ProgressiveIteration> GlProgressive::shoot(uint32_t shooter) {
     glDispatchCompute(ceilDiv(point_count, kPointGroup), 1, 1);
     glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT | GL_BUFFER_UPDATE_BARRIER_BIT);
     glUseProgram(0);
-    point_power_.download(point_power.data(), point_count * 32, size_t(point_first) * 32);
+    point_power_.download(point_power.data(), size_t(point_count) * 64, size_t(point_first) * 64);
   }
   glm::dvec3 shot(0.0);
-  std::vector<uint32_t> active;             // points with something to shoot (the CPU drops dB = 0)
-  std::vector<glm::dvec3> active_residual;  // their area-weighted mean dB
+  ActivePoints active;
   for (uint32_t k = 0; k < point_count; ++k) {
-    const glm::dvec3 p(point_power[k]);
+    const glm::dvec3 p(point_power[2 * k]);
+    const glm::dvec4 moment = point_power[2 * k + 1];
     shot += p;
     if (p != glm::dvec3(0.0)) {
-      active.push_back(point_first + k);
-      active_residual.push_back(p / point_area_[point_first + k]);
+      active.index.push_back(point_first + k);
+      active.residual.push_back(p / point_area_[point_first + k]);
+      active.position.push_back(moment.w > 0.0 ? glm::dvec3(moment) / moment.w
+                                               : point_position_[point_first + k]);
     }
   }
-  it.shooter_points = uint32_t(active.size());
+  it.shooter_points = uint32_t(active.index.size());
 
-  if (!active.empty()) gather_.setShooter(shooter_normal_[shooter], kProgressiveNear);
+  if (!active.index.empty()) {
+    gather_.setShooter(shooter_normal_[shooter], kProgressiveNear, kProgressiveFar);
+    point_polygons_.bindBase(GL_SHADER_STORAGE_BUFFER, PROGRESSIVE_SSBO_POINT_POLYGONS);
+  }
   // Sec. 4 before the shooter's first shot: receivers split at its shadow boundaries, so that
   // the shot below gathers at the new ones.
   if (options_.adaptive && !subdivided_[shooter]) {
-    PENUMBRA_TRY(subdivide(shooter, active, active_residual, shot, it));
+    PENUMBRA_TRY(subdivide(shooter, active, shot, it));
   }
 
   gather_.clearIncident();
   const std::vector<glm::uvec2> near_charts =
       gather_.nearCharts(shooter_centre_[shooter], shooter_radius_[shooter],
                          point_max_area_[shooter], kProgressiveNear, chart_receivers_);
-  if (!active.empty()) {
+  if (!active.index.empty()) {
     const uint32_t batch = gather_.batchSize();
-    for (uint32_t first = 0; first < uint32_t(active.size()); first += batch) {
-      const uint32_t count = std::min(batch, uint32_t(active.size()) - first);
-      prepareBatch(active, active_residual, point_first, first, count);
+    for (uint32_t first = 0; first < uint32_t(active.index.size()); first += batch) {
+      const uint32_t count = std::min(batch, uint32_t(active.index.size()) - first);
+      prepareBatch(active, point_first, first, count);
       // Far pairs over every receiver, near pairs over the charts that can have them.
       drawReceivers(GlHemisphereGather::Pass::kFar, 0, uint32_t(receivers_.size()));
       for (const glm::uvec2& c : near_charts) {

@@ -3,11 +3,11 @@
 // chart atlas and the same elements (the kInside texels, with the CPU's exact-coverage points,
 // normals, areas, reflectances and pieces uploaded per element), so that the two can hand the
 // state back and forth (download() / upload(), ProgressiveRadiosity::state() / setState()). It
-// runs the CPU's flat substructuring (ProgressiveOptions::shooter_level: the shooter's clusters
-// of one level of the hierarchy; shooter_top_points, the CPU's hierarchical refinement, is not
-// used here) with the faces' own normals (ProgressiveOptions::shading_normals is not used here
-// either). Point, spot and directional lights shoot on the CPU first (create() refuses a state
-// whose lights have not shot).
+// runs the CPU's flat substructuring (the shooter's clusters of one level of the hierarchy,
+// ProgressiveRadiosity::flatLevel; shooter_top_points, the CPU's hierarchical refinement, is not
+// used here), each point at the centroid of its power as on the CPU, with the faces' own normals
+// (ProgressiveOptions::shading_normals is not used here either). Point, spot and directional lights
+// shoot on the CPU first (create() refuses a state whose lights have not shot).
 //
 //  - Textures (sec. 3): the radiosity B and residual dB atlases, RGBA32F of the atlas's size,
 //    alpha = 1 on occupied (kInside) texels; an "incident" RGBA32F target that gathers an
@@ -31,12 +31,15 @@
 //        fragment per element; the paper rasterises receiver triangles through their UVs, whose
 //        fragments of a texel would all compute the same value). The fragment shader
 //        back-projects the element's point into each point's depth map through the sub-triangle
-//        the depth pass rasterised (the paper's "same error") and compares depths (Fig. 3, with
-//        the 3 x 3 neighbourhood only where the texel sees the element's own or a touching
-//        chart); if visible it adds eq. 2's disc form factor times the point's dB, or for pairs
-//        closer than kProgressiveNear point sizes Lambert's form factor to each member
-//        element's pieces, in a second pass over the charts that can be that close. The sum
-//        goes into the incident target by additive blending.
+//        the depth pass rasterised (the paper's "same error") and compares depths (Fig. 3;
+//        where the texel sees the element's own or a touching chart, the segment is tested
+//        exactly against the triangles of the 3 x 3 neighbourhood that are nearer); if visible
+//        it adds eq. 2's disc form factor times the point's dB, nearer than kProgressiveFar
+//        point sizes Lambert's form factor to the point's pieces (uploaded per point) times
+//        its mean dB, and for pairs closer than kProgressiveNear sizes Lambert's form factor to
+//        each member element's pieces, in a second pass over the charts that can be that
+//        close: the CPU's kernels. The sum goes into the incident target by additive
+//        blending.
 //    Then a compute pass applies B += rho E_in, dB += rho E_in (scaled when the shot is closed,
 //    ProgressiveRadiosity::shotClosed, as on the CPU), zeroes the shooter's dB, and reduces
 //    E_in * area per work group in double.
@@ -53,10 +56,13 @@
 //  - furnace, 24 iterations from the same sequence: per-element relative RMS 2.7e-7; one shot:
 //    gains within 1.7e-6; converged on the GPU: every element within 0.17% of E / (1 - rho).
 //  - Cornell box (25 texels/m, level 1, 512^2 depth maps), 30 iterations along the CPU's
-//    sequence: relative RMS 3.5e-3 over the front faces, the largest differences on the floor
+//    sequence: relative RMS 2.6e-3 over the front faces, the largest differences on the floor
 //    at the corner of a box's base and the ceiling over the light (0.8 mm gap), where the depth
 //    maps and the CPU's rays part; a rendered image (1,500 elements) 8.6% RMS from the CPU's
-//    (tests/app/cli_test.cpp).
+//    (tests/app/cli_test.cpp). The red wall's shot on the ceiling along it (the horizon of its
+//    points' maps) within 0.01% of the CPU's.
+//  - At the defaults the rendered Cornell box is 0.996 of the path tracer, every 4 x 4 block
+//    within 2.3% (the CPU's hierarchical scheme: 0.9955, 2.3%).
 //
 // The shaders avoid variable-length arrays and put work behind loops rather than branches where
 // a SIMD rasteriser would otherwise run both sides (llvmpipe, which the tests run on, does).
@@ -200,8 +206,10 @@ class GlProgressive {
   // `shooters` and `points` and the per-shooter data; the gather with this solver's own buffers
   // and textures in its one size and memory check; the compute passes.
   Status placeShooters(const ProgressiveRadiosity& cpu, std::vector<GpuShooter>& shooters,
-                       std::vector<GpuShooterPoint>& points, const char* place);
-  Status createGather(const ProgressiveRadiosity& cpu, size_t point_count, const char* place);
+                       std::vector<GpuShooterPoint>& points, std::vector<glm::vec4>& polygons,
+                       const char* place);
+  Status createGather(const ProgressiveRadiosity& cpu, size_t point_count, size_t point_corners,
+                      const char* place);
   Status compilePasses();
   // Runs the per-shooter power pass (pass 0).
   void dispatchPower();
@@ -209,15 +217,21 @@ class GlProgressive {
   // elements).
   void drawReceivers(GlHemisphereGather::Pass pass, uint32_t first, uint32_t count,
                      bool elements = false);
+  // A shot's points with something to shoot (the CPU drops dB = 0): their indices, their
+  // area-weighted mean dB, and where they shoot from, the luminance(dB)-weighted mean of their
+  // elements' positions (ProgressiveRadiosity's shooter points).
+  struct ActivePoints {
+    std::vector<uint32_t> index;
+    std::vector<glm::dvec3> residual;
+    std::vector<glm::dvec3> position;
+  };
   // The batch of shooter points [first, first + count) of `active` (the shooter's points from
   // point_first on) to the gather: uniforms and depth maps.
-  void prepareBatch(const std::vector<uint32_t>& active,
-                    const std::vector<glm::dvec3>& active_residual, uint32_t point_first,
-                    uint32_t first, uint32_t count);
+  void prepareBatch(const ActivePoints& active, uint32_t point_first, uint32_t first,
+                    uint32_t count);
   // Sec. 4 before a shooter's first shot (adaptive): the samples pass over every batch, the
   // split on the CPU (ProgressiveReceivers::subdivide) and the new receivers uploaded.
-  Status subdivide(uint32_t shooter, const std::vector<uint32_t>& active,
-                   const std::vector<glm::dvec3>& active_residual, const glm::dvec3& shot,
+  Status subdivide(uint32_t shooter, const ActivePoints& active, const glm::dvec3& shot,
                    ProgressiveIteration& it);
   // The receivers' buffers (the elements' own when every receiver is one element) and each
   // chart's receivers.
@@ -251,6 +265,7 @@ class GlProgressive {
   std::vector<glm::dvec3> point_position_;
   std::vector<double> point_area_;
   std::vector<glm::uvec2> point_members_;  // first element, count
+  std::vector<glm::uvec2> point_pieces_;   // first polygon in point_polygons_, count
   // Receivers (sec. 4): the CPU solver's surface (for the hierarchy), the receivers, whether
   // each shooter has subdivided, and each chart's receivers.
   const RadiositySurface* surface_ = nullptr;
@@ -264,6 +279,7 @@ class GlProgressive {
   GlHemisphereGather gather_;  // depth maps and receiver passes (Algorithm 1, Fig. 3)
   gl::Program power_, select_, points_, resolve_, radiance_, fill_;
   gl::Buffer element_coverage_;  // per element, its covered share (cut-outs; 1 elsewhere)
+  gl::Buffer point_polygons_;    // the points' pieces, 8 corners (vec4) each
   gl::Buffer shooters_, texel_element_, element_area_, points_buf_, point_power_, shooter_power_,
       selection_, sums_, receivers_buf_, receiver_position_d_, samples_;
   gl::Texture radiosity_, residual_;

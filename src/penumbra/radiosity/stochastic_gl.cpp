@@ -285,7 +285,7 @@ void GlStochastic::shoot(const GpuStochasticSelection& sel, double weight) {
   point.position_f[3] = float(aj);
   point.members[0] = j;
   point.members[1] = 1;
-  gather_.setShooter(atlas.element_normal[j], kStochasticNear);
+  gather_.setShooter(atlas.element_normal[j], kStochasticNear, kStochasticNear);
   gather_.prepareBatch(std::span<const GpuBatchPoint>(&point, 1));
   // Far pairs over every element, near pairs (Lambert's exact form factor to j's pieces) over
   // the charts within reach.
