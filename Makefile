@@ -44,14 +44,15 @@ test-asan: deps
 	  $(ASAN_BUILD)/bin/penumbra_tests --gtest_filter='$(ASAN_TESTS)'
 
 # The sanitizer job .ci/run runs: the tests of the modules that take input and build from it
-# (tests/CMakeLists.txt: penumbra_fast_tests) at -O0, which compiles in about half the time,
-# less the few of them that take more than about 2 s without sanitizers and the command-line
+# (tests/CMakeLists.txt: penumbra_fast_tests) at -O0, which compiles in about half the time, with
+# the solvers uninstrumented (src/CMakeLists.txt: PENUMBRA_SANITIZE_SOLVERS), less the few of them that take more than about 2 s without sanitizers and the command-line
 # tests that run a whole solve (their solvers' own suites are not in this job either).
 ASAN_FAST_BUILD ?= build-asan-fast
 ASAN_SLOW_TESTS = Cli.Progressive*:Cli.Stochastic*:Cli.Lpv*:Cli.MatrixRadiosity*:Cli.Bake*:Cli.PathTracerSamplers*:Cli.Signals*:Cli.TraceOnTheGpu*:ChartAtlas.Bunny*:SurfaceHierarchy.CutGives*:Readme.*
 test-asan-fast: deps
 	cmake -S . -B $(ASAN_FAST_BUILD) -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DPENUMBRA_SANITIZE=ON \
-	  -DPENUMBRA_BUILD_BENCH=OFF -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O0 -g1"
+	  -DPENUMBRA_SANITIZE_SOLVERS=OFF -DPENUMBRA_BUILD_BENCH=OFF \
+	  -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O0 -g1"
 	cmake --build $(ASAN_FAST_BUILD) -j $(JOBS) --target penumbra_fast_tests penumbra_cli
 	ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \
 	  $(ASAN_FAST_BUILD)/bin/penumbra_fast_tests --gtest_filter='-$(ASAN_SLOW_TESTS)'

@@ -3,8 +3,10 @@
 // the matrix method on the Cornell box.
 #include "penumbra/radiosity/progressive.h"
 #include "penumbra/radiosity/matrix_radiosity.h"
+#include "penumbra/radiosity/progressive_checkpoint.h"
 #include "penumbra/render/lightmap_view.h"
 #include "penumbra/scene/builtin.h"
+#include "support/test_util.h"
 
 #include <gtest/gtest.h>
 #include <glm/geometric.hpp>
@@ -269,6 +271,24 @@ TEST(ProgressiveRadiosity, ASmallShooterKeepsItsPointsInTheFlatScheme) {
       "points, %.4f from %zu\n",
       rms_few, rms_kept, kept->shooterBlocks(light, 1).size());
   EXPECT_LT(rms_kept, 0.5 * rms_few);
+}
+
+// Flat-scheme checkpoints record the shooters' minimum points since format 4: one written by an
+// earlier version is refused by name, not taken for a foreign file.
+TEST(ProgressiveCheckpoint, AnEarlierFormatIsRefusedAsSuch) {
+  test::TempDir dir;
+  const std::string old =
+      dir.write("old.checkpoint", std::string("PENUMBRA-PRGRSV3") + std::string(300, '\0'));
+  Expected<ProgressiveCheckpointInfo> info = readProgressiveCheckpointInfo(old);
+  ASSERT_FALSE(info.ok());
+  EXPECT_NE(info.error().describe().find("earlier version of Penumbra (checkpoint format 3)"),
+            std::string::npos)
+      << info.error().describe();
+  const std::string other = dir.write("other.checkpoint", std::string(300, 'x'));
+  Expected<ProgressiveCheckpointInfo> none = readProgressiveCheckpointInfo(other);
+  ASSERT_FALSE(none.ok());
+  EXPECT_NE(none.error().describe().find("not a Penumbra progressive radiosity checkpoint"),
+            std::string::npos);
 }
 
 TEST(ProgressiveRadiosity, CornellWallsAgreeWithTheMatrixMethod) {

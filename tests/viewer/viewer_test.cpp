@@ -157,6 +157,29 @@ TEST(Viewer, EveryMethodsCaptureIsItsHeadlessRender) {
   }
 }
 
+// The textured room as Blender's exporter writes it (base colour and emissive textures, a MASK
+// lattice): the window shows what `render` computes, textures and cut-outs included, to the
+// byte for the path tracer and progressive radiosity.
+TEST(Viewer, TexturedRoomCaptureIsItsHeadlessRender) {
+  PENUMBRA_DISPLAY_OR_SKIP(display);
+  TempDir dir;
+  const std::string room = std::string(PENUMBRA_SOURCE_DIR) + "/scenes/textured_room/room.glb";
+  for (const std::string options :
+       {"--method pathtrace --spp 4", "--method progressive --elements 3000 --spp 1"}) {
+    const std::string size = " --width 48 --height 32 ";
+    const auto v = runCli(fmt::format("view {} {}{}--hide-ui --frames 1 --screenshot {}", room,
+                                      options, size, dir.file("view.png")),
+                          "DISPLAY=" + display);
+    ASSERT_EQ(v.exit_code, 0) << v.output;
+    const auto h = runCli(
+        fmt::format("render {} {}{}--quiet -o {}", room, options, size, dir.file("render.png")));
+    ASSERT_EQ(h.exit_code, 0) << h.output;
+    const double d = difference(dir.file("view.png"), dir.file("render.png"));
+    std::printf("textured room, %s: the capture vs render %.2e\n", options.c_str(), d);
+    EXPECT_EQ(d, 0.0) << options;
+  }
+}
+
 // --device gpu: the GPU twins in the window's own context (GLX here) give what `render --device
 // gpu` gives headless (EGL): matrix radiosity's Jacobi solve, relit, to the solver's tolerance,
 // and the light propagation volumes to the byte.

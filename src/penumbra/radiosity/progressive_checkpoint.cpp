@@ -32,6 +32,12 @@ using Reader = CheckpointReader;
 
 Expected<ProgressiveCheckpointInfo> parseHeader(const std::string& path, const std::string& bytes,
                                                 EnergyBalance* balance) {
+  if (bytes.size() >= 16 && std::memcmp(bytes.data(), kMagic, 15) == 0 && bytes[15] < kMagic[15]) {
+    return inputError(path, "",
+                      fmt::format("was written by an earlier version of Penumbra (checkpoint "
+                                  "format {}); run again without --resume",
+                                  bytes[15]));
+  }
   if (bytes.size() < kHeaderBytes + 8 || std::memcmp(bytes.data(), kMagic, 16) != 0) {
     return inputError(path, "", "not a Penumbra progressive radiosity checkpoint");
   }
