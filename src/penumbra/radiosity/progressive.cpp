@@ -20,6 +20,7 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
+#include <span>
 #include <utility>
 
 namespace penumbra {
@@ -47,6 +48,18 @@ struct ShooterPoint {
   bool above_top = false;  // coarser than the substructuring's top level
   int32_t pieces = -1;     // clusters: index of its pieces
 };
+
+// Cluster c's pieces: the candidate faces clipped to its texels, each passed to
+// piece(corners, count).
+template <typename Piece>
+void clusterFacePieces(const RadiositySurface& surface, ClusterRef c,
+                       std::span<const uint32_t> candidates, Piece&& piece) {
+  const ClusterLevel& lv = surface.hierarchy.level(c.level);
+  surface.atlas.forEachPiece(lv.lo[c.index], lv.hi[c.index], candidates, surface.flat.positions,
+                             surface.flat.triangles,
+                             [&](uint32_t, const std::array<glm::dvec3, 8>& corners, int count,
+                                 double) { piece(corners, count); });
+}
 
 }  // namespace
 
@@ -347,13 +360,11 @@ void ProgressiveRadiosity::clusterPieces(ClusterRef c,
   }
   std::sort(candidates.begin(), candidates.end());
   candidates.erase(std::unique(candidates.begin(), candidates.end()), candidates.end());
-  const ClusterLevel& lv = surface_.hierarchy.level(c.level);
-  atlas.forEachPiece(lv.lo[c.index], lv.hi[c.index], candidates, surface_.flat.positions,
-                     surface_.flat.triangles,
-                     [&](uint32_t, const std::array<glm::dvec3, 8>& corners, int count, double) {
-                       polygons.push_back(corners);
-                       counts.push_back(count);
-                     });
+  clusterFacePieces(surface_, c, candidates,
+                    [&](const std::array<glm::dvec3, 8>& corners, int count) {
+                      polygons.push_back(corners);
+                      counts.push_back(count);
+                    });
 }
 
 bool ProgressiveRadiosity::shotClosed(uint32_t shooter, uint64_t* traced) const {
@@ -643,9 +654,11 @@ void shooterSample(const ShotGeometry& shot, const ShooterPoint& s, const Radios
   }
 }
 
-// The clusters' pieces (for Lambert's form factor to a cluster): its chart's faces clipped to
-// its texels; candidate faces merged up from the elements.
-void findClusterPieces(ShotGeometry& shot, const RadiositySurface& surface, uint32_t root_level) {
+// The pieces of the clusters of levels [lo_level, root_level] (lo_level >= 1), for Lambert's
+// form factor to a cluster: its chart's faces clipped to its texels; candidate faces merged up
+// from the elements.
+void findClusterPieces(ShotGeometry& shot, const RadiositySurface& surface, uint32_t lo_level,
+                       uint32_t root_level) {
   std::vector<ShooterPoint>& points = shot.points;
   std::vector<std::vector<uint32_t>> candidates(points.size());
   for (uint32_t l = 0; l <= root_level; ++l) {
@@ -667,18 +680,18 @@ void findClusterPieces(ShotGeometry& shot, const RadiositySurface& surface, uint
     }
   }
   std::vector<uint32_t> clusters;
-  for (uint32_t k = 0; k < shot.level_first[0]; ++k) clusters.push_back(k);  // levels above 0
+  for (uint32_t l = std::max(lo_level, 1u); l <= root_level; ++l) {
+    for (uint32_t k = shot.level_first[l]; k < shot.level_end[l]; ++k) clusters.push_back(k);
+  }
   shot.pieces.resize(clusters.size());
   parallelRange(clusters.size(), 64, [&](size_t b, size_t e) {
     for (size_t i = b; i < e; ++i) {
       ShooterPoint& p = points[clusters[i]];
       p.pieces = int32_t(i);
-      const ClusterLevel& lv = surface.hierarchy.level(p.cluster.level);
-      surface.atlas.forEachPiece(lv.lo[p.cluster.index], lv.hi[p.cluster.index],
-                                 candidates[clusters[i]], surface.flat.positions,
-                                 surface.flat.triangles,
-                                 [&](uint32_t, const std::array<glm::dvec3, 8>& corners, int count,
-                                     double) { shot.pieces[i].emplace_back(corners, count); });
+      clusterFacePieces(surface, p.cluster, candidates[clusters[i]],
+                        [&](const std::array<glm::dvec3, 8>& corners, int count) {
+                          shot.pieces[i].emplace_back(corners, count);
+                        });
     }
   });
 }
@@ -906,7 +919,10 @@ ProgressiveIteration ProgressiveRadiosity::shoot(uint32_t shooter) {
       it);
 
   // ---- The points' pieces, the power shot and the charts that receive nothing ----
-  findClusterPieces(geometry, surface_, root.level);
+  // Hierarchical: every cluster may serve a receiver; flat: the roots' level only.
+  const uint32_t pieces_from =
+      geometry.hierarchical ? 1u : std::min(uint32_t(flatLevel(shooter)), root.level);
+  if (pieces_from > 0) findClusterPieces(geometry, surface_, pieces_from, root.level);
   findMemberPieces(geometry, *this);
   glm::dvec3 shot(0.0);
   for (uint32_t e = first; e < last; ++e) shot += db_[e] * surface_.atlas.element_area[e];
