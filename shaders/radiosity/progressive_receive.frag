@@ -65,6 +65,7 @@ uniform int atlas_width;
 uniform float depth_tolerance;  // relative
 uniform float near_factor;      // kNear: the members' form factors when d^2 < kNear^2 A_s
 uniform float far_factor;       // kFar: the point's pieces' form factor when d^2 < kFar^2 A_s
+uniform float local_factor;     // pairs with d^2 < local^2 A_s are left out (0: none)
 uniform bool count_mode;        // diagnostics: add 1 per fragment that gets through
 
 flat in uint v_element;
@@ -147,15 +148,16 @@ bool visibleFromShooter(vec3 image, uint k, int chart, vec3 receiver, vec3 norma
 
 // Whether receiver r (its point in double: pr) and batch point k make a pair of this pass:
 // in front of each other's planes (elements reflect on their own side), apart, and near (NEAR_PASS 1) or far
-// (NEAR_PASS 0). Near or far is decided in the CPU's precision: exact ties at
-// d^2 = kNear^2 A are common on regular meshes.
+// (NEAR_PASS 0), and not local (stochastic radiosity's local operator's pairs). Near or far is
+// decided in the CPU's precision: exact ties at d^2 = kNear^2 A are common on regular meshes.
 bool isPair(dvec3 pr, GpuProgressiveElement r, vec3 nr, uint k) {
   const vec3 d = batch[k].position_f.xyz - r.position;
   const dvec3 dd = batch[k].position.xyz - pr;
   const double dd2 = dd.x * dd.x + dd.y * dd.y + dd.z * dd.z;
   const bool near = dd2 < double(near_factor) * double(near_factor) * batch[k].position.w;
+  const bool local = dd2 < double(local_factor) * double(local_factor) * batch[k].position.w;
   return dot(d, d) > 0.0 && dot(nr, d) > 0.0 && dot(hemisphere.normal, d) < 0.0 &&
-         near == (NEAR_PASS == 1);
+         near == (NEAR_PASS == 1) && !local;
 }
 
 // Visibility of receiver r from batch point k: the back projection of its point into the

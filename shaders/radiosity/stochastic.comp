@@ -12,10 +12,13 @@
 //             the child whose running sum passes the remaining value, down to a texel; writes
 //             the texel, its probability, Phi and the texel's radiosity.
 // The shot itself is the hemispherical gather's (radiosity/hemisphere_gl.h); then
-//  3 update:  eq. 3's new iterate B_m = E' + rho E_in per element (E_in the gathered
-//             irradiance), in double, and eq. 2's running sums (by the iterate's parity);
+//  5 local:   the local operator's irradiance per element, sum f_rj B_j over its pairs (CSR,
+//             StochasticRadiosity::local), from B_{m-1}, before the update overwrites it;
+//  3 update:  eq. 3's new iterate B_m = E' + rho (E_local + E_in) per element (E_in the
+//             gathered irradiance), in double, and eq. 2's running sums (by the iterate's parity);
 //  4 error:   the error estimate's sums, per work group: area-weighted squares of half the
-//             difference of the odd and even means and of the mean (luminance).
+//             difference of the odd and even means and of the estimate (the first shots' B_p -
+//             dB plus the mean; luminance).
 
 #include "radiosity/progressive_layout.glsl"
 #include "radiosity/stochastic_layout.glsl"
@@ -138,6 +141,7 @@ layout(std430, binding = STOCHASTIC_SSBO_ITERATE) writeonly buffer Iterate { dve
 // Sums of the averaged iterates: [0, count) even, [count, 2 count) odd.
 layout(std430, binding = STOCHASTIC_SSBO_AVERAGE) buffer Average { dvec4 sums[]; };
 layout(binding = STOCHASTIC_TEXTURE_INCIDENT) uniform sampler2D incident;
+layout(std430, binding = STOCHASTIC_SSBO_LOCAL_IN) readonly buffer LocalIn { dvec4 local_in[]; };
 uniform uint count;
 uniform int atlas_width;
 uniform int sum_index;  // the parity of the iterate's number among the averaged; -1: burn-in
@@ -148,9 +152,10 @@ void main() {
   if (e >= count) return;
   const GpuProgressiveElement el = elements[e];
   const ivec2 t = ivec2(int(el.texel % uint(atlas_width)), int(el.texel / uint(atlas_width)));
-  // Eq. 3: B_m = E' + T* B_{m-1}, T* B_{m-1} = rho E_in.
+  // Eq. 3: B_m = E' + L B_{m-1} + R* B_{m-1} = E' + rho (E_local + E_in).
   const dvec3 next =
-      source[e].xyz + dvec3(el.reflectance) * dvec3(texelFetch(incident, t, 0).rgb);
+      source[e].xyz +
+      dvec3(el.reflectance) * (local_in[e].xyz + dvec3(texelFetch(incident, t, 0).rgb));
   iterate[e] = dvec4(next, 0.0LF);
   if (sum_index >= 0) sums[uint(sum_index) * count + e] += dvec4(next, 0.0LF);
 }
@@ -160,6 +165,8 @@ layout(local_size_x = 256) in;
 layout(std430, binding = STOCHASTIC_SSBO_AREA) readonly buffer Area { double area[]; };
 layout(std430, binding = STOCHASTIC_SSBO_AVERAGE) readonly buffer Average { dvec4 sums[]; };
 layout(std430, binding = STOCHASTIC_SSBO_PARTIAL) writeonly buffer Partial { dvec2 partial[]; };
+// w: the luminance of the first shots' B_p - dB, part of the estimate's mean.
+layout(std430, binding = STOCHASTIC_SSBO_SOURCE) readonly buffer Source { dvec4 source[]; };
 uniform uint count;
 uniform double odd;   // averaged iterates with odd numbers
 uniform double even;  // and with even ones
@@ -172,7 +179,7 @@ void main() {
   if (e < count) {
     const dvec3 se = sums[e].xyz, so = sums[count + e].xyz;
     const double d = 0.5LF * luminance(so / odd - se / even);
-    const double m = luminance((so + se) / (odd + even));
+    const double m = source[e].w + luminance((so + se) / (odd + even));
     v = area[e] * dvec2(d * d, m * m);
   }
   const uint l = gl_LocalInvocationIndex;
@@ -183,5 +190,27 @@ void main() {
     barrier();
   }
   if (l == 0u) partial[gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x] = part[0];
+}
+
+#elif STOCHASTIC_PASS == 5
+layout(local_size_x = 256) in;
+layout(std430, binding = STOCHASTIC_SSBO_LOCAL_FIRST) readonly buffer LocalFirst { uint local_first[]; };
+// (element, floatBitsToUint(factor)) per pair.
+layout(std430, binding = STOCHASTIC_SSBO_LOCAL) readonly buffer Local { uvec2 local_pairs[]; };
+layout(std430, binding = STOCHASTIC_SSBO_ITERATE) readonly buffer Iterate { dvec4 iterate[]; };
+layout(std430, binding = STOCHASTIC_SSBO_LOCAL_IN) writeonly buffer LocalIn { dvec4 local_in[]; };
+uniform uint count;
+
+void main() {
+  const uint e = gl_WorkGroupID.y * gl_NumWorkGroups.x * gl_WorkGroupSize.x +
+                 gl_GlobalInvocationID.x;
+  if (e >= count) return;
+  // In the CPU's order and precision (StochasticRadiosity::step).
+  dvec3 sum = dvec3(0.0LF);
+  for (uint k = local_first[e]; k < local_first[e + 1u]; ++k) {
+    const uvec2 p = local_pairs[k];
+    sum += double(uintBitsToFloat(p.y)) * iterate[p.x].xyz;
+  }
+  local_in[e] = dvec4(sum, 0.0LF);
 }
 #endif

@@ -62,4 +62,34 @@ void expectFurnaceClosedForm(const ChartMeans& m, double largest_standard_error,
   EXPECT_EQ(inside, 6) << label;
 }
 
+Scene lampOverFloorScene() {
+  Scene s;
+  s.source = "test:lamp";
+  s.materials = {{"floor", glm::vec3(0.5f), glm::vec3(0.0f)},
+                 {"lamp", glm::vec3(0.0f), glm::vec3(3.0f)}};
+  Mesh floor;
+  floor.name = "floor";
+  floor.positions = {{-2, 0, -2}, {-2, 0, 2}, {2, 0, 2}, {2, 0, -2}};
+  floor.triangles = {{0, 1, 2}, {0, 2, 3}};
+  floor.material_ids = {0, 0};
+  Mesh lamp;
+  lamp.name = "lamp";
+  lamp.positions = {{-0.5f, 1, -0.5f}, {0.5f, 1, -0.5f}, {0.5f, 1, 0.5f}, {-0.5f, 1, 0.5f}};
+  lamp.triangles = {{0, 1, 2}, {0, 2, 3}};
+  lamp.material_ids = {1, 1};
+  s.meshes = {floor, lamp};
+  return s;
+}
+
+double relativeRmsError(const StochasticRadiosity& sr, const std::vector<glm::dvec3>& reference) {
+  double num = 0.0, den = 0.0;
+  for (size_t e = 0; e < sr.elementCount(); ++e) {
+    const double a = sr.atlas().element_area[e];
+    const double x = residualLuminance(sr.radiosity(e)), y = residualLuminance(reference[e]);
+    num += a * (x - y) * (x - y);
+    den += a * y * y;
+  }
+  return std::sqrt(num / den);
+}
+
 }  // namespace penumbra

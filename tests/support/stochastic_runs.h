@@ -28,4 +28,12 @@ ChartMeans stochasticChartMeans(const std::string& name, StochasticOptions o, in
 void expectFurnaceClosedForm(const ChartMeans& m, double largest_standard_error,
                              const std::string& label);
 
+// A square lamp (1 m, emission 3, facing down, reflectance 0) 1 m over a 4 m floor (rho 0.5),
+// nothing else: the first shots carry all the light there is.
+Scene lampOverFloorScene();
+
+// The relative RMS difference of the solver's estimate from `reference` per element (luminance,
+// area-weighted).
+double relativeRmsError(const StochasticRadiosity& sr, const std::vector<glm::dvec3>& reference);
+
 }  // namespace penumbra

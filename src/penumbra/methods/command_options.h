@@ -15,13 +15,17 @@ namespace penumbra {
 // The iteration cap of the iterative methods when none is given, and the largest one taken.
 inline constexpr int kIterationCapDefault = 500;
 inline constexpr int kIterationCapMax = 1 << 20;
+// Stochastic radiosity's: its iterations are cheap, and 1,000 of them after the first shots put
+// every 4 x 4 block of the Cornell box and the rooms within 5% (docs/performance.md).
+inline constexpr int kStochasticIterationCap = 1000;
 
 // The cap a run of `time_limit` seconds (when set) and `iterations` (when given) gets: a time
 // limit alone lifts the default cap, so that it, not the cap, ends the run.
 inline int iterationCap(const std::optional<int>& iterations,
-                        const std::optional<double>& time_limit = std::nullopt) {
+                        const std::optional<double>& time_limit = std::nullopt,
+                        int default_cap = kIterationCapDefault) {
   if (iterations) return *iterations;
-  return time_limit ? kIterationCapMax : kIterationCapDefault;
+  return time_limit ? kIterationCapMax : default_cap;
 }
 
 struct CommonOptions {
@@ -44,9 +48,11 @@ struct LightmapMethodOptions {
   int finest_level = 0;
   std::optional<double> min_share;
   // --method stochastic (Barsi and Jakab): a time limit (seconds; the iteration cap still
-  // applies) and independent shooters per iteration.
+  // applies), independent shooters per iteration and the emitters shot deterministically first
+  // (StochasticOptions::first_shots).
   std::optional<double> time_limit;
   int shooters = 1;
+  int first_shots = 32;  // kStochasticFirstShots (radiosity/stochastic.h)
 };
 
 struct RenderOptions : LightmapMethodOptions {

@@ -6,6 +6,7 @@
 #include "penumbra/radiosity/matrix_radiosity.h"
 #include "penumbra/radiosity/progressive.h"
 #include "penumbra/radiosity/progressive_receivers.h"
+#include "penumbra/radiosity/stochastic.h"
 #include "penumbra/raytrace/path_tracer.h"
 #include "penumbra/raytrace/photon_map.h"
 #include "penumbra/raytrace/whitted.h"
@@ -159,6 +160,16 @@ void addReceiverOptions(std::vector<Bound<Options>>& out) {
                           "times as much and has 1/N of the variance)",
                   .uses = all({"stochastic"}, "1")},
                  field<Options>(&LightmapMethodOptions::shooters)});
+  out.push_back({{.name = "first-shots",
+                  .kind = K::kInt,
+                  .range = range(0, 4096),
+                  .help = "up to N shooters shoot once, deterministically, by progressive "
+                          "radiosity's shot (the lights, the emitters, then the brightest "
+                          "reflectors, while more than a tenth of the power is unshot) before the "
+                          "random iteration carries the rest; 0: all by the random operator, as "
+                          "in the paper",
+                  .uses = all({"stochastic"}, text(kStochasticFirstShots))},
+                 field<Options>(&LightmapMethodOptions::first_shots)});
 }
 
 // ---- penumbra render ----
@@ -190,13 +201,13 @@ void addSolveOptions(std::vector<Bound<Options>>& b) {
   add({.name = "iterations",
        .kind = K::kInt,
        .range = range(1, 1 << 20),
-       .help = "iteration cap (progressive: shooters; stochastic: random operators; counted "
-               "over resumed runs). Stochastic radiosity's default trades accuracy for speed: "
-               "about 7% over 4 x 4 blocks of a room in 2 s, about 4% with 8000 iterations (10 s); "
-               "--time-limit runs as long as it allows",
+       .help = "iteration cap (progressive: shooters; stochastic: random operators after the "
+               "first shots, whose error falls as one over the square root of their number; "
+               "counted over resumed runs); with --time-limit stochastic radiosity runs as long "
+               "as it allows",
        .uses = {{"matrix", text(kIterationCapDefault), {}},
                 {"progressive", text(kIterationCapDefault), {}},
-                {"stochastic", text(kIterationCapDefault) + ", none with --time-limit", {}}}},
+                {"stochastic", text(kStochasticIterationCap) + ", none with --time-limit", {}}}},
       field<Options>(&Options::iterations));
   add({.name = "tolerance",
        .kind = K::kReal,
@@ -735,9 +746,8 @@ const std::vector<MethodInfo>& methodInfos() {
       {"progressive", "progressive refinement radiosity in a lightmap atlas", "Wallner", true,
        true},
       {"stochastic",
-       "stochastic radiosity by ray-bundle shooting; its default 500 iterations are a quick, noisy "
-       "estimate (about 7% over 4 x 4 blocks of a room): --time-limit or more --iterations for "
-       "less noise",
+       "stochastic radiosity by ray-bundle shooting, after deterministic first shots of the "
+       "strongest light; --time-limit or more --iterations for less noise",
        "Barsi and Jakab", true},
       {"sss", "subsurface scattering: the dipole through hierarchical links",
        "Carr, Hall, Hart 2003, sec. 4", false},

@@ -24,8 +24,11 @@ namespace {
 
 // Bytes per element at the peak: the atlas and hierarchy (about 180, as progressive radiosity
 // counts them), the surface's per-element data (4 x 24), E', the iterate, the next iterate and
-// the two sums (5 x 24), the element's pieces (about 2 x 200) and the level sums (about 11).
-constexpr uint64_t kBytesPerElement = 900;
+// the two sums and the first shots' part (6 x 24), the element's pieces (about 2 x 200), the
+// level sums (about 11) and the local operator's pairs (about 60 of 8 bytes where surfaces meet
+// or curve: 4 texel sizes around a texel). The first shots' progressive solver (about 150 more)
+// is gone by then.
+constexpr uint64_t kBytesPerElement = 1400;
 
 // The solve: Ctrl-C stops it between two iterations and writes a checkpoint; the lightmap
 // into `run`.
@@ -36,10 +39,12 @@ Status solveStochastic(StochasticRun& run, const Scene& scene, const StochasticR
   // From here Ctrl-C stops between two iterations and writes a checkpoint. The line below is
   // printed once it does (scripts may wait for it before sending SIGINT).
   const InterruptScope interrupt;
-  spdlog::info("{}: {} lightmap texels in a {}x{} atlas ({:.1f} texels/m), burn-in {} iterations{}",
-               scene.source, sr.elementCount(), sr.atlas().width, sr.atlas().height,
-               sr.atlas().texel_density, sr.burnIn(),
-               solver.device() == SolverDevice::kGpu ? ", on the GPU" : "");
+  spdlog::info(
+      "{}: {} lightmap texels in a {}x{} atlas ({:.1f} texels/m), {} first shots ({:.2f} s), "
+      "burn-in {} iterations{}",
+      scene.source, sr.elementCount(), sr.atlas().width, sr.atlas().height,
+      sr.atlas().texel_density, sr.firstShots(), sr.firstShotSeconds(), sr.burnIn(),
+      solver.device() == SolverDevice::kGpu ? ", on the GPU" : "");
 
   // Progress: iterations against the cap (or the time against the limit), with the iteration
   // and the running error estimate.
@@ -101,6 +106,9 @@ Status checkStochasticRunOptions(const StochasticRunOptions& o) {
   if (o.shooters < 1 || o.shooters > 4096) {
     return inputError("", "--shooters", "must be in [1, 4096]");
   }
+  if (o.first_shots < 0 || o.first_shots > 4096) {
+    return inputError("", "--first-shots", "must be in [0, 4096]");
+  }
   if (!o.resume.empty() && o.lightmap_size) {
     return inputError("", "--resume",
                       "the checkpoint fixes the lightmap: leave out --lightmap-size");
@@ -119,6 +127,7 @@ Expected<StochasticRun> runStochastic(const Scene& scene, const StochasticRunOpt
   so.iterations = options.iterations;
   so.time_limit = options.time_limit;
   so.shooters = options.shooters;
+  so.first_shots = options.first_shots;
   so.seed = options.seed;
   so.shading_normals = options.shading_normals;
   std::optional<StochasticCheckpointInfo> info;
@@ -136,6 +145,7 @@ Expected<StochasticRun> runStochastic(const Scene& scene, const StochasticRunOpt
     so.seed = info->seed;
     so.shooters = info->shooters;
     so.burn_in = info->burn_in;
+    so.first_shots = info->first_shots;
     if (options.texel_density &&
         std::abs(*options.texel_density / info->texel_density - 1.0) > 1e-9) {
       return inputError(options.resume, "",
@@ -201,6 +211,9 @@ nlohmann::json stochasticStatsJson(const StochasticRun& run) {
           {"burn_in", sr.burnIn()},
           {"averaged_iterations", sr.averaged()},
           {"shooters_per_iteration", sr.options().shooters},
+          {"first_shots", sr.firstShots()},
+          {"first_shot_seconds", sr.firstShotSeconds()},
+          {"local_pairs", sr.local().size()},
           {"seed", sr.options().seed},
           {"error_estimate", run.stats.error},
           {"interrupted", run.interrupted},

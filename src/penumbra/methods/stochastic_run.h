@@ -22,9 +22,10 @@ struct StochasticRunOptions {
   uint32_t elements = kDefaultLightmapElements;  // about this many lightmap texels
   std::optional<double> texel_density;           // texels per metre (overrides elements)
   std::optional<int> lightmap_size;              // an N x N atlas at the largest density that fits
-  int iterations = 500;                          // cap, counted over resumed runs
+  int iterations = kStochasticIterationCap;      // cap, counted over resumed runs
   double time_limit = 0.0;                       // seconds; 0: none
   int shooters = 1;
+  int first_shots = kStochasticFirstShots;
   uint64_t seed = 0;
   std::string resume;
   std::string checkpoint;
@@ -32,6 +33,8 @@ struct StochasticRunOptions {
   std::string device = "cpu";
   bool shading_normals = true;
 };
+
+static_assert(LightmapMethodOptions{}.first_shots == kStochasticFirstShots);
 
 struct StochasticRun {
   std::optional<StochasticRadiosity> solver;
@@ -51,9 +54,10 @@ StochasticRunOptions stochasticRunOptions(const CommandOptions& o) {
   ro.elements = o.elements.value_or(kDefaultLightmapElements);
   ro.texel_density = o.texel_density;
   if constexpr (requires { o.lightmap_size; }) ro.lightmap_size = o.lightmap_size;
-  ro.iterations = iterationCap(o.iterations, o.time_limit);
+  ro.iterations = iterationCap(o.iterations, o.time_limit, kStochasticIterationCap);
   ro.time_limit = o.time_limit.value_or(0.0);
   ro.shooters = o.shooters;
+  ro.first_shots = o.first_shots;
   ro.seed = o.seed.value_or(0);
   ro.resume = o.resume;
   ro.checkpoint = o.checkpoint;

@@ -484,8 +484,8 @@ Expected<GlHemisphereGather> GlHemisphereGather::create(
   return s;
 }
 
-void GlHemisphereGather::setShooter(const glm::dvec3& normal, double near_factor,
-                                    double far_factor) {
+void GlHemisphereGather::setShooter(const glm::dvec3& normal, double near_factor, double far_factor,
+                                    double local_factor) {
   shooter_normal_ = normal;
   setHemisphere(depth_, normal, far_);
   glProgramUniform1ui(depth_.id(), uniform(depth_, "tiles"), tiles_);
@@ -497,6 +497,7 @@ void GlHemisphereGather::setShooter(const glm::dvec3& normal, double near_factor
     if (visibility_) glProgramUniform1f(rid, uniform(*r, "depth_tolerance"), depth_tolerance_);
     if (r == &sample_) continue;  // the samples pass has no pairs
     glProgramUniform1f(rid, uniform(*r, "near_factor"), float(near_factor));
+    glProgramUniform1f(rid, uniform(*r, "local_factor"), float(local_factor));
     if (r == &receive_far_) glProgramUniform1f(rid, uniform(*r, "far_factor"), float(far_factor));
     glProgramUniform1i(rid, uniform(*r, "count_mode"), 0);
   }

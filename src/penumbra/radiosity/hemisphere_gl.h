@@ -162,8 +162,10 @@ class GlHemisphereGather {
 
   // The shooter's hemisphere (its pole, unit) and, for the next batches, the factors of the
   // near pairs (d^2 < near^2 A, the near pass) and of the pairs that take Lambert's form factor
-  // to the point's pieces in the far pass (d^2 < far^2 A, when the point has pieces).
-  void setShooter(const glm::dvec3& normal, double near_factor, double far_factor);
+  // to the point's pieces in the far pass (d^2 < far^2 A, when the point has pieces). Pairs with
+  // d^2 < local^2 A are left out of both (stochastic radiosity's local operator takes them).
+  void setShooter(const glm::dvec3& normal, double near_factor, double far_factor,
+                  double local_factor = 0.0);
   // The samples pass's pairing: element e with the shooter's point e mod `points`.
   void setSamplePoints(uint32_t points);
   void clearIncident();

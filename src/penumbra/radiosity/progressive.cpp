@@ -176,12 +176,18 @@ Expected<ProgressiveRadiosity> ProgressiveRadiosity::build(const Scene& scene,
     return inputError("", "progressive radiosity", "receiver_level must be in [0, 16] (or -1)");
   }
   if (options.adaptive) PENUMBRA_TRY(checkSubdivisionOptions(options.subdivision));
-  ProgressiveRadiosity pr;
-  pr.options_ = options;
   Expected<RadiositySurface> surface =
       RadiositySurface::build(scene, options.atlas, options.shading_normals);
   if (!surface) return surface.error();
-  pr.surface_ = std::move(*surface);
+  return build(std::move(*surface), scene, options);
+}
+
+Expected<ProgressiveRadiosity> ProgressiveRadiosity::build(RadiositySurface surface,
+                                                           const Scene& scene,
+                                                           const ProgressiveOptions& options) {
+  ProgressiveRadiosity pr;
+  pr.options_ = options;
+  pr.surface_ = std::move(surface);
   const size_t n = pr.surface_.elementCount();
   glm::dvec3 rho_area(0.0);
   for (size_t e = 0; e < n; ++e) {

@@ -250,6 +250,13 @@ class ProgressiveRadiosity {
   // scene has neither emissive surfaces nor lights.
   static Expected<ProgressiveRadiosity> build(const Scene& scene,
                                               const ProgressiveOptions& options);
+  // The same over a surface already built for `scene` with options.atlas and
+  // options.shading_normals (the options are the caller's to have checked).
+  static Expected<ProgressiveRadiosity> build(RadiositySurface surface, const Scene& scene,
+                                              const ProgressiveOptions& options);
+  // Hands the surface on (to a solver that continues from this one's state); this solver is
+  // left unusable.
+  RadiositySurface takeSurface() && { return std::move(surface_); }
 
   // The next shot: kLights while the lights have not shot, else the shooter with the highest
   // residual power, kNoShooter when nothing is left.

@@ -9,12 +9,16 @@
 #include "penumbra/radiosity/progressive.h"
 
 #include <fmt/format.h>
+#include <glm/common.hpp>
+#include <glm/ext/vector_int3_sized.hpp>
 #include <glm/geometric.hpp>
 #include <glm/vec2.hpp>
+#include <glm/vector_relational.hpp>
 
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <utility>
 
 namespace penumbra {
 
@@ -42,6 +46,9 @@ Expected<StochasticRadiosity> StochasticRadiosity::build(const Scene& scene,
   if (options.burn_in < -1 || options.burn_in > 1000000) {
     return inputError("", place, "burn_in must be in [0, 10^6] (or -1: automatic)");
   }
+  if (options.first_shots < 0 || options.first_shots > 4096) {
+    return inputError("", place, "first shots must be in [0, 4096]");
+  }
   StochasticRadiosity sr;
   sr.options_ = options;
   Expected<RadiositySurface> surface =
@@ -49,16 +56,11 @@ Expected<StochasticRadiosity> StochasticRadiosity::build(const Scene& scene,
   if (!surface) return surface.error();
   sr.surface_ = std::move(*surface);
   const size_t n = sr.surface_.elementCount();
-  // E' = E + rho E_direct: the lights' direct light reflected once, deterministic.
-  sr.source_ = sr.surface_.emission;
-  if (!scene.lights.empty()) {
-    const std::vector<glm::dvec3> direct =
-        sr.surface_.lightIrradiance(scene.lights, options.visibility);
-    for (size_t e = 0; e < n; ++e) sr.source_[e] += sr.surface_.reflectance[e] * direct[e];
-  }
+  PENUMBRA_TRY(options.first_shots > 0 ? sr.shootFirst(scene) : sr.buildSource(scene));
   double power = 0.0;
   for (size_t e = 0; e < n; ++e) {
-    power += luminance(sr.source_[e]) * sr.surface_.atlas.element_area[e];
+    power += luminance(sr.shot_[e] + sr.source_[e]) * sr.surface_.atlas.element_area[e];
+    sr.source_power_ += luminance(sr.source_[e]) * sr.surface_.atlas.element_area[e];
   }
   if (!(power > 0.0)) {
     return inputError(scene.source, place,
@@ -97,8 +99,171 @@ Expected<StochasticRadiosity> StochasticRadiosity::build(const Scene& scene,
       sr.piece_first_[e + 1] = uint32_t(sr.pieces_.size());
     }
   }
+  sr.buildLocal();
   sr.buildSums();
   return sr;
+}
+
+bool StochasticRadiosity::facing(size_t r, uint32_t j, double* d2) const {
+  const ChartAtlas& atlas = surface_.atlas;
+  if (r == j) return false;
+  // A planar chart does not light itself (progressive.cpp: its texels see each other edge-on).
+  const uint32_t chart = atlas.element_chart[j];
+  if (atlas.element_chart[r] == chart && atlas.charts.charts[chart].planar) return false;
+  const glm::dvec3 d = atlas.element_position[j] - atlas.element_position[r];
+  *d2 = glm::dot(d, d);
+  return *d2 > 0.0 && glm::dot(atlas.element_normal[r], d) > 0.0 &&
+         glm::dot(atlas.element_normal[j], d) < 0.0;
+}
+
+uint64_t StochasticRadiosity::buildLocal() {
+  // Elements bucketed in a grid of cells kStochasticLocal texel sizes wide: every local pair of
+  // receiver r lies in the 27 cells around r's.
+  const ChartAtlas& atlas = surface_.atlas;
+  const size_t n = elementCount();
+  double max_area = 0.0;
+  for (size_t e = 0; e < n; ++e) max_area = std::max(max_area, atlas.element_area[e]);
+  const double cell = kStochasticLocal * std::sqrt(max_area);
+  const glm::dvec3 lo = glm::dvec3(surface_.bounds.lo);
+  const auto cellOf = [&](const glm::dvec3& p) {
+    return glm::i64vec3(
+        glm::clamp(glm::floor((p - lo) / cell), glm::dvec3(-1.0), glm::dvec3(double(1 << 20))));
+  };
+  const auto key = [](const glm::i64vec3& c) {
+    return uint64_t(c.x + 1) << 42 | uint64_t(c.y + 1) << 21 | uint64_t(c.z + 1);
+  };
+  std::vector<std::pair<uint64_t, uint32_t>> cells(n);
+  for (size_t e = 0; e < n; ++e) cells[e] = {key(cellOf(atlas.element_position[e])), uint32_t(e)};
+  std::sort(cells.begin(), cells.end());
+  // Per block of receivers, their pairs in a fixed order (cells, then element index), visible
+  // ones kept; then joined in order: the same operator on any thread count.
+  const size_t blocks = (n + kReceiverBlock - 1) / kReceiverBlock;
+  std::vector<std::vector<uint32_t>> counts(blocks);
+  std::vector<std::vector<StochasticLocalPair>> pairs(blocks);
+  std::atomic<uint64_t> traced{0};
+  const bool jitter = surface_.textures && surface_.textures->hasCutouts();
+  parallelRange(blocks, 1, [&](size_t b0, size_t b1) {
+    RayBatch batch;
+    HitBatch hits;
+    std::vector<uint32_t> owner;
+    for (size_t b = b0; b < b1; ++b) {
+      const size_t begin = b * kReceiverBlock, end = std::min(n, begin + kReceiverBlock);
+      std::vector<StochasticLocalPair>& out = pairs[b];
+      owner.clear();
+      for (size_t r = begin; r < end; ++r) {
+        const glm::i64vec3 c = cellOf(atlas.element_position[r]);
+        for (int64_t dz = -1; dz <= 1; ++dz) {
+          for (int64_t dy = -1; dy <= 1; ++dy) {
+            for (int64_t dx = -1; dx <= 1; ++dx) {
+              const glm::i64vec3 q = c + glm::i64vec3(dx, dy, dz);
+              if (glm::any(glm::lessThan(q, glm::i64vec3(-1)))) continue;
+              const uint64_t k = key(q);
+              auto it = std::lower_bound(cells.begin(), cells.end(), std::pair{k, 0u});
+              for (; it != cells.end() && it->first == k; ++it) {
+                const uint32_t j = it->second;
+                double d2 = 0.0;
+                if (!facing(r, j, &d2)) continue;
+                const double aj = atlas.element_area[j];
+                if (!(d2 < kStochasticLocal * kStochasticLocal * aj)) continue;
+                double f = 0.0;
+                for (uint32_t p = piece_first_[j]; p < piece_first_[j + 1]; ++p) {
+                  f += pointToPolygonFormFactor<true>(atlas.element_position[r],
+                                                      surface_.shading_normal[r],
+                                                      pieces_[p].first.data(), pieces_[p].second);
+                }
+                if (!(f > 0.0)) continue;
+                out.push_back({j, float(f)});
+                owner.push_back(uint32_t(r));
+              }
+            }
+          }
+        }
+      }
+      if (options_.visibility && !out.empty()) {
+        // The shoot's shadow ray (StochasticRadiosity::shoot), for the same pair.
+        batch.resize(out.size());
+        for (size_t k = 0; k < out.size(); ++k) {
+          const uint32_t r = owner[k], j = out[k].element;
+          const glm::dvec3 nj = atlas.element_normal[j];
+          const glm::dvec3 to = atlas.element_position[j] + nj * surface_.lift;
+          const glm::dvec3 fr = atlas.element_position[r] + atlas.element_normal[r] * surface_.lift;
+          const glm::dvec3 end_point =
+              jitter ? to + cutoutJitter(nj, atlas.element_area[j], uint64_t(r) << 32 | j) : to;
+          batch.set(k, Ray{glm::vec3(fr), 1e-4f, glm::vec3(end_point - fr), 1.0f - 1e-4f});
+        }
+        surface_.engine.intersectSerial(batch, hits);
+        traced += out.size();
+        for (size_t k = 0; k < out.size(); ++k) {
+          if (hits.triangle[k] >= 0) out[k].factor = 0.0f;
+        }
+      }
+      // Hidden pairs dropped; counts per receiver.
+      counts[b].assign(end - begin, 0);
+      size_t kept = 0;
+      for (size_t k = 0; k < out.size(); ++k) {
+        if (out[k].factor == 0.0f) continue;
+        out[kept++] = out[k];
+        ++counts[b][owner[k] - begin];
+      }
+      out.resize(kept);
+    }
+  });
+  local_first_.assign(n + 1, 0);
+  size_t total = 0;
+  for (size_t b = 0; b < blocks; ++b) total += pairs[b].size();
+  local_.clear();
+  local_.reserve(total);
+  for (size_t b = 0; b < blocks; ++b) {
+    for (size_t i = 0; i < counts[b].size(); ++i) {
+      const size_t r = b * kReceiverBlock + i;
+      local_first_[r + 1] = local_first_[r] + counts[b][i];
+    }
+    local_.insert(local_.end(), pairs[b].begin(), pairs[b].end());
+    std::vector<StochasticLocalPair>().swap(pairs[b]);
+  }
+  return traced.load();
+}
+
+Status StochasticRadiosity::buildSource(const Scene& scene) {
+  // E' = E + rho E_direct: the lights' direct light reflected once, deterministic.
+  const size_t n = surface_.elementCount();
+  source_ = surface_.emission;
+  shot_.assign(n, glm::dvec3(0.0));
+  if (!scene.lights.empty()) {
+    const std::vector<glm::dvec3> direct =
+        surface_.lightIrradiance(scene.lights, options_.visibility);
+    for (size_t e = 0; e < n; ++e) source_[e] += surface_.reflectance[e] * direct[e];
+  }
+  return {};
+}
+
+Status StochasticRadiosity::shootFirst(const Scene& scene) {
+  // Progressive radiosity's shots (progressive.h) over this surface, in its order (the lights,
+  // then the shooter with the most unshot power), until at most kStochasticFirstShotRest of the
+  // power is unshot or options.first_shots shooters have shot.
+  const Timer timer;
+  ProgressiveOptions po;
+  po.atlas = options_.atlas;
+  po.visibility = options_.visibility;
+  po.shading_normals = options_.shading_normals;
+  Expected<ProgressiveRadiosity> pr = ProgressiveRadiosity::build(std::move(surface_), scene, po);
+  if (!pr) return inputError(pr.error().file, "stochastic radiosity", pr.error().message);
+  while (first_shots_ < options_.first_shots && pr->unshotFraction() > kStochasticFirstShotRest) {
+    if (pr->step().iteration == 0) break;  // nothing left to shoot
+    ++first_shots_;
+  }
+  // B = B_p - dB + Y, Y = dB + T Y: E' = dB. B_p - dB is the light received, and is exact
+  // (dB and B take the same increments) but for a shooter's own.
+  const size_t n = pr->elementCount();
+  shot_.resize(n);
+  source_.resize(n);
+  for (size_t e = 0; e < n; ++e) {
+    source_[e] = glm::max(pr->residual(e), glm::dvec3(0.0));
+    shot_[e] = glm::max(pr->radiosity(e) - pr->residual(e), glm::dvec3(0.0));
+  }
+  surface_ = std::move(*pr).takeSurface();
+  first_seconds_ = timer.seconds();
+  return {};
 }
 
 void StochasticRadiosity::buildSums() {
@@ -185,8 +350,7 @@ uint64_t StochasticRadiosity::shoot(uint32_t j, double p, double weight,
   const double aj = atlas.element_area[j];
   const glm::dvec3 sent = from[j] * (weight / p);
   const double near2 = kStochasticNear * kStochasticNear * aj;
-  const uint32_t own_chart = atlas.element_chart[j];
-  const bool own_planar = atlas.charts.charts[own_chart].planar;
+  const double local2 = kStochasticLocal * kStochasticLocal * aj;
   const size_t n = elementCount();
   std::atomic<uint64_t> rays{0};
   parallelRange(n, kReceiverBlock, [&](size_t begin, size_t end) {
@@ -197,19 +361,15 @@ uint64_t StochasticRadiosity::shoot(uint32_t j, double p, double weight,
     receivers.reserve(end - begin);
     factors.reserve(end - begin);
     for (size_t r = begin; r < end; ++r) {
-      if (r == j) continue;
-      // A planar chart does not light itself (progressive.cpp: its texels see each other
-      // edge-on).
-      if (own_planar && atlas.element_chart[r] == own_chart) continue;
-      const glm::dvec3 pr = atlas.element_position[r], nr = atlas.element_normal[r];
-      const glm::dvec3 d = pj - pr;
-      const double d2 = glm::dot(d, d);
-      if (!(d2 > 0.0) || glm::dot(nr, d) <= 0.0 || glm::dot(nj, d) >= 0.0) continue;
+      double d2 = 0.0;
+      if (!facing(r, j, &d2) || d2 < local2) continue;  // the local operator's pairs
+      const glm::dvec3 d = pj - atlas.element_position[r];
       const glm::dvec3 ns = surface_.shading_normal[r];
       double f = 0.0;
       if (d2 < near2) {
         for (uint32_t q = piece_first_[j]; q < piece_first_[j + 1]; ++q) {
-          f += pointToPolygonFormFactor<true>(pr, ns, pieces_[q].first.data(), pieces_[q].second);
+          f += pointToPolygonFormFactor<true>(atlas.element_position[r], ns,
+                                              pieces_[q].first.data(), pieces_[q].second);
         }
       } else {
         const double inv = 1.0 / std::sqrt(d2);
@@ -252,10 +412,16 @@ StochasticIteration StochasticRadiosity::step() {
   it.iteration = ++iterations_;
   it.power = total_;
   // B_m = E' + T* B_{m-1}: the shooters chosen from B_{m-1} (its sums are current).
+  // B_m = E' + L B_{m-1} (the local operator, deterministic) + R* B_{m-1}.
   std::vector<glm::dvec3> next(source_.size());
-  parallelRange(next.size(), 1 << 14, [&](size_t b, size_t e) {
-    std::copy(source_.begin() + std::ptrdiff_t(b), source_.begin() + std::ptrdiff_t(e),
-              next.begin() + std::ptrdiff_t(b));
+  parallelRange(next.size(), 1 << 12, [&](size_t b, size_t e) {
+    for (size_t r = b; r < e; ++r) {
+      glm::dvec3 in(0.0);
+      for (uint32_t k = local_first_[r]; k < local_first_[r + 1]; ++k) {
+        in += double(local_[k].factor) * b_[local_[k].element];
+      }
+      next[r] = source_[r] + surface_.reflectance[r] * in;
+    }
   });
   // A generator per (seed, iteration), started at a well-mixed state. Taking (seed, iteration)
   // as PCG's (start, stream) made runs with neighbouring seeds pick correlated shooters at each
@@ -263,7 +429,8 @@ StochasticIteration StochasticRadiosity::step() {
   // z = 9).
   Rng rng(mixBits(mixBits(options_.seed) ^ uint64_t(iterations_)), 0x5eedu);
   const double weight = 1.0 / double(options_.shooters);
-  for (int s = 0; s < options_.shooters; ++s) {
+  // An iterate without light (every first shot absorbed) sends nothing: T* 0 = 0.
+  for (int s = 0; s < options_.shooters && total_ > 0.0; ++s) {
     const double u = double(rng.nextU32()) * 0x1p-32 + double(rng.nextU32()) * 0x1p-64;
     double p = 0.0;
     const uint32_t j = select(u, &p);
@@ -323,8 +490,8 @@ StochasticStats StochasticRadiosity::solve(
 }
 
 glm::dvec3 StochasticRadiosity::radiosity(size_t e) const {
-  if (averaged() == 0) return b_[e];
-  return (sum_[0][e] + sum_[1][e]) / double(averaged());
+  if (averaged() == 0) return shot_[e] + b_[e];
+  return shot_[e] + (sum_[0][e] + sum_[1][e]) / double(averaged());
 }
 
 std::vector<glm::dvec3> StochasticRadiosity::radiosity() const {
@@ -384,7 +551,7 @@ Status StochasticRadiosity::setState(StochasticState state) {
   sum_[0] = std::move(state.sum_even);
   iterations_ = state.iterations;
   buildSums();
-  if (!(total_ > 0.0)) {
+  if (!(total_ > 0.0) && source_power_ > 0.0) {
     return inputError("", "stochastic radiosity", "the state's iterate holds no light");
   }
   return {};

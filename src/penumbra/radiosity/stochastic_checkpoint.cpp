@@ -15,26 +15,33 @@ namespace penumbra {
 namespace {
 
 constexpr char kMagic[16] = {'P', 'E', 'N', 'U', 'M', 'B', 'R', 'A',
-                             '-', 'S', 'T', 'O', 'C', 'H', 'V', '1'};
+                             '-', 'S', 'T', 'O', 'C', 'H', 'V', '2'};
 constexpr size_t kHeaderBytes = 16 + 8 + 8 + 2 * 4 + 8 + 4 * 4 + 8;
 constexpr size_t kElementBytes = 9 * 8;
 
 Expected<StochasticCheckpointInfo> parseHeader(const std::string& path, const std::string& bytes) {
+  if (bytes.size() >= 16 && std::memcmp(bytes.data(), kMagic, 15) == 0 && bytes[15] >= '1' &&
+      bytes[15] < kMagic[15]) {
+    return inputError(path, "",
+                      fmt::format("was written by an earlier version of Penumbra (checkpoint "
+                                  "format {}); run again without --resume",
+                                  bytes[15]));
+  }
   if (bytes.size() < kHeaderBytes + 8 || std::memcmp(bytes.data(), kMagic, 16) != 0) {
     return inputError(path, "", "not a Penumbra stochastic radiosity checkpoint");
   }
   CheckpointReader r{bytes, 16};
   StochasticCheckpointInfo info;
-  int32_t zero = 0;
   const bool ok = r.get(info.fingerprint) && r.get(info.texel_density) && r.get(info.atlas_width) &&
                   r.get(info.atlas_height) && r.get(info.seed) && r.get(info.shooters) &&
-                  r.get(info.burn_in) && r.get(info.iterations) && r.get(zero) &&
+                  r.get(info.burn_in) && r.get(info.iterations) && r.get(info.first_shots) &&
                   r.get(info.elements);
   if (!ok) return inputError(path, "header", "truncated");
   if (!(info.texel_density > 0.0 && info.texel_density < 1e9) || info.atlas_width <= 0 ||
       info.atlas_height <= 0 || info.atlas_width > 16384 || info.atlas_height > 16384 ||
       info.shooters < 1 || info.shooters > 4096 || info.burn_in < 0 || info.burn_in > 1000000 ||
-      info.iterations < 0 || zero != 0 || info.elements == 0 ||
+      info.iterations < 0 || info.first_shots < 0 || info.first_shots > 4096 ||
+      info.elements == 0 ||
       info.elements > uint64_t(info.atlas_width) * uint64_t(info.atlas_height)) {
     return inputError(path, "header", "values out of range");
   }
@@ -57,7 +64,7 @@ Status writeStochasticCheckpoint(const std::string& path, const Scene& scene,
   w.put(int32_t(solver.options().shooters));
   w.put(int32_t(solver.burnIn()));
   w.put(int32_t(state.iterations));
-  w.put(int32_t(0));
+  w.put(int32_t(solver.options().first_shots));
   w.put(uint64_t(solver.elementCount()));
   for (size_t e = 0; e < solver.elementCount(); ++e) {
     for (const glm::dvec3* v : {&state.iterate[e], &state.sum_odd[e], &state.sum_even[e]}) {
@@ -110,8 +117,9 @@ Status resumeStochasticCheckpoint(const std::string& path, const Scene& scene,
                                   solver.atlas().width, solver.atlas().height));
   }
   if (info->seed != solver.options().seed || info->shooters != solver.options().shooters ||
-      info->burn_in != solver.burnIn()) {
-    return inputError(path, "", "was written with another seed, --shooters or burn-in");
+      info->burn_in != solver.burnIn() || info->first_shots != solver.options().first_shots) {
+    return inputError(path, "",
+                      "was written with another seed, --shooters, --first-shots or burn-in");
   }
   StochasticState state;
   state.iterations = info->iterations;

@@ -4,12 +4,15 @@
 // random numbers a function of the seed and the iteration).
 //
 // File layout (little-endian, docs/cli.md "Checkpoints"):
-//   header (72 bytes): magic "PENUMBRA-STOCHV1" (16), uint64 scene fingerprint
+//   header (72 bytes): magic "PENUMBRA-STOCHV2" (16), uint64 scene fingerprint
 //   (radiosityFingerprint), double texel density, int32 atlas width, int32 atlas height, uint64
-//   seed, int32 shooters per iteration, int32 burn-in, int32 iterations, int32 0, uint64 elements
+//   seed, int32 shooters per iteration, int32 burn-in, int32 iterations, int32 first shots
+//   (StochasticOptions::first_shots), uint64 elements
 //   body: per element the current iterate, the sum of the odd and of the even averaged iterates
 //   (9 doubles), elements in the solver's order
 //   trailer: uint64 FNV-1a checksum of everything before it.
+// The first shots' part of the estimate is not stored: build() computes it again, the same to
+// the bit. Format 1 (before the first shots; its iterate meant another thing) is refused by name.
 #pragma once
 
 #include "penumbra/core/expected.h"
@@ -29,6 +32,7 @@ struct StochasticCheckpointInfo {
   int shooters = 1;
   int burn_in = 0;
   int iterations = 0;
+  int first_shots = 0;
   uint64_t elements = 0;
 };
 

@@ -5,6 +5,7 @@
 #include "penumbra/core/timer.h"
 #include "penumbra/gpu/program.h"
 #include "penumbra/gpu/storage.h"
+#include "penumbra/radiosity/progressive.h"
 
 #include <fmt/format.h>
 #include <glm/vec2.hpp>
@@ -12,6 +13,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <utility>
 
 namespace penumbra {
@@ -171,6 +173,7 @@ Expected<GlStochastic> GlStochastic::create(const StochasticRadiosity& cpu,
       {"source", uint64_t(n) * 32},
       {"running sum", uint64_t(n) * 64},
       {"error sums", groups * 16},
+      {"local operator", uint64_t(cpu.local().size() + 1) * 8 + uint64_t(n + 1) * 4 + n * 32},
   };
   GlStochastic s;
   Expected<GlHemisphereGather> gather =
@@ -182,19 +185,36 @@ Expected<GlStochastic> GlStochastic::create(const StochasticRadiosity& cpu,
   if (!selection) return selection.error();
   s.selection_ = std::move(*selection);
   s.options_ = cpu.options();
+  s.cpu_ = &cpu;
   s.surface_ = &cpu.surface();
   s.elements_ = n;
   s.burn_in_ = cpu.burnIn();
   s.chart_elements_ = s.gather_.chartElements();
-  for (const auto& [pass, program] : {std::pair{3, &s.update_}, std::pair{4, &s.error_}}) {
+  for (const auto& [pass, program] :
+       {std::pair{3, &s.update_}, std::pair{4, &s.error_}, std::pair{5, &s.local_}}) {
     Expected<gl::Program> p =
         gl::computeProgram("radiosity/stochastic.comp", {fmt::format("STOCHASTIC_PASS {}", pass)});
     if (!p) return p.error();
     *program = std::move(*p);
   }
   std::vector<glm::dvec4> source(n);
-  for (size_t e = 0; e < n; ++e) source[e] = glm::dvec4(cpu.source(e), 0.0);
+  // E' in xyz; w: the luminance of B_p - dB (the first shots), for the error estimate's mean.
+  for (size_t e = 0; e < n; ++e) {
+    source[e] = glm::dvec4(cpu.source(e), residualLuminance(cpu.shot(e)));
+  }
   s.source_ = gl::storageBuffer(source);
+  // The local operator (StochasticRadiosity::local): CSR rows, pairs as (element, factor bits).
+  std::vector<uint32_t> first(n + 1);
+  for (size_t e = 0; e <= n; ++e) first[e] = cpu.localBegin(e);
+  std::vector<glm::uvec2> pairs(std::max<size_t>(cpu.local().size(), 1), glm::uvec2(0u));
+  for (size_t k = 0; k < cpu.local().size(); ++k) {
+    uint32_t bits = 0;
+    std::memcpy(&bits, &cpu.local()[k].factor, 4);
+    pairs[k] = glm::uvec2(cpu.local()[k].element, bits);
+  }
+  s.local_first_ = gl::storageBuffer(first);
+  s.local_pairs_ = gl::storageBuffer(pairs);
+  s.local_in_ = gl::Buffer(std::max<size_t>(n, 1) * sizeof(glm::dvec4), nullptr, 0);
   s.sums_ =
       gl::Buffer(std::max<size_t>(2 * n, 1) * sizeof(glm::dvec4), nullptr, GL_DYNAMIC_STORAGE_BIT);
   s.partial_ = gl::Buffer(size_t(groups) * 16, nullptr, 0);
@@ -285,7 +305,7 @@ void GlStochastic::shoot(const GpuStochasticSelection& sel, double weight) {
   point.position_f[3] = float(aj);
   point.members[0] = j;
   point.members[1] = 1;
-  gather_.setShooter(atlas.element_normal[j], kStochasticNear, kStochasticNear);
+  gather_.setShooter(atlas.element_normal[j], kStochasticNear, kStochasticNear, kStochasticLocal);
   gather_.prepareBatch(std::span<const GpuBatchPoint>(&point, 1));
   // Far pairs over every element, near pairs (Lambert's exact form factor to j's pieces) over
   // the charts within reach.
@@ -311,7 +331,9 @@ Expected<StochasticIteration> GlStochastic::step() {
     const double u = double(rng.nextU32()) * 0x1p-32 + double(rng.nextU32()) * 0x1p-64;
     Expected<GpuStochasticSelection> sel = selection_.descend(u);
     if (!sel) return sel.error();
-    if (!sel->found || !(sel->probability > 0.0)) {
+    if (!sel->found && k == 0) it.power = 0.0;
+    if (!sel->found) continue;  // an iterate without light sends nothing: T* 0 = 0
+    if (!(sel->probability > 0.0)) {
       return runtimeError("", "stochastic radiosity on the GPU: the iterate holds no light");
     }
     if (k == 0) {
@@ -320,7 +342,16 @@ Expected<StochasticIteration> GlStochastic::step() {
     }
     shoot(*sel, weight);
   }
-  // Update: B_m = E' + rho E_in, and eq. 2's sums after the burn-in.
+  // The local operator from B_{m-1}, then the update: B_m = E' + rho (E_local + E_in), and
+  // eq. 2's sums after the burn-in.
+  glUseProgram(local_.id());
+  glUniform1ui(gl::uniformLocation(local_.id(), "count"), uint32_t(elements_));
+  local_first_.bindBase(GL_SHADER_STORAGE_BUFFER, STOCHASTIC_SSBO_LOCAL_FIRST);
+  local_pairs_.bindBase(GL_SHADER_STORAGE_BUFFER, STOCHASTIC_SSBO_LOCAL);
+  selection_.iterate().bindBase(GL_SHADER_STORAGE_BUFFER, STOCHASTIC_SSBO_ITERATE);
+  local_in_.bindBase(GL_SHADER_STORAGE_BUFFER, STOCHASTIC_SSBO_LOCAL_IN);
+  dispatchCount(uint32_t(elements_));
+  glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
   ++iterations_;
   const int sum_index = averaged() > 0 ? (averaged() & 1) : -1;
   glUseProgram(update_.id());
@@ -331,6 +362,7 @@ Expected<StochasticIteration> GlStochastic::step() {
   source_.bindBase(GL_SHADER_STORAGE_BUFFER, STOCHASTIC_SSBO_SOURCE);
   selection_.iterate().bindBase(GL_SHADER_STORAGE_BUFFER, STOCHASTIC_SSBO_ITERATE);
   sums_.bindBase(GL_SHADER_STORAGE_BUFFER, STOCHASTIC_SSBO_AVERAGE);
+  local_in_.bindBase(GL_SHADER_STORAGE_BUFFER, STOCHASTIC_SSBO_LOCAL_IN);
   glBindTextureUnit(STOCHASTIC_TEXTURE_INCIDENT, gather_.incident().id());
   glMemoryBarrier(GL_TEXTURE_FETCH_BARRIER_BIT | GL_FRAMEBUFFER_BARRIER_BIT);
   dispatchCount(uint32_t(elements_));
@@ -365,6 +397,7 @@ Expected<double> GlStochastic::errorEstimate() {
   selection_.area().bindBase(GL_SHADER_STORAGE_BUFFER, STOCHASTIC_SSBO_AREA);
   sums_.bindBase(GL_SHADER_STORAGE_BUFFER, STOCHASTIC_SSBO_AVERAGE);
   partial_.bindBase(GL_SHADER_STORAGE_BUFFER, STOCHASTIC_SSBO_PARTIAL);
+  source_.bindBase(GL_SHADER_STORAGE_BUFFER, STOCHASTIC_SSBO_SOURCE);
   dispatchCount(uint32_t(elements_));
   glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
   glUseProgram(0);
@@ -379,10 +412,11 @@ Expected<double> GlStochastic::errorEstimate() {
 Expected<std::vector<glm::dvec3>> GlStochastic::radiosity() {
   Expected<StochasticState> st = download();
   if (!st) return st.error();
-  if (averaged() == 0) return std::move(st->iterate);
   std::vector<glm::dvec3> out(elements_);
   for (size_t e = 0; e < elements_; ++e) {
-    out[e] = (st->sum_odd[e] + st->sum_even[e]) / double(averaged());
+    out[e] =
+        cpu_->shot(e) + (averaged() == 0 ? st->iterate[e]
+                                         : (st->sum_odd[e] + st->sum_even[e]) / double(averaged()));
   }
   return out;
 }

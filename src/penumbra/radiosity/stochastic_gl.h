@@ -13,9 +13,12 @@
 //    (hemisphere_gl.h): its depth map (Algorithm 1) from j's point around j's normal, then
 //    every element back-projected into it (Fig. 3's test with its depth tolerance: the update
 //    pass of sec. 3.2) gathers eq. 2's disc form factor times what j sends, or Lambert's exact
-//    form factor to j's pieces within kStochasticNear of j's size, as the CPU does. The update
-//    pass forms B_m = E' + rho E_in per element in double, and adds it to the running sums by
-//    parity (eq. 2) after the burn-in: the iterate and the average stay on the device.
+//    form factor to j's pieces within kStochasticNear of j's size, as the CPU does; pairs within
+//    kStochasticLocal are left to the local operator, whose pairs and factors (with the CPU's
+//    shadow rays, computed once) are uploaded and applied to the whole iterate each iteration
+//    (a compute pass). The update pass forms B_m = E' + rho (E_local + E_in) per element in
+//    double, and adds it to the running sums by parity (eq. 2) after the burn-in: the iterate
+//    and the average stay on the device. The first shots are the CPU solver's (stochastic.h).
 //  - The error estimate (the CPU's: half the difference of the odd and even means against the
 //    mean, relative RMS over the elements, area-weighted luminance) is reduced on the device
 //    per work group; download() brings the state back for checkpoints and the lightmap.
@@ -88,7 +91,7 @@ class GlStochastic {
  public:
   // Uploads the atlas, the elements, E' and `cpu`'s state (iterate, sums, iterations), and takes
   // its options (iterations, time limit, shooters, seed, burn-in, visibility). Keeps a reference
-  // to `cpu`'s surface (for the lightmap's post-process): `cpu` must outlive it, unmoved. Fails
+  // to `cpu` (its surface and first shots): `cpu` must outlive it, unmoved. Fails
   // as an input error naming the bytes before allocating when the device cannot hold the work
   // (texture and storage-block sizes, memory); as a run-time error when a shader does not
   // compile.
@@ -131,6 +134,7 @@ class GlStochastic {
   Status glStatus(const char* what) const;
 
   StochasticOptions options_;
+  const StochasticRadiosity* cpu_ = nullptr;
   const RadiositySurface* surface_ = nullptr;
   size_t elements_ = 0;
   int iterations_ = 0;
@@ -138,8 +142,9 @@ class GlStochastic {
   std::vector<glm::uvec2> chart_elements_;
   GlHemisphereGather gather_;
   GlStochasticSelection selection_;
-  gl::Program update_, error_;
+  gl::Program update_, error_, local_;
   gl::Buffer source_, sums_, partial_;
+  gl::Buffer local_first_, local_pairs_, local_in_;  // the local operator, and its irradiance
   gl::Texture sent_;  // the chosen texel's B_j w / P_j, for the near pass
 };
 
