@@ -275,8 +275,7 @@ void renderOutputOptions(const Adder<RenderOptions>& add) {
        .help = "the method (docs/cli.md; penumbra methods): pathtrace (the reference path "
                "tracer), whitted (direct light, mirrors and glass only: no diffuse "
                "interreflection, so indirectly lit rooms come out darker), photons, matrix, "
-               "progressive, stochastic (its default iterations give a quick, noisy estimate), "
-               "sss or lpv"},
+               "progressive, stochastic, sss or lpv"},
       field<R>(&R::method));
   add({.name = "device",
        .kind = K::kChoice,
