@@ -189,7 +189,9 @@ vec3 gatherNear(GpuProgressiveElement r, vec3 nr, uint k) {
       for (int c = 0; c < 8; ++c) poly[c] = polygons[8u * (m.piece_first + piece) + uint(c)].xyz;
       f += pointToPolygonFormFactor(r.position, nr, poly);
     }
-    sum += db * f;
+    // Stochastic radiosity (local_factor > 0) keeps a texel only when its form factor is
+    // positive, as its CPU shot does: on a curved chart some pieces face away and count negative.
+    sum += db * (local_factor > 0.0 ? max(f, 0.0) : f);
   }
   return sum;
 }
@@ -215,6 +217,9 @@ vec3 gatherFar(dvec3 pr, GpuProgressiveElement r, vec3 nr, uint k) {
   const float d2 = dot(d, d);
   const float inv = inversesqrt(d2);
   const float cos_r = dot(nr, d) * inv, cos_s = -dot(hemisphere.normal, d) * inv;
+  // The shading normal may face away where the face's normal (isPair's) does not: no light, as
+  // on the CPU (a negative disc took light away).
+  if (cos_r <= 0.0 || cos_s <= 0.0) return vec3(0.0);
   return batch[k].residual.rgb * discFormFactor(batch[k].position_f.w, cos_s, cos_r, d2);
 }
 #endif
