@@ -706,7 +706,14 @@ TEST(Cli, BadInputGivesOneErrorLineExitTwoAndNoOutput) {
   dir.write("unknown_key.json", "{\"meshs\": []}");
   dir.write("nan.obj", "v 0 0 0\nv 1 0 nan\nv 0 1 0\nf 1 2 3\n");
   dir.write("badindex.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 7\n");
-  const std::vector<BadCase> cases = {
+  dir.write("tri.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+  // A light at 1e39 (inf as a float) crashed pathtrace, progressive and whitted and made NaN
+  // images with the other methods; one of 1e300 W/sr made inf pixels.
+  dir.write("far_light.json", R"({"meshes": [{"file": "tri.obj"}],
+      "lights": [{"type": "point", "position": [1e39, 0.3, 0.3], "intensity": [1, 1, 1]}]})");
+  dir.write("hot_light.json", R"({"meshes": [{"file": "tri.obj"}],
+      "lights": [{"type": "point", "position": [0.2, 0.2, 1], "intensity": [1e300, 1, 1]}]})");
+  std::vector<BadCase> cases = {
       {"render nosuchscene -o " + out, "unknown scene 'nosuchscene'"},
       {"render " + dir.file("missing.obj") + " -o " + out, "missing.obj"},
       {"render " + dir.file("broken.json") + " -o " + out, "broken.json: line 3"},
@@ -772,6 +779,14 @@ TEST(Cli, BadInputGivesOneErrorLineExitTwoAndNoOutput) {
        "--cache-rays"},
       {"frobnicate", "unknown command 'frobnicate'"},
   };
+  for (const char* method :
+       {"pathtrace", "whitted", "photons", "matrix", "progressive", "stochastic"}) {
+    cases.push_back({"render " + dir.file("far_light.json") + " --method " + method + " -o " + out,
+                     "far_light.json: light 0 (point): position (inf, 0.3, 0.3) must be finite"});
+    cases.push_back(
+        {"render " + dir.file("hot_light.json") + " --method " + method + " --dry-run -o " + out,
+         "hot_light.json: light 0 (point): intensity (inf, 1, 1) must be finite"});
+  }
   for (const BadCase& c : cases) {
     const auto r = runCli(c.args);
     EXPECT_EQ(r.exit_code, 2) << c.args << "\n" << r.output;
@@ -783,8 +798,9 @@ TEST(Cli, BadInputGivesOneErrorLineExitTwoAndNoOutput) {
   std::vector<std::string> names;
   for (const auto& e : fs::directory_iterator(dir.path())) names.push_back(e.path().filename());
   std::sort(names.begin(), names.end());
-  EXPECT_EQ(names, (std::vector<std::string>{"badindex.obj", "broken.json", "nan.obj",
-                                             "unknown_key.json"}));
+  EXPECT_EQ(names,
+            (std::vector<std::string>{"badindex.obj", "broken.json", "far_light.json",
+                                      "hot_light.json", "nan.obj", "tri.obj", "unknown_key.json"}));
 }
 
 // A unit square in z = 0 as two triangles: (0,0) (1,0) (1,1) and (0,0) (1,1) (0,1).

@@ -274,6 +274,44 @@ TEST(SceneJsonLoad, EnvironmentIsAColourOrOneGreyNumber) {
   }
 }
 
+// Numbers a file may carry that overflow single precision, or that would overflow it in the
+// methods' sums (a light a million scene radii away: its squared distance), are refused with the
+// file and the light, before any method runs: they crashed or made NaN and inf images.
+TEST(SceneJsonLoad, LightsAndEmissionThatOverflowAreRefused) {
+  TempDir dir;
+  dir.write("tri.obj", kTriangleObj);
+  struct Case {
+    const char* name;
+    const char* extra;
+    const char* message;
+  };
+  const Case cases[] = {
+      {"far.json",
+       R"(, "lights": [{"type": "point", "position": [1e39, 0, 0], "intensity": [1, 1, 1]}])",
+       "light 0 (point): position (inf, 0, 0) must be finite and within"},
+      {"distant.json",
+       R"(, "lights": [{"type": "point", "position": [0, 1e12, 0], "intensity": [1, 1, 1]}])",
+       "light 0 (point): position (0, 1e+12, 0) must be finite and within"},
+      {"bright.json",
+       R"(, "lights": [{"type": "point", "position": [0, 1, 0], "intensity": [1e300, 1, 1]}])",
+       "light 0 (point): intensity (inf, 1, 1) must be finite, non-negative and at most"},
+      {"brighter.json",
+       R"(, "lights": [{"type": "directional", "direction": [0, -1, 0],
+                        "irradiance": [1e20, 1, 1]}])",
+       "light 0 (directional): irradiance (1e+20, 1, 1) must be finite"},
+      {"glow.json", R"(, "materials": {"glow": {"emission": [1e20, 0, 0]}})",
+       "emission (1e+20, 0, 0) must be finite, non-negative and at most 1e15"},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.name);
+    const std::string material =
+        std::string(c.name) == "glow.json" ? R"(, "material": "glow")" : "";
+    const std::string path =
+        dir.write(c.name, R"({"meshes": [{"file": "tri.obj")" + material + "}]" + c.extra + "}");
+    EXPECT_TRUE(errorNames(loadSceneJson(path), path, c.message));
+  }
+}
+
 TEST(SceneJsonLoad, TransformsLightsCameraSettings) {
   TempDir dir;
   dir.write("tri.obj", kTriangleObj);

@@ -2,6 +2,7 @@
 // emission on a mesh.
 #pragma once
 
+#include "penumbra/core/expected.h"
 #include "penumbra/scene/luminaire.h"
 
 #include <glm/vec3.hpp>
@@ -64,5 +65,20 @@ Overloaded(Handlers...) -> Overloaded<Handlers...>;
 // The lights turned by `angle` radians about the vertical (+y) axis through `centre`: positions
 // and directions alike (a light orbiting the scene, for relit sequences).
 std::vector<Light> orbitLights(std::span<const Light> lights, const glm::vec3& centre, float angle);
+
+// The largest intensity (W sr^-1), irradiance (W m^-2) or emission a scene may state: beyond
+// it single-precision sums over a few bounces overflow.
+inline constexpr float kMaxRadiometricValue = 1e15f;
+// Lights stand at most this many scene radii from the scene's centre: farther, squared distances
+// overflow single precision.
+inline constexpr double kLightReach = 1e6;
+
+// Every light's numbers as the methods will use them (single precision, after transforms):
+// positions finite and within kLightReach scene radii of `centre`, directions finite and not
+// zero, intensities, irradiances and luminaire scales finite, non-negative and at most
+// kMaxRadiometricValue, spot angles in [0, pi/2] with inner <= outer. Errors name `source` and
+// the light ("light 3 (spot)").
+Status checkLights(std::span<const Light> lights, const glm::vec3& centre, float radius,
+                   const std::string& source);
 
 }  // namespace penumbra

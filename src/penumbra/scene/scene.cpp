@@ -199,9 +199,10 @@ void warnMissingUvSets(Scene& scene, const Mesh& mesh, const std::string& where)
 }  // namespace
 
 Status validateScene(Scene& scene) {
-  if (!finite3(scene.environment) || glm::any(glm::lessThan(scene.environment, glm::vec3(0.0f)))) {
+  if (!finite3(scene.environment) || glm::any(glm::lessThan(scene.environment, glm::vec3(0.0f))) ||
+      glm::any(glm::greaterThan(scene.environment, glm::vec3(kMaxRadiometricValue)))) {
     return inputError(scene.source, "environment",
-                      fmt::format("({}, {}, {}) must be finite and non-negative",
+                      fmt::format("({}, {}, {}) must be finite, non-negative and at most 1e15",
                                   scene.environment.x, scene.environment.y, scene.environment.z));
   }
   for (size_t mi = 0; mi < scene.materials.size(); ++mi) {
@@ -213,9 +214,11 @@ Status validateScene(Scene& scene) {
                         fmt::format("reflectance ({}, {}, {}) is outside [0, 1]", m.reflectance.x,
                                     m.reflectance.y, m.reflectance.z));
     }
-    if (!finite3(m.emission) || glm::any(glm::lessThan(m.emission, glm::vec3(0.0f)))) {
+    if (!finite3(m.emission) || glm::any(glm::lessThan(m.emission, glm::vec3(0.0f))) ||
+        glm::any(glm::greaterThan(m.emission, glm::vec3(kMaxRadiometricValue)))) {
       return inputError(scene.source, place,
-                        fmt::format("emission ({}, {}, {}) must be finite and non-negative",
+                        fmt::format("emission ({}, {}, {}) must be finite, non-negative and at "
+                                    "most 1e15",
                                     m.emission.x, m.emission.y, m.emission.z));
     }
     if (m.subsurface) {
@@ -303,7 +306,14 @@ Status validateScene(Scene& scene) {
   if (scene.triangleCount() == 0) {
     return inputError(scene.source, "", "the scene has no triangles");
   }
-  return {};
+  glm::vec3 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
+  for (const Mesh& m : scene.meshes) {
+    for (const glm::vec3& p : m.positions) {
+      lo = glm::min(lo, p);
+      hi = glm::max(hi, p);
+    }
+  }
+  return checkLights(scene.lights, 0.5f * (lo + hi), 0.5f * glm::length(hi - lo), scene.source);
 }
 
 glm::vec3 diffuseStandIn(const Material& m) {
