@@ -302,6 +302,15 @@ TEST(SceneJsonLoad, LightsAndEmissionThatOverflowAreRefused) {
       {"glow.json", R"(, "materials": {"glow": {"emission": [1e20, 0, 0]}})",
        "emission (1e+20, 0, 0) must be finite, non-negative and at most 1e15"},
   };
+  // A luminaire array spacing of 1e300 puts its luminaires at -inf and inf.
+  const std::string ldt = test::dataPath("photometry/ledvance_biolux_dn150.ldt");
+  const std::string array = R"(, "lights": [{"type": "luminaire", "file": ")" + ldt +
+                            R"(", "position": [0, 1, 0],
+                           "array": {"count": [2, 2], "spacing": [1e300, 1]}}])";
+  const std::string array_path =
+      dir.write("array.json", R"({"meshes": [{"file": "tri.obj"}])" + array + "}");
+  EXPECT_TRUE(errorNames(loadSceneJson(array_path), array_path,
+                         "light 0 (luminaire): position (-inf, 1, -0.5) must be finite"));
   for (const Case& c : cases) {
     SCOPED_TRACE(c.name);
     const std::string material =
