@@ -739,6 +739,12 @@ TEST(Cli, BadInputGivesOneErrorLineExitTwoAndNoOutput) {
       {"render cornell --method progressive --device hybrid -o " + out, "hybrid"},
       {"render cornell --method pathtrace --texel-density 10 -o " + out, "--texel-density"},
       {"render cornell --method progressive --texel-density -1 -o " + out, "--texel-density"},
+      // So coarse that charts get no texel: an internal check stopped it (exit 1, SIGABRT in
+      // the viewer).
+      {"render cornell --method progressive --texel-density 3e-4 --quiet -o " + out,
+       "lightmap: 0.0003 texels per metre leave chart"},
+      {"render cornell --method stochastic --texel-density 3e-4 --quiet -o " + out,
+       "without a texel"},
       // The density sizes the plan: refused before anything is built.
       {"render cornell --method progressive --texel-density 3000 -o " + out,
        "lightmap texels (--texel-density) needs"},

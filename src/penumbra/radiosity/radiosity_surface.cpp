@@ -100,6 +100,18 @@ Expected<RadiositySurface> RadiositySurface::build(const Scene& scene,
                                                s.flat.material_ids, faces, atlas_options);
   if (!atlas.ok()) return atlas.error();
   s.atlas = std::move(*atlas);
+  // Every chart needs a texel: the hierarchy roots each chart in a cluster. A density far too
+  // coarse for the scene (--texel-density 3e-4 on the Cornell box) leaves charts without one.
+  std::vector<uint8_t> has_texel(s.atlas.chartCount(), 0);
+  for (uint32_t c : s.atlas.element_chart) has_texel[c] = 1;
+  if (const auto it = std::find(has_texel.begin(), has_texel.end(), 0); it != has_texel.end()) {
+    return inputError(
+        scene.source, "lightmap",
+        fmt::format("{:g} texels per metre leave chart {} of {} without a texel: "
+                    "the lightmap is too coarse for the scene (raise "
+                    "--texel-density or --elements)",
+                    s.atlas.texel_density, it - has_texel.begin(), s.atlas.chartCount()));
+  }
   s.hierarchy = SurfaceHierarchy::build(s.atlas);
   s.engine = RayEngine::build(s.flat.positions, s.flat.triangles);
   {
