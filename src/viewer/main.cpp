@@ -32,7 +32,8 @@ int main(int argc, char** argv) {
   app.add_option("--seed", o.seed, "random seed");
   app.add_option("--elements", o.elements,
                  "radiosity: lightmap texels (progressive, stochastic) or clusters (matrix)");
-  app.add_option("--iterations", o.iterations, "radiosity: iteration cap (default 500)");
+  app.add_option("--iterations", o.iterations,
+                 "radiosity: iteration cap (default 500; stochastic 1000)");
   app.add_option("--device", o.device,
                  "cpu, gpu, or auto (default: the GPU twins of matrix, sss and lpv when the "
                  "window's OpenGL is hardware)")

@@ -119,7 +119,9 @@ struct LiveSession::State {
     return method == LiveMethod::kPathTrace ? kPathTracerSpp : kViewSpp;
   }
   int iterations() const {
-    return settings.iterations > 0 ? settings.iterations : kDefaultIterations;
+    if (settings.iterations > 0) return settings.iterations;
+    // Each method's own default, as `render` has it.
+    return method == LiveMethod::kStochastic ? StochasticOptions{}.iterations : kDefaultIterations;
   }
   void restartSamples() {
     sum.assign(size_t(settings.width) * size_t(settings.height), glm::dvec3(0.0));

@@ -35,6 +35,7 @@ struct StochasticRunOptions {
 };
 
 static_assert(LightmapMethodOptions{}.first_shots == kStochasticFirstShots);
+static_assert(StochasticOptions{}.iterations == kStochasticIterationCap);
 
 struct StochasticRun {
   std::optional<StochasticRadiosity> solver;

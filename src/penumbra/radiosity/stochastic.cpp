@@ -116,7 +116,7 @@ bool StochasticRadiosity::facing(size_t r, uint32_t j, double* d2) const {
          glm::dot(atlas.element_normal[j], d) < 0.0;
 }
 
-uint64_t StochasticRadiosity::buildLocal() {
+void StochasticRadiosity::buildLocal() {
   // Elements bucketed in a grid of cells kStochasticLocal texel sizes wide: every local pair of
   // receiver r lies in the 27 cells around r's.
   const ChartAtlas& atlas = surface_.atlas;
@@ -140,7 +140,6 @@ uint64_t StochasticRadiosity::buildLocal() {
   const size_t blocks = (n + kReceiverBlock - 1) / kReceiverBlock;
   std::vector<std::vector<uint32_t>> counts(blocks);
   std::vector<std::vector<StochasticLocalPair>> pairs(blocks);
-  std::atomic<uint64_t> traced{0};
   const bool jitter = surface_.textures && surface_.textures->hasCutouts();
   parallelRange(blocks, 1, [&](size_t b0, size_t b1) {
     RayBatch batch;
@@ -192,7 +191,6 @@ uint64_t StochasticRadiosity::buildLocal() {
           batch.set(k, Ray{glm::vec3(fr), 1e-4f, glm::vec3(end_point - fr), 1.0f - 1e-4f});
         }
         surface_.engine.intersectSerial(batch, hits);
-        traced += out.size();
         for (size_t k = 0; k < out.size(); ++k) {
           if (hits.triangle[k] >= 0) out[k].factor = 0.0f;
         }
@@ -221,7 +219,6 @@ uint64_t StochasticRadiosity::buildLocal() {
     local_.insert(local_.end(), pairs[b].begin(), pairs[b].end());
     std::vector<StochasticLocalPair>().swap(pairs[b]);
   }
-  return traced.load();
 }
 
 Status StochasticRadiosity::buildSource(const Scene& scene) {

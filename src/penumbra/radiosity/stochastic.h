@@ -216,8 +216,8 @@ class StochasticRadiosity {
   // E' (and B_p - dB) with first_shots = 0, and with first shots.
   Status buildSource(const Scene& scene);
   Status shootFirst(const Scene& scene);
-  // The local operator's pairs (needs the pieces); returns the shadow rays traced.
-  uint64_t buildLocal();
+  // The local operator's pairs (needs the pieces).
+  void buildLocal();
   // Whether (r, j) is a pair at all (r faces j, j faces r, not texels of one planar chart), and
   // its distance squared; pairs with d2 < kStochasticLocal^2 A_j are the local operator's.
   bool facing(size_t r, uint32_t j, double* d2) const;

@@ -186,7 +186,6 @@ Expected<GlStochastic> GlStochastic::create(const StochasticRadiosity& cpu,
   s.selection_ = std::move(*selection);
   s.options_ = cpu.options();
   s.cpu_ = &cpu;
-  s.surface_ = &cpu.surface();
   s.elements_ = n;
   s.burn_in_ = cpu.burnIn();
   s.chart_elements_ = s.gather_.chartElements();
@@ -284,7 +283,7 @@ Expected<StochasticState> GlStochastic::download() {
 }
 
 void GlStochastic::shoot(const GpuStochasticSelection& sel, double weight) {
-  const ChartAtlas& atlas = surface_->atlas;
+  const ChartAtlas& atlas = cpu_->surface().atlas;
   const uint32_t j = sel.element;
   const glm::dvec3 pj = atlas.element_position[j];
   const double aj = atlas.element_area[j];
@@ -424,7 +423,7 @@ Expected<std::vector<glm::dvec3>> GlStochastic::radiosity() {
 Expected<Image> GlStochastic::radianceImage() {
   Expected<std::vector<glm::dvec3>> b = radiosity();
   if (!b) return b.error();
-  return surface_->radianceImage(*b);
+  return cpu_->surface().radianceImage(*b);
 }
 
 }  // namespace penumbra

@@ -135,7 +135,6 @@ class GlStochastic {
 
   StochasticOptions options_;
   const StochasticRadiosity* cpu_ = nullptr;
-  const RadiositySurface* surface_ = nullptr;
   size_t elements_ = 0;
   int iterations_ = 0;
   int burn_in_ = 0;

@@ -8,6 +8,7 @@
 #include <fmt/format.h>
 #include <cmath>
 #include <limits>
+#include <utility>
 
 namespace penumbra {
 
@@ -86,7 +87,10 @@ std::string meshPlace(const Mesh& mesh, size_t mesh_index) {
 
 }  // namespace
 
-glm::vec3 sceneCentre(const Scene& scene) {
+namespace {
+
+// The box around every mesh vertex (lo > hi when there is none).
+std::pair<glm::vec3, glm::vec3> vertexBounds(const Scene& scene) {
   glm::vec3 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
   for (const Mesh& m : scene.meshes) {
     for (const glm::vec3& p : m.positions) {
@@ -94,6 +98,13 @@ glm::vec3 sceneCentre(const Scene& scene) {
       hi = glm::max(hi, p);
     }
   }
+  return {lo, hi};
+}
+
+}  // namespace
+
+glm::vec3 sceneCentre(const Scene& scene) {
+  const auto [lo, hi] = vertexBounds(scene);
   return lo.x <= hi.x ? 0.5f * (lo + hi) : glm::vec3(0.0f);
 }
 
@@ -306,13 +317,7 @@ Status validateScene(Scene& scene) {
   if (scene.triangleCount() == 0) {
     return inputError(scene.source, "", "the scene has no triangles");
   }
-  glm::vec3 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
-  for (const Mesh& m : scene.meshes) {
-    for (const glm::vec3& p : m.positions) {
-      lo = glm::min(lo, p);
-      hi = glm::max(hi, p);
-    }
-  }
+  const auto [lo, hi] = vertexBounds(scene);  // the scene has triangles, so lo <= hi
   return checkLights(scene.lights, 0.5f * (lo + hi), 0.5f * glm::length(hi - lo), scene.source);
 }
 
