@@ -61,7 +61,7 @@ test-asan-fast: deps
 # fuzz/corpus/<target>, which grows with what it finds; crashes land in fuzz-out/.
 FUZZ_BUILD ?= build-fuzz
 FUZZ_SECONDS ?= 60
-FUZZ_TARGETS ?= obj ply gltf scene_json rays image checkpoint ldt ies
+FUZZ_TARGETS ?= obj ply gltf scene_json rays image checkpoint ldt ies scene_values gltf_values
 fuzz-build: deps
 	CXX=clang++ cmake -S . -B $(FUZZ_BUILD) -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
 	  -DPENUMBRA_FUZZ=ON -DPENUMBRA_BUILD_TESTS=OFF -DPENUMBRA_BUILD_BENCH=OFF \

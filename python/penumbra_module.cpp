@@ -34,6 +34,87 @@ py::array_t<T> ownedArray(std::vector<T>&& values, std::vector<py::ssize_t> shap
   return py::array_t<T>(shape, owned->data(), free_when_done);
 }
 
+using FloatArray = py::array_t<float, py::array::c_style | py::array::forcecast>;
+using IndexArray = py::array_t<uint32_t, py::array::c_style | py::array::forcecast>;
+
+[[noreturn]] void inputError(const std::string& message) {
+  throw penumbra::api::Error(ErrorKind::kInput, message);
+}
+
+// Any array-like (a NumPy array is taken as it is, a list is converted).
+py::array asArray(const py::object& obj, const std::string& what) {
+  py::array a = py::array::ensure(obj);
+  if (!a) {
+    PyErr_Clear();
+    inputError(what + " must be an array of numbers");
+  }
+  return a;
+}
+
+// Whether reading `a` as C-contiguous float32 copies it.
+bool needsCopy(const py::array& a) {
+  return !(a.dtype().is(py::dtype::of<float>()) &&
+           (a.flags() & py::array::c_style) == py::array::c_style);
+}
+
+// `a` as C-contiguous float32, its shape checked first (N x `columns`) and the memory of a copy
+// checked before NumPy makes it: a broadcast view of 10^12 rows would otherwise fail inside the
+// conversion with a TypeError that names no array.
+FloatArray floatRows(const py::object& obj, py::ssize_t columns, const std::string& what) {
+  const py::array a = asArray(obj, what);
+  if (a.ndim() != 2 || a.shape(1) != columns) {
+    inputError(what + " must be an N x " + std::to_string(columns) + " array");
+  }
+  const char kind = a.dtype().kind();
+  if (kind != 'f' && kind != 'i' && kind != 'u') {
+    inputError(what + " must hold numbers, not dtype " + std::string(py::str(a.dtype())));
+  }
+  const uint64_t rows = uint64_t(a.shape(0));
+  if (needsCopy(a)) {
+    penumbra::api::checkMemory(rows * uint64_t(columns) * 4,
+                               what + ": " + std::to_string(rows) + " rows as float32");
+  }
+  FloatArray out = FloatArray::ensure(a);
+  if (!out) throw py::error_already_set();
+  return out;
+}
+
+// Indices (triangles, material ids) as uint32: whole numbers from 0 to 2^32 - 1. A float array
+// is accepted when every value is whole (2.7 is refused, not truncated to 2), a signed one when
+// none is negative (-1 would wrap).
+IndexArray indexArray(const py::object& obj, const std::string& what) {
+  const py::array a = asArray(obj, what);
+  const char kind = a.dtype().kind();
+  if (kind != 'f' && kind != 'i' && kind != 'u') {
+    inputError(what + " must hold whole numbers, not dtype " + std::string(py::str(a.dtype())));
+  }
+  penumbra::api::checkMemory(uint64_t(a.size()) * 8,
+                             what + ": " + std::to_string(a.size()) + " indices");
+  if (kind != 'u') {
+    const auto values = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(a);
+    if (!values) throw py::error_already_set();
+    const double* v = values.data();
+    for (py::ssize_t i = 0; i < values.size(); ++i) {
+      if (!(v[i] >= 0.0 && v[i] <= 4294967295.0 && v[i] == double(int64_t(v[i])))) {
+        inputError(what + ": value " + std::to_string(i) + " (" +
+                   std::string(py::repr(py::float_(v[i]))) +
+                   ") is not a whole number from 0 to 2^32 - 1");
+      }
+    }
+  } else if (a.itemsize() > 4) {
+    const auto values = py::array_t<uint64_t, py::array::c_style | py::array::forcecast>::ensure(a);
+    if (!values) throw py::error_already_set();
+    for (py::ssize_t i = 0; i < values.size(); ++i) {
+      if (values.data()[i] > 4294967295u) {
+        inputError(what + ": value " + std::to_string(i) + " is larger than 2^32 - 1");
+      }
+    }
+  }
+  IndexArray out = IndexArray::ensure(a);
+  if (!out) throw py::error_already_set();
+  return out;
+}
+
 py::array_t<float> imageArray(penumbra::api::Image&& image) {
   const py::ssize_t h = image.height, w = image.width;
   return ownedArray(std::move(image.rgb), {h, w, 3});
@@ -183,25 +264,21 @@ PYBIND11_MODULE(_penumbra, m) {
                   py::call_guard<py::gil_scoped_release>())
       .def_static(
           "from_arrays",
-          [](py::array_t<float, py::array::c_style | py::array::forcecast> positions,
-             py::array_t<uint32_t, py::array::c_style | py::array::forcecast> indices,
-             std::optional<py::array_t<uint32_t, py::array::c_style | py::array::forcecast>>
-                 material_ids,
-             const std::string& description, const std::string& source) {
-            if (positions.ndim() != 2 || positions.shape(1) != 3) {
-              throw penumbra::api::Error(ErrorKind::kInput,
-                                         source + ": positions must be an N x 3 array");
+          [](const py::object& positions_in, const py::object& indices_in,
+             std::optional<py::object> material_ids_in, const std::string& description,
+             const std::string& source) {
+            const FloatArray positions = floatRows(positions_in, 3, source + ": positions");
+            const py::array index_rows = asArray(indices_in, source + ": indices");
+            if (index_rows.ndim() != 2 || index_rows.shape(1) != 3) {
+              inputError(source + ": indices must be a T x 3 array");
             }
-            if (indices.ndim() != 2 || indices.shape(1) != 3) {
-              throw penumbra::api::Error(ErrorKind::kInput,
-                                         source + ": indices must be a T x 3 array");
-            }
+            const IndexArray indices = indexArray(index_rows, source + ": indices");
+            std::optional<IndexArray> material_ids;
             std::span<const uint32_t> ids;
-            if (material_ids) {
-              if (material_ids->ndim() != 1) {
-                throw penumbra::api::Error(ErrorKind::kInput,
-                                           source + ": material_ids must be a 1-D array");
-              }
+            if (material_ids_in) {
+              const py::array id_list = asArray(*material_ids_in, source + ": material_ids");
+              if (id_list.ndim() != 1) inputError(source + ": material_ids must be a 1-D array");
+              material_ids = indexArray(id_list, source + ": material_ids");
               ids = {material_ids->data(), size_t(material_ids->size())};
             }
             const std::span<const float> p(positions.data(), size_t(positions.size()));
@@ -287,15 +364,18 @@ PYBIND11_MODULE(_penumbra, m) {
 
   m.def(
       "_trace",
-      [](const penumbra::api::Scene& scene,
-         py::array_t<float, py::array::c_style | py::array::forcecast> rays,
-         const std::string& device, bool occlusion, int threads, uint32_t t_min, uint32_t t_max,
-         uint32_t r_min, uint32_t cache_rays, bool quiet) {
-        if (rays.ndim() != 2 || rays.shape(1) != 8) {
-          throw penumbra::api::Error(
-              ErrorKind::kInput,
-              "rays must be an N x 8 float32 array (ox oy oz tmin dx dy dz tmax)");
+      [](const penumbra::api::Scene& scene, const py::object& rays_obj, const std::string& device,
+         bool occlusion, int threads, uint32_t t_min, uint32_t t_max, uint32_t r_min,
+         uint32_t cache_rays, bool quiet) {
+        const py::array rays_in = asArray(rays_obj, "rays");
+        if (rays_in.ndim() != 2 || rays_in.shape(1) != 8) {
+          inputError("rays must be an N x 8 float32 array (ox oy oz tmin dx dy dz tmax)");
         }
+        // The copy (when the array is not C-contiguous float32) and what tracing holds per ray
+        // (api.cpp: 64 bytes), before either is made.
+        penumbra::api::checkMemory(uint64_t(rays_in.shape(0)) * (needsCopy(rays_in) ? 32 + 64 : 64),
+                                   "tracing " + std::to_string(rays_in.shape(0)) + " rays");
+        const FloatArray rays = floatRows(rays_in, 8, "rays");
         penumbra::api::TraceOptions options;
         options.device = device;
         options.occlusion = occlusion;

@@ -98,10 +98,12 @@ def from_arrays(
         description["camera"] = dict(camera)
     if environment is not None:
         description["environment"] = environment
-    ids = None if material_ids is None else np.asarray(material_ids, dtype=np.uint32)
+    # The arrays go as they are: the module checks their shapes, the memory of any copy, and that
+    # indices are whole numbers (2.7 is refused, not truncated) before converting them.
+    ids = None if material_ids is None else np.asarray(material_ids)
     return Scene.from_arrays(
-        np.asarray(positions, dtype=np.float32),
-        np.asarray(indices, dtype=np.uint32),
+        np.asarray(positions),
+        np.asarray(indices),
         ids,
         json.dumps(description, default=_json_value),
         source,

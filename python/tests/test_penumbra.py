@@ -327,6 +327,28 @@ def test_rays_that_would_not_fit_are_refused_before_allocating(tmp_path):
         run.stdout
 
 
+def test_indices_must_be_whole_numbers_and_huge_arrays_are_refused_before_copying():
+    quad = [[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]]
+    with pytest.raises(penumbra.InputError, match=r"indices: value 2 \(2\.7\) is not a whole"):
+        penumbra.from_arrays(quad, [[0, 1, 2.7]])
+    with pytest.raises(penumbra.InputError, match=r"indices: value 1 \(-1\.0\) is not a whole"):
+        penumbra.from_arrays(quad, np.array([[0, -1, 2]], dtype=np.int64))
+    with pytest.raises(penumbra.InputError, match="material_ids: value 0"):
+        penumbra.from_arrays(quad, [[0, 1, 2]], material_ids=[0.5],
+                             materials=[{"reflectance": [0.5, 0.5, 0.5]}])
+    # Whole numbers of any type are taken.
+    scene = penumbra.from_arrays(np.array(quad, dtype=np.float64),
+                                 np.array([[0, 1, 2], [0, 2, 3]], dtype=np.float64))
+    assert scene.triangle_count == 2
+    # 10^12 rays as a broadcast view (no memory behind it): refused with the amount, not a
+    # TypeError from the conversion.
+    ray = np.array([0, 0, -1, 0, 0, 0, 1, 1e30], dtype=np.float32)
+    with pytest.raises(penumbra.InputError, match=r"tracing 1000000000000 rays needs .* more than"):
+        penumbra.trace(scene, np.broadcast_to(ray, (10**12, 8)), device="cpu")
+    with pytest.raises(penumbra.InputError, match="rays must hold numbers, not dtype"):
+        penumbra.trace(scene, [["a"] * 8], device="cpu")
+
+
 # --- Ctrl-C ---------------------------------------------------------------------------------
 
 

@@ -235,6 +235,11 @@ Image readImage(const std::string& path);
 void writeImage(const std::string& path, const Image& image,
                 const std::string& tonemap = "reinhard", double exposure = 0.0);
 
+// Throws Error(kInput) when `bytes` more would not fit in the memory this process may still
+// allocate, naming `what` and both amounts: the check every method makes before it allocates,
+// for callers that copy data in (the Python module checks an array's copy with it).
+void checkMemory(uint64_t bytes, const std::string& what);
+
 // Asks the running call to stop, as SIGINT asks the CLI: progressive and stochastic radiosity
 // stop after the current step and write what they have; the other methods stop at the next pixel
 // (the path tracer) or step and throw Error(kInterrupted). Async-signal-safe: a caller's SIGINT

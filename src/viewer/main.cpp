@@ -2,12 +2,29 @@
 // them to the viewer; everything it shows comes from the library.
 #include "penumbra/app/commands.h"
 #include "penumbra/core/expected.h"
+#include "penumbra/methods/option_spec.h"
+#include "penumbra/methods/registry.h"
 #include "viewer/viewer.h"
 
 #include <fmt/format.h>
 #include <CLI/CLI.hpp>
 
 #include <string>
+
+namespace {
+
+// A value checked by an option's description, as `render` checks its own (CLI11's Range lets NaN
+// through).
+CLI::Validator bySpec(const penumbra::OptionSpec& spec) {
+  return CLI::Validator(
+      [spec](std::string& value) -> std::string {
+        const auto parsed = penumbra::parseOption(spec, value, "", "", "--" + spec.name);
+        return parsed.ok() ? std::string() : parsed.error().message;
+      },
+      spec.range ? spec.range->describe() : std::string());
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
   using namespace penumbra;
@@ -44,7 +61,7 @@ int main(int argc, char** argv) {
   app.add_option("--tonemap", tonemap, "reinhard (automatic key, default) or exposure")
       ->check(CLI::IsMember({"reinhard", "exposure"}));
   app.add_option("--exposure", o.tonemap.exposure_stops, "exposure in stops (default 0)")
-      ->check(CLI::Range(-30.0f, 30.0f));
+      ->check(bySpec(*findOption(renderOptionSpecs(), "exposure")));
   app.add_option("--script", o.script,
                  "scripted input for captures: a JSON light path and camera path (docs/viewer.md)");
   app.add_option("--screenshot", o.screenshot,
@@ -58,8 +75,10 @@ int main(int argc, char** argv) {
                "finishing its work (measures the frame rate)");
   app.add_option("--stats", o.stats, "capture: per-frame times and the frame rate (JSON)");
   double budget_ms = 1e3 * o.budget;
+  const OptionSpec budget_spec{
+      .name = "budget-ms", .kind = OptionKind::kReal, .range = OptionRange{1.0, 10000.0}};
   app.add_option("--budget-ms", budget_ms, "solver work per frame in milliseconds (default 16.7)")
-      ->check(CLI::Range(1.0, 10000.0));
+      ->check(bySpec(budget_spec));
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -222,6 +222,12 @@ Status Viewer::open() {
   if (!options_.screenshot.empty() && extensionOf(options_.screenshot) != ".png") {
     return inputError(options_.screenshot, "", "a screenshot is a .png file");
   }
+  // Where the capture goes is checked before the window runs, not found after its frames.
+  if (!options_.screenshot.empty()) {
+    PENUMBRA_TRY(checkOutputPath(options_.sequence ? sequenceFrameName(options_.screenshot, 0)
+                                                   : options_.screenshot));
+  }
+  if (!options_.stats.empty()) PENUMBRA_TRY(checkOutputPath(options_.stats));
   // Checked before the window opens: a method the scene cannot take is a usage error.
   {
     Expected<LiveSession> check =

@@ -551,3 +551,62 @@ TEST(GltfLoad, NormalTextureIsReadAsDataWithItsScale) {
 
 }  // namespace
 }  // namespace penumbra
+
+namespace penumbra {
+namespace {
+
+// Values of the wrong type or length are refused with their place; tinygltf alone reads a
+// baseColorFactor of three numbers or of a string as white, and a matrix of strings as the
+// identity.
+TEST(GltfLoad, ValuesOfTheWrongShapeAreRefusedWithTheirPlace) {
+  TempDir dir;
+  const struct {
+    const char* pointer;
+    json value;
+    const char* place;
+  } cases[] = {
+      {"/materials/0/pbrMetallicRoughness/baseColorFactor",
+       {0.5, 0.25, 0.125},
+       "materials[0].pbrMetallicRoughness.baseColorFactor"},
+      {"/materials/0/pbrMetallicRoughness/baseColorFactor", "grey",
+       "materials[0].pbrMetallicRoughness.baseColorFactor"},
+      {"/materials/0/pbrMetallicRoughness/baseColorFactor",
+       {0.5, 0.25, 2.0, 1.0},
+       "baseColorFactor[2]"},
+      {"/materials/0/pbrMetallicRoughness/metallicFactor", "0", "metallicFactor"},
+      {"/materials/0/emissiveFactor", {1, "0.5", 0.25}, "materials[0].emissiveFactor[1]"},
+      {"/materials/0/emissiveFactor", {-1, 0.5, 0.25}, "materials[0].emissiveFactor[0]"},
+      {"/materials/0/doubleSided", "yes", "materials[0].doubleSided"},
+      {"/nodes/1/matrix",
+       json::array(
+           {"1", "0", "0", "0", "0", "1", "0", "0", "0", "0", "1", "0", "0", "0", "0", "1"}),
+       "nodes[1].matrix[0]"},
+      {"/nodes/1/scale", {2, 2}, "nodes[1].scale"},
+      {"/nodes/0/translation", "up", "nodes[0].translation"},
+      {"/nodes/1/rotation", {0, 2, 0, 1}, "nodes[1].rotation[1]"},
+      {"/nodes/0/children", {1, 2.5}, "nodes[0].children[1]"},
+      {"/cameras/0/perspective/yfov", 0, "cameras[0].perspective.yfov"},
+      {"/extensions/KHR_lights_punctual/lights/0/intensity", "bright",
+       "extensions.KHR_lights_punctual.lights[0].intensity"},
+      {"/extensions/KHR_lights_punctual/lights/0/color", {1, 1}, "lights[0].color"},
+  };
+  for (const auto& c : cases) {
+    TestGltf g = makeTestGltf();
+    g.doc[json::json_pointer(c.pointer)] = c.value;
+    for (const std::string& path : {writeGltf(dir, "v.gltf", g), writeGlb(dir, "v.glb", g)}) {
+      const Expected<Scene> s = loadGltf(path);
+      ASSERT_FALSE(s.ok()) << c.pointer << " = " << c.value.dump();
+      EXPECT_EQ(s.error().kind, ErrorKind::kInput);
+      EXPECT_EQ(s.error().file, path);
+      EXPECT_NE(s.error().describe().find(c.place), std::string::npos) << s.error().describe();
+    }
+  }
+  // The document itself loads, and its right-shaped values are read as given.
+  TestGltf g = makeTestGltf();
+  const Expected<Scene> good = loadGltf(writeGltf(dir, "ok.gltf", g));
+  ASSERT_TRUE(good.ok()) << good.error().describe();
+  checkTestScene(*good);
+}
+
+}  // namespace
+}  // namespace penumbra

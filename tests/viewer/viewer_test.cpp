@@ -248,6 +248,11 @@ TEST(Viewer, BadInputIsRefusedBeforeAWindowOpens) {
       {"view cornell --script " + bad_script + " --screenshot " + dir.file("a.png"),
        "light_path[0]"},
       {"view cornell --screenshot " + dir.file("a.exr"), "a.exr"},
+      // Checked before the window opens, not after its frames.
+      {"view cornell --screenshot /proc/none/a.png", "/proc/none"},
+      {"view cornell --screenshot " + dir.file("a.png") + " --stats /proc/s.json", "/proc"},
+      {"view cornell --budget-ms nan", "--budget-ms"},
+      {"view cornell --exposure inf", "--exposure"},
   };
   for (const auto& c : cases) {
     const auto r = runCli(c.args, "DISPLAY=");

@@ -402,8 +402,7 @@ Hits trace(const Scene& scene, std::span<const float> rays, const TraceOptions& 
     // The rays in SoA (32 B), the engine's hits (16 B) and the answers handed back (16 B), before
     // any of it is allocated.
     const size_t count = rays.size() / 8;
-    const Status fits = checkMemory(uint64_t(count) * 64, fmt::format("tracing {} rays", count));
-    if (!fits) throw toApiError(fits.error());
+    checkMemory(uint64_t(count) * 64, fmt::format("tracing {} rays", count));
     Expected<RayBatch> batch = decodeRays("rays", rays.data(), count);
     if (!batch) throw toApiError(batch.error());
     penumbra::TraceOptions to;
@@ -446,6 +445,11 @@ Hits trace(const Scene& scene, std::span<const float> rays, const TraceOptions& 
   });
 }
 
+void checkMemory(uint64_t bytes, const std::string& what) {
+  const Status fits = ::penumbra::checkMemory(bytes, what);
+  if (!fits) throw toApiError(fits.error());
+}
+
 Image readImage(const std::string& path) {
   return guarded([&] {
     Expected<penumbra::Image> image = penumbra::readImage(path);
@@ -473,6 +477,12 @@ void writeImage(const std::string& path, const Image& image, const std::string& 
     penumbra::Image linear(image.width, image.height);
     for (size_t i = 0; i < linear.pixels.size(); ++i) {
       linear.pixels[i] = {image.rgb[3 * i], image.rgb[3 * i + 1], image.rgb[3 * i + 2]};
+      if (!std::isfinite(linear.pixels[i].x) || !std::isfinite(linear.pixels[i].y) ||
+          !std::isfinite(linear.pixels[i].z)) {
+        throw Error(ErrorKind::kInput,
+                    fmt::format("{}: pixel ({}, {}) is not finite", path, i % size_t(image.width),
+                                i / size_t(image.width)));
+      }
     }
     ToneMapSettings settings;
     settings.op = tonemap == "exposure" ? ToneMapOperator::kExposure : ToneMapOperator::kReinhard;

@@ -33,6 +33,7 @@
 namespace penumbra {
 
 int reportError(const Error& error) {
+  silenceDistributedEndMessage();
   const Communicator& comm = currentCommunicator();
   if (comm.root()) {
     std::fprintf(stderr, "penumbra: error: %s\n", error.describe().c_str());
@@ -459,6 +460,13 @@ namespace {
 int runCliCommand(int argc, char** argv) {
   try {
     return parseAndRun(argc, argv);
+  } catch (const Interrupted&) {
+    // A step without a clean stopping point was stopped (core/interrupt.h); the outputs'
+    // temporaries went with the unwinding.
+    std::fprintf(stderr,
+                 "penumbra: interrupted during a step that cannot be resumed: nothing "
+                 "was written\n");
+    return InterruptScope::exitCode();
   } catch (const std::bad_alloc&) {
     std::fprintf(stderr, "penumbra: error: out of memory\n");
     return 1;

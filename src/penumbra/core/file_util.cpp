@@ -1,7 +1,11 @@
 #include "penumbra/core/file_util.h"
 
+#include "penumbra/core/memory.h"
+
 #include <fmt/format.h>
 
+#include <fcntl.h>
+#include <sys/stat.h>
 #include <unistd.h>
 #include <climits>
 #include <csignal>
@@ -10,6 +14,7 @@
 #include <atomic>
 #include <cctype>
 #include <cerrno>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -20,6 +25,28 @@ namespace penumbra {
 namespace fs = std::filesystem;
 
 namespace {
+
+// What a file that is not a regular file is, for messages.
+const char* kindOf(mode_t mode) {
+  if (S_ISDIR(mode)) return "a directory";
+  if (S_ISCHR(mode)) return "a character device";
+  if (S_ISBLK(mode)) return "a block device";
+  if (S_ISFIFO(mode)) return "a FIFO";
+  if (S_ISSOCK(mode)) return "a socket";
+  return "not a regular file";
+}
+
+std::string notRegular(mode_t mode) {
+  return fmt::format("is {}, not a regular file", kindOf(mode));
+}
+
+// An existing target that is not a regular file (nor a link, which rename replaces, not follows),
+// or an empty string.
+std::string unreplaceable(const std::string& path) {
+  struct stat st {};
+  if (::lstat(path.c_str(), &st) != 0 || S_ISREG(st.st_mode) || S_ISLNK(st.st_mode)) return {};
+  return fmt::format("{}; only a regular file is replaced by an output", notRegular(st.st_mode));
+}
 
 OutputTransaction* g_current = nullptr;
 std::atomic<unsigned> g_counter{0};
@@ -70,11 +97,20 @@ Status writeTemporary(const std::string& path,
     fs::remove(*tmp, ec);
     return s;
   }
+  struct stat st {};
+  if (::lstat(tmp->c_str(), &st) != 0 || !(S_ISREG(st.st_mode) || S_ISDIR(st.st_mode))) {
+    fs::remove(*tmp, ec);
+    return runtimeError(path, "cannot write: the writer left no file");
+  }
   return {};
 }
 
 Status placeNow(const std::string& path, const fs::path& tmp) {
   std::error_code ec;
+  if (const std::string why = unreplaceable(path); !why.empty()) {
+    fs::remove(tmp, ec);
+    return runtimeError(path, why);
+  }
   fs::rename(tmp, path, ec);
   if (ec) {
     std::error_code rm;
@@ -143,6 +179,12 @@ Status checkOutputPath(const std::string& path) {
     return inputError(path, "", "the output directory '" + dir.string() + "' does not exist");
   }
   if (fs::is_directory(target, ec)) return inputError(path, "", "is a directory");
+  struct stat st {};
+  if (::stat(path.c_str(), &st) == 0 && !S_ISREG(st.st_mode)) {
+    return inputError(
+        path, "",
+        fmt::format("{}; only a regular file is replaced by an output", notRegular(st.st_mode)));
+  }
   const long name_max = ::pathconf(dir.empty() ? "." : dir.c_str(), _PC_NAME_MAX);
   const size_t limit = name_max > 0 ? size_t(name_max) : size_t(NAME_MAX);
   if (target.filename().string().size() > limit) {
@@ -193,9 +235,11 @@ Status OutputTransaction::commit() {
   std::vector<std::string> placed;
   for (size_t i = 0; i < pending_.size(); ++i) {
     std::error_code ec;
-    fs::rename(pending_[i].tmp, pending_[i].path, ec);
-    if (ec) {
-      const Error e = runtimeError(pending_[i].path, "cannot write: " + ec.message());
+    const std::string why = unreplaceable(pending_[i].path);
+    if (why.empty()) fs::rename(pending_[i].tmp, pending_[i].path, ec);
+    if (ec || !why.empty()) {
+      const Error e =
+          runtimeError(pending_[i].path, !why.empty() ? why : "cannot write: " + ec.message());
       std::error_code rm;
       for (size_t j = i; j < pending_.size(); ++j) fs::remove(pending_[j].tmp, rm);
       for (const std::string& p : placed) fs::remove(p, rm);
@@ -215,16 +259,71 @@ Status OutputTransaction::commit() {
   return {};
 }
 
+Status checkInputFile(const std::string& path) {
+  struct stat st {};
+  if (::stat(path.c_str(), &st) != 0) {
+    if (errno == ENOENT || errno == ENOTDIR) return inputError(path, "", "no such file");
+    return inputError(path, "", fmt::format("cannot open: {}", std::strerror(errno)));
+  }
+  if (!S_ISREG(st.st_mode)) return inputError(path, "", notRegular(st.st_mode));
+  return {};
+}
+
 Expected<std::string> readFile(const std::string& path) {
-  std::error_code ec;
-  if (!fs::exists(path, ec)) return inputError(path, "", "no such file");
-  if (fs::is_directory(path, ec)) return inputError(path, "", "is a directory, not a file");
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return inputError(path, "", "cannot open for reading");
-  std::ostringstream ss;
-  ss << in.rdbuf();
-  if (in.bad()) return inputError(path, "", "read error");
-  return ss.str();
+  PENUMBRA_TRY(checkInputFile(path));
+  // Opened without blocking (a FIFO put in place since the check would wait for a writer), then
+  // checked again on the descriptor: what is read is what was checked.
+  const int fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC);
+  if (fd < 0) return inputError(path, "", fmt::format("cannot open: {}", std::strerror(errno)));
+  struct Close {
+    int fd;
+    ~Close() { ::close(fd); }
+  } close_fd{fd};
+  struct stat st {};
+  if (::fstat(fd, &st) != 0) {
+    return inputError(path, "", fmt::format("cannot open: {}", std::strerror(errno)));
+  }
+  if (!S_ISREG(st.st_mode)) return inputError(path, "", notRegular(st.st_mode));
+  PENUMBRA_TRY(checkMemory(uint64_t(st.st_size), fmt::format("reading '{}'", path)));
+  std::string bytes;
+  bytes.reserve(size_t(st.st_size));
+  char buffer[1 << 16];
+  for (;;) {
+    const ssize_t n = ::read(fd, buffer, sizeof buffer);
+    if (n == 0) break;
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      return inputError(path, "", fmt::format("read error: {}", std::strerror(errno)));
+    }
+    bytes.append(buffer, size_t(n));
+    // A file that grows while it is read (a log being written) is read up to twice its size.
+    if (bytes.size() > 2 * uint64_t(st.st_size) + sizeof buffer) {
+      return inputError(path, "", "grew while it was read");
+    }
+  }
+  return bytes;
+}
+
+Status writeBytesTo(const std::string& path, const std::string& tmp, std::string_view bytes) {
+  // write() reports a full disk (ENOSPC) or a file-size limit (EFBIG) at once on local file
+  // systems, and close() what a network file system found when flushing.
+  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
+  if (fd < 0) return runtimeError(path, fmt::format("cannot write: {}", std::strerror(errno)));
+  size_t done = 0;
+  while (done < bytes.size()) {
+    const ssize_t n = ::write(fd, bytes.data() + done, bytes.size() - done);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) {
+      const int err = n < 0 ? errno : ENOSPC;
+      ::close(fd);
+      return runtimeError(path, fmt::format("cannot write: {}", std::strerror(err)));
+    }
+    done += size_t(n);
+  }
+  if (::close(fd) != 0) {
+    return runtimeError(path, fmt::format("cannot write: {}", std::strerror(errno)));
+  }
+  return {};
 }
 
 std::string extensionOf(const std::string& path) {

@@ -8,6 +8,7 @@
 
 #include <functional>
 #include <string>
+#include <string_view>
 #include <utility>
 #include <vector>
 
@@ -26,11 +27,12 @@ Status writeAtomicallyNow(const std::string& path,
 
 // Before the work: that `path` can be written. Its directory exists and takes a new file (a probe
 // is created and removed: access() says yes to root on read-only file systems), `path` is not a
-// directory, and its name is not longer than the file system allows. Temporaries left in the
-// directory by processes that no longer exist (SIGKILL) are removed.
-// In a run over several processes only rank 0 writes outputs (cluster/communicator.h): on the
-// others this returns ok without looking (their file systems may differ, and their probes would
-// race rank 0's temporaries).
+// directory, nor anything else that is not a regular file (outputs are renamed into place, which
+// would replace a device node such as /dev/null with a file), and its name is not longer than the
+// file system allows. Temporaries left in the directory by processes that no longer exist (SIGKILL)
+// are removed. In a run over several processes only rank 0 writes outputs (cluster/communicator.h):
+// on the others this returns ok without looking (their file systems may differ, and their probes
+// would race rank 0's temporaries).
 Status checkOutputPath(const std::string& path);
 
 // Whether this process writes the run's outputs: true unless it is a rank > 0 of a distributed run
@@ -75,8 +77,20 @@ class OutputTransaction {
   bool committed_ = false;
 };
 
-// Reads a whole file into a string (binary).
+// Reads a whole file into a string (binary). Only a regular file is read: a directory, a device,
+// a FIFO or a socket is refused as input (exit 2) before anything is read (a FIFO is opened
+// without blocking), and a file larger than the memory the process may still allocate is refused
+// with both sizes.
 Expected<std::string> readFile(const std::string& path);
+
+// Before handing `path` to a library that opens it itself: it exists and is a regular file (after
+// following links), else an input error naming what it is ("is a FIFO, not a regular file").
+Status checkInputFile(const std::string& path);
+
+// Writes `bytes` to `tmp` (a temporary that writeAtomically gave) with every write checked and
+// the data flushed to the device, so "No space left on device" or a file-size limit is reported
+// as a failed write of `path`, never found later as a truncated file.
+Status writeBytesTo(const std::string& path, const std::string& tmp, std::string_view bytes);
 
 // Lower-case extension with the dot (".exr"), empty when none.
 std::string extensionOf(const std::string& path);

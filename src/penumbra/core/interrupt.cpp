@@ -17,7 +17,7 @@ volatile std::sig_atomic_t g_requested = 0;  // the signal that asked to stop, 0
 std::atomic<bool> g_keep_requests{false};
 volatile std::sig_atomic_t g_distributed = 0;  // SIGINT / SIGTERM always end the process
 char g_end_message[256] = {};
-size_t g_end_message_length = 0;
+std::atomic<size_t> g_end_message_length{0};  // 0: end without a message
 
 // The cleanup registry: fixed slots, so the handler reads without allocating. A slot's state is
 // written after its path, and cleared before the path is reused.
@@ -112,6 +112,18 @@ bool interruptRequested() {
 
 void throwIfInterrupted() {
   if (g_requested && !g_scope) throw Interrupted();
+}
+
+void silenceDistributedEndMessage() {
+  g_end_message_length = 0;
+}
+
+bool stoppedMidStep() {
+  return g_requested == SIGINT || g_requested == SIGTERM;
+}
+
+void throwIfStoppedMidStep() {
+  if (stoppedMidStep()) throw Interrupted();
 }
 
 void clearInterrupt() {

@@ -25,6 +25,9 @@ void installInterruptHandlers();
 // (progressive radiosity writes its checkpoint; a method without a clean stop ends the job). The
 // exit message names the rank.
 void interruptSignalsEndDistributedRun(int rank, int size);
+// Once the process has reported its error, the signal mpirun sends every rank next ends it without
+// the exit message: one error, one line.
+void silenceDistributedEndMessage();
 
 // A request to stop, as the signal makes it: async-signal-safe, so a caller's own SIGINT handler
 // may call it (the library's API does, penumbra.h: requestInterrupt). `signal` picks the exit code
@@ -49,6 +52,14 @@ class Interrupted : public std::runtime_error {
 // program calling the library (requestInterrupt) stops long work this way. Cheap enough to poll
 // per pixel.
 void throwIfInterrupted();
+
+// For work inside an InterruptScope that has no clean stopping point of its own and may take
+// minutes (the lights' shot of radiosity over 10,000 luminaires): throws Interrupted when SIGINT
+// or SIGTERM (or a caller's requestInterrupt) asked to stop, instead of finishing the step first.
+// The command then ends with the signal's exit code and no output. A distributed run's SIGUSR1
+// is left to the ranks' agreement between two steps.
+bool stoppedMidStep();  // whether throwIfStoppedMidStep would throw
+void throwIfStoppedMidStep();
 
 class InterruptScope {
  public:

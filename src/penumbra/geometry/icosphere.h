@@ -9,6 +9,10 @@ namespace penumbra {
 
 inline constexpr int kMaxSphereSubdivisions = 8;  // 1,310,720 triangles
 
+inline constexpr uint64_t icosphereTriangles(int subdivisions) {
+  return uint64_t(20) << (2 * subdivisions);
+}
+
 // Unit radius around the origin; subdivisions in [0, kMaxSphereSubdivisions].
 Mesh icosphere(int subdivisions);
 

@@ -16,6 +16,7 @@
 //   - lights and cameras look down their node's local -Z; a camera's up is the node's local +Y.
 #include "penumbra/core/file_util.h"
 #include "penumbra/core/memory.h"
+#include "penumbra/io/gltf_values.h"
 #include "penumbra/io/image_io.h"
 #include "penumbra/io/json_guard.h"
 #include "penumbra/io/scene_io.h"
@@ -180,7 +181,8 @@ Expected<std::string_view> glbJsonChunk(const std::string& path, std::string_vie
 }
 
 // What tinygltf takes on trust, checked on the JSON first: the asset's version (tinygltf reads
-// glTF 1.0 files as if they were 2.0) and that external buffers and images name files (a
+// glTF 1.0 files as if they were 2.0), the values it drops when their type is wrong
+// (io/gltf_values.h) and that external buffers and images name files (a
 // directory makes tinygltf fail with an allocation error).
 Status checkGltfJson(const std::string& path, std::string_view text, const std::string& base) {
   const nlohmann::json root = nlohmann::json::parse(text, nullptr, /*allow_exceptions=*/false);
@@ -193,6 +195,7 @@ Status checkGltfJson(const std::string& path, std::string_view text, const std::
                         fmt::format("'{}': only glTF 2.0 is supported", version));
     }
   }
+  PENUMBRA_TRY(checkGltfValues(path, root));
   for (const char* key : {"buffers", "images"}) {
     if (!root.contains(key) || !root[key].is_array()) continue;
     const nlohmann::json& list = root[key];

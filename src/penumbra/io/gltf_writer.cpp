@@ -2,14 +2,12 @@
 
 #include "penumbra/core/check.h"
 #include "penumbra/core/file_util.h"
-#include "penumbra/core/interrupt.h"
 
 #include <glm/common.hpp>
 
 #include <tiny_gltf.h>
 
 #include <fmt/format.h>
-#include <unistd.h>
 
 #include <algorithm>
 #include <array>
@@ -17,6 +15,7 @@
 #include <exception>
 #include <filesystem>
 #include <limits>
+#include <sstream>
 #include <vector>
 
 namespace penumbra {
@@ -239,46 +238,31 @@ void addScene(tinygltf::Model& model, const std::string& name) {
   model.defaultScene = 0;
 }
 
-// tinygltf writes the .gltf and its buffer side by side: into a private directory beside the
-// target, from which each is handed to writeAtomically (so both are placed with the command's
-// other outputs, the buffer first).
-Status writeStaged(tinygltf::Model& model, const std::string& gltf_path,
-                   const std::string& bin_uri) {
+// The .gltf and its buffer, each through writeAtomically (placed with the command's other
+// outputs, the buffer first) and written with every call checked: tinygltf's own file writer does
+// not check that its stream was flushed, so a full disk would leave a truncated .gltf. The model
+// is serialised without the buffer's bytes (they move out of `model`), and the buffer entry then
+// names the .bin.
+Status writeGltfAndBuffer(tinygltf::Model& model, const std::string& gltf_path,
+                          const std::string& bin_uri) {
   namespace fs = std::filesystem;
-  const fs::path target(gltf_path);
-  const fs::path bin_target = target.parent_path() / bin_uri;
-  const fs::path staging = target.parent_path() /
-                           fmt::format(".penumbra-{}-{}.d", ::getpid(), target.filename().string());
-  std::error_code ec;
-  fs::create_directory(staging, ec);
-  if (ec) return runtimeError(gltf_path, "cannot write: " + ec.message());
-  const CleanupOnSignal staged_dir(fs::absolute(staging, ec).string(), true);
-  const CleanupOnSignal staged_gltf(fs::absolute(staging / target.filename(), ec).string(), false);
-  const CleanupOnSignal staged_bin(fs::absolute(staging / bin_uri, ec).string(), false);
-  struct RemoveStaging {
-    fs::path dir;
-    ~RemoveStaging() {
-      std::error_code e;
-      fs::remove_all(dir, e);
-    }
-  } remove_staging{staging};
+  const std::string bin_path = (fs::path(gltf_path).parent_path() / bin_uri).string();
+  std::vector<unsigned char> bin;
+  bin.swap(model.buffers.at(0).data);
+  std::ostringstream json_text;
   tinygltf::TinyGLTF writer;
   writer.SetImageWriter(nullptr, nullptr);  // the PNG is written separately; keep its uri
-  if (!writer.WriteGltfSceneToFile(&model, (staging / target.filename()).string(),
-                                   /*embedImages=*/false, /*embedBuffers=*/false,
-                                   /*prettyPrint=*/true, /*writeBinary=*/false)) {
-    return runtimeError(gltf_path, "cannot write glTF file or its buffer '" + bin_uri + "'");
-  }
-  auto move = [](const fs::path& from) {
-    return [from](const std::string& tmp) -> Status {
-      std::error_code e;
-      fs::rename(from, tmp, e);
-      if (e) return runtimeError(tmp, "cannot write: " + e.message());
-      return {};
-    };
-  };
-  PENUMBRA_TRY(writeAtomically(bin_target.string(), move(staging / bin_uri)));
-  return writeAtomically(gltf_path, move(staging / target.filename()));
+  const bool serialised = writer.WriteGltfSceneToStream(&model, json_text, /*prettyPrint=*/true,
+                                                        /*writeBinary=*/false);
+  if (!serialised) return runtimeError(gltf_path, "cannot serialise the glTF document");
+  nlohmann::json doc = nlohmann::json::parse(json_text.str());
+  doc["buffers"][0] = {{"byteLength", bin.size()}, {"uri", bin_uri}};
+  const std::string text = doc.dump(2) + "\n";
+  const std::string_view bin_bytes(reinterpret_cast<const char*>(bin.data()), bin.size());
+  PENUMBRA_TRY(writeAtomically(
+      bin_path, [&](const std::string& tmp) { return writeBytesTo(bin_path, tmp, bin_bytes); }));
+  return writeAtomically(
+      gltf_path, [&](const std::string& tmp) { return writeBytesTo(gltf_path, tmp, text); });
 }
 
 }  // namespace
@@ -298,7 +282,7 @@ Status writeBakedGltf(const std::string& gltf_path, const BakedMesh& mesh,
     addLightmap(model, info.lightmap_uri);
     for (const Material& m : materials) model.materials.push_back(bakedMaterial(m));
     addScene(model, info.name);
-    PENUMBRA_TRY(writeStaged(model, gltf_path, info.bin_uri));
+    PENUMBRA_TRY(writeGltfAndBuffer(model, gltf_path, info.bin_uri));
   } catch (const std::exception& e) {
     return runtimeError(gltf_path, std::string("cannot write glTF file: ") + e.what());
   }

@@ -72,19 +72,9 @@ Error unsupportedFormat(const std::string& path) {
                         : "unsupported image format '" + ext + "' (" + kSupportedList + ")");
 }
 
-// The reason the C library gave for the last failed call, for messages.
-std::string systemReason() {
-  return errno != 0 ? std::string(": ") + std::strerror(errno) : std::string();
-}
-
 // Existence checks before handing a path to a library, for one wording of the common failures.
 Status checkReadable(const std::string& path) {
-  std::error_code ec;
-  if (!std::filesystem::exists(path, ec)) return inputError(path, "", "no such file");
-  if (std::filesystem::is_directory(path, ec)) {
-    return inputError(path, "", "is a directory, not a file");
-  }
-  return {};
+  return checkInputFile(path);
 }
 
 Status checkWritable(const std::string& path, const Image& image) {
@@ -269,6 +259,11 @@ Expected<Image> readExr(const std::string& path) {
 
 // ---- Radiance HDR and PNG (stb) ------------------------------------------------------------
 
+// stb's file writers do not check fwrite: encode into memory and write with every call checked.
+void appendToString(void* context, void* data, int size) {
+  static_cast<std::string*>(context)->append(static_cast<const char*>(data), size_t(size));
+}
+
 Status writeHdr(const std::string& path, const std::string& tmp, const Image& image) {
   // RGBE holds non-negative values up to about 2^127 (the exponent byte is e + 128); stb would
   // wrap the exponent of larger values, and NaN has no encoding.
@@ -280,21 +275,22 @@ Status writeHdr(const std::string& path, const std::string& tmp, const Image& im
       data[3 * i + size_t(c)] = v > 0.0f ? std::min(v, kMaxRgbe) : 0.0f;  // NaN -> 0
     }
   }
-  errno = 0;
-  if (!stbi_write_hdr(tmp.c_str(), image.width, image.height, 3, data.data())) {
-    return runtimeError(path, "cannot write Radiance HDR file" + systemReason());
+  std::string bytes;
+  if (!stbi_write_hdr_to_func(appendToString, &bytes, image.width, image.height, 3, data.data())) {
+    return runtimeError(path, "cannot encode a Radiance HDR file");
   }
-  return {};
+  return writeBytesTo(path, tmp, bytes);
 }
 
 Status writePng(const std::string& path, const std::string& tmp, const Image& image,
                 const ToneMapSettings& tonemap) {
   const std::vector<uint8_t> data = displayBytes(image, tonemap);
-  errno = 0;
-  if (!stbi_write_png(tmp.c_str(), image.width, image.height, 3, data.data(), image.width * 3)) {
-    return runtimeError(path, "cannot write PNG file" + systemReason());
+  std::string bytes;
+  if (!stbi_write_png_to_func(appendToString, &bytes, image.width, image.height, 3, data.data(),
+                              image.width * 3)) {
+    return runtimeError(path, "cannot encode a PNG file");
   }
-  return {};
+  return writeBytesTo(path, tmp, bytes);
 }
 
 // IEC 61966-2-1 inverse transfer function.
@@ -496,13 +492,7 @@ Status writePfm(const std::string& path, const std::string& tmp, const Image& im
       appendFloatLe(out, p.z);
     }
   }
-  errno = 0;
-  std::ofstream file(tmp, std::ios::binary | std::ios::trunc);
-  if (!file) return runtimeError(path, "cannot open for writing" + systemReason());
-  file.write(out.data(), std::streamsize(out.size()));
-  file.close();
-  if (!file) return runtimeError(path, "cannot write" + systemReason());
-  return {};
+  return writeBytesTo(path, tmp, out);
 }
 
 // Splits the PFM header: three whitespace-separated tokens and the offset of the pixel data,
@@ -612,11 +602,11 @@ Status writePng8(const std::string& path, int width, int height, std::span<const
     return runtimeError(path, "cannot write PNG file: the pixels do not fill the image");
   }
   return writeAtomically(path, [&](const std::string& tmp) -> Status {
-    errno = 0;
-    if (!stbi_write_png(tmp.c_str(), width, height, 3, rgb.data(), width * 3)) {
-      return runtimeError(path, "cannot write PNG file" + systemReason());
+    std::string bytes;
+    if (!stbi_write_png_to_func(appendToString, &bytes, width, height, 3, rgb.data(), width * 3)) {
+      return runtimeError(path, "cannot encode a PNG file");
     }
-    return {};
+    return writeBytesTo(path, tmp, bytes);
   });
 }
 

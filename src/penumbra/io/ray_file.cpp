@@ -17,14 +17,8 @@ static_assert(std::endian::native == std::endian::little,
 namespace {
 
 Status writeBytes(const std::string& path, const std::string& bytes) {
-  return writeAtomically(path, [&](const std::string& tmp) -> Status {
-    FILE* f = std::fopen(tmp.c_str(), "wb");
-    if (!f) return runtimeError(path, "cannot open for writing");
-    const bool ok = std::fwrite(bytes.data(), 1, bytes.size(), f) == bytes.size();
-    const bool closed = std::fclose(f) == 0;
-    if (!ok || !closed) return runtimeError(path, "write failed (disk full?)");
-    return {};
-  });
+  return writeAtomically(
+      path, [&](const std::string& tmp) -> Status { return writeBytesTo(path, tmp, bytes); });
 }
 
 }  // namespace

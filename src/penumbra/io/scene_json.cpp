@@ -5,6 +5,7 @@
 // silently changes a scene. Mesh files are loaded by their own loaders (which name the mesh file
 // in their errors), transformed to world space and merged.
 #include "penumbra/core/file_util.h"
+#include "penumbra/core/memory.h"
 #include "penumbra/geometry/icosphere.h"
 #include "penumbra/io/image_io.h"
 #include "penumbra/io/json_guard.h"
@@ -131,6 +132,9 @@ class SceneJsonReader {
   // "type" (diffuse, mirror, glass), "specular" and "ior" (Material::scattering).
   Status readScattering(const json& entry, const std::string& place, Material& m);
   Status readMesh(const json& entry, const std::string& place, Scene& scene);
+  // The spheres of all entries counted before any is made: a few lines of JSON can ask for
+  // hundreds of millions of triangles. Refused when the scene would not fit in memory.
+  Status planSpheres(const json& meshes) const;
   // "file" (an existing .obj, .gltf, .glb or .ply) or "sphere" (a subdivision level).
   Status readMeshSource(const json& entry, const std::string& place, MeshEntry& m) const;
   // "material", "transform" and "name".
@@ -234,8 +238,11 @@ Expected<std::string> SceneJsonReader::existingFile(const std::string& file,
                                                     const std::string& place) const {
   const std::string resolved = resolveRelativeTo(path_, file);
   std::error_code ec;
-  if (!std::filesystem::is_regular_file(resolved, ec)) {
+  if (!std::filesystem::exists(resolved, ec)) {
     return error(place, fmt::format("'{}' does not exist (looked for {})", file, resolved));
+  }
+  if (Status regular = checkInputFile(resolved); !regular.ok()) {
+    return error(place, fmt::format("'{}' {}", file, regular.error().message));
   }
   return resolved;
 }
@@ -709,6 +716,26 @@ Status SceneJsonReader::readMesh(const json& entry, const std::string& place, Sc
   return {};
 }
 
+Status SceneJsonReader::planSpheres(const json& meshes) const {
+  uint64_t triangles = 0, spheres = 0;
+  for (const json& entry : meshes) {
+    if (!entry.is_object() || !entry.contains("sphere")) continue;
+    const json& level = entry.at("sphere");
+    if (!level.is_number_integer() || level.get<int64_t>() < 0 ||
+        level.get<int64_t>() > kMaxSphereSubdivisions) {
+      continue;  // readMeshSource names the entry
+    }
+    triangles += icosphereTriangles(int(level.get<int64_t>()));
+    ++spheres;
+  }
+  if (spheres == 0) return {};
+  Status fits =
+      checkMemory(triangles * kSceneBytesPerTriangle,
+                  fmt::format("making {} spheres of {} triangles in all", spheres, triangles));
+  if (!fits.ok()) return error("meshes", fits.error().message);
+  return {};
+}
+
 Status SceneJsonReader::readMeshSource(const json& entry, const std::string& place,
                                        MeshEntry& m) const {
   if (entry.contains("file") == entry.contains("sphere")) {
@@ -889,6 +916,14 @@ Status SceneJsonReader::readLuminaire(const json& entry, const std::string& plac
   if (entry.contains("array")) PENUMBRA_TRY(readLuminaireArray(entry.at("array"), place, array));
   const int nx = array.nx, nz = array.nz;
   const double dx = array.dx, dz = array.dz;
+  // Counted over the scene before any is made: many entries of large arrays add up.
+  if (scene.lights.size() + size_t(nx) * size_t(nz) > kMaxSceneLights) {
+    return error(entry.contains("array") ? place + ".array" : place,
+                 fmt::format("{} more luminaires make {} lights in the scene; a scene holds at "
+                             "most {}",
+                             size_t(nx) * size_t(nz), scene.lights.size() + size_t(nx) * nz,
+                             kMaxSceneLights));
+  }
   for (int i = 0; i < nx; ++i) {
     for (int k = 0; k < nz; ++k) {
       LuminaireLight li = l;
@@ -1011,9 +1046,9 @@ Status SceneJsonReader::readLuminaireArray(const json& a, const std::string& pla
     (k == 0 ? array.nx : array.nz) = int(*n);
     (k == 0 ? array.dx : array.dz) = *d;
   }
-  if (size_t(array.nx) * size_t(array.nz) > 10000) {
-    return error(ap + ".count",
-                 fmt::format("{} x {} luminaires: at most 10000", array.nx, array.nz));
+  if (size_t(array.nx) * size_t(array.nz) > kMaxSceneLights) {
+    return error(ap + ".count", fmt::format("{} x {} luminaires: a scene holds at most {}",
+                                            array.nx, array.nz, kMaxSceneLights));
   }
   return {};
 }
@@ -1069,6 +1104,7 @@ Expected<Scene> SceneJsonReader::read(const json& root) {
     if (!meshes.is_array()) {
       return error("meshes", fmt::format("must be an array, not {}", jsonTypeName(meshes)));
     }
+    PENUMBRA_TRY(planSpheres(meshes));
     for (size_t i = 0; i < meshes.size(); ++i) {
       PENUMBRA_TRY(readMesh(meshes[i], fmt::format("meshes[{}]", i), scene));
     }
@@ -1171,6 +1207,9 @@ Expected<Scene> loadScene(const std::string& name_or_path) {
   if (!is_file && name_or_path == "lpv") return lpvBuiltinScene();
   if (!is_file) {
     if (const std::optional<SceneAnimation> a = builtinAnimation(name_or_path)) return (*a)(0.0);
+  }
+  if (std::filesystem::is_directory(name_or_path, ec)) {
+    return inputError(name_or_path, "", "is a directory, not a scene file");
   }
   if (!is_file && extensionOf(name_or_path).empty()) return builtinScene(name_or_path);
   return loadSceneFile(name_or_path);

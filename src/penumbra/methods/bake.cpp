@@ -329,8 +329,9 @@ Status bake(const BakeOptions& options, const CommonOptions& common, bool* inter
   // Output: temporaries in DIR, placed together by the transaction's commit, in the order
   // written: the glTF last, so that what it references is in place before it is.
   emitImage(product->lightmap);
-  PENUMBRA_TRY(writeImage((out_dir / exr_name).string(), product->lightmap));
-  PENUMBRA_TRY(writeImage((out_dir / png_name).string(), product->lightmap, ToneMapSettings{}));
+  PENUMBRA_TRY(writeMethodImage((out_dir / exr_name).string(), product->lightmap));
+  PENUMBRA_TRY(
+      writeMethodImage((out_dir / png_name).string(), product->lightmap, ToneMapSettings{}));
   BakedGltfInfo info;
   info.name = stem;
   info.bin_uri = bin_name;
@@ -390,6 +391,8 @@ Expected<RunResult> bakeScene(BakeOptions options, const CommonOptions& common,
     Expected<std::vector<std::string>> set =
         applySceneSettings(options, context.scene->settings, context.scene->source, context.given);
     if (!set) return set.error();
+    options.given = context.given;
+    options.given.insert(options.given.end(), set->begin(), set->end());
     return bake(options, common, interrupted);
   });
 }

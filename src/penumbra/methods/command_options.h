@@ -53,6 +53,10 @@ struct LightmapMethodOptions {
   std::optional<double> time_limit;
   int shooters = 1;
   int first_shots = 32;  // kStochasticFirstShots (radiosity/stochastic.h)
+  // The options the caller or the scene's "settings" set (names as on the command line, without
+  // dashes): resuming, each option the checkpoint fixes is compared with these, never overridden
+  // in silence.
+  std::vector<std::string> given;
 };
 
 struct RenderOptions : LightmapMethodOptions {

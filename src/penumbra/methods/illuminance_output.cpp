@@ -2,6 +2,7 @@
 
 #include "penumbra/core/file_util.h"
 #include "penumbra/io/image_io.h"
+#include "penumbra/methods/render.h"
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
@@ -87,7 +88,7 @@ Status writeRenderOutputs(const RenderOptions& options, const std::vector<std::s
   for (const std::string& out : outputs) {
     const std::string path = frame_name.empty() ? out : frame_name;  // a sequence's frame
     if (!lux) {
-      PENUMBRA_TRY(writeImage(path, radiance, options.tonemap));
+      PENUMBRA_TRY(writeMethodImage(path, radiance, options.tonemap));
       continue;
     }
     const int w = radiance.width, h = radiance.height;
@@ -95,9 +96,10 @@ Status writeRenderOutputs(const RenderOptions& options, const std::vector<std::s
       const Image picture = falseColourImage(report->image_lux, w, h, options.lux_max.value_or(0));
       ToneMapSettings none;
       none.op = ToneMapOperator::kNone;
-      PENUMBRA_TRY(writeImage(path, picture, none));
+      PENUMBRA_TRY(writeMethodImage(path, picture, none));
     } else {
-      PENUMBRA_TRY(writeImage(path, renderedValues(options, radiance, report), options.tonemap));
+      PENUMBRA_TRY(
+          writeMethodImage(path, renderedValues(options, radiance, report), options.tonemap));
     }
   }
   if (!report) return {};

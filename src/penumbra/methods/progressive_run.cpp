@@ -30,6 +30,46 @@ namespace {
 // at 11,000 (docs/performance.md); 700 leaves a margin.
 constexpr uint64_t kBytesPerElement = 700;
 
+// A number as a user writes it: 0.05, 16, 1e-05.
+std::string written(double v) {
+  return fmt::format("{:g}", v);
+}
+
+// The options a progressive checkpoint fixes, against those the caller gave.
+Status checkResumedProgressive(const Scene& scene, const ProgressiveRunOptions& o,
+                               const ProgressiveCheckpointInfo& info) {
+  const auto check = [&](const char* name, const std::string& fixed, const std::string& asked) {
+    return checkResumedOption(o.given, o.resume, name, fixed, asked);
+  };
+  if (o.texel_density) {
+    if (std::abs(*o.texel_density / info.texel_density - 1.0) > 1e-9) {
+      PENUMBRA_TRY(check("texel-density", written(info.texel_density), written(*o.texel_density)));
+    }
+  } else if (std::find(o.given.begin(), o.given.end(), "elements") != o.given.end()) {
+    const double density = progressiveTexelDensity(scene, o.elements);
+    if (std::abs(density / info.texel_density - 1.0) > 1e-9) {
+      return inputError(o.resume, "",
+                        fmt::format("was written with {} texels per metre; --elements {} gives {}",
+                                    written(info.texel_density), o.elements, written(density)));
+    }
+  }
+  const int points =
+      info.shooter_top_points > 0 ? info.shooter_top_points : info.shooter_min_points;
+  PENUMBRA_TRY(check("shooter-points", std::to_string(points), std::to_string(o.shooter_points)));
+  PENUMBRA_TRY(check("adaptive", info.adaptive ? "on" : "off", o.adaptive ? "on" : "off"));
+  if (o.receiver_level >= 0) {
+    PENUMBRA_TRY(check("receiver-level", std::to_string(info.receiver_level),
+                       std::to_string(o.receiver_level)));
+  }
+  const SubdivisionOptions& f = info.subdivision;
+  const SubdivisionOptions& a = o.subdivision;
+  PENUMBRA_TRY(check("boundary", fmt::format("{:g},{:g}", f.boundary_low, f.boundary_high),
+                     fmt::format("{:g},{:g}", a.boundary_low, a.boundary_high)));
+  PENUMBRA_TRY(
+      check("finest-level", std::to_string(f.finest_level), std::to_string(a.finest_level)));
+  return check("min-share", written(f.min_share), written(a.min_share));
+}
+
 // The solver's options from the command's, fixed by the checkpoint when resuming (read into
 // `info`), and the lightmap's size checked against the memory.
 Status prepareProgressive(const Scene& scene, const ProgressiveRunOptions& options,
@@ -55,12 +95,7 @@ Status prepareProgressive(const Scene& scene, const ProgressiveRunOptions& optio
     po.receiver_level = info->receiver_level;
     po.adaptive = info->adaptive != 0;
     po.subdivision = info->subdivision;
-    if (options.texel_density &&
-        std::abs(*options.texel_density / info->texel_density - 1.0) > 1e-9) {
-      return inputError(options.resume, "",
-                        fmt::format("was written with --texel-density {}, not {}",
-                                    info->texel_density, *options.texel_density));
-    }
+    PENUMBRA_TRY(checkResumedProgressive(scene, options, *info));
   } else if (options.texel_density) {
     po.atlas.texel_density = *options.texel_density;
   } else if (options.lightmap_size) {
@@ -181,6 +216,16 @@ Status checkLightmapPlan(const Scene& scene, const LightmapResolution& resolutio
                      fmt::format("{} with {} lightmap texels ({})", method, expected, sized_by));
 }
 
+Status checkResumedOption(const std::vector<std::string>& given, const std::string& checkpoint,
+                          const std::string& name, const std::string& fixed,
+                          const std::string& asked) {
+  if (fixed == asked || std::find(given.begin(), given.end(), name) == given.end()) return {};
+  return inputError(checkpoint, "",
+                    fmt::format("was written with --{} {}, not {}; the checkpoint fixes it (leave "
+                                "--{} out to continue it)",
+                                name, fixed, asked, name));
+}
+
 Status checkProgressiveRunOptions(const ProgressiveRunOptions& o) {
   if (o.texel_density && !(*o.texel_density > 0.0 && std::isfinite(*o.texel_density))) {
     return inputError("", "--texel-density", "must be a positive number of texels per metre");
@@ -223,12 +268,10 @@ Expected<ProgressiveRun> runProgressive(const Scene& scene, const ProgressiveRun
                       "cpu");
   }
   if (gate) PENUMBRA_TRY(gate->open());
-  if (common.dry_run) {
-    run.dry_run = true;
-    return run;
-  }
   if (gpu) {
-    if (options.shading_normals) spdlog::info("--device gpu: form factors use the faces' normals");
+    if (options.shading_normals && !common.dry_run) {
+      spdlog::info("--device gpu: form factors use the faces' normals");
+    }
     po = gpuProgressiveOptions(po);
   }
 
@@ -242,6 +285,14 @@ Expected<ProgressiveRun> runProgressive(const Scene& scene, const ProgressiveRun
                                     info->texel_density, built.error().message));
     }
     return built.error();
+  }
+  // A dry run checks what the run would: the lightmap is built (a density that leaves a chart
+  // without a texel is refused) and a checkpoint is restored into it (another scene's, or one
+  // whose lightmap differs, is refused); nothing is solved or written.
+  if (common.dry_run) {
+    if (info) PENUMBRA_TRY(resumeProgressiveCheckpoint(options.resume, scene, *built));
+    run.dry_run = true;
+    return run;
   }
   if (gpu && !info) {
     po.shooter_level = gpuShooterLevel(*built, options.shooter_points);

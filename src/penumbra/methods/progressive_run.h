@@ -15,6 +15,7 @@
 
 #include <optional>
 #include <string>
+#include <vector>
 
 namespace penumbra {
 
@@ -34,6 +35,7 @@ struct ProgressiveRunOptions {
   bool adaptive = false;
   int receiver_level = -1;
   SubdivisionOptions subdivision;
+  std::vector<std::string> given;  // LightmapMethodOptions::given
 };
 
 struct ProgressiveRun {
@@ -74,6 +76,7 @@ ProgressiveRunOptions progressiveRunOptions(const CommandOptions& o) {
   }
   ro.subdivision.finest_level = o.finest_level;
   if (o.min_share) ro.subdivision.min_share = *o.min_share;
+  ro.given = o.given;
   return ro;
 }
 
@@ -83,6 +86,13 @@ ProgressiveRunOptions progressiveRunOptions(const CommandOptions& o) {
 Status checkLightmapPlan(const Scene& scene, const LightmapResolution& resolution,
                          std::optional<uint64_t> checkpoint_elements, const std::string& method,
                          uint64_t bytes_per_element);
+
+// Resuming `checkpoint`: an option it fixes that the caller gave (`given` holds its name) with
+// another value is an error naming both ("was written with --seed 7, not 9"). `fixed` and `asked`
+// are the values as a user writes them.
+Status checkResumedOption(const std::vector<std::string>& given, const std::string& checkpoint,
+                          const std::string& name, const std::string& fixed,
+                          const std::string& asked);
 
 // Checks the options that do not need the scene (call before any work).
 Status checkProgressiveRunOptions(const ProgressiveRunOptions& options);

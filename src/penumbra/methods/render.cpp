@@ -3,6 +3,7 @@
 #include "penumbra/methods/render.h"
 
 #include "penumbra/cluster/distributed_render.h"
+#include "penumbra/core/check.h"
 #include "penumbra/core/file_util.h"
 #include "penumbra/core/interrupt.h"
 #include "penumbra/core/memory.h"
@@ -21,6 +22,7 @@
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
+#include <cmath>
 #include <filesystem>
 #include <functional>
 #include <memory>
@@ -33,6 +35,17 @@ namespace {}  // namespace
 std::string sceneStem(const std::string& scene) {
   const std::filesystem::path p(scene);
   return p.has_extension() ? p.stem().string() : p.filename().string();
+}
+
+Status writeMethodImage(const std::string& path, const Image& image,
+                        const ToneMapSettings& tonemap) {
+  for (size_t i = 0; i < image.pixels.size(); ++i) {
+    const glm::vec3& p = image.pixels[i];
+    PENUMBRA_CHECK_MSG(std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z),
+                       "{}: pixel ({}, {}) is ({}, {}, {})", path, i % size_t(image.width),
+                       i / size_t(image.width), p.x, p.y, p.z);
+  }
+  return writeImage(path, image, tonemap);
 }
 
 std::string sequenceFrameName(const std::string& path, int frame) {
@@ -91,6 +104,8 @@ Expected<RunResult> renderScene(RenderOptions options, const CommonOptions& comm
     Expected<std::vector<std::string>> set =
         applySceneSettings(options, context.scene->settings, context.scene->source, context.given);
     if (!set) return set.error();
+    options.given = context.given;
+    options.given.insert(options.given.end(), set->begin(), set->end());
     return runMethod(options, common, interrupted);
   });
 }

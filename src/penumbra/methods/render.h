@@ -4,6 +4,7 @@
 #pragma once
 
 #include "penumbra/core/expected.h"
+#include "penumbra/core/image.h"
 #include "penumbra/methods/command_options.h"
 #include "penumbra/methods/run_context.h"
 
@@ -41,6 +42,10 @@ Status renderRayTraced(const RenderOptions& options, const CommonOptions& common
 std::string sceneStem(const std::string& scene);
 // out.png -> out_0007.png: frame f of a sequence.
 std::string sequenceFrameName(const std::string& path, int frame);
+// Writes an image a method made (io/image_io.h: writeImage). A NaN or infinite pixel is a bug in
+// the method, never a picture to hand on: it is an internal error (exit 1) naming the pixel.
+Status writeMethodImage(const std::string& path, const Image& image,
+                        const ToneMapSettings& tonemap = {});
 // The render's image outputs (SCENE.png when none is given and the caller keeps no results), each
 // checked before the work: a known format and a writable place; for a sequence of `frames` > 1
 // its directory is made (and removed again if the run fails) and frame 0's name checked. The

@@ -99,7 +99,7 @@ Status renderLpv(const RenderOptions& options, const CommonOptions& common) {
     emitImage(image);
     for (const std::string& out : outputs) {
       PENUMBRA_TRY(
-          writeImage(frames > 1 ? sequenceFrameName(out, f) : out, image, options.tonemap));
+          writeMethodImage(frames > 1 ? sequenceFrameName(out, f) : out, image, options.tonemap));
     }
   }
   const LpvObject& first = solver.objects().front();

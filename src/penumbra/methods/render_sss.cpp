@@ -130,7 +130,7 @@ Status renderSssFrames(const RenderOptions& options, const std::vector<std::stri
     emitImage(image);
     for (const std::string& out : outputs) {
       PENUMBRA_TRY(
-          writeImage(frames > 1 ? sequenceFrameName(out, f) : out, image, options.tonemap));
+          writeMethodImage(frames > 1 ? sequenceFrameName(out, f) : out, image, options.tonemap));
     }
   }
   return {};

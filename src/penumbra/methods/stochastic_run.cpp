@@ -117,6 +117,38 @@ Status checkStochasticRunOptions(const StochasticRunOptions& o) {
   return {};
 }
 
+namespace {
+
+// The options a stochastic checkpoint fixes (the lightmap and the random numbers), against those
+// the caller gave.
+Status checkResumedStochastic(const Scene& scene, const StochasticRunOptions& o,
+                              const StochasticCheckpointInfo& info) {
+  const auto check = [&](const char* name, const std::string& fixed, const std::string& asked) {
+    return checkResumedOption(o.given, o.resume, name, fixed, asked);
+  };
+  if (o.texel_density) {
+    if (std::abs(*o.texel_density / info.texel_density - 1.0) > 1e-9) {
+      PENUMBRA_TRY(check("texel-density", fmt::format("{:g}", info.texel_density),
+                         fmt::format("{:g}", *o.texel_density)));
+    }
+  } else if (std::find(o.given.begin(), o.given.end(), "elements") != o.given.end()) {
+    LightmapResolution r;
+    r.elements = o.elements;
+    Expected<ChartAtlasOptions> atlas = lightmapAtlasOptions(scene, r);
+    if (atlas && std::abs(atlas->texel_density / info.texel_density - 1.0) > 1e-9) {
+      return inputError(o.resume, "",
+                        fmt::format("was written with {:g} texels per metre; --elements {} gives "
+                                    "{:g}",
+                                    info.texel_density, o.elements, atlas->texel_density));
+    }
+  }
+  PENUMBRA_TRY(check("seed", std::to_string(info.seed), std::to_string(o.seed)));
+  PENUMBRA_TRY(check("shooters", std::to_string(info.shooters), std::to_string(o.shooters)));
+  return check("first-shots", std::to_string(info.first_shots), std::to_string(o.first_shots));
+}
+
+}  // namespace
+
 Expected<StochasticRun> runStochastic(const Scene& scene, const StochasticRunOptions& options,
                                       const CommonOptions& common) {
   StochasticRun run;
@@ -146,12 +178,7 @@ Expected<StochasticRun> runStochastic(const Scene& scene, const StochasticRunOpt
     so.shooters = info->shooters;
     so.burn_in = info->burn_in;
     so.first_shots = info->first_shots;
-    if (options.texel_density &&
-        std::abs(*options.texel_density / info->texel_density - 1.0) > 1e-9) {
-      return inputError(options.resume, "",
-                        fmt::format("was written with --texel-density {}, not {}",
-                                    info->texel_density, *options.texel_density));
-    }
+    PENUMBRA_TRY(checkResumedStochastic(scene, options, *info));
   } else {
     Expected<ChartAtlasOptions> atlas = lightmapAtlasOptions(scene, resolution);
     if (!atlas) return atlas.error();
@@ -163,7 +190,23 @@ Expected<StochasticRun> runStochastic(const Scene& scene, const StochasticRunOpt
   Expected<DeviceChoice> device = chooseDevice(options.device);
   if (!device) return device.error();
   run.device = device->name();
+  // A dry run checks what the run would: the lightmap is built (a density that leaves a chart
+  // without a texel is refused) and a checkpoint is checked against it (another scene's is
+  // refused); the first shots and the iterations are left out.
   if (common.dry_run) {
+    Expected<RadiositySurface> surface =
+        RadiositySurface::build(scene, so.atlas, so.shading_normals);
+    if (!surface) {
+      if (info && surface.error().file.empty()) {
+        return inputError(options.resume, "",
+                          fmt::format("its lightmap ({} texels per metre) cannot be built: {}",
+                                      info->texel_density, surface.error().message));
+      }
+      return surface.error();
+    }
+    if (info) {
+      PENUMBRA_TRY(checkStochasticCheckpoint(options.resume, scene, *surface, so.shading_normals));
+    }
     run.dry_run = true;
     return run;
   }

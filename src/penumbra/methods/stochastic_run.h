@@ -15,6 +15,7 @@
 
 #include <optional>
 #include <string>
+#include <vector>
 
 namespace penumbra {
 
@@ -32,6 +33,7 @@ struct StochasticRunOptions {
   bool keep_checkpoint = false;
   std::string device = "cpu";
   bool shading_normals = true;
+  std::vector<std::string> given;  // LightmapMethodOptions::given
 };
 
 static_assert(LightmapMethodOptions{}.first_shots == kStochasticFirstShots);
@@ -65,6 +67,7 @@ StochasticRunOptions stochasticRunOptions(const CommandOptions& o) {
   ro.keep_checkpoint = o.keep_checkpoint;
   ro.device = o.device;
   ro.shading_normals = o.normals == "interpolated";
+  ro.given = o.given;
   return ro;
 }
 

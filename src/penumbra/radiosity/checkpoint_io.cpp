@@ -13,15 +13,8 @@ Status writeCheckpointFile(const std::string& path, CheckpointWriter& w) {
   Fnv1a h;
   h.add(w.bytes.data(), w.bytes.size());
   w.put(h.h);
-  return writeAtomicallyNow(path, [&](const std::string& tmp) -> Status {
-    std::unique_ptr<FILE, int (*)(FILE*)> f(std::fopen(tmp.c_str(), "wb"), &std::fclose);
-    if (!f) return runtimeError(path, "cannot write the checkpoint");
-    if (std::fwrite(w.bytes.data(), 1, w.bytes.size(), f.get()) != w.bytes.size() ||
-        std::fflush(f.get()) != 0) {
-      return runtimeError(path, "cannot write the checkpoint (disk full?)");
-    }
-    return {};
-  });
+  return writeAtomicallyNow(
+      path, [&](const std::string& tmp) -> Status { return writeBytesTo(path, tmp, w.bytes); });
 }
 
 bool checkpointChecksumMatches(const std::string& bytes) {

@@ -101,8 +101,10 @@ class ReceiverShare {
   void forMine(Body&& body) const {
     for (size_t c = 0; c < chunks(); ++c) {
       if (!mine(c)) continue;
-      const auto [b, e] = range(c);
-      parallelRange(e - b, kReceiverBlock, [&](size_t i, size_t j) { body(b + i, b + j); });
+      const auto chunk = range(c);
+      const size_t b = chunk.first;  // a plain variable: lambdas may not capture bindings (C++17)
+      parallelRange(chunk.second - b, kReceiverBlock,
+                    [&](size_t i, size_t j) { body(b + i, b + j); });
     }
   }
   // Fills in the other ranks' receivers of `values` (one per receiver): every rank then has

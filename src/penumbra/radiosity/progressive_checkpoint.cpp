@@ -121,6 +121,7 @@ Status writeProgressiveCheckpoint(const std::string& path, const Scene& scene,
 
 Expected<ProgressiveCheckpointInfo> readProgressiveCheckpointInfo(const std::string& path) {
   // The header is all that is needed; the file is read whole for simplicity only when resuming.
+  PENUMBRA_TRY(checkInputFile(path));
   std::unique_ptr<FILE, int (*)(FILE*)> f(std::fopen(path.c_str(), "rb"), &std::fclose);
   if (!f) return inputError(path, "", "cannot open the checkpoint");
   std::string bytes(kHeaderBytes + 8, '\0');

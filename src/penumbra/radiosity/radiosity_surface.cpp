@@ -1,6 +1,7 @@
 #include "penumbra/radiosity/radiosity_surface.h"
 
 #include "penumbra/core/check.h"
+#include "penumbra/core/interrupt.h"
 #include "penumbra/core/parallel.h"
 #include "penumbra/geometry/shading_normals.h"
 #include "penumbra/geometry/tangents.h"
@@ -98,7 +99,11 @@ Expected<RadiositySurface> RadiositySurface::build(const Scene& scene,
   const std::vector<SurfaceFace> faces = surfaceFaces(scene, s.flat);
   Expected<ChartAtlas> atlas = buildChartAtlas(s.flat.positions, s.flat.triangles,
                                                s.flat.material_ids, faces, atlas_options);
-  if (!atlas.ok()) return atlas.error();
+  if (!atlas.ok()) {
+    Error e = atlas.error();
+    if (e.file.empty()) e.file = scene.source;  // "cornell: --lightmap-size: ... do not fit"
+    return e;
+  }
   s.atlas = std::move(*atlas);
   // Every chart needs a texel: the hierarchy roots each chart in a cluster. A density far too
   // coarse for the scene (--texel-density 3e-4 on the Cornell box) leaves charts without one.
@@ -334,9 +339,17 @@ std::vector<glm::dvec3> RadiositySurface::lightIrradianceAt(
   std::vector<glm::dvec3> out(n, glm::dvec3(0.0));
   if (lights.empty()) return out;
   std::atomic<uint64_t> traced{0};
+  // Every receiver against every light: with thousands of luminaires this one step takes
+  // minutes, so a stop request ends it (core/interrupt.h: throwIfStoppedMidStep) rather than
+  // waiting for it.
+  std::atomic<bool> stopped{false};
   parallelRange(n, 1024, [&](size_t begin, size_t end) {
     uint64_t count = 0;
     for (size_t r = begin; r < end; ++r) {
+      if (r % 64 == 0 && (stopped.load(std::memory_order_relaxed) || stoppedMidStep())) {
+        stopped = true;
+        return;
+      }
       glm::dvec3 sum(0.0);
       for (const Light& light : lights) {
         const LightSample s = sampleLight(light, positions[r], normals[r], shading_normals[r]);
@@ -351,6 +364,7 @@ std::vector<glm::dvec3> RadiositySurface::lightIrradianceAt(
     }
     traced += count;
   });
+  if (stopped) throwIfStoppedMidStep();
   if (rays) *rays += traced.load();
   return out;
 }

@@ -75,6 +75,7 @@ Status writeStochasticCheckpoint(const std::string& path, const Scene& scene,
 }
 
 Expected<StochasticCheckpointInfo> readStochasticCheckpointInfo(const std::string& path) {
+  PENUMBRA_TRY(checkInputFile(path));
   std::unique_ptr<FILE, int (*)(FILE*)> f(std::fopen(path.c_str(), "rb"), &std::fclose);
   if (!f) return inputError(path, "", "cannot open the checkpoint");
   std::string bytes(kHeaderBytes + 8, '\0');
@@ -92,37 +93,60 @@ Expected<StochasticCheckpointInfo> readStochasticCheckpointInfo(const std::strin
   return info;
 }
 
+namespace {
+
+// The checks of checkStochasticCheckpoint on the file's bytes; the header's fields in `info`.
+Status checkBytes(const std::string& path, const std::string& bytes, const Scene& scene,
+                  const RadiositySurface& surface, bool shading_normals,
+                  StochasticCheckpointInfo& info) {
+  Expected<StochasticCheckpointInfo> header = parseHeader(path, bytes);
+  if (!header) return header.error();
+  info = *header;
+  const uint64_t n = info.elements;
+  if (n > (bytes.size() - kHeaderBytes) / kElementBytes ||
+      bytes.size() != kHeaderBytes + kElementBytes * n + 8) {
+    return inputError(
+        path, "", fmt::format("truncated or padded: {} bytes for {} elements", bytes.size(), n));
+  }
+  if (!checkpointChecksumMatches(bytes)) {
+    return inputError(path, "", "corrupt (checksum mismatch)");
+  }
+  if (info.fingerprint != radiosityFingerprint(scene, surface, shading_normals) ||
+      n != surface.elementCount()) {
+    return inputError(path, "",
+                      fmt::format("was written for another scene, lightmap or --normals setting "
+                                  "({} elements in a {}x{} atlas; this run has {} in {}x{})",
+                                  n, info.atlas_width, info.atlas_height, surface.elementCount(),
+                                  surface.atlas.width, surface.atlas.height));
+  }
+  return {};
+}
+
+}  // namespace
+
+Status checkStochasticCheckpoint(const std::string& path, const Scene& scene,
+                                 const RadiositySurface& surface, bool shading_normals) {
+  Expected<std::string> bytes = readFile(path);
+  if (!bytes) return bytes.error();
+  StochasticCheckpointInfo info;
+  return checkBytes(path, *bytes, scene, surface, shading_normals, info);
+}
+
 Status resumeStochasticCheckpoint(const std::string& path, const Scene& scene,
                                   StochasticRadiosity& solver) {
   Expected<std::string> bytes = readFile(path);
   if (!bytes) return bytes.error();
-  Expected<StochasticCheckpointInfo> info = parseHeader(path, *bytes);
-  if (!info) return info.error();
-  const uint64_t n = info->elements;
-  if (n > (bytes->size() - kHeaderBytes) / kElementBytes ||
-      bytes->size() != kHeaderBytes + kElementBytes * n + 8) {
-    return inputError(
-        path, "", fmt::format("truncated or padded: {} bytes for {} elements", bytes->size(), n));
-  }
-  if (!checkpointChecksumMatches(*bytes)) {
-    return inputError(path, "", "corrupt (checksum mismatch)");
-  }
-  if (info->fingerprint !=
-          radiosityFingerprint(scene, solver.surface(), solver.options().shading_normals) ||
-      n != solver.elementCount()) {
-    return inputError(path, "",
-                      fmt::format("was written for another scene, lightmap or --normals setting "
-                                  "({} elements in a {}x{} atlas; this run has {} in {}x{})",
-                                  n, info->atlas_width, info->atlas_height, solver.elementCount(),
-                                  solver.atlas().width, solver.atlas().height));
-  }
-  if (info->seed != solver.options().seed || info->shooters != solver.options().shooters ||
-      info->burn_in != solver.burnIn() || info->first_shots != solver.options().first_shots) {
+  StochasticCheckpointInfo header;
+  PENUMBRA_TRY(
+      checkBytes(path, *bytes, scene, solver.surface(), solver.options().shading_normals, header));
+  const uint64_t n = header.elements;
+  if (header.seed != solver.options().seed || header.shooters != solver.options().shooters ||
+      header.burn_in != solver.burnIn() || header.first_shots != solver.options().first_shots) {
     return inputError(path, "",
                       "was written with another seed, --shooters, --first-shots or burn-in");
   }
   StochasticState state;
-  state.iterations = info->iterations;
+  state.iterations = header.iterations;
   state.iterate.resize(n);
   state.sum_odd.resize(n);
   state.sum_even.resize(n);

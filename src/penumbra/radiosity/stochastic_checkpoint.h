@@ -43,6 +43,12 @@ Status writeStochasticCheckpoint(const std::string& path, const Scene& scene,
 // checking the file's size against it.
 Expected<StochasticCheckpointInfo> readStochasticCheckpointInfo(const std::string& path);
 
+// What resuming checks before restoring the state: the file is whole (size, checksum) and was
+// written for this scene's lightmap `surface` with `shading_normals`. A dry run checks this
+// without building the solver.
+Status checkStochasticCheckpoint(const std::string& path, const Scene& scene,
+                                 const RadiositySurface& surface, bool shading_normals);
+
 // Restores the whole checkpoint into `solver`, built for the same scene with the header's
 // options. Input errors name the file and what does not match.
 Status resumeStochasticCheckpoint(const std::string& path, const Scene& scene,

@@ -10,6 +10,7 @@
 #include "penumbra/scene/luminaire.h"
 
 #include <fmt/format.h>
+#include <spdlog/spdlog.h>
 #include <glm/common.hpp>
 #include <glm/geometric.hpp>
 
@@ -230,6 +231,22 @@ Status checkIlluminanceRequest(const Scene& scene, const IlluminanceRequest& req
     Expected<CalculationGrid> g =
         workPlaneGrid(scene, *request.work_plane, request.spacing, request.margin);
     if (!g) return g.error();
+    // A plane above everything or below the floor is legal (an open site) but usually a slip of
+    // units: its lux would be read as the room's.
+    float lo = std::numeric_limits<float>::infinity(), hi = -lo;
+    for (const Mesh& m : scene.meshes) {
+      for (const glm::vec3& p : m.positions) {
+        lo = std::min(lo, p.y);
+        hi = std::max(hi, p.y);
+      }
+    }
+    const double height = *request.work_plane;
+    if (height < 0.0 || height > double(hi - lo)) {
+      spdlog::warn(
+          "--work-plane {:g} m lies outside the scene, whose geometry spans {:.3g} m "
+          "above its lowest point: the grid sees the scene from outside",
+          height, double(hi - lo));
+    }
   } else if (!request.surface.empty()) {
     Expected<CalculationGrid> g = surfaceGrid(scene, request.surface, request.spacing);
     if (!g) return g.error();

@@ -81,6 +81,7 @@ MediumSample MediumGrid::at(const glm::dvec3& u) const {
 }
 
 Expected<MediumGrid> readMediumGrid(const std::string& path) {
+  PENUMBRA_TRY(checkInputFile(path));
   std::ifstream in(path, std::ios::binary);
   if (!in) return inputError(path, "", "cannot be opened");
   std::string magic, dims;
@@ -161,12 +162,8 @@ Status writeMediumGrid(const std::string& path, const MediumGrid& grid) {
     out.write(reinterpret_cast<const char*>(v), sizeof(v));
   }
   const std::string bytes = out.str();
-  return writeAtomically(path, [&](const std::string& tmp) -> Status {
-    std::ofstream f(tmp, std::ios::binary);
-    f.write(bytes.data(), std::streamsize(bytes.size()));
-    if (!f) return inputError(path, "", "cannot be written");
-    return {};
-  });
+  return writeAtomically(
+      path, [&](const std::string& tmp) -> Status { return writeBytesTo(path, tmp, bytes); });
 }
 
 bool isMediumPattern(const std::string& name) {

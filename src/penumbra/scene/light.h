@@ -73,11 +73,16 @@ inline constexpr float kMaxRadiometricValue = 1e15f;
 // overflow single precision.
 inline constexpr double kLightReach = 1e6;
 
+// The most lights a scene may hold, whatever their source (arrays, files, scripts): the direct
+// light at every shading point visits each of them (raytrace/direct_light.h), so a scene of a
+// million lamps from a few lines of JSON would take hours for a thumbnail.
+inline constexpr size_t kMaxSceneLights = 10000;
+
 // Every light's numbers as the methods will use them (single precision, after transforms):
 // positions finite and within kLightReach scene radii of `centre`, directions finite and not
 // zero, intensities, irradiances and luminaire scales finite, non-negative and at most
 // kMaxRadiometricValue, spot angles in [0, pi/2] with inner <= outer. Errors name `source` and
-// the light ("light 3 (spot)").
+// the light ("light 3 (spot)"). More than kMaxSceneLights lights are refused.
 Status checkLights(std::span<const Light> lights, const glm::vec3& centre, float radius,
                    const std::string& source);
 

@@ -56,6 +56,12 @@ struct LightCheck {
 
 Status checkLights(std::span<const Light> lights, const glm::vec3& centre, float radius,
                    const std::string& source) {
+  if (lights.size() > kMaxSceneLights) {
+    return inputError(source, "lights",
+                      fmt::format("{} lights; a scene may hold at most {} (the direct light "
+                                  "visits every one at every shading point)",
+                                  lights.size(), kMaxSceneLights));
+  }
   const double reach = kLightReach * std::max(double(radius), 1e-3);
   for (size_t i = 0; i < lights.size(); ++i) {
     LightCheck c{centre, reach, source, ""};

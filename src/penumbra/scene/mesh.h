@@ -12,6 +12,12 @@
 
 namespace penumbra {
 
+// What one triangle of a scene takes in memory once a method runs on it: the mesh (positions,
+// normals and UVs shared by about two triangles each), its flattened copy and the ray-tracing
+// hierarchy with its build's temporaries. Measured on a sphere scene (docs/algorithms.md,
+// "Limits"); loaders plan with it before they build what a file asks for.
+inline constexpr uint64_t kSceneBytesPerTriangle = 200;
+
 struct Mesh {
   std::string name;
   std::vector<glm::vec3> positions;  // metres

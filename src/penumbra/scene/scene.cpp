@@ -6,6 +6,7 @@
 #include <glm/geometric.hpp>
 
 #include <fmt/format.h>
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <utility>
@@ -261,6 +262,14 @@ Status validateScene(Scene& scene) {
       if (!finite3(mesh.positions[i])) {
         return inputError(scene.source, fmt::format("{}, vertex {}", where, i),
                           "position is not a finite number");
+      }
+      const glm::vec3 p = mesh.positions[i];
+      if (std::max({std::abs(p.x), std::abs(p.y), std::abs(p.z)}) > kMaxCoordinate) {
+        return inputError(scene.source, fmt::format("{}, vertex {}", where, i),
+                          fmt::format("position ({:g}, {:g}, {:g}) is more than {:g} m from the "
+                                      "origin: areas and squared distances overflow single "
+                                      "precision (check the units or the transform's scale)",
+                                      p.x, p.y, p.z, kMaxCoordinate));
       }
     }
     if (!mesh.normals.empty() && mesh.normals.size() != mesh.positions.size()) {

@@ -57,7 +57,13 @@ glm::vec3 sceneCentre(const Scene& scene);
 // order), zeros for meshes without UVs; `any` says whether some mesh had them.
 std::vector<glm::vec2> flattenSceneUvs(const Scene& scene, bool& any);
 
-// Checks what every consumer relies on: finite positions, normals and UVs, indices in range,
+// The farthest a vertex may lie from the origin, in metres: beyond it areas and squared
+// distances overflow single precision within a few products (a mesh scaled by 1e30 rendered
+// black).
+inline constexpr float kMaxCoordinate = 1e9f;
+
+// Checks what every consumer relies on: finite positions within kMaxCoordinate of the origin,
+// normals and UVs, indices in range,
 // material ids in range, reflectance in [0, 1], non-negative finite emission and environment,
 // valid subsurface media. Degenerate (zero-area) triangles are kept, so that triangle indices
 // still follow the file, but are counted in a warning; a mesh made only of degenerate triangles
