@@ -16,6 +16,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <string>
+#include <vector>
 
 namespace penumbra {
 namespace {
@@ -55,6 +56,56 @@ size_t errorLines(const std::string& output) {
     EXPECT_NE((r).output.find(needle), std::string::npos) << (r).output; \
     EXPECT_EQ(errorLines((r).output), 1u) << (r).output;                 \
   } while (false)
+
+// Issue items 1 to 3: a light at 1e39 crashed every method, a luminaire colour of 1e300 gave
+// +inf pixels, a scene file's spp 0 gave an all-NaN image and its width 0 rendered and then
+// exited 1. Each is refused before the work by every method, --dry-run and the viewer.
+TEST(HostileValues, NumbersInsideFilesAreCheckedAsTheCommandLineIs) {
+  TempDir dir;
+  const std::string ldt = std::string(PENUMBRA_TEST_DATA) + "/photometry/sample_isym1.ldt";
+  const auto scene = [&](const std::string& name, const nlohmann::json& extra) {
+    nlohmann::json s = {
+        {"meshes", {{{"sphere", 2}}}},
+        {"lights", {{{"type", "point"}, {"position", {0, 3, 0}}, {"intensity", {1, 1, 1}}}}}};
+    s.update(extra);
+    return dir.write(name, s.dump());
+  };
+  const struct {
+    std::string file, needle;
+  } cases[] = {
+      {scene("far.json",
+             {{"lights",
+               {{{"type", "point"}, {"position", {1e39, 0, 0}}, {"intensity", {1, 1, 1}}}}}}),
+       "light 0 (point): position (inf, 0, 0)"},
+      {scene("hot.json", {{"lights",
+                           {{{"type", "luminaire"},
+                             {"file", ldt},
+                             {"position", {0, 3, 0}},
+                             {"colour", {1e300, 1, 1}}}}}}),
+       "light 0 (luminaire)"},
+      {scene("spp.json", {{"settings", {{"pathtrace", {{"spp", 0}}}}}}),
+       "settings.pathtrace.spp: 0 is out of range"},
+      {scene("width.json", {{"settings", {{"pathtrace", {{"width", 0}}}}}}),
+       "settings.pathtrace.width: 0 is out of range"},
+  };
+  for (const auto& c : cases) {
+    const bool settings =
+        c.file.find("spp") != std::string::npos || c.file.find("width") != std::string::npos;
+    std::vector<std::string> runs = {"render " + c.file + " --quiet -o " + dir.file("a.png"),
+                                     "render " + c.file + " --dry-run -o " + dir.file("a.png")};
+    if (!settings) {
+      for (const char* m : {"progressive", "whitted", "stochastic", "matrix"}) {
+        runs.push_back("render " + c.file + " --method " + m + " --quiet -o " + dir.file("a.png"));
+      }
+      runs.push_back("view " + c.file);
+    }
+    for (const std::string& args : runs) {
+      const CliResult r = runGuarded(args, "DISPLAY= ");
+      EXPECT_REFUSED(r, 2, c.needle);
+    }
+  }
+  EXPECT_FALSE(fs::exists(dir.file("a.png")));
+}
 
 // Issue item 6: a FIFO blocked forever, /dev/zero was read until memory ran out.
 TEST(HostileValues, InputsMustBeRegularFiles) {
@@ -227,6 +278,9 @@ TEST(HostileValues, DryRunChecksWhatTheRunChecks) {
                      dir.file("a.png") + run);
       EXPECT_REFUSED(coarse, 2, "without a texel");
     }
+    const CliResult small = runGuarded("render sss --method sss --lightmap-size 8 --quiet -o " +
+                                       dir.file("a.png") + run);
+    EXPECT_REFUSED(small, 2, "sss: --lightmap-size: the scene's 166 charts do not fit a 8 x 8");
     for (const std::string& method : {"pathtrace", "progressive"}) {
       const CliResult scaled = runGuarded("render " + huge + " --method " + method +
                                           " --quiet -o " + dir.file("a.png") + run);

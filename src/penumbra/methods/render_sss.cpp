@@ -181,12 +181,8 @@ Status renderSss(const RenderOptions& options, const CommonOptions& common) {
   for (const std::string& w : diffuseStandInWarnings(*scene, "sss")) spdlog::warn("{}", w);
   Expected<SssOptions> so = sssSolverOptions(options);
   if (!so) return so.error();
-  if (common.dry_run) {
-    bool any = false;
-    for (const Material& m : scene->materials) any |= m.isTranslucent();
-    if (!any) return inputError(scene->source, "", "no material has a subsurface block");
-    return {};
-  }
+  // A dry run builds the atlas as the run would (not the links).
+  if (common.dry_run) return SssSolver::check(*scene, *so);
 
   Expected<DeviceChoice> device = chooseDevice(options.device);
   if (!device) return device.error();

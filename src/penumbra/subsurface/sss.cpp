@@ -20,9 +20,7 @@
 
 namespace penumbra {
 
-Expected<SssSolver> SssSolver::build(const Scene& scene, const SssOptions& options,
-                                     const std::function<void(size_t, size_t)>& progress) {
-  const Timer timer;
+Expected<SssSolver> SssSolver::buildSurface(const Scene& scene, const SssOptions& options) {
   SssSolver s;
   s.scene_ = scene;
   s.options_ = options;
@@ -48,6 +46,20 @@ Expected<SssSolver> SssSolver::build(const Scene& scene, const SssOptions& optio
   Expected<RadiositySurface> surface = RadiositySurface::build(s.scene_, *atlas, true);
   if (!surface) return surface.error();
   s.surface_ = std::move(*surface);
+  return s;
+}
+
+Status SssSolver::check(const Scene& scene, const SssOptions& options) {
+  const Expected<SssSolver> s = buildSurface(scene, options);
+  return s.ok() ? Status{} : Status(s.error());
+}
+
+Expected<SssSolver> SssSolver::build(const Scene& scene, const SssOptions& options,
+                                     const std::function<void(size_t, size_t)>& progress) {
+  const Timer timer;
+  Expected<SssSolver> surfaced = buildSurface(scene, options);
+  if (!surfaced) return surfaced;
+  SssSolver& s = *surfaced;
   s.tree_ = buildSssTree(s.surface_, s.scene_.materials);
   s.media_ = objectMedia(s.tree_, s.scene_.materials);
   const size_t elements = s.surface_.elementCount();
@@ -76,7 +88,7 @@ Expected<SssSolver> SssSolver::build(const Scene& scene, const SssOptions& optio
     }
   }
   s.build_seconds_ = timer.seconds();
-  return s;
+  return surfaced;
 }
 
 std::vector<glm::vec3> SssSolver::transmittedIrradiance(std::span<const Light> lights,

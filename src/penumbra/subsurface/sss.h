@@ -56,6 +56,9 @@ class SssSolver {
   // Fails when no material has a subsurface block. `progress(done, total)` follows the links.
   static Expected<SssSolver> build(const Scene& scene, const SssOptions& options,
                                    const std::function<void(size_t, size_t)>& progress = nullptr);
+  // What build checks before the links (--dry-run): a translucent material, the memory the links
+  // will take, and the atlas itself, built (an atlas too small for the charts is refused).
+  static Status check(const Scene& scene, const SssOptions& options);
 
   const RadiositySurface& surface() const { return surface_; }
   const SssTree& tree() const { return tree_; }
@@ -86,6 +89,8 @@ class SssSolver {
   Image scatteredRadianceAtlas(std::span<const glm::vec3> scattered) const;
 
  private:
+  // The scene made one-sided where translucent and the atlas built: build's first half.
+  static Expected<SssSolver> buildSurface(const Scene& scene, const SssOptions& options);
   std::vector<glm::vec3> computeEmitterIrradiance() const;
   void addEnvironmentIrradiance(std::vector<glm::vec3>& out) const;
 
