@@ -168,10 +168,10 @@ def read_pfm(path):
     return struct.unpack(fmt, data[: 4 * 3 * w * h])
 
 
-def run_case(cli, scene_path, method, out, timeout):
+def run_case(cli, scene_path, method, out, timeout, device="auto"):
     image = out + ".pfm"
     args = [cli, "render", scene_path, "--method", method, "--width", "12", "--height", "10",
-            "--quiet", "-o", image]
+            "--device", device, "--quiet", "-o", image]
     started = time.monotonic()
     try:
         run = subprocess.run(args, capture_output=True, text=True, timeout=timeout)
@@ -204,6 +204,8 @@ def main():
     ap.add_argument("--formats", default="json,gltf")
     ap.add_argument("--timeout", type=float, default=60.0)
     ap.add_argument("--jobs", type=int, default=os.cpu_count() or 2)
+    ap.add_argument("--device", default="auto",
+                    help="as render --device; cpu skips probing for an OpenGL context each run")
     a = ap.parse_args()
     os.makedirs(a.out, exist_ok=True)
     with open(os.path.join(a.out, "room.obj"), "w") as f:
@@ -220,7 +222,7 @@ def main():
             json.dump(templates[fmt], f)
         for method in methods:
             outcome, _, err = run_case(a.cli, scene, method, os.path.join(a.out, "base"),
-                                       a.timeout)
+                                       a.timeout, a.device)
             if outcome != "ok":
                 print("the %s template does not render with %s: %s %s" % (fmt, method, outcome,
                                                                           err))
@@ -245,7 +247,8 @@ def main():
                 label = "%s %s = %s, %s" % (fmt, "/".join(map(str, path)), json.dumps(value),
                                             method)
                 out = os.path.join(a.out, "case%05d-%s" % (n, method))
-                jobs.append((label, pool.submit(run_case, a.cli, scene, method, out, a.timeout)))
+                jobs.append((label, pool.submit(run_case, a.cli, scene, method, out, a.timeout,
+                                                a.device)))
         for label, job in jobs:
             outcome, seconds, err = job.result()
             outcomes[outcome] += 1

@@ -241,8 +241,9 @@ void writeImage(const std::string& path, const Image& image,
 void checkMemory(uint64_t bytes, const std::string& what);
 
 // Asks the running call to stop, as SIGINT asks the CLI: progressive and stochastic radiosity
-// stop after the current step and write what they have; the other methods stop at the next pixel
-// (the path tracer) or step and throw Error(kInterrupted). Async-signal-safe: a caller's SIGINT
+// stop after the current step and write what they have (during the lights' shot, before anything
+// is solved, they throw Error(kInterrupted)); the other methods stop at the next pixel (the path
+// tracer) or step and throw Error(kInterrupted). Async-signal-safe: a caller's SIGINT
 // handler may call it. The request is cleared when the next call starts.
 void requestInterrupt();
 
