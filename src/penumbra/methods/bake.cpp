@@ -26,6 +26,7 @@
 #include "penumbra/methods/stats_file.h"
 #include "penumbra/methods/stochastic_run.h"
 #include "penumbra/radiosity/matrix_radiosity.h"
+#include "penumbra/radiosity/texel_path_trace.h"
 #include "penumbra/render/lightmap_mesh.h"
 
 #include <fmt/format.h>
@@ -265,6 +266,76 @@ Expected<BakeProduct> solveProgressive(const CommonOptions& common, const Scene&
   return out;
 }
 
+// The path-traced lightmap (radiosity/texel_path_trace.h): the same atlas as the radiosity
+// methods' for the same --texel-density, every texel by unbiased path tracing.
+Expected<BakeProduct> solvePathTrace(const BakeOptions& options, const CommonOptions& common,
+                                     const Scene& scene, ReadyGate& gate) {
+  Communicator& comm = currentCommunicator();
+  if (comm.size() > 1) {
+    return inputError("", "--method", "pathtrace bakes on one process (not over MPI ranks)");
+  }
+  if (options.device == "gpu") {
+    return inputError("", "--device", "bake --method pathtrace runs on the cpu");
+  }
+  LightmapResolution resolution;
+  resolution.texel_density = options.texel_density;
+  resolution.size = options.lightmap_size;
+  resolution.elements = options.elements.value_or(kDefaultLightmapElements);
+  Expected<ChartAtlasOptions> atlas = lightmapAtlasOptions(scene, resolution);
+  if (!atlas) return atlas.error();
+  PENUMBRA_TRY(checkLightmapPlan(scene, resolution, std::nullopt, "the path-traced bake", 400));
+  TexelPathTraceOptions to;
+  to.max_samples = options.spp.value_or(to.max_samples);
+  to.min_samples = std::min(to.min_samples, to.max_samples);
+  to.target_error = options.tolerance.value_or(to.target_error);
+  to.seed = options.seed.value_or(0);
+  const bool shading_normals = true;
+  Expected<RadiositySurface> surface = RadiositySurface::build(scene, *atlas, shading_normals);
+  if (!surface) return surface.error();
+  PENUMBRA_TRY(gate.open());
+  if (common.dry_run) {
+    BakeProduct planned;
+    planned.dry_run = true;
+    return planned;
+  }
+  spdlog::info(
+      "{}: {} lightmap texels in a {}x{} atlas ({:.1f} texels/m), path-traced until "
+      "each is within {:g} (at most {} samples)",
+      scene.source, surface->elementCount(), surface->atlas.width, surface->atlas.height,
+      surface->atlas.texel_density, to.target_error, to.max_samples);
+  const InterruptScope interrupt;
+  Progress progress("texels", uint64_t(surface->elementCount()),
+                    !common.quiet && Progress::stderrIsTerminal());
+  std::mutex progress_mutex;
+  TexelPathTraceStats st;
+  Expected<std::vector<glm::dvec3>> b =
+      pathTraceTexels(scene, *surface, to, &st, [&](size_t done, size_t) {
+        const std::lock_guard<std::mutex> lock(progress_mutex);
+        progress.reach(uint64_t(done));
+      });
+  if (!b) return b.error();
+  progress.finish();
+  spdlog::info(
+      "{:.1f} samples per texel on average, {} texels at the cap, worst relative error "
+      "{:.3g}, {:.2f} s",
+      st.mean_samples, st.texels_at_cap, st.worst_relative_error, st.seconds);
+  BakeProduct out;
+  fillFromLightmap(scene, *surface, surface->radianceImage(*b), *b, out);
+  out.extras = {{"elements", surface->elementCount()},
+                {"samples_per_texel", st.mean_samples},
+                {"target_error", to.target_error}};
+  out.stats = {{"elements", surface->elementCount()},
+               {"samples", st.samples},
+               {"samples_per_texel", st.mean_samples},
+               {"texels_at_cap", st.texels_at_cap},
+               {"worst_relative_error", st.worst_relative_error},
+               {"target_error", to.target_error},
+               {"max_samples", to.max_samples},
+               {"rays", st.rays},
+               {"solve_seconds", st.seconds}};
+  return out;
+}
+
 Status bake(const BakeOptions& options, const CommonOptions& common, bool* interrupted) {
   // Over several processes (mpirun): every rank loads and checks, then they agree to start.
   Communicator& comm = currentCommunicator();
@@ -307,12 +378,14 @@ Status bake(const BakeOptions& options, const CommonOptions& common, bool* inter
   for (const std::string& w : diffuseStandInWarnings(*scene, options.method)) spdlog::warn("{}", w);
   bool any_emitter = false;
   for (const Material& m : scene->materials) any_emitter |= m.isEmissive();
-  if (!any_emitter && !progressive) {
+  if (!any_emitter && !progressive && options.method != "pathtrace") {
     spdlog::warn("{}: no emissive material: the solution is black", scene->source);
   }
   Expected<BakeProduct> product = stochastic    ? solveStochastic(common, *scene, so)
                                   : progressive ? solveProgressive(common, *scene, ro, gate)
-                                                : solveMatrix(options, common, *scene, gate);
+                                  : options.method == "pathtrace"
+                                      ? solvePathTrace(options, common, *scene, gate)
+                                      : solveMatrix(options, common, *scene, gate);
   if (!product) return product.error();
   if (product->dry_run) return {};
   if (product->other_rank) {

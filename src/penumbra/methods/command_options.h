@@ -151,7 +151,10 @@ struct BakeOptions : LightmapMethodOptions {
   bool keep_checkpoint = false;  // progressive: keep --resume's file after the run completes
   int shooter_points = 16;       // progressive: top-level points per shooter
   std::string normals = "interpolated";  // progressive: interpolated or triangle
-  std::optional<uint64_t> seed;          // stochastic: random seed (default 0)
+  std::optional<uint64_t> seed;          // stochastic, pathtrace: random seed (default 0)
+  // pathtrace (radiosity/texel_path_trace.h): the most samples a texel takes; --tolerance is the
+  // relative standard error each stops at.
+  std::optional<int> spp;
 };
 
 }  // namespace penumbra

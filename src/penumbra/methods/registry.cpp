@@ -34,6 +34,8 @@ const std::vector<std::string> kAll = {"pathtrace",   "whitted",    "photons", "
 const std::vector<std::string> kLightmap = {"matrix", "progressive", "stochastic"};
 const std::vector<std::string> kLux = {"pathtrace", "matrix", "progressive"};
 const std::vector<std::string> kCheckpointed = {"progressive", "stochastic"};
+// What `bake --method` takes: the radiosity methods and the path-traced reference.
+const std::vector<std::string> kBakes = {"pathtrace", "matrix", "progressive", "stochastic"};
 
 // A default as the docs show it, from the value the method's settings hold.
 template <typename T>
@@ -198,6 +200,10 @@ void addSolveOptions(std::vector<Bound<Options>>& b) {
                 {"progressive", text(kProgressiveDefaultElements), {}},
                 {"stochastic", text(kProgressiveDefaultElements), {}}}},
       field<Options>(&Options::elements));
+  if constexpr (std::is_same_v<Options, BakeOptions>) {
+    // bake --method pathtrace: about this many lightmap texels, as stochastic radiosity.
+    b.back().spec.uses.push_back({"pathtrace", text(kDefaultLightmapElements), {}});
+  }
   add({.name = "iterations",
        .kind = K::kInt,
        .range = range(1, 1 << 20),
@@ -217,6 +223,11 @@ void addSolveOptions(std::vector<Bound<Options>>& b) {
                "power is",
        .uses = {{"matrix", "1e-6", {}}, {"progressive", "1e-3", {}}}},
       field<Options>(&Options::tolerance));
+  if constexpr (std::is_same_v<Options, BakeOptions>) {
+    // bake --method pathtrace: each texel's relative standard error.
+    b.back().spec.help += "; bake --method pathtrace: when each texel's relative standard error is";
+    b.back().spec.uses.push_back({"pathtrace", "0.02", range(0, 1, true, true)});
+  }
   add({.name = "ff-rays",
        .kind = K::kInt,
        .range = range(1, 1024),
@@ -622,9 +633,9 @@ std::vector<Bound<BakeOptions>> bakeBindings() {
       field<B>(&B::scene));
   add({.name = "method",
        .kind = K::kChoice,
-       .choices = kLightmap,
-       .help = "matrix (matrix radiosity), progressive (progressive radiosity) or stochastic "
-               "(stochastic radiosity)"},
+       .choices = kBakes,
+       .help = "matrix (matrix radiosity), progressive (progressive radiosity), stochastic "
+               "(stochastic radiosity) or pathtrace (every texel path-traced: the reference)"},
       field<B>(&B::method));
   add({.name = "device",
        .kind = K::kChoice,
@@ -650,22 +661,29 @@ std::vector<Bound<BakeOptions>> bakeBindings() {
        .unit = "texels/m",
        .help = "lightmap texels per metre (the lightmap is then the smallest power of two that "
                "holds every chart)",
-       .uses = all(kLightmap)},
+       .uses = all(kBakes)},
       field<B>(&B::texel_density));
   add({.name = "lightmap-size",
        .kind = K::kInt,
        .range = range(8, 16384),
        .unit = "texels",
        .help = "without --texel-density: an N x N lightmap at the largest density that fits",
-       .uses = all(kLightmap)},
+       .uses = all(kBakes)},
       field<B>(&B::lightmap_size));
+  add({.name = "spp",
+       .kind = K::kInt,
+       .range = range(1, 1 << 20),
+       .help = "the most samples a texel takes (each takes at least 64, or this if fewer, and "
+               "stops once its error is within --tolerance)",
+       .uses = all({"pathtrace"}, "4096")},
+      field<B>(&B::spp));
   addSolveOptions(b);
   addReceiverOptions(b);
   addCheckpointOptions(b, "DIR/SCENE.checkpoint");
   add({.name = "seed",
        .kind = K::kUnsigned,
        .help = "random seed",
-       .uses = all({"stochastic"}, "0")},
+       .uses = all({"stochastic", "pathtrace"}, "0")},
       field<B>(&B::seed));
   return b;
 }
@@ -732,8 +750,10 @@ void setOption(Options& options, const OptionSpec& spec, const OptionValue& valu
 
 const std::vector<MethodInfo>& methodInfos() {
   static const std::vector<MethodInfo> methods = {
-      {"pathtrace", "the unbiased reference path tracer", "Kajiya 1986; Owen-scrambled Sobol",
-       false, true},
+      {"pathtrace",
+       "the unbiased reference path tracer (bake: every lightmap texel path-traced, the "
+       "reference for the radiosity bakes)",
+       "Kajiya 1986; Owen-scrambled Sobol", true, true},
       {"whitted",
        "Whitted ray tracing: mirrors, glass and direct light by shadow rays; no diffuse "
        "interreflection (photons and pathtrace add it), so rooms lit indirectly come out darker",

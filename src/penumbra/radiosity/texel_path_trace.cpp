@@ -1,0 +1,237 @@
+#include "penumbra/radiosity/texel_path_trace.h"
+
+#include "penumbra/core/color.h"
+#include "penumbra/core/interrupt.h"
+#include "penumbra/core/parallel.h"
+#include "penumbra/core/rng.h"
+#include "penumbra/core/timer.h"
+#include "penumbra/raytrace/path_tracer.h"
+
+#include <fmt/format.h>
+#include <glm/geometric.hpp>
+
+#include <algorithm>
+#include <array>
+#include <atomic>
+#include <cmath>
+#include <limits>
+#include <numbers>
+
+namespace penumbra {
+
+namespace {
+
+// A texel's footprint as triangles (its pieces, fanned), with the cumulative areas to pick one
+// by area, and the side's normal.
+struct Footprint {
+  std::vector<std::array<glm::dvec3, 3>> triangles;
+  std::vector<double> cumulative;  // running sum of the triangles' areas
+  glm::dvec3 normal{0.0};
+
+  glm::dvec3 sample(float u0, float u1, float u2) const {
+    const double pick = double(u0) * cumulative.back();
+    const size_t i =
+        size_t(std::upper_bound(cumulative.begin(), cumulative.end(), pick) - cumulative.begin());
+    const auto& t = triangles[std::min(i, triangles.size() - 1)];
+    // Uniform on the triangle (Osada et al. 2002: the square-root warp).
+    const double s = std::sqrt(double(u1));
+    return t[0] * (1.0 - s) + t[1] * (s * (1.0 - double(u2))) + t[2] * (s * double(u2));
+  }
+};
+
+Footprint footprintOf(const RadiositySurface& surface, size_t e,
+                      std::vector<std::array<glm::dvec3, 8>>& polygons, std::vector<int>& counts) {
+  Footprint f;
+  f.normal = surface.atlas.element_normal[e];
+  surface.atlas.elementPieces(e, surface.flat.positions, surface.flat.triangles, polygons, counts);
+  double sum = 0.0;
+  for (size_t p = 0; p < polygons.size(); ++p) {
+    for (int k = 1; k + 1 < counts[p]; ++k) {
+      const std::array<glm::dvec3, 3> t = {polygons[p][0], polygons[p][size_t(k)],
+                                           polygons[p][size_t(k + 1)]};
+      const double area = 0.5 * glm::length(glm::cross(t[1] - t[0], t[2] - t[0]));
+      if (!(area > 0.0)) continue;
+      sum += area;
+      f.triangles.push_back(t);
+      f.cumulative.push_back(sum);
+    }
+  }
+  if (f.triangles.empty()) {  // a sliver: its representative point stands for it
+    const glm::dvec3 p = surface.atlas.element_position[e];
+    f.triangles.push_back({p, p, p});
+    f.cumulative.push_back(1.0);
+  }
+  return f;
+}
+
+// One texel's running sums: the radiosity's colour and its luminance's first two moments.
+struct TexelSums {
+  glm::dvec3 radiosity{0.0};
+  double sum = 0.0, sum_sq = 0.0;
+  uint32_t samples = 0;
+  uint64_t drawn = 0;  // attempts, holes included (where the texel's random stream stands)
+  bool done = false;
+
+  double mean() const { return samples ? sum / samples : 0.0; }
+  // Standard error of the mean luminance.
+  double standardError() const {
+    if (samples < 2) return std::numeric_limits<double>::infinity();
+    const double m = mean();
+    const double variance = std::max(sum_sq / samples - m * m, 0.0) * samples / (samples - 1);
+    return std::sqrt(variance / samples);
+  }
+};
+
+class TexelTracer {
+ public:
+  TexelTracer(const Scene& scene, const RadiositySurface& surface,
+              const TexelPathTraceOptions& options)
+      : scene_(scene), surface_(surface), tracer_(scene), options_(options) {
+    settings_.max_depth = options.max_depth;
+    settings_.seed = options.seed;
+    settings_.low_discrepancy = false;
+  }
+
+  // `count` more samples of element e, continuing its own random stream (so the result does not
+  // depend on the thread count or the batching).
+  uint64_t sample(size_t e, int count, TexelSums& sums) const {
+    thread_local std::vector<std::array<glm::dvec3, 8>> polygons;
+    thread_local std::vector<int> counts;
+    const Footprint f = footprintOf(surface_, e, polygons, counts);
+    Rng rng(mixBits(options_.seed), e);
+    rng.advance(uint64_t(sums.drawn) * kDrawsPerSample);
+    uint64_t rays = 0;
+    // A point on a cut-out's hole is not on the surface: it is drawn again, a bounded number of
+    // times (a texel that is all hole keeps its emission alone).
+    for (int k = 0, attempts = 0; k < count && attempts < 8 * count + 64; ++attempts) {
+      // Each attempt draws exactly kDrawsPerSample numbers from `rng` (the path from its own).
+      const float u0 = rng.uniform(), u1 = rng.uniform(), u2 = rng.uniform();
+      const uint64_t path_stream = rng.nextU32() | uint64_t(rng.nextU32()) << 32;
+      ++sums.drawn;
+      const glm::dvec3 x = f.sample(u0, u1, u2);
+      // Looking down at x from just above it: the path tracer's radiance leaving x towards the
+      // origin is L_o(x) = L_e + (rho / pi) E(x) for the diffuse surface, with next-event
+      // estimation at x itself (area emitters and every light), so B(x) = pi L_o(x).
+      const double h = 4.0 * surface_.lift;
+      const Ray down{glm::vec3(x + f.normal * h), 0.0f, glm::vec3(-f.normal), float(2.0 * h)};
+      const Hit hit = surface_.engine.intersect(down);
+      ++rays;
+      if (!hit.hit() || std::abs(double(hit.t) - h) > 0.5 * h) continue;  // a hole, or a sliver
+      Rng path_rng(mixBits(options_.seed ^ 0x7e8e1), path_stream);
+      const glm::dvec3 b =
+          std::numbers::pi * glm::dvec3(tracer_.radiance(down, path_rng, settings_, rays));
+      const double y = double(luminance(glm::vec3(b)));
+      sums.radiosity += b;
+      sums.sum += y;
+      sums.sum_sq += y * y;
+      ++sums.samples;
+      ++k;
+    }
+    return rays;
+  }
+
+ private:
+  static constexpr uint64_t kDrawsPerSample = 5;
+  const Scene& scene_;
+  const RadiositySurface& surface_;
+  PathTracer tracer_;
+  PathTracerSettings settings_;
+  TexelPathTraceOptions options_;
+};
+
+Status checkOptions(const TexelPathTraceOptions& o) {
+  if (o.min_samples < 1 || o.max_samples < o.min_samples || o.max_samples > (1 << 20)) {
+    return inputError("", "texel path tracing",
+                      fmt::format("samples per texel: need 1 <= min ({}) <= max ({}) <= 2^20",
+                                  o.min_samples, o.max_samples));
+  }
+  if (!(o.target_error > 0.0 && o.target_error < 1.0)) {
+    return inputError("", "texel path tracing",
+                      fmt::format("target error {} is outside (0, 1)", o.target_error));
+  }
+  return {};
+}
+
+}  // namespace
+
+Expected<std::vector<glm::dvec3>> pathTraceTexels(
+    const Scene& scene, const RadiositySurface& surface, const TexelPathTraceOptions& options,
+    TexelPathTraceStats* stats, const std::function<void(size_t, size_t)>& progress) {
+  PENUMBRA_TRY(checkOptions(options));
+  const Timer timer;
+  const size_t n = surface.elementCount();
+  const TexelTracer tracer(scene, surface, options);
+  std::vector<TexelSums> sums(n);
+  std::atomic<uint64_t> rays{0};
+  std::atomic<size_t> finished{0};
+  // A round: every texel not yet done takes `batch` more samples.
+  const auto round = [&](int batch, const std::function<bool(const TexelSums&)>& stop) {
+    parallelRange(n, 64, [&](size_t begin, size_t end) {
+      uint64_t traced = 0;
+      for (size_t e = begin; e < end; ++e) {
+        if (sums[e].done) continue;
+        if (stoppedMidStep()) break;
+        const int left = options.max_samples - int(sums[e].samples);
+        const uint32_t before = sums[e].samples;
+        traced += tracer.sample(e, std::min(batch, left), sums[e]);
+        // A texel that is all cut-out hole gains no sample: it keeps its emission.
+        if (sums[e].samples == before || stop(sums[e])) {
+          sums[e].done = true;
+          const size_t done = ++finished;
+          if (progress) progress(done, n);
+        }
+      }
+      rays += traced;
+    });
+    throwIfStoppedMidStep();
+  };
+  round(options.min_samples, [&](const TexelSums& s) {
+    return s.samples >= uint32_t(options.max_samples) ||
+           s.standardError() <= options.target_error * s.mean();
+  });
+  // The floor: a tenth of the lightmap's mean radiosity (area-weighted).
+  double weighted = 0.0, area = 0.0;
+  for (size_t e = 0; e < n; ++e) {
+    weighted += sums[e].mean() * surface.atlas.element_area[e];
+    area += surface.atlas.element_area[e];
+  }
+  const double floor = area > 0.0 ? 0.1 * weighted / area : 0.0;
+  const auto converged = [&](const TexelSums& s) {
+    return s.samples >= uint32_t(options.max_samples) ||
+           s.standardError() <= options.target_error * std::max(s.mean(), floor);
+  };
+  for (size_t e = 0; e < n; ++e) {
+    if (!sums[e].done && converged(sums[e])) {
+      sums[e].done = true;
+      const size_t done = ++finished;
+      if (progress) progress(done, n);
+    }
+  }
+  for (int batch = options.min_samples; finished.load() < n;) {
+    batch = std::min(batch * 2, options.max_samples);  // the rounds double the samples taken
+    round(batch, converged);
+  }
+
+  std::vector<glm::dvec3> b(n);
+  TexelPathTraceStats st;
+  for (size_t e = 0; e < n; ++e) {
+    const TexelSums& s = sums[e];
+    b[e] = s.samples > 0 ? s.radiosity / double(s.samples) : surface.emission[e];
+    st.samples += s.samples;
+    if (s.samples >= uint32_t(options.max_samples) &&
+        s.standardError() > options.target_error * std::max(s.mean(), floor)) {
+      ++st.texels_at_cap;
+    }
+    const double denominator = std::max(s.mean(), floor);
+    if (denominator > 0.0) {
+      st.worst_relative_error = std::max(st.worst_relative_error, s.standardError() / denominator);
+    }
+  }
+  st.rays = rays.load();
+  st.seconds = timer.seconds();
+  st.mean_samples = n ? double(st.samples) / double(n) : 0.0;
+  if (stats) *stats = st;
+  return b;
+}
+
+}  // namespace penumbra
