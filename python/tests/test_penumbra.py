@@ -281,7 +281,8 @@ def test_help_and_methods_come_from_the_descriptions():
     assert "spp" in listed["pathtrace"]["options"]
     assert "light_samples" in listed["whitted"]["options"]
     assert "light_samples" not in listed["pathtrace"]["options"]
-    assert listed["matrix"]["bakes"] and not listed["pathtrace"]["bakes"]
+    assert listed["matrix"]["bakes"] and listed["pathtrace"]["bakes"]
+    assert not listed["whitted"]["bakes"]
 
 
 def test_bad_arrays_raise_naming_the_place():

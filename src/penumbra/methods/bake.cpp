@@ -270,10 +270,7 @@ Expected<BakeProduct> solveProgressive(const CommonOptions& common, const Scene&
 // methods' for the same --texel-density, every texel by unbiased path tracing.
 Expected<BakeProduct> solvePathTrace(const BakeOptions& options, const CommonOptions& common,
                                      const Scene& scene, ReadyGate& gate) {
-  Communicator& comm = currentCommunicator();
-  if (comm.size() > 1) {
-    return inputError("", "--method", "pathtrace bakes on one process (not over MPI ranks)");
-  }
+  // One process (registry: bake_over_ranks), on the CPU.
   if (options.device == "gpu") {
     return inputError("", "--device", "bake --method pathtrace runs on the cpu");
   }

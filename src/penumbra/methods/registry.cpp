@@ -753,7 +753,7 @@ const std::vector<MethodInfo>& methodInfos() {
       {"pathtrace",
        "the unbiased reference path tracer (bake: every lightmap texel path-traced, the "
        "reference for the radiosity bakes)",
-       "Kajiya 1986; Owen-scrambled Sobol", true, true},
+       "Kajiya 1986; Owen-scrambled Sobol", true, true, /*bake_over_ranks=*/false},
       {"whitted",
        "Whitted ray tracing: mirrors, glass and direct light by shadow rays; no diffuse "
        "interreflection (photons and pathtrace add it), so rooms lit indirectly come out darker",
@@ -786,7 +786,7 @@ Status checkDistributedMethod(const Communicator& comm, const std::string& comma
                               const std::string& method) {
   if (!comm.distributed()) return {};
   const auto runs = [&](const MethodInfo& m) {
-    return m.over_ranks && (command != "bake" || m.bakes);
+    return m.over_ranks && (command != "bake" || (m.bakes && m.bake_over_ranks));
   };
   const MethodInfo* info = findMethod(method);
   if (info && runs(*info)) return {};

@@ -22,6 +22,8 @@ struct MethodInfo {
   bool bakes = false;   // `penumbra bake --method NAME` too
   // Shares its work over the ranks of an MPI job (docs/scaling.md): the others run on one process.
   bool over_ranks = false;
+  // Its bake shares the work too (the path-traced bake runs on one process).
+  bool bake_over_ranks = true;
 };
 
 // Every method `render` takes, in the order the docs list them.
