@@ -5,6 +5,7 @@
 #include <unistd.h>
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 
 namespace penumbra {
@@ -21,11 +22,28 @@ void setProgressObserver(const ProgressObserver* observer) {
   g_observer = observer;
 }
 
+std::string formatTimeLeft(double elapsed, double fraction) {
+  if (!(fraction >= 0.01 && fraction < 1.0) || !(elapsed >= 1.0)) return {};
+  const double left = elapsed * (1.0 - fraction) / fraction;
+  if (!(left < 1e7)) return {};
+  const long s = std::lround(left);
+  char text[48];
+  if (s < 60) {
+    std::snprintf(text, sizeof text, "%ld s left", s);
+  } else if (s < 3600) {
+    std::snprintf(text, sizeof text, "%ld min %02ld s left", s / 60, s % 60);
+  } else {
+    std::snprintf(text, sizeof text, "%ld h %02ld min left", s / 3600, (s % 3600) / 60);
+  }
+  return text;
+}
+
 Progress::Progress(std::string label, uint64_t total, bool enabled)
     : label_(std::move(label)),
       total_(total),
       enabled_(enabled && total > 0),
-      observer_(g_observer.load()) {
+      observer_(g_observer.load()),
+      start_(nowSeconds()) {
   if (enabled_) draw(0, false);
   notify(0, false);
 }
@@ -97,7 +115,11 @@ void Progress::draw(uint64_t done, bool final) {
   bar.append(size_t(kWidth - filled), '.');
   // The note is padded so that a shorter one overwrites a longer one drawn before.
   std::string note = note_.empty() ? std::string() : "  " + note_;
-  if (note.size() < 40) note.append(40 - note.size(), ' ');
+  if (!final) {
+    const std::string left = formatTimeLeft(nowSeconds() - start_, frac);
+    if (!left.empty()) note += (note.empty() ? "  " : ", ") + left;
+  }
+  if (note.size() < 56) note.append(56 - note.size(), ' ');
   std::fprintf(stderr, "\r%s [%s] %5.1f%%%s%s", label_.c_str(), bar.c_str(), frac * 100.0,
                note.c_str(), final ? "\n" : "");
   std::fflush(stderr);

@@ -21,6 +21,11 @@ struct ProgressObserver {
 // Installs `observer` (or none) for the Progress objects made from now on, process-wide.
 void setProgressObserver(const ProgressObserver* observer);
 
+// The time left as the bar shows it, from the seconds spent and the fraction done, assuming the
+// rest goes at the same pace: "12 s left", "3 min 05 s left", "2 h 10 min left"; empty while too
+// little is done (under 1%, or under a second spent) to tell.
+std::string formatTimeLeft(double elapsed_seconds, double fraction_done);
+
 class Progress {
  public:
   // `total` units of work; `enabled` false draws nothing.
@@ -52,6 +57,7 @@ class Progress {
   std::atomic<uint64_t> done_{0};
   std::mutex mutex_;
   double last_draw_ = -1.0;
+  double start_ = 0.0;  // seconds (steady clock) when the work began
   bool finished_ = false;
 };
 
