@@ -139,6 +139,8 @@ class TexelTracer {
   TexelPathTraceOptions options_;
 };
 
+constexpr uint64_t kHoleDraws = 16;
+
 Status checkOptions(const TexelPathTraceOptions& o) {
   if (o.min_samples < 1 || o.max_samples < o.min_samples || o.max_samples > (1 << 20)) {
     return inputError("", "texel path tracing",
@@ -174,8 +176,13 @@ Expected<std::vector<glm::dvec3>> pathTraceTexels(
         const int left = options.max_samples - int(sums[e].samples);
         const uint32_t before = sums[e].samples;
         traced += tracer.sample(e, std::min(batch, left), sums[e]);
-        // A texel that is all cut-out hole gains no sample: it keeps its emission.
-        if (sums[e].samples == before || stop(sums[e])) {
+        // A texel that is (almost) all cut-out hole: once it has drawn kHoleDraws points per
+        // sample it may take without landing on the surface, it keeps what it has (its
+        // emission when nothing). A partly covered one continues like any other, so that its
+        // few points on the surface are not a handful of samples.
+        const bool hole = sums[e].samples == before &&
+                          sums[e].drawn >= kHoleDraws * uint64_t(options.max_samples);
+        if (hole || stop(sums[e])) {
           sums[e].done = true;
           const size_t done = ++finished;
           if (progress) progress(done, n);
