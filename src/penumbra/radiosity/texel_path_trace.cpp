@@ -69,6 +69,7 @@ struct TexelSums {
   glm::dvec3 radiosity{0.0};
   double sum = 0.0, sum_sq = 0.0;
   uint32_t samples = 0;
+  uint32_t lit = 0;    // samples that carried light
   uint64_t drawn = 0;  // attempts, holes included (where the texel's random stream stands)
   bool done = false;
 
@@ -125,6 +126,7 @@ class TexelTracer {
       sums.sum += y;
       sums.sum_sq += y * y;
       ++sums.samples;
+      if (y > 0.0) ++sums.lit;
       ++k;
     }
     return rays;
@@ -140,6 +142,8 @@ class TexelTracer {
 };
 
 constexpr uint64_t kHoleDraws = 16;
+constexpr uint32_t kMinLit = 16;
+constexpr uint32_t kUnlitSamples = 1024;
 
 Status checkOptions(const TexelPathTraceOptions& o) {
   if (o.min_samples < 1 || o.max_samples < o.min_samples || o.max_samples > (1 << 20)) {
@@ -192,9 +196,16 @@ Expected<std::vector<glm::dvec3>> pathTraceTexels(
     });
     throwIfStoppedMidStep();
   };
+  // The standard error is trusted only once a texel has seen light kMinLit times: 64 samples of
+  // exactly zero have a standard error of zero, and a texel lit only by rare paths (through a
+  // cut-out's lattice) would stop black. A texel that no sample of kUnlitSamples lit is taken
+  // as dark (light reaching it in under 3 of that many paths, at 95% confidence).
+  const auto unlit = [&](const TexelSums& s) {
+    return s.lit == 0 && s.samples >= std::min(kUnlitSamples, uint32_t(options.max_samples));
+  };
   round(options.min_samples, [&](const TexelSums& s) {
-    return s.samples >= uint32_t(options.max_samples) ||
-           s.standardError() <= options.target_error * s.mean();
+    return s.samples >= uint32_t(options.max_samples) || unlit(s) ||
+           (s.lit >= kMinLit && s.standardError() <= options.target_error * s.mean());
   });
   // The floor: a tenth of the lightmap's mean radiosity (area-weighted).
   double weighted = 0.0, area = 0.0;
@@ -204,8 +215,9 @@ Expected<std::vector<glm::dvec3>> pathTraceTexels(
   }
   const double floor = area > 0.0 ? 0.1 * weighted / area : 0.0;
   const auto converged = [&](const TexelSums& s) {
-    return s.samples >= uint32_t(options.max_samples) ||
-           s.standardError() <= options.target_error * std::max(s.mean(), floor);
+    return s.samples >= uint32_t(options.max_samples) || unlit(s) ||
+           (s.lit >= kMinLit &&
+            s.standardError() <= options.target_error * std::max(s.mean(), floor));
   };
   for (size_t e = 0; e < n; ++e) {
     if (!sums[e].done && converged(sums[e])) {

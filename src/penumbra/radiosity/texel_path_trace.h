@@ -14,10 +14,12 @@
 // the renders. A point that falls in a cut-out's hole is drawn again.
 //
 // Stopping rule: every texel takes `min_samples`; then each continues in batches until the
-// standard error of its irradiance estimate is at most `target_error` times the larger of its
-// own mean and a floor (a tenth of the lightmap's mean irradiance after the first round, so
+// standard error of its radiosity estimate is at most `target_error` times the larger of its
+// own mean and a floor (a tenth of the lightmap's mean radiosity after the first round, so
 // that texels in shadow do not run to the cap for a relative error of nothing), or it reaches
-// `max_samples`.
+// `max_samples`. The error is trusted only once 16 of a texel's samples carried light: a texel
+// lit by rare paths alone would otherwise stop black after 64 zeros (whose standard error is 0);
+// a texel that none of 1,024 samples lit is taken as dark.
 #pragma once
 
 #include "penumbra/core/expected.h"
