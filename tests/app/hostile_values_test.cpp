@@ -28,17 +28,8 @@ using test::TempDir;
 // Runs `shell_prefix` then the CLI with `args` under a 60-second kill: a hang fails the test
 // instead of stopping the suite.
 CliResult runGuarded(const std::string& args, const std::string& shell_prefix = "") {
-  CliResult result;
-  const std::string cmd =
-      shell_prefix + "timeout -s KILL 60 " + std::string(PENUMBRA_CLI) + " " + args + " 2>&1";
-  FILE* pipe = ::popen(cmd.c_str(), "r");
-  if (!pipe) return result;
-  std::array<char, 4096> buf;
-  size_t n;
-  while ((n = std::fread(buf.data(), 1, buf.size(), pipe)) > 0) result.output.append(buf.data(), n);
-  const int status = ::pclose(pipe);
-  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return result;
+  return test::runShell(shell_prefix + "timeout -s KILL 60 " + std::string(PENUMBRA_CLI) + " " +
+                        args + " 2>&1");
 }
 
 size_t errorLines(const std::string& output) {

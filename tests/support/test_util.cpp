@@ -105,9 +105,12 @@ nlohmann::json readJson(const std::string& path) {
 }
 
 CliResult runCli(const std::string& args, const std::string& env) {
+  return runShell((env.empty() ? "" : "env " + env + " ") + std::string(PENUMBRA_CLI) + " " + args +
+                  " 2>&1");
+}
+
+CliResult runShell(const std::string& cmd) {
   CliResult result;
-  const std::string cmd =
-      (env.empty() ? "" : "env " + env + " ") + std::string(PENUMBRA_CLI) + " " + args + " 2>&1";
   FILE* pipe = ::popen(cmd.c_str(), "r");
   if (!pipe) return result;
   std::array<char, 4096> buf;

@@ -161,6 +161,8 @@ struct CliResult {
 // Runs build/bin/penumbra with `args` (a shell-quoted argument string), with `env` ("NAME=value
 // ...") added to its environment.
 CliResult runCli(const std::string& args, const std::string& env = "");
+// Runs `command` with /bin/sh; its stdout (add 2>&1 for stderr too) and exit code.
+CliResult runShell(const std::string& command);
 
 // That `work` throws InternalError (a broken PENUMBRA_CHECK, core/check.h) whose message
 // contains `expected`.

@@ -1,5 +1,7 @@
 #include "penumbra/io/gltf_values.h"
 
+#include "penumbra/io/json_guard.h"
+
 #include <fmt/format.h>
 
 #include <cmath>
@@ -14,22 +16,11 @@ using nlohmann::json;
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
-// What a JSON value is, for messages: "a string", "3 numbers".
+// What a JSON value is, for messages: an array with its length, a number as written.
 std::string describe(const json& j) {
-  switch (j.type()) {
-    case json::value_t::null:
-      return "null";
-    case json::value_t::object:
-      return "an object";
-    case json::value_t::array:
-      return fmt::format("an array of {}", j.size());
-    case json::value_t::string:
-      return "a string";
-    case json::value_t::boolean:
-      return "a boolean";
-    default:
-      return j.dump();
-  }
+  if (j.is_array()) return fmt::format("an array of {}", j.size());
+  if (j.is_number()) return j.dump();
+  return jsonTypeName(j);
 }
 
 // Checks the values of one object of the document; each check passes when the key is absent

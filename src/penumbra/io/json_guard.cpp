@@ -47,4 +47,23 @@ Status checkJsonNesting(const std::string& path, std::string_view text, bool com
   return {};
 }
 
+const char* jsonTypeName(const nlohmann::json& j) {
+  switch (j.type()) {
+    case nlohmann::json::value_t::null:
+      return "null";
+    case nlohmann::json::value_t::boolean:
+      return "a boolean";
+    case nlohmann::json::value_t::string:
+      return "a string";
+    case nlohmann::json::value_t::array:
+      return "an array";
+    case nlohmann::json::value_t::object:
+      return "an object";
+    case nlohmann::json::value_t::discarded:
+      return "nothing";
+    default:
+      return "a number";
+  }
+}
+
 }  // namespace penumbra

@@ -7,6 +7,8 @@
 #include "penumbra/core/expected.h"
 
 #include <cstddef>
+#include <nlohmann/json.hpp>
+
 #include <string>
 #include <string_view>
 
@@ -24,5 +26,9 @@ std::string lineAndColumn(std::string_view text, size_t offset);
 // skipped; nothing else about the JSON is checked (the parser does that).
 Status checkJsonNesting(const std::string& path, std::string_view text, bool comments,
                         size_t max_depth = kMaxJsonDepth);
+
+// What a JSON value is, for error messages: "null", "a boolean", "a string", "an array",
+// "an object", "a number".
+const char* jsonTypeName(const nlohmann::json& j);
 
 }  // namespace penumbra

@@ -43,25 +43,6 @@ namespace {
 
 using nlohmann::json;
 
-const char* jsonTypeName(const json& j) {
-  switch (j.type()) {
-    case json::value_t::null:
-      return "null";
-    case json::value_t::boolean:
-      return "a boolean";
-    case json::value_t::string:
-      return "a string";
-    case json::value_t::array:
-      return "an array";
-    case json::value_t::object:
-      return "an object";
-    case json::value_t::discarded:
-      return "nothing";
-    default:
-      return "a number";
-  }
-}
-
 std::string keyPath(const std::string& parent, const std::string& key) {
   return parent.empty() ? key : parent + "." + key;
 }
