@@ -61,7 +61,7 @@ def main():
     build = os.path.dirname(os.path.dirname(os.path.abspath(a.cli)))
     os.makedirs(a.out, exist_ok=True)
     ref_path, ref_seconds = bake(a.cli, a.scene, "pathtrace", a.density,
-                                 ["--tolerance", a.ref_tolerance, "--spp", "262144",
+                                 ["--tolerance", a.ref_tolerance, "--texel-samples", "262144",
                                   "--seed", "7"], os.path.join(a.out, "reference"))
     ref = luminance(read_exr(ref_path, build))
     print("reference: pathtrace --tolerance %s, %.1f s" % (a.ref_tolerance, ref_seconds))

@@ -399,7 +399,7 @@ TEST(Bake, PathTraceBakeWritesTheReferenceLightmap) {
   TempDir dir;
   const fs::path out = dir.path() / "baked";
   const auto r = runCli(
-      "bake cornell --method pathtrace --texel-density 10 --spp 512 "
+      "bake cornell --method pathtrace --texel-density 10 --texel-samples 512 "
       "--tolerance 0.05 --quiet -o " +
       out.string() + " --stats " + (out / "stats.json").string());
   ASSERT_EQ(r.exit_code, 0) << r.output;
@@ -412,6 +412,18 @@ TEST(Bake, PathTraceBakeWritesTheReferenceLightmap) {
   EXPECT_GE(stats["samples_per_texel"].get<double>(), 64.0);
   EXPECT_LE(stats["samples_per_texel"].get<double>(), 512.0);
   EXPECT_EQ(stats["max_samples"].get<int>(), 512);
+  // A scene's render settings (samples per pixel) do not become the texels' cap.
+  nlohmann::json scene = test::readJson(std::string(PENUMBRA_SOURCE_DIR) + "/scenes/cornell.json");
+  for (auto& mesh : scene["meshes"]) {
+    mesh["file"] = std::string(PENUMBRA_SOURCE_DIR) + "/scenes/" + mesh["file"].get<std::string>();
+  }
+  scene["settings"] = {{"pathtrace", {{"spp", 8}}}};
+  const std::string with_settings = dir.write("c.json", scene.dump());
+  const auto set =
+      runCli("bake " + with_settings + " --method pathtrace --texel-density 5 --quiet -o " +
+             (dir.path() / "b3").string() + " --stats " + (dir.path() / "s3.json").string());
+  ASSERT_EQ(set.exit_code, 0) << set.output;
+  EXPECT_EQ(test::readJson((dir.path() / "s3.json").string())["max_samples"].get<int>(), 4096);
   // Options the method does not take are refused with the methods that do.
   const auto bad = runCli("bake cornell --method pathtrace --iterations 5 --quiet -o " +
                           (dir.path() / "b2").string());

@@ -282,7 +282,7 @@ Expected<BakeProduct> solvePathTrace(const BakeOptions& options, const CommonOpt
   if (!atlas) return atlas.error();
   PENUMBRA_TRY(checkLightmapPlan(scene, resolution, std::nullopt, "the path-traced bake", 400));
   TexelPathTraceOptions to;
-  to.max_samples = options.spp.value_or(to.max_samples);
+  to.max_samples = options.texel_samples.value_or(to.max_samples);
   to.min_samples = std::min(to.min_samples, to.max_samples);
   to.target_error = options.tolerance.value_or(to.target_error);
   to.seed = options.seed.value_or(0);

@@ -153,8 +153,9 @@ struct BakeOptions : LightmapMethodOptions {
   std::string normals = "interpolated";  // progressive: interpolated or triangle
   std::optional<uint64_t> seed;          // stochastic, pathtrace: random seed (default 0)
   // pathtrace (radiosity/texel_path_trace.h): the most samples a texel takes; --tolerance is the
-  // relative standard error each stops at.
-  std::optional<int> spp;
+  // relative standard error each stops at. Not --spp: a scene's render settings
+  // ("settings.pathtrace.spp", samples per pixel) would become the texels' cap.
+  std::optional<int> texel_samples;
 };
 
 }  // namespace penumbra

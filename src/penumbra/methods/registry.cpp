@@ -670,13 +670,13 @@ std::vector<Bound<BakeOptions>> bakeBindings() {
        .help = "without --texel-density: an N x N lightmap at the largest density that fits",
        .uses = all(kBakes)},
       field<B>(&B::lightmap_size));
-  add({.name = "spp",
+  add({.name = "texel-samples",
        .kind = K::kInt,
        .range = range(1, 1 << 20),
        .help = "the most samples a texel takes (each takes at least 64, or this if fewer, and "
                "stops once its error is within --tolerance)",
        .uses = all({"pathtrace"}, "4096")},
-      field<B>(&B::spp));
+      field<B>(&B::texel_samples));
   addSolveOptions(b);
   addReceiverOptions(b);
   addCheckpointOptions(b, "DIR/SCENE.checkpoint");
