@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
-# Installs every Debian package Penumbra's build, tests and benchmarks need.
+# Installs every Debian package Penumbra's build, tests and benchmarks need, and the web viewer's
+# npm packages (web/package-lock.json) into web/node_modules.
 # Idempotent: does nothing (and needs no network) when everything is present.
 set -euo pipefail
+root="$(cd "$(dirname "$0")/.." && pwd)"
 
 packages=(
   # toolchain
@@ -24,7 +26,15 @@ packages=(
   python3-dev pybind11-dev python3-numpy python3-pytest
   # runs over several processes (mpirun) and their tests
   libopenmpi-dev openmpi-bin
+  # the web viewer's browser test (docs/web-viewer.md): headless chromium, driven by
+  # puppeteer-core from npm, which downloads no browser of its own
+  chromium
 )
+# node and npm for the web viewer (three.js, puppeteer-core, the glTF validator), unless the
+# machine has them already from elsewhere
+if ! command -v npm >/dev/null 2>&1; then
+  packages+=(nodejs npm)
+fi
 
 missing=()
 for p in "${packages[@]}"; do
@@ -33,13 +43,21 @@ for p in "${packages[@]}"; do
   fi
 done
 
-if [ ${#missing[@]} -eq 0 ]; then
-  exit 0
+if [ ${#missing[@]} -gt 0 ]; then
+  echo "install-deps: installing ${missing[*]}"
+  sudo_cmd=()
+  if [ "$(id -u)" -ne 0 ]; then sudo_cmd=(sudo); fi
+  export DEBIAN_FRONTEND=noninteractive
+  "${sudo_cmd[@]}" apt-get update -qq
+  "${sudo_cmd[@]}" apt-get install -y -qq --no-install-recommends "${missing[@]}"
 fi
 
-echo "install-deps: installing ${missing[*]}"
-sudo_cmd=()
-if [ "$(id -u)" -ne 0 ]; then sudo_cmd=(sudo); fi
-export DEBIAN_FRONTEND=noninteractive
-"${sudo_cmd[@]}" apt-get update -qq
-"${sudo_cmd[@]}" apt-get install -y -qq --no-install-recommends "${missing[@]}"
+# The web viewer's npm packages, exactly as web/package-lock.json pins them, whenever
+# web/node_modules is missing or older than the lock file (npm ci rewrites
+# node_modules/.package-lock.json, so a finished install is newer).
+web="$root/web"
+if [ ! -f "$web/node_modules/.package-lock.json" ] ||
+   [ "$web/package-lock.json" -nt "$web/node_modules/.package-lock.json" ]; then
+  echo "install-deps: npm ci in web/"
+  (cd "$web" && PUPPETEER_SKIP_DOWNLOAD=1 npm ci --no-audit --no-fund --loglevel=error)
+fi

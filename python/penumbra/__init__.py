@@ -59,7 +59,9 @@ class RenderResult:
 class BakeResult:
     """What :func:`bake` gives back: the lightmap atlas; the files are in ``output``."""
 
-    lightmap: np.ndarray  # H x W x 3 float32, linear radiance per texel
+    # H x W x 3 float32 per texel, linear: what the EXR holds (irradiance in W m^-2 for the
+    # default gltf="asset" output, outgoing radiance for gltf="emissive")
+    lightmap: np.ndarray
     stats: dict
     output: str
     files: list = field(default_factory=list)

@@ -25,6 +25,7 @@ namespace penumbra {
 namespace {
 
 namespace fs = std::filesystem;
+using test::bilinear;
 using test::runCli;
 using test::TempDir;
 
@@ -63,17 +64,6 @@ std::vector<uint32_t> readIndices(const tinygltf::Model& model, int accessor_ind
   std::vector<uint32_t> out(a.count);
   std::memcpy(out.data(), buffer.data.data() + view.byteOffset + a.byteOffset, 4 * a.count);
   return out;
-}
-
-glm::vec3 bilinear(const Image& image, glm::vec2 uv) {
-  const float fx = uv.x * float(image.width) - 0.5f, fy = uv.y * float(image.height) - 0.5f;
-  const int x0 = int(std::floor(fx)), y0 = int(std::floor(fy));
-  const float ax = fx - float(x0), ay = fy - float(y0);
-  auto at = [&](int x, int y) {
-    return image.at(std::clamp(x, 0, image.width - 1), std::clamp(y, 0, image.height - 1));
-  };
-  return (at(x0, y0) * (1 - ax) + at(x0 + 1, y0) * ax) * (1 - ay) +
-         (at(x0, y0 + 1) * (1 - ax) + at(x0 + 1, y0 + 1) * ax) * ay;
 }
 
 // Exact float equality of two vec3 (bit patterns, so -0 and NaN are not glossed over).
@@ -139,9 +129,10 @@ void expectFacesOfTheAtlas(const tinygltf::Model& model, const ChartAtlas& atlas
 TEST(Bake, CornellWritesAGltfAndLightmapsHoldingTheSolution) {
   TempDir dir;
   const fs::path out = dir.path() / "baked";
-  const auto r =
-      runCli("bake cornell --method matrix --elements 300 --lightmap-size 512 --quiet -o " +
-             out.string() + " --stats " + (out / "stats.json").string());
+  const auto r = runCli(
+      "bake cornell --method matrix --elements 300 --lightmap-size 512 --gltf emissive "
+      "--quiet -o " +
+      out.string() + " --stats " + (out / "stats.json").string());
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_TRUE(r.output.empty()) << r.output;
   EXPECT_EQ(listDirectory(out),
@@ -227,8 +218,10 @@ TEST(Bake, CornellWritesAGltfAndLightmapsHoldingTheSolution) {
 TEST(Bake, ProgressiveWritesTheSolversOwnLightmap) {
   TempDir dir;
   const fs::path out = dir.path() / "baked";
-  const auto r = runCli("bake cornell --method progressive --texel-density 40 --quiet -o " +
-                        out.string() + " --stats " + (out / "stats.json").string());
+  const auto r = runCli(
+      "bake cornell --method progressive --texel-density 40 --gltf emissive "
+      "--quiet -o " +
+      out.string() + " --stats " + (out / "stats.json").string());
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_EQ(listDirectory(out),
             (std::set<std::string>{"cornell.gltf", "cornell.bin", "cornell_lightmap.exr",
@@ -365,8 +358,8 @@ TEST(Bake, RadiosityBakesAgreeWithThePathTracedLightmap) {
   TempDir dir;
   const auto bakeWith = [&](const std::string& method) {
     const fs::path out = dir.path() / method;
-    const auto r = runCli("bake cornell --method " + method + " --texel-density 20 --quiet -o " +
-                          out.string());
+    const auto r = runCli("bake cornell --method " + method +
+                          " --texel-density 20 --gltf emissive --quiet -o " + out.string());
     EXPECT_EQ(r.exit_code, 0) << r.output;
     Expected<Image> lightmap = readImage((out / "cornell_lightmap.exr").string());
     EXPECT_TRUE(lightmap.ok());

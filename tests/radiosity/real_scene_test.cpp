@@ -263,9 +263,13 @@ TEST(RealScenes, MillimetreObjGivesTheMetrePicture) {
     const test::BlockComparison b = test::compareBlocks(views[k].second, views[k].first, 4, 3.0);
     std::printf("millimetre OBJ vs metres (%s): mean ratio %.5f %.5f %.5f, block RMS %.5f\n",
                 names[k], b.mean_ratio.x, b.mean_ratio.y, b.mean_ratio.z, b.block_rms);
+    // Stochastic radiosity's random walk diverges between the two scales once any decision
+    // rounds differently (a texel's anchor, radiosity/texel_footprint.h, tested by rays at
+    // grazing angles on the scan): the two are then independent runs, whose RMS is about the
+    // seed-to-seed noise; a unit error would be far beyond twice that.
     const bool noisy = k == 2;
     for (int c = 0; c < 3; ++c) EXPECT_NEAR(b.mean_ratio[c], 1.0, noisy ? 0.02 : 0.005) << names[k];
-    EXPECT_LE(b.block_rms, noisy ? 1.5 * noise.block_rms : 0.01) << names[k];
+    EXPECT_LE(b.block_rms, noisy ? 2.0 * noise.block_rms : 0.01) << names[k];
   }
 }
 

@@ -3,10 +3,12 @@
 
 #include "penumbra/core/check.h"
 #include "penumbra/core/expected.h"
+#include "penumbra/core/image.h"
 #include "penumbra/core/rng.h"
 #include "penumbra/scene/luminaire.h"
 #include "penumbra/scene/mesh.h"
 
+#include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
 #include <glm/vec4.hpp>
 
@@ -80,6 +82,25 @@ inline void addQuad(Mesh& m, glm::vec3 o, glm::vec3 u, glm::vec3 v, uint32_t mat
 // RFC 4648 base64 (for data: URIs in glTF files written by tests).
 // A binary glTF (GLB, glTF 2.0 sec. 4.4): the JSON chunk and the BIN chunk, each padded to 4 bytes.
 std::string glbBytes(const nlohmann::json& doc, const std::string& bin);
+
+// The bilinear lookup of `image` at `uv` (glTF convention: (0, 0) the top-left corner, texel
+// centres at half-integers), clamped to the edge, as a GPU's linear sampler reads a lightmap.
+inline glm::vec3 bilinear(const Image& image, glm::vec2 uv) {
+  const float fx = uv.x * float(image.width) - 0.5f, fy = uv.y * float(image.height) - 0.5f;
+  const int x0 = int(std::floor(fx)), y0 = int(std::floor(fy));
+  const float ax = fx - float(x0), ay = fy - float(y0);
+  auto at = [&](int x, int y) {
+    return image.at(std::clamp(x, 0, image.width - 1), std::clamp(y, 0, image.height - 1));
+  };
+  return (at(x0, y0) * (1 - ax) + at(x0 + 1, y0) * ax) * (1 - ay) +
+         (at(x0, y0 + 1) * (1 - ax) + at(x0 + 1, y0 + 1) * ax) * ay;
+}
+
+// Appends the bytes of `values` to a buffer (a glTF .bin made by hand).
+template <typename T>
+void appendBytes(std::string& buf, std::initializer_list<T> values) {
+  for (T v : values) buf.append(reinterpret_cast<const char*>(&v), sizeof(T));
+}
 
 inline std::string base64(const std::string& in) {
   static const char* const kChars =

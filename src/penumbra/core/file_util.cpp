@@ -232,6 +232,18 @@ void OutputTransaction::keepCreatedDirectories() {
 }
 
 Status OutputTransaction::commit() {
+  PENUMBRA_TRY(placeSoFar());
+  created_.clear();
+  for (const std::string& p : remove_on_commit_) {
+    std::error_code ec;
+    fs::remove(p, ec);
+  }
+  committed_ = true;
+  if (g_current == this) g_current = nullptr;
+  return {};
+}
+
+Status OutputTransaction::placeSoFar() {
   std::vector<std::string> placed;
   for (size_t i = 0; i < pending_.size(); ++i) {
     std::error_code ec;
@@ -249,13 +261,6 @@ Status OutputTransaction::commit() {
     placed.push_back(pending_[i].path);
   }
   pending_.clear();
-  created_.clear();
-  for (const std::string& p : remove_on_commit_) {
-    std::error_code ec;
-    fs::remove(p, ec);
-  }
-  committed_ = true;
-  if (g_current == this) g_current = nullptr;
   return {};
 }
 

@@ -60,6 +60,9 @@ class OutputTransaction {
   // Renames every temporary into place. If one fails, the temporaries left are removed and the
   // outputs this commit placed are removed again.
   Status commit();
+  // Renames the temporaries written so far into place (a preview to look at while the run goes
+  // on) and stays open for the rest. Directories it created stay while they hold what it placed.
+  Status placeSoFar();
 
   // The open transaction, or null.
   static OutputTransaction* current();

@@ -509,7 +509,8 @@ void splitOverlappingCharts(ChartSet& set, double density, const ChartAtlasOptio
     bool split_any = false;
     const size_t count = set.charts.size();
     for (size_t c = 0; c < count; ++c) {
-      if (!overlapping[c]) continue;
+      // An asset's block does not overlap itself (asset_charts.h checks): never split.
+      if (!overlapping[c] || set.charts[c].asset_block >= 0) continue;
       if (splitter.split(set, c)) {
         split_any = true;
         checked[c] = 0;
@@ -870,11 +871,7 @@ void moveElementsOntoSurface(ChartAtlas& atlas, std::span<const glm::vec3> posit
       uint32_t face = atlas.element_face[e];
       const glm::ivec2 t = atlas.texelOf(e);
       atlas.forEachPiece(
-          t, t,
-          std::span<const uint32_t>(atlas.element_faces)
-              .subspan(atlas.element_face_first[e],
-                       atlas.element_face_first[e + 1] - atlas.element_face_first[e]),
-          positions, triangles,
+          t, t, atlas.elementFaces(e), positions, triangles,
           [&](uint32_t f, const std::array<glm::dvec3, 8>& poly, int n, double area) {
             if (!(area > 0.0)) return;
             const glm::dvec3 q = closestPointOnConvexPolygon(centroid, poly.data(), n);
@@ -931,12 +928,21 @@ Expected<ChartAtlas> buildChartAtlas(std::span<const glm::vec3> positions,
                                      std::span<const glm::uvec3> triangles,
                                      std::span<const uint32_t> material_ids,
                                      std::span<const SurfaceFace> faces,
-                                     const ChartAtlasOptions& options) {
+                                     const ChartAtlasOptions& options,
+                                     const AssetLightmapUvs* asset) {
   PENUMBRA_TRY(checkAtlasOptions(faces, options));
   ChartAtlas atlas;
   atlas.faces.assign(faces.begin(), faces.end());
   atlas.padding = options.padding;
-  atlas.charts = buildCharts(positions, triangles, material_ids, faces, options.charts);
+  std::vector<int32_t> face_island;
+  if (asset) {
+    Expected<ChartSet> charts = chartsWithAssetUvs(positions, triangles, material_ids, faces,
+                                                   options.charts, *asset, face_island);
+    if (!charts) return charts.error();
+    atlas.charts = std::move(*charts);
+  } else {
+    atlas.charts = buildCharts(positions, triangles, material_ids, faces, options.charts);
+  }
   if (atlas.charts.charts.empty()) {
     return inputError("", "", "the lightmap atlas has only degenerate faces");
   }
@@ -953,6 +959,7 @@ Expected<ChartAtlas> buildChartAtlas(std::span<const glm::vec3> positions,
   placeCorners(atlas, density);
   moveElementsOntoSurface(atlas, positions, triangles);
   dilateIntoPadding(atlas, options.padding);
+  if (asset) splitAssetBlocks(atlas, face_island);
   return atlas;
 }
 
@@ -1033,14 +1040,11 @@ int ChartAtlas::elementPieces(size_t e, std::span<const glm::vec3> positions,
   polygons.clear();
   counts.clear();
   const glm::ivec2 t = texelOf(e);
-  forEachPiece(
-      t, t,
-      std::span<const uint32_t>(element_faces)
-          .subspan(element_face_first[e], element_face_first[e + 1] - element_face_first[e]),
-      positions, triangles, [&](uint32_t, const std::array<glm::dvec3, 8>& corners, int n, double) {
-        polygons.push_back(corners);
-        counts.push_back(n);
-      });
+  forEachPiece(t, t, elementFaces(e), positions, triangles,
+               [&](uint32_t, const std::array<glm::dvec3, 8>& corners, int n, double) {
+                 polygons.push_back(corners);
+                 counts.push_back(n);
+               });
   return int(polygons.size());
 }
 

@@ -33,6 +33,7 @@
 
 #include "penumbra/core/expected.h"
 #include "penumbra/core/image.h"
+#include "penumbra/geometry/asset_charts.h"
 #include "penumbra/geometry/charts.h"
 #include "penumbra/scene/scene.h"
 
@@ -75,6 +76,9 @@ struct ChartAtlasOptions {
   int padding = 1;             // empty texels between footprints (and dilation rounds), >= 1
   int max_resolution = 16384;  // atlases wider or higher than this are refused
   ChartOptions charts;
+  // --lightmap-uv asset: meshes with a second UV set keep it as their layout
+  // (geometry/asset_charts.h); RadiositySurface::build reads it from the scene.
+  bool asset_uvs = false;
 };
 
 // A chart as placed in the atlas.
@@ -122,6 +126,11 @@ struct ChartAtlas {
   std::vector<uint32_t> element_faces;
 
   size_t texelIndex(int x, int y) const { return size_t(y) * size_t(width) + size_t(x); }
+  // The faces whose UV triangles overlap element e's texel.
+  std::span<const uint32_t> elementFaces(size_t e) const {
+    return std::span<const uint32_t>(element_faces)
+        .subspan(element_face_first[e], element_face_first[e + 1] - element_face_first[e]);
+  }
   size_t elementCount() const { return element_texel.size(); }
   size_t chartCount() const { return placement.size(); }
   glm::ivec2 texelOf(size_t element) const {
@@ -162,11 +171,13 @@ uint64_t chartAtlasBytes(uint64_t width, uint64_t height, uint64_t elements);
 // triangle. Degenerate faces get no texels (their UVs are zero). Fails (input error) when the
 // options are out of range, the density asks for an atlas larger than `max_resolution` or one
 // that would not fit in memory, or the charts do not fit `resolution`.
+// With `asset`, the faces it gives UVs keep them (geometry/asset_charts.h).
 Expected<ChartAtlas> buildChartAtlas(std::span<const glm::vec3> positions,
                                      std::span<const glm::uvec3> triangles,
                                      std::span<const uint32_t> material_ids,
                                      std::span<const SurfaceFace> faces,
-                                     const ChartAtlasOptions& options);
+                                     const ChartAtlasOptions& options,
+                                     const AssetLightmapUvs* asset = nullptr);
 
 // The faces of the scene's flattened triangles that carry light: the front of every triangle and
 // the back of those whose material is two-sided (Material::two_sided), in triangle order.

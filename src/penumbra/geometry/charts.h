@@ -62,6 +62,9 @@ struct Chart {
   double area = 0.0;            // m^2
   bool planar = false;          // orthogonal projection of a flat chart
   bool conformal = false;       // least-squares conformal map (else projection)
+  // The asset's own lightmap UVs (geometry/asset_charts.h): the block (mesh) it lays out, or the
+  // island once the block is placed; -1 for charts made here. Never split or re-flattened.
+  int32_t asset_block = -1;
 };
 
 struct ChartSet {

@@ -147,39 +147,6 @@ const char* typeName(int type) {
   }
 }
 
-uint32_t readLe32(std::string_view bytes, size_t at) {
-  const auto* b = reinterpret_cast<const unsigned char*>(bytes.data() + at);
-  return uint32_t(b[0]) | uint32_t(b[1]) << 8 | uint32_t(b[2]) << 16 | uint32_t(b[3]) << 24;
-}
-
-// The JSON chunk of a GLB file, after checking the header (glTF 2.0, sec. 4.4: magic, version
-// 2, length, then a JSON chunk first).
-Expected<std::string_view> glbJsonChunk(const std::string& path, std::string_view bytes) {
-  if (bytes.size() < 20) return inputError(path, "GLB header", "the file is cut short");
-  const uint32_t version = readLe32(bytes, 4);
-  if (version != 2) {
-    return inputError(path, "GLB header",
-                      fmt::format("GLB version {} is not supported (glTF 2.0 files are GLB "
-                                  "version 2)",
-                                  version));
-  }
-  const uint32_t length = readLe32(bytes, 8);
-  if (length != bytes.size()) {
-    return inputError(path, "GLB header",
-                      fmt::format("the header gives a length of {} bytes, the file has {}", length,
-                                  bytes.size()));
-  }
-  const uint32_t chunk = readLe32(bytes, 12);
-  if (readLe32(bytes, 16) != 0x4E4F534Au) {
-    return inputError(path, "GLB header", "the first chunk is not JSON");
-  }
-  if (chunk > bytes.size() - 20) {
-    return inputError(path, "GLB JSON chunk",
-                      fmt::format("its length {} runs past the end of the file", chunk));
-  }
-  return bytes.substr(20, chunk);
-}
-
 // What tinygltf takes on trust, checked on the JSON first: the asset's version (tinygltf reads
 // glTF 1.0 files as if they were 2.0), the values it drops when their type is wrong
 // (io/gltf_values.h) and that external buffers and images name files (a
@@ -544,12 +511,12 @@ Expected<TextureBinding> GltfReader::textureBinding(int texture_index, int tex_c
       if (!x.at("texCoord").is_number_integer()) {
         return inputError(path_, where + ".texCoord", "must be an integer");
       }
-      const int64_t t = x.at("texCoord").get<int64_t>();
-      if (t < 0 || t > 7) {
+      const int64_t set = x.at("texCoord").get<int64_t>();
+      if (set < 0 || set > 7) {
         return inputError(path_, where + ".texCoord",
-                          fmt::format("{} is not a UV set (0 to 7)", t));
+                          fmt::format("{} is not a UV set (0 to 7)", set));
       }
-      uv_set = int(t);
+      uv_set = int(set);
     }
   }
   if (uv_set < 0 || uv_set > 7) {
@@ -876,6 +843,10 @@ Status GltfReader::addPrimitive(const tinygltf::Node& node, int mesh_index, size
   if (!material.ok()) return material.error();
   const bool mirrored = glm::determinant(glm::dmat3(world_from_object)) < 0.0;
   addTriangles(mode, *seq, *material, mirrored, where, mesh);
+  mesh.gltf_node = int(&node - model_.nodes.data());
+  mesh.gltf_mesh = mesh_index;
+  mesh.gltf_primitive = int(primitive_index);
+  mesh.gltf_mirrored = mirrored;
   if (mesh.triangles.empty()) {
     scene_.warnings.push_back(fmt::format("{}: {}: no triangles", path_, where));
     return {};

@@ -596,14 +596,17 @@ std::vector<uint8_t> displayBytes(const Image& linear, const ToneMapSettings& to
   return data;
 }
 
-Status writePng8(const std::string& path, int width, int height, std::span<const uint8_t> rgb) {
+Status writePng8(const std::string& path, int width, int height, std::span<const uint8_t> rgb,
+                 int channels) {
   if (extensionOf(path) != ".png") return unsupportedFormat(path);
-  if (width < 1 || height < 1 || rgb.size() != size_t(width) * size_t(height) * 3) {
+  if (width < 1 || height < 1 || (channels != 3 && channels != 4) ||
+      rgb.size() != size_t(width) * size_t(height) * size_t(channels)) {
     return runtimeError(path, "cannot write PNG file: the pixels do not fill the image");
   }
   return writeAtomically(path, [&](const std::string& tmp) -> Status {
     std::string bytes;
-    if (!stbi_write_png_to_func(appendToString, &bytes, width, height, 3, rgb.data(), width * 3)) {
+    if (!stbi_write_png_to_func(appendToString, &bytes, width, height, channels, rgb.data(),
+                                width * channels)) {
       return runtimeError(path, "cannot encode a PNG file");
     }
     return writeBytesTo(path, tmp, bytes);

@@ -24,8 +24,9 @@ Status writeImage(const std::string& path, const Image& linear,
 
 // The 8-bit sRGB bytes (RGB, row-major, top row first) a .png of `linear` holds.
 std::vector<uint8_t> displayBytes(const Image& linear, const ToneMapSettings& tonemap = {});
-// Writes 8-bit sRGB pixels as they are (a window's capture) to a .png.
-Status writePng8(const std::string& path, int width, int height, std::span<const uint8_t> rgb);
+// Writes 8-bit pixels as they are (RGB, or RGBA with channels 4; a window's capture) to a .png.
+Status writePng8(const std::string& path, int width, int height, std::span<const uint8_t> rgb,
+                 int channels = 3);
 
 // Reads .exr, .hdr, .pfm (linear) and .png (decoded from sRGB to linear).
 Expected<Image> readImage(const std::string& path);

@@ -18,6 +18,7 @@
 #include "penumbra/io/gltf_writer.h"
 #include "penumbra/io/image_io.h"
 #include "penumbra/io/scene_io.h"
+#include "penumbra/methods/bake_output.h"
 #include "penumbra/methods/matrix_build.h"
 #include "penumbra/methods/progressive_run.h"
 #include "penumbra/methods/registry.h"
@@ -25,6 +26,7 @@
 #include "penumbra/methods/run_context.h"
 #include "penumbra/methods/stats_file.h"
 #include "penumbra/methods/stochastic_run.h"
+#include "penumbra/radiosity/lightmap_seams.h"
 #include "penumbra/radiosity/matrix_radiosity.h"
 #include "penumbra/radiosity/texel_path_trace.h"
 #include "penumbra/render/lightmap_mesh.h"
@@ -103,7 +105,12 @@ float colorScale(std::span<const glm::vec3> radiance, std::span<const uint8_t> e
 // What a solver hands to the writer.
 struct BakeProduct {
   BakedMesh mesh;
-  Image lightmap;  // outgoing radiance B / pi per texel
+  Image lightmap;        // outgoing radiance B / pi per texel
+  Image irradiance;      // irradiance E per texel (the asset output's lightmap), seams stitched
+  nlohmann::json seams;  // what the stitching did (radiosity/lightmap_seams.h)
+  size_t anchored = 0;   // texels whose point moved to their side (radiosity/texel_footprint.h)
+  std::vector<SurfaceFace> faces;  // the atlas's faces and their corners' UVs
+  std::vector<glm::vec2> uvs;
   int atlas_width = 0, atlas_height = 0;
   double texel_density = 0.0;
   size_t triangles = 0;
@@ -115,12 +122,34 @@ struct BakeProduct {
   bool other_rank = false;  // a rank > 0 of a distributed run: solved, rank 0 writes
 };
 
+// The asset output's lightmap: irradiance from the solved radiance, its seams stitched.
+void stitchedIrradiance(const RadiositySurface& surface, bool stitch, BakeProduct& out) {
+  out.irradiance = irradianceImage(surface, out.lightmap);
+  const SeamStats st =
+      stitch ? stitchSeams(surface, out.irradiance) : measureSeams(surface, out.irradiance);
+  out.anchored = surface.anchored;
+  out.seams = {{"edges", st.edges},
+               {"samples", st.samples},
+               {"texels", st.texels},
+               {"largest_jump_before", st.jump_before},
+               {"largest_jump_after", st.jump_after},
+               {"rms_jump_before", st.rms_before},
+               {"rms_jump_after", st.rms_after}};
+  if (st.edges > 0 && stitch) {
+    spdlog::info(
+        "seams: {} edges stitched, largest jump {:.3g} -> {:.3g} W/m^2 (RMS {:.3g} -> "
+        "{:.3g})",
+        st.edges, st.jump_before, st.jump_after, st.rms_before, st.rms_after);
+  }
+}
+
 Expected<BakeProduct> solveMatrix(const BakeOptions& options, const CommonOptions& common,
                                   const Scene& scene, ReadyGate& gate) {
   Communicator& comm = currentCommunicator();
   MatrixRadiosityOptions mo;
   mo.elements = options.elements.value_or(kMatrixDefaultElements);
   mo.lightmap.texel_density = options.texel_density;
+  mo.lightmap.asset_uvs = options.lightmap_uv == "asset";
   mo.lightmap.size = options.lightmap_size;
   if (options.ff_rays) mo.form_factors.rays = *options.ff_rays;
   mo.shading_normals = options.normals == "interpolated";
@@ -165,6 +194,9 @@ Expected<BakeProduct> solveMatrix(const BakeOptions& options, const CommonOption
     return out;
   }
   out.lightmap = mr.surface.radianceImage(b);
+  stitchedIrradiance(mr.surface, options.seams == "stitch", out);
+  out.faces = mr.surface.atlas.faces;
+  out.uvs = mr.surface.atlas.uvs;
   out.mesh = buildLightmapMesh(scene, mr.surface.atlas, out.lightmap);
   std::vector<glm::vec3> radiance(b.size());
   std::vector<uint8_t> emissive(b.size());
@@ -205,8 +237,11 @@ Expected<BakeProduct> solveMatrix(const BakeOptions& options, const CommonOption
 // A method whose lightmap is the solution itself (progressive and stochastic radiosity): the
 // baked mesh and the colour scale from the lightmap and the radiosity per element.
 void fillFromLightmap(const Scene& scene, const RadiositySurface& surface, const Image& lightmap,
-                      const std::vector<glm::dvec3>& radiosity, BakeProduct& out) {
+                      const std::vector<glm::dvec3>& radiosity, bool stitch, BakeProduct& out) {
   out.lightmap = lightmap;
+  stitchedIrradiance(surface, stitch, out);
+  out.faces = surface.atlas.faces;
+  out.uvs = surface.atlas.uvs;
   out.mesh = buildLightmapMesh(scene, surface.atlas, out.lightmap);
   std::vector<glm::vec3> radiance(radiosity.size());
   std::vector<uint8_t> emissive(radiosity.size());
@@ -223,7 +258,7 @@ void fillFromLightmap(const Scene& scene, const RadiositySurface& surface, const
 
 // Stochastic radiosity (Barsi and Jakab): the running average in the lightmap.
 Expected<BakeProduct> solveStochastic(const CommonOptions& common, const Scene& scene,
-                                      const StochasticRunOptions& so) {
+                                      const StochasticRunOptions& so, bool stitch) {
   Expected<StochasticRun> run = runStochastic(scene, so, common);
   if (!run) return run.error();
   BakeProduct out;
@@ -233,7 +268,7 @@ Expected<BakeProduct> solveStochastic(const CommonOptions& common, const Scene& 
   }
   const StochasticRadiosity& sr = *run->solver;
   out.interrupted = run->interrupted;
-  fillFromLightmap(scene, sr.surface(), *run->lightmap, sr.radiosity(), out);
+  fillFromLightmap(scene, sr.surface(), *run->lightmap, sr.radiosity(), stitch, out);
   out.extras = {{"elements", sr.elementCount()},
                 {"iterations", run->stats.total_iterations},
                 {"error_estimate", run->stats.error}};
@@ -244,7 +279,8 @@ Expected<BakeProduct> solveStochastic(const CommonOptions& common, const Scene& 
 // Progressive radiosity (Wallner sec. 2-3): the lightmap is the solution itself, its occupied
 // texels the elements; border texels are filled for bilinear lookups (sec. 3.1).
 Expected<BakeProduct> solveProgressive(const CommonOptions& common, const Scene& scene,
-                                       const ProgressiveRunOptions& ro, ReadyGate& gate) {
+                                       const ProgressiveRunOptions& ro, bool stitch,
+                                       ReadyGate& gate) {
   Expected<ProgressiveRun> run = runProgressive(scene, ro, common, &gate);
   if (!run) return run.error();
   BakeProduct out;
@@ -258,7 +294,7 @@ Expected<BakeProduct> solveProgressive(const CommonOptions& common, const Scene&
     out.other_rank = true;  // rank 0 writes the outputs
     return out;
   }
-  fillFromLightmap(scene, pr.surface(), *run->lightmap, pr.state().radiosity, out);
+  fillFromLightmap(scene, pr.surface(), *run->lightmap, pr.state().radiosity, stitch, out);
   out.extras = {{"elements", pr.elementCount()},
                 {"iterations", run->stats.total_iterations},
                 {"unshot_fraction", run->stats.unshot_fraction}};
@@ -277,6 +313,7 @@ Expected<BakeProduct> solvePathTrace(const BakeOptions& options, const CommonOpt
   LightmapResolution resolution;
   resolution.texel_density = options.texel_density;
   resolution.size = options.lightmap_size;
+  resolution.asset_uvs = options.lightmap_uv == "asset";
   resolution.elements = options.elements.value_or(kDefaultLightmapElements);
   Expected<ChartAtlasOptions> atlas = lightmapAtlasOptions(scene, resolution);
   if (!atlas) return atlas.error();
@@ -317,7 +354,7 @@ Expected<BakeProduct> solvePathTrace(const BakeOptions& options, const CommonOpt
       "{:.3g}, {:.2f} s",
       st.mean_samples, st.texels_at_cap, st.worst_relative_error, st.seconds);
   BakeProduct out;
-  fillFromLightmap(scene, *surface, surface->radianceImage(*b), *b, out);
+  fillFromLightmap(scene, *surface, surface->radianceImage(*b), *b, options.seams == "stitch", out);
   out.extras = {{"elements", surface->elementCount()},
                 {"samples_per_texel", st.mean_samples},
                 {"target_error", to.target_error}};
@@ -331,6 +368,161 @@ Expected<BakeProduct> solvePathTrace(const BakeOptions& options, const CommonOpt
                {"rays", st.rays},
                {"solve_seconds", st.seconds}};
   return out;
+}
+
+// The outputs: temporaries in DIR, placed together by the transaction's commit, in the order
+// written: the glTF last, so that what it references is in place before it is.
+Status writeBakeOutputs(const BakeOptions& options, const Scene& scene, const BakeProduct& product,
+                        const fs::path& out_dir, const std::string& stem, double seconds) {
+  const bool asset = options.gltf == "asset";
+  const std::string gltf_name = stem + ".gltf", bin_name = stem + ".bin",
+                    exr_name = stem + "_lightmap.exr", png_name = stem + "_lightmap.png";
+  // The lightmap the EXR holds: irradiance for the asset output, radiance for the emissive one.
+  emitImage(asset ? product.irradiance : product.lightmap);
+  nlohmann::json extras = {
+      {"method", options.method}, {"scene", scene.source}, {"units", {{"length", "m"}}}};
+  extras.update(product.extras);
+  if (asset) {
+    extras["lights_baked"] = true;
+    extras["lightmap"] = {
+        {"uv", options.lightmap_uv},
+        {"width", product.atlas_width},
+        {"height", product.atlas_height},
+        {"texel_density", product.texel_density},
+        {"exr", exr_name},
+        {"png", png_name},
+        {"content",
+         "irradiance E, W m^-2, linear Rec. 709 RGB; outgoing radiance is E * "
+         "baseColor / pi + emission"},
+        {"png_encoding", "RGBM, linear: E = scale * rgb * a (materials' PENUMBRA_lightmap.scale)"}};
+  } else {
+    extras["units"]["radiance"] = "W m^-2 sr^-1";
+    extras["radiance_attribute"] = "_RADIANCE";
+    extras["color_0"] = "min(1, color_0_scale * _RADIANCE) per channel, linear";
+    extras["lightmap"] = {
+        {"texcoord", 1},
+        {"width", product.atlas_width},
+        {"height", product.atlas_height},
+        {"texel_density", product.texel_density},
+        {"exr", exr_name},
+        {"png", png_name},
+        {"exr_content", "outgoing radiance B/pi, W m^-2 sr^-1, linear Rec. 709 RGB"},
+        {"png_content",
+         "the EXR tone mapped (Reinhard 2002, automatic key), sRGB encoded; for display"}};
+  }
+  if (wantsStats(options.stats)) {
+    nlohmann::json j = {{"method", options.method},
+                        {"device", "cpu"},
+                        {"scene", scene.source},
+                        {"seconds", seconds},
+                        {"threads", threadCount()},
+                        {"gltf", options.gltf},
+                        {"atlas",
+                         {{"width", product.atlas_width},
+                          {"height", product.atlas_height},
+                          {"texel_density", product.texel_density},
+                          {"triangles", product.triangles}}},
+                        {"color_0_scale", product.color_scale},
+                        {"outputs",
+                         {(out_dir / gltf_name).string(), (out_dir / bin_name).string(),
+                          (out_dir / exr_name).string(), (out_dir / png_name).string()}}};
+    j.update(product.stats);
+    if (asset) j["seams"] = product.seams;
+    j["anchored_texels"] = product.anchored;
+    PENUMBRA_TRY(emitStats(options.stats, j));
+  }
+  if (asset) {
+    const std::vector<TriangleLightmapUvs> uvs =
+        triangleLightmapUvs(scene, product.faces, product.uvs, product.irradiance);
+    AssetBakeFiles files{(out_dir / gltf_name).string(), (out_dir / bin_name).string(),
+                         (out_dir / exr_name).string(), (out_dir / png_name).string()};
+    PENUMBRA_TRY(writeAssetBake(scene, product.irradiance, uvs, extras, files));
+  } else {
+    PENUMBRA_TRY(writeMethodImage((out_dir / exr_name).string(), product.lightmap));
+    PENUMBRA_TRY(
+        writeMethodImage((out_dir / png_name).string(), product.lightmap, ToneMapSettings{}));
+    BakedGltfInfo info;
+    info.name = stem;
+    info.bin_uri = bin_name;
+    info.lightmap_uri = png_name;
+    info.color_0_scale = product.color_scale;
+    info.extras = extras;
+    PENUMBRA_TRY(
+        writeBakedGltf((out_dir / gltf_name).string(), product.mesh, scene.materials, info));
+  }
+  if (!options.web.empty()) {
+    PENUMBRA_TRY(
+        writeWebViewer(normalDirectory(options.web).string(), (out_dir / gltf_name).string()));
+  }
+
+  return {};
+}
+
+Status bake(const BakeOptions& options, const CommonOptions& common, bool* interrupted);
+
+// --lightmap-uv asset: which meshes keep their own layout.
+void sayWhichLightmapUvs(const Scene& scene) {
+  const std::optional<AssetLightmapUvs> asset = assetLightmapUvs(scene);
+  if (!asset) {
+    spdlog::warn(
+        "{}: --lightmap-uv asset: no mesh has a second UV set (TEXCOORD_1); every mesh "
+        "gets generated charts",
+        scene.source);
+    return;
+  }
+  std::string names;
+  for (size_t b = 0; b < asset->block_name.size() && b < 8; ++b) {
+    names += (b ? ", " : "") + asset->block_name[b];
+  }
+  if (asset->block_name.size() > 8) names += ", ...";
+  spdlog::info(
+      "{}: lightmap UVs: TEXCOORD_1 of {} of {} meshes ({}); generated charts for the "
+      "rest",
+      scene.source, asset->block_name.size(), scene.meshes.size(), names);
+}
+
+// --preview: the same bake at a quarter of the texel density into DIR/preview (its own web page
+// in WEB/preview), placed before the full bake starts.
+Status bakePreview(const BakeOptions& options, const CommonOptions& common,
+                   const fs::path& out_dir) {
+  if (currentCommunicator().distributed()) {
+    return inputError("", "--preview", "a preview is baked in one process, not over ranks");
+  }
+  const Scene& scene = runScene();
+  BakeOptions p = options;
+  p.preview = false;
+  p.output = (out_dir / "preview").string();
+  if (!options.web.empty()) p.web = (normalDirectory(options.web) / "preview").string();
+  p.stats.clear();
+  p.resume.clear();
+  p.checkpoint.clear();
+  p.keep_checkpoint = false;
+  if (options.texel_density) {
+    p.texel_density = *options.texel_density / 4.0;
+  } else if (options.lightmap_size) {
+    p.lightmap_size = std::max(8, *options.lightmap_size / 4);
+  } else {
+    // The density the full bake's texel count gives (matrix: four texels per cluster).
+    const uint32_t elements = options.method == "matrix"
+                                  ? std::max(kDefaultLightmapElements,
+                                             4 * options.elements.value_or(kMatrixDefaultElements))
+                                  : options.elements.value_or(kDefaultLightmapElements);
+    p.texel_density = texelDensityFor(scene, elements) / 4.0;
+  }
+  if (options.method == "matrix") {
+    p.elements = std::max(1u, options.elements.value_or(kMatrixDefaultElements) / 16);
+  } else {
+    p.elements.reset();
+  }
+  const Timer timer;
+  bool interrupted = false;
+  PENUMBRA_TRY(bake(p, common, &interrupted));
+  if (interrupted || common.dry_run) return {};
+  PENUMBRA_TRY(OutputTransaction::current()->placeSoFar());
+  spdlog::info("preview: {} in {:.2f} s",
+               (fs::path(p.output) / (sceneStem(options.scene) + ".gltf")).string(),
+               timer.seconds());
+  return {};
 }
 
 Status bake(const BakeOptions& options, const CommonOptions& common, bool* interrupted) {
@@ -368,18 +560,36 @@ Status bake(const BakeOptions& options, const CommonOptions& common, bool* inter
     PENUMBRA_TRY(checkOutputPath((out_dir / name).string()));
   }
   if (!options.stats.empty()) PENUMBRA_TRY(checkOutputPath(options.stats));
-
-  const Timer total_timer;
-  const Scene* const scene = &runScene();
-  for (const std::string& w : scene->warnings) spdlog::warn("{}", w);
-  for (const std::string& w : diffuseStandInWarnings(*scene, options.method)) spdlog::warn("{}", w);
-  bool any_emitter = false;
-  for (const Material& m : scene->materials) any_emitter |= m.isEmissive();
-  if (!any_emitter && !progressive && options.method != "pathtrace") {
-    spdlog::warn("{}: no emissive material: the solution is black", scene->source);
+  if (!options.web.empty()) {
+    Expected<std::string> viewer = webViewerDirectory();
+    if (!viewer) return viewer.error();
+    Expected<std::vector<fs::path>> web_missing = checkOutputDirectory(options.web);
+    if (!web_missing) return web_missing.error();
+    for (const char* name : {"index.html", "bake.json"}) {
+      PENUMBRA_TRY(checkOutputPath((normalDirectory(options.web) / name).string()));
+    }
   }
-  Expected<BakeProduct> product = stochastic    ? solveStochastic(common, *scene, so)
-                                  : progressive ? solveProgressive(common, *scene, ro, gate)
+
+  const Scene* const scene = &runScene();
+  // The preview says what there is to say about the scene; the full bake does not repeat it.
+  if (options.preview) {
+    PENUMBRA_TRY(bakePreview(options, common, out_dir));
+  } else {
+    if (options.lightmap_uv == "asset") sayWhichLightmapUvs(*scene);
+    for (const std::string& w : scene->warnings) spdlog::warn("{}", w);
+    for (const std::string& w : diffuseStandInWarnings(*scene, options.method)) {
+      spdlog::warn("{}", w);
+    }
+    bool any_emitter = false;
+    for (const Material& m : scene->materials) any_emitter |= m.isEmissive();
+    if (!any_emitter && !progressive && options.method != "pathtrace") {
+      spdlog::warn("{}: no emissive material: the solution is black", scene->source);
+    }
+  }
+  const Timer total_timer;
+  const bool stitch = options.seams == "stitch";
+  Expected<BakeProduct> product = stochastic    ? solveStochastic(common, *scene, so, stitch)
+                                  : progressive ? solveProgressive(common, *scene, ro, stitch, gate)
                                   : options.method == "pathtrace"
                                       ? solvePathTrace(options, common, *scene, gate)
                                       : solveMatrix(options, common, *scene, gate);
@@ -396,55 +606,7 @@ Status bake(const BakeOptions& options, const CommonOptions& common, bool* inter
   }
   const double seconds = total_timer.seconds();
 
-  // Output: temporaries in DIR, placed together by the transaction's commit, in the order
-  // written: the glTF last, so that what it references is in place before it is.
-  emitImage(product->lightmap);
-  PENUMBRA_TRY(writeMethodImage((out_dir / exr_name).string(), product->lightmap));
-  PENUMBRA_TRY(
-      writeMethodImage((out_dir / png_name).string(), product->lightmap, ToneMapSettings{}));
-  BakedGltfInfo info;
-  info.name = stem;
-  info.bin_uri = bin_name;
-  info.lightmap_uri = png_name;
-  info.color_0_scale = product->color_scale;
-  info.extras = {
-      {"method", options.method},
-      {"scene", scene->source},
-      {"units", {{"length", "m"}, {"radiance", "W m^-2 sr^-1"}}},
-      {"radiance_attribute", "_RADIANCE"},
-      {"color_0", "min(1, color_0_scale * _RADIANCE) per channel, linear"},
-      {"lightmap",
-       {{"texcoord", 1},
-        {"width", product->atlas_width},
-        {"height", product->atlas_height},
-        {"texel_density", product->texel_density},
-        {"exr", exr_name},
-        {"png", png_name},
-        {"exr_content", "outgoing radiance B/pi, W m^-2 sr^-1, linear Rec. 709 RGB"},
-        {"png_content",
-         "the EXR tone mapped (Reinhard 2002, automatic key), sRGB encoded; for display"}}}};
-  info.extras.update(product->extras);
-  if (wantsStats(options.stats)) {
-    nlohmann::json j = {{"method", options.method},
-                        {"device", "cpu"},
-                        {"scene", scene->source},
-                        {"seconds", seconds},
-                        {"threads", threadCount()},
-                        {"atlas",
-                         {{"width", product->atlas_width},
-                          {"height", product->atlas_height},
-                          {"texel_density", product->texel_density},
-                          {"triangles", product->triangles}}},
-                        {"color_0_scale", product->color_scale},
-                        {"outputs",
-                         {(out_dir / gltf_name).string(), (out_dir / bin_name).string(),
-                          (out_dir / exr_name).string(), (out_dir / png_name).string()}}};
-    j.update(product->stats);
-    PENUMBRA_TRY(emitStats(options.stats, j));
-  }
-  PENUMBRA_TRY(
-      writeBakedGltf((out_dir / gltf_name).string(), product->mesh, scene->materials, info));
-
+  PENUMBRA_TRY(writeBakeOutputs(options, *scene, *product, out_dir, stem, seconds));
   spdlog::info("baked in {:.2f} s: {} ({}x{} lightmap, {:.0f} texels/m)", total_timer.seconds(),
                (out_dir / gltf_name).string(), product->atlas_width, product->atlas_height,
                product->texel_density);

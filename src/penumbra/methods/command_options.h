@@ -135,6 +135,16 @@ struct BakeOptions : LightmapMethodOptions {
   std::string device = "cpu";  // progressive: cpu, gpu or auto; matrix: cpu
   std::string output = ".";    // -o DIR, created if missing
   std::string stats;
+  // asset: the input's glTF with the lightmap added (io/gltf_lightmapped.h); emissive: the
+  // self-contained file of io/gltf_writer.h.
+  std::string gltf = "asset";
+  std::string web;  // --web DIR: the viewer page beside the bake (methods/bake_output.h)
+  // generate: the chart atlas of geometry/chart_atlas.h; asset: meshes with a second UV set
+  // (glTF TEXCOORD_1) keep it as their lightmap layout (geometry/asset_charts.h).
+  std::string lightmap_uv = "generate";
+  bool preview = false;
+  std::string seams = "stitch";  // stitch or off (radiosity/lightmap_seams.h)  // first a bake at a
+                                 // quarter of the texel density into DIR/preview
   std::optional<uint32_t> elements;  // as RenderOptions::elements
   std::optional<int> iterations;     // as RenderOptions::iterations
   // matrix: mean squared residual of MB - E, (W m^-2)^2 (default 1e-6); progressive: unshot

@@ -109,6 +109,7 @@ Status prepareProgressive(const Scene& scene, const ProgressiveRunOptions& optio
       return inputError(scene.source, "", "the scene has no surface area");
     }
   }
+  po.atlas.asset_uvs = options.asset_uvs;
   LightmapResolution resolution;
   resolution.texel_density = options.texel_density;
   resolution.size = options.lightmap_size;

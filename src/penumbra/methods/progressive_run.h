@@ -23,6 +23,7 @@ struct ProgressiveRunOptions {
   uint32_t elements = kProgressiveDefaultElements;  // about this many lightmap texels
   std::optional<double> texel_density;              // texels per metre (overrides elements)
   std::optional<int> lightmap_size;  // an N x N atlas at the largest density that fits
+  bool asset_uvs = false;            // ChartAtlasOptions::asset_uvs (--lightmap-uv asset)
   int iterations = 500;              // cap on iterations, counted over resumed runs
   double tolerance = 1e-3;           // unshot fraction
   std::string resume;                // checkpoint to continue from
@@ -60,6 +61,7 @@ ProgressiveRunOptions progressiveRunOptions(const CommandOptions& o) {
   ro.elements = o.elements.value_or(kProgressiveDefaultElements);
   ro.texel_density = o.texel_density;
   if constexpr (requires { o.lightmap_size; }) ro.lightmap_size = o.lightmap_size;
+  if constexpr (requires { o.lightmap_uv; }) ro.asset_uvs = o.lightmap_uv == "asset";
   ro.iterations = iterationCap(o.iterations);
   ro.tolerance = o.tolerance.value_or(1e-3);
   ro.resume = o.resume;

@@ -649,6 +649,42 @@ std::vector<Bound<BakeOptions>> bakeBindings() {
       field<B>(&B::output));
   add({.name = "stats", .kind = K::kText, .help = "write statistics to this JSON file"},
       field<B>(&B::stats));
+  add({.name = "gltf",
+       .kind = K::kChoice,
+       .choices = {"asset", "emissive"},
+       .help = "asset: the input's own glTF with its materials, textures and nodes, the "
+               "lightmap added as HDR irradiance on a UV set of its own (PENUMBRA_lightmap); "
+               "emissive: a self-contained file that shows the baked light as emission in any "
+               "glTF viewer",
+       .uses = all(kBakes, "asset")},
+      field<B>(&B::gltf));
+  add({.name = "web",
+       .kind = K::kText,
+       .help = "also write the web viewer (index.html and three.js) into this directory, "
+               "showing the bake (asset output only)",
+       .uses = all(kBakes)},
+      field<B>(&B::web));
+  add({.name = "lightmap-uv",
+       .kind = K::kChoice,
+       .choices = {"generate", "asset"},
+       .help = "generate: Penumbra's own chart atlas; asset: a mesh's second UV set "
+               "(TEXCOORD_1) where it has one, its islands kept as the artist laid them out "
+               "(in [0, 1], without overlaps), generated charts for the rest",
+       .uses = all(kBakes, "generate")},
+      field<B>(&B::lightmap_uv));
+  add({.name = "seams",
+       .kind = K::kChoice,
+       .choices = {"stitch", "off"},
+       .help = "stitch: texels on both sides of a seam on a smooth surface agree (least squares "
+               "over the seam edges, the asset output's lightmap); off: the solution as it is",
+       .uses = all(kBakes, "stitch")},
+      field<B>(&B::seams));
+  add({.name = "preview",
+       .kind = K::kFlag,
+       .help = "first a quick bake at a quarter of the texel density (a sixteenth of the "
+               "texels) into DIR/preview, placed as soon as it is done, then the full bake",
+       .uses = all(kBakes, "off")},
+      field<B>(&B::preview));
   add({.name = "solver",
        .kind = K::kChoice,
        .choices = {"jacobi", "gauss-seidel"},

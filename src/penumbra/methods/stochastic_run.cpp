@@ -165,6 +165,7 @@ Expected<StochasticRun> runStochastic(const Scene& scene, const StochasticRunOpt
   std::optional<StochasticCheckpointInfo> info;
   LightmapResolution resolution;
   resolution.texel_density = options.texel_density;
+  resolution.asset_uvs = options.asset_uvs;
   resolution.size = options.lightmap_size;
   resolution.elements = options.elements;
   if (!options.resume.empty()) {
@@ -174,6 +175,7 @@ Expected<StochasticRun> runStochastic(const Scene& scene, const StochasticRunOpt
     // The checkpoint fixes the lightmap and the random numbers (so that the resumed run
     // continues exactly as the interrupted one would have).
     so.atlas.texel_density = info->texel_density;
+    so.atlas.asset_uvs = options.asset_uvs;
     so.seed = info->seed;
     so.shooters = info->shooters;
     so.burn_in = info->burn_in;

@@ -23,6 +23,7 @@ struct StochasticRunOptions {
   uint32_t elements = kDefaultLightmapElements;  // about this many lightmap texels
   std::optional<double> texel_density;           // texels per metre (overrides elements)
   std::optional<int> lightmap_size;              // an N x N atlas at the largest density that fits
+  bool asset_uvs = false;                        // ChartAtlasOptions::asset_uvs
   int iterations = kStochasticIterationCap;      // cap, counted over resumed runs
   double time_limit = 0.0;                       // seconds; 0: none
   int shooters = 1;
@@ -57,6 +58,7 @@ StochasticRunOptions stochasticRunOptions(const CommandOptions& o) {
   ro.elements = o.elements.value_or(kDefaultLightmapElements);
   ro.texel_density = o.texel_density;
   if constexpr (requires { o.lightmap_size; }) ro.lightmap_size = o.lightmap_size;
+  if constexpr (requires { o.lightmap_uv; }) ro.asset_uvs = o.lightmap_uv == "asset";
   ro.iterations = iterationCap(o.iterations, o.time_limit, kStochasticIterationCap);
   ro.time_limit = o.time_limit.value_or(0.0);
   ro.shooters = o.shooters;

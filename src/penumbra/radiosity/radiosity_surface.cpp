@@ -1,5 +1,7 @@
 #include "penumbra/radiosity/radiosity_surface.h"
 
+#include "penumbra/radiosity/texel_footprint.h"
+
 #include "penumbra/core/check.h"
 #include "penumbra/core/interrupt.h"
 #include "penumbra/core/parallel.h"
@@ -60,8 +62,30 @@ double automaticDensity(const Scene& scene, uint32_t elements) {
 
 }  // namespace
 
+std::optional<AssetLightmapUvs> assetLightmapUvs(const Scene& scene) {
+  AssetLightmapUvs a;
+  uint32_t first = 0;
+  for (const Mesh& m : scene.meshes) {
+    const std::vector<glm::vec2>& uv = m.uvSet(1);
+    const bool has = !uv.empty() && uv.size() == m.positions.size();
+    const int32_t block = has ? int32_t(a.block_name.size()) : -1;
+    if (has) {
+      a.block_name.push_back(m.name.empty() ? scene.source : m.name);
+      a.block_first.push_back(first);
+    }
+    for (const glm::uvec3& t : m.triangles) {
+      a.block.push_back(block);
+      for (int k = 0; k < 3; ++k) a.corner_uv.push_back(has ? uv[t[k]] : glm::vec2(0.0f));
+    }
+    first += uint32_t(m.triangles.size());
+  }
+  if (a.block_name.empty()) return std::nullopt;
+  return a;
+}
+
 Expected<ChartAtlasOptions> lightmapAtlasOptions(const Scene& scene, const LightmapResolution& r) {
   ChartAtlasOptions o;
+  o.asset_uvs = r.asset_uvs;
   if (r.texel_density) {
     if (!(*r.texel_density > 0.0 && std::isfinite(*r.texel_density))) {
       return inputError("", "--texel-density", "must be a positive number of texels per metre");
@@ -97,8 +121,11 @@ Expected<RadiositySurface> RadiositySurface::build(const Scene& scene,
   RadiositySurface s;
   s.flat = flattenScene(scene);
   const std::vector<SurfaceFace> faces = surfaceFaces(scene, s.flat);
-  Expected<ChartAtlas> atlas = buildChartAtlas(s.flat.positions, s.flat.triangles,
-                                               s.flat.material_ids, faces, atlas_options);
+  const std::optional<AssetLightmapUvs> asset =
+      atlas_options.asset_uvs ? assetLightmapUvs(scene) : std::nullopt;
+  Expected<ChartAtlas> atlas =
+      buildChartAtlas(s.flat.positions, s.flat.triangles, s.flat.material_ids, faces, atlas_options,
+                      asset ? &*asset : nullptr);
   if (!atlas.ok()) {
     Error e = atlas.error();
     if (e.file.empty()) e.file = scene.source;  // "cornell: --lightmap-size: ... do not fit"
@@ -117,7 +144,6 @@ Expected<RadiositySurface> RadiositySurface::build(const Scene& scene,
                     "--texel-density or --elements)",
                     s.atlas.texel_density, it - has_texel.begin(), s.atlas.chartCount()));
   }
-  s.hierarchy = SurfaceHierarchy::build(s.atlas);
   s.engine = RayEngine::build(s.flat.positions, s.flat.triangles);
   {
     auto textures = std::make_shared<const SurfaceTextures>(scene);
@@ -128,6 +154,10 @@ Expected<RadiositySurface> RadiositySurface::build(const Scene& scene,
   }
   s.bounds = s.engine.bounds();
   s.lift = 1e-5 * double(glm::length(s.bounds.hi - s.bounds.lo));
+  // Each element's point on the side of its footprint that geometry standing on the chart does
+  // not cut off (radiosity/texel_footprint.h), before anything reads the points.
+  s.anchored = anchorElements(s);
+  s.hierarchy = SurfaceHierarchy::build(s.atlas);
   s.has_side.assign(2 * s.flat.triangles.size(), 0);
   for (size_t f = 0; f < s.atlas.faces.size(); ++f) {
     if (s.atlas.charts.face_chart[f] < 0) continue;

@@ -47,6 +47,7 @@ struct LightmapResolution {
   std::optional<double> texel_density;           // texels per metre
   std::optional<int> size;                       // an N x N atlas at the largest density that fits
   uint32_t elements = kDefaultLightmapElements;  // otherwise about this many texels
+  bool asset_uvs = false;                        // ChartAtlasOptions::asset_uvs
 };
 
 // The texel density of the scene's normal maps on their surfaces (texels per metre, the mean
@@ -58,6 +59,9 @@ double normalMapTexelDensity(const Scene& scene);
 // The atlas options for a resolution (the charts' own options at their defaults). Fails for a
 // density that is not a positive number or a scene without area.
 Expected<ChartAtlasOptions> lightmapAtlasOptions(const Scene& scene, const LightmapResolution& r);
+// The scene's meshes' second UV sets (TEXCOORD_1) as the atlas's asset layout
+// (geometry/asset_charts.h); none when no mesh has one.
+std::optional<AssetLightmapUvs> assetLightmapUvs(const Scene& scene);
 // The texels a resolution will give, about (for memory checks before building).
 uint64_t expectedLightmapElements(const Scene& scene, const LightmapResolution& r);
 
@@ -68,6 +72,9 @@ struct RadiositySurface {
   RayEngine engine;
   Bounds3 bounds;
   double lift = 0.0;  // shadow-ray end points are lifted off their surfaces by this (m)
+  // Elements whose point moved to the side of their footprint that geometry crossing it does not
+  // cut off (radiosity/texel_footprint.h).
+  size_t anchored = 0;
   // The charts' gap fill around the elements' texels, planned once for radianceImage.
   ChartGapPlan gap_plan;
   // Which sides of the flattened triangles have elements: has_side[2 t + back].

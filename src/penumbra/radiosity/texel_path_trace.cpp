@@ -5,6 +5,7 @@
 #include "penumbra/core/parallel.h"
 #include "penumbra/core/rng.h"
 #include "penumbra/core/timer.h"
+#include "penumbra/radiosity/texel_footprint.h"
 #include "penumbra/raytrace/path_tracer.h"
 
 #include <fmt/format.h>
@@ -20,49 +21,6 @@
 namespace penumbra {
 
 namespace {
-
-// A texel's footprint as triangles (its pieces, fanned), with the cumulative areas to pick one
-// by area, and the side's normal.
-struct Footprint {
-  std::vector<std::array<glm::dvec3, 3>> triangles;
-  std::vector<double> cumulative;  // running sum of the triangles' areas
-  glm::dvec3 normal{0.0};
-
-  glm::dvec3 sample(float u0, float u1, float u2) const {
-    const double pick = double(u0) * cumulative.back();
-    const size_t i =
-        size_t(std::upper_bound(cumulative.begin(), cumulative.end(), pick) - cumulative.begin());
-    const auto& t = triangles[std::min(i, triangles.size() - 1)];
-    // Uniform on the triangle (Osada et al. 2002: the square-root warp).
-    const double s = std::sqrt(double(u1));
-    return t[0] * (1.0 - s) + t[1] * (s * (1.0 - double(u2))) + t[2] * (s * double(u2));
-  }
-};
-
-Footprint footprintOf(const RadiositySurface& surface, size_t e,
-                      std::vector<std::array<glm::dvec3, 8>>& polygons, std::vector<int>& counts) {
-  Footprint f;
-  f.normal = surface.atlas.element_normal[e];
-  surface.atlas.elementPieces(e, surface.flat.positions, surface.flat.triangles, polygons, counts);
-  double sum = 0.0;
-  for (size_t p = 0; p < polygons.size(); ++p) {
-    for (int k = 1; k + 1 < counts[p]; ++k) {
-      const std::array<glm::dvec3, 3> t = {polygons[p][0], polygons[p][size_t(k)],
-                                           polygons[p][size_t(k + 1)]};
-      const double area = 0.5 * glm::length(glm::cross(t[1] - t[0], t[2] - t[0]));
-      if (!(area > 0.0)) continue;
-      sum += area;
-      f.triangles.push_back(t);
-      f.cumulative.push_back(sum);
-    }
-  }
-  if (f.triangles.empty()) {  // a sliver: its representative point stands for it
-    const glm::dvec3 p = surface.atlas.element_position[e];
-    f.triangles.push_back({p, p, p});
-    f.cumulative.push_back(1.0);
-  }
-  return f;
-}
 
 // One texel's running sums: the radiosity's colour and its luminance's first two moments.
 struct TexelSums {
@@ -87,7 +45,11 @@ class TexelTracer {
  public:
   TexelTracer(const Scene& scene, const RadiositySurface& surface,
               const TexelPathTraceOptions& options)
-      : scene_(scene), surface_(surface), tracer_(scene), options_(options) {
+      : scene_(scene),
+        surface_(surface),
+        tracer_(scene),
+        options_(options),
+        lift_(footprintLift(surface)) {
     settings_.max_depth = options.max_depth;
     settings_.seed = options.seed;
     settings_.low_discrepancy = false;
@@ -96,9 +58,8 @@ class TexelTracer {
   // `count` more samples of element e, continuing its own random stream (so the result does not
   // depend on the thread count or the batching).
   uint64_t sample(size_t e, int count, TexelSums& sums) const {
-    thread_local std::vector<std::array<glm::dvec3, 8>> polygons;
-    thread_local std::vector<int> counts;
-    const Footprint f = footprintOf(surface_, e, polygons, counts);
+    const TexelFootprint f = texelFootprint(surface_, e);
+    const glm::dvec3 anchor = surface_.atlas.element_position[e];
     Rng rng(mixBits(options_.seed), e);
     rng.advance(uint64_t(sums.drawn) * kDrawsPerSample);
     uint64_t rays = 0;
@@ -110,6 +71,9 @@ class TexelTracer {
       const uint64_t path_stream = rng.nextU32() | uint64_t(rng.nextU32()) << 32;
       ++sums.drawn;
       const glm::dvec3 x = f.sample(u0, u1, u2);
+      // Only the part of the footprint the texel stands for: what its anchor sees (a point under
+      // a box standing on the chart, or past a wall, is drawn again).
+      if (!footprintPointsSeeEachOther(surface_, anchor, x, f.normal, lift_)) continue;
       // Looking down at x from just above it: the path tracer's radiance leaving x towards the
       // origin is L_o(x) = L_e + (rho / pi) E(x) for the diffuse surface, with next-event
       // estimation at x itself (area emitters and every light), so B(x) = pi L_o(x).
@@ -121,8 +85,15 @@ class TexelTracer {
       Rng path_rng(mixBits(options_.seed ^ 0x7e8e1), path_stream);
       const glm::dvec3 b =
           std::numbers::pi * glm::dvec3(tracer_.radiance(down, path_rng, settings_, rays));
-      const double y = double(luminance(glm::vec3(b)));
-      sums.radiosity += b;
+      // The texel keeps the reflected part, rho E, of each sample: the path tracer's radiance
+      // less the emission at x (the first hit's, texture and all). The texel's emission is added
+      // back exactly at the end, so neither the lightmap nor the stopping rule carries the
+      // emission texture's variation over the footprint, and on an emitter the emission does
+      // not hide the noise of the little light it reflects (the irradiance E an engine takes,
+      // methods/bake_output.h, divides that part by rho).
+      const glm::dvec3 reflected = b - std::numbers::pi * emittedAt(e, hit);
+      const double y = double(luminance(glm::vec3(reflected)));
+      sums.radiosity += reflected;
       sums.sum += y;
       sums.sum_sq += y * y;
       ++sums.samples;
@@ -133,12 +104,22 @@ class TexelTracer {
   }
 
  private:
+  // The radiance emitted at a hit on element e's side (W m^-2 sr^-1): the front of an emissive
+  // material, its emission texture included.
+  glm::dvec3 emittedAt(size_t e, const Hit& hit) const {
+    if (surface_.atlas.faces[surface_.atlas.element_face[e]].back) return glm::dvec3(0.0);
+    const uint32_t tri = uint32_t(hit.triangle);
+    if (surface_.textures) return glm::dvec3(surface_.textures->emission(tri, {hit.u, hit.v}));
+    return glm::dvec3(scene_.materials[surface_.flat.material_ids[tri]].emission);
+  }
+
   static constexpr uint64_t kDrawsPerSample = 5;
   const Scene& scene_;
   const RadiositySurface& surface_;
   PathTracer tracer_;
   PathTracerSettings settings_;
   TexelPathTraceOptions options_;
+  double lift_;  // footprint points are lifted by this for the anchor's visibility
 };
 
 constexpr uint64_t kHoleDraws = 16;
@@ -235,7 +216,8 @@ Expected<std::vector<glm::dvec3>> pathTraceTexels(
   TexelPathTraceStats st;
   for (size_t e = 0; e < n; ++e) {
     const TexelSums& s = sums[e];
-    b[e] = s.samples > 0 ? s.radiosity / double(s.samples) : surface.emission[e];
+    b[e] =
+        surface.emission[e] + (s.samples > 0 ? s.radiosity / double(s.samples) : glm::dvec3(0.0));
     st.samples += s.samples;
     if (s.samples >= uint32_t(options.max_samples) &&
         s.standardError() > options.target_error * std::max(s.mean(), floor)) {

@@ -34,6 +34,13 @@ struct Mesh {
   bool uv_origin_top = false;
   std::vector<glm::uvec3> triangles;   // indices into positions; front face counter-clockwise
   std::vector<uint32_t> material_ids;  // one per triangle, index into Scene::materials
+  // Where a glTF loader took the mesh from: node, mesh and primitive indices of the file, and
+  // whether the node mirrors (then each triangle's corners 1 and 2 are swapped from the file's
+  // order). -1 for meshes from other sources. Triangle i is the primitive's i-th triangle
+  // (strips and fans expanded as glTF 2.0 sec. 3.7.2.1 says), so a writer can add an attribute
+  // to the file's own primitive (io/gltf_lightmapped.h).
+  int gltf_node = -1, gltf_mesh = -1, gltf_primitive = -1;
+  bool gltf_mirrored = false;
 
   size_t triangleCount() const { return triangles.size(); }
   // UV set k (empty when the mesh has none).
