@@ -2,6 +2,7 @@
 
 #include "penumbra/core/check.h"
 #include "penumbra/core/file_util.h"
+#include "penumbra/core/memory.h"
 #include "penumbra/io/image_io.h"
 #include "penumbra/methods/render.h"
 #include "penumbra/radiosity/radiosity_surface.h"
@@ -144,6 +145,13 @@ Status writeAssetBake(const Scene& scene, const Image& irradiance,
   GltfDocument doc;
   if (isGltfPath(scene.source)) sources = gltfTriangleSources(scene);
   if (!sources.empty()) {
+    // The file is read again and its buffers held twice while the new one is assembled.
+    std::error_code ec;
+    const uintmax_t bytes = fs::file_size(scene.source, ec);
+    if (!ec) {
+      PENUMBRA_TRY(checkMemory(3 * uint64_t(bytes),
+                               fmt::format("{}: writing the baked asset", scene.source)));
+    }
     Expected<GltfDocument> read = readGltfDocument(scene.source);
     if (!read) return read.error();
     doc = std::move(*read);
