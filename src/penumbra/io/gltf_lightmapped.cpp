@@ -2,7 +2,7 @@
 
 #include "penumbra/core/check.h"
 #include "penumbra/core/file_util.h"
-#include "penumbra/io/gltf_values.h"
+#include "penumbra/io/gltf_common.h"
 
 #include <tiny_gltf.h>
 #include <glm/geometric.hpp>
@@ -27,14 +27,6 @@ using json = nlohmann::json;
 
 constexpr int kFloat = 5126, kUnsignedInt = 5125, kUnsignedShort = 5123;
 constexpr int kArrayBuffer = 34962, kElementArrayBuffer = 34963;
-
-bool keepImage(tinygltf::Image*, const int index, std::string*, std::string*, int, int,
-               const unsigned char* bytes, int size, void* user) {
-  auto* kept = static_cast<std::map<int, std::string>*>(user);
-  if (bytes && size > 0)
-    (*kept)[index] = std::string(reinterpret_cast<const char*>(bytes), size_t(size));
-  return true;
-}
 
 int componentSize(int component_type) {
   switch (component_type) {
@@ -121,8 +113,8 @@ class Attacher {
     return r;
   }
 
-  // The primitive's triangles as corner vertex indices, in file order (glTF 2.0 sec. 3.7.2.1,
-  // as the loader expands strips and fans).
+  // The primitive's triangles as corner vertex indices, in file order (gltfTriangleCorners, as
+  // the loader reads them).
   Expected<std::vector<uint32_t>> triangleCorners(const json& prim, const std::string& role) const {
     const int position = prim["attributes"].value("POSITION", -1);
     Expected<AccessorBytes> pos = accessor(position, role + " POSITION");
@@ -148,22 +140,7 @@ class Attacher {
       seq.resize(pos->count);
       for (size_t i = 0; i < seq.size(); ++i) seq[i] = uint32_t(i);
     }
-    const int mode = prim.value("mode", 4);
-    std::vector<uint32_t> corners;
-    const size_t n = seq.size();
-    if (mode == 4) {
-      corners.assign(seq.begin(), seq.begin() + std::ptrdiff_t(n - n % 3));
-    } else {
-      for (size_t i = 0; i + 2 < n; ++i) {
-        if (mode == 6) {
-          corners.insert(corners.end(), {seq[0], seq[i + 1], seq[i + 2]});
-        } else if (i % 2 == 0) {
-          corners.insert(corners.end(), {seq[i], seq[i + 1], seq[i + 2]});
-        } else {
-          corners.insert(corners.end(), {seq[i], seq[i + 2], seq[i + 1]});
-        }
-      }
-    }
+    const std::vector<uint32_t> corners = gltfTriangleCorners(prim.value("mode", 4), seq);
     for (uint32_t c : corners) {
       if (c >= pos->count) {
         return inputError(where_, role, fmt::format("vertex index {} is out of range", c));
@@ -359,7 +336,7 @@ Expected<GltfDocument> readGltfDocument(const std::string& path) {
   bool ok = false;
   try {
     tinygltf::TinyGLTF loader;
-    loader.SetImageLoader(&keepImage, &images);
+    loader.SetImageLoader(&keepGltfImageBytes, &images);
     const std::string base = fs::path(path).parent_path().string();
     ok = binary ? loader.LoadBinaryFromMemory(&model, &err, &warn,
                                               reinterpret_cast<const unsigned char*>(bytes->data()),

@@ -16,6 +16,7 @@
 //   - lights and cameras look down their node's local -Z; a camera's up is the node's local +Y.
 #include "penumbra/core/file_util.h"
 #include "penumbra/core/memory.h"
+#include "penumbra/io/gltf_common.h"
 #include "penumbra/io/gltf_values.h"
 #include "penumbra/io/image_io.h"
 #include "penumbra/io/json_guard.h"
@@ -58,16 +59,6 @@ constexpr uint64_t kLoadedBytesPerTriangle = 64;
 // lm/W: luminous efficacy of monochromatic 555 nm light, the conversion KHR_lights_punctual
 // implementations use between photometric and radiometric quantities.
 constexpr double kLumensPerWatt = 683.0;
-
-// Images are not decoded by tinygltf: their bytes are kept (by image index), and decoded when a
-// material reads them (io/texture_loader.h; normal maps as data, io/image_io.h).
-bool keepImageBytes(tinygltf::Image*, const int image_index, std::string*, std::string*, int, int,
-                    const unsigned char* bytes, int size, void* user) {
-  auto* kept = static_cast<std::map<int, std::string>*>(user);
-  if (bytes && size > 0)
-    (*kept)[image_index] = std::string(reinterpret_cast<const char*>(bytes), size_t(size));
-  return true;
-}
 
 std::string oneLine(std::string s) {
   for (char& c : s) {
@@ -987,30 +978,16 @@ Expected<std::vector<uint32_t>> GltfReader::vertexSequence(const tinygltf::Primi
 
 void GltfReader::addTriangles(int mode, const std::vector<uint32_t>& seq, uint32_t material,
                               bool mirrored, const std::string& where, Mesh& mesh) {
-  auto add = [&](uint32_t a, uint32_t b, uint32_t c) {
+  if (mode == TINYGLTF_MODE_TRIANGLES && seq.size() % 3 != 0) {
+    scene_.warnings.push_back(
+        fmt::format("{}: {}: {} vertices is not a multiple of 3; the last {} are ignored", path_,
+                    where, seq.size(), seq.size() % 3));
+  }
+  const std::vector<uint32_t> corners = gltfTriangleCorners(mode, seq);
+  for (size_t i = 0; i + 2 < corners.size(); i += 3) {
+    const uint32_t a = corners[i], b = corners[i + 1], c = corners[i + 2];
     mesh.triangles.push_back(mirrored ? glm::uvec3(a, c, b) : glm::uvec3(a, b, c));
     mesh.material_ids.push_back(material);
-  };
-  const size_t n = seq.size();
-  if (mode == TINYGLTF_MODE_TRIANGLES) {
-    if (n % 3 != 0) {
-      scene_.warnings.push_back(
-          fmt::format("{}: {}: {} vertices is not a multiple of 3; the last {} are ignored", path_,
-                      where, n, n % 3));
-    }
-    for (size_t i = 0; i + 2 < n; i += 3) add(seq[i], seq[i + 1], seq[i + 2]);
-  } else if (mode == TINYGLTF_MODE_TRIANGLE_STRIP) {
-    // glTF 2.0 spec 3.7.2.1: triangle i is (v_i, v_{i+1+i%2}, v_{i+2-i%2}).
-    for (size_t i = 0; i + 2 < n; ++i) {
-      if (i % 2 == 0) {
-        add(seq[i], seq[i + 1], seq[i + 2]);
-      } else {
-        add(seq[i], seq[i + 2], seq[i + 1]);
-      }
-    }
-  } else {
-    // Fan: (v_{i+1}, v_{i+2}, v_0) in the spec, the same triangle as (v_0, v_{i+1}, v_{i+2}).
-    for (size_t i = 0; i + 2 < n; ++i) add(seq[0], seq[i + 1], seq[i + 2]);
   }
 }
 
@@ -1206,7 +1183,7 @@ Expected<Scene> loadGltf(const std::string& path) {
   bool ok = false;
   try {
     tinygltf::TinyGLTF loader;
-    loader.SetImageLoader(&keepImageBytes, &image_bytes);
+    loader.SetImageLoader(&keepGltfImageBytes, &image_bytes);
     if (binary) {
       ok = loader.LoadBinaryFromMemory(&model, &err, &warn,
                                        reinterpret_cast<const unsigned char*>(bytes->data()),

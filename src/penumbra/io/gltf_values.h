@@ -8,7 +8,6 @@
 #include <nlohmann/json.hpp>
 
 #include <string>
-#include <string_view>
 
 namespace penumbra {
 
@@ -17,9 +16,5 @@ namespace penumbra {
 // the type, length and range the glTF 2.0 schema gives it, and every number is finite. The error
 // names `path` and the value ("materials[2].pbrMetallicRoughness.baseColorFactor").
 Status checkGltfValues(const std::string& path, const nlohmann::json& root);
-
-// The JSON chunk of a GLB file, after checking the header (glTF 2.0, sec. 4.4: magic, version
-// 2, length, then a JSON chunk first); an input error naming `path` otherwise.
-Expected<std::string_view> glbJsonChunk(const std::string& path, std::string_view bytes);
 
 }  // namespace penumbra

@@ -129,12 +129,14 @@ double lum(const glm::vec3& c) {
   return 0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z;
 }
 
-void jumps(const std::vector<SeamSample>& samples, const Image& image, double* largest,
-           double* rms) {
+// The largest and RMS jump (luminance) over the samples; read(t) gives the texel t a sample
+// names.
+template <typename Read>
+void jumps(const std::vector<SeamSample>& samples, Read&& read, double* largest, double* rms) {
   double sq = 0.0;
   *largest = 0.0;
   for (const SeamSample& s : samples) {
-    const double r = s.residual([&](uint32_t t) { return lum(image.pixels[t]); });
+    const double r = s.residual(read);
     *largest = std::max(*largest, std::abs(r));
     sq += r * r;
   }
@@ -147,7 +149,8 @@ SeamStats measureSeams(const RadiositySurface& surface, const Image& image) {
   SeamStats st;
   const std::vector<SeamSample> samples = seamSamples(surface, &st.edges);
   st.samples = samples.size();
-  jumps(samples, image, &st.jump_before, &st.rms_before);
+  const auto luminanceOf = [&](uint32_t t) { return lum(image.pixels[t]); };
+  jumps(samples, luminanceOf, &st.jump_before, &st.rms_before);
   st.jump_after = st.jump_before;
   st.rms_after = st.rms_before;
   return st;
@@ -157,7 +160,8 @@ SeamStats stitchSeams(const RadiositySurface& surface, Image& image, double lamb
   SeamStats st;
   std::vector<SeamSample> samples = seamSamples(surface, &st.edges);
   st.samples = samples.size();
-  jumps(samples, image, &st.jump_before, &st.rms_before);
+  jumps(
+      samples, [&](uint32_t t) { return lum(image.pixels[t]); }, &st.jump_before, &st.rms_before);
   // The texels the seams read become the unknowns.
   std::unordered_map<uint32_t, uint32_t> variable;
   std::vector<uint32_t> texel_of;
@@ -207,9 +211,10 @@ SeamStats stitchSeams(const RadiositySurface& surface, Image& image, double lamb
     }
     for (size_t i = 0; i < n; ++i) image.pixels[texel_of[i]][c] = float(std::max(0.0, x[i]));
   }
-  // The jumps after, on the texels as written.
-  std::vector<SeamSample> measured = seamSamples(surface, &st.edges);
-  jumps(measured, image, &st.jump_after, &st.rms_after);
+  // The jumps after, on the texels as written (the samples now name unknowns).
+  jumps(
+      samples, [&](uint32_t v) { return lum(image.pixels[texel_of[v]]); }, &st.jump_after,
+      &st.rms_after);
   return st;
 }
 
