@@ -269,7 +269,7 @@ TEST(RealScenes, MillimetreObjGivesTheMetrePicture) {
     // seed-to-seed noise; a unit error would be far beyond twice that.
     const bool noisy = k == 2;
     for (int c = 0; c < 3; ++c) EXPECT_NEAR(b.mean_ratio[c], 1.0, noisy ? 0.02 : 0.005) << names[k];
-    EXPECT_LE(b.block_rms, noisy ? 2.0 * noise.block_rms : 0.01) << names[k];
+    EXPECT_LE(b.block_rms, noisy ? 1.5 * noise.block_rms : 0.01) << names[k];
   }
 }
 

@@ -16,6 +16,7 @@ namespace {
 // Points spread over a footprint: stratified by area along u0, an R2 sequence (Roberts 2018)
 // for the place in the triangle.
 constexpr int kAnchorPoints = 8;
+constexpr int kAnchorMargin = 2;
 
 glm::vec3 anchorSample(int k) {
   const double a1 = 0.7548776662466927, a2 = 0.5698402909980532;
@@ -119,7 +120,10 @@ size_t anchorElements(RadiositySurface& surface) {
       for (int i = 1; i < kPoints; ++i) {
         if (score[i] > score[best]) best = i;
       }
-      if (best == 0) continue;
+      // The element's point stays unless another sees clearly more (two points more): on a
+      // curved scan, segments grazing the surface decide single points either way, and the
+      // same model in millimetres would anchor differently from it in metres.
+      if (best == 0 || score[best] < score[0] + kAnchorMargin) continue;
       atlas.element_position[e] = point[best];
       atlas.element_face[e] = face[best];
       const glm::uvec3 tri = surface.flat.triangles[atlas.faces[face[best]].triangle];

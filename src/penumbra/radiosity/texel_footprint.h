@@ -8,7 +8,8 @@
 //   - the anchor: of the element's point and eight points spread over the footprint, the one
 //     that sees the most of the others (segments between points lifted off the surface by four
 //     times the surface's shadow-ray lift, traced by the Ray Engine), the element's own point
-//     unless another sees strictly more. The element's point (where every radiosity method
+//     unless another sees at least two more (grazing segments on a curved scan do not move it).
+//     The element's point (where every radiosity method
 //     evaluates the texel) moves there: the texel stands for the side most of its footprint is on;
 //   - the visible part: the footprint's points that the anchor sees. The path-traced bake
 //     (radiosity/texel_path_trace.h) integrates over it alone, so that the reference never mixes
