@@ -3,8 +3,9 @@
 
 Every method bakes the same atlas (`--texel-density D`) over a sweep of its accuracy setting;
 each lightmap is compared texel by texel with the reference (`bake --method pathtrace` at
-`--ref-tolerance`, default 0.005): the luminance's RMS difference over the covered texels over
-their mean. Prints, per method, every run (seconds as the bake's stats give them, excluding
+`--ref-tolerance`, default 0.005, averaged over `--ref-seeds` bakes): the luminance's RMS
+difference over the texels that carry surface, each weighted by its share of surface
+(bench/lightmap_texels.py: gutters and the holes of cut-outs weigh nothing), over their mean. Prints, per method, every run (seconds as the bake's stats give them, excluding
 loading and writing, and its RMS) and the first time it reaches 5%, 2% and 1%.
 
     bench/lightmap_error.py build/bin/penumbra OUT --scene cornell --density 20
@@ -16,6 +17,8 @@ import subprocess
 import sys
 
 import numpy as np
+
+import lightmap_texels
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 
@@ -39,8 +42,9 @@ def luminance(a):
 
 def bake(cli, scene, method, density, extra, out):
     stats = out + ".json"
-    args = [cli, "bake", scene, "--method", method, "--texel-density", str(density), "--quiet",
-            "-o", out, "--stats", stats] + extra
+    # Density 0: the bake's own default for the scene.
+    args = [cli, "bake", scene, "--method", method, "--quiet", "-o", out, "--stats", stats]
+    args += (["--texel-density", str(density)] if density > 0 else []) + extra
     subprocess.run(args, check=True)
     with open(stats) as f:
         s = json.load(f)
@@ -54,17 +58,32 @@ def main():
     ap.add_argument("cli")
     ap.add_argument("out")
     ap.add_argument("--scene", default="cornell")
-    ap.add_argument("--density", type=float, default=20.0)
+    ap.add_argument("--density", type=float, default=20.0,
+                    help="lightmap texels per metre (0: the bake's default for the scene)")
     ap.add_argument("--ref-tolerance", default="0.005")
+    ap.add_argument("--ref-seeds", type=int, default=1,
+                    help="reference bakes with seeds 7, 8, ... averaged")
+    ap.add_argument("--ref-samples", default="262144", help="the reference's --texel-samples")
     ap.add_argument("--methods", default="pathtrace,progressive,stochastic,matrix")
     a = ap.parse_args()
     build = os.path.dirname(os.path.dirname(os.path.abspath(a.cli)))
     os.makedirs(a.out, exist_ok=True)
-    ref_path, ref_seconds = bake(a.cli, a.scene, "pathtrace", a.density,
-                                 ["--tolerance", a.ref_tolerance, "--texel-samples", "262144",
-                                  "--seed", "7"], os.path.join(a.out, "reference"))
-    ref = luminance(read_exr(ref_path, build))
-    print("reference: pathtrace --tolerance %s, %.1f s" % (a.ref_tolerance, ref_seconds))
+    refs, ref_seconds = [], 0.0
+    for k in range(a.ref_seeds):
+        ref_path, seconds = bake(a.cli, a.scene, "pathtrace", a.density,
+                                 ["--tolerance", a.ref_tolerance, "--texel-samples", a.ref_samples,
+                                  "--seed", str(7 + k)], os.path.join(a.out, "reference%d" % k))
+        refs.append(luminance(read_exr(ref_path, build)))
+        ref_seconds += seconds
+    ref = sum(refs) / len(refs)
+    gltf = os.path.splitext(ref_path)[0][:-len("_lightmap")] + ".gltf"
+    weights = lightmap_texels.texel_weights(gltf, ref.shape[1], ref.shape[0])
+    print("reference: pathtrace --tolerance %s, %d seed(s), %.1f s; %.0f texels of surface" %
+          (a.ref_tolerance, a.ref_seeds, ref_seconds, weights.sum()))
+    if len(refs) > 1:
+        rms, _ = lightmap_texels.rms_over_surface(refs[0], refs[1], weights)
+        print("  two reference seeds differ by %.2f%% RMS (the average's own noise is about "
+              "%.2f%%)" % (100 * rms, 100 * rms / np.sqrt(2 * len(refs))))
     for method in a.methods.split(","):
         option, values = SWEEPS[method]
         reached = {}
@@ -72,9 +91,7 @@ def main():
             path, seconds = bake(a.cli, a.scene, method, a.density, [option, v],
                                  os.path.join(a.out, "%s-%s" % (method, v)))
             got = luminance(read_exr(path, build))
-            mask = (ref > 0) | (got > 0)
-            rms = float(np.sqrt(np.mean((got[mask] - ref[mask]) ** 2)) / ref[mask].mean())
-            mean = float(got[mask].mean() / ref[mask].mean())
+            rms, mean = lightmap_texels.rms_over_surface(got, ref, weights)
             print("  %-11s %s %-7s %7.2f s  mean %.4f  RMS %5.2f%%" % (method, option, v, seconds,
                                                                      mean, 100 * rms))
             for goal in (0.05, 0.02, 0.01):

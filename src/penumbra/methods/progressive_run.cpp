@@ -78,6 +78,7 @@ Status prepareProgressive(const Scene& scene, const ProgressiveRunOptions& optio
   po.convergence = options.tolerance;
   po.shooter_top_points = options.shooter_points;
   po.shooter_min_points = options.shooter_points;  // the flat scheme's (the GPU's)
+  po.penumbra_rays = options.penumbra_rays;
   po.shading_normals = options.shading_normals;
   po.adaptive = options.adaptive;
   po.receiver_level = options.receiver_level;

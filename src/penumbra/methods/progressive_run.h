@@ -30,6 +30,7 @@ struct ProgressiveRunOptions {
   std::string checkpoint;            // where Ctrl-C writes the checkpoint
   bool keep_checkpoint = false;      // keep `resume` after a run that completes
   int shooter_points = 16;           // ProgressiveOptions::shooter_top_points
+  int penumbra_rays = 16;            // ProgressiveOptions::penumbra_rays (--ff-rays)
   std::string device = "cpu";        // cpu, gpu or auto (design doc sec. 3)
   bool shading_normals = true;       // ProgressiveOptions::shading_normals (CPU only)
   // ProgressiveOptions' receivers and adaptive subdivision (sec. 4).
@@ -68,6 +69,7 @@ ProgressiveRunOptions progressiveRunOptions(const CommandOptions& o) {
   ro.checkpoint = o.checkpoint;
   ro.keep_checkpoint = o.keep_checkpoint;
   ro.shooter_points = o.shooter_points;
+  ro.penumbra_rays = o.ff_rays.value_or(16);
   ro.device = o.device;
   ro.shading_normals = o.normals == "interpolated";
   ro.adaptive = o.adaptive;

@@ -231,8 +231,10 @@ void addSolveOptions(std::vector<Bound<Options>>& b) {
   add({.name = "ff-rays",
        .kind = K::kInt,
        .range = range(1, 1024),
-       .help = "shadow rays per pair of clusters that exchange a noticeable share of their light",
-       .uses = all({"matrix"}, "4")},
+       .help = "shadow rays per pair that needs more than one: matrix, clusters exchanging a "
+               "noticeable share of their light; progressive (CPU), a receiver and a shooter "
+               "point in a penumbra or behind a cut-out",
+       .uses = {{"matrix", "4", {}}, {"progressive", "16", {}}}},
       field<Options>(&Options::ff_rays));
   add({.name = "shooter-points",
        .kind = K::kInt,

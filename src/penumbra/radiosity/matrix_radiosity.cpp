@@ -3,12 +3,17 @@
 #include "penumbra/core/check.h"
 #include "penumbra/core/memory.h"
 #include "penumbra/core/parallel.h"
+#include "penumbra/core/rng.h"
 #include "penumbra/core/timer.h"
+#include "penumbra/kernels/sampling.h"
 
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <atomic>
+#include <cmath>
 #include <numbers>
+#include <span>
 
 namespace penumbra {
 
@@ -41,6 +46,54 @@ Status checkSystemMemory(uint64_t n, MatrixPrecision precision, int ranks, uint6
                         "each of {} ranks)",
                         elements, n * n, rows, ranks)
           : fmt::format("matrix radiosity with {} elements ({} form factors)", elements, n * n));
+}
+
+// The sub-cluster rays of the file comment: per element, kSubClusterRays cosine-distributed rays
+// (stratified 4 x 4, each element's own stream) of one size of the element's cluster; near_hit
+// holds, per ray, kFree when it travelled that far without a hit, else the element it landed
+// on (-1: none, a black back face). Elements that are clusters of their own trace none (all
+// kFree). Adds the rays traced to *rays.
+void traceSubClusterRays(const RadiositySurface& surface, std::span<const ClusterRef> clusters,
+                         uint64_t seed, std::vector<int32_t>& near_hit, uint64_t* rays) {
+  near_hit.assign(surface.elementCount() * kSubClusterRays, MatrixRadiosity::kFree);
+  std::atomic<uint64_t> traced{0};
+  parallelRange(clusters.size(), 16, [&](size_t begin, size_t end) {
+    RayBatch batch;
+    HitBatch hits;
+    uint64_t count = 0;
+    for (size_t k = begin; k < end; ++k) {
+      const ClusterRef c = clusters[k];
+      if (c.level == 0) continue;
+      const uint32_t first = surface.hierarchy.elementBegin(c);
+      const uint32_t last = surface.hierarchy.elementEnd(c);
+      const float reach = float(std::sqrt(surface.hierarchy.level(c.level).area[c.index]));
+      constexpr int kSide = 4;
+      static_assert(kSide * kSide == kSubClusterRays);
+      batch.resize(size_t(last - first) * kSubClusterRays);
+      for (uint32_t e = first; e < last; ++e) {
+        const Frame frame = Frame::fromNormal(glm::vec3(surface.atlas.element_normal[e]));
+        const glm::vec3 origin(surface.atlas.element_position[e] +
+                               surface.atlas.element_normal[e] * surface.lift);
+        Rng rng(mixBits(seed ^ 0x5c1u), e);
+        for (int r = 0; r < kSubClusterRays; ++r) {
+          const float u1 = (float(r % kSide) + rng.uniform()) / float(kSide);
+          const float u2 = (float(r / kSide) + rng.uniform()) / float(kSide);
+          batch.set(size_t(e - first) * kSubClusterRays + size_t(r),
+                    Ray{origin, 0.0f, frame.toWorld(sampleCosineHemisphere(u1, u2)), reach});
+        }
+      }
+      surface.engine.intersectSerial(batch, hits);
+      count += batch.size();
+      for (size_t i = 0; i < batch.size(); ++i) {
+        if (hits.triangle[i] < 0) continue;
+        near_hit[size_t(first) * kSubClusterRays + i] =
+            surface.elementAtHit(hits.triangle[i], hits.u[i], hits.v[i],
+                                 glm::vec3(batch.dx[i], batch.dy[i], batch.dz[i]));
+      }
+    }
+    traced += count;
+  });
+  if (rays) *rays += traced.load();
 }
 
 }  // namespace
@@ -80,16 +133,20 @@ void MatrixRadiosity::applyMaterials(std::span<const Material> materials) {
   for (size_t k = 0; k < size(); ++k) {
     const uint32_t b = surface.hierarchy.elementBegin(clusters[k]);
     const uint32_t e = surface.hierarchy.elementEnd(clusters[k]);
-    glm::dvec3 emitted(0.0), lit(0.0);
+    // The cluster reflects what its elements reflect: the area-weighted mean of their
+    // reflectances (textures and cut-outs vary it within one material), and of the lights'
+    // direct irradiance each reflects.
+    glm::dvec3 emitted(0.0), reflected(0.0), rho_area(0.0);
+    double area = 0.0;
     for (uint32_t i = b; i < e; ++i) {
       const double a = surface.atlas.element_area[i];
       emitted += surface.emission[i] * a;
-      if (!direct.empty()) lit += direct[i] * a;
+      rho_area += surface.reflectance[i] * a;
+      area += a;
+      if (!direct.empty()) reflected += surface.reflectance[i] * direct[i] * a;
     }
-    // A cluster lies in one chart, so it has one material.
-    const glm::dvec3 rho = surface.reflectance[b];
-    system->reflectance[k] = glm::vec3(rho);
-    system->emission[k] = glm::vec3((emitted + rho * lit) / cluster_area[k]);
+    system->reflectance[k] = glm::vec3(area > 0.0 ? rho_area / area : surface.reflectance[b]);
+    system->emission[k] = glm::vec3((emitted + reflected) / cluster_area[k]);
   }
 }
 
@@ -149,7 +206,52 @@ std::vector<glm::dvec3> MatrixRadiosity::elementRadiosity(bool interpolate) cons
   }
   std::vector<glm::dvec3> h;
   if (interpolate) {
-    h = surface.hierarchy.interpolate(surface.atlas, clusters, gathered);
+    if (near_hit.empty()) {
+      h = surface.hierarchy.interpolate(surface.atlas, clusters, gathered);
+    } else {
+      // The near field of the file comment: per element, the mean over its rays of the
+      // radiosity of the clusters they landed on (emitting ones are G_e's), and its share of
+      // free rays; per cluster, their area-weighted means.
+      std::vector<uint8_t> emitting(size(), 0);
+      for (uint32_t j : emitters) emitting[j] = 1;
+      std::vector<glm::dvec3> near(n_el, glm::dvec3(0.0));
+      std::vector<double> free(n_el, 1.0);
+      std::vector<glm::dvec3> near_mean(size(), glm::dvec3(0.0)), free_mean(size());
+      parallelRange(size(), 16, [&](size_t b, size_t end) {
+        for (size_t k = b; k < end; ++k) {
+          double area = 0.0, open = 0.0;
+          for (uint32_t e = surface.hierarchy.elementBegin(clusters[k]);
+               e < surface.hierarchy.elementEnd(clusters[k]); ++e) {
+            int open_rays = 0;
+            glm::dvec3 sum(0.0);
+            for (int r = 0; r < kSubClusterRays; ++r) {
+              const int32_t hit = near_hit[size_t(e) * kSubClusterRays + size_t(r)];
+              if (hit == kFree) {
+                ++open_rays;
+              } else if (hit >= 0 && !emitting[element_cluster[size_t(hit)]]) {
+                sum += glm::dvec3(radiosity[element_cluster[size_t(hit)]]);
+              }
+            }
+            near[e] = sum / double(kSubClusterRays);
+            free[e] = double(open_rays) / kSubClusterRays;
+            const double a = surface.atlas.element_area[e];
+            near_mean[k] += near[e] * a;
+            open += free[e] * a;
+            area += a;
+          }
+          if (area > 0.0) near_mean[k] /= area;
+          free_mean[k] = glm::dvec3(area > 0.0 ? open / area : 1.0);
+        }
+      });
+      for (size_t k = 0; k < size(); ++k) gathered[k] -= near_mean[k];
+      h = surface.hierarchy.interpolate(surface.atlas, clusters, gathered);
+      const std::vector<glm::dvec3> v =
+          surface.hierarchy.interpolate(surface.atlas, clusters, free_mean);
+      for (size_t e = 0; e < n_el; ++e) {
+        const glm::dvec3 far = v[e].x > 0.0 ? h[e] * (free[e] / v[e].x) : glm::dvec3(0.0);
+        h[e] = glm::max(far, glm::dvec3(0.0)) + near[e];
+      }
+    }
   } else {
     h.resize(n_el);
     for (size_t k = 0; k < size(); ++k) {
@@ -227,6 +329,17 @@ Expected<MatrixRadiosity> buildMatrixRadiosity(const Scene& scene,
                                     &mr.form_factor_stats, &pieces, mr.comm);
       if (!ff) return ff.error();
       mr.element_ff = std::move(*ff);
+    }
+  }
+  if (options.form_factors.visibility) {
+    traceSubClusterRays(mr.surface, mr.clusters, options.form_factors.seed, mr.near_hit,
+                        &mr.form_factor_stats.rays);
+    mr.element_cluster.resize(mr.surface.elementCount());
+    for (uint32_t k = 0; k < n; ++k) {
+      for (uint32_t e = mr.surface.hierarchy.elementBegin(mr.clusters[k]);
+           e < mr.surface.hierarchy.elementEnd(mr.clusters[k]); ++e) {
+        mr.element_cluster[e] = k;
+      }
     }
   }
   mr.form_factor_stats.seconds = transport_timer.seconds();

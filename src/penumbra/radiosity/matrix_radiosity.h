@@ -18,8 +18,19 @@
 //    rays (FormFactorOptions::element_rays), so that the shadows of small area lights are as
 //    sharp as the lightmap too; and H_e the rest of the gathered irradiance, H_c
 //    = (F B)_c minus the emitters' part, interpolated from the clusters
-//    (SurfaceHierarchy::interpolate). The lightmap is the chart atlas's, as every radiosity
-//    method's.
+//    (SurfaceHierarchy::interpolate) with the near field gathered at the element itself:
+//      H_e = v_e interp((H - N) / vbar)_e + N_e,
+//    from kSubClusterRays cosine-distributed rays per element of one size sqrt(A_c) of its
+//    cluster: v_e the share that travel that far without a hit, N_e the mean over the rays of
+//    the radiosity B of the clusters they land on (0 for a black back face; emitting clusters
+//    are G_e's), vbar_c and N_c their area-weighted means over the cluster. The far field
+//    (H - N) / vbar is interpolated as a ratio, interp(H - N) / interp(vbar) with the same
+//    weights, so where nothing is near (v = 1, N = 0) H_e is the plain interpolation. A
+//    cluster's solve resolves nothing nearer than its own size: a ceiling panel 1 cm under the
+//    ceiling hides the texels above it from everything, and plain interpolation spread light
+//    onto them and darkened the ring around the panel by up to 40% (the textured room); in a
+//    corner, the near wall's own light replaces what it hides. The lightmap is the
+//    chart atlas's, as every radiosity method's.
 //  - Two-sided surfaces have clusters on both sides (each chart lies on one side).
 #pragma once
 
@@ -36,6 +47,9 @@
 #include <vector>
 
 namespace penumbra {
+
+// Rays per element for the sub-cluster visibility v_e (see the file comment).
+inline constexpr int kSubClusterRays = 16;
 
 // Element-to-emitter form factors computed at most (elements x emitting clusters).
 inline constexpr uint64_t kElementGatherBudget = 10'000'000;
@@ -71,6 +85,12 @@ struct MatrixRadiosity {
   // element_ff[e * emitters.size() + s] = F(element e -> cluster emitters[s]).
   std::vector<uint32_t> emitters;
   std::vector<float> element_ff;
+  // The near field (see the file comment): per element, where each of its kSubClusterRays rays
+  // landed (kFree: nowhere within reach; -1: a side without elements; else the element), and
+  // each element's cluster. Empty without visibility.
+  static constexpr int32_t kFree = -2;
+  std::vector<int32_t> near_hit;
+  std::vector<uint32_t> element_cluster;
   std::optional<RadiositySystem> system;  // always set once built
   // The ranks that share the system (each holds a block of rows; docs/scaling.md); null: one
   // process. solve() and elementRadiosity() are then collective, and every rank gets the result.

@@ -96,15 +96,21 @@ class ReceiverShare {
   std::pair<size_t, size_t> range(size_t c) const {
     return {c * chunk_, std::min(n_, (c + 1) * chunk_)};
   }
-  // body(begin, end) over this rank's receivers, in parallel within each chunk.
+  // body(begin, end) over this rank's receivers, in parallel within each chunk, in whole blocks
+  // of kReceiverBlock from receiver 0 (chunks are whole blocks): a block's receivers are the
+  // same whatever the threads and ranks, so what the gather decides per block (the penumbrae's
+  // neighbours) is too.
   template <typename Body>
   void forMine(Body&& body) const {
     for (size_t c = 0; c < chunks(); ++c) {
       if (!mine(c)) continue;
       const auto chunk = range(c);
       const size_t b = chunk.first;  // a plain variable: lambdas may not capture bindings (C++17)
-      parallelRange(chunk.second - b, kReceiverBlock,
-                    [&](size_t i, size_t j) { body(b + i, b + j); });
+      const size_t e = chunk.second;
+      const size_t blocks = (e - b + kReceiverBlock - 1) / kReceiverBlock;
+      parallelRange(blocks, 1, [&](size_t i, size_t j) {
+        body(b + i * kReceiverBlock, std::min(e, b + j * kReceiverBlock));
+      });
     }
   }
   // Fills in the other ranks' receivers of `values` (one per receiver): every rank then has
@@ -174,6 +180,9 @@ Expected<ProgressiveRadiosity> ProgressiveRadiosity::build(const Scene& scene,
   if (options.probe_rays < 0 || options.probe_rays > (1 << 24)) {
     return inputError("", "progressive radiosity", "probe_rays must be in [0, 2^24]");
   }
+  if (options.penumbra_rays < 1 || options.penumbra_rays > 1024) {
+    return inputError("", "progressive radiosity", "penumbra_rays must be in [1, 1024]");
+  }
   if (options.receiver_level < -1 || options.receiver_level > 16) {
     return inputError("", "progressive radiosity", "receiver_level must be in [0, 16] (or -1)");
   }
@@ -230,6 +239,7 @@ Expected<ProgressiveRadiosity> ProgressiveRadiosity::build(RadiositySurface surf
   pr.db_ = pr.surface_.emission;
   pr.shooter_power_.assign(pr.shooters_.size(), 0.0);
   pr.refreshShooterPowers();
+  for (const double p : pr.shooter_power_) pr.emitter_power_ = std::max(pr.emitter_power_, p);
   pr.receiver_level_ = options.receiver_level >= 0 ? options.receiver_level
                        : options.adaptive          ? kAdaptiveReceiverLevel
                                                    : 0;
@@ -538,6 +548,14 @@ struct ShotGeometry {
   std::vector<uint32_t> member_first;
   std::vector<Piece> member_polys;
   std::vector<uint8_t> skip;  // per chart: receives nothing
+  // Penumbrae (see the gather): rays per pair of a receiver whose rays disagree (1: none
+  // traced), the shot's number (it seeds them), and for drawing their origins the shooter's
+  // elements' residual power summed along their order (power_prefix[m - first]) and each member
+  // polygon's area summed along member_polys.
+  int penumbra_rays = 1;
+  uint32_t iteration = 0;
+  std::vector<double> power_prefix;
+  std::vector<double> member_area_prefix;
 };
 
 // Shooter points (sec. 3): every cluster under the shooter, level by level from the shooter
@@ -726,6 +744,68 @@ void findMemberPieces(ShotGeometry& shot, const ProgressiveRadiosity& solver) {
   }
 }
 
+double polygonArea(const Piece& piece) {
+  const auto& [c, count] = piece;
+  glm::dvec3 sum(0.0);
+  for (int k = 1; k + 1 < count; ++k) sum += glm::cross(c[k] - c[0], c[k + 1] - c[0]);
+  return 0.5 * glm::length(sum);
+}
+
+// What penumbra rays draw their origins from: the shooter's elements' residual power and their
+// pieces' areas, summed along their orders.
+void preparePenumbraSampling(ShotGeometry& shot, const std::vector<glm::dvec3>& db,
+                             const std::vector<double>& element_area) {
+  shot.power_prefix.assign(shot.last - shot.first + 1, 0.0);
+  for (uint32_t m = shot.first; m < shot.last; ++m) {
+    shot.power_prefix[m - shot.first + 1] =
+        shot.power_prefix[m - shot.first] + residualLuminance(db[m]) * element_area[m];
+  }
+  shot.member_area_prefix.assign(shot.member_polys.size() + 1, 0.0);
+  for (size_t q = 0; q < shot.member_polys.size(); ++q) {
+    shot.member_area_prefix[q + 1] = shot.member_area_prefix[q] + polygonArea(shot.member_polys[q]);
+  }
+}
+
+// The origin of penumbra ray j of n from point s (its face normal in *normal): stratum j of a
+// weight summed along its elements' order picks the element (prefix[m] for element m, over
+// [s.first, s.last]: the residual power, or a near pair's members' shares of the irradiance),
+// and hashed numbers a point of the element's pieces uniform by area (a fan triangle by area,
+// then Heitz's map). False when the weights are all 0 or the element has no pieces.
+bool penumbraOrigin(const ShotGeometry& shot, const ShooterPoint& s, const double* prefix,
+                    uint64_t key, int j, int n, const RadiositySurface& surface, glm::dvec3& origin,
+                    glm::dvec3& normal) {
+  const uint64_t h1 = mixBits(key + uint64_t(j) * 0x9e3779b97f4a7c15ULL), h2 = mixBits(h1);
+  const auto unit = [](uint64_t bits) { return double(bits & 0xffffff) * 0x1p-24; };
+  const double u0 = (double(j) + unit(h1 >> 40)) / double(n);
+  const double u1 = unit(h1 >> 16), u2 = unit(h2 >> 40), u3 = unit(h2 >> 16);
+  const double lo = prefix[s.first], hi = prefix[s.last];
+  if (!(hi > lo)) return false;
+  const double t = lo + u0 * (hi - lo);
+  // The element m with prefix[m] <= t < prefix[m + 1] (skipping elements of no weight).
+  const double* at = std::upper_bound(prefix + s.first + 1, prefix + s.last + 1, t);
+  uint32_t m = uint32_t(std::min<ptrdiff_t>(at - prefix, s.last)) - 1;
+  while (m + 1 < s.last && !(prefix[m + 1] > prefix[m])) ++m;
+  const uint32_t q0 = shot.member_first[m - shot.first], q1 = shot.member_first[m - shot.first + 1];
+  if (q0 == q1) return false;
+  // A fan triangle of the element's pieces by area.
+  const double a0 = shot.member_area_prefix[q0], a1 = shot.member_area_prefix[q1];
+  double ta = a0 + u1 * (a1 - a0);
+  uint32_t q = q0;
+  while (q + 1 < q1 && shot.member_area_prefix[q + 1] <= ta) ++q;
+  const auto& [c, count] = shot.member_polys[q];
+  ta -= shot.member_area_prefix[q];
+  int k = 1;
+  for (; k + 2 < count; ++k) {
+    const double tri = 0.5 * glm::length(glm::cross(c[k] - c[0], c[k + 1] - c[0]));
+    if (ta < tri) break;
+    ta -= tri;
+  }
+  const glm::vec2 b = sampleTriangleBarycentrics(float(u2), float(u3));
+  origin = c[0] + double(b.x) * (c[k] - c[0]) + double(b.y) * (c[k + 1] - c[0]);
+  normal = surface.atlas.element_normal[m];
+  return true;
+}
+
 // Planar charts wholly behind or level with the shooter's bounding sphere receive nothing (the
 // outsides of a room's walls, the back of a panel): skipped before visiting their elements.
 void findSkippedCharts(ShotGeometry& shot, const RadiositySurface& surface, ClusterRef root) {
@@ -817,7 +897,16 @@ void traceShadowRays(const ShotGeometry& shot, const RadiositySurface& surface,
     const glm::dvec3 from =
         receivers.position(pair.receiver) + receivers.normal(pair.receiver) * surface.lift;
     glm::dvec3 to = s.position + s.geometric * surface.lift;
-    if (jitter) {
+    glm::dvec3 origin, normal;
+    if (shot.penumbra_rays > 1 &&
+        penumbraOrigin(shot, s, shot.power_prefix.data() - shot.first,
+                       ~mixBits(uint64_t(pair.receiver) << 32 | pair.point) ^ shot.iteration, 0, 1,
+                       surface, origin, normal)) {
+      // A shot that refines penumbrae finds them from random points of each point's power:
+      // from the points' centres, a receiver whose rays all pass or all stop could still see
+      // part of the shooter (the fringes of the penumbra, outside the centres' shadows).
+      to = origin + normal * surface.lift;
+    } else if (jitter) {
       to += cutoutJitter(s.geometric, s.area, uint64_t(pair.receiver) << 32 | pair.point);
     }
     batch.set(k, Ray{glm::vec3(from), 1e-4f, glm::vec3(to - from), 1.0f - 1e-4f});
@@ -825,6 +914,115 @@ void traceShadowRays(const ShotGeometry& shot, const RadiositySurface& surface,
   surface.engine.intersectSerial(batch, hits);
   occluded.assign(pairs.size(), 0);
   for (size_t k = 0; k < pairs.size(); ++k) occluded[uint32_t(order[k])] = hits.triangle[k] >= 0;
+}
+
+// Penumbrae: the pairs of every receiver whose shadow rays disagree trace shot.penumbra_rays rays
+// each, from points of their point's residual power; visible[k] is pair k's visible fraction
+// (1 or 0 from its one ray elsewhere). Returns the rays traced.
+uint64_t refinePenumbrae(const ShotGeometry& shot, const RadiositySurface& surface,
+                         const ProgressiveReceivers& receivers, const std::vector<glm::dvec3>& db,
+                         const std::vector<Pair>& pairs, const std::vector<uint64_t>& order,
+                         const std::vector<uint8_t>& occluded, RayBatch& batch, HitBatch& hits,
+                         std::vector<float>& visible) {
+  visible.resize(pairs.size());
+  for (size_t k = 0; k < pairs.size(); ++k) visible[k] = occluded[k] ? 0.0f : 1.0f;
+  const int n = shot.penumbra_rays;
+  if (n <= 1) return 0;
+  // A receiver's pairs are consecutive: mark those of receivers with a hidden pair (in a
+  // penumbra, or in an umbra whose edge may still see a strip of the shooter). Behind a cut-out
+  // every receiver is refined: a lattice's holes can line up with the points' grid, and a
+  // receiver whose 16 rays all pass sees only part of the shooter (26-35% too bright on the
+  // textured room's floor under the lattice).
+  // The receivers next to a marked one (its texel's eight neighbours in the atlas, within the
+  // block) are marked too: a receiver on the penumbra's outer fringe may have all its rays pass
+  // and still miss a strip of the shooter (the closed form's fringe was 20% bright).
+  const bool all = surface.textures && surface.textures->hasCutouts();
+  const size_t first = pairs.front().receiver, span = pairs.back().receiver - first + 1;
+  std::vector<uint8_t> hidden_at(span, 0), marked(span, 0);
+  for (size_t k = 0; k < pairs.size(); ++k) hidden_at[pairs[k].receiver - first] |= occluded[k];
+  const ChartAtlas& atlas = surface.atlas;
+  for (size_t r = 0; r < span; ++r) {
+    if (!hidden_at[r]) continue;
+    marked[r] = 1;
+    const glm::ivec2 t = atlas.texelOf(receivers.texelElement(first + r));
+    for (int dy = -1; dy <= 1; ++dy) {
+      for (int dx = -1; dx <= 1; ++dx) {
+        const int x = t.x + dx, y = t.y + dy;
+        if (x < 0 || y < 0 || x >= atlas.width || y >= atlas.height) continue;
+        const int32_t e = atlas.texel_element[atlas.texelIndex(x, y)];
+        if (e < 0) continue;
+        const size_t o = receivers.owner(size_t(e));
+        if (o >= first && o < first + span) marked[o - first] = 1;
+      }
+    }
+  }
+  std::vector<uint8_t> refine(pairs.size(), 0);
+  size_t refined = 0;
+  for (size_t k = 0; k < pairs.size(); ++k) {
+    if (all || marked[pairs[k].receiver - first]) refine[k] = 1, ++refined;
+  }
+  if (refined == 0) return 0;
+  // By point (the order of the first rays), n rays a pair.
+  std::vector<uint32_t> which;
+  which.reserve(refined);
+  for (const uint64_t o : order) {
+    if (refine[uint32_t(o)]) which.push_back(uint32_t(o));
+  }
+  batch.resize(which.size() * size_t(n));
+  std::vector<uint8_t> drawn(batch.size(), 0);
+  std::vector<double> members;  // a near pair's members' shares, summed
+  for (size_t w = 0; w < which.size(); ++w) {
+    const Pair& pair = pairs[which[w]];
+    const ShooterPoint& s = shot.points[pair.point];
+    const glm::dvec3 pr = receivers.position(pair.receiver);
+    const glm::dvec3 from = pr + receivers.normal(pair.receiver) * surface.lift;
+    const uint64_t key = mixBits(uint64_t(pair.receiver) << 32 | pair.point) ^ shot.iteration;
+    // A near pair's members each bring their own form factor (addPair's kMembers): the rays
+    // leave them by their shares of the pair's irradiance, so that the visible fraction weighs
+    // each member as the irradiance does (by power alone, the members nearest the receiver were
+    // undersampled: a floor block half under the Cornell box lit the box 4% less than its
+    // elements did).
+    const double* prefix = shot.power_prefix.data() - shot.first;
+    if (pair.kernel == Kernel::kMembers && s.last - s.first > 1) {
+      const glm::dvec3 nr = receivers.shadingNormal(pair.receiver);
+      members.assign(s.last - s.first + 1, 0.0);
+      for (uint32_t m = s.first; m < s.last; ++m) {
+        double f = 0.0;
+        if (db[m] != glm::dvec3(0.0)) {
+          for (uint32_t q = shot.member_first[m - shot.first];
+               q < shot.member_first[m - shot.first + 1]; ++q) {
+            f += pointToPolygonFormFactor<true>(pr, nr, shot.member_polys[q].first.data(),
+                                                shot.member_polys[q].second);
+          }
+        }
+        members[m - s.first + 1] = members[m - s.first] + residualLuminance(db[m]) * f;
+      }
+      prefix = members.data() - s.first;
+    }
+    for (int j = 0; j < n; ++j) {
+      const size_t k = w * size_t(n) + size_t(j);
+      glm::dvec3 origin, normal;
+      if (penumbraOrigin(shot, s, prefix, key, j, n, surface, origin, normal)) {
+        const glm::dvec3 to = origin + normal * surface.lift;
+        batch.set(k, Ray{glm::vec3(from), 1e-4f, glm::vec3(to - from), 1.0f - 1e-4f});
+        drawn[k] = 1;
+      } else {
+        batch.set(k, Ray{glm::vec3(from), 1e-4f, glm::vec3(0.0f, 0.0f, 1.0f), 0.0f});
+      }
+    }
+  }
+  surface.engine.intersectSerial(batch, hits);
+  for (size_t w = 0; w < which.size(); ++w) {
+    int seen = 0, tried = 0;
+    for (int j = 0; j < n; ++j) {
+      const size_t k = w * size_t(n) + size_t(j);
+      if (!drawn[k]) continue;
+      ++tried;
+      seen += hits.triangle[k] < 0;
+    }
+    if (tried > 0) visible[which[w]] = float(seen) / float(tried);
+  }
+  return batch.size();
 }
 
 // Adds a pair's irradiance at the receiver (point pr, shading normal nr) to `incident`.
@@ -873,6 +1071,7 @@ void gatherReceivers(const ShotGeometry& shot, const RadiositySurface& surface,
   std::vector<uint32_t> stack;
   std::vector<uint64_t> order;  // (point, pair index): sorted, the pairs by point, stably
   std::vector<uint8_t> occluded;
+  std::vector<float> visible;
   RayBatch batch;
   HitBatch hits;
   for (size_t block = begin; block < end; block += kReceiverBlock) {
@@ -884,12 +1083,17 @@ void gatherReceivers(const ShotGeometry& shot, const RadiositySurface& surface,
     if (visibility && !pairs.empty()) {
       traceShadowRays(shot, surface, receivers, pairs, order, batch, hits, occluded);
       rays += pairs.size();
+      rays += refinePenumbrae(shot, surface, receivers, db, pairs, order, occluded, batch, hits,
+                              visible);
     }
     for (size_t k = 0; k < pairs.size(); ++k) {
-      if (visibility && occluded[k]) continue;
+      const float v = visibility ? visible[k] : 1.0f;
+      if (v <= 0.0f) continue;
       const size_t r = pairs[k].receiver;
       // Form factors take the shading normals; culling and shadow rays the faces' own.
-      addPair(shot, db, pairs[k], receivers.position(r), receivers.shadingNormal(r), incident[r]);
+      glm::dvec3 got(0.0);
+      addPair(shot, db, pairs[k], receivers.position(r), receivers.shadingNormal(r), got);
+      incident[r] += got * double(v);
     }
   }
 }
@@ -934,6 +1138,15 @@ ProgressiveIteration ProgressiveRadiosity::shoot(uint32_t shooter) {
   findMemberPieces(geometry, *this);
   glm::dvec3 shot(0.0);
   for (uint32_t e = first; e < last; ++e) shot += db_[e] * surface_.atlas.element_area[e];
+  // Penumbra rays in proportion to the shot's power over the brightest emitter's (see the
+  // file comment).
+  if (options_.penumbra_rays > 1 && emitter_power_ > 0.0) {
+    const double share = std::min(1.0, residualLuminance(shot) / emitter_power_);
+    geometry.penumbra_rays = int(std::ceil(double(options_.penumbra_rays) * share - 1e-9));
+    geometry.iteration = uint32_t(iterations_);
+    if (geometry.penumbra_rays > 1)
+      preparePenumbraSampling(geometry, db_, surface_.atlas.element_area);
+  }
   findSkippedCharts(geometry, surface_, root);
 
   // ---- Gather ----

@@ -154,15 +154,19 @@ Expected<RadiositySurface> RadiositySurface::build(const Scene& scene,
   }
   s.bounds = s.engine.bounds();
   s.lift = 1e-5 * double(glm::length(s.bounds.hi - s.bounds.lo));
+  // The textures' means per element, and the points of texels a cut-out covers in part.
+  if (s.textures) s.integrateTextures();
   // Each element's point on the side of its footprint that geometry standing on the chart does
   // not cut off (radiosity/texel_footprint.h), before anything reads the points.
   s.anchored = anchorElements(s);
   s.hierarchy = SurfaceHierarchy::build(s.atlas);
   s.has_side.assign(2 * s.flat.triangles.size(), 0);
+  s.side_face.assign(2 * s.flat.triangles.size(), -1);
   for (size_t f = 0; f < s.atlas.faces.size(); ++f) {
     if (s.atlas.charts.face_chart[f] < 0) continue;
     const SurfaceFace& face = s.atlas.faces[f];
     s.has_side[2 * size_t(face.triangle) + (face.back ? 1 : 0)] = 1;
+    s.side_face[2 * size_t(face.triangle) + (face.back ? 1 : 0)] = int32_t(f);
   }
 
   const size_t n = s.atlas.elementCount();
@@ -205,7 +209,6 @@ Expected<RadiositySurface> RadiositySurface::build(const Scene& scene,
     }
     s.applyNormalMaps(scene, face_normals);
   }
-  if (s.textures) s.integrateTextures();
   s.applyMaterials(scene.materials);
   std::vector<uint8_t> known(s.atlas.texel_kind.size(), 0);
   for (size_t e = 0; e < s.elementCount(); ++e) known[s.atlas.element_texel[e]] = 1;
@@ -276,6 +279,11 @@ void RadiositySurface::integrateTextures() {
       // Every piece counts, those of plain faces with the factors alone (mean() gives 1).
       glm::dvec3 reflectance_sum(0.0), emission_sum(0.0);
       double coverage_sum = 0.0, area = 0.0;
+      // The covered part's centre: summed over the pieces, and the piece that covers most.
+      bool one_face = true;
+      uint32_t best_face = 0;
+      glm::dvec2 best_bary(0.0), bary_sum(0.0);
+      double best = 0.0;
       for (uint32_t k = first; k < last; ++k) {
         const uint32_t f = atlas.element_faces[k];
         const uint32_t t = atlas.faces[f].triangle;
@@ -304,11 +312,32 @@ void RadiositySurface::integrateTextures() {
         emission_sum += piece_area * m.emission;
         coverage_sum += piece_area * m.coverage;
         area += piece_area;
+        const double covered = piece_area * m.coverage;
+        if (covered > 0.0) {
+          bary_sum += covered * m.covered_centroid;
+          if (best > 0.0 && f != best_face) one_face = false;
+          if (covered > best) best = covered, best_face = f, best_bary = m.covered_centroid;
+        }
       }
       if (area > 0.0) {
         texture_reflectance[e] = reflectance_sum / area;
         texture_emission[e] = emission_sum / area;
         if (!coverage.empty()) coverage[e] = coverage_sum / area;
+      }
+      // A texel a cut-out covers in part stands for its covered part: its point moves to that
+      // part's centre (on the face that covers most when its pieces lie on several), where the
+      // path-traced bake's samples are centred. At the centre of the whole texel a half-covered
+      // lattice texel beside the ceiling panel read the irradiance 10 cm from where its bars are
+      // (10-16% off the path-traced bake at 5 texels/m).
+      const double covered_total = coverage_sum;
+      if (!coverage.empty() && covered_total > 0.0 && covered_total < 0.999 * area) {
+        const glm::dvec2 w = one_face ? bary_sum / covered_total : best_bary;
+        const glm::uvec3 tri = flat.triangles[atlas.faces[best_face].triangle];
+        const glm::dvec3 p0(flat.positions[tri.x]), p1(flat.positions[tri.y]),
+            p2(flat.positions[tri.z]);
+        atlas.element_position[e] = p0 + w.x * (p1 - p0) + w.y * (p2 - p0);
+        atlas.element_face[e] = best_face;
+        atlas.element_barycentric[e] = glm::vec2(w);
       }
     }
   });
@@ -397,6 +426,38 @@ std::vector<glm::dvec3> RadiositySurface::lightIrradianceAt(
   if (stopped) throwIfStoppedMidStep();
   if (rays) *rays += traced.load();
   return out;
+}
+
+int32_t RadiositySurface::elementAtHit(int32_t t, float u, float v, const glm::vec3& dir) const {
+  if (t < 0) return -1;
+  const glm::uvec3 tri = flat.triangles[size_t(t)];
+  const glm::vec3 ng = glm::cross(flat.positions[tri.y] - flat.positions[tri.x],
+                                  flat.positions[tri.z] - flat.positions[tri.x]);
+  const int32_t f = side_face[2 * size_t(t) + (glm::dot(ng, dir) > 0.0f ? 1 : 0)];
+  if (f < 0) return -1;
+  const glm::dvec2 at = atlas.corner_texel[3 * size_t(f)] * double(1.0f - u - v) +
+                        atlas.corner_texel[3 * size_t(f) + 1] * double(u) +
+                        atlas.corner_texel[3 * size_t(f) + 2] * double(v);
+  const int x = std::clamp(int(std::floor(at.x)), 0, atlas.width - 1);
+  const int y = std::clamp(int(std::floor(at.y)), 0, atlas.height - 1);
+  const int32_t e = atlas.texel_element[atlas.texelIndex(x, y)];
+  if (e >= 0) return e;
+  // A border texel (the chart's edge crosses it without an element there): the nearest element
+  // of the same chart around it.
+  const int32_t chart = atlas.charts.face_chart[size_t(f)];
+  int32_t best = -1;
+  double best_d = std::numeric_limits<double>::infinity();
+  for (int dy = -1; dy <= 1; ++dy) {
+    for (int dx = -1; dx <= 1; ++dx) {
+      const int xx = x + dx, yy = y + dy;
+      if (xx < 0 || yy < 0 || xx >= atlas.width || yy >= atlas.height) continue;
+      const int32_t n = atlas.texel_element[atlas.texelIndex(xx, yy)];
+      if (n < 0 || int32_t(atlas.element_chart[size_t(n)]) != chart) continue;
+      const double d = glm::length(glm::dvec2(xx + 0.5, yy + 0.5) - at);
+      if (d < best_d) best_d = d, best = n;
+    }
+  }
+  return best;
 }
 
 bool RadiositySurface::allHitElements(const RayBatch& rays) const {

@@ -77,8 +77,10 @@ struct RadiositySurface {
   size_t anchored = 0;
   // The charts' gap fill around the elements' texels, planned once for radianceImage.
   ChartGapPlan gap_plan;
-  // Which sides of the flattened triangles have elements: has_side[2 t + back].
+  // Which sides of the flattened triangles have elements: has_side[2 t + back]; and the face
+  // laid out there (-1: none).
   std::vector<uint8_t> has_side;
+  std::vector<int32_t> side_face;
   // Per element.
   std::vector<glm::dvec3> reflectance;
   std::vector<glm::dvec3> emission;  // W m^-2 (pi L_e on front faces of emissive materials)
@@ -111,7 +113,8 @@ struct RadiositySurface {
   // (render/lightmap_view.h, scene/surface_textures.h); null when the scene has no textures or
   // cut-outs.
   std::shared_ptr<const LightmapDetail> lightmapDetail() const;
-  // Fills texture_reflectance and texture_emission (textures is set).
+  // Fills texture_reflectance, texture_emission and coverage (textures is set), and moves the
+  // point of each element a cut-out covers in part to the centre of its covered part.
   void integrateTextures();
   // Perturbs the shading normals of the elements on the front of materials with a normal map
   // (Wallner sec. 3.3; scene/material.h); `corner_normals` as cornerShadingNormals gives them.
@@ -132,6 +135,10 @@ struct RadiositySurface {
   // The shadow ray from `p` (face normal `ng`, lifted off the surface) towards a light sample.
   Ray shadowRayToLight(const LightSample& sample, const glm::dvec3& p, const glm::dvec3& ng) const;
 
+  // The element a ray with direction `dir` that hit triangle t at barycentrics (u, v) landed on
+  // (the side it arrived at, its texel in the atlas, or the nearest element of that chart
+  // within one texel where the texel is a border one); -1 on a side without elements.
+  int32_t elementAtHit(int32_t t, float u, float v, const glm::vec3& dir) const;
   // Whether every ray of `rays` hits a face that has elements (none escapes to the outside or
   // reaches a black back face of a one-sided surface).
   bool allHitElements(const RayBatch& rays) const;

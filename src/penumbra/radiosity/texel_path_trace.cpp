@@ -216,8 +216,12 @@ Expected<std::vector<glm::dvec3>> pathTraceTexels(
   TexelPathTraceStats st;
   for (size_t e = 0; e < n; ++e) {
     const TexelSums& s = sums[e];
+    // The samples are points of the surface (holes of cut-outs drawn again), so their mean is
+    // the radiosity per area of surface; an element's B is per area of its footprint, as its
+    // reflectance and emission are (coverage-weighted means): the mean times the coverage.
     b[e] =
-        surface.emission[e] + (s.samples > 0 ? s.radiosity / double(s.samples) : glm::dvec3(0.0));
+        surface.emission[e] +
+        (s.samples > 0 ? surface.coverageOf(e) * s.radiosity / double(s.samples) : glm::dvec3(0.0));
     st.samples += s.samples;
     if (s.samples >= uint32_t(options.max_samples) &&
         s.standardError() > options.target_error * std::max(s.mean(), floor)) {

@@ -11,7 +11,10 @@
 // (raytrace/path_tracer.h) for the radiance leaving x towards a point just above it: its own
 // estimator, with next-event estimation at x itself (area emitters, point, spot and directional
 // lights, luminaires), textures at x and Russian roulette, so the bake is exactly as unbiased as
-// the renders. A point that falls in a cut-out's hole is drawn again.
+// the renders. A point that falls in a cut-out's hole is drawn again: B(x) is 0 there, so the
+// texel's B is the coverage (RadiositySurface::coverage) times the mean over the points drawn on
+// the surface, as the radiosity methods' B is per texel area (their reflectance and emission
+// are coverage-weighted means), and the irradiance B / rho an engine takes is the same in both.
 //
 // Stopping rule: every texel takes `min_samples`; then each continues in batches until the
 // standard error of its radiosity estimate is at most `target_error` times the larger of its

@@ -38,6 +38,20 @@ int coverageChannel(const Texture& t) {
   return t.fileChannels() == 2 || t.fileChannels() == 4 ? 3 : 0;
 }
 
+// A convex polygon's centroid (area-weighted over its fan; its first corner when degenerate).
+glm::dvec2 polygonCentroid(std::span<const glm::vec2> polygon) {
+  glm::dvec2 centroid(0.0);
+  double area = 0.0;
+  for (size_t k = 1; k + 1 < polygon.size(); ++k) {
+    const glm::dvec2 a(polygon[0]), b(polygon[k]), c(polygon[k + 1]);
+    const double w = 0.5 * std::abs((b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x));
+    centroid += w * (a + b + c) / 3.0;
+    area += w;
+  }
+  if (area > 0.0) return centroid / area;
+  return polygon.empty() ? glm::dvec2(0.0) : glm::dvec2(polygon[0]);
+}
+
 }  // namespace
 
 SurfaceTextures::SurfaceTextures(const Scene& scene) {
@@ -213,6 +227,7 @@ SurfaceTextures::Mean SurfaceTextures::mean(uint32_t tri, std::span<const glm::v
   const glm::vec3 reflectance_factor = factors ? m.reflectance : glm::vec3(1.0f);
   const glm::vec3 emission_factor = factors ? m.emission : glm::vec3(1.0f);
   Mean out;
+  out.covered_centroid = polygonCentroid(polygon);  // when it covers all or nothing
   if (!(flags_[tri] & (kVaries | kCutout)) || polygon.size() < 3) {
     out.reflectance = glm::dvec3(reflectance_factor);
     out.emission = glm::dvec3(emission_factor);
@@ -221,6 +236,7 @@ SurfaceTextures::Mean SurfaceTextures::mean(uint32_t tri, std::span<const glm::v
   const bool mask = m.alpha_mode == AlphaMode::kMask;
   const bool covers = m.alpha_mode != AlphaMode::kOpaque;
   glm::dvec3 r_sum(0.0), e_sum(0.0);
+  glm::dvec2 p_sum(0.0);  // coverage-weighted points
   double c_sum = 0.0, weight_sum = 0.0;
   for (size_t k = 1; k + 1 < polygon.size(); ++k) {
     const glm::vec2 b[3] = {polygon[0], polygon[k], polygon[k + 1]};
@@ -262,6 +278,7 @@ SurfaceTextures::Mean SurfaceTextures::mean(uint32_t tri, std::span<const glm::v
       return sampleTextureTrilinear(*s.binding->texture, s.binding->sampler, st, level);
     };
     glm::dvec3 r_piece(0.0), e_piece(0.0);
+    glm::dvec2 p_piece(0.0);
     double c_piece = 0.0;
     for (int i = 0; i < grid; ++i) {
       for (int j = 0; j < grid - i; ++j) {
@@ -296,6 +313,7 @@ SurfaceTextures::Mean SurfaceTextures::mean(uint32_t tri, std::span<const glm::v
           }
           r_piece += glm::dvec3(r) * coverage;
           e_piece += glm::dvec3(e) * coverage;
+          p_piece += glm::dvec2(p) * coverage;
           c_piece += coverage;
         }
       }
@@ -303,6 +321,7 @@ SurfaceTextures::Mean SurfaceTextures::mean(uint32_t tri, std::span<const glm::v
     r_sum += weight * r_piece / double(samples);
     e_sum += weight * e_piece / double(samples);
     c_sum += weight * c_piece / double(samples);
+    p_sum += weight * p_piece / double(samples);
     weight_sum += weight;
   }
   if (!(weight_sum > 0.0)) {
@@ -313,6 +332,7 @@ SurfaceTextures::Mean SurfaceTextures::mean(uint32_t tri, std::span<const glm::v
   out.reflectance = r_sum / weight_sum;
   out.emission = e_sum / weight_sum;
   out.coverage = c_sum / weight_sum;
+  if (c_sum > 0.0) out.covered_centroid = p_sum / c_sum;
   return out;
 }
 

@@ -76,6 +76,10 @@ class SurfaceTextures {
     glm::dvec3 reflectance{0.0};  // mean of reflectance x coverage
     glm::dvec3 emission{0.0};     // mean of emission x coverage (W m^-2 sr^-1)
     double coverage = 1.0;
+    // The coverage-weighted mean of the polygon's points, as barycentrics (w1, w2) of the
+    // triangle: where its covered part's centre is (the polygon's centroid when it covers all
+    // or nothing).
+    glm::dvec2 covered_centroid{0.0};
   };
   Mean mean(uint32_t tri, std::span<const glm::vec2> polygon, bool factors = true) const;
   // The same over the whole triangle.
