@@ -50,7 +50,7 @@ def bake(cli, scene, method, density, extra, out):
         s = json.load(f)
     name = os.path.basename(scene) if os.path.exists(scene) else scene
     stem = os.path.splitext(name)[0]
-    return os.path.join(out, stem + "_lightmap.exr"), s["seconds"]
+    return os.path.join(out, stem + "_lightmap.exr"), s["seconds"], s["atlas"]["texel_density"]
 
 
 def main():
@@ -70,12 +70,15 @@ def main():
     os.makedirs(a.out, exist_ok=True)
     refs, ref_seconds = [], 0.0
     for k in range(a.ref_seeds):
-        ref_path, seconds = bake(a.cli, a.scene, "pathtrace", a.density,
+        ref_path, seconds, density = bake(a.cli, a.scene, "pathtrace", a.density,
                                  ["--tolerance", a.ref_tolerance, "--texel-samples", a.ref_samples,
                                   "--seed", str(7 + k)], os.path.join(a.out, "reference%d" % k))
         refs.append(luminance(read_exr(ref_path, build)))
         ref_seconds += seconds
     ref = sum(refs) / len(refs)
+    # Every bake on the reference's atlas (with density 0 the scene's default, which matrix
+    # radiosity would raise with --elements).
+    a.density = density
     gltf = os.path.splitext(ref_path)[0][:-len("_lightmap")] + ".gltf"
     weights = lightmap_texels.texel_weights(gltf, ref.shape[1], ref.shape[0])
     print("reference: pathtrace --tolerance %s, %d seed(s), %.1f s; %.0f texels of surface" %
@@ -88,7 +91,7 @@ def main():
         option, values = SWEEPS[method]
         reached = {}
         for v in values:
-            path, seconds = bake(a.cli, a.scene, method, a.density, [option, v],
+            path, seconds, _ = bake(a.cli, a.scene, method, a.density, [option, v],
                                  os.path.join(a.out, "%s-%s" % (method, v)))
             got = luminance(read_exr(path, build))
             rms, mean = lightmap_texels.rms_over_surface(got, ref, weights)
