@@ -59,6 +59,25 @@ inline glm::vec2 sampleTriangleBarycentrics(float u1, float u2) {
   return glm::vec2(b1, 1.0f - b0 - b1);
 }
 
+// Twice the area of the fan triangle (c[0], c[k], c[k + 1]) of a convex polygon.
+inline double fanTriangleArea2(const glm::dvec3* c, int k) {
+  return glm::length(glm::cross(c[k] - c[0], c[k + 1] - c[0]));
+}
+
+// A point of convex polygon c (count >= 3 corners, fanned from c[0]) uniform by area: `at` in
+// [0, 2 * area) picks the fan triangle (the last one if rounding runs past), (u, v) the point in
+// it (Heitz's map).
+inline glm::dvec3 pointOnFan(const glm::dvec3* c, int count, double at, float u, float v) {
+  int k = 1;
+  for (; k + 2 < count; ++k) {
+    const double w = fanTriangleArea2(c, k);
+    if (at < w) break;
+    at -= w;
+  }
+  const glm::vec2 b = sampleTriangleBarycentrics(u, v);
+  return c[0] + double(b.x) * (c[k] - c[0]) + double(b.y) * (c[k + 1] - c[0]);
+}
+
 // Veach's power heuristic (beta = 2) for two sampling strategies.
 inline float powerHeuristic(float pdf_a, float pdf_b) {
   const float a = pdf_a * pdf_a, b = pdf_b * pdf_b;

@@ -69,26 +69,23 @@ struct PairEvaluator {
       s.atlas.elementPieces(e, s.flat.positions, s.flat.triangles, polygons, counts);
       for (size_t k = 0; k < counts.size(); ++k) pieces.emplace_back(polygons[k].data(), counts[k]);
     }
-    // The fan triangles of the pieces, one picked by area (the last one if rounding runs past).
+    // A piece by area, then a point of it (the last piece if rounding runs past).
     double total = 0.0;
     for (const auto& [c, count] : pieces) {
-      for (int k = 1; k + 1 < count; ++k) {
-        total += glm::length(glm::cross(c[k] - c[0], c[k + 1] - c[0]));
-      }
+      for (int k = 1; k + 1 < count; ++k) total += fanTriangleArea2(c, k);
     }
     if (!(total > 0.0)) return s.atlas.element_position[e];
-    double u = double(rng.uniform()) * total;
-    const glm::dvec3 *c0 = nullptr, *c1 = nullptr, *c2 = nullptr;
-    for (const auto& [c, count] : pieces) {
-      for (int k = 1; k + 1 < count && u >= 0.0; ++k) {
-        c0 = &c[0];
-        c1 = &c[k];
-        c2 = &c[k + 1];
-        u -= glm::length(glm::cross(c[k] - c[0], c[k + 1] - c[0]));
+    double at = double(rng.uniform()) * total;
+    for (size_t p = 0; p < pieces.size(); ++p) {
+      const auto& [c, count] = pieces[p];
+      double twice = 0.0;
+      for (int k = 1; k + 1 < count; ++k) twice += fanTriangleArea2(c, k);
+      if (at < twice || p + 1 == pieces.size()) {
+        return pointOnFan(c, count, at, rng.uniform(), rng.uniform());
       }
+      at -= twice;
     }
-    const glm::vec2 b = sampleTriangleBarycentrics(rng.uniform(), rng.uniform());
-    return *c0 + double(b.x) * (*c1 - *c0) + double(b.y) * (*c2 - *c0);
+    return s.atlas.element_position[e];
   }
 
   // Lambert's form factor from element a's point to element b's pieces (0 when the point is

@@ -745,10 +745,9 @@ void findMemberPieces(ShotGeometry& shot, const ProgressiveRadiosity& solver) {
 }
 
 double polygonArea(const Piece& piece) {
-  const auto& [c, count] = piece;
-  glm::dvec3 sum(0.0);
-  for (int k = 1; k + 1 < count; ++k) sum += glm::cross(c[k] - c[0], c[k + 1] - c[0]);
-  return 0.5 * glm::length(sum);
+  double twice = 0.0;
+  for (int k = 1; k + 1 < piece.second; ++k) twice += fanTriangleArea2(piece.first.data(), k);
+  return 0.5 * twice;
 }
 
 // What penumbra rays draw their origins from: the shooter's elements' residual power and their
@@ -793,15 +792,8 @@ bool penumbraOrigin(const ShotGeometry& shot, const ShooterPoint& s, const doubl
   uint32_t q = q0;
   while (q + 1 < q1 && shot.member_area_prefix[q + 1] <= ta) ++q;
   const auto& [c, count] = shot.member_polys[q];
-  ta -= shot.member_area_prefix[q];
-  int k = 1;
-  for (; k + 2 < count; ++k) {
-    const double tri = 0.5 * glm::length(glm::cross(c[k] - c[0], c[k + 1] - c[0]));
-    if (ta < tri) break;
-    ta -= tri;
-  }
-  const glm::vec2 b = sampleTriangleBarycentrics(float(u2), float(u3));
-  origin = c[0] + double(b.x) * (c[k] - c[0]) + double(b.y) * (c[k + 1] - c[0]);
+  origin =
+      pointOnFan(c.data(), count, 2.0 * (ta - shot.member_area_prefix[q]), float(u2), float(u3));
   normal = surface.atlas.element_normal[m];
   return true;
 }
