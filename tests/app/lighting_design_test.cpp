@@ -152,5 +152,96 @@ TEST(LightingDesign, FalseColourImageHasALegendAndLuxInExr) {
   EXPECT_EQ(sss.exit_code, 2) << sss.output;
 }
 
+std::string fileBytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+TEST(LightingDesign, CalculationObjectsAreReportedAndTakeNoPartInTheLight) {
+  TempDir dir;
+  const std::string scene = std::string(PENUMBRA_SOURCE_DIR) + "/scenes/office.json";
+  const std::string points = dir.write("seats.csv",
+                                       "x,y,z,nx,ny,nz,name\n"
+                                       "1.0,1.2,2.0,0,1,0,seat A\n"
+                                       "3.0,1.2,2.0,0,0,-1,seat B\n");
+  const std::string calc = dir.write("objects.json", R"({"calculation": [
+    {"name": "east wall", "type": "grid", "origin": [4, 0, 0], "u": [0, 0, 5], "v": [0, 3, 0],
+     "normal": [-1, 0, 0], "spacing": 0.5},
+    {"name": "seats cylindrical", "type": "points", "measure": "cylindrical",
+     "points": [{"position": [2, 1.2, 2.5], "name": "middle"}]}
+  ]})");
+  for (const char* m : {"progressive", "pathtrace"}) {
+    const std::string method = m;
+    const std::string plain = dir.file(method + "-plain.exr");
+    const std::string with = dir.file(method + "-with.exr");
+    const std::string report = dir.file(method + "-report");
+    const std::string stats = dir.file(method + "-stats.json");
+    const std::string common =
+        "render " + scene + " --method " + method + " --width 48 --height 32 --spp 2 --seed 3 ";
+    const test::CliResult a = runCli(common + "-o " + plain);
+    ASSERT_EQ(a.exit_code, 0) << a.output;
+    const test::CliResult b = runCli(common + "--points " + points + " --calc " + calc +
+                                     " --report " + report + " --stats " + stats + " -o " + with);
+    ASSERT_EQ(b.exit_code, 0) << b.output;
+    // The points measure; the picture is the same to the byte.
+    EXPECT_EQ(fileBytes(plain), fileBytes(with)) << method;
+    const nlohmann::json objects = readJson(stats)["illuminance"]["objects"];
+    ASSERT_EQ(objects.size(), 3u);
+    EXPECT_EQ(objects[0]["name"], "east wall");
+    EXPECT_EQ(objects[2]["name"], "seats");  // the points file's stem
+    EXPECT_EQ(objects[1]["measure"], "cylindrical");
+    const nlohmann::json wall = readJson(report + "/east_wall.json");
+    EXPECT_EQ(wall["point_values"].size(), 10u * 6u);
+    const double avg = wall["total"]["average_lux"], lo = wall["total"]["minimum_lux"],
+                 hi = wall["total"]["maximum_lux"];
+    EXPECT_GT(avg, 50.0);  // six 2000 lm downlights light the walls too
+    EXPECT_NEAR(double(wall["total"]["uniformity_u1"]), lo / hi, 1e-9);
+    EXPECT_NEAR(double(wall["total"]["uniformity_u0"]), lo / avg, 1e-9);
+    Expected<Image> plan = readImage(report + "/east_wall.png");
+    ASSERT_TRUE(plan.ok()) << plan.error().describe();
+    EXPECT_GT(plan->width, 10 * 40);  // a cell per point and the legend
+    std::ifstream seats(report + "/seats.csv");
+    std::string line, all;
+    while (std::getline(seats, line)) all += line + "\n";
+    EXPECT_NE(all.find("seat A,1.0000,1.2000,2.0000"), std::string::npos) << all;
+    EXPECT_NE(all.find("seat B"), std::string::npos) << all;
+    std::printf("office, %s: east wall E_avg %.1f lx, U0 %.2f; cylindrical at the middle %.1f lx\n",
+                method.c_str(), avg, double(wall["total"]["uniformity_u0"]),
+                double(objects[1]["total"]["average_lux"]));
+  }
+}
+
+TEST(LightingDesign, BadCalculationObjectsAreRefusedBeforeTheWork) {
+  TempDir dir;
+  const std::string scene = std::string(PENUMBRA_SOURCE_DIR) + "/scenes/office.json";
+  const std::string out = dir.file("x.png"), report = dir.file("report");
+  const std::string bad = dir.write("bad.csv", "1,2,3\n4,5,six\n");
+  const test::CliResult r = runCli("render " + scene + " --method progressive --points " + bad +
+                                   " --report " + report + " -o " + out);
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find(bad + ": line 2"), std::string::npos) << r.output;
+  EXPECT_EQ(r.output.find("lightmap texels"), std::string::npos) << "refused before the work";
+  EXPECT_FALSE(std::filesystem::exists(out));
+  EXPECT_FALSE(std::filesystem::exists(report));
+  const std::string calc = dir.write("c.json", R"([{"type": "grid", "origin": [0, 0, 0],
+    "u": [1, 0, 0], "v": [0, 1, 0], "spacing": 0}])");
+  const test::CliResult c =
+      runCli("render " + scene + " --method pathtrace --calc " + calc + " -o " + out);
+  EXPECT_EQ(c.exit_code, 2) << c.output;
+  EXPECT_NE(c.output.find(calc + ": [0].spacing"), std::string::npos) << c.output;
+  // A scene file's own objects go through the same checks.
+  const std::string in_scene = dir.write("scene.json", R"({
+    "materials": {"white": {"reflectance": [0.5, 0.5, 0.5]}},
+    "meshes": [{"file": ")" + std::string(PENUMBRA_SOURCE_DIR) +
+                                                           R"(/scenes/room/floor.obj",
+                "material": "white"}],
+    "calculation": [{"type": "points", "points": [{"position": [0, NaN, 0]}]}]})");
+  const test::CliResult s = runCli("info " + in_scene);
+  EXPECT_EQ(s.exit_code, 2) << s.output;
+  EXPECT_NE(s.output.find(in_scene), std::string::npos) << s.output;
+}
+
 }  // namespace
 }  // namespace penumbra

@@ -7,6 +7,8 @@
 #include "penumbra/core/file_util.h"
 #include "penumbra/core/memory.h"
 #include "penumbra/geometry/icosphere.h"
+#include "penumbra/io/calculation_objects.h"
+#include "penumbra/io/daylight_json.h"
 #include "penumbra/io/image_io.h"
 #include "penumbra/io/json_guard.h"
 #include "penumbra/io/luminaire_io.h"
@@ -15,6 +17,7 @@
 #include "penumbra/io/texture_loader.h"
 #include "penumbra/scene/animation.h"
 #include "penumbra/scene/builtin.h"
+#include "penumbra/scene/coplanar_emitters.h"
 #include "penumbra/scene/media.h"
 
 #include <glm/geometric.hpp>
@@ -1074,8 +1077,9 @@ Expected<Scene> SceneJsonReader::read(const json& root) {
   if (!root.is_object()) {
     return error("", fmt::format("the top level must be an object, not {}", jsonTypeName(root)));
   }
-  PENUMBRA_TRY(
-      checkKeys(root, "", {"materials", "meshes", "lights", "camera", "settings", "environment"}));
+  PENUMBRA_TRY(checkKeys(root, "",
+                         {"materials", "meshes", "lights", "camera", "settings", "environment",
+                          "calculation", "sky", "openings"}));
   Scene scene;
   scene.source = path_;
   PENUMBRA_TRY(readMaterials(root, scene));
@@ -1099,6 +1103,20 @@ Expected<Scene> SceneJsonReader::read(const json& root) {
       PENUMBRA_TRY(readLight(lights[i], fmt::format("lights[{}]", i), scene));
     }
   }
+  if (root.contains("sky")) {
+    if (root.contains("environment")) {
+      return error("sky", "a scene has a sky or a uniform environment, not both");
+    }
+    Expected<DaylightSky> daylight = readSky(root.at("sky"), path_, "sky");
+    if (!daylight.ok()) return daylight.error();
+    scene.sky = daylight->sky;
+    if (daylight->sun) scene.lights.push_back(*daylight->sun);
+  }
+  if (root.contains("openings")) {
+    Expected<std::vector<Opening>> openings = readOpenings(root.at("openings"), path_, "openings");
+    if (!openings.ok()) return openings.error();
+    scene.openings = std::move(*openings);
+  }
   Expected<const json*> camera = object(root, "camera", "", false);
   if (!camera.ok()) return camera.error();
   if (*camera) PENUMBRA_TRY(readCamera(**camera, "camera", scene));
@@ -1111,13 +1129,21 @@ Expected<Scene> SceneJsonReader::read(const json& root) {
     scene.environment = *env;
   }
 
+  if (root.contains("calculation")) {
+    // Read once the meshes are in (a surface object names one); the same reader as --calc.
+    Expected<std::vector<CalculationGrid>> objects =
+        calculationObjectsFromJson(scene, root.at("calculation"), path_, "calculation");
+    if (!objects.ok()) return objects.error();
+    scene.calculation = std::move(*objects);
+  }
   // The mesh files were validated by their loaders, whose warnings (degenerate triangles) name
   // the mesh file; the merged scene's validation would repeat them, so its warnings are dropped
   // (unless meshes were added from memory, which no loader has seen).
   const size_t warnings_before = scene.warnings.size();
   if (complete_) complete_(scene);
-  PENUMBRA_TRY(validateScene(scene));
+  PENUMBRA_TRY(checkScene(scene));
   if (!complete_) scene.warnings.resize(warnings_before);
+  liftCoplanarEmitters(scene);  // across meshes of different files too, with its warning
   return scene;
 }
 

@@ -118,7 +118,13 @@ struct RenderOptions : LightmapMethodOptions {
   std::string grid_surface;          // or points on the mesh of this name
   std::optional<double> grid_spacing, grid_margin;
   std::string grid_csv;
-  int illuminance_rays = 256;  // per grid point (a quarter of it per pixel)
+  std::vector<std::string> calc_files;    // --calc: calculation objects (JSON)
+  std::vector<std::string> points_files;  // --points: calculation points (CSV or JSON)
+  std::string report_dir;                 // --report: a CSV, JSON and picture per object
+  // Hemisphere rays per calculation point; none: as many as a budget of 4 million a calculation
+  // object allows, 256 to 65,536 (render/illuminance.h: autoIlluminanceRays). Per pixel: a
+  // quarter of it, 64 by default.
+  std::optional<int> illuminance_rays;
   // --method whitted and photons (raytrace/whitted.h, photon_map.h): shadow rays per diffuse
   // vertex to the emissive triangles and the environment; photons: the global and caustic photon
   // counts, photons per density estimate and their largest distance (m), final-gather rays.

@@ -7,6 +7,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -20,6 +21,12 @@ bool wantsIlluminance(const RenderOptions& options);
 // --work-plane).
 Expected<IlluminanceRequest> illuminanceRequest(const RenderOptions& options, int width,
                                                 int height);
+
+// Once the scene is loaded: a request for the scene's own calculation objects when the options
+// asked for nothing (`lux` empty), then the request checked against the scene
+// (checkIlluminanceRequest), before any work.
+Status prepareIlluminance(std::optional<IlluminanceRequest>& lux, const RenderOptions& options,
+                          const Scene& scene, int width, int height);
 
 // With --output-quantity illuminance, the images: lux in every channel for .exr/.hdr/.pfm, and
 // for .png the false-colour picture with its legend (--false-colour, --lux-max) or the lux

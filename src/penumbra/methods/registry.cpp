@@ -601,11 +601,32 @@ void luxOptions(const Adder<RenderOptions>& add) {
        .help = "work plane or surface: x, y, z, direct and total lux per point to this CSV",
        .uses = all(kLux)},
       field<R>(&R::grid_csv));
+  add({.name = "calc",
+       .kind = K::kText,
+       .help = "calculation objects from this JSON file (work planes, grids on any plane, "
+               "surfaces, points; docs/scene-format.md); may repeat",
+       .uses = all(kLux),
+       .repeatable = true},
+      field<R>(&R::calc_files));
+  add({.name = "points",
+       .kind = K::kText,
+       .help = "calculation points from this CSV (x,y,z[,nx,ny,nz[,name]]) or JSON file; may "
+               "repeat",
+       .uses = all(kLux),
+       .repeatable = true},
+      field<R>(&R::points_files));
+  add({.name = "report",
+       .kind = K::kText,
+       .help = "a folder for the calculation objects' reports: NAME.csv, NAME.json and, for "
+               "grids, a plan-view false-colour NAME.png with the values printed",
+       .uses = all(kLux)},
+      field<R>(&R::report_dir));
   add({.name = "illuminance-rays",
        .kind = K::kInt,
        .range = range(1, 65536),
-       .help = "hemisphere rays per grid point (a quarter of it per pixel)",
-       .uses = all(kLux, "256")},
+       .help = "hemisphere rays per calculation point (a quarter of it per pixel, 64 by "
+               "default); by default as many as 4 million rays an object allow, 256 to 65536",
+       .uses = all(kLux, "auto")},
       field<R>(&R::illuminance_rays));
 }
 

@@ -220,7 +220,7 @@ Status renderMatrix(const RenderOptions& options, const CommonOptions& common) {
   const Scene* const scene = &runScene();
   for (const std::string& w : scene->warnings) spdlog::warn("{}", w);
   for (const std::string& w : diffuseStandInWarnings(*scene, "matrix")) spdlog::warn("{}", w);
-  if (setup->lux) PENUMBRA_TRY(checkIlluminanceRequest(*scene, *setup->lux));
+  PENUMBRA_TRY(prepareIlluminance(setup->lux, options, *scene, setup->width, setup->height));
   bool any_emitter = !scene->lights.empty();
   for (const Material& m : scene->materials) any_emitter |= m.isEmissive();
   if (!any_emitter) {

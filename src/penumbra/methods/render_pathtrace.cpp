@@ -108,8 +108,8 @@ Status renderPathTrace(const RenderOptions& options, const CommonOptions& common
     Expected<IlluminanceRequest> r = illuminanceRequest(options, settings.width, settings.height);
     if (!r) return r.error();
     lux = *r;
-    PENUMBRA_TRY(checkIlluminanceRequest(*scene, *lux));
   }
+  PENUMBRA_TRY(prepareIlluminance(lux, options, *scene, settings.width, settings.height));
   const double load_seconds = load_timer.seconds();
   Timer build_timer;
   const PathTracer tracer(*scene);

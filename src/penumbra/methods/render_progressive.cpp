@@ -150,7 +150,7 @@ Status renderLightmapRadiosity(const RenderOptions& options, const CommonOptions
   const Scene* const scene = &runScene();
   for (const std::string& w : scene->warnings) spdlog::warn("{}", w);
   for (const std::string& w : diffuseStandInWarnings(*scene, options.method)) spdlog::warn("{}", w);
-  if (lux) PENUMBRA_TRY(checkIlluminanceRequest(*scene, *lux));
+  PENUMBRA_TRY(prepareIlluminance(lux, options, *scene, width, height));
   // The solution: a lightmap over the surface's atlas, the stats and a summary line.
   std::optional<ProgressiveRun> progressive;
   std::optional<StochasticRun> stoch;

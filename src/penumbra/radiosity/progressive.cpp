@@ -207,10 +207,11 @@ Expected<ProgressiveRadiosity> ProgressiveRadiosity::build(RadiositySurface surf
     pr.balance_.emitted += pr.surface_.emission[e] * area;
   }
   pr.lights_ = scene.lights;
-  pr.lights_shot_ = pr.lights_.empty();
+  if (scene.sky) pr.daylight_.emplace(scene);
+  pr.lights_shot_ = pr.lights_.empty() && !pr.daylight_;
   for (const Light& light : pr.lights_) pr.light_power_ += lightPower(light, pr.surface_.bounds);
   pr.balance_.emitted += pr.light_power_;
-  if (residualLuminance(pr.balance_.emitted) <= 0.0) {
+  if (residualLuminance(pr.balance_.emitted) <= 0.0 && !pr.daylight_) {
     return inputError(scene.source, "progressive radiosity",
                       "the scene emits no light (no emissive surface or light)");
   }
@@ -454,6 +455,30 @@ double shooterDiscIrradiance(const glm::dvec3& residual, double area, const glm:
   return residualLuminance(residual) * discFormFactor(area, cos_s, cos_r, d2);
 }
 
+glm::dvec3 ProgressiveRadiosity::skyIrradianceAt(size_t e, uint64_t& rays) const {
+  constexpr int kSamples = 64;
+  const glm::dvec3 p = surface_.atlas.element_position[e], n = surface_.atlas.element_normal[e];
+  Rng rng(mixBits(0x5ca1ab1e), e);
+  if (daylight_->active()) {
+    const DaylightIrradiance d = daylight_->irradiance(
+        surface_.engine, p, n, surface_.lift, kSamples, false, rng,
+        [](const Ray&, const Hit&, Rng&) { return glm::vec3(0.0f); }, rays);
+    return d.sky + d.external;
+  }
+  // No openings: an outdoor scene, the sky over each element's hemisphere (8 x 8 strata).
+  const Frame frame = Frame::fromNormal(glm::vec3(n));
+  glm::dvec3 sum(0.0);
+  for (int k = 0; k < kSamples; ++k) {
+    const float u1 = (float(k % 8) + rng.uniform()) / 8.0f,
+                u2 = (float(k / 8) + rng.uniform()) / 8.0f;
+    const glm::vec3 d = frame.toWorld(sampleCosineHemisphere(u1, u2));
+    const Ray ray{glm::vec3(p + surface_.lift * n), 0.0f, d, std::numeric_limits<float>::max()};
+    ++rays;
+    if (!surface_.engine.occluded(ray)) sum += glm::dvec3(daylight_->skyRadiance(glm::dvec3(d)));
+  }
+  return sum * (std::numbers::pi / kSamples);
+}
+
 double subdivisionShare(double shooter_irradiance, const glm::dvec3& radiosity,
                         const glm::dvec3& emission, const glm::dvec3& reflectance) {
   if (!(shooter_irradiance > 0.0)) return 0.0;
@@ -510,12 +535,31 @@ ProgressiveIteration ProgressiveRadiosity::shootLights() {
   share.exchange(incident);
   traced = share.sum(traced);
   incident_ = receivers_.toElements(surface_, std::move(incident));
+  // The sky, element by element (the same on every rank: each element has its own stream); what
+  // it sends in is emitted now.
+  glm::dvec3 sky_power(0.0);
+  if (daylight_) {
+    std::vector<glm::dvec3> sky(incident_.size(), glm::dvec3(0.0));
+    std::atomic<uint64_t> sky_rays{0};
+    parallelRange(sky.size(), 256, [&](size_t begin, size_t end) {
+      uint64_t count = 0;
+      for (size_t e = begin; e < end; ++e) sky[e] = skyIrradianceAt(e, count);
+      sky_rays += count;
+    });
+    for (size_t e = 0; e < sky.size(); ++e) {
+      incident_[e] += sky[e];
+      sky_power += sky[e] * surface_.atlas.element_area[e] * surface_.coverageOf(e);
+    }
+    traced += sky_rays.load();
+    balance_.emitted += sky_power;
+    balance_.unshot += sky_power;
+  }
   uint64_t probes = 0;
   glm::dvec3 scale(1.0);
-  it.closed = shotClosed(kLights, &probes);
+  it.closed = !daylight_ && shotClosed(kLights, &probes);
   if (it.closed) scale = closedScale(light_power_);
   lights_shot_ = true;
-  const glm::dvec3 shot = light_power_;
+  const glm::dvec3 shot = light_power_ + sky_power;
   const glm::dvec3 got = applyIncident(scale, 0, 0);
   balance_.unshot -= shot;
   balance_.escaped += shot - got;

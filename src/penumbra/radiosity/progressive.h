@@ -80,6 +80,7 @@
 #include "penumbra/geometry/surface_hierarchy.h"
 #include "penumbra/radiosity/progressive_receivers.h"
 #include "penumbra/radiosity/radiosity_surface.h"
+#include "penumbra/raytrace/daylight_gather.h"
 #include "penumbra/raytrace/ray_engine.h"
 #include "penumbra/scene/scene.h"
 
@@ -90,6 +91,7 @@
 #include <cstdint>
 #include <functional>
 #include <limits>
+#include <optional>
 #include <vector>
 
 namespace penumbra {
@@ -372,6 +374,11 @@ class ProgressiveRadiosity {
   std::vector<Light> lights_;
   bool lights_shot_ = true;
   glm::dvec3 light_power_{0.0};
+  // Daylight (scene/sky.h): shot with the lights, the sky's irradiance at every element sampled
+  // through the openings (raytrace/daylight_gather.h), or, without openings, found by cosine
+  // rays that leave the scene.
+  std::optional<OpeningLight> daylight_;
+  glm::dvec3 skyIrradianceAt(size_t element, uint64_t& rays) const;
   std::vector<ClusterRef> shooters_;
   ProgressiveReceivers receivers_;
   int receiver_level_ = 0;

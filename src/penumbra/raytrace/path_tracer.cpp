@@ -83,7 +83,15 @@ inline bool surviveWalkRoulette(PathState& s, const PathTracerSettings& settings
 PathTracer::PathTracer(const Scene& scene)
     : geometry_(SceneGeometry::build(scene)),
       lights_(scene.lights),
-      environment_(scene.environment) {}
+      environment_(scene.environment),
+      sky_(scene.sky),
+      openings_(scene.openings) {}
+
+glm::vec3 PathTracer::escaped(const Ray& ray) const {
+  if (!sky_) return environment_;
+  const glm::dvec3 d = glm::normalize(glm::dvec3(ray.dir));
+  return sky_->radiance(d) * float(transmittanceThrough(openings_, glm::dvec3(ray.origin), d));
+}
 
 int PathTracer::directQueries(const glm::vec3& p, float p_offset, const glm::vec3& n,
                               const glm::vec3& rho, uint32_t u_light_x, float u_light_y, bool mis,
@@ -198,8 +206,8 @@ int PathTracer::shade(PathState& s, const Hit& hit, const PathTracerSettings& se
   // Inside a medium the free flight comes first: it may scatter before the hit.
   if (s.medium >= 0 && mediumFlight(s, hit, settings)) return 0;
   if (!hit.hit()) {
-    // The ray left the scene: the uniform environment, found by BSDF sampling only.
-    s.result += s.beta * environment_;
+    // The ray left the scene: the uniform environment or the sky, found by BSDF sampling only.
+    s.result += s.beta * escaped(s.ray);
     return 0;
   }
   const uint32_t tri = uint32_t(hit.triangle);

@@ -47,6 +47,7 @@
 #include <atomic>
 #include <cstdint>
 #include <functional>
+#include <optional>
 #include <span>
 
 namespace penumbra {
@@ -226,6 +227,11 @@ class PathTracer {
   SceneGeometry geometry_;
   std::vector<Light> lights_;
   glm::vec3 environment_{0.0f};
+  // Daylight (scene/sky.h): what a ray that leaves the scene sees instead of the environment,
+  // through the glazing of the openings it crosses.
+  std::optional<Sky> sky_;
+  std::vector<Opening> openings_;
+  glm::vec3 escaped(const Ray& ray) const;
 };
 
 }  // namespace penumbra

@@ -5,7 +5,9 @@
 #include "penumbra/core/timer.h"
 #include "penumbra/kernels/sampling.h"
 #include "penumbra/raytrace/camera_rays.h"
+#include "penumbra/raytrace/daylight_gather.h"
 #include "penumbra/raytrace/lights.h"
+#include "penumbra/render/direct_emitters.h"
 #include "penumbra/render/plot.h"
 #include "penumbra/scene/luminaire.h"
 
@@ -27,117 +29,6 @@ double luxOf(const glm::dvec3& e) {
   return kLumensPerWatt * (0.2126 * e.x + 0.7152 * e.y + 0.0722 * e.z);
 }
 
-Expected<CalculationGrid> workPlaneGrid(const Scene& scene, double height, double spacing,
-                                        double margin) {
-  if (!(spacing > 0.0) || !std::isfinite(spacing)) {
-    return inputError("", "--grid-spacing", fmt::format("{} must be a positive length", spacing));
-  }
-  if (!(margin >= 0.0) || !std::isfinite(margin) || !std::isfinite(height)) {
-    return inputError("", "--work-plane", "height and margin must be finite, the margin >= 0");
-  }
-  glm::dvec3 lo(std::numeric_limits<double>::infinity()), hi(-lo);
-  for (const Mesh& m : scene.meshes) {
-    for (const glm::vec3& p : m.positions) {
-      lo = glm::min(lo, glm::dvec3(p));
-      hi = glm::max(hi, glm::dvec3(p));
-    }
-  }
-  if (!(lo.x <= hi.x)) return inputError(scene.source, "", "the scene has no geometry");
-  const double x0 = lo.x + margin, x1 = hi.x - margin, z0 = lo.z + margin, z1 = hi.z - margin;
-  if (!(x1 > x0 && z1 > z0)) {
-    return inputError("", "--grid-margin",
-                      fmt::format("a margin of {} m leaves no area of the {:.3g} x {:.3g} m floor",
-                                  margin, hi.x - lo.x, hi.z - lo.z));
-  }
-  const double cols = std::ceil((x1 - x0) / spacing - 1e-9);
-  const double rows = std::ceil((z1 - z0) / spacing - 1e-9);
-  if (cols * rows > 4e6) {
-    return inputError("", "--grid-spacing",
-                      fmt::format("{} m over {:.3g} x {:.3g} m makes {:.0f} points (at most 4 "
-                                  "million)",
-                                  spacing, x1 - x0, z1 - z0, cols * rows));
-  }
-  CalculationGrid g;
-  g.name = fmt::format("work plane at {:.3g} m", height);
-  g.columns = int(cols);
-  g.rows = int(rows);
-  g.spacing = spacing;
-  const double dx = (x1 - x0) / cols, dz = (z1 - z0) / rows;
-  for (int r = 0; r < g.rows; ++r) {
-    for (int c = 0; c < g.columns; ++c) {
-      g.points.emplace_back(x0 + (c + 0.5) * dx, lo.y + height, z0 + (r + 0.5) * dz);
-      g.normals.emplace_back(0.0, 1.0, 0.0);
-    }
-  }
-  return g;
-}
-
-Expected<CalculationGrid> surfaceGrid(const Scene& scene, const std::string& name, double spacing) {
-  if (!(spacing > 0.0) || !std::isfinite(spacing)) {
-    return inputError("", "--grid-spacing", fmt::format("{} must be a positive length", spacing));
-  }
-  CalculationGrid g;
-  g.name = fmt::format("surface '{}'", name);
-  g.spacing = spacing;
-  std::string known;
-  bool found = false;
-  double points = 0.0;
-  for (const Mesh& m : scene.meshes) {
-    if (m.name != name) {
-      if (known.find("'" + m.name + "'") == std::string::npos) {
-        known += (known.empty() ? "'" : ", '") + m.name + "'";
-      }
-      continue;
-    }
-    found = true;
-    for (const glm::uvec3& t : m.triangles) {
-      const glm::dvec3 a(m.positions[t.x]), b(m.positions[t.y]), c(m.positions[t.z]);
-      const double edge = std::max({glm::length(b - a), glm::length(c - b), glm::length(a - c)});
-      points += std::pow(std::ceil(edge / spacing), 2.0);
-    }
-  }
-  if (!found) {
-    return inputError(scene.source, "--grid-surface",
-                      fmt::format("no mesh is named '{}' (the meshes: {})", name, known));
-  }
-  if (points > 4e6) {
-    return inputError(
-        "", "--grid-spacing",
-        fmt::format("{} m on '{}' makes {:.0f} points (at most 4 million)", spacing, name, points));
-  }
-  for (const Mesh& m : scene.meshes) {
-    if (m.name != name) continue;
-    for (const glm::uvec3& t : m.triangles) {
-      const glm::dvec3 a(m.positions[t.x]), b(m.positions[t.y]), c(m.positions[t.z]);
-      const glm::dvec3 cr = glm::cross(b - a, c - a);
-      const double area2 = glm::length(cr);
-      if (!(area2 > 0.0)) continue;  // degenerate: no area, no point
-      const glm::dvec3 n = cr / area2;
-      const int k = int(std::ceil(
-          std::max({glm::length(b - a), glm::length(c - b), glm::length(a - c)}) / spacing));
-      const glm::dvec3 u = (b - a) / double(k), v = (c - a) / double(k);
-      const double share = 0.5 * area2 / double(k * k);
-      // The k^2 similar triangles: k(k+1)/2 upright ones and k(k-1)/2 inverted.
-      for (int i = 0; i < k; ++i) {
-        for (int j = 0; i + j < k; ++j) {
-          const glm::dvec3 o = a + double(i) * u + double(j) * v;
-          g.points.push_back(o + (u + v) / 3.0);
-          g.normals.push_back(n);
-          g.areas.push_back(share);
-          if (i + j + 1 < k) {
-            g.points.push_back(o + 2.0 * (u + v) / 3.0);
-            g.normals.push_back(n);
-            g.areas.push_back(share);
-          }
-        }
-      }
-    }
-  }
-  g.columns = int(g.points.size());
-  g.rows = 1;
-  return g;
-}
-
 IlluminanceStats illuminanceStats(std::span<const double> lux, std::span<const double> areas) {
   IlluminanceStats s;
   if (lux.empty()) return s;
@@ -153,8 +44,112 @@ IlluminanceStats illuminanceStats(std::span<const double> lux, std::span<const d
   }
   s.average = weight > 0.0 ? sum / weight : 0.0;
   s.uniformity = s.average > 0.0 ? s.minimum / s.average : 0.0;
+  s.uniformity_u1 = s.maximum > 0.0 ? s.minimum / s.maximum : 0.0;
   return s;
 }
+
+namespace {
+
+// The delta lights' irradiance at p (facing n, or cylindrical about n), a shadow ray each from
+// `from`.
+glm::dvec3 deltaLightIrradiance(const Scene& scene, const RayEngine& engine, const glm::dvec3& p,
+                                const glm::dvec3& n, const glm::dvec3& from, bool cylindrical,
+                                uint64_t& count) {
+  glm::dvec3 e(0.0);
+  for (const Light& light : scene.lights) {
+    LightSample s = sampleLight(light, p, n, n);
+    if (cylindrical) {
+      // The intensity over the squared distance (the light's normal irradiance), times
+      // sin(angle from the axis) / pi.
+      s = sampleLight(light, p, s.direction, s.direction);
+      const double c = glm::dot(s.direction, n);
+      s.irradiance *= std::sqrt(std::max(0.0, 1.0 - c * c)) / std::numbers::pi;
+    }
+    if (s.irradiance == glm::dvec3(0.0)) continue;
+    const bool far = s.distance > 1e30;
+    const Ray ray{glm::vec3(from), 1e-4f,
+                  far ? glm::vec3(s.direction) : glm::vec3(s.direction * s.distance),
+                  far ? std::numeric_limits<float>::max() : 1.0f - 1e-4f};
+    ++count;
+    if (!engine.occluded(ray)) e += s.irradiance;
+  }
+  return e;
+}
+
+// What the hemisphere (or sphere) rays of one point gather, each sum already times its ray's
+// weight: the solution's radiance less the emission counted exactly, the emission of emitters
+// the closed form does not take, and, without openings, the sky and ground the rays find.
+struct Gathered {
+  glm::dvec3 solution{0.0}, emitted{0.0}, sky{0.0}, ground{0.0};
+};
+
+struct GatherContext {
+  const Scene& scene;
+  const RayEngine& engine;
+  const FlatTriangles& flat;
+  const IncidentRadiance& incident;
+  const AreaEmitters& emitters;
+  const OpeningLight& openings;
+  bool open_sky;  // a sky and no openings: the rays that leave see it
+  int rays;
+  double lift;
+};
+
+// The rays from `from` of a point facing n: cosine-distributed over the hemisphere for planar
+// illuminance (E = pi mean L), uniform over the sphere for cylindrical (E_z = 4 mean L
+// sin(angle from the axis)), stratified in a sqrt(rays) square when it is one. The directions
+// come from `rng`, the solution's estimator (a path tracer) from `incident_rng`: every method
+// gathers along the same rays, so their direct parts are equal and their totals differ only by
+// what the solutions differ by.
+Gathered gatherRays(const GatherContext& c, const glm::dvec3& from, const glm::dvec3& n,
+                    bool cylindrical, Rng& rng, Rng& incident_rng, uint64_t& count) {
+  Gathered g;
+  const int strata = int(std::lround(std::sqrt(double(c.rays))));
+  const bool square = strata * strata == c.rays;
+  const Frame frame = Frame::fromNormal(glm::vec3(n));
+  for (int k = 0; k < c.rays; ++k) {
+    const float u1 = square ? (float(k % strata) + rng.uniform()) / float(strata) : rng.uniform();
+    const float u2 = square ? (float(k / strata) + rng.uniform()) / float(strata) : rng.uniform();
+    glm::vec3 d;
+    double weight = 1.0;
+    if (cylindrical) {
+      const float z = 1.0f - 2.0f * u1, r = std::sqrt(std::max(0.0f, 1.0f - z * z));
+      const float phi = 2.0f * kPi * u2;
+      d = frame.toWorld(glm::vec3(r * std::cos(phi), r * std::sin(phi), z));
+      weight = 4.0 * double(r);  // (4 pi / pi) sin, the 1 / N applied by the caller
+    } else {
+      d = frame.toWorld(sampleCosineHemisphere(u1, u2));
+    }
+    const Ray ray{glm::vec3(from), float(c.lift), d, std::numeric_limits<float>::max()};
+    const Hit hit = c.engine.intersect(ray);
+    ++count;
+    // What leaves through an opening was counted on the opening.
+    if (c.openings.active() && c.openings.crosses(ray, hit.hit() ? hit.t : ray.tmax)) continue;
+    if (!hit.hit() && c.open_sky) {
+      const glm::dvec3 l(c.scene.sky->radiance(glm::dvec3(d)));
+      (d.y >= 0.0f ? g.sky : g.ground) += weight * l;
+      continue;
+    }
+    glm::dvec3 l(c.incident(ray, hit, incident_rng));
+    if (hit.hit()) {
+      const glm::uvec3 t = c.flat.triangles[size_t(hit.triangle)];
+      const glm::vec3 ng = glm::cross(c.flat.positions[t.y] - c.flat.positions[t.x],
+                                      c.flat.positions[t.z] - c.flat.positions[t.x]);
+      const Material& m = c.scene.materials[c.flat.material_ids[size_t(hit.triangle)]];
+      if (glm::dot(ng, d) < 0.0f) {  // front faces emit
+        if (c.emitters.handles(uint32_t(hit.triangle))) {
+          l = glm::max(l - glm::dvec3(m.emission), glm::dvec3(0.0));
+        } else {
+          g.emitted += weight * glm::dvec3(m.emission);
+        }
+      }
+    }
+    g.solution += weight * l;
+  }
+  return g;
+}
+
+}  // namespace
 
 IlluminanceResult gatherIlluminance(const Scene& scene, const RayEngine& engine,
                                     const FlatTriangles& flat, const CalculationGrid& grid,
@@ -170,53 +165,53 @@ IlluminanceResult gatherIlluminance(const Scene& scene, const RayEngine& engine,
     hi = glm::max(hi, glm::dvec3(p));
   }
   const double lift = lo.x <= hi.x ? 1e-5 * glm::length(hi - lo) : 1e-5;
-  const int strata = int(std::lround(std::sqrt(double(out.rays))));
-  const bool square = strata * strata == out.rays;
+  const bool cylindrical = grid.measure == Measure::kCylindrical;
+  const AreaEmitters emitters(scene, flat);
+  const OpeningLight openings(scene);
+  const bool daylight = scene.sky.has_value();
+  if (daylight) {
+    out.horizontal_lux = scene.sky->horizontalIlluminance();
+    out.sky.assign(n, 0.0);
+    out.external.assign(n, 0.0);
+  }
+  // Without openings, the sky is what the gather's rays find when they leave the scene.
+  const GatherContext context{
+      scene,    engine, flat, incident, emitters, openings, daylight && !openings.active(),
+      out.rays, lift};
   std::atomic<uint64_t> traced{0};
   parallelRange(n, 16, [&](size_t begin, size_t end) {
     uint64_t count = 0;
     for (size_t i = begin; i < end; ++i) {
       const glm::dvec3 p = grid.points[i], nrm = grid.normals[i];
       const glm::dvec3 from = p + nrm * lift;
-      glm::dvec3 delta(0.0);
-      for (const Light& light : scene.lights) {
-        const LightSample s = sampleLight(light, p, nrm, nrm);
-        if (s.irradiance == glm::dvec3(0.0)) continue;
-        const bool far = s.distance > 1e30;
-        const Ray ray{glm::vec3(from), 1e-4f,
-                      far ? glm::vec3(s.direction) : glm::vec3(s.direction * s.distance),
-                      far ? std::numeric_limits<float>::max() : 1.0f - 1e-4f};
-        ++count;
-        if (!engine.occluded(ray)) delta += s.irradiance;
+      // The exact part: delta lights with a shadow ray each, area emitters in closed form times
+      // their visible share (render/direct_emitters.h), each from a stream of its own.
+      glm::dvec3 exact = deltaLightIrradiance(scene, engine, p, nrm, from, cylindrical, count);
+      Rng direct_rng(mixBits(seed ^ 0xd12ec7), i);
+      exact += cylindrical ? emitters.cylindricalIrradiance(engine, p, nrm, lift, direct_rng, count)
+                           : emitters.irradiance(engine, p, nrm, lift, direct_rng, count);
+      // Daylight through the openings (render/daylight_gather.h): the sky and what is outside,
+      // sampled on the openings, as many points as the gather has rays.
+      DaylightIrradiance day;
+      if (openings.active()) {
+        Rng day_rng(mixBits(seed ^ 0xda7119), i);
+        day = openings.irradiance(engine, p, nrm, lift, std::max(out.rays, 16), cylindrical,
+                                  day_rng, incident, count);
       }
-      // The directions from one stream, the solution's estimator (a path tracer) from another:
-      // every method gathers along the same rays, so their direct parts are equal and their
-      // totals differ only by what the solutions differ by.
+      // The rest from the solution.
       Rng rng(mixBits(seed), i);
       Rng incident_rng(mixBits(seed ^ 0x1a5eed), i);
-      const Frame frame = Frame::fromNormal(glm::vec3(nrm));
-      glm::dvec3 gathered(0.0), emitted(0.0);
-      for (int k = 0; k < out.rays; ++k) {
-        const float u1 =
-            square ? (float(k % strata) + rng.uniform()) / float(strata) : rng.uniform();
-        const float u2 =
-            square ? (float(k / strata) + rng.uniform()) / float(strata) : rng.uniform();
-        const glm::vec3 d = frame.toWorld(sampleCosineHemisphere(u1, u2));
-        const Ray ray{glm::vec3(from), float(lift), d, std::numeric_limits<float>::max()};
-        const Hit hit = engine.intersect(ray);
-        ++count;
-        gathered += glm::dvec3(incident(ray, hit, incident_rng));
-        if (hit.hit()) {
-          const glm::uvec3 t = flat.triangles[size_t(hit.triangle)];
-          const glm::vec3 ng = glm::cross(flat.positions[t.y] - flat.positions[t.x],
-                                          flat.positions[t.z] - flat.positions[t.x]);
-          const Material& m = scene.materials[flat.material_ids[size_t(hit.triangle)]];
-          if (glm::dot(ng, d) < 0.0f) emitted += glm::dvec3(m.emission);  // front faces emit
-        }
+      const Gathered g = gatherRays(context, from, nrm, cylindrical, rng, incident_rng, count);
+      const double w =
+          out.rays > 0 ? (cylindrical ? 1.0 : std::numbers::pi) / double(out.rays) : 0.0;
+      const glm::dvec3 sky = day.sky + w * g.sky;
+      const glm::dvec3 outside = day.external + w * g.ground;
+      out.direct[i] = luxOf(exact + w * g.emitted + sky + outside);
+      out.total[i] = luxOf(exact + w * g.solution + sky + outside);
+      if (daylight) {
+        out.sky[i] = luxOf(sky);
+        out.external[i] = luxOf(outside);
       }
-      const double w = out.rays > 0 ? std::numbers::pi / double(out.rays) : 0.0;
-      out.direct[i] = luxOf(delta + w * emitted);
-      out.total[i] = luxOf(delta + w * gathered);
     }
     traced += count;
   });
@@ -226,11 +221,51 @@ IlluminanceResult gatherIlluminance(const Scene& scene, const RayEngine& engine,
   return out;
 }
 
-Status checkIlluminanceRequest(const Scene& scene, const IlluminanceRequest& request) {
+int autoIlluminanceRays(size_t points) {
+  int rays = 65536;
+  while (rays > 256 && double(rays) * double(points) > double(1 << 22)) rays /= 4;
+  return rays;
+}
+
+Expected<std::vector<CalculationGrid>> calculationGrids(const Scene& scene,
+                                                        const IlluminanceRequest& request) {
+  std::vector<CalculationGrid> grids;
   if (request.work_plane) {
     Expected<CalculationGrid> g =
         workPlaneGrid(scene, *request.work_plane, request.spacing, request.margin);
     if (!g) return g.error();
+    grids.push_back(std::move(*g));
+  } else if (!request.surface.empty()) {
+    Expected<CalculationGrid> g = surfaceGrid(scene, request.surface, request.spacing);
+    if (!g) return g.error();
+    grids.push_back(std::move(*g));
+  }
+  for (const std::string& file : request.calc_files) {
+    Expected<std::vector<CalculationGrid>> list = readCalculationFile(scene, file);
+    if (!list) return list.error();
+    for (CalculationGrid& g : *list) grids.push_back(std::move(g));
+  }
+  for (const std::string& file : request.points_files) {
+    Expected<CalculationGrid> g = readCalculationPoints(file);
+    if (!g) return g.error();
+    grids.push_back(std::move(*g));
+  }
+  for (const CalculationGrid& g : scene.calculation) grids.push_back(g);
+  size_t total = 0;
+  for (const CalculationGrid& g : grids) total += g.points.size();
+  if (total > kMaxCalculationPoints) {
+    return inputError("", "--calc",
+                      fmt::format("the calculation objects make {} points in all (at most 4 "
+                                  "million)",
+                                  total));
+  }
+  return grids;
+}
+
+Status checkIlluminanceRequest(const Scene& scene, const IlluminanceRequest& request) {
+  Expected<std::vector<CalculationGrid>> grids = calculationGrids(scene, request);
+  if (!grids) return grids.error();
+  if (request.work_plane) {
     // A plane above everything or below the floor is legal (an open site) but usually a slip of
     // units: its lux would be read as the room's.
     float lo = std::numeric_limits<float>::infinity(), hi = -lo;
@@ -247,9 +282,6 @@ Status checkIlluminanceRequest(const Scene& scene, const IlluminanceRequest& req
           "above its lowest point: the grid sees the scene from outside",
           height, double(hi - lo));
     }
-  } else if (!request.surface.empty()) {
-    Expected<CalculationGrid> g = surfaceGrid(scene, request.surface, request.spacing);
-    if (!g) return g.error();
   }
   return {};
 }
@@ -260,15 +292,14 @@ Expected<IlluminanceReport> illuminanceReport(const Scene& scene, const RayEngin
                                               const IncidentRadiance& incident) {
   const Timer timer;
   IlluminanceReport report;
-  if (request.work_plane || !request.surface.empty()) {
-    Expected<CalculationGrid> g =
-        request.work_plane
-            ? workPlaneGrid(scene, *request.work_plane, request.spacing, request.margin)
-            : surfaceGrid(scene, request.surface, request.spacing);
-    if (!g) return g.error();
-    report.grid = std::move(*g);
-    report.grid_result = gatherIlluminance(scene, engine, flat, *report.grid, incident,
-                                           request.grid_rays, request.seed);
+  Expected<std::vector<CalculationGrid>> grids = calculationGrids(scene, request);
+  if (!grids) return grids.error();
+  report.grids = std::move(*grids);
+  for (const CalculationGrid& g : report.grids) {
+    const int rays =
+        request.grid_rays > 0 ? request.grid_rays : autoIlluminanceRays(g.points.size());
+    report.grid_results.push_back(
+        gatherIlluminance(scene, engine, flat, g, incident, rays, request.seed));
   }
   if (request.image) {
     // One point per pixel centre on the surface it sees, facing the camera.

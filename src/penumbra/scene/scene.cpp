@@ -1,5 +1,6 @@
 #include "penumbra/scene/scene.h"
 
+#include "penumbra/scene/coplanar_emitters.h"
 #include "penumbra/scene/media.h"
 
 #include <glm/common.hpp>
@@ -33,6 +34,9 @@ void Scene::append(Scene other) {
     meshes.push_back(std::move(mesh));
   }
   for (Light& l : other.lights) lights.push_back(l);
+  for (CalculationGrid& g : other.calculation) calculation.push_back(std::move(g));
+  for (Opening& o : other.openings) openings.push_back(std::move(o));
+  if (!sky && other.sky) sky = other.sky;
   for (std::string& w : other.warnings) warnings.push_back(std::move(w));
   if (!camera && other.camera) camera = other.camera;
   environment = glm::max(environment, other.environment);
@@ -210,7 +214,7 @@ void warnMissingUvSets(Scene& scene, const Mesh& mesh, const std::string& where)
 
 }  // namespace
 
-Status validateScene(Scene& scene) {
+Status checkScene(Scene& scene) {
   if (!finite3(scene.environment) || glm::any(glm::lessThan(scene.environment, glm::vec3(0.0f))) ||
       glm::any(glm::greaterThan(scene.environment, glm::vec3(kMaxRadiometricValue)))) {
     return inputError(scene.source, "environment",
@@ -328,6 +332,12 @@ Status validateScene(Scene& scene) {
   }
   const auto [lo, hi] = vertexBounds(scene);  // the scene has triangles, so lo <= hi
   return checkLights(scene.lights, 0.5f * (lo + hi), 0.5f * glm::length(hi - lo), scene.source);
+}
+
+Status validateScene(Scene& scene) {
+  PENUMBRA_TRY(checkScene(scene));
+  liftCoplanarEmitters(scene);  // a panel drawn on the ceiling wins over it
+  return {};
 }
 
 glm::vec3 diffuseStandIn(const Material& m) {

@@ -2,10 +2,12 @@
 #pragma once
 
 #include "penumbra/core/expected.h"
+#include "penumbra/scene/calculation_grid.h"
 #include "penumbra/scene/camera.h"
 #include "penumbra/scene/light.h"
 #include "penumbra/scene/material.h"
 #include "penumbra/scene/mesh.h"
+#include "penumbra/scene/sky.h"
 
 #include <nlohmann/json.hpp>
 
@@ -29,6 +31,16 @@ struct Scene {
   // Per-method settings from the scene file ("settings": {"pathtrace": {...}}), applied before
   // command-line options, which win.
   nlohmann::json settings = nlohmann::json::object();
+  // Daylight ("sky", scene/sky.h): a CIE standard general sky, the sun's position (its beam, when
+  // given, is a directional light in `lights`) and the ground outside. Rays that leave the scene
+  // see it instead of `environment`.
+  std::optional<Sky> sky;
+  // Openings through which the sky is sampled ("openings"): windows and roof lights, glazed or
+  // not; not geometry.
+  std::vector<Opening> openings;
+  // Calculation objects the scene file declares ("calculation", io/calculation_objects.h):
+  // where lux are reported. They take no part in the light.
+  std::vector<CalculationGrid> calculation;
   // Things a user should know about what was loaded (ignored features, degenerate triangles).
   std::vector<std::string> warnings;
 
@@ -67,8 +79,11 @@ inline constexpr float kMaxCoordinate = 1e9f;
 // material ids in range, reflectance in [0, 1], non-negative finite emission and environment,
 // valid subsurface media. Degenerate (zero-area) triangles are kept, so that triangle indices
 // still follow the file, but are counted in a warning; a mesh made only of degenerate triangles
-// is an error.
+// is an error. Then emitters drawn on another surface are lifted off it
+// (scene/coplanar_emitters.h), with a warning.
 Status validateScene(Scene& scene);
+// validateScene's checks alone, without lifting emitters.
+Status checkScene(Scene& scene);
 
 // The Lambertian reflectance a method without specular transport (radiosity, sss, lpv) sees on a
 // mirror or glass (Material::scattering): a mirror keeps its reflectance (the energy it returns,
