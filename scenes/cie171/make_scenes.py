@@ -273,3 +273,12 @@ daylight("case_5_11_4x3.json",
          '    {"file": "facade_room.obj", "material": "black", "name": "room"}',
          [(0, 0, 0), (4, 0, 0), (4, 3, 0), (0, 3, 0)], 1,
          calc_points("wall floor ceiling", BACK + FLOOR11 + CEIL11), ground=0.3)
+
+# Cases 5.10 and 5.12: the same openings glazed with 6 mm clear glass (normal transmittance 0.878,
+# index 1.52).
+for src, dst in (("case_5_9_1x1.json", "case_5_10_1x1.json"), ("case_5_9_4x4.json", "case_5_10_4x4.json"),
+                 ("case_5_11_2x1.json", "case_5_12_2x1.json"), ("case_5_11_4x3.json", "case_5_12_4x3.json")):
+    text = open(os.path.join(HERE, src)).read()
+    text = text.replace('"corners": [', '"glazing": {"transmittance": 0.878, "ior": 1.52}, "corners": [')
+    text = text.replace("unglazed", "glazed").replace("case 5.9", "case 5.10").replace("case 5.11", "case 5.12")
+    write(dst, text)

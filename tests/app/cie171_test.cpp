@@ -233,6 +233,16 @@ TEST(Cie171, SkyAndExternallyReflectedComponentsThroughAWindowCase511) {
   runSkyCase("5.11, 4 m x 3 m");
 }
 
+TEST(Cie171, SkyComponentUnderAGlazedRoofOpeningCase510) {
+  runSkyCase("5.10, 1 m x 1 m");
+  runSkyCase("5.10, 4 m x 4 m");
+}
+
+TEST(Cie171, ThroughAGlazedWindowCase512) {
+  runSkyCase("5.12, 2 m x 1 m");
+  runSkyCase("5.12, 4 m x 3 m");
+}
+
 TEST(Cie171, InterreflectionInACubeCase58) {
   // Table 20 / eq. 16: the interreflected illuminance averaged over the cube,
   // rho Phi / (S (1 - rho)), Phi = 10,000 lm, S = 96 m^2.
