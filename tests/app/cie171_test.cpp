@@ -233,6 +233,35 @@ TEST(Cie171, SkyAndExternallyReflectedComponentsThroughAWindowCase511) {
   runSkyCase("5.11, 4 m x 3 m");
 }
 
+TEST(Cie171, DaylightFactorsSplitIntoSkyAndExternallyReflectedComponents) {
+  // Case 5.11, the uniform sky: in a black room the daylight factor is SC + ERC. Wall point A
+  // sees only the ground through the window (SC 0, ERC 0.95%), the ceiling only the ground,
+  // the floor only the sky.
+  TempDir dir;
+  const std::string scene =
+      sceneVariant(dir, "case_5_11_2x1.json", "\"type\": 12", "\"type\": 5", "uniform.json");
+  const std::string report = dir.file("report");
+  const test::CliResult r = runCli("render " + scene +
+                                   " --method progressive --width 16 "
+                                   "--height 16 --report " +
+                                   report + " -o " + dir.file("x.png"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const nlohmann::json j = test::readJson(report + "/wall_floor_ceiling.json");
+  EXPECT_EQ(double(j["daylight"]["horizontal_illuminance_lux"]), 10000.0);
+  for (const nlohmann::json& p : j["point_values"]) {
+    const std::string name = p["name"];
+    const double sc = p["sky_component_pct"], erc = p["externally_reflected_component_pct"],
+                 df = p["daylight_factor_pct"];
+    EXPECT_NEAR(df, sc + erc, 1e-9 * std::max(df, 1.0)) << name;
+    if (name == "A") {
+      EXPECT_EQ(sc, 0.0);
+      EXPECT_NEAR(erc, 0.95, 0.02);
+    }
+    if (name.back() == '\'') EXPECT_EQ(sc, 0.0) << name;  // the ceiling sees no sky
+    if (name == "J") EXPECT_EQ(erc, 0.0) << name;         // the floor sees no ground
+  }
+}
+
 TEST(Cie171, SkyComponentUnderAGlazedRoofOpeningCase510) {
   runSkyCase("5.10, 1 m x 1 m");
   runSkyCase("5.10, 4 m x 4 m");

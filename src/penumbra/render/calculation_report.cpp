@@ -49,16 +49,34 @@ nlohmann::json illuminanceStatsJson(const IlluminanceStats& s) {
 }
 
 nlohmann::json calculationObjectJson(const CalculationGrid& g, const IlluminanceResult& r) {
-  return {{"name", g.name},
-          {"type", g.type},
-          {"measure", g.measure == Measure::kCylindrical ? "cylindrical" : "planar"},
-          {"columns", g.columns},
-          {"rows", g.rows},
-          {"points", g.points.size()},
-          {"spacing_m", g.spacing},
-          {"rays_per_point", r.rays},
-          {"total", illuminanceStatsJson(r.total_stats)},
-          {"direct", illuminanceStatsJson(r.direct_stats)}};
+  nlohmann::json j = {{"name", g.name},
+                      {"type", g.type},
+                      {"measure", g.measure == Measure::kCylindrical ? "cylindrical" : "planar"},
+                      {"columns", g.columns},
+                      {"rows", g.rows},
+                      {"points", g.points.size()},
+                      {"spacing_m", g.spacing},
+                      {"rays_per_point", r.rays},
+                      {"total", illuminanceStatsJson(r.total_stats)},
+                      {"direct", illuminanceStatsJson(r.direct_stats)}};
+  if (!r.sky.empty() && r.horizontal_lux > 0.0) {
+    // Daylight factors (CIE 171:2006 sec. 5.9-5.14): the lux over the unobstructed sky's
+    // horizontal illuminance, in percent; SC and ERC averaged like the lux.
+    std::vector<double> df(r.total.size()), sc(r.sky.size()), erc(r.external.size());
+    for (size_t i = 0; i < df.size(); ++i) {
+      df[i] = 100.0 * r.total[i] / r.horizontal_lux;
+      sc[i] = 100.0 * r.sky[i] / r.horizontal_lux;
+      erc[i] = 100.0 * r.external[i] / r.horizontal_lux;
+    }
+    const IlluminanceStats d = illuminanceStats(df, g.areas);
+    j["daylight"] = {
+        {"horizontal_illuminance_lux", r.horizontal_lux},
+        {"daylight_factor_pct",
+         {{"average", d.average}, {"minimum", d.minimum}, {"maximum", d.maximum}}},
+        {"sky_component_pct", illuminanceStats(sc, g.areas).average},
+        {"externally_reflected_component_pct", illuminanceStats(erc, g.areas).average}};
+  }
+  return j;
 }
 
 Image planViewImage(const CalculationGrid& g, const IlluminanceResult& r, double max_lux) {
@@ -130,18 +148,31 @@ Status writeCalculationReports(const std::string& dir, const IlluminanceReport& 
     std::string csv =
         fmt::format("# {}: {} x {} points, {} rays each, {} illuminance\n", g.name, g.columns,
                     g.rows, r.rays, g.measure == Measure::kCylindrical ? "cylindrical" : "planar");
-    csv += "name,x_m,y_m,z_m,nx,ny,nz,direct_lux,total_lux\n";
+    const bool daylight = !r.sky.empty() && r.horizontal_lux > 0.0;
+    csv += daylight ? "name,x_m,y_m,z_m,nx,ny,nz,direct_lux,total_lux,sc_pct,erc_pct,df_pct\n"
+                    : "name,x_m,y_m,z_m,nx,ny,nz,direct_lux,total_lux\n";
     nlohmann::json points = nlohmann::json::array();
     for (size_t i = 0; i < g.points.size(); ++i) {
       const glm::dvec3 &p = g.points[i], &n = g.normals[i];
       const std::string label = i < g.labels.size() ? g.labels[i] : std::string();
-      csv += fmt::format("{},{:.4f},{:.4f},{:.4f},{:.4f},{:.4f},{:.4f},{:.3f},{:.3f}\n", label, p.x,
+      csv += fmt::format("{},{:.4f},{:.4f},{:.4f},{:.4f},{:.4f},{:.4f},{:.3f},{:.3f}", label, p.x,
                          p.y, p.z, n.x, n.y, n.z, r.direct[i], r.total[i]);
+      if (daylight) {
+        csv += fmt::format(",{:.4f},{:.4f},{:.4f}", 100.0 * r.sky[i] / r.horizontal_lux,
+                           100.0 * r.external[i] / r.horizontal_lux,
+                           100.0 * r.total[i] / r.horizontal_lux);
+      }
+      csv += "\n";
       nlohmann::json pj = {{"position", {p.x, p.y, p.z}},
                            {"normal", {n.x, n.y, n.z}},
                            {"direct_lux", r.direct[i]},
                            {"total_lux", r.total[i]}};
       if (!label.empty()) pj["name"] = label;
+      if (daylight) {
+        pj["sky_component_pct"] = 100.0 * r.sky[i] / r.horizontal_lux;
+        pj["externally_reflected_component_pct"] = 100.0 * r.external[i] / r.horizontal_lux;
+        pj["daylight_factor_pct"] = 100.0 * r.total[i] / r.horizontal_lux;
+      }
       points.push_back(pj);
     }
     PENUMBRA_TRY(writeText(base + ".csv", csv));
