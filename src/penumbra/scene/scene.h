@@ -92,7 +92,8 @@ Status checkScene(Scene& scene);
 // readers store it in Material::reflectance; for a diffuse material it is `reflectance` itself.
 glm::vec3 diffuseStandIn(const Material& m);
 // One line per mirror or glass material, saying what `method` (a method without specular
-// transport) sees instead; empty when the scene has none.
+// transport) sees instead, and one when the scene has a sky that `method` does not take; empty
+// when there is nothing to say.
 std::vector<std::string> diffuseStandInWarnings(const Scene& scene, const std::string& method);
 
 // A camera that frames the scene's bounding box from the front (-z looking +z) when it has none.
