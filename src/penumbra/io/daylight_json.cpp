@@ -114,10 +114,8 @@ Expected<DaylightSky> readSky(const json& j, const std::string& file, const std:
   if (!lz) return lz.error();
   Expected<double> eh = r.numberIn(j, place, "horizontal_illuminance", 10000.0, 0.0, 1e9);
   if (!eh) return eh.error();
-  sky.zenith_luminance = 1.0;
-  sky.prepare();
+  sky.prepare();  // E_h / L_z does not depend on the level
   sky.zenith_luminance = *lz >= 0.0 ? *lz : *eh / sky.horizontalPerZenith();
-  sky.prepare();
   if (sky.sun_illuminance > 0.0) {
     DirectionalLight sun;
     sun.direction = glm::vec3(-sky.sunDirection());

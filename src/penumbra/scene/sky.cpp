@@ -104,9 +104,6 @@ void Sky::prepare() {
   horizontal_per_zenith_ = type == 5    ? std::numbers::pi
                            : type == 16 ? 7.0 * std::numbers::pi / 9.0
                                         : integrateHorizontal();
-  const double beam = sun_illuminance * std::max(0.0, std::sin(sun_elevation_deg * kDeg));
-  ground_luminance_ =
-      ground_reflectance * (zenith_luminance * horizontal_per_zenith_ + beam) / std::numbers::pi;
 }
 
 double Sky::relativeLuminance(const glm::dvec3& dir) const {
@@ -138,7 +135,8 @@ double Sky::integrateHorizontal() const {
 }
 
 double Sky::groundLuminance() const {
-  return ground_luminance_;
+  const double beam = sun_illuminance * std::max(0.0, std::sin(sun_elevation_deg * kDeg));
+  return ground_reflectance * (horizontalIlluminance() + beam) / std::numbers::pi;
 }
 
 double Sky::luminance(const glm::dvec3& dir) const {

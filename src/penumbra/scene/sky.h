@@ -67,8 +67,9 @@ struct Sky {
   double sun_illuminance = 0.0;      // lx on a plane square to the beam; 0: no beam (sky only)
   glm::dvec3 north{0.0, 0.0, -1.0};  // horizontal, unit
 
-  // After setting the above (and before any of the below): the sun's direction, the
-  // normalisation and E_h / L_z, computed once.
+  // After setting the type, the sun's position and north (and before any of the below): the
+  // sun's direction, the normalisation and E_h / L_z, computed once. The levels (zenith
+  // luminance, sun illuminance, ground reflectance) may change afterwards.
   void prepare();
 
   // The unit direction towards the sun, and the direction of a point at elevation / azimuth.
@@ -96,7 +97,6 @@ struct Sky {
   glm::dvec3 sun_{0.0, 1.0, 0.0};
   double norm_ = 1.0;  // 1 / (f(Z_s) phi(0))
   double horizontal_per_zenith_ = 0.0;
-  double ground_luminance_ = 0.0;
 };
 
 // An opening in the building through which daylight enters (a window, a roof light): a convex
