@@ -9,12 +9,14 @@
 #include "penumbra/io/photometry.h"
 #include "penumbra/io/scene_io.h"
 #include "penumbra/render/plot.h"
+#include "penumbra/render/ugr_table.h"
 
 #include <glm/exponential.hpp>
 #include <glm/trigonometric.hpp>
 
 #include <fmt/format.h>
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <variant>
 
@@ -41,6 +43,31 @@ int printDevices() {
   if (probe.devices.empty())
     fmt::print("gpu        none: --device gpu will fail, auto uses the cpu\n");
   return 0;
+}
+
+// The luminaire's UGR table by CIE 190's tabular method (render/ugr_table.h), as data sheets
+// print it: rooms 4H x 8H and 8H x 4H, S = 0.25 H, crosswise / endwise per reflectance set.
+void printUgrTable(const Photometry& p) {
+  Expected<std::vector<UgrTableRow>> table = ugrTable(p, 0.25);
+  if (!table) {
+    fmt::print("UGR          none: {}\n", table.error().message);
+    return;
+  }
+  auto value = [](double v) { return std::isnan(v) ? std::string("-") : fmt::format("{:.1f}", v); };
+  std::string head =
+      "UGR          CIE 190, S = 0.25H, crosswise / endwise; ceiling/walls/floor:\n"
+      "             room   ";
+  for (const UgrReflectances& r : kUgrReflectances) head += fmt::format(" {:>11}", r.label());
+  fmt::print("{}\n", head);
+  for (size_t i = 0; i < table->size(); i += kUgrReflectances.size()) {
+    const UgrRoom& room = (*table)[i].room;
+    std::string line = fmt::format("             {}H x {}H", room.x_h, room.y_h);
+    for (size_t k = 0; k < kUgrReflectances.size(); ++k) {
+      const UgrTableRow& row = (*table)[i + k];
+      line += fmt::format(" {:>11}", value(row.crosswise) + " / " + value(row.endwise));
+    }
+    fmt::print("{}\n", line);
+  }
 }
 
 // A luminaire's photometric file: what it states, the flux integrated from its distribution
@@ -92,6 +119,7 @@ int printPhotometry(const InfoOptions& options) {
   } else {
     fmt::print("flux         {:.6g} lm integrated from the distribution\n", integrated);
   }
+  printUgrTable(p);
   if (!options.plot.empty()) {
     ToneMapSettings none;
     none.op = ToneMapOperator::kNone;

@@ -13,6 +13,7 @@
 #include <cmath>
 #include <filesystem>
 #include <limits>
+#include <numbers>
 #include <sstream>
 
 namespace penumbra {
@@ -21,9 +22,11 @@ namespace {
 
 using nlohmann::json;
 
-// A points object's list: [{"position": [...], "normal": [...], "name": "..."}, ...].
+// A points object's list: [{"position": [...], "normal": [...], "name": "..."}, ...]; a glare
+// object's has "view" for "normal", required and not within kMaxViewElevation of vertical.
 Status readPointList(const JsonReader& r, const json& list, const std::string& place,
-                     CalculationGrid& g) {
+                     CalculationGrid& g, const char* normal_key = "normal") {
+  const bool glare = std::string(normal_key) == "view";
   if (!list.is_array()) {
     return r.error(place, fmt::format("must be an array of points, not {}", jsonTypeName(list)));
   }
@@ -36,15 +39,22 @@ Status readPointList(const JsonReader& r, const json& list, const std::string& p
     if (!p.is_object()) {
       return r.error(at, fmt::format("must be an object, not {}", jsonTypeName(p)));
     }
-    PENUMBRA_TRY(r.keys(p, at, {"position", "normal", "name"}));
+    PENUMBRA_TRY(r.keys(p, at, {"position", normal_key, "name"}));
     if (!p.contains("position")) return r.error(keyOf(at, "position"), "missing");
     Expected<glm::dvec3> x = r.vec3(p.at("position"), keyOf(at, "position"));
     if (!x) return x.error();
     glm::dvec3 n(0.0, 1.0, 0.0);
-    if (p.contains("normal")) {
-      Expected<glm::dvec3> d = r.direction(p.at("normal"), keyOf(at, "normal"));
+    if (glare && !p.contains(normal_key)) return r.error(keyOf(at, normal_key), "missing");
+    if (p.contains(normal_key)) {
+      Expected<glm::dvec3> d = r.direction(p.at(normal_key), keyOf(at, normal_key));
       if (!d) return d.error();
       n = *d;
+    }
+    if (glare && std::abs(n.y) > std::sin(kMaxViewElevation * std::numbers::pi / 180.0)) {
+      return r.error(keyOf(at, normal_key),
+                     fmt::format("a line of sight within {:g} degrees of the vertical has no "
+                                 "horizon for Guth's position index",
+                                 90.0 - kMaxViewElevation));
     }
     std::string label;
     if (p.contains("name")) {
@@ -354,7 +364,7 @@ Expected<std::vector<CalculationGrid>> calculationObjectsFromJson(const Scene& s
       return r.error(at, fmt::format("must be an object, not {}", jsonTypeName(o)));
     }
     if (!o.contains("type")) {
-      return r.error(keyOf(at, "type"), "missing (work_plane, grid, surface or points)");
+      return r.error(keyOf(at, "type"), "missing (work_plane, grid, surface, points or glare)");
     }
     Expected<std::string> type = r.string(o.at("type"), keyOf(at, "type"));
     if (!type) return type.error();
@@ -410,9 +420,18 @@ Expected<std::vector<CalculationGrid>> calculationObjectsFromJson(const Scene& s
         finishList(p);
         g = std::move(p);
       }
+    } else if (*type == "glare") {
+      PENUMBRA_TRY(r.keys(o, at, {"type", "name", "observers"}));
+      if (!o.contains("observers")) return r.error(keyOf(at, "observers"), "missing");
+      CalculationGrid p;
+      p.type = "glare";
+      PENUMBRA_TRY(readPointList(r, o.at("observers"), keyOf(at, "observers"), p, "view"));
+      if (p.points.empty()) return r.error(keyOf(at, "observers"), "no observers");
+      finishList(p);
+      g = std::move(p);
     } else {
       return r.error(keyOf(at, "type"),
-                     fmt::format("'{}' is not work_plane, grid, surface or points", *type));
+                     fmt::format("'{}' is not work_plane, grid, surface, points or glare", *type));
     }
     if (!g) return g.error();
     g->name = name;

@@ -8,6 +8,7 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
+#include <cmath>
 #include <filesystem>
 
 namespace penumbra {
@@ -133,6 +134,16 @@ Status writeRenderOutputs(const RenderOptions& options, const std::vector<std::s
       if (options.work_plane) out["height_m"] = *options.work_plane;
       j[options.work_plane ? "work_plane" : "surface"] = out;
       if (!options.grid_csv.empty()) PENUMBRA_TRY(writeIlluminanceCsv(options.grid_csv, g, r));
+    }
+    for (size_t i = 0; i < r.glare.size(); ++i) {
+      const GlareResult& gr = r.glare[i];
+      const std::string who = i < g.labels.size() && !g.labels[i].empty()
+                                  ? g.labels[i]
+                                  : fmt::format("observer {}", i + 1);
+      spdlog::info(
+          "{}: {}: UGR {}, background {:.2f} cd/m2, {} sources in view", g.name, who,
+          std::isnan(gr.ugr) ? std::string("none (nothing glares)") : fmt::format("{:.1f}", gr.ugr),
+          gr.background_luminance, gr.sources.size());
     }
     spdlog::info(
         "{}: {} points, E_avg {:.1f} lx (direct {:.1f}), E_min {:.1f}, E_max {:.1f}, "

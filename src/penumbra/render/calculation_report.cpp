@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <set>
@@ -48,6 +49,20 @@ nlohmann::json illuminanceStatsJson(const IlluminanceStats& s) {
           {"uniformity_u1", s.uniformity_u1}};
 }
 
+nlohmann::json glareJson(const GlareResult& g) {
+  nlohmann::json sources = nlohmann::json::array();
+  for (const GlareSource& s : g.sources) {
+    sources.push_back({{"name", s.name},
+                       {"luminance_cd_m2", s.term.luminance},
+                       {"solid_angle_sr", s.term.solid_angle},
+                       {"position_index", s.term.position_index},
+                       {"share", g.sum > 0.0 ? s.term.term / g.sum : 0.0}});
+  }
+  return {{"ugr", std::isnan(g.ugr) ? nlohmann::json() : nlohmann::json(g.ugr)},
+          {"background_luminance_cd_m2", g.background_luminance},
+          {"sources", sources}};
+}
+
 nlohmann::json calculationObjectJson(const CalculationGrid& g, const IlluminanceResult& r) {
   nlohmann::json j = {{"name", g.name},
                       {"type", g.type},
@@ -59,6 +74,22 @@ nlohmann::json calculationObjectJson(const CalculationGrid& g, const Illuminance
                       {"rays_per_point", r.rays},
                       {"total", illuminanceStatsJson(r.total_stats)},
                       {"direct", illuminanceStatsJson(r.direct_stats)}};
+  if (!r.glare.empty()) {
+    // UGR per observer, and the worst, as EN 12464-1 limits it.
+    nlohmann::json observers = nlohmann::json::array();
+    double worst = std::nan("");
+    for (size_t i = 0; i < r.glare.size(); ++i) {
+      nlohmann::json o = glareJson(r.glare[i]);
+      o["position"] = {g.points[i].x, g.points[i].y, g.points[i].z};
+      o["view"] = {g.normals[i].x, g.normals[i].y, g.normals[i].z};
+      o["vertical_lux"] = r.total[i];
+      if (i < g.labels.size() && !g.labels[i].empty()) o["name"] = g.labels[i];
+      observers.push_back(o);
+      if (!std::isnan(r.glare[i].ugr) && !(r.glare[i].ugr <= worst)) worst = r.glare[i].ugr;
+    }
+    j["observers"] = observers;
+    j["ugr_max"] = std::isnan(worst) ? nlohmann::json() : nlohmann::json(worst);
+  }
   if (!r.sky.empty() && r.horizontal_lux > 0.0) {
     // Daylight factors (CIE 171:2006 sec. 5.9-5.14): the lux over the unobstructed sky's
     // horizontal illuminance, in percent; SC and ERC averaged like the lux.
@@ -149,8 +180,10 @@ Status writeCalculationReports(const std::string& dir, const IlluminanceReport& 
         fmt::format("# {}: {} x {} points, {} rays each, {} illuminance\n", g.name, g.columns,
                     g.rows, r.rays, g.measure == Measure::kCylindrical ? "cylindrical" : "planar");
     const bool daylight = !r.sky.empty() && r.horizontal_lux > 0.0;
-    csv += daylight ? "name,x_m,y_m,z_m,nx,ny,nz,direct_lux,total_lux,sc_pct,erc_pct,df_pct\n"
-                    : "name,x_m,y_m,z_m,nx,ny,nz,direct_lux,total_lux\n";
+    const bool glare = !r.glare.empty();
+    csv += "name,x_m,y_m,z_m,nx,ny,nz,direct_lux,total_lux";
+    csv += daylight ? ",sc_pct,erc_pct,df_pct" : "";
+    csv += glare ? ",ugr,background_cd_m2\n" : "\n";
     nlohmann::json points = nlohmann::json::array();
     for (size_t i = 0; i < g.points.size(); ++i) {
       const glm::dvec3 &p = g.points[i], &n = g.normals[i];
@@ -161,6 +194,11 @@ Status writeCalculationReports(const std::string& dir, const IlluminanceReport& 
         csv += fmt::format(",{:.4f},{:.4f},{:.4f}", 100.0 * r.sky[i] / r.horizontal_lux,
                            100.0 * r.external[i] / r.horizontal_lux,
                            100.0 * r.total[i] / r.horizontal_lux);
+      }
+      if (glare) {
+        const GlareResult& gr = r.glare[i];
+        csv += std::isnan(gr.ugr) ? std::string(",") : fmt::format(",{:.2f}", gr.ugr);
+        csv += fmt::format(",{:.4f}", gr.background_luminance);
       }
       csv += "\n";
       nlohmann::json pj = {{"position", {p.x, p.y, p.z}},

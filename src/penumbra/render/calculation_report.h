@@ -17,9 +17,14 @@ namespace penumbra {
 // {average_lux, minimum_lux, maximum_lux, uniformity_u0, uniformity_u1}.
 nlohmann::json illuminanceStatsJson(const IlluminanceStats& stats);
 
+// One observer's glare: {ugr (null when nothing glares), background_luminance_cd_m2, sources:
+// [{name, luminance_cd_m2, solid_angle_sr, position_index, share}]}.
+nlohmann::json glareJson(const GlareResult& glare);
+
 // The object's figures (no points): name, type, measure, columns, rows, points, spacing_m,
 // rays_per_point, "total" and "direct" {average_lux, minimum_lux, maximum_lux, uniformity_u0,
-// uniformity_u1}.
+// uniformity_u1}; a glare object's "observers" (glareJson with position, view, vertical_lux,
+// name) and "ugr_max".
 nlohmann::json calculationObjectJson(const CalculationGrid& grid, const IlluminanceResult& result);
 
 // The plan view of a plane grid (rows > 1): a cell per point, coloured 0 lx blue to `max_lux`

@@ -300,6 +300,15 @@ Expected<IlluminanceReport> illuminanceReport(const Scene& scene, const RayEngin
         request.grid_rays > 0 ? request.grid_rays : autoIlluminanceRays(g.points.size());
     report.grid_results.push_back(
         gatherIlluminance(scene, engine, flat, g, incident, rays, request.seed));
+    if (g.type == "glare") {
+      IlluminanceResult& r = report.grid_results.back();
+      for (size_t i = 0; i < g.points.size(); ++i) {
+        double background = r.total[i] - r.direct[i];
+        if (!r.sky.empty()) background += r.sky[i] + r.external[i];
+        r.glare.push_back(glareAt(scene, engine, flat, g.points[i], g.normals[i],
+                                  std::max(0.0, background) / std::numbers::pi, request.seed + i));
+      }
+    }
   }
   if (request.image) {
     // One point per pixel centre on the surface it sees, facing the camera.

@@ -25,6 +25,7 @@
 #include "penumbra/io/calculation_objects.h"
 #include "penumbra/kernels/ray.h"
 #include "penumbra/raytrace/ray_engine.h"
+#include "penumbra/render/glare.h"
 #include "penumbra/scene/camera.h"
 #include "penumbra/scene/scene.h"
 
@@ -62,6 +63,10 @@ struct IlluminanceResult {
   std::vector<double> sky, external;
   double horizontal_lux = 0.0;
   IlluminanceStats direct_stats, total_stats;
+  // A glare object's observers (CalculationGrid type "glare"): UGR at each, its background
+  // luminance the indirect part of the vertical illuminance gathered there (total less direct,
+  // daylight counted as background) over pi.
+  std::vector<GlareResult> glare;
   int rays = 0;  // hemisphere rays per point
   uint64_t rays_traced = 0;
 };

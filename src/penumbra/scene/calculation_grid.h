@@ -19,7 +19,10 @@ enum class Measure { kPlanar, kCylindrical };
 // cylindrical illuminance).
 struct CalculationGrid {
   std::string name;
-  std::string type;  // work_plane, grid, surface, points: what made it, for the reports
+  // work_plane, grid, surface, points: what made it, for the reports; glare: observers, each
+  // point an eye and its normal the line of sight, measuring the vertical illuminance at the eye
+  // and UGR (render/glare.h).
+  std::string type;
   Measure measure = Measure::kPlanar;
   int columns = 0, rows = 0;  // a plane's points, row-major (rows = 1 for a list)
   std::vector<glm::dvec3> points;
@@ -33,6 +36,10 @@ struct CalculationGrid {
   // A plane grid's axes (unit, along its columns and rows), for the plan-view picture.
   glm::dvec3 axis_u{1.0, 0.0, 0.0}, axis_v{0.0, 0.0, 1.0};
 };
+
+// A glare observer's line of sight (type "glare", render/glare.h) may rise or fall at most this
+// many degrees: nearer the vertical it has no horizon to measure Guth's position index from.
+inline constexpr double kMaxViewElevation = 85.0;
 
 // The most calculation points one run takes, all objects together.
 inline constexpr size_t kMaxCalculationPoints = 4'000'000;

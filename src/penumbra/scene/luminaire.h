@@ -49,6 +49,11 @@ struct LuminaireDistribution {
   // weights (solid angle times the cell's largest corner) over the (c_count x gamma_count - 1)
   // cells, row-major by plane; the last entry is the total.
   std::vector<double> cell_cdf;
+  // The luminous opening the file states (io/photometry.h), metres: `opening_length` along C0,
+  // `opening_width` along C90, `opening_height` deep; round: a disc (or cylinder) of diameter
+  // `opening_length`. Zero: none stated. For glare (render/glare.h), not for the light.
+  double opening_length = 0.0, opening_width = 0.0, opening_height = 0.0;
+  bool opening_round = false;
 
   // The LDT of a distribution given in candela on the regular grid above (c_count rows of
   // gamma_count values). Refuses (returns false with `why`) grids smaller than 2 x 1, negative
