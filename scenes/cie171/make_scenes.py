@@ -217,7 +217,7 @@ write("case_5_8.json", """{
 # at 60 degrees (type 12 as written; the tests set each type), E_h = 10,000 lx, so that the lux
 # at a point are 100 x its sky component in percent. Roof openings: the A-F wall faces the sun
 # (north -z: the sun is south, +z). Facade openings: the window faces the sun (north +z).
-def daylight(name, comment, meshes, opening, north, calc, ground=0.0):
+def daylight(name, comment, meshes, opening, north, calc, ground=0.0, materials=None):
     write(name, """{
   // %s
   "materials": {%s},
@@ -229,7 +229,7 @@ def daylight(name, comment, meshes, opening, north, calc, ground=0.0):
   "openings": [{"name": "opening", "corners": [%s]}],
 %s
 }
-""" % (comment, BLACK, meshes, ground, north,
+""" % (comment, materials or BLACK, meshes, ground, north,
        ", ".join("[{:g}, {:g}, {:g}]".format(*c) for c in opening), calc))
 
 
@@ -282,3 +282,54 @@ for src, dst in (("case_5_9_1x1.json", "case_5_10_1x1.json"), ("case_5_9_4x4.jso
     text = text.replace('"corners": [', '"glazing": {"transmittance": 0.878, "ior": 1.52}, "corners": [')
     text = text.replace("unglazed", "glazed").replace("case 5.9", "case 5.10").replace("case 5.11", "case 5.12")
     write(dst, text)
+
+# Cases 5.13 and 5.14: the 2 m x 1 m window of case 5.11 with a mask outside, floor points A (z =
+# 3.75, farthest from the window) to H (z = 0.25). 5.13: a horizontal overhang at the top of the
+# window wall (y = 3), reaching d = 0.5, 1 or 2 m out (-z), diffuse of reflectance 0.3 below,
+# black above. 5.14: a vertical wall 6 m out (z = -6), facing the window, 3, 6 or 9 m high,
+# diffuse of reflectance 0.3. Both masks run 100 m either side, as good as unbounded for points
+# that see them through the window.
+MASKED = BLACK + ', "mask": {"reflectance": [0.3, 0.3, 0.3]}'
+# The building's facade around the window, black, 1 mm outside the window wall and 100 m either
+# side: a window in a facade, as the report draws it. (A facade only as wide as the room would
+# let the overhang's underside see the ground where a building stands, 8% brighter at H.)
+write("facade_2x1.obj", obj(
+    "facade", [[(x0, y0, -0.001), (x0, y1, -0.001), (x1, y1, -0.001), (x1, y0, -0.001)]
+               for x0, x1, y0, y1 in ((-100, 1, 0, 3), (3, 104, 0, 3), (1, 3, 0, 1), (1, 3, 2, 3))],
+    "CIE 171 cases 5.13 and 5.14: the facade around the 2 m x 1 m window, facing out"))
+FACADE = '    {"file": "facade_2x1.obj", "material": "black", "name": "facade"},\n'
+MASK_FLOOR = [(c, (2, 0, 3.75 - 0.5 * k), (0, 1, 0)) for k, c in enumerate("ABCDEFGH")]
+for depth in (0.5, 1, 2):
+    write(f"overhang_{depth:g}.obj", obj(
+        "overhang",
+        [[(-100, 3, -depth), (104, 3, -depth), (104, 3, 0), (-100, 3, 0)]],
+        f"CIE 171 case 5.13: a {depth:g} m overhang over the window wall, its underside"))
+    write(f"overhang_{depth:g}_top.obj", obj(
+        "overhang top",
+        [[(104, 3.001, 0), (104, 3.001, -depth), (-100, 3.001, -depth), (-100, 3.001, 0)]],
+        f"CIE 171 case 5.13: the {depth:g} m overhang's upper side"))
+    daylight(f"case_5_13_{depth:g}m.json",
+             f"CIE 171:2006 case 5.13: sky and externally reflected components on the floor\n"
+             f"  // through the 2 m x 1 m window under a {depth:g} m overhang of reflectance 0.3\n"
+             f"  // (Tables B.21-B.23): lux = 100 x %.",
+             '    {"file": "facade_room.obj", "material": "black", "name": "room"},\n'
+             '    {"file": "facade_wall_2x1.obj", "material": "black", "name": "window wall"},\n'
+             + FACADE +
+             f'    {{"file": "overhang_{depth:g}.obj", "material": "mask", "name": "overhang"}},\n'
+             f'    {{"file": "overhang_{depth:g}_top.obj", "material": "black", "name": "overhang top"}}',
+             [(1, 1, 0), (3, 1, 0), (3, 2, 0), (1, 2, 0)], 1,
+             calc_points("floor", MASK_FLOOR), ground=0.3, materials=MASKED)
+for height in (3, 6, 9):
+    write(f"mask_wall_{height}.obj", obj(
+        "mask", [[(-100, 0, -6), (104, 0, -6), (104, height, -6), (-100, height, -6)]],
+        f"CIE 171 case 5.14: a {height} m high wall 6 m in front of the window, facing it"))
+    daylight(f"case_5_14_{height}m.json",
+             f"CIE 171:2006 case 5.14: sky and externally reflected components on the floor\n"
+             f"  // through the 2 m x 1 m window facing a {height} m high wall of reflectance 0.3,\n"
+             f"  // 6 m away (Tables B.24-B.26): lux = 100 x %.",
+             '    {"file": "facade_room.obj", "material": "black", "name": "room"},\n'
+             '    {"file": "facade_wall_2x1.obj", "material": "black", "name": "window wall"},\n'
+             + FACADE +
+             f'    {{"file": "mask_wall_{height}.obj", "material": "mask", "name": "mask"}}',
+             [(1, 1, 0), (3, 1, 0), (3, 2, 0), (1, 2, 0)], 1,
+             calc_points("floor", MASK_FLOOR), ground=0.3, materials=MASKED)

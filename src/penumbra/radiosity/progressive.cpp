@@ -459,13 +459,18 @@ glm::dvec3 ProgressiveRadiosity::skyIrradianceAt(size_t e, uint64_t& rays) const
   constexpr int kSamples = 64;
   const glm::dvec3 p = surface_.atlas.element_position[e], n = surface_.atlas.element_normal[e];
   Rng rng(mixBits(0x5ca1ab1e), e);
-  if (daylight_->active()) {
+  glm::dvec3 through(0.0);
+  const bool portals = daylight_->active();
+  if (portals) {
     const DaylightIrradiance d = daylight_->irradiance(
         surface_.engine, p, n, surface_.lift, kSamples, false, rng,
         [](const Ray&, const Hit&, Rng&) { return glm::vec3(0.0f); }, rays);
-    return d.sky + d.external;
+    through = d.sky + d.external;
   }
-  // No openings: an outdoor scene, the sky over each element's hemisphere (8 x 8 strata).
+  // The sky each element sees straight, over its hemisphere (8 x 8 strata): all of it in an
+  // outdoor scene; with openings, what outside surfaces (an overhang, a building opposite, CIE
+  // 171:2006 cases 5.13 and 5.14) see without looking through one, the portals having counted
+  // the rest. An element inside sees the sky only through the openings and gets nothing more.
   const Frame frame = Frame::fromNormal(glm::vec3(n));
   glm::dvec3 sum(0.0);
   for (int k = 0; k < kSamples; ++k) {
@@ -474,9 +479,11 @@ glm::dvec3 ProgressiveRadiosity::skyIrradianceAt(size_t e, uint64_t& rays) const
     const glm::vec3 d = frame.toWorld(sampleCosineHemisphere(u1, u2));
     const Ray ray{glm::vec3(p + surface_.lift * n), 0.0f, d, std::numeric_limits<float>::max()};
     ++rays;
-    if (!surface_.engine.occluded(ray)) sum += glm::dvec3(daylight_->skyRadiance(glm::dvec3(d)));
+    if (surface_.engine.occluded(ray)) continue;
+    if (portals && daylight_->crosses(ray, ray.tmax)) continue;
+    sum += glm::dvec3(daylight_->skyRadiance(glm::dvec3(d)));
   }
-  return sum * (std::numbers::pi / kSamples);
+  return through + sum * (std::numbers::pi / kSamples);
 }
 
 double subdivisionShare(double shooter_irradiance, const glm::dvec3& radiosity,
@@ -1303,7 +1310,11 @@ glm::dvec3 ProgressiveRadiosity::unshotPower() const {
 }
 
 double ProgressiveRadiosity::unshotFraction() const {
-  return residualLuminance(balance_.unshot) / residualLuminance(balance_.emitted);
+  // Before the lights' iteration the sky's power is not known (it is found element by element as
+  // the lights are shot): all is unshot. A scene that emits nothing has nothing left to shoot.
+  if (!lights_shot_) return 1.0;
+  const double emitted = residualLuminance(balance_.emitted);
+  return emitted > 0.0 ? residualLuminance(balance_.unshot) / emitted : 0.0;
 }
 
 glm::dvec3 ProgressiveRadiosity::ambient() const {
