@@ -274,12 +274,13 @@ daylight("case_5_11_4x3.json",
          [(0, 0, 0), (4, 0, 0), (4, 3, 0), (0, 3, 0)], 1,
          calc_points("wall floor ceiling", BACK + FLOOR11 + CEIL11), ground=0.3)
 
-# Cases 5.10 and 5.12: the same openings glazed with 6 mm clear glass (normal transmittance 0.878,
-# index 1.52).
+# Cases 5.10 and 5.12: the same openings glazed with 6 mm clear glass, as the report has it: its
+# formula for the directional transmittance (the "clear_glass" fall-off), 0.8788 at normal
+# incidence.
 for src, dst in (("case_5_9_1x1.json", "case_5_10_1x1.json"), ("case_5_9_4x4.json", "case_5_10_4x4.json"),
                  ("case_5_11_2x1.json", "case_5_12_2x1.json"), ("case_5_11_4x3.json", "case_5_12_4x3.json")):
     text = open(os.path.join(HERE, src)).read()
-    text = text.replace('"corners": [', '"glazing": {"transmittance": 0.878, "ior": 1.52}, "corners": [')
+    text = text.replace('"corners": [', '"glazing": {"transmittance": 0.8788, "falloff": "clear_glass"}, "corners": [')
     text = text.replace("unglazed", "glazed").replace("case 5.9", "case 5.10").replace("case 5.11", "case 5.12")
     write(dst, text)
 
@@ -333,3 +334,25 @@ for height in (3, 6, 9):
              f'    {{"file": "mask_wall_{height}.obj", "material": "mask", "name": "mask"}}',
              [(1, 1, 0), (3, 1, 0), (3, 2, 0), (1, 2, 0)], 1,
              calc_points("floor", MASK_FLOOR), ground=0.3, materials=MASKED)
+
+# Case 5.5: the directional transmittance of clear glass. A black roof 3 m up with a 2 m x 2 m
+# opening glazed with 6 mm clear glass, lit by a parallel beam of 1000 lx at normal incidence;
+# the point 1 mm under the glass's centre, facing up, gets 1000 cos(theta) tau(theta) lx. The
+# tests turn the beam (theta from the vertical, towards +x) and the glass's fall-off.
+roof = [[(x0, 3, z0), (x1, 3, z0), (x1, 3, z1), (x0, 3, z1)]
+        for x0, x1, z0, z1 in ((-5, -1, -5, 5), (1, 5, -5, 5), (-1, 1, -5, -1), (-1, 1, 1, 5))]
+write("roof_2x2.obj", obj("roof", roof, "CIE 171 case 5.5: a black roof with a 2 m x 2 m opening"))
+E55 = 1000.0 / LM_PER_W
+write("case_5_5.json", """{
+  // CIE 171:2006 case 5.5: the directional transmittance of clear glass. A parallel beam of
+  // 1000 lx (at normal incidence) through a 2 m x 2 m opening glazed with 6 mm clear glass onto
+  // the point 1 mm under its centre: 1000 cos(theta) tau(theta) lx, tau the report's formula for
+  // clear glass (the glazing's "clear_glass" fall-off). The beam as written is vertical.
+  "materials": {%s},
+  "meshes": [{"file": "roof_2x2.obj", "material": "black", "name": "roof"}],
+  "lights": [{"type": "directional", "direction": [0, -1, 0], "irradiance": [%.6f, %.6f, %.6f]}],
+  "openings": [{"name": "glass", "corners": [[-1, 3, -1], [1, 3, -1], [1, 3, 1], [-1, 3, 1]],
+                "glazing": {"transmittance": 0.8788, "falloff": "clear_glass"}}],
+%s
+}
+""" % (BLACK, E55, E55, E55, calc_points("under the glass", [("P", (0, 2.999, 0), (0, 1, 0))])))

@@ -274,6 +274,44 @@ TEST(SceneJsonLoad, EnvironmentIsAColourOrOneGreyNumber) {
   }
 }
 
+// The daylight keys are input like the rest: a sky, openings and their glazing out of range, of
+// the wrong type or unknown are refused with the key path; the glazing's fall-off is read.
+TEST(SceneJsonLoad, DaylightKeysAreCheckedWithTheirPlace) {
+  TempDir dir;
+  dir.write("tri.obj", kTriangleObj);
+  const auto scene = [&](const std::string& name, const std::string& extra) {
+    return dir.write(name, R"({"meshes": [{"file": "tri.obj"}])" + extra + "}");
+  };
+  const std::string opening =
+      R"(, "openings": [{"corners": [[0, 3, 0], [1, 3, 0], [1, 3, 1], [0, 3, 1]], "glazing": )";
+  Expected<Scene> ok = loadSceneJson(
+      scene("ok.json", opening + R"({"transmittance": 0.8, "falloff": "clear_glass"}}])"));
+  ASSERT_TRUE(ok.ok()) << ok.error().describe();
+  ASSERT_EQ(ok->openings.size(), 1u);
+  EXPECT_EQ(ok->openings[0].falloff, GlazingFalloff::kClearGlass);
+  EXPECT_NEAR(ok->openings[0].transmittanceAt(1.0), 0.8, 1e-12);
+  EXPECT_NEAR(ok->openings[0].transmittanceAt(0.5), 0.8 * clearGlassTransmittance(0.5) / 0.87881,
+              1e-5);
+  struct Case {
+    const char* name;
+    std::string extra;
+    const char* place;
+  };
+  const Case cases[] = {
+      {"falloff.json", opening + R"({"falloff": "frosted"}}])",
+       "openings[0].glazing.falloff: 'frosted' is not fresnel or clear_glass"},
+      {"tau.json", opening + R"({"transmittance": 1.5}}])", "openings[0].glazing.transmittance"},
+      {"ior.json", opening + R"({"ior": 0.5}}])", "openings[0].glazing.ior"},
+      {"key.json", opening + R"({"tint": 0.5}}])", "openings[0].glazing.tint: unknown key"},
+      {"sky.json", R"(, "sky": {"type": 17, "horizontal_illuminance": 10000})", "sky.type"},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.name);
+    const std::string path = scene(c.name, c.extra);
+    EXPECT_TRUE(errorNames(loadSceneJson(path), path, c.place));
+  }
+}
+
 // Numbers a file may carry that overflow single precision, or that would overflow it in the
 // methods' sums (a light a million scene radii away: its squared distance), are refused with the
 // file and the light, before any method runs: they crashed or made NaN and inf images.

@@ -181,11 +181,21 @@ Expected<std::vector<Opening>> readOpenings(const json& j, const std::string& fi
       const std::string gp = keyOf(at, "glazing");
       if (!g.is_object())
         return r.error(gp, fmt::format("must be an object, not {}", jsonTypeName(g)));
-      PENUMBRA_TRY(r.keys(g, gp, {"transmittance", "ior"}));
+      PENUMBRA_TRY(r.keys(g, gp, {"transmittance", "ior", "falloff"}));
       Expected<double> t = r.numberIn(g, gp, "transmittance", 0.878, 0.0, 1.0);
       if (!t) return t.error();
       Expected<double> ior = r.numberIn(g, gp, "ior", 1.52, 1.0, 4.0);
       if (!ior) return ior.error();
+      if (g.contains("falloff")) {
+        Expected<std::string> f = r.string(g.at("falloff"), keyOf(gp, "falloff"));
+        if (!f) return f.error();
+        if (*f == "clear_glass") {
+          op.falloff = GlazingFalloff::kClearGlass;
+        } else if (*f != "fresnel") {
+          return r.error(keyOf(gp, "falloff"),
+                         fmt::format("'{}' is not fresnel or clear_glass", *f));
+        }
+      }
       op.glazed = true;
       op.transmittance = *t;
       op.ior = *ior;

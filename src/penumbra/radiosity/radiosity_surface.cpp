@@ -145,6 +145,7 @@ Expected<RadiositySurface> RadiositySurface::build(const Scene& scene,
                     s.atlas.texel_density, it - has_texel.begin(), s.atlas.chartCount()));
   }
   s.engine = RayEngine::build(s.flat.positions, s.flat.triangles);
+  if (anyGlazing(scene.openings)) s.glazing = scene.openings;
   {
     auto textures = std::make_shared<const SurfaceTextures>(scene);
     if (textures->any() || textures->hasCutouts()) {
@@ -417,7 +418,12 @@ std::vector<glm::dvec3> RadiositySurface::lightIrradianceAt(
           ++count;
           if (engine.occluded(shadowRayToLight(s, positions[r], normals[r]))) continue;
         }
-        sum += s.irradiance;
+        sum += glazing.empty()
+                   ? s.irradiance
+                   : s.irradiance * transmittanceThrough(
+                                        glazing, positions[r], s.direction,
+                                        s.distance > 1e30 ? std::numeric_limits<double>::infinity()
+                                                          : s.distance);
       }
       out[r] = sum;
     }

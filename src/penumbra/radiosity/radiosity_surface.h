@@ -100,6 +100,9 @@ struct RadiositySurface {
   // closure of rows and shots count it so.
   std::vector<double> coverage;
   double coverageOf(size_t e) const { return coverage.empty() ? 1.0 : coverage[e]; }
+  // The scene's openings when one is glazed (scene/sky.h), else empty: a lamp's or the sun's
+  // light reaching an element through glazing is cut by its transmittance at that incidence.
+  std::vector<Opening> glazing;
 
   // Builds the atlas over the scene's faces (the scene must have passed validateScene).
   static Expected<RadiositySurface> build(const Scene& scene, const ChartAtlasOptions& atlas,

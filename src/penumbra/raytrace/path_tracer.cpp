@@ -85,7 +85,9 @@ PathTracer::PathTracer(const Scene& scene)
       lights_(scene.lights),
       environment_(scene.environment),
       sky_(scene.sky),
-      openings_(scene.openings) {}
+      openings_(scene.openings),
+      portals_(scene.sky, scene.openings),
+      glazed_(anyGlazing(scene.openings)) {}
 
 glm::vec3 PathTracer::escaped(const Ray& ray) const {
   if (!sky_) return environment_;
@@ -97,9 +99,30 @@ int PathTracer::directQueries(const glm::vec3& p, float p_offset, const glm::vec
                               const glm::vec3& rho, uint32_t u_light_x, float u_light_y, bool mis,
                               ShadowQuery* out) const {
   int count = deltaLightQueries(lights_, p, p_offset, n, rho, out);
+  // The lamps' and the sun's light through glazed openings (a sun patch behind a window): cut by
+  // the glazing's transmittance at the angle it crosses.
+  if (glazed_) {
+    for (int i = 0; i < count; ++i) {
+      const Ray& r = out[i].ray;
+      out[i].value *= float(
+          transmittanceThrough(openings_, glm::dvec3(r.origin), glm::dvec3(r.dir), double(r.tmax)));
+    }
+  }
   // One sample of the emissive triangles, MIS-weighted against cosine sampling.
   if (emitterQuery(geometry_, p, p_offset, n, rho, u_light_x, u_light_y, mis, 1.0f, out[count])) {
     ++count;
+  }
+  // One sample of the sky through the openings (raytrace/sky_portals.h), its 2-D point the
+  // emitter sample's rotated by a fixed offset (Cranley-Patterson): as well stratified, and not
+  // the same point.
+  if (portals_.active()) {
+    const float u1 = std::fmod(float(double(u_light_x) * 0x1p-32) + 0.5f, 1.0f);
+    const float u2 = std::fmod(u_light_y + 0.6180339887f, 1.0f);
+    const auto beyond = [&](const glm::vec3& w) { return escaped(Ray{p, 0.0f, w, kInfinity}); };
+    if (portals_.query(p, p_offset, n, rho, std::min(u1, 1.0f - 0x1p-24f),
+                       std::min(u2, 1.0f - 0x1p-24f), mis, beyond, out[count])) {
+      ++count;
+    }
   }
   return count;
 }
@@ -206,8 +229,14 @@ int PathTracer::shade(PathState& s, const Hit& hit, const PathTracerSettings& se
   // Inside a medium the free flight comes first: it may scatter before the hit.
   if (s.medium >= 0 && mediumFlight(s, hit, settings)) return 0;
   if (!hit.hit()) {
-    // The ray left the scene: the uniform environment or the sky, found by BSDF sampling only.
-    s.result += s.beta * escaped(s.ray);
+    // The ray left the scene: the uniform environment or the sky. Through an opening, after a
+    // vertex that took a portal sample, weighted against it by the power heuristic.
+    float w = 1.0f;
+    if (portals_.active() && !s.specular && s.prev_pdf > 0.0f) {
+      const float pdf_portal = portals_.pdf(s.prev_point, glm::normalize(s.ray.dir));
+      if (pdf_portal > 0.0f) w = powerHeuristic(s.prev_pdf, pdf_portal);
+    }
+    s.result += s.beta * escaped(s.ray) * w;
     return 0;
   }
   const uint32_t tri = uint32_t(hit.triangle);

@@ -42,6 +42,7 @@
 #include "penumbra/raytrace/direct_light.h"
 #include "penumbra/raytrace/medium_walk.h"
 #include "penumbra/raytrace/scene_geometry.h"
+#include "penumbra/raytrace/sky_portals.h"
 #include "penumbra/scene/scene.h"
 
 #include <atomic>
@@ -174,7 +175,7 @@ class PathTracer {
             ShadowQuery* queries) const;
   static void addDirect(PathState& s, const ShadowQuery* queries, const uint8_t* occluded,
                         int count);
-  size_t lightQueryCapacity() const { return lights_.size() + 2; }
+  size_t lightQueryCapacity() const { return lights_.size() + 3; }
 
   // A guard against endless walks: a path ends after this many boundary and medium events.
   // Bias-free in practice: a walk of 10^5 events reaches about sqrt(10^5) = 300 mean free paths
@@ -231,6 +232,9 @@ class PathTracer {
   // through the glazing of the openings it crosses.
   std::optional<Sky> sky_;
   std::vector<Opening> openings_;
+  // The openings as portals for next-event estimation of the sky (raytrace/sky_portals.h).
+  SkyPortals portals_;
+  bool glazed_ = false;  // some opening is glazed: delta lights' shadow rays take its transmittance
   glm::vec3 escaped(const Ray& ray) const;
 };
 

@@ -71,7 +71,11 @@ glm::dvec3 deltaLightIrradiance(const Scene& scene, const RayEngine& engine, con
                   far ? glm::vec3(s.direction) : glm::vec3(s.direction * s.distance),
                   far ? std::numeric_limits<float>::max() : 1.0f - 1e-4f};
     ++count;
-    if (!engine.occluded(ray)) e += s.irradiance;
+    if (engine.occluded(ray)) continue;
+    // Through glazed openings (a sun patch behind a window): their transmittance at the angle.
+    e += s.irradiance *
+         transmittanceThrough(scene.openings, from, s.direction,
+                              far ? std::numeric_limits<double>::infinity() : s.distance);
   }
   return e;
 }

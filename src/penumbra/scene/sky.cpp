@@ -177,11 +177,13 @@ double crossOpening(const Opening& opening, const glm::dvec3& o, const glm::dvec
 }
 
 double transmittanceThrough(const std::vector<Opening>& openings, const glm::dvec3& o,
-                            const glm::dvec3& d) {
+                            const glm::dvec3& d, double max_distance) {
   double tau = 1.0;
   const glm::dvec3 u = glm::normalize(d);
   for (const Opening& op : openings) {
-    if (!op.glazed || crossOpening(op, o, u) <= 0.0) continue;
+    if (!op.glazed) continue;
+    const double t = crossOpening(op, o, u);
+    if (!(t > 0.0) || !(t < max_distance)) continue;
     glm::dvec3 n(0.0);
     for (size_t k = 1; k + 1 < op.corners.size(); ++k) {
       n += glm::cross(op.corners[k] - op.corners[0], op.corners[k + 1] - op.corners[0]);
@@ -191,9 +193,28 @@ double transmittanceThrough(const std::vector<Opening>& openings, const glm::dve
   return tau;
 }
 
+bool anyGlazing(const std::vector<Opening>& openings) {
+  for (const Opening& op : openings) {
+    if (op.glazed) return true;
+  }
+  return false;
+}
+
+double clearGlassTransmittance(double c) {
+  c = std::clamp(c, 0.0, 1.0);
+  const double p =
+      -0.028378 +
+      c * (3.156075 + c * (-3.058376 + c * (-1.428919 + c * (4.014235 - 1.775827 * c))));
+  return std::max(p, 0.0);
+}
+
 double Opening::transmittanceAt(double cos_theta) const {
   if (!glazed) return 1.0;
-  return transmittance * slabTransmittance(std::fabs(cos_theta), ior) / slabTransmittance(1.0, ior);
+  const double c = std::fabs(cos_theta);
+  if (falloff == GlazingFalloff::kClearGlass) {
+    return transmittance * clearGlassTransmittance(c) / clearGlassTransmittance(1.0);
+  }
+  return transmittance * slabTransmittance(c, ior) / slabTransmittance(1.0, ior);
 }
 
 }  // namespace penumbra

@@ -25,6 +25,7 @@
 #include <glm/vec3.hpp>
 
 #include <array>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -99,18 +100,27 @@ struct Sky {
   double horizontal_per_zenith_ = 0.0;
 };
 
+// How glazing's transmittance falls off with the angle of incidence theta (c = cos theta):
+// - kFresnelSlab: T(theta) / T(0), T the transmittance of a non-absorbing slab of index `ior`
+//   with its multiple reflections (Fresnel, averaged over both polarisations);
+// - kClearGlass: P(c) / P(1), P the fit for clear glass that CIE 171:2006 takes for its glazed
+//   cases (5.5, 5.10, 5.12; Tregenza and Sharples, "Daylighting algorithms", 1993, algorithm
+//   2.34):  P(c) = -0.028378 + 3.156075 c - 3.058376 c^2 - 1.428919 c^3 + 4.014235 c^4
+//   - 1.775827 c^5,  P(1) = 0.8788, held at 0 where it turns negative (beyond 88.9 degrees).
+enum class GlazingFalloff { kFresnelSlab, kClearGlass };
+
 // An opening in the building through which daylight enters (a window, a roof light): a convex
 // polygon that is not geometry (nothing hits it) but where the sky is sampled for the light it
-// sends in ("portal"). Glazing in it transmits tau(theta) = tau_n T(theta) / T(0), T the
-// transmittance of a non-absorbing slab of index `ior` with its multiple reflections (Fresnel,
-// averaged over both polarisations), so that tau_n (which holds the glass's absorption) is the
-// transmittance at normal incidence. Unglazed: tau = 1.
+// sends in ("portal"). Glazing in it transmits tau(theta) = tau_n times the fall-off above, so
+// that tau_n (which holds the glass's absorption) is the transmittance at normal incidence.
+// Unglazed: tau = 1.
 struct Opening {
   std::string name;
   std::vector<glm::dvec3> corners;  // a convex polygon, in order
   bool glazed = false;
   double transmittance = 1.0;  // tau_n
   double ior = 1.52;
+  GlazingFalloff falloff = GlazingFalloff::kFresnelSlab;
 
   // The transmittance at incidence angle theta (cosine `cos_theta`).
   double transmittanceAt(double cos_theta) const;
@@ -118,9 +128,16 @@ struct Opening {
 
 // Where the ray o + t d (t > 0) crosses the opening's polygon, or a negative t.
 double crossOpening(const Opening& opening, const glm::dvec3& o, const glm::dvec3& d);
-// The product of the transmittances of the glazed openings the ray o + t d (t > 0) crosses.
+// The product of the transmittances of the glazed openings the ray o + t d/|d| crosses for t in
+// (0, max_distance): light from the sky, the sun or a lamp outside through the windows between.
 double transmittanceThrough(const std::vector<Opening>& openings, const glm::dvec3& o,
-                            const glm::dvec3& d);
+                            const glm::dvec3& d,
+                            double max_distance = std::numeric_limits<double>::infinity());
+// Whether any opening is glazed (else transmittanceThrough is 1 everywhere).
+bool anyGlazing(const std::vector<Opening>& openings);
+
+// CIE 171:2006's clear-glass fit P(c) (GlazingFalloff::kClearGlass), not normalised.
+double clearGlassTransmittance(double cos_theta);
 
 // A slab's transmittance at incidence cos_theta: both interfaces and the light reflected between
 // them, T = 1/2 sum over s and p of (1 - R) / (1 + R).
