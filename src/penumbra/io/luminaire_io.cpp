@@ -51,10 +51,7 @@ Expected<std::shared_ptr<const LuminaireDistribution>> luminaireDistribution(
   if (!LuminaireDistribution::fromCandela(c_count, gamma_count, cd, photometry.file, *t, why)) {
     return inputError(photometry.file, "", why);
   }
-  t->opening_length = photometry.length;
-  t->opening_width = photometry.width;
-  t->opening_height = photometry.height;
-  t->opening_round = photometry.circular;
+  t->opening = {photometry.length, photometry.width, photometry.height, photometry.circular};
   return std::shared_ptr<const LuminaireDistribution>(std::move(t));
 }
 

@@ -35,11 +35,6 @@ glm::dvec3 sanitize(const glm::vec3& c) {
   return glm::dvec3(sanitize(c.x), sanitize(c.y), sanitize(c.z));
 }
 
-// luminance() from tonemap.h (Rec. 709 weights), in double.
-double luminanceD(const glm::dvec3& c) {
-  return 0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z;
-}
-
 // Clamps to [0, 1]; NaN becomes 0.
 double clampUnit(double v) {
   return v > 0.0 ? std::min(v, 1.0) : 0.0;
@@ -69,7 +64,7 @@ LuminanceStats luminanceStats(const Image& image, double scale) {
   std::vector<double> log2_l;
   log2_l.reserve(image.pixels.size());
   for (const glm::vec3& c : image.pixels) {
-    const double l = scale * luminanceD(sanitize(c));
+    const double l = scale * luminance(glm::dvec3(sanitize(c)));
     if (l > 0.0) log2_l.push_back(std::log2(l));
   }
   LuminanceStats s;
@@ -141,7 +136,7 @@ Image reinhardOperator(const Image& linear, const ToneMapSettings& settings, dou
   parallelRange(linear.pixels.size(), kPixelGrain, [&](size_t begin, size_t end) {
     for (size_t i = begin; i < end; ++i) {
       const glm::dvec3 c = scale * sanitize(linear.pixels[i]);
-      const double l_w = luminanceD(c);
+      const double l_w = luminance(c);
       if (!(l_w > 0.0)) continue;                                 // stays black
       const double l = key_over_average * l_w;                    // [RSSF02] eq. 2
       const double l_d = l * (1.0 + l * inv_white2) / (1.0 + l);  // [RSSF02] eq. 4

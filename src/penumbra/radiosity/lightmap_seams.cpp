@@ -1,5 +1,6 @@
 #include "penumbra/radiosity/lightmap_seams.h"
 
+#include "penumbra/core/color.h"
 #include "penumbra/radiosity/radiosity_surface.h"
 
 #include <glm/geometric.hpp>
@@ -126,7 +127,7 @@ std::vector<SeamSample> seamSamples(const RadiositySurface& s, size_t* edges) {
 }
 
 double lum(const glm::vec3& c) {
-  return 0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z;
+  return luminance(glm::dvec3(c));
 }
 
 // The largest and RMS jump (luminance) over the samples; read(t) gives the texel t a sample

@@ -5,6 +5,7 @@
 
 #include <glm/geometric.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <numbers>
@@ -24,8 +25,38 @@ OpeningLight::OpeningLight(const Scene& scene) {
       t.normal = cr / len;
       t.area = 0.5 * len;
       triangles_.push_back(t);
+      area_cdf_.push_back((area_cdf_.empty() ? 0.0 : area_cdf_.back()) + t.area);
     }
+    glm::dvec3 n(0.0);
+    for (size_t k = 1; k + 1 < o.corners.size(); ++k) {
+      n += glm::cross(o.corners[k] - o.corners[0], o.corners[k + 1] - o.corners[0]);
+    }
+    unit_normals_.push_back(glm::length(n) > 0.0 ? glm::normalize(n) : n);
   }
+}
+
+glm::dvec3 OpeningLight::portalPoint(float u1, float u2) const {
+  // The triangle by area, u1 remapped within it.
+  const double at = double(u1) * area_cdf_.back();
+  const size_t k =
+      std::min(size_t(std::upper_bound(area_cdf_.begin(), area_cdf_.end(), at) - area_cdf_.begin()),
+               triangles_.size() - 1);
+  const double lo = k > 0 ? area_cdf_[k - 1] : 0.0;
+  const Tri& t = triangles_[k];
+  const float within = std::clamp(float((at - lo) / t.area), 0.0f, 1.0f - 0x1p-24f);
+  return pointOnTriangle(t.a, t.b, t.c, within, u2);
+}
+
+double OpeningLight::portalPdf(const glm::dvec3& x, const glm::dvec3& w) const {
+  if (!active()) return 0.0;
+  double sum = 0.0;
+  for (size_t i = 0; i < openings_.size(); ++i) {
+    const double t = crossOpening(openings_[i], x, w);
+    if (!(t > 0.0)) continue;
+    const double cos_y = std::fabs(glm::dot(unit_normals_[i], w));
+    if (cos_y > 0.0) sum += t * t / cos_y;
+  }
+  return sum / area_cdf_.back();
 }
 
 bool OpeningLight::crosses(const Ray& ray, float tmax) const {

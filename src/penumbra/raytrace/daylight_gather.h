@@ -52,6 +52,20 @@ class OpeningLight {
   glm::vec3 skyRadiance(const glm::dvec3& dir) const { return sky_->radiance(dir); }
   // Whether the segment origin + t dir, t in (0, tmax), crosses an opening.
   bool crosses(const Ray& ray, float tmax) const;
+  bool hasSky() const { return sky_.has_value(); }
+  const std::vector<Opening>& openings() const { return openings_; }
+
+  // The openings as portals for the path tracer's next-event estimation of the sky: a point
+  // uniform over their whole area A from (u1, u2), and the density in solid angle of direction
+  // `w` (unit) from `x` under that sampling,
+  //   p(w) = sum over the openings the ray x + t w crosses of  t^2 / (|cos theta| A),
+  // 0 when it crosses none. BSDF sampling finds the same light when its ray escapes; the path
+  // tracer weights the two by the power heuristic (Veach 1997, ch. 9). Bitterli et al.'s
+  // "Portal-masked environment map sampling" (2015) is the general form; the uniform-area
+  // density suits the windows and roof lights of rooms, where BSDF sampling alone finds the
+  // sky with a probability of their solid angle.
+  glm::dvec3 portalPoint(float u1, float u2) const;
+  double portalPdf(const glm::dvec3& x, const glm::dvec3& w) const;
 
   // The light through the openings at x facing n (planar), or the cylindrical illuminance about
   // the axis n; `samples` points over the openings (jittered, allocated by solid angle), shadow
@@ -69,6 +83,8 @@ class OpeningLight {
   std::optional<Sky> sky_;
   std::vector<Opening> openings_;
   std::vector<Tri> triangles_;
+  std::vector<double> area_cdf_;          // cumulative area over triangles_
+  std::vector<glm::dvec3> unit_normals_;  // per opening
 };
 
 }  // namespace penumbra

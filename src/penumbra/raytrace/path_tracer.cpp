@@ -84,15 +84,34 @@ PathTracer::PathTracer(const Scene& scene)
     : geometry_(SceneGeometry::build(scene)),
       lights_(scene.lights),
       environment_(scene.environment),
-      sky_(scene.sky),
-      openings_(scene.openings),
-      portals_(scene.sky, scene.openings),
+      daylight_(scene),
       glazed_(anyGlazing(scene.openings)) {}
 
 glm::vec3 PathTracer::escaped(const Ray& ray) const {
-  if (!sky_) return environment_;
+  if (!daylight_.hasSky()) return environment_;
   const glm::dvec3 d = glm::normalize(glm::dvec3(ray.dir));
-  return sky_->radiance(d) * float(transmittanceThrough(openings_, glm::dvec3(ray.origin), d));
+  return daylight_.skyRadiance(d) *
+         float(transmittanceThrough(daylight_.openings(), glm::dvec3(ray.origin), d));
+}
+
+bool PathTracer::portalQuery(const glm::vec3& p, float p_offset, const glm::vec3& n,
+                             const glm::vec3& rho, float u1, float u2, bool mis,
+                             ShadowQuery& out) const {
+  const glm::dvec3 y = daylight_.portalPoint(u1, u2);
+  const glm::dvec3 d = y - glm::dvec3(p);
+  const double d2 = glm::dot(d, d);
+  if (!(d2 > 0.0)) return false;
+  const glm::vec3 wi(d / std::sqrt(d2));
+  const float cos_s = glm::dot(n, wi);
+  if (cos_s <= 0.0f) return false;
+  const float pdf_light = float(daylight_.portalPdf(glm::dvec3(p), glm::dvec3(wi)));
+  if (!(pdf_light > 0.0f)) return false;
+  const glm::vec3 l = escaped(Ray{p, 0.0f, wi, kInfinity});
+  if (l == glm::vec3(0.0f)) return false;
+  const float w = mis ? powerHeuristic(pdf_light, cos_s * kInvPi) : 1.0f;
+  out = ShadowQuery{Ray{offsetOrigin(p, p_offset, n, wi), 0.0f, wi, kRayInfinity},
+                    rho * kInvPi * l * cos_s * w / pdf_light, true};
+  return true;
 }
 
 int PathTracer::directQueries(const glm::vec3& p, float p_offset, const glm::vec3& n,
@@ -104,23 +123,22 @@ int PathTracer::directQueries(const glm::vec3& p, float p_offset, const glm::vec
   if (glazed_) {
     for (int i = 0; i < count; ++i) {
       const Ray& r = out[i].ray;
-      out[i].value *= float(
-          transmittanceThrough(openings_, glm::dvec3(r.origin), glm::dvec3(r.dir), double(r.tmax)));
+      out[i].value *= float(transmittanceThrough(daylight_.openings(), glm::dvec3(r.origin),
+                                                 glm::dvec3(r.dir), double(r.tmax)));
     }
   }
   // One sample of the emissive triangles, MIS-weighted against cosine sampling.
   if (emitterQuery(geometry_, p, p_offset, n, rho, u_light_x, u_light_y, mis, 1.0f, out[count])) {
     ++count;
   }
-  // One sample of the sky through the openings (raytrace/sky_portals.h), its 2-D point the
+  // One sample of the sky through the openings (portalQuery), its 2-D point the
   // emitter sample's rotated by a fixed offset (Cranley-Patterson): as well stratified, and not
   // the same point.
-  if (portals_.active()) {
+  if (daylight_.active()) {
     const float u1 = std::fmod(float(double(u_light_x) * 0x1p-32) + 0.5f, 1.0f);
     const float u2 = std::fmod(u_light_y + 0.6180339887f, 1.0f);
-    const auto beyond = [&](const glm::vec3& w) { return escaped(Ray{p, 0.0f, w, kInfinity}); };
-    if (portals_.query(p, p_offset, n, rho, std::min(u1, 1.0f - 0x1p-24f),
-                       std::min(u2, 1.0f - 0x1p-24f), mis, beyond, out[count])) {
+    if (portalQuery(p, p_offset, n, rho, std::min(u1, 1.0f - 0x1p-24f),
+                    std::min(u2, 1.0f - 0x1p-24f), mis, out[count])) {
       ++count;
     }
   }
@@ -232,8 +250,9 @@ int PathTracer::shade(PathState& s, const Hit& hit, const PathTracerSettings& se
     // The ray left the scene: the uniform environment or the sky. Through an opening, after a
     // vertex that took a portal sample, weighted against it by the power heuristic.
     float w = 1.0f;
-    if (portals_.active() && !s.specular && s.prev_pdf > 0.0f) {
-      const float pdf_portal = portals_.pdf(s.prev_point, glm::normalize(s.ray.dir));
+    if (daylight_.active() && !s.specular && s.prev_pdf > 0.0f) {
+      const float pdf_portal = float(
+          daylight_.portalPdf(glm::dvec3(s.prev_point), glm::normalize(glm::dvec3(s.ray.dir))));
       if (pdf_portal > 0.0f) w = powerHeuristic(s.prev_pdf, pdf_portal);
     }
     s.result += s.beta * escaped(s.ray) * w;

@@ -39,10 +39,10 @@
 
 #include "penumbra/core/image.h"
 #include "penumbra/core/rng.h"
+#include "penumbra/raytrace/daylight_gather.h"
 #include "penumbra/raytrace/direct_light.h"
 #include "penumbra/raytrace/medium_walk.h"
 #include "penumbra/raytrace/scene_geometry.h"
-#include "penumbra/raytrace/sky_portals.h"
 #include "penumbra/scene/scene.h"
 
 #include <atomic>
@@ -230,12 +230,17 @@ class PathTracer {
   glm::vec3 environment_{0.0f};
   // Daylight (scene/sky.h): what a ray that leaves the scene sees instead of the environment,
   // through the glazing of the openings it crosses.
-  std::optional<Sky> sky_;
-  std::vector<Opening> openings_;
-  // The openings as portals for next-event estimation of the sky (raytrace/sky_portals.h).
-  SkyPortals portals_;
+  // The sky and the openings: what escaping rays see, and the portals of next-event
+  // estimation of the sky (portalQuery).
+  OpeningLight daylight_;
   bool glazed_ = false;  // some opening is glazed: delta lights' shadow rays take its transmittance
   glm::vec3 escaped(const Ray& ray) const;
+  // The portal sample at p (ray offset p_offset, normal n facing the outgoing side, reflectance
+  // rho) from (u1, u2): a point on the openings (OpeningLight::portalPoint), a shadow query to
+  // infinity along it carrying rho / pi L cos / pdf, MIS-weighted against cosine sampling when
+  // `mis`. False when the point faces away or the ray crosses no opening.
+  bool portalQuery(const glm::vec3& p, float p_offset, const glm::vec3& n, const glm::vec3& rho,
+                   float u1, float u2, bool mis, ShadowQuery& out) const;
 };
 
 }  // namespace penumbra

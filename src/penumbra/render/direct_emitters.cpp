@@ -1,5 +1,6 @@
 #include "penumbra/render/direct_emitters.h"
 
+#include "penumbra/core/color.h"
 #include "penumbra/kernels/form_factor.h"
 #include "penumbra/kernels/sampling.h"
 
@@ -11,10 +12,6 @@
 namespace penumbra {
 
 namespace {
-
-double luminanceOf(const glm::dvec3& c) {
-  return 0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z;
-}
 
 glm::vec2 jittered(uint32_t i, uint32_t side, Rng& rng) {
   const float u1 = rng.uniform(), u2 = rng.uniform();
@@ -50,7 +47,7 @@ AreaEmitters::AreaEmitters(const Scene& scene, const FlatTriangles& flat) {
     e.normal = cr / len;
     e.area = 0.5 * len;
     e.radiance = glm::dvec3(m.emission);
-    e.luminance = luminanceOf(e.radiance);
+    e.luminance = luminance(e.radiance);
     found.push_back(e);
     ids.push_back(uint32_t(t));
   }

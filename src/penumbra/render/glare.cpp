@@ -3,6 +3,7 @@
 #include "penumbra/core/rng.h"
 #include "penumbra/kernels/sampling.h"
 #include "penumbra/raytrace/lights.h"
+#include "penumbra/render/illuminance.h"
 #include "penumbra/scene/luminaire.h"
 
 #include <fmt/format.h>
@@ -17,13 +18,6 @@
 namespace penumbra {
 
 namespace {
-
-// Luminous quantities of radiometric ones: 683 lm/W times the Rec. 709 luminance (the
-// luminaires' own conversion, scene/luminaire.h).
-double luminousOf(const glm::dvec3& radiometric) {
-  return kLumensPerWatt *
-         (0.2126 * radiometric.x + 0.7152 * radiometric.y + 0.0722 * radiometric.z);
-}
 
 struct ViewFrame {
   glm::dvec3 ahead, up, across;
@@ -51,9 +45,7 @@ bool visible(const RayEngine& engine, const glm::dvec3& eye, const glm::dvec3& t
 // The projected luminous area of a luminaire towards the unit direction `out` (from it to the
 // eye).
 double luminaireArea(const LuminaireLight& l, const glm::dvec3& out) {
-  const LuminaireDistribution& t = *l.distribution;
-  const LuminousOpening o{t.opening_length, t.opening_width, t.opening_height, t.opening_round};
-  return projectedLuminousArea(o, glm::dot(out, glm::dvec3(l.c0)),
+  return projectedLuminousArea(l.distribution->opening, glm::dot(out, glm::dvec3(l.c0)),
                                glm::dot(out, glm::dvec3(l.c90())),
                                glm::dot(out, glm::dvec3(l.nadir)));
 }
@@ -76,7 +68,7 @@ void lightSources(const Scene& scene, const RayEngine& engine, const glm::dvec3&
     const LightSample where = sampleLight(light, eye, frame.up, frame.up);
     if (!(where.distance > 0.0) || where.distance > 1e30) continue;
     const LightSample s = sampleLight(light, eye, where.direction, where.direction);
-    const double candela = luminousOf(s.irradiance) * s.distance * s.distance;
+    const double candela = luxOf(s.irradiance) * s.distance * s.distance;
     const glm::dvec3 d = s.direction * s.distance;
     double r = 0.0, t = 0.0, h = 0.0;
     frame.place(d, r, t, h);
@@ -108,7 +100,7 @@ void surfaceSources(const Scene& scene, const RayEngine& engine, const FlatTrian
     const double len = glm::length(cr);
     if (!(len > 0.0) || !(glm::dot(cr, eye - a) > 0.0)) continue;  // degenerate, or its back
     const glm::dvec3 normal = cr / len;
-    const double luminance = luminousOf(glm::dvec3(m.emission));
+    const double luminance = luxOf(glm::dvec3(m.emission));
     const double cell_area = 0.5 * len / double(kSide * kSide);
     Sum& sum = per_material[flat.material_ids[tri]];
     sum.luminance = luminance;

@@ -17,6 +17,8 @@
 // line of sight.
 #pragma once
 
+#include "penumbra/scene/luminaire.h"
+
 #include <cmath>
 
 namespace penumbra {
@@ -34,16 +36,9 @@ double guthPositionIndex(double h_over_r, double t_over_r);
 // For comparison with the table (they differ by up to 11%); UGR uses the table.
 double guthPositionIndexLevin(double tau_degrees, double sigma_degrees);
 
-// The luminous opening of a luminaire (io/photometry.h): a box `length` along its C0 axis,
-// `width` along C90 and `height` deep, or a cylinder of diameter `length` when `round`. Metres.
-struct LuminousOpening {
-  double length = 0.0, width = 0.0, height = 0.0;
-  bool round = false;
-};
-
-// Its area projected on the plane square to the unit direction (x along C0, y along C90, z
-// along the nadir) from the luminaire towards the eye: the bottom face times its cosine and the
-// sides lit by their own cosines,
+// The area of a luminaire's luminous opening (scene/luminaire.h) projected on the plane square to
+// the unit direction (x along C0, y along C90, z along the nadir) from the luminaire towards the
+// eye: the bottom face times its cosine and the sides lit by their own cosines,
 //   box:      l w max(z, 0) + h (w |x| + l |y|),
 //   cylinder: pi l^2 / 4 max(z, 0) + l h sqrt(x^2 + y^2).
 double projectedLuminousArea(const LuminousOpening& opening, double x, double y, double z);

@@ -1,5 +1,6 @@
 #include "penumbra/render/illuminance.h"
 
+#include "penumbra/core/color.h"
 #include "penumbra/core/file_util.h"
 #include "penumbra/core/parallel.h"
 #include "penumbra/core/timer.h"
@@ -26,7 +27,7 @@
 namespace penumbra {
 
 double luxOf(const glm::dvec3& e) {
-  return kLumensPerWatt * (0.2126 * e.x + 0.7152 * e.y + 0.0722 * e.z);
+  return kLumensPerWatt * luminance(e);
 }
 
 IlluminanceStats illuminanceStats(std::span<const double> lux, std::span<const double> areas) {

@@ -28,14 +28,6 @@ constexpr std::array<std::array<double, 3>, 5> kTransfer = {{
     {0.081, 0.092, 0.114},
 }};
 
-size_t reflectanceIndex(const UgrReflectances& r) {
-  for (size_t i = 0; i < kUgrReflectances.size(); ++i) {
-    const UgrReflectances& k = kUgrReflectances[i];
-    if (k.ceiling == r.ceiling && k.walls == r.walls && k.floor == r.floor) return i;
-  }
-  return 0;
-}
-
 }  // namespace
 
 std::string UgrReflectances::label() const {
@@ -111,10 +103,9 @@ double ugrTabularSum(const Photometry& photometry, const UgrRoom& room, bool end
   return sum;
 }
 
-double ugrWallIndirectIlluminance(const Photometry& photometry, const UgrRoom& room,
-                                  const UgrReflectances& reflectances) {
-  const UgrZonalFlux f = ugrZonalFlux(photometry);
-  const std::array<double, 3>& t = kTransfer[reflectanceIndex(reflectances)];
+double ugrWallIndirectIlluminance(const UgrZonalFlux& f, const UgrRoom& room,
+                                  size_t reflectance_set) {
+  const std::array<double, 3>& t = kTransfer[reflectance_set];
   const double n = double(ugrLuminairePositions(room).size());
   const double walls = 2.0 * kUgrMountingHeight * kUgrMountingHeight * (room.x_h + room.y_h);
   return n / walls * (f.floor * t[0] + (f.down - f.floor) * t[1] + f.up * t[2]);
@@ -127,7 +118,8 @@ Expected<std::vector<UgrTableRow>> ugrTable(const Photometry& photometry,
         photometry.file, "",
         fmt::format("UGR table: spacing {} H is outside 0.25 H to 1 H", spacing_to_height));
   }
-  if (!(ugrZonalFlux(photometry).down > 0.0)) {
+  const UgrZonalFlux flux = ugrZonalFlux(photometry);
+  if (!(flux.down > 0.0)) {
     return inputError(photometry.file, "",
                       "UGR table: the luminaire sends no light below the horizontal");
   }
@@ -136,9 +128,9 @@ Expected<std::vector<UgrTableRow>> ugrTable(const Photometry& photometry,
     const UgrRoom room{x, y, spacing_to_height};
     const double cross = ugrTabularSum(photometry, room, false);
     const double end = ugrTabularSum(photometry, room, true);
-    for (const UgrReflectances& r : kUgrReflectances) {
-      UgrTableRow row{room, r};
-      row.background_luminance = ugrWallIndirectIlluminance(photometry, room, r) / std::numbers::pi;
+    for (size_t k = 0; k < kUgrReflectances.size(); ++k) {
+      UgrTableRow row{room, kUgrReflectances[k]};
+      row.background_luminance = ugrWallIndirectIlluminance(flux, room, k) / std::numbers::pi;
       row.crosswise = unifiedGlareRating(row.background_luminance, cross);
       row.endwise = unifiedGlareRating(row.background_luminance, end);
       rows.push_back(row);

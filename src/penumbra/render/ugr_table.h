@@ -82,9 +82,10 @@ std::vector<UgrPosition> ugrLuminairePositions(const UgrRoom& room);
 // The sum over the room's luminaires of L^2 omega / p^2, luminaires crosswise or endwise.
 double ugrTabularSum(const Photometry& photometry, const UgrRoom& room, bool endwise);
 
-// E_WID, lux, for a reflectance set of kUgrReflectances (CIE 190 eq. 7-8).
-double ugrWallIndirectIlluminance(const Photometry& photometry, const UgrRoom& room,
-                                  const UgrReflectances& reflectances);
+// E_WID, lux, for the luminaire's zonal flux split (ugrZonalFlux) and the reflectance set
+// kUgrReflectances[reflectance_set] (CIE 190 eq. 7-8).
+double ugrWallIndirectIlluminance(const UgrZonalFlux& flux, const UgrRoom& room,
+                                  size_t reflectance_set);
 
 struct UgrTableRow {
   UgrRoom room;

@@ -36,6 +36,15 @@ namespace penumbra {
 // (Wallner eq. 11-12: monochromatic light at 555 nm).
 inline constexpr double kLumensPerWatt = 683.0;
 
+// The luminous opening a photometric file states (io/photometry.h), metres: a box `length`
+// along the luminaire's C0 axis, `width` along C90 and `height` deep, or a disc (cylinder) of
+// diameter `length` when `round`; all zero when the file states none. For glare
+// (render/glare_index.h), not for the light.
+struct LuminousOpening {
+  double length = 0.0, width = 0.0, height = 0.0;
+  bool round = false;
+};
+
 // The light distribution texture (Wallner sec. 3.2): `gamma_count` samples from gamma = 0 to 180
 // degrees inclusive in each of `c_count` planes C = 0, 360 / c_count, ... (C = 360 is C = 0).
 struct LuminaireDistribution {
@@ -49,11 +58,7 @@ struct LuminaireDistribution {
   // weights (solid angle times the cell's largest corner) over the (c_count x gamma_count - 1)
   // cells, row-major by plane; the last entry is the total.
   std::vector<double> cell_cdf;
-  // The luminous opening the file states (io/photometry.h), metres: `opening_length` along C0,
-  // `opening_width` along C90, `opening_height` deep; round: a disc (or cylinder) of diameter
-  // `opening_length`. Zero: none stated. For glare (render/glare.h), not for the light.
-  double opening_length = 0.0, opening_width = 0.0, opening_height = 0.0;
-  bool opening_round = false;
+  LuminousOpening opening;  // what the file states
 
   // The LDT of a distribution given in candela on the regular grid above (c_count rows of
   // gamma_count values). Refuses (returns false with `why`) grids smaller than 2 x 1, negative
