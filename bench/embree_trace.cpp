@@ -4,13 +4,16 @@
 // pass, and the median seconds printed as JSON; conversion from the file's layout to Embree's
 // ray structures and the writing of the answers are inside the timing, as `trace`'s
 // are. `--check HITS` compares the answers with a `trace` output (closest hit: the same
-// triangle or t within 1e-5 relative; occlusion: the same byte).
+// triangle or t within 1e-5 relative; occlusion: the same byte). `--penumbra` adds Penumbra's
+// RayEngine, timed the same way in the same process (the library as a caller meets it, warm):
+// seconds_penumbra; `--isa avx2|scalar` asks it for a narrower instruction set.
 #include "embree_peer.h"
 #include "penumbra/core/file_util.h"
 #include "penumbra/core/parallel.h"
 #include "penumbra/core/timer.h"
 #include "penumbra/io/ray_file.h"
 #include "penumbra/io/scene_io.h"
+#include "penumbra/raytrace/ray_engine.h"
 
 #include <algorithm>
 #include <cmath>
@@ -39,7 +42,8 @@ double medianSeconds(int reps, F&& f) {
 
 int main(int argc, char** argv) {
   std::string mesh, rays_path, check;
-  bool occlusion = false;
+  bool occlusion = false, with_penumbra = false;
+  std::string isa;
   int reps = 5;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
@@ -47,6 +51,10 @@ int main(int argc, char** argv) {
       occlusion = true;
     } else if (a == "--reps" && i + 1 < argc) {
       reps = std::max(1, std::atoi(argv[++i]));
+    } else if (a == "--penumbra") {
+      with_penumbra = true;
+    } else if (a == "--isa" && i + 1 < argc) {
+      isa = argv[++i];
     } else if (a == "--check" && i + 1 < argc) {
       check = argv[++i];
     } else if (mesh.empty()) {
@@ -56,7 +64,9 @@ int main(int argc, char** argv) {
     }
   }
   if (mesh.empty() || rays_path.empty()) {
-    std::fprintf(stderr, "usage: embree_trace MESH RAYS [--occlusion] [--reps N] [--check HITS]\n");
+    std::fprintf(stderr,
+                 "usage: embree_trace MESH RAYS [--occlusion] [--reps N] [--check HITS] "
+                 "[--penumbra [--isa avx512|avx2|scalar]]\n");
     return 2;
   }
   Expected<Scene> scene = loadScene(mesh);
@@ -76,12 +86,23 @@ int main(int argc, char** argv) {
   const double build_seconds = build_timer.seconds();
   const int64_t bytes = peer.bytes();
 
-  double s1 = 0.0, s8 = 0.0;
-  size_t mismatches = 0;
+  double s1 = 0.0, s8 = 0.0, sp = 0.0;
+  size_t mismatches = 0, penumbra_mismatches = 0;
+  RayEngine engine;
+  if (with_penumbra) {
+    engine = RayEngine::build(flat.positions, flat.triangles);
+    if (isa == "scalar") engine.useIsa(CpuIsa::kScalar);
+    if (isa == "avx2") engine.useIsa(CpuIsa::kAvx2);
+  }
   if (occlusion) {
     std::vector<uint8_t> out(rays->size());
     s1 = medianSeconds(reps, [&] { peer.occluded1(*rays, out); });
     s8 = medianSeconds(reps, [&] { peer.occluded8(*rays, out); });
+    if (with_penumbra) {
+      std::vector<uint8_t> ours(rays->size());
+      sp = medianSeconds(reps, [&] { engine.occluded(*rays, ours); });
+      for (size_t i = 0; i < out.size(); ++i) penumbra_mismatches += out[i] != ours[i];
+    }
     if (!check.empty()) {
       Expected<std::string> theirs = readFile(check);
       if (!theirs || theirs->size() != out.size()) {
@@ -95,6 +116,17 @@ int main(int argc, char** argv) {
     out.resize(rays->size());
     s1 = medianSeconds(reps, [&] { peer.intersect1(*rays, out); });
     s8 = medianSeconds(reps, [&] { peer.intersect8(*rays, out); });
+    if (with_penumbra) {
+      HitBatch ours;
+      ours.resize(rays->size());
+      sp = medianSeconds(reps, [&] { engine.intersect(*rays, ours); });
+      for (size_t i = 0; i < out.size(); ++i) {
+        const Hit a = ours.get(i), b = out.get(i);
+        penumbra_mismatches +=
+            !(a.triangle == b.triangle ||
+              (a.hit() && b.hit() && std::fabs(a.t - b.t) <= 1e-5f * std::max(1.0f, a.t)));
+      }
+    }
     if (!check.empty()) {
       Expected<HitBatch> theirs = readHitFile(check);
       if (!theirs || theirs->size() != out.size()) {
@@ -113,8 +145,8 @@ int main(int argc, char** argv) {
   std::printf(
       "{\"rays\": %zu, \"triangles\": %zu, \"threads\": %d, \"build_seconds\": %.6f, "
       "\"bytes\": %lld, \"seconds_1\": %.6f, \"seconds_8\": %.6f, \"seconds_best\": %.6f, "
-      "\"mismatches\": %zu}\n",
+      "\"mismatches\": %zu, \"seconds_penumbra\": %.6f, \"penumbra_mismatches\": %zu}\n",
       rays->size(), flat.triangles.size(), threadCount(), build_seconds, (long long)bytes, s1, s8,
-      std::min(s1, s8), mismatches);
+      std::min(s1, s8), mismatches, sp, penumbra_mismatches);
   return 0;
 }

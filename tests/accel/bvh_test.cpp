@@ -5,6 +5,7 @@
 #include "penumbra/io/scene_io.h"
 #include "penumbra/kernels/ray_triangle.h"
 #include "penumbra/raytrace/camera_rays.h"
+#include "penumbra/raytrace/cpu_avx512.h"
 #include "penumbra/raytrace/cpu_packet.h"
 #include "penumbra/raytrace/ray_engine.h"
 #include "penumbra/raytrace/ray_order.h"
@@ -455,44 +456,138 @@ TEST(RayEngine, PacketsGiveTheSingleRayAnswers) {
   }
 }
 
-// The portable scalar kernels and the AVX2 kernels (boxes, leaf blocks, packets) give the same
-// answers bit for bit, so the run-time choice between them never changes a result.
-TEST(RayEngine, ScalarAndAvx2KernelsAgree) {
+// The portable scalar kernels, the AVX2 kernels (boxes, leaf blocks, packets) and the AVX-512
+// kernels (the fused slab test on float boxes) give the same answers bit for bit, so the run-time
+// choice between them never changes a result. The rays include origins on the soup's triangles
+// (grazing and touching boxes), axis-parallel directions (infinite reciprocals) and origins far
+// out (where o / d loses the most to rounding).
+TEST(RayEngine, ScalarAvx2AndAvx512KernelsAgree) {
   if (!cpuHasAvx2()) GTEST_SKIP() << "this CPU has no AVX2: only the scalar kernels exist here";
   const Soup s = randomSoup(21, 4000, 0.06f);
-  RayEngine simd = RayEngine::build(s.positions, s.triangles);
-  ASSERT_EQ(simd.isa(), CpuIsa::kAvx2);
+  RayEngine best = RayEngine::build(s.positions, s.triangles);
+  RayEngine avx2 = RayEngine::build(s.positions, s.triangles);
+  avx2.useIsa(CpuIsa::kAvx2);
+  ASSERT_EQ(avx2.isa(), CpuIsa::kAvx2);
+  ASSERT_EQ(best.isa(), cpuHasAvx512() ? CpuIsa::kAvx512 : CpuIsa::kAvx2);
   RayEngine scalar = RayEngine::build(s.positions, s.triangles);
   scalar.useIsa(CpuIsa::kScalar);
   ASSERT_EQ(scalar.isa(), CpuIsa::kScalar);
   Rng rng(4, 4);
   RayBatch rays;
-  rays.resize(20000);
+  rays.resize(40000);
   for (size_t i = 0; i < rays.size(); ++i) {
-    // Half random, half in coherent runs of eight (packets on the AVX2 side).
-    const glm::vec3 o = i % 16 < 8 ? randomInBox(rng, -1.5f, 1.5f) : glm::vec3(0.0f, 0.0f, 2.0f);
-    const glm::vec3 d = i % 16 < 8
-                            ? randomDirection(rng)
-                            : glm::normalize(glm::vec3(0.001f * float(i % 97) - 0.05f,
-                                                       0.001f * float(i % 89) - 0.04f, -1.0f));
+    glm::vec3 o = randomInBox(rng, -1.5f, 1.5f);
+    glm::vec3 d = randomDirection(rng);
+    switch (i % 16) {
+      case 8:
+      case 9:
+      case 10:
+      case 11:  // coherent runs of eight (packets on the AVX2 side)
+      case 12:
+      case 13:
+      case 14:
+      case 15:
+        o = glm::vec3(0.0f, 0.0f, 2.0f);
+        d = glm::normalize(
+            glm::vec3(0.001f * float(i % 97) - 0.05f, 0.001f * float(i % 89) - 0.04f, -1.0f));
+        break;
+      case 1: {  // from a vertex of a triangle
+        const glm::uvec3 t = s.triangles[(i / 16) % s.triangles.size()];
+        o = s.positions[t[i % 3]];
+        break;
+      }
+      case 2:  // along an axis
+        d = glm::vec3(0.0f);
+        d[(i / 16) % 3] = (i / 48) % 2 ? 1.0f : -1.0f;
+        break;
+      case 3:  // from far out, towards the soup
+        o = 1000.0f * randomDirection(rng);
+        d = glm::normalize(randomInBox(rng, -0.5f, 0.5f) - o);
+        break;
+      default:
+        break;
+    }
     rays.set(i, Ray{o, 0.0f, d, i % 5 == 0 ? 1.7f : kInf});
   }
-  HitBatch a, b;
-  simd.intersect(rays, a);
-  scalar.intersect(rays, b);
-  std::vector<uint8_t> oa, ob;
-  simd.occluded(rays, oa);
-  scalar.occluded(rays, ob);
+  HitBatch a, b, c;
+  best.intersect(rays, a);
+  avx2.intersect(rays, b);
+  scalar.intersect(rays, c);
+  std::vector<uint8_t> oa, ob, oc;
+  best.occluded(rays, oa);
+  avx2.occluded(rays, ob);
+  scalar.occluded(rays, oc);
   size_t hits = 0;
   for (size_t i = 0; i < rays.size(); ++i) {
-    ASSERT_EQ(a.triangle[i], b.triangle[i]) << i;
-    ASSERT_EQ(a.t[i], b.t[i]) << i;
-    ASSERT_EQ(a.u[i], b.u[i]) << i;
-    ASSERT_EQ(a.v[i], b.v[i]) << i;
+    for (const HitBatch* h : {&b, &c}) {
+      ASSERT_EQ(a.triangle[i], h->triangle[i]) << i;
+      ASSERT_EQ(a.t[i], h->t[i]) << i;
+      ASSERT_EQ(a.u[i], h->u[i]) << i;
+      ASSERT_EQ(a.v[i], h->v[i]) << i;
+    }
     ASSERT_EQ(oa[i], ob[i]) << i;
+    ASSERT_EQ(oa[i], oc[i]) << i;
     hits += a.triangle[i] >= 0;
   }
   EXPECT_GT(hits, rays.size() / 10);
+}
+
+// The AVX-512 box test rounds differently from the exact slab test, so it must err only towards
+// entering: every child box that a ray enters within [tmin, tmax], by the slab test in double
+// precision on the rounded reciprocal, is entered. Boxes of every size from 1e-4 to 1e3, origins
+// from inside the boxes to 1e5 away, directions with components down to zero.
+TEST(RayEngine, Avx512BoxTestNeverCullsABoxTheRayEnters) {
+  if (!cpuHasAvx512()) GTEST_SKIP() << "this CPU has no AVX-512";
+  Rng rng(7, 7);
+  size_t entered = 0, tests = 0;
+  for (int trial = 0; trial < 20000; ++trial) {
+    Bvh8Node node;
+    const float size = std::pow(10.0f, -4.0f + 7.0f * rng.uniform());
+    const glm::vec3 centre = randomInBox(rng, -10.0f, 10.0f);
+    for (int i = 0; i < 8; ++i) {
+      const glm::vec3 a = centre + size * randomInBox(rng, -1.0f, 1.0f);
+      const glm::vec3 b = a + size * glm::vec3(rng.uniform(), rng.uniform(), rng.uniform());
+      node.lo_x[i] = a.x, node.lo_y[i] = a.y, node.lo_z[i] = a.z;
+      node.hi_x[i] = b.x, node.hi_y[i] = b.y, node.hi_z[i] = b.z;
+      node.child[i] = i;
+    }
+    const float reach = std::pow(10.0f, -4.0f + 9.0f * rng.uniform());
+    const glm::vec3 o = centre + reach * randomDirection(rng);
+    // Aimed at a point on a face of one of the boxes: the grazing cases rounding decides.
+    const int k = trial % 8;
+    glm::vec3 target(node.lo_x[k] + rng.uniform() * (node.hi_x[k] - node.lo_x[k]),
+                     node.lo_y[k] + rng.uniform() * (node.hi_y[k] - node.lo_y[k]),
+                     node.lo_z[k] + rng.uniform() * (node.hi_z[k] - node.lo_z[k]));
+    const int face = (trial / 8) % 3;
+    target[face] = (trial / 24) % 2 ? (&node.hi_x[k])[16 * face] : (&node.lo_x[k])[16 * face];
+    glm::vec3 d = glm::normalize(target - o);
+    if (trial % 7 == 0) d[trial % 3] = 0.0f;
+    if (trial % 11 == 0) d = glm::vec3(0.0f), d[trial % 3] = 1.0f;
+    const float tmin = trial % 5 == 0 ? 0.5f * reach : 0.0f;
+    const float tmax = trial % 3 == 0 ? reach : kInf;
+    const BoxTesterFloat tester(o, d);
+    alignas(32) float t_near[8];
+    const uint32_t mask = tester.test(node, tmin, tmax, t_near);
+    const float inv[3] = {safeReciprocal(d.x), safeReciprocal(d.y), safeReciprocal(d.z)};
+    for (int i = 0; i < 8; ++i) {
+      const float lo[3] = {node.lo_x[i], node.lo_y[i], node.lo_z[i]};
+      const float hi[3] = {node.hi_x[i], node.hi_y[i], node.hi_z[i]};
+      double tn = tmin, tf = tmax;
+      for (int a = 0; a < 3; ++a) {
+        const double t0 = (double(lo[a]) - double(o[a])) * double(inv[a]);
+        const double t1 = (double(hi[a]) - double(o[a])) * double(inv[a]);
+        tn = std::max(tn, std::min(t0, t1));
+        tf = std::min(tf, std::max(t0, t1));
+      }
+      ++tests;
+      if (tn <= tf) {
+        ++entered;
+        ASSERT_TRUE((mask >> i) & 1u)
+            << "trial " << trial << " child " << i << ": enters at " << tn << ", leaves at " << tf;
+      }
+    }
+  }
+  EXPECT_GT(entered, tests / 16);  // most trials enter the box they aim at
 }
 
 // A closed, finely tessellated sphere: rays from inside must all hit (watertightness of the

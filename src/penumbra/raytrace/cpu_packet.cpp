@@ -178,28 +178,58 @@ struct alignas(32) PacketEntry {
 // A node's children tested against all eight rays (the lanes in `mask`): the children entered
 // go on the stack but the nearest, judged by their nearest lane's entry, which becomes `ref`
 // with its lanes in `mask`. False when none is entered.
+// The children's near and far planes of a node for the packet's direction signs: dequantised as
+// the single-ray test does (origin + q * scale), or a float node's own.
+struct PacketPlanes {
+  alignas(32) float store[2][3][8];
+  const float* near_plane[3];
+  const float* far_plane[3];
+  uint32_t valid;
+};
+
+PENUMBRA_AVX2_TARGET inline void packetPlanes(const Bvh8QNode& n, const Packet& p,
+                                              PacketPlanes& out) {
+  const uint8_t* lo[3] = {n.lo_x, n.lo_y, n.lo_z};
+  const uint8_t* hi[3] = {n.hi_x, n.hi_y, n.hi_z};
+  for (int a = 0; a < 3; ++a) {
+    _mm256_store_ps(out.store[0][a],
+                    BoxTester::planeAvx2(p.neg[a] ? hi[a] : lo[a], n.origin[a], n.scale[a]));
+    _mm256_store_ps(out.store[1][a],
+                    BoxTester::planeAvx2(p.neg[a] ? lo[a] : hi[a], n.origin[a], n.scale[a]));
+    out.near_plane[a] = out.store[0][a];
+    out.far_plane[a] = out.store[1][a];
+  }
+  out.valid = n.valid;
+}
+
+PENUMBRA_AVX2_TARGET inline void packetPlanes(const Bvh8Node& n, const Packet& p,
+                                              PacketPlanes& out) {
+  const float* lo[3] = {n.lo_x, n.lo_y, n.lo_z};
+  const float* hi[3] = {n.hi_x, n.hi_y, n.hi_z};
+  out.valid = 0;
+  for (int a = 0; a < 3; ++a) {
+    out.near_plane[a] = p.neg[a] ? hi[a] : lo[a];
+    out.far_plane[a] = p.neg[a] ? lo[a] : hi[a];
+  }
+  for (int i = 0; i < 8; ++i) out.valid |= uint32_t(n.child[i] != Bvh8Node::kEmpty) << i;
+}
+
+template <typename Node>
 [[gnu::always_inline]] PENUMBRA_AVX2_TARGET inline bool packetChildren(const RayEngine& engine,
-                                                                       const Bvh8QNode& n,
+                                                                       const Node& n,
                                                                        const Packet& p, __m256 tmax,
                                                                        PacketEntry* stack, int& sp,
                                                                        int32_t& ref, __m256& mask) {
   const __m256 inf = _mm256_set1_ps(std::numeric_limits<float>::infinity());
-  // The children's near and far planes for the packet's direction signs, dequantised
-  // as the single-ray test does (origin + q * scale).
-  alignas(32) float near_plane[3][8], far_plane[3][8];
-  const uint8_t* lo[3] = {n.lo_x, n.lo_y, n.lo_z};
-  const uint8_t* hi[3] = {n.hi_x, n.hi_y, n.hi_z};
-  for (int a = 0; a < 3; ++a) {
-    _mm256_store_ps(near_plane[a],
-                    BoxTester::planeAvx2(p.neg[a] ? hi[a] : lo[a], n.origin[a], n.scale[a]));
-    _mm256_store_ps(far_plane[a],
-                    BoxTester::planeAvx2(p.neg[a] ? lo[a] : hi[a], n.origin[a], n.scale[a]));
-  }
+  PacketPlanes planes;
+  packetPlanes(n, p, planes);
+  const float* const* near_plane = planes.near_plane;
+  const float* const* far_plane = planes.far_plane;
   int entered = 0;
   int32_t child_ref[8];
   __m256 child_mask[8], child_t[8];
   float key[8];
-  for (uint32_t valid = n.valid; valid; valid &= valid - 1) {
+  for (uint32_t valid = planes.valid; valid; valid &= valid - 1) {
     const int c = __builtin_ctz(valid);
     __m256 tn = p.tmin, tf = tmax;
     for (int a = 0; a < 3; ++a) {
@@ -267,22 +297,20 @@ struct alignas(32) PacketEntry {
   }
 }
 
-}  // namespace
-
-PENUMBRA_AVX2_TARGET void tracePacket(const RayEngine& engine, const RayBatch& rays, size_t first,
-                                      HitBatch& hits) {
+template <typename Node>
+PENUMBRA_AVX2_TARGET void tracePacketIn(const RayEngine& engine, const LargeVector<Node>& nodes,
+                                        const RayBatch& rays, size_t first, HitBatch& hits) {
   const Packet p = makePacket(rays, first);
   __m256 tmax = loadLanes(rays.tmax, first);
 
   PacketHits h{_mm256_set1_epi32(-1), _mm256_setzero_ps(), _mm256_setzero_ps(),
                _mm256_setzero_ps()};
-  // The wide quantised tree the single rays walk (accel/wide_bvh.h). A node's children are
+  // The wide tree the single rays walk (accel/wide_bvh.h). A node's children are
   // tested against all eight rays; each child entered goes with the lanes that entered it and
   // their entry distances, so a popped entry is culled lane by lane against the hits found
   // since. Children are visited nearest first, judged by their nearest lane's entry.
   PacketEntry stack[kMaxBvhDepth * 7 + 8];
   int sp = 0;
-  const LargeVector<Bvh8QNode>& nodes = engine.wideNodes();
   int32_t ref = engine.wideRoot();
   __m256 mask = _mm256_cmp_ps(p.tmin, tmax, _CMP_LE_OQ);
   for (;;) {
@@ -294,6 +322,17 @@ PENUMBRA_AVX2_TARGET void tracePacket(const RayEngine& engine, const RayBatch& r
     if (!popPacketEntry(stack, sp, tmax, ref, mask)) break;
   }
   storePacketHits(h, first, hits);
+}
+
+}  // namespace
+
+PENUMBRA_AVX2_TARGET void tracePacket(const RayEngine& engine, const RayBatch& rays, size_t first,
+                                      HitBatch& hits) {
+  if (engine.isa() == CpuIsa::kAvx512) {
+    tracePacketIn(engine, engine.floatNodes(), rays, first, hits);
+  } else {
+    tracePacketIn(engine, engine.quantisedNodes(), rays, first, hits);
+  }
 }
 
 #else

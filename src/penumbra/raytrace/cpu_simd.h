@@ -52,6 +52,7 @@ struct BoxTester {
   glm::vec3 org, inv;
   bool neg_x, neg_y, neg_z;
 
+  BoxTester() = default;
   BoxTester(const glm::vec3& o, const glm::vec3& d)
       : org(o),
         inv(safeReciprocal(d.x), safeReciprocal(d.y), safeReciprocal(d.z)),

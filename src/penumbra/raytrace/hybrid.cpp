@@ -113,7 +113,7 @@ void HybridRayEngine::traverse(uint32_t start, const Ray& ray, Hit& hit,
       const TriangleBlock8& block = cpu_.blocks()[cpu_.blockOfLeaf(n)];
       uint32_t mask;
 #if PENUMBRA_HAVE_AVX2_KERNELS
-      if (cpu_.isa() == CpuIsa::kAvx2) {
+      if (cpu_.isa() != CpuIsa::kScalar) {
         mask = intersectBlockAvx2(wr, block, n.count, ray.tmin, tmax, t, u, v);
       } else
 #endif

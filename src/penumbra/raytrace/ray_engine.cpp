@@ -2,6 +2,7 @@
 
 #include "penumbra/core/parallel.h"
 #include "penumbra/kernels/ray_triangle.h"
+#include "penumbra/raytrace/cpu_avx512.h"
 #include "penumbra/raytrace/cpu_packet.h"
 #include "penumbra/raytrace/cpu_simd.h"
 #include "penumbra/raytrace/ray_order.h"
@@ -18,11 +19,8 @@ RayEngine RayEngine::build(std::span<const glm::vec3> positions,
   engine.bvh_ = buildBvh(positions, triangles, options);
   const Bvh8 wide = collapseToBvh8(engine.bvh_);
   engine.root_ = wide.root;
-  engine.nodes_.resize(wide.nodes.size());
-  parallelRange(wide.nodes.size(), 1024, [&](size_t begin, size_t end) {
-    for (size_t i = begin; i < end; ++i) engine.nodes_[i] = quantizeBvh8Node(wide.nodes[i]);
-  });
-  engine.useIsa(CpuIsa::kAvx2);
+  engine.float_nodes_.assign(wide.nodes.begin(), wide.nodes.end());
+  engine.useIsa(CpuIsa::kAvx512);
   const std::vector<Bvh8::Leaf>& leaves = wide.leaves;
   engine.blocks_.resize(leaves.size());
   // Canonical leaves by their first reference, then the block of each leaf node.
@@ -86,7 +84,8 @@ PENUMBRA_AVX2_TARGET inline __m256 sortLayer(__m256 v, __m256i partner) {
   return _mm256_blend_ps(_mm256_min_ps(v, p), _mm256_max_ps(v, p), kMaxLanes);
 }
 
-PENUMBRA_AVX2_TARGET inline int32_t pushChildrenAvx2(const Bvh8QNode& node, uint32_t mask,
+template <typename Node>
+PENUMBRA_AVX2_TARGET inline int32_t pushChildrenAvx2(const Node& node, uint32_t mask,
                                                      const float* t_near, int32_t* refs,
                                                      float* ts) {
   const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
@@ -130,27 +129,47 @@ namespace {
 
 // The block's `count` triangles against the ray within [tmin, tmax]: bit i set for a hit of
 // triangle i, with its t, u, v.
-template <bool kAvx2>
+template <CpuIsa kIsa>
 [[gnu::always_inline]] inline uint32_t intersectLeaf(const WatertightRay& wr,
                                                      const TriangleBlock8& block, uint32_t count,
                                                      float tmin, float tmax, float* t, float* u,
                                                      float* v) {
 #if PENUMBRA_HAVE_AVX2_KERNELS
-  if constexpr (kAvx2) return intersectBlockAvx2(wr, block, count, tmin, tmax, t, u, v);
+  if constexpr (kIsa != CpuIsa::kScalar) {
+    return intersectBlockAvx2(wr, block, count, tmin, tmax, t, u, v);
+  }
 #endif
   return intersectBlockScalar(wr, block, count, tmin, tmax, t, u, v);
 }
 
 // The node's children against the ray within [tmin, tmax]: bit i set when child i is entered,
 // at t_near[i].
-template <bool kAvx2>
-[[gnu::always_inline]] inline uint32_t testChildren(const BoxTester& boxes, const Bvh8QNode& node,
+template <CpuIsa kIsa, typename Tester>
+[[gnu::always_inline]] inline uint32_t testChildren(const Tester& boxes, const auto& node,
                                                     float tmin, float tmax, float* t_near) {
 #if PENUMBRA_HAVE_AVX2_KERNELS
-  if constexpr (kAvx2) return boxes.testAvx2(node, tmin, tmax, t_near);
+  if constexpr (kIsa == CpuIsa::kAvx512) {
+    return boxes.test(node, tmin, tmax, t_near);
+  } else if constexpr (kIsa == CpuIsa::kAvx2) {
+    return boxes.testAvx2(node, tmin, tmax, t_near);
+  } else
 #endif
-  return boxes.testScalar(node, tmin, tmax, t_near);
+  {
+    return boxes.testScalar(node, tmin, tmax, t_near);
+  }
 }
+
+// The box tester of each instruction set.
+template <CpuIsa kIsa>
+struct TesterOf {
+  using type = BoxTester;
+};
+#if PENUMBRA_HAVE_AVX2_KERNELS
+template <>
+struct TesterOf<CpuIsa::kAvx512> {
+  using type = BoxTesterFloat;
+};
+#endif
 
 }  // namespace
 
@@ -186,17 +205,17 @@ uint32_t RayEngine::filterHits(const TriangleBlock8& block, uint32_t mask, const
   return mask;
 }
 
-template <bool kAnyHit, bool kAvx2, bool kFilter>
+template <bool kAnyHit, CpuIsa kIsa, bool kFilter>
 [[gnu::always_inline]] inline bool RayEngine::traverseBody(const Ray& ray, Hit& hit) const {
   if (root_ == Bvh8Node::kEmpty || !(ray.tmin <= ray.tmax)) return false;
-  const BoxTester boxes(ray.origin, ray.dir);
+  const typename TesterOf<kIsa>::type boxes(ray.origin, ray.dir);
   // Built at the first leaf: most rays of a camera that frames a model never reach one.
   WatertightRay wr;
   bool have_wr = false;
   float tmax = ray.tmax;
   bool found = false;
 
-  // References and entry distances; eight spare slots, as the AVX2 path stores whole vectors.
+  // References and entry distances; eight spare slots, as the vector paths store whole vectors.
   int32_t stack_ref[kStackSize + 8];
   float stack_t[kStackSize + 8];
   int sp = 0;
@@ -215,8 +234,7 @@ template <bool kAnyHit, bool kAvx2, bool kFilter>
           have_wr = true;
         }
         alignas(32) float t[8], u[8], v[8];
-        uint32_t mask =
-            intersectLeaf<kAvx2>(wr, block, bvh8LeafCount(ref), ray.tmin, tmax, t, u, v);
+        uint32_t mask = intersectLeaf<kIsa>(wr, block, bvh8LeafCount(ref), ray.tmin, tmax, t, u, v);
         if constexpr (kFilter) {
           if (mask) mask = filterHits(block, mask, u, v, ray);
         }
@@ -227,7 +245,7 @@ template <bool kAnyHit, bool kAvx2, bool kFilter>
           const int i = __builtin_ctz(mask);
           mask &= mask - 1;
           // Exact ties go to the lower triangle index, so the answer does not depend on the
-          // tree's shape.
+          // tree's shape or the order of the visit.
           if (t[i] < tmax || (t[i] == tmax && (!found || block.id[i] < hit.triangle))) {
             found = true;
             tmax = t[i];
@@ -236,8 +254,8 @@ template <bool kAnyHit, bool kAvx2, bool kFilter>
         }
         break;
       }
-      const Bvh8QNode& node = nodes_[size_t(ref)];
-      uint32_t mask = testChildren<kAvx2>(boxes, node, ray.tmin, tmax, t_near);
+      const auto& node = nodeAt<kIsa>(ref);
+      uint32_t mask = testChildren<kIsa>(boxes, node, ray.tmin, tmax, t_near);
       if (mask == 0) break;
       // Start fetching every child entered: their lines arrive while this node is sorted and
       // the nearest child visited.
@@ -267,9 +285,9 @@ template <bool kAnyHit, bool kAvx2, bool kFilter>
         ref = node.child[near];
         continue;
       }
+      mask |= 1u << first | 1u << second;
 #if PENUMBRA_HAVE_AVX2_KERNELS
-      if constexpr (kAvx2) {
-        mask |= 1u << first | 1u << second;
+      if constexpr (kIsa != CpuIsa::kScalar) {
         ref = pushChildrenAvx2(node, mask, t_near, stack_ref + sp, stack_t + sp);
         sp += __builtin_popcount(mask) - 1;
         continue;
@@ -277,41 +295,44 @@ template <bool kAnyHit, bool kAvx2, bool kFilter>
 #endif
       // More: sort by entry distance, farthest first (insertion sort, at most eight), push
       // all but the nearest and continue with it.
-      StackEntry hits[8];
+      StackEntry sorted[8];
       int n = 0;
-      hits[n++] = {node.child[first], t_near[first]};
-      mask |= 1u << second;
       while (mask) {
         const int i = __builtin_ctz(mask);
         mask &= mask - 1;
         const StackEntry e{node.child[i], t_near[i]};
         int j = n++;
-        while (j > 0 && hits[j - 1].t_near < e.t_near) {
-          hits[j] = hits[j - 1];
+        while (j > 0 && sorted[j - 1].t_near < e.t_near) {
+          sorted[j] = sorted[j - 1];
           --j;
         }
-        hits[j] = e;
+        sorted[j] = e;
       }
       for (int k = 0; k < n - 1; ++k)
-        stack_ref[sp] = hits[k].ref, stack_t[sp] = hits[k].t_near, ++sp;
-      ref = hits[n - 1].ref;
+        stack_ref[sp] = sorted[k].ref, stack_t[sp] = sorted[k].t_near, ++sp;
+      ref = sorted[n - 1].ref;
     }
   }
   return found;
 }
 
-// The two instruction sets' traversals: the same body, compiled once for AVX2 and once for the
-// build's target; which one runs is decided per engine at build time (cpuHasAvx2).
+// The instruction sets' traversals: the same body, compiled once for AVX-512, once for AVX2 and
+// once for the build's target; which one runs is decided per engine at build time (useIsa).
 #if PENUMBRA_HAVE_AVX2_KERNELS
 template <bool kAnyHit, bool kFilter>
+PENUMBRA_AVX512_TARGET bool RayEngine::traverseAvx512(const Ray& ray, Hit& hit) const {
+  return traverseBody<kAnyHit, CpuIsa::kAvx512, kFilter>(ray, hit);
+}
+
+template <bool kAnyHit, bool kFilter>
 PENUMBRA_AVX2_TARGET bool RayEngine::traverseAvx2(const Ray& ray, Hit& hit) const {
-  return traverseBody<kAnyHit, true, kFilter>(ray, hit);
+  return traverseBody<kAnyHit, CpuIsa::kAvx2, kFilter>(ray, hit);
 }
 #endif
 
 template <bool kAnyHit, bool kFilter>
 bool RayEngine::traverseScalar(const Ray& ray, Hit& hit) const {
-  return traverseBody<kAnyHit, false, kFilter>(ray, hit);
+  return traverseBody<kAnyHit, CpuIsa::kScalar, kFilter>(ray, hit);
 }
 
 template <bool kAnyHit>
@@ -319,18 +340,30 @@ bool RayEngine::traverse(const Ray& ray, Hit& hit) const {
   // Cut-outs take their own instantiation: opaque scenes keep the kernels without the test.
   if (filter_) [[unlikely]] {
 #if PENUMBRA_HAVE_AVX2_KERNELS
+    if (isa_ == CpuIsa::kAvx512) return traverseAvx512<kAnyHit, true>(ray, hit);
     if (isa_ == CpuIsa::kAvx2) return traverseAvx2<kAnyHit, true>(ray, hit);
 #endif
     return traverseScalar<kAnyHit, true>(ray, hit);
   }
 #if PENUMBRA_HAVE_AVX2_KERNELS
+  if (isa_ == CpuIsa::kAvx512) return traverseAvx512<kAnyHit, false>(ray, hit);
   if (isa_ == CpuIsa::kAvx2) return traverseAvx2<kAnyHit, false>(ray, hit);
 #endif
   return traverseScalar<kAnyHit, false>(ray, hit);
 }
 
 void RayEngine::useIsa(CpuIsa isa) {
-  isa_ = isa == CpuIsa::kAvx2 && cpuHasAvx2() ? CpuIsa::kAvx2 : CpuIsa::kScalar;
+  if (isa == CpuIsa::kAvx512 && !cpuHasAvx512()) isa = CpuIsa::kAvx2;
+  if (isa == CpuIsa::kAvx2 && !cpuHasAvx2()) isa = CpuIsa::kScalar;
+  isa_ = isa;
+  if (isa == CpuIsa::kAvx512 || !nodes_.empty()) return;
+  // The quantised layout, made from the float nodes (kept: the engine may be asked for AVX-512
+  // again); on a CPU without AVX-512 they are only the source and go.
+  nodes_.resize(float_nodes_.size());
+  parallelRange(float_nodes_.size(), 1024, [&](size_t begin, size_t end) {
+    for (size_t i = begin; i < end; ++i) nodes_[i] = quantizeBvh8Node(float_nodes_[i]);
+  });
+  if (!cpuHasAvx512()) float_nodes_ = LargeVector<Bvh8Node>();
 }
 
 Hit RayEngine::intersect(const Ray& ray) const {
@@ -350,7 +383,7 @@ bool RayEngine::occluded(const Ray& ray) const {
 void RayEngine::intersectRange(const RayBatch& rays, size_t begin, size_t end,
                                HitBatch& hits) const {
   // Packets have no cut-out test: with a filter every ray goes alone.
-  const bool packets = isa_ == CpuIsa::kAvx2 && !filter_;
+  const bool packets = isa_ != CpuIsa::kScalar && !filter_;
   for (size_t i = begin; i < end; i += kPacketSize) {
     const size_t group_end = std::min(end, i + kPacketSize);
     if (packets && group_end - i == kPacketSize && packetEligible(rays, i)) {

@@ -13,6 +13,7 @@
 
 #include <glm/vec3.hpp>
 
+#include <algorithm>
 #include <cstdint>
 #include <memory>
 #include <span>
@@ -35,7 +36,7 @@ class HitFilter {
 };
 
 // The instruction sets the CPU back end has kernels for.
-enum class CpuIsa { kScalar, kAvx2 };
+enum class CpuIsa { kScalar, kAvx2, kAvx512 };
 
 class RayEngine {
  public:
@@ -80,15 +81,19 @@ class RayEngine {
 
   size_t triangleCount() const { return bvh_.refs.size(); }
   const Bvh& bvh() const { return bvh_; }
-  size_t wideNodeCount() const { return nodes_.size(); }
-  // The wide quantised tree the CPU traverses (single rays and packets): its nodes and its root
-  // reference (Bvh8Node::child's coding; a leaf for a tree of one leaf).
-  const LargeVector<Bvh8QNode>& wideNodes() const { return nodes_; }
+  size_t wideNodeCount() const { return std::max(nodes_.size(), float_nodes_.size()); }
+  // The wide tree the CPU traverses (single rays and packets), in the layout of the kernels in
+  // use: float child boxes for AVX-512 (floatNodes), boxes quantised to bytes for AVX2 and the
+  // scalar loops (quantisedNodes); the other is empty. Its root reference follows
+  // Bvh8Node::child's coding (a leaf for a tree of one leaf).
+  const LargeVector<Bvh8Node>& floatNodes() const { return float_nodes_; }
+  const LargeVector<Bvh8QNode>& quantisedNodes() const { return nodes_; }
   int32_t wideRoot() const { return root_; }
 
-  // The kernels in use: AVX2 (8-wide boxes and triangles, packets of 8 rays) when the CPU has
-  // it, chosen at run time, else portable scalar loops; both give identical answers. useIsa()
-  // asks for one (AVX2 only where the CPU has it), for tests and comparisons.
+  // The kernels in use, chosen at run time by the CPU: AVX-512 (the fused slab test on float
+  // boxes), else AVX2 (8-wide boxes and triangles, packets of 8 rays), else portable scalar
+  // loops; all give identical answers. useIsa() asks for one (only what the CPU has), for tests
+  // and comparisons; it makes the node layout that instruction set reads.
   CpuIsa isa() const { return isa_; }
   void useIsa(CpuIsa isa);
   const LargeVector<TriangleBlock8>& blocks() const { return blocks_; }
@@ -100,8 +105,9 @@ class RayEngine {
   // canonical tree with its triangle references (the hybrid back end and the GPU layout use
   // them).
   size_t memoryBytes() const {
-    return nodes_.size() * sizeof(Bvh8QNode) + blocks_.size() * sizeof(TriangleBlock8) +
-           bvh_.memoryBytes() + block_of_node_.size() * sizeof(uint32_t);
+    return nodes_.size() * sizeof(Bvh8QNode) + float_nodes_.size() * sizeof(Bvh8Node) +
+           blocks_.size() * sizeof(TriangleBlock8) + bvh_.memoryBytes() +
+           block_of_node_.size() * sizeof(uint32_t);
   }
   Bounds3 bounds() const;
   // Starts fetching the node or leaf block `ref` (Bvh8Node::child's coding) into the cache.
@@ -112,6 +118,9 @@ class RayEngine {
       if (ref == Bvh8Node::kEmpty) return;
       p = reinterpret_cast<const char*>(&blocks_[bvh8LeafIndex(ref)]);
       lines = sizeof(TriangleBlock8) / 64;
+    } else if (isa_ == CpuIsa::kAvx512) {
+      p = reinterpret_cast<const char*>(&float_nodes_[size_t(ref)]);
+      lines = sizeof(Bvh8Node) / 64;
     } else {
       p = reinterpret_cast<const char*>(&nodes_[size_t(ref)]);
       lines = sizeof(Bvh8QNode) / 64;
@@ -124,18 +133,31 @@ class RayEngine {
   bool traverse(const Ray& ray, Hit& hit) const;
   void intersectRange(const RayBatch& rays, size_t begin, size_t end, HitBatch& hits) const;
   template <bool kAnyHit, bool kFilter>
+  bool traverseAvx512(const Ray& ray, Hit& hit) const;
+  template <bool kAnyHit, bool kFilter>
   bool traverseAvx2(const Ray& ray, Hit& hit) const;
   template <bool kAnyHit, bool kFilter>
   bool traverseScalar(const Ray& ray, Hit& hit) const;
-  template <bool kAnyHit, bool kAvx2, bool kFilter>
+  template <bool kAnyHit, CpuIsa kIsa, bool kFilter>
   bool traverseBody(const Ray& ray, Hit& hit) const;
+  // The node the instruction set's kernels read (float boxes for AVX-512, else quantised).
+  template <CpuIsa kIsa>
+  const auto& nodeAt(int32_t ref) const {
+    if constexpr (kIsa == CpuIsa::kAvx512) {
+      return float_nodes_[size_t(ref)];
+    } else {
+      return nodes_[size_t(ref)];
+    }
+  }
   // The hits of `mask` on the block that the filter lets stop the ray.
   uint32_t filterHits(const TriangleBlock8& block, uint32_t mask, const float* u, const float* v,
                       const Ray& ray) const;
 
-  Bvh bvh_;                          // canonical binary tree (other layouts)
-  LargeVector<Bvh8QNode> nodes_;     // what single rays traverse; nodes_[0] is the root
-  int32_t root_ = Bvh8Node::kEmpty;  // an inner node or a leaf (Bvh8Node::child's coding)
+  Bvh bvh_;  // canonical binary tree (other layouts)
+  // The wide nodes in the layout the kernels in use read (the other empty); [0] is the root.
+  LargeVector<Bvh8QNode> nodes_;       // AVX2 and scalar
+  LargeVector<Bvh8Node> float_nodes_;  // AVX-512
+  int32_t root_ = Bvh8Node::kEmpty;    // an inner node or a leaf (Bvh8Node::child's coding)
   CpuIsa isa_ = CpuIsa::kScalar;
   LargeVector<TriangleBlock8> blocks_;   // one per leaf, vertices copied in
   std::vector<uint32_t> block_of_node_;  // block index by canonical node (leaves only)
