@@ -7,6 +7,11 @@ ox oy oz tmin dx dy dz tmax), in the order a user's program would write it (rand
 the incoherent sets, no sorting).
 
   external_rays.py scene BUNNY.ply OUT.ply [--copies 16]   16 bunnies on a floor, 1.1M triangles
+  external_rays.py city OUT.ply [--blocks 40]              a city of boxes: 40 x 40 blocks of
+                                                            16 towers, 307k triangles
+  external_rays.py rock OUT.ply [--level 8]                a noise-displaced sphere of 524k
+                                                            triangles, dense and irregular as
+                                                            a scan
   external_rays.py rays MESH.ply KIND OUT.bin [--count N] [--seed S]
 
 KIND:
@@ -17,6 +22,8 @@ KIND:
   shadow     segments between two random surface points: direction = q - p (not unit),
              tmin 1e-4, tmax 1 - 1e-4 (occlusion rays)
   ao         as diffuse, but tmax 2% of the diagonal, tmin 1e-3 of it (short rays)
+  short      as ao but 0.2% of the diagonal long: rays that end near where they start
+  long       segments between two random points on the scene's bounding sphere, closest hit
   outside    origins on a sphere of twice the scene's radius, towards uniform points in its
              box, tmin 0, unnormalised directions of length 0.5 to 5
 """
@@ -129,6 +136,89 @@ def make_scene(bunny, out, copies, seed):
     print(f"{out}: {len(verts)} vertices, {len(faces)} triangles")
 
 
+def box_mesh(lo, hi):
+    """The 12 triangles of an axis-aligned box, outward."""
+    x0, y0, z0 = lo
+    x1, y1, z1 = hi
+    v = np.array([[x0, y0, z0], [x1, y0, z0], [x1, y1, z0], [x0, y1, z0],
+                  [x0, y0, z1], [x1, y0, z1], [x1, y1, z1], [x0, y1, z1]], np.float32)
+    f = np.array([[0, 2, 1], [0, 3, 2], [4, 5, 6], [4, 6, 7], [0, 1, 5], [0, 5, 4],
+                  [3, 7, 6], [3, 6, 2], [0, 4, 7], [0, 7, 3], [1, 2, 6], [1, 6, 5]], np.int64)
+    return v, f
+
+
+def make_city(out, blocks, seed):
+    """Blocks of towers on a ground plane: many boxes of very different heights, long streets
+    between them (a ray set's worst case for trees of long thin boxes)."""
+    rng = np.random.default_rng(seed)
+    all_v, all_f, base = [], [], 0
+    block, street = 100.0, 20.0
+    for bx in range(blocks):
+        for bz in range(blocks):
+            x0, z0 = bx * (block + street), bz * (block + street)
+            # 4 x 4 lots of towers per block, heights log-normal (a few skyscrapers).
+            for lx in range(4):
+                for lz in range(4):
+                    w = rng.uniform(12.0, 24.0)
+                    d = rng.uniform(12.0, 24.0)
+                    h = float(np.clip(rng.lognormal(3.3, 0.7), 5.0, 400.0))
+                    cx, cz = x0 + 12.5 + 25.0 * lx, z0 + 12.5 + 25.0 * lz
+                    v, f = box_mesh((cx - w / 2, 0.0, cz - d / 2), (cx + w / 2, h, cz + d / 2))
+                    all_v.append(v)
+                    all_f.append(f + base)
+                    base += len(v)
+    size = blocks * (block + street)
+    g, gf = box_mesh((-street, -1.0, -street), (size, 0.0, size))
+    all_v.append(g)
+    all_f.append(gf + base)
+    verts, faces = np.concatenate(all_v), np.concatenate(all_f)
+    write_ply(out, verts, faces)
+    print(f"{out}: {len(verts)} vertices, {len(faces)} triangles")
+
+
+def make_rock(out, level, seed):
+    """A sphere subdivided `level` times from an octahedron (8 x 4^level triangles), pushed in
+    and out along its normals by a sum of random waves: an irregular surface of small triangles,
+    as a scan is."""
+    rng = np.random.default_rng(seed)
+    n = 2 ** level
+    # Each face of the octahedron as a triangular grid, vertices projected to the sphere.
+    verts, faces = [], []
+    corners = np.array([[1, 0, 0], [0, 1, 0], [0, 0, 1], [-1, 0, 0], [0, -1, 0], [0, 0, -1]], float)
+    octa = [(0, 1, 2), (1, 3, 2), (3, 4, 2), (4, 0, 2), (1, 0, 5), (3, 1, 5), (4, 3, 5), (0, 4, 5)]
+    base = 0
+    ii, jj = np.meshgrid(np.arange(n + 1), np.arange(n + 1), indexing="ij")
+    keep = ii + jj <= n
+    ii, jj = ii[keep], jj[keep]
+    index = -np.ones((n + 1, n + 1), np.int64)
+    index[ii, jj] = np.arange(len(ii))
+    tri = []
+    for i in range(n):
+        for j in range(n - i):
+            tri.append((index[i, j], index[i + 1, j], index[i, j + 1]))
+            if j < n - i - 1:
+                tri.append((index[i + 1, j], index[i + 1, j + 1], index[i, j + 1]))
+    tri = np.array(tri, np.int64)
+    for a, b, c in octa:
+        pa, pb, pc = corners[a], corners[b], corners[c]
+        p = pa + (ii[:, None] / n) * (pb - pa) + (jj[:, None] / n) * (pc - pa)
+        verts.append(p / np.linalg.norm(p, axis=1)[:, None])
+        faces.append(tri + base)
+        base += len(p)
+    v = np.concatenate(verts)
+    f = np.concatenate(faces)
+    # Waves of random direction, frequency (1 to 40 per radius) and amplitude ~ 1/frequency.
+    r = np.ones(len(v))
+    for _ in range(48):
+        k = rng.normal(size=3)
+        k /= np.linalg.norm(k)
+        freq = np.exp(rng.uniform(0.0, np.log(40.0)))
+        r += 0.25 / freq * np.sin(freq * (v @ k) + rng.uniform(0, 2 * np.pi))
+    v = (v * r[:, None] * 100.0).astype(np.float32)
+    write_ply(out, v, f)
+    print(f"{out}: {len(v)} vertices, {len(f)} triangles")
+
+
 def surface_points(v, f, n, rng):
     p0, p1, p2 = v[f[:, 0]].astype(np.float64), v[f[:, 1]].astype(np.float64), v[f[:, 2]].astype(np.float64)
     cross = np.cross(p1 - p0, p2 - p0)
@@ -187,7 +277,7 @@ def make_rays(mesh, kind, out, count, seed):
         rays[:, 3] = 0
         rays[:, 4:7] = d
         rays[:, 7] = np.inf
-    elif kind in ("diffuse", "ao"):
+    elif kind in ("diffuse", "ao", "short"):
         p, normal = surface_points(v, f, count, rng)
         side = np.where(rng.uniform(size=count) < 0.5, 1.0, -1.0)[:, None]
         rays[:, 0:3] = p
@@ -195,9 +285,22 @@ def make_rays(mesh, kind, out, count, seed):
         if kind == "diffuse":
             rays[:, 3] = 1e-4 * diag
             rays[:, 7] = np.inf
-        else:
+        elif kind == "ao":
             rays[:, 3] = 1e-3 * diag
             rays[:, 7] = 0.02 * diag
+        else:
+            rays[:, 3] = 1e-4 * diag
+            rays[:, 7] = 0.002 * diag
+    elif kind == "long":
+        u = rng.normal(size=(count, 3))
+        u /= np.linalg.norm(u, axis=1)[:, None]
+        w = rng.normal(size=(count, 3))
+        w /= np.linalg.norm(w, axis=1)[:, None]
+        o = centre + diag / 2 * u
+        rays[:, 0:3] = o
+        rays[:, 3] = 0
+        rays[:, 4:7] = centre + diag / 2 * w - o
+        rays[:, 7] = 1
     elif kind == "shadow":
         p, _ = surface_points(v, f, count, rng)
         q, _ = surface_points(v, f, count, rng)
@@ -228,6 +331,14 @@ def make_rays(mesh, kind, out, count, seed):
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = ap.add_subparsers(dest="cmd", required=True)
+    c = sub.add_parser("city")
+    c.add_argument("out")
+    c.add_argument("--blocks", type=int, default=40)
+    c.add_argument("--seed", type=int, default=5)
+    k = sub.add_parser("rock")
+    k.add_argument("out")
+    k.add_argument("--level", type=int, default=8)
+    k.add_argument("--seed", type=int, default=7)
     s = sub.add_parser("scene")
     s.add_argument("bunny")
     s.add_argument("out")
@@ -242,6 +353,10 @@ def main():
     a = ap.parse_args()
     if a.cmd == "scene":
         make_scene(a.bunny, a.out, a.copies, a.seed)
+    elif a.cmd == "city":
+        make_city(a.out, a.blocks, a.seed)
+    elif a.cmd == "rock":
+        make_rock(a.out, a.level, a.seed)
     else:
         make_rays(a.mesh, a.kind, a.out, a.count, a.seed)
 

@@ -5,11 +5,18 @@ For each scene, both renderers render it at a ladder of sample counts (same size
 box pixel filter) and once at 4096 samples per pixel as their own converged reference. The
 error of an image is its relative RMS error per pixel against the reference:
 sqrt(mean((x - ref)^2)) / mean(ref) over all pixels and channels. The time to reach 3% and 1%
-is interpolated in log-log between the ladder's points (render time, error), or extrapolated
-from its last point at the Monte Carlo rate, error ~ time^(-1/2), where the ladder stops short
-(marked). The ratio is
-Cycles' time over Penumbra's (above 1: Penumbra faster). Writes a Markdown table to stdout, the measurements as
-JSON and a plot of error against time per scene (docs/images/pathtracer_vs_cycles.png).
+is interpolated in log-log between the ladder's points (time, error), or extrapolated from its
+last point at the Monte Carlo rate, error ~ time^(-1/2), where the ladder stops short (marked).
+The ratio is Cycles' time over Penumbra's (above 1: Penumbra faster).
+
+Time is measured two ways, the same way for both renderers:
+  process  from starting the program to the image written: Blender's start-up, its building
+           of the scene, Cycles' scene sync and BVH build, the render and the EXR write;
+           Penumbra's start-up, scene load, BVH build, render and PFM write.
+  render   the path tracing alone: Cycles from its first sample to "Finished" (its own log's
+           clock, 10 ms resolution), Penumbra its `seconds` statistic.
+Writes a Markdown table per way to stdout, the measurements as JSON and a plot of error against
+render time per scene (docs/images/pathtracer_vs_cycles.png).
 
 Needs Debian's `blender` (Cycles 3.4) and python3-matplotlib; neither is a dependency of the
 build or the tests.
@@ -22,8 +29,10 @@ build or the tests.
 import argparse
 import json
 import os
+import re
 import subprocess
 import sys
+import time
 
 import numpy as np
 
@@ -48,8 +57,10 @@ def penumbra(build, scene, out, spp, size, seed=0, sampler="sobol"):
     cmd = [os.path.join(build, "bin", "penumbra"), "render", scene, "--method", "pathtrace",
            "--spp", str(spp), "--width", str(size), "--height", str(size), "--threads", "2",
            "--seed", str(seed), "--sampler", sampler, "-o", out, "--stats", stats, "--quiet"]
+    t0 = time.time()
     subprocess.run(cmd, check=True)
-    return read_pfm(out), json.load(open(stats))["seconds"]
+    process = time.time() - t0
+    return read_pfm(out), {"render": json.load(open(stats))["seconds"], "process": process}
 
 
 def cycles(blender, scene, out, spp, size, seed=0):
@@ -57,9 +68,20 @@ def cycles(blender, scene, out, spp, size, seed=0):
            os.path.join(HERE, "cycles", "render_in_cycles.py"), "--", scene, out, "--spp",
            str(spp), "--width", str(size), "--height", str(size), "--threads", "2", "--seed",
            str(seed)]
+    t0 = time.time()
     r = subprocess.run(cmd, check=True, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    process = time.time() - t0
     line = [l for l in r.stdout.splitlines() if l.startswith('{"seconds"')][-1]
-    return np.load(out), json.loads(line)["seconds"]
+    # Cycles' log: "| Time:MM:SS.ss | ... | Sample 0/N" when path tracing starts, "| Finished".
+    clock = {}
+    for l in r.stdout.splitlines():
+        m = re.search(r"\| Time:(\d+):(\d+\.\d+) \|.*\| (Sample 0/\d+|Finished)$", l)
+        if m:
+            clock.setdefault(m.group(3).split("/")[0], 60 * int(m.group(1)) + float(m.group(2)))
+    if "Sample 0" not in clock or "Finished" not in clock:
+        sys.exit(f"Cycles' log has no start or end of sampling for {out}")
+    return np.load(out), {"render": clock["Finished"] - clock["Sample 0"], "process": process,
+                          "call": json.loads(line)["seconds"]}
 
 
 def rel_rms(x, ref):
@@ -141,7 +163,7 @@ def main():
                 ref = read_pfm(ref_path) if ext == "pfm" else np.load(ref_path)
             else:
                 ref, secs = fn(ref_path, a.reference_spp, REFERENCE_SEED)
-                open(ref_time, "w").write(str(secs))
+                json.dump(secs, open(ref_time, "w"))
             if a.references_only:
                 continue
             points = []
@@ -149,12 +171,14 @@ def main():
                 path = os.path.join(a.out, f"{name}-{who}{a.tag if who == 'penumbra' else ''}-{spp}.{ext}")
                 if a.reuse and os.path.exists(path) and os.path.exists(path + ".seconds"):
                     img = read_pfm(path) if ext == "pfm" else np.load(path)
-                    secs = float(open(path + ".seconds").read())
+                    secs = json.load(open(path + ".seconds"))
                 else:
                     img, secs = fn(path, spp)
-                    open(path + ".seconds", "w").write(str(secs))
-                points.append((spp, secs, rel_rms(img, ref)))
-                print(f"{name} {who} {spp} spp: {secs:.2f} s, error {points[-1][2] * 100:.2f}%",
+                    json.dump(secs, open(path + ".seconds", "w"))
+                # (spp, render seconds, error, process seconds)
+                points.append((spp, secs["render"], rel_rms(img, ref), secs["process"]))
+                print(f"{name} {who} {spp} spp: render {secs['render']:.2f} s, process "
+                      f"{secs['process']:.2f} s, error {points[-1][2] * 100:.2f}%",
                       file=sys.stderr, flush=True)
             res[who] = {"points": points, "reference_mean": float(ref.mean())}
         results[name] = res
@@ -162,20 +186,31 @@ def main():
         return
     json.dump(results, open(os.path.join(a.out, "results.json"), "w"), indent=1)
 
-    print(f"| scene | renderer | s per spp (at {ladder[-1]}) | error at 64 / {ladder[-1]} spp | time to 3% | "
-          "time to 1% | Cycles / Penumbra at 3% | at 1% |")
-    print("|---|---|---|---|---|---|---|---|")
+    for way, column in (("render", 1), ("process", 3)):
+        print(f"\nTime: {way} ({'path tracing alone' if way == 'render' else 'program start to image written'})\n")
+        print(f"| scene | renderer | s per spp (at {ladder[-1]}) | error at 64 / {ladder[-1]} spp | time to 3% | "
+              "time to 1% | Cycles / Penumbra at 3% | at 1% |")
+        print("|---|---|---|---|---|---|---|---|")
+        for name, res in results.items():
+            pts = {who: [(p[0], p[column], p[2]) for p in r["points"]] for who, r in res.items()}
+            # Process time = the render's time + what does not grow with the samples (start-up,
+            # loading, sync, BVH, writing): the median of that difference over the ladder.
+            over = {who: (float(np.median([p[3] - p[1] for p in r["points"]])) if way == "process"
+                          else 0.0) for who, r in res.items()}
+            t = {}
+            for who, r in res.items():
+                q = [(p[0], p[1], p[2]) for p in r["points"]]
+                t[who] = tuple((v[0] + over[who], v[1]) for v in (time_to(q, 0.03), time_to(q, 0.01)))
+            for who, q in pts.items():
+                by = {p[0]: p for p in q}
+                ratio = (f"**{t['cycles'][0][0] / t['penumbra'][0][0]:.2f}x** | "
+                         f"**{t['cycles'][1][0] / t['penumbra'][1][0]:.2f}x**") if who == "penumbra" else " | "
+                mark = lambda v: f"{v[0]:.1f} s" + (" (extrapolated)" if v[1] else "")
+                print(f"| {name} | {who} | {by[max(by)][1] / max(by):.4f} | "
+                      f"{by.get(64, (0, 0, 0))[2] * 100:.2f}% / {by[max(by)][2] * 100:.2f}% | "
+                      f"{mark(t[who][0])} | {mark(t[who][1])} | {ratio} |")
     for name, res in results.items():
-        t = {who: (time_to(r["points"], 0.03), time_to(r["points"], 0.01)) for who, r in res.items()}
-        for who, r in res.items():
-            by = {p[0]: p for p in r["points"]}
-            ratio = (f"**{t['cycles'][0][0] / t['penumbra'][0][0]:.2f}x** | "
-                     f"**{t['cycles'][1][0] / t['penumbra'][1][0]:.2f}x**") if who == "penumbra" else " | "
-            mark = lambda v: f"{v[0]:.1f} s" + (" (extrapolated)" if v[1] else "")
-            print(f"| {name} | {who} | {by[max(by)][1] / max(by):.4f} | "
-                  f"{by.get(64, (0, 0, 0))[2] * 100:.2f}% / {by[max(by)][2] * 100:.2f}% | "
-                  f"{mark(t[who][0])} | {mark(t[who][1])} | {ratio} |")
-        print(f"(means of the references: Penumbra {res['penumbra']['reference_mean']:.4f}, "
+        print(f"(means of the references, {name}: Penumbra {res['penumbra']['reference_mean']:.4f}, "
               f"Cycles {res['cycles']['reference_mean']:.4f})", file=sys.stderr)
 
     import matplotlib
@@ -184,14 +219,14 @@ def main():
     fig, axes = plt.subplots(1, len(results), figsize=(5.5 * len(results), 4.2), squeeze=False)
     for ax, (name, res) in zip(axes[0], results.items()):
         for who, colour in (("penumbra", "tab:blue"), ("cycles", "tab:orange")):
-            pts = sorted(res[who]["points"])
+            pts = sorted((p[0], p[1], p[2]) for p in res[who]["points"])
             ax.loglog([p[1] for p in pts], [p[2] * 100 for p in pts], "o-", color=colour,
                       label=f"{who}: {pts[0][0]} to {pts[-1][0]} spp")
             t1, _ = time_to(pts, 0.01)
             ax.loglog([pts[-1][1], t1], [pts[-1][2] * 100, 1.0], ":", color=colour)
         for e in (3, 1):
             ax.axhline(e, color="grey", lw=0.5, ls=":")
-        ax.set_xlabel("render time, s (2 threads; dotted: extrapolated to 1%)")
+        ax.set_xlabel("render time alone, s (2 threads; dotted: extrapolated to 1%)")
         ax.set_ylabel("relative RMS error per pixel, %")
         ax.set_title(f"{name}, {a.size} x {a.size}")
         ax.legend(fontsize=7)

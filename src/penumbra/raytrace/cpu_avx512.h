@@ -77,21 +77,24 @@ struct BoxTesterFloat {
     }
   }
 
+  // The distances to eight planes at `p`: p inv + c, one rounding. (A member rather than a
+  // lambda: lambdas do not take the enclosing function's target attribute.)
+  PENUMBRA_AVX512_TARGET static __m256 plane(const char* p, __m256 inv, __m256 c) {
+    return _mm256_fmadd_ps(_mm256_load_ps(reinterpret_cast<const float*>(p)), inv, c);
+  }
+
   // Bit i is set when child i is entered within [tmin, tmax]; t_near gets the entry distances
   // (eight floats, 32-byte aligned).
   PENUMBRA_AVX512_TARGET uint32_t test(const Bvh8Node& n, float tmin, float tmax,
                                        float* t_near) const {
     const char* base = reinterpret_cast<const char*>(&n);
-    const auto plane = [&](uint32_t off, __m256 inv, __m256 c) {
-      return _mm256_fmadd_ps(_mm256_load_ps(reinterpret_cast<const float*>(base + off)), inv, c);
-    };
     const __m256 tn = _mm256_max_ps(
-        _mm256_max_ps(plane(near_off[0], inv_near[0], c_near[0]),
-                      plane(near_off[1], inv_near[1], c_near[1])),
-        _mm256_max_ps(plane(near_off[2], inv_near[2], c_near[2]), _mm256_set1_ps(tmin)));
-    const __m256 tf = _mm256_min_ps(_mm256_min_ps(plane(far_off[0], inv_far[0], c_far[0]),
-                                                  plane(far_off[1], inv_far[1], c_far[1])),
-                                    _mm256_min_ps(plane(far_off[2], inv_far[2], c_far[2]),
+        _mm256_max_ps(plane(base + near_off[0], inv_near[0], c_near[0]),
+                      plane(base + near_off[1], inv_near[1], c_near[1])),
+        _mm256_max_ps(plane(base + near_off[2], inv_near[2], c_near[2]), _mm256_set1_ps(tmin)));
+    const __m256 tf = _mm256_min_ps(_mm256_min_ps(plane(base + far_off[0], inv_far[0], c_far[0]),
+                                                  plane(base + far_off[1], inv_far[1], c_far[1])),
+                                    _mm256_min_ps(plane(base + far_off[2], inv_far[2], c_far[2]),
                                                   _mm256_set1_ps(tmax * kFarScale512)));
     _mm256_store_ps(t_near, tn);
     // Empty slots hold infinite planes (a NaN distance once a reciprocal is zeroed): masked out.
