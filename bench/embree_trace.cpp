@@ -91,8 +91,14 @@ int main(int argc, char** argv) {
   RayEngine engine;
   if (with_penumbra) {
     engine = RayEngine::build(flat.positions, flat.triangles);
-    if (isa == "scalar") engine.useIsa(CpuIsa::kScalar);
-    if (isa == "avx2") engine.useIsa(CpuIsa::kAvx2);
+    if (isa == "scalar") {
+      engine.useIsa(CpuIsa::kScalar);
+    } else if (isa == "avx2") {
+      engine.useIsa(CpuIsa::kAvx2);
+    } else if (!isa.empty() && isa != "avx512") {
+      std::fprintf(stderr, "embree_trace: --isa %s: not avx512, avx2 or scalar\n", isa.c_str());
+      return 2;
+    }
   }
   if (occlusion) {
     std::vector<uint8_t> out(rays->size());

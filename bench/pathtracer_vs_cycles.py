@@ -169,9 +169,14 @@ def main():
             points = []
             for spp in ladder:
                 path = os.path.join(a.out, f"{name}-{who}{a.tag if who == 'penumbra' else ''}-{spp}.{ext}")
-                if a.reuse and os.path.exists(path) and os.path.exists(path + ".seconds"):
+                # Reused when asked, unless kept by an older version of this script (a bare
+                # number of seconds, without the process time).
+                kept = (json.load(open(path + ".seconds"))
+                        if a.reuse and os.path.exists(path) and os.path.exists(path + ".seconds")
+                        else None)
+                if isinstance(kept, dict):
                     img = read_pfm(path) if ext == "pfm" else np.load(path)
-                    secs = json.load(open(path + ".seconds"))
+                    secs = kept
                 else:
                     img, secs = fn(path, spp)
                     json.dump(secs, open(path + ".seconds", "w"))

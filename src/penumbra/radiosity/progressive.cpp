@@ -495,6 +495,35 @@ double subdivisionShare(double shooter_irradiance, const glm::dvec3& radiosity,
   return shooter_irradiance / (before + shooter_irradiance);
 }
 
+namespace {
+
+// The irradiance from `lights` at every receiver, each rank computing its share and then every
+// rank holding all; adds the shadow rays this rank traced to `traced`.
+std::vector<glm::dvec3> receiverIrradiance(const RadiositySurface& surface,
+                                           const ProgressiveReceivers& receivers,
+                                           std::span<const Light> lights, bool visibility,
+                                           const ReceiverShare& share, uint64_t& traced) {
+  std::vector<glm::dvec3> incident(receivers.size(), glm::dvec3(0.0));
+  if (lights.empty()) return incident;
+  for (size_t c = 0; c < share.chunks(); ++c) {
+    if (!share.mine(c)) continue;
+    const auto [b, e] = share.range(c);
+    std::vector<glm::dvec3> positions(e - b), normals(e - b), shading(e - b);
+    for (size_t k = b; k < e; ++k) {
+      positions[k - b] = receivers.position(k);
+      normals[k - b] = receivers.normal(k);
+      shading[k - b] = receivers.shadingNormal(k);
+    }
+    const std::vector<glm::dvec3> got =
+        surface.lightIrradianceAt(lights, visibility, positions, normals, shading, &traced);
+    std::copy(got.begin(), got.end(), incident.begin() + std::ptrdiff_t(b));
+  }
+  share.exchange(incident);
+  return incident;
+}
+
+}  // namespace
+
 ProgressiveIteration ProgressiveRadiosity::shootLights() {
   const Timer timer;
   ProgressiveIteration it;
@@ -520,34 +549,47 @@ ProgressiveIteration ProgressiveRadiosity::shootLights() {
         irradiance = sum;
       },
       it);
-  uint64_t traced = 0;
+  // Black elements that stop all light arriving (reflectance 0, full coverage) take no part in
+  // the books of the sky and the sun: nothing they absorb on arrival enters the solve, and
+  // counting it as emitted would let a black facade or surround, lit over its whole area, make
+  // the unshot fraction of a room's own light look converged before it is shot (a sunlit room
+  // behind a 2 m window in a 204 m black facade stopped with its ceiling 9-16% dark).
+  const auto absorbsOnArrival = [&](size_t e) {
+    return surface_.reflectance[e] == glm::dvec3(0.0) && surface_.coverageOf(e) >= 1.0;
+  };
+  // A distant light (the sun) has no power of its own: the books take what it delivers to the
+  // surfaces that take part instead of lightPower's pi r^2 E over the scene's bounding sphere,
+  // most of which misses them. Its irradiance is gathered apart from the other lights' (the same
+  // rays, once each) to be counted.
+  std::vector<Light> local, distant;
+  glm::dvec3 distant_nominal(0.0);
+  for (const Light& light : lights_) {
+    const bool far = std::holds_alternative<DirectionalLight>(light);
+    (far ? distant : local).push_back(light);
+    if (far) distant_nominal += lightPower(light, surface_.bounds);
+  }
   // Each rank its chunks of receivers (one process: all of them), then every rank has all.
   const ReceiverShare share(receivers_.size(), comm_);
-  std::vector<glm::dvec3> incident(receivers_.size(), glm::dvec3(0.0));
-  for (size_t c = 0; c < share.chunks(); ++c) {
-    if (!share.mine(c)) continue;
-    const auto [b, e] = share.range(c);
-    std::vector<glm::dvec3> positions(e - b), normals(e - b), shading(e - b);
-    for (size_t k = b; k < e; ++k) {
-      positions[k - b] = receivers_.position(k);
-      normals[k - b] = receivers_.normal(k);
-      shading[k - b] = receivers_.shadingNormal(k);
+  uint64_t traced = 0;
+  incident_ = receivers_.toElements(
+      surface_,
+      receiverIrradiance(surface_, receivers_, local, options_.visibility, share, traced));
+  glm::dvec3 distant_delivered(0.0);
+  if (!distant.empty()) {
+    const std::vector<glm::dvec3> sun = receivers_.toElements(
+        surface_,
+        receiverIrradiance(surface_, receivers_, distant, options_.visibility, share, traced));
+    for (size_t e = 0; e < sun.size(); ++e) {
+      if (absorbsOnArrival(e)) continue;
+      incident_[e] += sun[e];
+      distant_delivered += sun[e] * surface_.atlas.element_area[e] * surface_.coverageOf(e);
     }
-    uint64_t rays = 0;
-    const std::vector<glm::dvec3> got = surface_.lightIrradianceAt(
-        lights_, options_.visibility, positions, normals, shading, &rays);
-    std::copy(got.begin(), got.end(), incident.begin() + std::ptrdiff_t(b));
-    traced += rays;
+    balance_.emitted += distant_delivered - distant_nominal;
+    balance_.unshot += distant_delivered - distant_nominal;
   }
-  share.exchange(incident);
   traced = share.sum(traced);
-  incident_ = receivers_.toElements(surface_, std::move(incident));
   // The sky, element by element (the same on every rank: each element has its own stream); what
-  // it sends in is emitted now. Black elements that stop all light arriving (reflectance 0, full
-  // coverage) take no part: nothing they absorb on arrival enters the solve, and counting it as
-  // emitted would let a black facade or surround, lit by the open sky over its whole area, make
-  // the unshot fraction of a room's own light look converged before it is shot (a room behind
-  // a 2 m window in a black facade stopped after the lights' iteration at 0.06% unshot).
+  // it sends in is emitted now.
   glm::dvec3 sky_power(0.0);
   if (daylight_) {
     std::vector<glm::dvec3> sky(incident_.size(), glm::dvec3(0.0));
@@ -555,8 +597,7 @@ ProgressiveIteration ProgressiveRadiosity::shootLights() {
     parallelRange(sky.size(), 256, [&](size_t begin, size_t end) {
       uint64_t count = 0;
       for (size_t e = begin; e < end; ++e) {
-        if (surface_.reflectance[e] == glm::dvec3(0.0) && surface_.coverageOf(e) >= 1.0) continue;
-        sky[e] = skyIrradianceAt(e, count);
+        if (!absorbsOnArrival(e)) sky[e] = skyIrradianceAt(e, count);
       }
       sky_rays += count;
     });
@@ -573,28 +614,6 @@ ProgressiveIteration ProgressiveRadiosity::shootLights() {
   it.closed = !daylight_ && shotClosed(kLights, &probes);
   if (it.closed) scale = closedScale(light_power_);
   lights_shot_ = true;
-  // A distant light (the sun) has no power of its own: the books take what it delivers to the
-  // surfaces instead of lightPower's pi r^2 E over the scene's bounding sphere. The part that
-  // misses the surfaces (most of it for a room on a large site) would count as emitted and end
-  // the solve before the light it does deliver is shot: a sunlit room behind a window stopped
-  // after the lights' iteration, with no interreflection.
-  glm::dvec3 distant_nominal(0.0), distant_delivered(0.0);
-  std::vector<Light> distant;
-  for (const Light& light : lights_) {
-    if (!std::holds_alternative<DirectionalLight>(light)) continue;
-    distant.push_back(light);
-    distant_nominal += lightPower(light, surface_.bounds);
-  }
-  if (!distant.empty()) {
-    uint64_t rays = 0;
-    const std::vector<glm::dvec3> e = surface_.lightIrradiance(distant, options_.visibility, &rays);
-    for (size_t k = 0; k < e.size(); ++k) {
-      distant_delivered += e[k] * surface_.atlas.element_area[k] * surface_.coverageOf(k);
-    }
-    traced += rays;
-    balance_.emitted += distant_delivered - distant_nominal;
-    balance_.unshot += distant_delivered - distant_nominal;
-  }
   const glm::dvec3 shot = light_power_ - distant_nominal + distant_delivered + sky_power;
   const glm::dvec3 got = applyIncident(scale, 0, 0);
   balance_.unshot -= shot;

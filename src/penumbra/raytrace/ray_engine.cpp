@@ -259,7 +259,7 @@ template <bool kAnyHit, CpuIsa kIsa, bool kFilter>
       if (mask == 0) break;
       // Start fetching every child entered: their lines arrive while this node is sorted and
       // the nearest child visited.
-      for (uint32_t m = mask; m; m &= m - 1) prefetchChild(node.child[__builtin_ctz(m)]);
+      for (uint32_t m = mask; m; m &= m - 1) prefetchRef<kIsa>(node.child[__builtin_ctz(m)]);
       int first = __builtin_ctz(mask);
       mask &= mask - 1;
       if (mask == 0) {

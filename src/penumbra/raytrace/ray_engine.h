@@ -84,7 +84,8 @@ class RayEngine {
   size_t wideNodeCount() const { return std::max(nodes_.size(), float_nodes_.size()); }
   // The wide tree the CPU traverses (single rays and packets), in the layout of the kernels in
   // use: float child boxes for AVX-512 (floatNodes), boxes quantised to bytes for AVX2 and the
-  // scalar loops (quantisedNodes); the other is empty. Its root reference follows
+  // scalar loops (quantisedNodes); the other is made only when useIsa asks for it. Its root
+  // reference follows
   // Bvh8Node::child's coding (a leaf for a tree of one leaf).
   const LargeVector<Bvh8Node>& floatNodes() const { return float_nodes_; }
   const LargeVector<Bvh8QNode>& quantisedNodes() const { return nodes_; }
@@ -110,15 +111,17 @@ class RayEngine {
            block_of_node_.size() * sizeof(uint32_t);
   }
   Bounds3 bounds() const;
-  // Starts fetching the node or leaf block `ref` (Bvh8Node::child's coding) into the cache.
-  [[gnu::always_inline]] void prefetchChild(int32_t ref) const {
+  // Starts fetching the node or leaf block `ref` (Bvh8Node::child's coding) into the cache, for
+  // the kernels of `kIsa` (which node layout they read is known where they are compiled).
+  template <CpuIsa kIsa>
+  [[gnu::always_inline]] void prefetchRef(int32_t ref) const {
     const char* p;
     int lines;
     if (bvh8IsLeaf(ref)) {
       if (ref == Bvh8Node::kEmpty) return;
       p = reinterpret_cast<const char*>(&blocks_[bvh8LeafIndex(ref)]);
       lines = sizeof(TriangleBlock8) / 64;
-    } else if (isa_ == CpuIsa::kAvx512) {
+    } else if constexpr (kIsa == CpuIsa::kAvx512) {
       p = reinterpret_cast<const char*>(&float_nodes_[size_t(ref)]);
       lines = sizeof(Bvh8Node) / 64;
     } else {
@@ -126,6 +129,14 @@ class RayEngine {
       lines = sizeof(Bvh8QNode) / 64;
     }
     for (int i = 0; i < lines; ++i) __builtin_prefetch(p + 64 * i, 0, 3);
+  }
+  // The same for the kernels in use.
+  [[gnu::always_inline]] void prefetchChild(int32_t ref) const {
+    if (isa_ == CpuIsa::kAvx512) {
+      prefetchRef<CpuIsa::kAvx512>(ref);
+    } else {
+      prefetchRef<CpuIsa::kAvx2>(ref);
+    }
   }
 
  private:
