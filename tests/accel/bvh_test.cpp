@@ -16,9 +16,11 @@
 #include <gtest/gtest.h>
 #include <glm/geometric.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <functional>
 #include <limits>
+#include <numeric>
 
 namespace penumbra {
 namespace {
@@ -333,12 +335,38 @@ TEST(RayEngine, ReorderedBatchesGiveEachRayItsOwnAnswer) {
   RayBatch rays;
   rays.resize(70000);
   for (size_t i = 0; i < rays.size(); ++i) {
-    rays.set(i, Ray{randomInBox(rng, -1.2f, 1.2f), 0.0f, randomDirection(rng),
+    rays.set(i, Ray{randomInBox(rng, -1.0f, 1.0f), 0.0f, randomDirection(rng),
                     i % 3 == 0 ? 0.05f : kInf});
   }
   ASSERT_GE(engine.memoryBytes(), size_t(8) << 20);
   ASSERT_TRUE(engine.reorders(rays));
   const LargeVector<uint32_t> order = coherentRayOrder(rays, engine.bounds());
+  // The parallel radix sort is the stable sort by (octant, Morton code of the origin's cell).
+  {
+    const Bounds3 b = engine.bounds();
+    const auto spread = [](uint32_t x) {
+      uint32_t r = 0;
+      for (int bit = 0; bit < 9; ++bit) r |= ((x >> bit) & 1u) << (3 * bit);
+      return r;
+    };
+    std::vector<uint32_t> key(rays.size());
+    for (size_t i = 0; i < rays.size(); ++i) {
+      const glm::vec3 o{rays.ox[i], rays.oy[i], rays.oz[i]};
+      uint32_t cell[3];
+      for (int a = 0; a < 3; ++a) {
+        const float c = (o[a] - b.lo[a]) * (511.0f / (b.hi[a] - b.lo[a]));
+        cell[a] = uint32_t(std::clamp(c, 0.0f, 511.0f));
+      }
+      key[i] = uint32_t(rays.dx[i] < 0.0f) << 29 | uint32_t(rays.dy[i] < 0.0f) << 28 |
+               uint32_t(rays.dz[i] < 0.0f) << 27 | spread(cell[0]) | spread(cell[1]) << 1 |
+               spread(cell[2]) << 2;
+    }
+    std::vector<uint32_t> expected(rays.size());
+    std::iota(expected.begin(), expected.end(), 0u);
+    std::stable_sort(expected.begin(), expected.end(),
+                     [&](uint32_t a, uint32_t c) { return key[a] < key[c]; });
+    ASSERT_TRUE(std::equal(expected.begin(), expected.end(), order.begin()));
+  }
   std::vector<uint8_t> seen(rays.size(), 0);
   int octant_changes = 0;
   const auto octant = [&](uint32_t i) {
@@ -369,6 +397,45 @@ TEST(RayEngine, ReorderedBatchesGiveEachRayItsOwnAnswer) {
   // Camera rays in scanline order keep their order (and their packets).
   RayBatch camera = cameraRaySet(Camera{}, 300, 240);
   EXPECT_FALSE(engine.reorders(camera));
+}
+
+// Rays from outside the scene (origins on a sphere around it) keep their order: the sort keys on
+// the origin, which tells nothing of where such rays go. Their answers are each ray's own.
+TEST(RayEngine, BatchesFromOutsideTheSceneKeepTheirOrder) {
+  const Soup s = randomSoup(12, 160000, 0.01f);
+  const RayEngine engine = RayEngine::build(s.positions, s.triangles);
+  Rng rng(7, 7);
+  RayBatch rays;
+  rays.resize(70000);
+  for (size_t i = 0; i < rays.size(); ++i) {
+    const glm::vec3 o = 3.0f * randomDirection(rng);
+    rays.set(i, Ray{o, 0.0f, randomInBox(rng, -1.0f, 1.0f) - o, kInf});
+  }
+  ASSERT_GE(engine.memoryBytes(), size_t(8) << 20);
+  EXPECT_FALSE(batchStartsInside(rays, engine.bounds()));
+  EXPECT_FALSE(engine.reorders(rays));
+  // Mixed batches: a quarter of the rays from inside is not enough, three quarters are.
+  RayBatch mixed = rays;
+  const auto start_inside = [&](size_t residue) {
+    for (size_t i = residue; i < mixed.size(); i += 4) {
+      mixed.set(i, Ray{randomInBox(rng, -1.0f, 1.0f), 0.0f, randomDirection(rng), kInf});
+    }
+  };
+  start_inside(0);
+  EXPECT_FALSE(batchStartsInside(mixed, engine.bounds()));
+  start_inside(1);
+  start_inside(2);
+  EXPECT_TRUE(batchStartsInside(mixed, engine.bounds()));
+  HitBatch hits;
+  engine.intersect(rays, hits);
+  size_t hit_count = 0;
+  for (size_t i = 0; i < rays.size(); i += 7) {
+    const Hit h = engine.intersect(rays.get(i));
+    ASSERT_EQ(hits.triangle[i], h.triangle) << i;
+    ASSERT_EQ(hits.t[i], h.t) << i;
+    hit_count += h.hit();
+  }
+  EXPECT_GT(hit_count, rays.size() / 70);
 }
 
 TEST(RayEngine, BatchesMatchSingleRaysInInputOrder) {

@@ -69,8 +69,8 @@ class RayEngine {
 
   // Batches, traced in parallel; results in input order. `hits` / `occluded` are resized
   // (reuse them across calls: a new 1M-ray hit batch is 16 MiB to allocate and touch). Batches
-  // of 65,536 rays or more that do not come in coherent runs are traced in coherentRayOrder
-  // (raytrace/ray_order.h); the answers are the same in any order.
+  // of 65,536 rays or more that do not come in coherent runs and mostly start inside the scene
+  // are traced in coherentRayOrder (raytrace/ray_order.h); the answers are the same in any order.
   void intersect(const RayBatch& rays, HitBatch& hits) const;
   void occluded(const RayBatch& rays, std::vector<uint8_t>& occluded) const;
   // The same as intersect(rays, hits) on the calling thread (packets of coherent rays included),

@@ -36,6 +36,20 @@ bool batchIsCoherent(const RayBatch& rays) {
   return 2 * eligible > sampled;
 }
 
+bool batchStartsInside(const RayBatch& rays, const Bounds3& bounds) {
+  const size_t n = rays.size();
+  if (n == 0) return false;
+  constexpr size_t kSamples = 256;
+  const size_t samples = std::min(n, kSamples);
+  size_t inside = 0;
+  for (size_t s = 0; s < samples; ++s) {
+    const size_t i = s * n / samples;
+    inside += rays.ox[i] >= bounds.lo.x && rays.ox[i] <= bounds.hi.x && rays.oy[i] >= bounds.lo.y &&
+              rays.oy[i] <= bounds.hi.y && rays.oz[i] >= bounds.lo.z && rays.oz[i] <= bounds.hi.z;
+  }
+  return 2 * inside > samples;
+}
+
 LargeVector<uint32_t> coherentRayOrder(const RayBatch& rays, const Bounds3& bounds) {
   const size_t n = rays.size();
   LargeVector<uint64_t> keyed(n), tmp(n);
@@ -57,13 +71,39 @@ LargeVector<uint32_t> coherentRayOrder(const RayBatch& rays, const Bounds3& boun
       keyed[i] = uint64_t(key) << 32 | uint64_t(i);
     }
   });
-  // Three stable passes of 10 bits over the 30-bit key (bits 32 .. 61).
+  // Three stable passes of 10 bits over the 30-bit key (bits 32 .. 61), each in parallel: the
+  // batch is cut into a fixed number of chunks (so the result does not depend on the thread
+  // count), each chunk counts its digits, and every chunk scatters its keys to the offsets its
+  // digits start at (digit-major, chunk-minor), which keeps the sort stable.
+  constexpr size_t kDigits = 1024;
+  const size_t chunks = std::clamp<size_t>(n / 16384, 1, 64);
+  const size_t per_chunk = (n + chunks - 1) / chunks;
+  std::vector<std::array<uint32_t, kDigits>> offsets(chunks);
   for (int pass = 0; pass < 3; ++pass) {
     const int shift = 32 + 10 * pass;
-    std::array<size_t, 1025> start{};
-    for (size_t i = 0; i < n; ++i) ++start[((keyed[i] >> shift) & 1023u) + 1];
-    for (size_t b = 1; b < start.size(); ++b) start[b] += start[b - 1];
-    for (size_t i = 0; i < n; ++i) tmp[start[(keyed[i] >> shift) & 1023u]++] = keyed[i];
+    parallelRange(chunks, 1, [&](size_t c_begin, size_t c_end) {
+      for (size_t c = c_begin; c < c_end; ++c) {
+        offsets[c].fill(0);
+        const size_t end = std::min(n, (c + 1) * per_chunk);
+        for (size_t i = c * per_chunk; i < end; ++i) ++offsets[c][(keyed[i] >> shift) & 1023u];
+      }
+    });
+    uint32_t start = 0;
+    for (size_t d = 0; d < kDigits; ++d) {
+      for (size_t c = 0; c < chunks; ++c) {
+        const uint32_t count = offsets[c][d];
+        offsets[c][d] = start;
+        start += count;
+      }
+    }
+    parallelRange(chunks, 1, [&](size_t c_begin, size_t c_end) {
+      for (size_t c = c_begin; c < c_end; ++c) {
+        std::array<uint32_t, kDigits>& at = offsets[c];
+        const size_t end = std::min(n, (c + 1) * per_chunk);
+        for (size_t i = c * per_chunk; i < end; ++i)
+          tmp[at[(keyed[i] >> shift) & 1023u]++] = keyed[i];
+      }
+    });
     keyed.swap(tmp);
   }
   LargeVector<uint32_t> order(n);

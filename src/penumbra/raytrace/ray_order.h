@@ -19,9 +19,15 @@ namespace penumbra {
 // 64 sampled aligned groups of eight could travel as packets. Those keep their order.
 bool batchIsCoherent(const RayBatch& rays);
 
+// Whether most of 256 sampled rays start inside `bounds` (the scene's). The order below keys on
+// the origin, which says where in the tree a ray goes only for rays that start among the
+// geometry (bounces, shadow and ambient occlusion rays); rays from outside the scene have their
+// origins clamped to the bounds' faces and spread over the whole tree from there.
+bool batchStartsInside(const RayBatch& rays, const Bounds3& bounds);
+
 // Indices 0 .. n-1 sorted by (octant of the direction, Morton code of the origin quantised to
 // 2^9 cells per axis of `bounds`, clamped); ties keep input order. Parallel key computation,
-// then a least-significant-digit radix sort in three passes of 10 bits.
+// then a least-significant-digit radix sort in three passes of 10 bits, each parallel over chunks.
 LargeVector<uint32_t> coherentRayOrder(const RayBatch& rays, const Bounds3& bounds);
 
 }  // namespace penumbra
