@@ -259,7 +259,7 @@ PYBIND11_MODULE(_penumbra, m) {
 
   m.def("version", &penumbra::api::version);
 
-  py::class_<penumbra::api::Scene>(m, "Scene")
+  py::class_<penumbra::api::Scene>(m, "Scene", py::dynamic_attr())
       .def_static("load", &penumbra::api::Scene::load, py::arg("name_or_path"),
                   py::call_guard<py::gil_scoped_release>())
       .def_static(

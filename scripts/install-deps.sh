@@ -24,6 +24,10 @@ packages=(
   python3-matplotlib
   # the Python module (import penumbra) and its tests
   python3-dev pybind11-dev python3-numpy python3-pytest
+  # pip install . offline into a virtual environment (pyproject.toml, setup.py), progress bars,
+  # and the example notebook's run (examples/penumbra.ipynb)
+  python3-venv python3-pip python3-setuptools python3-wheel python3-tqdm python3-nbconvert
+  python3-ipykernel
   # runs over several processes (mpirun) and their tests
   libopenmpi-dev openmpi-bin
   # the web viewer's browser test (docs/web-viewer.md): headless chromium, driven by

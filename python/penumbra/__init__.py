@@ -14,30 +14,44 @@ file and the place in it. See docs/python.md.
 
 from __future__ import annotations
 
+import inspect
 import json
 import os
-from dataclasses import dataclass, field
 from typing import Callable, Optional, Union
 
 import numpy as np
 
 from ._penumbra import Error, InputError, Scene, version
 from ._penumbra import _bake, _methods, _options, _read_image, _render, _trace, _write_image
+from . import _signatures as _option_docs
+from ._progress import callback as _progress_callback
+from ._results import BakeResult, RenderResult, png_bytes, read_atlas
+from ._scene import (Camera, DirectionalLight, Luminaire, Material, PointLight, SpotLight,
+                     save as _save_scene, save_method as _save_method)
+from . import _scene
 
 __all__ = [
     "Error",
     "InputError",
     "Scene",
+    "Material",
+    "PointLight",
+    "SpotLight",
+    "DirectionalLight",
+    "Luminaire",
+    "Camera",
     "RenderResult",
     "BakeResult",
     "load",
     "from_arrays",
+    "save_scene",
     "methods",
     "render",
     "bake",
     "trace",
     "read_image",
     "write_image",
+    "png_bytes",
     "version",
 ]
 
@@ -45,31 +59,17 @@ __version__ = version()
 
 ProgressCallback = Callable[[str, float], None]
 
-
-@dataclass
-class RenderResult:
-    """What :func:`render` gives back."""
-
-    image: np.ndarray  # H x W x 3 float32: the image, or the last frame of a sequence
-    images: list  # every frame (one for a still)
-    stats: dict  # what ``--stats`` writes
+Scene.save = _save_method
 
 
-@dataclass
-class BakeResult:
-    """What :func:`bake` gives back: the lightmap atlas; the files are in ``output``."""
+def load(name_or_path: Union[str, os.PathLike], camera=None, lights=None, settings=None) -> Scene:
+    """A built-in scene ("cornell", "sss", "lpv") or a .json, .obj, .gltf, .glb or .ply file.
 
-    # H x W x 3 float32 per texel, linear: what the EXR holds (irradiance in W m^-2 for the
-    # default gltf="asset" output, outgoing radiance for gltf="emissive")
-    lightmap: np.ndarray
-    stats: dict
-    output: str
-    files: list = field(default_factory=list)
-
-
-def load(name_or_path: Union[str, os.PathLike]) -> Scene:
-    """A built-in scene ("cornell", "sss", "lpv") or a .json, .obj, .gltf, .glb or .ply file."""
-    return Scene.load(os.fspath(name_or_path))
+    ``camera`` (a :class:`Camera` or the scene format's dict) replaces the file's camera,
+    ``lights`` (:class:`PointLight`, :class:`SpotLight`, :class:`DirectionalLight`,
+    :class:`Luminaire` or dicts) are added to its lights, and ``settings`` (``{"method":
+    {"option": value}}``) to its per-method settings; all are checked as a scene file's are."""
+    return _scene.load(name_or_path, camera, lights, settings)
 
 
 def from_arrays(
@@ -78,38 +78,33 @@ def from_arrays(
     material_ids=None,
     materials: Optional[list] = None,
     lights: Optional[list] = None,
-    camera: Optional[dict] = None,
+    camera=None,
     environment=None,
+    settings: Optional[dict] = None,
     source: str = "arrays",
 ) -> Scene:
     """A scene of one mesh from arrays.
 
     ``positions``: V x 3 (metres); ``indices``: T x 3 vertex indices (counter-clockwise is the
-    front); ``material_ids``: T indices into ``materials``. ``materials``, ``lights``, ``camera``
-    and ``environment`` are written as in the JSON scene format (docs/scene-format.md), e.g.
-    ``materials=[{"name": "white", "reflectance": [0.8, 0.8, 0.8]}]``,
-    ``lights=[{"type": "point", "position": [0, 1, 0], "intensity": [5, 5, 5]}]``,
-    ``camera={"position": [0, 0, 3], "look_at": [0, 0, 0], "fov_deg": 40}``.
+    front); ``material_ids``: T indices into ``materials``. ``materials`` (:class:`Material` or
+    dicts), ``lights`` (:class:`PointLight`, :class:`SpotLight`, :class:`DirectionalLight`,
+    :class:`Luminaire` or dicts), ``camera`` (:class:`Camera` or a dict), ``environment`` and
+    ``settings`` are the JSON scene format's entries (docs/scene-format.md), e.g.
+    ``materials=[Material("white", reflectance=[0.8, 0.8, 0.8])]``,
+    ``lights=[PointLight(position=[0, 1, 0], intensity=[5, 5, 5])]``,
+    ``camera=Camera(position=[0, 0, 3], look_at=[0, 0, 0], fov_deg=40)``.
+    ``scene.save("scene.json")`` writes it back out as a scene file.
     """
-    description = {}
-    if materials is not None:
-        description["materials"] = list(materials)
-    if lights is not None:
-        description["lights"] = list(lights)
-    if camera is not None:
-        description["camera"] = dict(camera)
-    if environment is not None:
-        description["environment"] = environment
-    # The arrays go as they are: the module checks their shapes, the memory of any copy, and that
-    # indices are whole numbers (2.7 is refused, not truncated) before converting them.
-    ids = None if material_ids is None else np.asarray(material_ids)
-    return Scene.from_arrays(
-        np.asarray(positions),
-        np.asarray(indices),
-        ids,
-        json.dumps(description, default=_json_value),
-        source,
-    )
+    return _scene.from_arrays(positions, indices, material_ids, materials, lights, camera,
+                              environment, settings, source)
+
+
+def save_scene(scene: Scene, path: Union[str, os.PathLike]) -> list:
+    """The same as ``scene.save(path)``."""
+    return _save_scene(scene, path)
+
+
+save_scene.__doc__ = _save_scene.__doc__
 
 
 def read_image(path: Union[str, os.PathLike]) -> np.ndarray:
@@ -124,15 +119,7 @@ def write_image(path: Union[str, os.PathLike], image, tonemap: str = "reinhard",
     _write_image(os.fspath(path), np.asarray(image, dtype=np.float32), tonemap, exposure)
 
 
-def _json_value(value):
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    if isinstance(value, np.generic):
-        return value.item()
-    raise TypeError(f"{type(value).__name__} is not a JSON value")
-
-
-def _scene(scene) -> Scene:
+def _scene_of(scene) -> Scene:
     return scene if isinstance(scene, Scene) else load(scene)
 
 
@@ -167,40 +154,20 @@ def methods() -> list:
     return [dict(m, options=own.get(m["name"], [])) for m in _methods()]
 
 
-def _option_help(command: str) -> str:
-    """The options of ``command`` as a docstring section, from the library's descriptions."""
-    lines = []
-    for o in _options(command):
-        kind = o["kind"]
-        if o["choices"]:
-            kind = " | ".join(repr(c) for c in o["choices"])
-        details = [kind]
-        if o["unit"]:
-            details.append(o["unit"])
-        if o["range"]:
-            details.append(o["range"])
-        taken = ", ".join(m + (f": {d}" if d else "") + (f" in {r}" if r else "")
-                          for m, d, r in o["methods"])
-        lines.append(f"    {o['name'].replace('-', '_')} ({'; '.join(details)})"
-                     + (f" [{taken}]" if taken else ""))
-        lines.append(f"        {o['help']}")
-    return "\n".join(lines)
-
-
-def render(
-    scene,
-    method: str = "pathtrace",
-    *,
-    progress: Optional[ProgressCallback] = None,
-    quiet: bool = True,
-    **options,
-) -> RenderResult:
+def render(scene, method: str = "pathtrace", *, progress=None, quiet: bool = True,
+           **options) -> RenderResult:
     """Renders ``scene`` (a :class:`Scene`, a built-in name or a file) with ``method``: pathtrace,
-    whitted, photons, matrix, progressive, stochastic, sss or lpv; the other options are ``penumbra render``'s
-    (``device="gpu"``, ``spp=256``, ``output="out.exr"``, ``threads=2``, ...). ``progress(stage,
-    fraction)`` is called now and then. Log lines go to stderr unless ``quiet``."""
+    whitted, photons, matrix, progressive, stochastic, sss or lpv. The other arguments are
+    ``penumbra render``'s options, below (``device="gpu"``, ``spp=256``, ``output="out.exr"``,
+    ...); one left at None keeps the method's default. Each is checked before any work: an
+    option another method owns, a value of the wrong type or out of the method's range raises
+    :class:`InputError` naming it.
+
+    ``progress``: None shows a tqdm bar per stage when tqdm is installed and the call runs in a
+    terminal or a Jupyter kernel; False shows nothing; a callable is called as ``progress(stage,
+    fraction)`` now and then. Log lines go to stderr unless ``quiet``."""
     values = [("method", method), ("quiet", quiet)] + _values(options)
-    images, stats = _render(_scene(scene), values, progress)
+    images, stats = _run(_render, _scene_of(scene), values, progress)
     return RenderResult(
         image=images[-1] if images else None,
         images=images,
@@ -208,26 +175,26 @@ def render(
     )
 
 
-def bake(
-    scene,
-    output: Union[str, os.PathLike] = ".",
-    method: str = "matrix",
-    *,
-    progress: Optional[ProgressCallback] = None,
-    quiet: bool = True,
-    **options,
-) -> BakeResult:
+def bake(scene, output: Union[str, os.PathLike] = ".", method: str = "matrix", *, progress=None,
+         quiet: bool = True, **options) -> BakeResult:
     """Bakes ``scene``'s radiosity into a lightmap atlas and writes it into the directory
     ``output`` as ``penumbra bake`` does (the glTF, its buffer, the lightmap as EXR and PNG).
-    ``method``: matrix, progressive or stochastic; the other options are ``penumbra bake``'s. On
-    Ctrl-C a progressive bake writes its checkpoint first (``resume=`` continues it)."""
+    ``method``: matrix, progressive or stochastic; the other arguments are ``penumbra bake``'s
+    options, below, checked before any work as :func:`render`'s are, and ``progress`` as
+    :func:`render`'s. On Ctrl-C a progressive bake writes its checkpoint first (``resume=``
+    continues it). The result holds the lightmap, the atlas UVs and the files written."""
     out = os.fspath(output)
     values = [("method", method), ("output", out), ("quiet", quiet)] + _values(options)
-    images, stats = _bake(_scene(scene), values, progress)
+    images, stats = _run(_bake, _scene_of(scene), values, progress)
     stats = json.loads(stats) if stats else {}
-    files = [os.path.join(out, f) for f in stats.get("outputs", [])] if isinstance(
-        stats.get("outputs"), list) else []
-    return BakeResult(lightmap=images[0] if images else None, stats=stats, output=out, files=files)
+    outputs = stats.get("outputs")
+    # The paths as the bake wrote them (inside `output`, relative where it is).
+    files = [os.fspath(f) for f in outputs] if isinstance(outputs, list) else []
+    result = BakeResult(lightmap=images[0] if images else None, stats=stats, output=out,
+                        files=files)
+    if result.gltf and os.path.exists(result.gltf):
+        result.uvs, result.uv_triangles = read_atlas(result.gltf)
+    return result
 
 
 def trace(
@@ -248,13 +215,40 @@ def trace(
     trace --device``; ``t_min``, ``t_max``, ``r_min``, ``cache_rays`` tune hybrid; the log line
     goes to stderr unless ``quiet``). Returns ``{"triangle", "t", "u", "v", "stats"}`` (triangle -1
     and t infinite for a miss) or, with ``occlusion``, ``{"occluded", "stats"}``."""
-    result = _trace(_scene(scene), rays, device, occlusion, threads, t_min, t_max, r_min,
+    result = _trace(_scene_of(scene), rays, device, occlusion, threads, t_min, t_max, r_min,
                     cache_rays, quiet)
     result["stats"] = json.loads(result["stats"])
     return result
 
 
-render.__doc__ += "\n\nOptions (the methods that take one, with their defaults, in brackets):\n" + \
-    _option_help("render")
-bake.__doc__ += "\n\nOptions (the methods that take one, with their defaults, in brackets):\n" + \
-    _option_help("bake")
+def _run(command, scene: Scene, values: list, progress):
+    report, close = _progress_callback(progress)
+    finished = False
+    try:
+        result = command(scene, values, report)
+        finished = True
+        return result
+    finally:
+        close(finished)
+
+
+_OPTIONS_HEADING = "\n\nOptions (the methods that take one, with their defaults, in brackets):\n"
+render.__doc__ += _OPTIONS_HEADING + _option_docs.help_section("render")
+bake.__doc__ += _OPTIONS_HEADING + _option_docs.help_section("bake")
+# Every option a named, typed keyword-only parameter, for help(), inspect and editors; the
+# function takes them as **options and the library checks them (a misspelt one included).
+_P = inspect.Parameter
+render.__signature__ = _option_docs.signature("render", [
+    _P("scene", _P.POSITIONAL_OR_KEYWORD),
+    _P("method", _P.POSITIONAL_OR_KEYWORD, default="pathtrace", annotation=str),
+    _P("progress", _P.KEYWORD_ONLY, default=None),
+    _P("quiet", _P.KEYWORD_ONLY, default=True, annotation=bool),
+])
+bake.__signature__ = _option_docs.signature("bake", [
+    _P("scene", _P.POSITIONAL_OR_KEYWORD),
+    _P("output", _P.POSITIONAL_OR_KEYWORD, default=".", annotation=str),
+    _P("method", _P.POSITIONAL_OR_KEYWORD, default="matrix", annotation=str),
+    _P("progress", _P.KEYWORD_ONLY, default=None),
+    _P("quiet", _P.KEYWORD_ONLY, default=True, annotation=bool),
+])
+del _P

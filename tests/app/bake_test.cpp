@@ -366,7 +366,7 @@ TEST(Bake, RadiosityBakesAgreeWithThePathTracedLightmap) {
     return lightmap.ok() ? *lightmap : Image{};
   };
   const Image reference = bakeWith("pathtrace");
-  for (const std::string& method : {"progressive", "matrix"}) {
+  for (const char* method : {"progressive", "matrix"}) {
     const Image lightmap = bakeWith(method);
     ASSERT_EQ(lightmap.pixels.size(), reference.pixels.size()) << method;
     double ref = 0.0, got = 0.0, sq = 0.0;

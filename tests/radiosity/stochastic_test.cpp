@@ -333,8 +333,8 @@ TEST(StochasticRadiosity, FirstShotsCutTheNoiseSeveralTimes) {
       o.iterations = buildStochastic("cornell", o).burnIn() + 128;
       StochasticRadiosity sr = buildStochastic("cornell", o);
       sr.solve();
-      const double rms = relativeRmsError(sr, reference);
-      e2 += rms * rms / 4.0;
+      const double error = relativeRmsError(sr, reference);
+      e2 += error * error / 4.0;
     }
     rms[first] = std::sqrt(e2);
   }

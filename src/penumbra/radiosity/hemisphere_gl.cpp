@@ -279,10 +279,10 @@ Status compilePrograms(bool visibility, bool samples, bool cutouts, gl::Program&
                                               "radiosity/progressive_depth.frag", depth_defines);
   if (!p) return p.error();
   depth = std::move(*p);
-  const auto receiveDefines = [&](int near, int sample) {
-    std::vector<std::string> d = {fmt::format("NEAR_PASS {}", near),
-                                  fmt::format("VISIBILITY {}", visibility ? 1 : 0),
-                                  fmt::format("SAMPLE_PASS {}", sample), batchPointDefines()[0]};
+  const auto receiveDefines = [&](int near, int sample_pass) {
+    std::vector<std::string> d = {
+        fmt::format("NEAR_PASS {}", near), fmt::format("VISIBILITY {}", visibility ? 1 : 0),
+        fmt::format("SAMPLE_PASS {}", sample_pass), batchPointDefines()[0]};
     if (cutouts) d.push_back(cutoutDefine(PROGRESSIVE_SSBO_CUTOUTS));
     return d;
   };

@@ -387,9 +387,9 @@ uint64_t StochasticRadiosity::shoot(uint32_t j, double p, double weight,
       for (size_t k = 0; k < receivers.size(); ++k) {
         const uint32_t r = receivers[k];
         const glm::dvec3 fr = atlas.element_position[r] + atlas.element_normal[r] * surface_.lift;
-        const glm::dvec3 end =
+        const glm::dvec3 target =
             jitter ? to + cutoutJitter(nj, aj, uint64_t(r) << 32 | uint64_t(j)) : to;
-        batch.set(k, Ray{glm::vec3(fr), 1e-4f, glm::vec3(end - fr), 1.0f - 1e-4f});
+        batch.set(k, Ray{glm::vec3(fr), 1e-4f, glm::vec3(target - fr), 1.0f - 1e-4f});
       }
       surface_.engine.intersectSerial(batch, hits);
       rays += receivers.size();

@@ -17,10 +17,6 @@ double srgbDecode(double v) {
   return v <= 0.04045 ? v / 12.92 : std::pow((v + 0.055) / 1.055, 2.4);
 }
 
-double srgbEncode(double v) {
-  return v <= 0.0031308 ? 12.92 * v : 1.055 * std::pow(v, 1.0 / 2.4) - 0.055;
-}
-
 const std::array<float, 256>& srgbTable() {
   static const std::array<float, 256> table = [] {
     std::array<float, 256> t{};
