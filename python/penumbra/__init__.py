@@ -232,9 +232,15 @@ def _run(command, scene: Scene, values: list, progress):
         close(finished)
 
 
-_OPTIONS_HEADING = "\n\nOptions (the methods that take one, with their defaults, in brackets):\n"
-render.__doc__ += _OPTIONS_HEADING + _option_docs.help_section("render")
-bake.__doc__ += _OPTIONS_HEADING + _option_docs.help_section("bake")
+def _with_options(doc: str, command: str) -> str:
+    """`doc` and the options of `command`, indented as the docstring's own lines are."""
+    section = "Options (the methods that take one, with their defaults, in brackets):\n" + \
+        _option_docs.help_section(command)
+    return doc + "\n\n" + "\n".join("    " + line for line in section.splitlines())
+
+
+render.__doc__ = _with_options(render.__doc__, "render")
+bake.__doc__ = _with_options(bake.__doc__, "bake")
 # Every option a named, typed keyword-only parameter, for help(), inspect and editors; the
 # function takes them as **options and the library checks them (a misspelt one included).
 _P = inspect.Parameter
