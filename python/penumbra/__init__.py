@@ -215,8 +215,22 @@ def trace(
     trace --device``; ``t_min``, ``t_max``, ``r_min``, ``cache_rays`` tune hybrid; the log line
     goes to stderr unless ``quiet``). Returns ``{"triangle", "t", "u", "v", "stats"}`` (triangle -1
     and t infinite for a miss) or, with ``occlusion``, ``{"occluded", "stats"}``."""
-    result = _trace(_scene_of(scene), rays, device, occlusion, threads, t_min, t_max, r_min,
-                    cache_rays, quiet)
+    # Checked here as render's options are checked by the library: a wrong type names the
+    # argument in an InputError, before any work (the binding would raise a TypeError).
+    for name, value in (("occlusion", occlusion), ("quiet", quiet)):
+        if not isinstance(value, (bool, np.bool_)):
+            raise InputError(f"{name}: must be True or False, not {value!r}")
+    whole = {"threads": threads, "t_min": t_min, "t_max": t_max, "r_min": r_min,
+             "cache_rays": cache_rays}
+    for name, value in whole.items():
+        if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)) or \
+                not 0 <= int(value) <= 0xFFFFFFFF or (name == "threads" and int(value) > 1024):
+            bound = "1024" if name == "threads" else "2^32 - 1"
+            raise InputError(f"{name}: must be a whole number from 0 to {bound}, not {value!r}")
+    if not isinstance(device, str):
+        raise InputError(f"device: must be cpu, gpu, hybrid or auto, not {device!r}")
+    result = _trace(_scene_of(scene), rays, device, bool(occlusion), int(threads), int(t_min),
+                    int(t_max), int(r_min), int(cache_rays), bool(quiet))
     result["stats"] = json.loads(result["stats"])
     return result
 

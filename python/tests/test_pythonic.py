@@ -121,6 +121,20 @@ def test_every_method_refuses_wrong_options_before_any_work(cornell, command, tm
     assert not (tmp_path / "never").exists()
 
 
+def test_trace_names_a_wrong_argument_before_any_work():
+    rays = np.zeros((4, 8), dtype=np.float32)
+    rays[:, 6], rays[:, 7] = 1.0, np.inf
+    for kwargs, name in (({"t_min": -1}, "t_min"), ({"t_max": "3"}, "t_max"),
+                         ({"cache_rays": 1.5}, "cache_rays"), ({"r_min": True}, "r_min"),
+                         ({"threads": 10**6}, "threads"), ({"occlusion": "yes"}, "occlusion"),
+                         ({"quiet": 1}, "quiet"), ({"device": 3}, "device"),
+                         ({"device": "foo"}, "device"), ({"t_min": 2000, "t_max": 10}, "t-min")):
+        with pytest.raises(penumbra.InputError, match=name):
+            penumbra.trace("cornell", rays, **kwargs)
+    hits = penumbra.trace("cornell", rays, t_min=np.uint32(64), threads=np.int64(1))
+    assert hits["triangle"].shape == (4,)
+
+
 def test_methods_list_each_methods_options():
     listed = {m["name"]: m for m in penumbra.methods()}
     for o in _options("render"):
