@@ -162,11 +162,10 @@ def from_arrays(positions, indices, material_ids=None, materials=None, lights=No
     ids = None if material_ids is None else np.asarray(material_ids)
     scene = Scene.from_arrays(np.asarray(positions), np.asarray(indices), ids,
                               json.dumps(description), source)
-    # What Scene.save writes back: the checked scene's own numbers.
-    scene._parts = {"positions": np.asarray(scene.flat_positions(), dtype=np.float32),
-                    "indices": np.asarray(scene.flat_indices(), dtype=np.uint32),
-                    "material_ids": None if ids is None else np.asarray(ids, dtype=np.uint32),
-                    "description": description, "files": []}
+    # What Scene.save writes back: the description and the material ids (a copy, 4 bytes per
+    # triangle); the positions and triangles are read back from the scene when it is saved.
+    scene._parts = {"material_ids": None if ids is None else np.array(ids, dtype=np.uint32),
+                    "description": description}
     return scene
 
 
@@ -264,7 +263,7 @@ def save(scene: Scene, path) -> list:
         raise InputError(f"{path}: a scene file ends in .json")
     folder = os.path.dirname(os.path.abspath(path))
     stem = os.path.splitext(os.path.basename(path))[0]
-    positions, indices = parts["positions"], parts["indices"]
+    positions, indices = scene.flat_positions(), scene.flat_indices()
     ids = parts["material_ids"]
     if ids is None:
         ids = np.zeros(len(indices), dtype=np.uint32)
