@@ -326,11 +326,20 @@ TEST(RayEngine, ClosestHitsIdenticalToBruteForceOnRandomSoups) {
   }
 }
 
+// A soup large enough (over 8 MiB of nodes and leaves) for batches to be reordered, built once
+// for the tests of the order.
+const RayEngine& largeSoupEngine() {
+  static const RayEngine engine = [] {
+    const Soup s = randomSoup(12, 160000, 0.01f);
+    return RayEngine::build(s.positions, s.triangles);
+  }();
+  return engine;
+}
+
 // Large incoherent batches on a large scene are traced in coherentRayOrder: a permutation,
 // grouped by octant and along the Morton curve, whose answers are each ray's own.
 TEST(RayEngine, ReorderedBatchesGiveEachRayItsOwnAnswer) {
-  const Soup s = randomSoup(12, 160000, 0.01f);
-  const RayEngine engine = RayEngine::build(s.positions, s.triangles);
+  const RayEngine& engine = largeSoupEngine();
   Rng rng(6, 6);
   RayBatch rays;
   rays.resize(70000);
@@ -402,8 +411,7 @@ TEST(RayEngine, ReorderedBatchesGiveEachRayItsOwnAnswer) {
 // Rays from outside the scene (origins on a sphere around it) keep their order: the sort keys on
 // the origin, which tells nothing of where such rays go. Their answers are each ray's own.
 TEST(RayEngine, BatchesFromOutsideTheSceneKeepTheirOrder) {
-  const Soup s = randomSoup(12, 160000, 0.01f);
-  const RayEngine engine = RayEngine::build(s.positions, s.triangles);
+  const RayEngine& engine = largeSoupEngine();
   Rng rng(7, 7);
   RayBatch rays;
   rays.resize(70000);
