@@ -26,14 +26,41 @@ def png_bytes(image, tonemap: str = "reinhard", exposure: float = 0.0) -> bytes:
             return f.read()
 
 
-def _html(image, caption: str) -> str:
-    data = base64.b64encode(png_bytes(image)).decode("ascii")
+def _html(png: bytes, caption: str) -> str:
+    data = base64.b64encode(png).decode("ascii")
     return (f'<figure style="margin:0"><img src="data:image/png;base64,{data}"/>'
             f"<figcaption>{html.escape(caption)}</figcaption></figure>")
 
 
+class _Shown:
+    """Jupyter's view of a result: its picture as PNG and as HTML with a caption. IPython asks
+    for the mime bundle first, so the picture is tone-mapped and encoded once per display;
+    _repr_png_ and _repr_html_ serve other front ends."""
+
+    def _picture(self) -> Optional[np.ndarray]:
+        raise NotImplementedError
+
+    def _caption(self) -> str:
+        raise NotImplementedError
+
+    def _repr_png_(self):
+        picture = self._picture()
+        return None if picture is None else png_bytes(picture)
+
+    def _repr_html_(self):
+        png = self._repr_png_()
+        return None if png is None else _html(png, self._caption())
+
+    def _repr_mimebundle_(self, include=None, exclude=None):
+        png = self._repr_png_()
+        if png is None:
+            return {"text/plain": repr(self)}
+        return {"image/png": png, "text/html": _html(png, self._caption()),
+                "text/plain": repr(self)}
+
+
 @dataclass(repr=False)
-class RenderResult:
+class RenderResult(_Shown):
     """What :func:`render` gives back."""
 
     image: Optional[np.ndarray]  # H x W x 3 float32, linear: the image, or a sequence's last frame
@@ -51,21 +78,19 @@ class RenderResult:
         """The image as PNG bytes, tone-mapped as the CLI's PNG output."""
         return png_bytes(self.image, tonemap, exposure)
 
-    def _repr_png_(self):
-        return None if self.image is None else self.png()
+    def _picture(self):
+        return self.image
 
-    def _repr_html_(self):
-        if self.image is None:
-            return None
+    def _caption(self) -> str:
         s = self.stats
         parts = [str(s.get("method", "render")), f"{self.image.shape[1]} x {self.image.shape[0]}"]
         if "seconds" in s:
             parts.append(f"{s['seconds']:.2f} s")
-        return _html(self.image, ", ".join(parts))
+        return ", ".join(parts)
 
 
 @dataclass(repr=False)
-class BakeResult:
+class BakeResult(_Shown):
     """What :func:`bake` gives back: the lightmap atlas, its UVs, and the files in ``output``."""
 
     # H x W x 3 float32 per texel, linear: what the EXR holds (irradiance in W m^-2 for the
@@ -74,9 +99,10 @@ class BakeResult:
     stats: dict
     output: str
     files: List[str] = field(default_factory=list)
-    # The atlas as the baked glTF holds it: every primitive's lightmap UVs (TEXCOORD_1, in [0, 1]
-    # with v down the image, glTF's convention) one after the other, and their triangles as
-    # indices into `uvs`. None when no glTF was written (dry_run).
+    # The atlas as the baked glTF holds it: every lightmapped primitive's lightmap UVs (the UV set
+    # its material's PENUMBRA_lightmap names; in [0, 1] with v down the image, glTF's
+    # convention) one after the other, and their triangles as indices into `uvs`. None when no
+    # glTF was written (dry_run).
     uvs: Optional[np.ndarray] = None
     uv_triangles: Optional[np.ndarray] = None
 
@@ -91,15 +117,12 @@ class BakeResult:
         """The baked glTF's path."""
         return next((f for f in self.files if f.endswith((".gltf", ".glb"))), None)
 
-    def _repr_png_(self):
-        return None if self.lightmap is None else png_bytes(self.lightmap)
+    def _picture(self):
+        return self.lightmap
 
-    def _repr_html_(self):
-        if self.lightmap is None:
-            return None
+    def _caption(self) -> str:
         h, w = self.lightmap.shape[:2]
-        return _html(self.lightmap, f"{self.stats.get('method', 'bake')} lightmap, {w} x {h} "
-                     f"texels, in {self.output}")
+        return f"{self.stats.get('method', 'bake')} lightmap, {w} x {h} texels, in {self.output}"
 
 
 _COMPONENTS = {5120: np.int8, 5121: np.uint8, 5122: np.int16, 5123: np.uint16, 5125: np.uint32,

@@ -8,6 +8,7 @@ from __future__ import annotations
 import json
 import os
 import re
+import tempfile
 from dataclasses import asdict, dataclass, fields
 from typing import Optional, Sequence, Union
 
@@ -184,8 +185,9 @@ def _strip_comments(text: str) -> str:
             while i < n and text[i] != "\n":
                 i += 1
         elif text.startswith("/*", i):
-            end = text.find("*/", i + 2)
-            i = n if end < 0 else end + 2
+            end = n if text.find("*/", i + 2) < 0 else text.find("*/", i + 2) + 2
+            out.append("\n" * text.count("\n", i, end))  # messages keep the file's line numbers
+            i = end
         else:
             out.append(c)
             i += 1
@@ -236,7 +238,7 @@ def load(name_or_path, camera=None, lights=None, settings=None) -> Scene:
     return scene
 
 
-def _write_ply(path: str, positions: np.ndarray, triangles: np.ndarray) -> None:
+def _ply_bytes(positions: np.ndarray, triangles: np.ndarray) -> bytes:
     header = ("ply\nformat binary_little_endian 1.0\ncomment written by penumbra (Python)\n"
               f"element vertex {len(positions)}\nproperty float x\nproperty float y\n"
               f"property float z\nelement face {len(triangles)}\n"
@@ -244,10 +246,8 @@ def _write_ply(path: str, positions: np.ndarray, triangles: np.ndarray) -> None:
     faces = np.zeros(len(triangles), dtype=[("n", "u1"), ("v", "<u4", (3,))])
     faces["n"] = 3
     faces["v"] = triangles
-    with open(path, "wb") as f:
-        f.write(header.encode("ascii"))
-        f.write(np.ascontiguousarray(positions, dtype="<f4").tobytes())
-        f.write(faces.tobytes())
+    return (header.encode("ascii") + np.ascontiguousarray(positions, dtype="<f4").tobytes() +
+            faces.tobytes())
 
 
 def save(scene: Scene, path) -> list:
@@ -261,7 +261,7 @@ def save(scene: Scene, path) -> list:
     path = os.fspath(path)
     if not path.endswith(".json"):
         raise InputError(f"{path}: a scene file ends in .json")
-    folder = os.path.dirname(os.path.abspath(path))
+    folder = os.path.dirname(path)
     stem = os.path.splitext(os.path.basename(path))[0]
     positions, indices = scene.flat_positions(), scene.flat_indices()
     ids = parts["material_ids"]
@@ -279,22 +279,47 @@ def save(scene: Scene, path) -> list:
     # Runs of consecutive triangles with one material, each its own mesh file.
     starts = np.flatnonzero(np.diff(ids.astype(np.int64), prepend=-1))
     ends = np.append(starts[1:], len(ids))
-    meshes, written = [], []
+    meshes, contents = [], []
     for k, (a, b) in enumerate(zip(starts, ends)):
-        tri = indices[a:b]
-        used, local = np.unique(tri, return_inverse=True)
+        used, local = np.unique(indices[a:b], return_inverse=True)
         mesh_name = f"{stem}_mesh{k}.ply" if len(starts) > 1 else f"{stem}_mesh.ply"
-        _write_ply(os.path.join(folder, mesh_name), positions[used], local.reshape(-1, 3))
-        written.append(os.path.join(folder, mesh_name))
+        contents.append((os.path.join(folder, mesh_name),
+                         _ply_bytes(positions[used], local.reshape(-1, 3))))
         meshes.append({"file": mesh_name, "material": names[int(ids[a])]})
     description["meshes"] = meshes
     text = json.dumps(description, indent=2)
     # Arrays of numbers on one line each, as the format's examples write them.
     text = re.sub(r"\[\s+([^\[\]{}\"]*?)\s+\]",
                   lambda m: "[" + ", ".join(v.strip() for v in m.group(1).split(",")) + "]", text)
-    with open(path, "w", encoding="utf-8") as f:
-        f.write(text + "\n")
-    return written + [path]
+    contents.append((path, (text + "\n").encode("utf-8")))
+    _write_all(contents)
+    return [p for p, _ in contents]
+
+
+def _write_all(contents: list) -> None:
+    """Writes every (path, bytes) or none: each to a temporary file beside it first, and only
+    when all are written are they renamed into place (what the library's writers promise: no
+    partial output)."""
+    temporary = []
+    try:
+        for target, data in contents:
+            if os.path.exists(target) and not os.path.isfile(target):
+                raise InputError(f"{target}: exists and is not a regular file")
+            handle, name = tempfile.mkstemp(dir=os.path.dirname(target) or ".",
+                                            prefix=".penumbra-")
+            temporary.append(name)
+            with os.fdopen(handle, "wb") as f:
+                f.write(data)
+        for (target, _), name in zip(contents, temporary):
+            os.chmod(name, 0o644)
+            os.replace(name, target)
+        temporary = []
+    except OSError as e:
+        raise InputError(f"{e.filename or contents[0][0]}: cannot write: {e.strerror}") from None
+    finally:
+        for name in temporary:
+            if os.path.exists(name):
+                os.remove(name)
 
 
 def save_method(self, path) -> list:

@@ -2,6 +2,7 @@
 checked for every method before any work; results that show in Jupyter; progress bars; scenes
 from Python objects written back out as scene files (run by `make test`)."""
 
+import base64
 import inspect
 import io
 import json
@@ -156,6 +157,17 @@ def test_a_render_shows_in_jupyter_as_the_cli_png(cornell, tmp_path):
     assert repr(result).startswith("<penumbra.RenderResult pathtrace: 24 x 16, ")
     html = result._repr_html_()
     assert "data:image/png;base64," in html and "pathtrace, 24 x 16" in html
+    # Jupyter asks for the mime bundle: the picture is encoded once, for both PNG and HTML.
+    from penumbra import _results
+    encoded = []
+    original = _results.png_bytes
+    _results.png_bytes = lambda *a, **k: encoded.append(1) or original(*a, **k)
+    try:
+        bundle = result._repr_mimebundle_()
+    finally:
+        _results.png_bytes = original
+    assert len(encoded) == 1
+    assert bundle["image/png"] == png and base64.b64encode(png).decode() in bundle["text/html"]
     # Exposure goes to the library's tone mapping: +1 stop is brighter.
     brighter = penumbra.png_bytes(result.image, "exposure", 1.0)
     (tmp_path / "b.png").write_bytes(brighter)
@@ -286,7 +298,7 @@ def test_materials_and_lights_as_objects_are_their_dicts(tmp_path):
                                                                intensity=[-1, 1, 1])])
 
 
-def test_a_scene_from_arrays_written_out_renders_the_same_from_the_cli(tmp_path):
+def test_a_scene_from_arrays_written_out_renders_the_same_from_the_cli(tmp_path, monkeypatch):
     p, t, ids = _room()
     # Material runs out of order: the floor's second triangle after the walls.
     t = np.concatenate([t[:1], t[2:10], t[1:2], t[10:]])
@@ -319,6 +331,17 @@ def test_a_scene_from_arrays_written_out_renders_the_same_from_the_cli(tmp_path)
     np.testing.assert_array_equal(a.image, penumbra.read_image(tmp_path / "cli.exr"))
     with pytest.raises(penumbra.InputError, match="only a scene made from arrays"):
         penumbra.load("cornell").save(tmp_path / "x.json")
+    # All or nothing: a target that cannot be written leaves no mesh file and no temporary one.
+    (tmp_path / "blocked").mkdir()
+    (tmp_path / "blocked" / "room.json").mkdir()
+    with pytest.raises(penumbra.InputError, match="not a regular file"):
+        scene.save(tmp_path / "blocked" / "room.json")
+    assert sorted(p.name for p in (tmp_path / "blocked").iterdir()) == ["room.json"]
+    with pytest.raises(penumbra.InputError, match="cannot write"):
+        scene.save(tmp_path / "missing" / "room.json")
+    # Relative in, relative out.
+    monkeypatch.chdir(tmp_path)
+    assert scene.save("again.json") == [f"again_mesh{k}.ply" for k in range(4)] + ["again.json"]
 
 
 def test_a_file_with_another_camera_is_the_scene_file_that_says_so(tmp_path):
@@ -349,3 +372,7 @@ def test_a_file_with_another_camera_is_the_scene_file_that_says_so(tmp_path):
     np.testing.assert_array_equal(c.image, d.image)
     with pytest.raises(penumbra.InputError, match="built-in"):
         penumbra.load("cornell", camera=camera)
+    # A syntax error after a block comment of several lines is reported at its line in the file.
+    (tmp_path / "broken.json").write_text('/* a\n   comment\n*/\n{"meshes": [}\n')
+    with pytest.raises(penumbra.InputError, match="line 4"):
+        penumbra.load(tmp_path / "broken.json", camera=camera)
