@@ -1,5 +1,7 @@
 #include "penumbra/io/gltf_writer.h"
 
+#include "penumbra/io/asset_files.h"
+
 #include "penumbra/core/check.h"
 #include "penumbra/core/file_util.h"
 
@@ -143,7 +145,7 @@ int addBakedBuffer(tinygltf::Model& model, const BakedMesh& mesh, const std::str
     }
   }
   tinygltf::Buffer buffer;
-  buffer.uri = bin_uri;
+  buffer.uri = percentEncodePath(bin_uri);
   std::vector<unsigned char>& data = buffer.data;
   for (Attribute& a : attributes) {
     const size_t offset = append(data, a.data, a.stride * nv);
@@ -192,7 +194,7 @@ tinygltf::Mesh bakedPrimitives(tinygltf::Model& model, const BakedMesh& mesh,
 void addLightmap(tinygltf::Model& model, const std::string& lightmap_uri) {
   tinygltf::Image image;
   image.name = "lightmap";
-  image.uri = lightmap_uri;
+  image.uri = percentEncodePath(lightmap_uri);
   image.mimeType = "image/png";
   model.images.push_back(image);
   tinygltf::Sampler sampler;
@@ -256,7 +258,7 @@ Status writeGltfAndBuffer(tinygltf::Model& model, const std::string& gltf_path,
                                                         /*writeBinary=*/false);
   if (!serialised) return runtimeError(gltf_path, "cannot serialise the glTF document");
   nlohmann::json doc = nlohmann::json::parse(json_text.str());
-  doc["buffers"][0] = {{"byteLength", bin.size()}, {"uri", bin_uri}};
+  doc["buffers"][0] = {{"byteLength", bin.size()}, {"uri", percentEncodePath(bin_uri)}};
   const std::string text = doc.dump(2) + "\n";
   const std::string_view bin_bytes(reinterpret_cast<const char*>(bin.data()), bin.size());
   PENUMBRA_TRY(writeAtomically(

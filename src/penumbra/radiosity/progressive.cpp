@@ -212,8 +212,7 @@ Expected<ProgressiveRadiosity> ProgressiveRadiosity::build(RadiositySurface surf
   for (const Light& light : pr.lights_) pr.light_power_ += lightPower(light, pr.surface_.bounds);
   pr.balance_.emitted += pr.light_power_;
   if (residualLuminance(pr.balance_.emitted) <= 0.0 && !pr.daylight_) {
-    return inputError(scene.source, "progressive radiosity",
-                      "the scene emits no light (no emissive surface or light)");
+    return noLightError(scene, "progressive radiosity");
   }
   // Shooters: chart roots, split down to at most shooter_elements elements.
   for (uint32_t c = 0; c < pr.surface_.hierarchy.chartCount(); ++c) {

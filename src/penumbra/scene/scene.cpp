@@ -377,6 +377,44 @@ std::vector<std::string> diffuseStandInWarnings(const Scene& scene, const std::s
   return out;
 }
 
+bool hasLightOtherThanSurfaces(const Scene& scene) {
+  return !scene.lights.empty() || scene.sky.has_value() || scene.environment.x > 0.0f ||
+         scene.environment.y > 0.0f || scene.environment.z > 0.0f;
+}
+
+Error noLightError(const Scene& scene, const std::string& method) {
+  return inputError(scene.source, method,
+                    "the scene emits no light (no light, no emitting surface that is there, no "
+                    "sky and no environment): light it with --sky overcast or --environment "
+                    "1,1,1, or add lights");
+}
+
+void scaleScene(Scene& scene, double s) {
+  const float f = float(s);
+  for (Mesh& m : scene.meshes) {
+    for (glm::vec3& p : m.positions) p *= f;
+  }
+  for (Light& light : scene.lights) {
+    std::visit(Overloaded{[&](PointLight& l) { l.position *= f; },
+                          [&](SpotLight& l) { l.position *= f; },
+                          [&](DirectionalLight&) {},
+                          [&](LuminaireLight& l) { l.position *= f; }},
+               light);
+  }
+  if (scene.camera) {
+    scene.camera->position *= f;
+    scene.camera->look_at *= f;
+  }
+  for (Opening& o : scene.openings) {
+    for (glm::dvec3& c : o.corners) c *= s;
+  }
+  for (CalculationGrid& g : scene.calculation) {
+    for (glm::dvec3& p : g.points) p *= s;
+    g.spacing *= s;
+    for (double& a : g.areas) a *= s * s;
+  }
+}
+
 Camera defaultCamera(const Scene& scene) {
   glm::vec3 lo(INFINITY), hi(-INFINITY);
   for (const Mesh& m : scene.meshes) {
@@ -391,7 +429,7 @@ Camera defaultCamera(const Scene& scene) {
   const float radius = 0.5f * glm::length(hi - lo);
   const float distance = radius / std::tan(0.5f * cam.vertical_fov) + 1e-3f;
   cam.look_at = center;
-  cam.position = center - glm::vec3(0.0f, 0.0f, distance);
+  cam.position = center + glm::vec3(0.0f, 0.0f, distance);
   cam.up = glm::vec3(0.0f, 1.0f, 0.0f);
   return cam;
 }

@@ -96,7 +96,21 @@ glm::vec3 diffuseStandIn(const Material& m);
 // when there is nothing to say.
 std::vector<std::string> diffuseStandInWarnings(const Scene& scene, const std::string& method);
 
-// A camera that frames the scene's bounding box from the front (-z looking +z) when it has none.
+// Whether light enters the scene from somewhere other than its surfaces: a light, a sky or a
+// uniform environment.
+bool hasLightOtherThanSurfaces(const Scene& scene);
+// The error every method gives a scene that emits no light at all (no light, sky or environment,
+// and no emitting surface that is there: a cut-out emitter whose texels are all holes emits
+// nothing), naming `method`.
+Error noLightError(const Scene& scene, const std::string& method);
+
+// Every length of `scene` (geometry, light positions, the camera, openings, calculation objects)
+// times `metres_per_unit`: a scene read in another unit than the metre, in metres.
+void scaleScene(Scene& scene, double metres_per_unit);
+
+// A camera that frames the scene's bounding box from the front when it has none: from +z looking
+// down -z with +y up, where glTF 2.0 (sec. 3.4), OBJ files from Blender and the Stanford scans put
+// a model's front, as glTF viewers frame it.
 Camera defaultCamera(const Scene& scene);
 
 }  // namespace penumbra
