@@ -446,8 +446,12 @@ Status SceneJsonReader::readMaterial(const json& entry, const std::string& place
     if (!file) return file.error();
     Expected<std::string> resolved = existingFile(*file, place + ".normal_map");
     if (!resolved) return resolved.error();
-    Expected<Image> map = readImageData(*resolved);
+    std::vector<std::string> map_warnings;
+    Expected<Image> map = readImageData(*resolved, ImageLimits{}, &map_warnings);
     if (!map) return map.error();
+    for (const std::string& w : map_warnings) {
+      scene.warnings.push_back(fmt::format("{}: {}.normal_map: '{}': {}", path_, place, *file, w));
+    }
     if (map->width < 1 || map->height < 1) return error(place + ".normal_map", "empty image");
     m.normal_map = std::make_shared<const Image>(std::move(*map));
     m.normal_map_source = *resolved;
