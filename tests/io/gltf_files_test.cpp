@@ -24,6 +24,7 @@
 namespace penumbra {
 namespace {
 
+namespace fs = std::filesystem;
 using nlohmann::json;
 using test::TempDir;
 
@@ -144,7 +145,15 @@ TEST(GltfFiles, FilesOutsideTheAssetsFolderAreNotReadUnlessAllowed) {
   EXPECT_TRUE(test::errorNames(loadGltf(encoded), encoded, "outside the asset's folder"));
   const std::string absolute = writeQuad(dir.path() / "asset", "abs.gltf",
                                          texturedQuad((dir.path() / "secret.png").string()));
-  EXPECT_TRUE(test::errorNames(loadGltf(absolute), absolute, "absolute path"));
+  EXPECT_TRUE(test::errorNames(loadGltf(absolute), absolute, "outside the asset's folder"));
+  // An absolute path inside the folder, or an asset named by its absolute path, is fine.
+  const std::string inside = writeQuad(dir.path() / "asset", "inside.gltf",
+                                       texturedQuad((dir.path() / "asset" / "tex.png").string()));
+  writeFile(dir.path() / "asset" / "tex.png", png2x2());
+  EXPECT_TRUE(loadGltf(inside).ok());
+  const std::string by_absolute = writeQuad(fs::absolute(dir.path()) / "asset", "abs-asset.gltf",
+                                            texturedQuad("tex.png"));
+  EXPECT_TRUE(loadGltf(by_absolute).ok());
   // A link inside the folder that points out of it.
   std::filesystem::create_symlink(dir.path() / "secret.png", dir.path() / "asset" / "link.png");
   const std::string link = writeQuad(dir.path() / "asset", "link.gltf", texturedQuad("link.png"));

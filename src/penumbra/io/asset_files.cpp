@@ -218,15 +218,12 @@ Expected<std::string> resolveAssetFile(const std::string& asset_file, std::strin
 
 Expected<std::string> confineAssetPath(const std::string& asset_file, const std::string& path,
                                        const AssetPolicy& policy, const std::string& place) {
-  if (policy.allow_outside) return fs::path(path).lexically_normal().string();
-  const fs::path p(path);
-  if (p.is_absolute()) {
-    return inputError(asset_file, place,
-                      outsideMessage(fmt::format("'{}' is an absolute path", path)));
-  }
+  const fs::path joined = fs::path(path).lexically_normal();
+  if (policy.allow_outside) return joined.string();
+  // Compared as absolute paths: the asset may be named by an absolute path, and so its files.
   const fs::path folder = fs::path(asset_file).parent_path();
-  const fs::path joined = p.lexically_normal();
-  if (climbsOut(joined.lexically_relative(folder.empty() ? fs::path(".") : folder))) {
+  const fs::path abs_folder = fs::absolute(folder.empty() ? fs::path(".") : folder);
+  if (climbsOut(fs::absolute(joined).lexically_relative(abs_folder.lexically_normal()))) {
     return inputError(asset_file, place,
                       outsideMessage(fmt::format("'{}' lies outside the asset's folder", path)));
   }

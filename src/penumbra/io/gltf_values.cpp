@@ -172,7 +172,9 @@ Status eachObject(const std::string& path, const json& parent, const char* key,
     if (!list[i].is_object()) {
       return inputError(path, item, fmt::format("must be an object, not {}", describe(list[i])));
     }
-    PENUMBRA_TRY(check(Values(path, list[i], item), list[i]));
+    const Values values(path, list[i], item);
+    PENUMBRA_TRY(values.string("name"));
+    PENUMBRA_TRY(check(values, list[i]));
   }
   return {};
 }

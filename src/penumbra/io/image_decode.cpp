@@ -25,8 +25,9 @@
 #include <climits>
 #include <csetjmp>
 #include <cstdio>
-// jpeglib.h needs FILE and size_t declared first; jerror.h names its messages.
+// jpeglib.h needs FILE and size_t declared first.
 #include <jpeglib.h>
+// After jpeglib.h, whose configuration says which messages jerror.h names.
 #include <jerror.h>
 #include <png.h>
 #include <webp/decode.h>
@@ -62,13 +63,25 @@ Error imageError(const std::string& name, std::string message) {
   return inputError(name, "", std::move(message));
 }
 
-uint8_t byteAt(std::string_view b, size_t at) { return uint8_t(b[at]); }
-uint32_t be16(std::string_view b, size_t at) { return uint32_t(byteAt(b, at)) << 8 | byteAt(b, at + 1); }
-uint32_t be32(std::string_view b, size_t at) { return be16(b, at) << 16 | be16(b, at + 2); }
-uint32_t le16(std::string_view b, size_t at) { return uint32_t(byteAt(b, at + 1)) << 8 | byteAt(b, at); }
-uint32_t le32(std::string_view b, size_t at) { return le16(b, at + 2) << 16 | le16(b, at); }
+uint8_t byteAt(std::string_view b, size_t at) {
+  return uint8_t(b[at]);
+}
+uint32_t be16(std::string_view b, size_t at) {
+  return uint32_t(byteAt(b, at)) << 8 | byteAt(b, at + 1);
+}
+uint32_t be32(std::string_view b, size_t at) {
+  return be16(b, at) << 16 | be16(b, at + 2);
+}
+uint32_t le16(std::string_view b, size_t at) {
+  return uint32_t(byteAt(b, at + 1)) << 8 | byteAt(b, at);
+}
+uint32_t le32(std::string_view b, size_t at) {
+  return le16(b, at + 2) << 16 | le16(b, at);
+}
 
-uint64_t ceilDiv(uint64_t a, uint64_t b) { return (a + b - 1) / b; }
+uint64_t ceilDiv(uint64_t a, uint64_t b) {
+  return (a + b - 1) / b;
+}
 
 // The power of two an image is reduced by: the smallest that brings both sides within max_size.
 uint64_t reductionFactor(uint64_t width, uint64_t height, int max_size) {
@@ -147,51 +160,109 @@ class TexelOutput {
   Image* image_;
 };
 
-// Rows of RGBA in, top first, reduced by `factor` (a box filter: each output texel the rounded
-// mean of the up to factor x factor texels it covers; the last row and column cover what is
-// left) and written to the output.
+// A pixel of 1 (grey), 2 (grey, alpha), 3 (RGB) or 4 (RGBA) samples as RGBA.
+template <typename T>
+void toRgba(const T* in, int channels, T* out) {
+  constexpr T kOpaque = std::numeric_limits<T>::max();
+  switch (channels) {
+    case 1:
+      out[0] = out[1] = out[2] = in[0], out[3] = kOpaque;
+      break;
+    case 2:
+      out[0] = out[1] = out[2] = in[0], out[3] = in[1];
+      break;
+    case 3:
+      out[0] = in[0], out[1] = in[1], out[2] = in[2], out[3] = kOpaque;
+      break;
+    default:
+      out[0] = in[0], out[1] = in[1], out[2] = in[2], out[3] = in[3];
+      break;
+  }
+}
+
+// Rows of `channels` samples a pixel in, top first, reduced by `factor` (a box filter: each
+// output texel the rounded mean of the up to factor x factor texels it covers; the last row and
+// column cover what is left) and written to the output as RGBA. The sums are kept per decoded
+// channel, so a grey image costs a quarter of an RGBA one.
 template <typename T>
 class BoxReducer {
  public:
-  BoxReducer(int in_width, int in_height, uint64_t factor, TexelOutput& out)
-      : in_width_(uint64_t(in_width)), in_height_(uint64_t(in_height)), factor_(factor), out_(out) {
+  BoxReducer(int in_width, int in_height, uint64_t factor, int channels, TexelOutput& out)
+      : in_width_(uint64_t(in_width)),
+        in_height_(uint64_t(in_height)),
+        factor_(factor),
+        channels_(channels),
+        out_(out),
+        rgba_(4 * size_t(out.width())) {
     if (factor_ > 1) {
       sums_.assign(4 * size_t(out.width()), 0);
-      row_.assign(4 * size_t(out.width()), 0);
+      means_.resize(4);
     }
   }
-  void add(const T* rgba) {
+  // Fewer channels than the reducer was made for (libpng says how many after its transforms).
+  void setChannels(int channels) { channels_ = std::min(channels, 4); }
+  void add(const T* row) {
     if (factor_ == 1) {
-      out_.row(int(rows_in_++), rgba);
-      return;
-    }
-    for (uint64_t ox = 0, x = 0; ox < uint64_t(out_.width()); ++ox) {
-      uint64_t* s = &sums_[4 * ox];
-      for (const uint64_t end = std::min(x + factor_, in_width_); x < end; ++x) {
-        for (int c = 0; c < 4; ++c) s[c] += rgba[4 * x + uint64_t(c)];
+      emitRow(row);
+    } else {
+      switch (channels_) {
+        case 1:
+          sum<1>(row);
+          break;
+        case 2:
+          sum<2>(row);
+          break;
+        case 3:
+          sum<3>(row);
+          break;
+        default:
+          sum<4>(row);
+          break;
       }
     }
     ++rows_in_;
-    if (rows_in_ % factor_ == 0 || rows_in_ == in_height_) emit();
+    if (factor_ > 1 && (rows_in_ % factor_ == 0 || rows_in_ == in_height_)) emitMeans();
   }
 
  private:
-  void emit() {
-    const uint64_t rows = rows_in_ - out_y_ * factor_;
-    for (uint64_t ox = 0; ox < uint64_t(out_.width()); ++ox) {
-      const uint64_t count = rows * std::min(factor_, in_width_ - ox * factor_);
-      for (uint64_t c = 0; c < 4; ++c) {
-        row_[4 * ox + c] = T((sums_[4 * ox + c] + count / 2) / count);
-        sums_[4 * ox + c] = 0;
+  template <int N>
+  void sum(const T* row) {
+    for (uint64_t ox = 0, x = 0; ox < uint64_t(out_.width()); ++ox) {
+      uint64_t* s = &sums_[N * ox];
+      for (const uint64_t end = std::min(x + factor_, in_width_); x < end; ++x) {
+        for (int c = 0; c < N; ++c) s[c] += row[N * x + uint64_t(c)];
       }
     }
-    out_.row(int(out_y_++), row_.data());
+  }
+  void emitRow(const T* row) {
+    if (channels_ == 4) {
+      out_.row(int(out_y_++), row);
+      return;
+    }
+    for (size_t x = 0; x < size_t(out_.width()); ++x) {
+      toRgba(row + size_t(channels_) * x, channels_, &rgba_[4 * x]);
+    }
+    out_.row(int(out_y_++), rgba_.data());
+  }
+  void emitMeans() {
+    const uint64_t rows = rows_in_ - out_y_ * factor_;
+    const uint64_t n = uint64_t(channels_);
+    for (uint64_t ox = 0; ox < uint64_t(out_.width()); ++ox) {
+      const uint64_t count = rows * std::min(factor_, in_width_ - ox * factor_);
+      for (uint64_t c = 0; c < n; ++c) {
+        means_[c] = T((sums_[n * ox + c] + count / 2) / count);
+        sums_[n * ox + c] = 0;
+      }
+      toRgba(means_.data(), channels_, &rgba_[4 * ox]);
+    }
+    out_.row(int(out_y_++), rgba_.data());
   }
 
   uint64_t in_width_, in_height_, factor_;
+  int channels_;
   TexelOutput& out_;
   std::vector<uint64_t> sums_;
-  std::vector<T> row_;
+  std::vector<T> means_, rgba_;
   uint64_t rows_in_ = 0, out_y_ = 0;
 };
 
@@ -201,27 +272,40 @@ class BoxReducer {
 template <typename T>
 class PixelSums {
  public:
-  PixelSums(int in_width, int in_height, uint64_t factor, TexelOutput& out)
-      : in_width_(uint64_t(in_width)), in_height_(uint64_t(in_height)), factor_(factor), out_(out) {
-    if (factor_ > 1) sums_.assign(4 * size_t(out.width()) * size_t(out.height()), 0);
+  PixelSums(int in_width, int in_height, uint64_t factor, int channels, TexelOutput& out)
+      : in_width_(uint64_t(in_width)),
+        in_height_(uint64_t(in_height)),
+        factor_(factor),
+        channels_(channels),
+        out_(out) {
+    if (factor_ > 1) {
+      sums_.assign(size_t(channels) * size_t(out.width()) * size_t(out.height()), 0);
+    }
   }
-  void add(uint64_t x, uint64_t y, const T* rgba) {
+  void setChannels(int channels) { channels_ = std::min(channels, channels_); }
+  void add(uint64_t x, uint64_t y, const T* pixel) {
     if (factor_ == 1) {
+      T rgba[4];
+      toRgba(pixel, channels_, rgba);
       out_.pixel(int(x), int(y), rgba);
       return;
     }
-    uint32_t* s = &sums_[4 * ((y / factor_) * uint64_t(out_.width()) + x / factor_)];
-    for (int c = 0; c < 4; ++c) s[c] += rgba[c];
+    const uint64_t n = uint64_t(channels_);
+    uint32_t* s = &sums_[n * ((y / factor_) * uint64_t(out_.width()) + x / factor_)];
+    for (uint64_t c = 0; c < n; ++c) s[c] += pixel[c];
   }
   void finish() {
     if (factor_ == 1) return;
+    const uint64_t n = uint64_t(channels_);
     std::vector<T> row(4 * size_t(out_.width()));
+    T means[4] = {};
     for (uint64_t oy = 0; oy < uint64_t(out_.height()); ++oy) {
       const uint64_t rows = std::min(factor_, in_height_ - oy * factor_);
       for (uint64_t ox = 0; ox < uint64_t(out_.width()); ++ox) {
         const uint64_t count = rows * std::min(factor_, in_width_ - ox * factor_);
-        const uint32_t* s = &sums_[4 * (oy * uint64_t(out_.width()) + ox)];
-        for (uint64_t c = 0; c < 4; ++c) row[4 * ox + c] = T((s[c] + count / 2) / count);
+        const uint32_t* s = &sums_[n * (oy * uint64_t(out_.width()) + ox)];
+        for (uint64_t c = 0; c < n; ++c) means[c] = T((s[c] + count / 2) / count);
+        toRgba(means, channels_, &row[4 * ox]);
       }
       out_.row(int(oy), row.data());
     }
@@ -229,6 +313,7 @@ class PixelSums {
 
  private:
   uint64_t in_width_, in_height_, factor_;
+  int channels_;
   TexelOutput& out_;
   std::vector<uint32_t> sums_;
 };
@@ -252,13 +337,20 @@ struct DecodeJob {
 
 const char* imageFormatName(ImageFormat f) {
   switch (f) {
-    case ImageFormat::kPng: return "PNG";
-    case ImageFormat::kJpeg: return "JPEG";
-    case ImageFormat::kWebp: return "WebP";
-    case ImageFormat::kBmp: return "BMP";
-    case ImageFormat::kTga: return "TGA";
-    case ImageFormat::kKtx2: return "KTX2";
-    case ImageFormat::kUnknown: break;
+    case ImageFormat::kPng:
+      return "PNG";
+    case ImageFormat::kJpeg:
+      return "JPEG";
+    case ImageFormat::kWebp:
+      return "WebP";
+    case ImageFormat::kBmp:
+      return "BMP";
+    case ImageFormat::kTga:
+      return "TGA";
+    case ImageFormat::kKtx2:
+      return "KTX2";
+    case ImageFormat::kUnknown:
+      break;
   }
   return "unknown";
 }
@@ -298,7 +390,8 @@ std::string unknownFormatMessage(std::string_view b) {
       {"glTF", 0, "a glTF binary file"},
   };
   for (const Known& k : kKnown) {
-    if (b.size() >= k.at + k.signature.size() && b.substr(k.at, k.signature.size()) == k.signature) {
+    if (b.size() >= k.at + k.signature.size() &&
+        b.substr(k.at, k.signature.size()) == k.signature) {
       return fmt::format("{} is not read as a texture (use PNG, JPEG, WebP, BMP or TGA)", k.what);
     }
   }
@@ -321,22 +414,33 @@ struct PngLayout {
 
 int pngSamples(int colour_type) {
   switch (colour_type) {
-    case 0: return 1;  // grey
-    case 2: return 3;  // RGB
-    case 3: return 1;  // palette index
-    case 4: return 2;  // grey and alpha
-    case 6: return 4;  // RGBA
-    default: return 0;
+    case 0:
+      return 1;  // grey
+    case 2:
+      return 3;  // RGB
+    case 3:
+      return 1;  // palette index
+    case 4:
+      return 2;  // grey and alpha
+    case 6:
+      return 4;  // RGBA
+    default:
+      return 0;
   }
 }
 
 const char* pngColourName(int colour_type) {
   switch (colour_type) {
-    case 0: return "grey";
-    case 2: return "RGB";
-    case 3: return "palette";
-    case 4: return "grey and alpha";
-    default: return "RGBA";
+    case 0:
+      return "grey";
+    case 2:
+      return "RGB";
+    case 3:
+      return "palette";
+    case 4:
+      return "grey and alpha";
+    default:
+      return "RGBA";
   }
 }
 
@@ -376,8 +480,9 @@ Status readPngIhdr(const std::string& name, std::string_view data, PngLayout& p)
     return imageError(name, fmt::format("a {}-bit {} PNG is not valid", d, pngColourName(t)));
   }
   if (byteAt(data, 10) != 0 || byteAt(data, 11) != 0 || byteAt(data, 12) > 1) {
-    return imageError(name, "its IHDR chunk names an unknown compression, filter or interlace "
-                            "method");
+    return imageError(name,
+                      "its IHDR chunk names an unknown compression, filter or interlace "
+                      "method");
   }
   p.interlaced = byteAt(data, 12) == 1;
   return {};
@@ -417,10 +522,10 @@ Expected<PngLayout> readPngLayout(const std::string& name, std::string_view b) {
     }
     const uint32_t length = be32(b, pos);
     const std::string_view type = b.substr(pos + 4, 4);
-    if (!std::all_of(type.begin(), type.end(), [](char c) {
-          return (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z');
-        })) {
-      return imageError(name, fmt::format("the file is damaged: no chunk type at byte {}", pos + 4));
+    if (!std::all_of(type.begin(), type.end(),
+                     [](char c) { return (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z'); })) {
+      return imageError(name,
+                        fmt::format("the file is damaged: no chunk type at byte {}", pos + 4));
     }
     if (length > 0x7fffffffu || length > b.size() - pos - 12) {
       return imageError(name, fmt::format("the file is truncated: chunk {} at byte {} claims {} "
@@ -435,8 +540,8 @@ Expected<PngLayout> readPngLayout(const std::string& name, std::string_view b) {
       const uint32_t crc =
           uint32_t(crc32(0, reinterpret_cast<const Bytef*>(b.data() + pos + 4), uInt(length + 4)));
       if (crc != be32(b, pos + 8 + length)) {
-        return imageError(name, fmt::format("the file is damaged: chunk {} fails its CRC check",
-                                            type));
+        return imageError(name,
+                          fmt::format("the file is damaged: chunk {} fails its CRC check", type));
       }
     }
     if (type == "IHDR") {
@@ -468,11 +573,11 @@ Expected<ImageHeader> readPngHeader(const std::string& name, std::string_view b)
   // decoded RGBA, and passes.
   const uint64_t raw = pngRawBytes(p);
   if (p.idat_bytes * 1032 < raw) {
-    return imageError(name, fmt::format("its header claims {} x {} pixels ({}-bit {}), more than "
-                                        "its {} bytes of image data can hold (deflate expands at "
-                                        "most 1032 times)",
-                                        p.width, p.height, p.depth, pngColourName(p.colour_type),
-                                        p.idat_bytes));
+    return imageError(
+        name, fmt::format("its header claims {} x {} pixels ({}-bit {}), more than "
+                          "its {} bytes of image data can hold (deflate expands at "
+                          "most 1032 times)",
+                          p.width, p.height, p.depth, pngColourName(p.colour_type), p.idat_bytes));
   }
   ImageHeader h;
   h.format = ImageFormat::kPng;
@@ -516,8 +621,9 @@ Status readJpegFrame(const std::string& name, int marker, std::string_view seg, 
   if (precision == 12) return imageError(name, "a 12-bit JPEG is not supported (only 8-bit ones)");
   if (precision != 8) return imageError(name, fmt::format("a {}-bit JPEG is not valid", precision));
   if (j.height == 0) {
-    return imageError(name, "a JPEG that gives its height after the first scan (a DNL marker) is "
-                            "not supported");
+    return imageError(name,
+                      "a JPEG that gives its height after the first scan (a DNL marker) is "
+                      "not supported");
   }
   if (j.width == 0) return imageError(name, "the JPEG's frame header gives a width of 0");
   if (j.width > JPEG_MAX_DIMENSION || j.height > JPEG_MAX_DIMENSION) {
@@ -529,8 +635,8 @@ Status readJpegFrame(const std::string& name, int marker, std::string_view seg, 
     return imageError(name, "a CMYK JPEG is not supported: save it as RGB");
   }
   if (j.components != 1 && j.components != 3) {
-    return imageError(name, fmt::format("a JPEG of {} colour components is not supported",
-                                        j.components));
+    return imageError(name,
+                      fmt::format("a JPEG of {} colour components is not supported", j.components));
   }
   std::array<int, 3> hs{}, vs{};
   int units = 0;
@@ -567,11 +673,13 @@ Expected<JpegLayout> readJpegLayout(const std::string& name, std::string_view b)
     // Bytes before a marker other than 0xFF are damage libjpeg skips with a warning.
     while (pos < b.size() && byteAt(b, pos) != 0xff) ++pos;
     while (pos < b.size() && byteAt(b, pos) == 0xff) ++pos;
-    if (pos >= b.size()) return imageError(name, "the file is truncated: it ends before its image data");
+    if (pos >= b.size())
+      return imageError(name, "the file is truncated: it ends before its image data");
     const int marker = byteAt(b, pos++);
     if (marker == 0x00 || marker == 0x01 || (marker >= 0xd0 && marker <= 0xd7)) continue;
     if (marker == 0xd8) return imageError(name, "the JPEG has a second start-of-image marker");
-    if (marker == 0xd9) return imageError(name, "the JPEG ends before its first scan (no image data)");
+    if (marker == 0xd9)
+      return imageError(name, "the JPEG ends before its first scan (no image data)");
     if (b.size() - pos < 2 || be16(b, pos) > b.size() - pos) {
       return imageError(name, fmt::format("the file is truncated: marker 0x{:02X} at byte {} runs "
                                           "past its end",
@@ -583,8 +691,8 @@ Expected<JpegLayout> readJpegLayout(const std::string& name, std::string_view b)
                                           marker, pos - 2, length));
     }
     const std::string_view seg = b.substr(pos + 2, length - 2);
-    const bool frame = marker >= 0xc0 && marker <= 0xcf && marker != 0xc4 && marker != 0xc8 &&
-                       marker != 0xcc;
+    const bool frame =
+        marker >= 0xc0 && marker <= 0xcf && marker != 0xc4 && marker != 0xc8 && marker != 0xcc;
     if (frame) PENUMBRA_TRY(readJpegFrame(name, marker, seg, j));
     if (marker == 0xda) {
       if (j.components == 0) return imageError(name, "the JPEG has a scan before its frame header");
@@ -613,11 +721,16 @@ Expected<ImageHeader> readJpegHeader(const std::string& name, std::string_view b
 
 std::string webpStatusMessage(VP8StatusCode status) {
   switch (status) {
-    case VP8_STATUS_NOT_ENOUGH_DATA: return "the file is truncated: its WebP data ends early";
-    case VP8_STATUS_UNSUPPORTED_FEATURE: return "the WebP uses a feature libwebp does not decode";
-    case VP8_STATUS_OUT_OF_MEMORY: return "libwebp ran out of memory decoding it";
-    case VP8_STATUS_BITSTREAM_ERROR: return "the WebP data is corrupt";
-    default: return fmt::format("the WebP cannot be decoded (libwebp status {})", int(status));
+    case VP8_STATUS_NOT_ENOUGH_DATA:
+      return "the file is truncated: its WebP data ends early";
+    case VP8_STATUS_UNSUPPORTED_FEATURE:
+      return "the WebP uses a feature libwebp does not decode";
+    case VP8_STATUS_OUT_OF_MEMORY:
+      return "libwebp ran out of memory decoding it";
+    case VP8_STATUS_BITSTREAM_ERROR:
+      return "the WebP data is corrupt";
+    default:
+      return fmt::format("the WebP cannot be decoded (libwebp status {})", int(status));
   }
 }
 
@@ -689,10 +802,10 @@ Status readBmpMasks(const std::string& name, std::string_view b, BmpLayout& m, s
 
 Status readBmpFields(const std::string& name, std::string_view b, BmpLayout& m) {
   m.header_size = le32(b, 14);
-  if (m.header_size != 12 && m.header_size != 40 && m.header_size != 52 &&
-      m.header_size != 56 && m.header_size != 108 && m.header_size != 124) {
-    return imageError(name, fmt::format("a BMP header of {} bytes is not supported",
-                                        m.header_size));
+  if (m.header_size != 12 && m.header_size != 40 && m.header_size != 52 && m.header_size != 56 &&
+      m.header_size != 108 && m.header_size != 124) {
+    return imageError(name,
+                      fmt::format("a BMP header of {} bytes is not supported", m.header_size));
   }
   if (b.size() < 14 + m.header_size) {
     return imageError(name, fmt::format("the file is truncated: its {}-byte BMP header needs {} "
@@ -727,8 +840,8 @@ Status readBmpFields(const std::string& name, std::string_view b, BmpLayout& m) 
                                         c == 1 ? 8 : 4));
   }
   if (c == 4 || c == 5) {
-    return imageError(name, fmt::format("a BMP holding a {} image is not supported",
-                                        c == 4 ? "JPEG" : "PNG"));
+    return imageError(
+        name, fmt::format("a BMP holding a {} image is not supported", c == 4 ? "JPEG" : "PNG"));
   }
   if (c != 0 && c != 3 && c != 6) {
     return imageError(name, fmt::format("unknown BMP compression {}", c));
@@ -756,22 +869,23 @@ Expected<BmpLayout> readBmpLayout(const std::string& name, std::string_view b) {
   m.stride = size_t((uint64_t(m.width) * uint64_t(m.bpp) + 31) / 32 * 4);
   size_t header_end = 14 + m.header_size;
   if (m.pixels_at < header_end || m.pixels_at > b.size()) {
-    return imageError(name, m.pixels_at > b.size()
-                                ? fmt::format("the file is truncated: its pixel data would start at "
-                                              "byte {}, past its end ({} bytes)",
-                                              m.pixels_at, b.size())
-                                : fmt::format("the BMP's pixel data starts at byte {}, inside its "
-                                              "header",
-                                              m.pixels_at));
+    return imageError(name,
+                      m.pixels_at > b.size()
+                          ? fmt::format("the file is truncated: its pixel data would start at "
+                                        "byte {}, past its end ({} bytes)",
+                                        m.pixels_at, b.size())
+                          : fmt::format("the BMP's pixel data starts at byte {}, inside its "
+                                        "header",
+                                        m.pixels_at));
   }
   // The last row's padding may be left out, as some writers do.
-  const uint64_t need = uint64_t(m.stride) * uint64_t(m.height - 1) +
-                        ceilDiv(uint64_t(m.width) * uint64_t(m.bpp), 8);
+  const uint64_t need =
+      uint64_t(m.stride) * uint64_t(m.height - 1) + ceilDiv(uint64_t(m.width) * uint64_t(m.bpp), 8);
   if (need > b.size() - m.pixels_at) {
-    return imageError(name, fmt::format("the file is truncated: {} x {} pixels of {} bits need {} "
-                                        "bytes from byte {}, the file has {}",
-                                        m.width, m.height, m.bpp, need, m.pixels_at,
-                                        b.size() - m.pixels_at));
+    return imageError(
+        name, fmt::format("the file is truncated: {} x {} pixels of {} bits need {} "
+                          "bytes from byte {}, the file has {}",
+                          m.width, m.height, m.bpp, need, m.pixels_at, b.size() - m.pixels_at));
   }
   PENUMBRA_TRY(readBmpMasks(name, b, m, header_end));
   if (m.bpp <= 8) {
@@ -779,8 +893,8 @@ Expected<BmpLayout> readBmpLayout(const std::string& name, std::string_view b) {
     m.palette_entry_bytes = m.header_size == 12 ? 3 : 4;
     m.palette_at = header_end;
     const size_t fits = (m.pixels_at - header_end) / m.palette_entry_bytes;
-    m.palette_entries = std::min<size_t>({used == 0 ? size_t(1) << m.bpp : size_t(used),
-                                          size_t(1) << m.bpp, fits});
+    m.palette_entries =
+        std::min<size_t>({used == 0 ? size_t(1) << m.bpp : size_t(used), size_t(1) << m.bpp, fits});
     if (m.palette_entries == 0) return imageError(name, "the BMP has no palette");
   }
   return m;
@@ -830,8 +944,8 @@ Status readTgaFields(const std::string& name, std::string_view b, TgaLayout& t) 
   if (t.type == 0) return imageError(name, "the TGA holds no image (image type 0)");
   if (t.type == 32 || t.type == 33) return imageError(name, "a Huffman-coded TGA is not supported");
   if (map_type > 1 || (kind != 1 && kind != 2 && kind != 3)) {
-    return imageError(name, fmt::format("not a TGA image (colour map type {}, image type {})",
-                                        map_type, t.type));
+    return imageError(
+        name, fmt::format("not a TGA image (colour map type {}, image type {})", map_type, t.type));
   }
   if (t.width < 1 || t.height < 1) {
     return imageError(name, fmt::format("a TGA of {} x {} pixels has none", t.width, t.height));
@@ -841,23 +955,26 @@ Status readTgaFields(const std::string& name, std::string_view b, TgaLayout& t) 
       return imageError(name, "a colour-mapped TGA without a colour map");
     }
     if (map_first != 0) {
-      return imageError(name, fmt::format("a TGA colour map starting at entry {} is not supported",
-                                          map_first));
+      return imageError(
+          name, fmt::format("a TGA colour map starting at entry {} is not supported", map_first));
     }
     const int mb = t.map_bits;
     if (mb != 8 && mb != 15 && mb != 16 && mb != 24 && mb != 32) {
-      return imageError(name, fmt::format("a TGA colour map of {}-bit entries is not supported", mb));
+      return imageError(name,
+                        fmt::format("a TGA colour map of {}-bit entries is not supported", mb));
     }
     if (t.bpp != 8 && t.bpp != 16) {
-      return imageError(name, fmt::format("a colour-mapped TGA of {}-bit indices is not supported",
-                                          t.bpp));
+      return imageError(
+          name, fmt::format("a colour-mapped TGA of {}-bit indices is not supported", t.bpp));
     }
     t.channels = mb == 8 ? 1 : mb == 32 ? 4 : 3;
     return {};
   }
-  if (map_type != 0) return imageError(name, "a TGA with a colour map it does not use is not supported");
+  if (map_type != 0)
+    return imageError(name, "a TGA with a colour map it does not use is not supported");
   if (kind == 2 && t.bpp != 15 && t.bpp != 16 && t.bpp != 24 && t.bpp != 32) {
-    return imageError(name, fmt::format("a true-colour TGA of {} bits a pixel is not supported", t.bpp));
+    return imageError(name,
+                      fmt::format("a true-colour TGA of {} bits a pixel is not supported", t.bpp));
   }
   if (kind == 3 && t.bpp != 8 && t.bpp != 16) {
     return imageError(name, fmt::format("a grey TGA of {} bits a pixel is not supported", t.bpp));
@@ -922,8 +1039,8 @@ Expected<TgaLayout> readTgaLayout(const std::string& name, std::string_view b) {
   }
   TgaLayout t;
   PENUMBRA_TRY(readTgaFields(name, b, t));
-  const size_t map_bytes = size_t(t.type == 1 || t.type == 9 ? t.map_length : 0) *
-                           size_t((t.map_bits + 7) / 8);
+  const size_t map_bytes =
+      size_t(t.type == 1 || t.type == 9 ? t.map_length : 0) * size_t((t.map_bits + 7) / 8);
   t.pixels_at = 18 + size_t(byteAt(b, 0)) + map_bytes;
   if (t.pixels_at > b.size()) {
     return imageError(name, fmt::format("the file is truncated: its header, ID and colour map "
@@ -953,15 +1070,22 @@ Expected<ImageHeader> readTgaHeader(const std::string& name, std::string_view b)
 Expected<ImageHeader> readImageHeader(const std::string& name, std::string_view bytes) {
   if (bytes.empty()) return imageError(name, "the file is empty");
   switch (imageFormatOf(name, bytes)) {
-    case ImageFormat::kPng: return readPngHeader(name, bytes);
-    case ImageFormat::kJpeg: return readJpegHeader(name, bytes);
-    case ImageFormat::kWebp: return readWebpHeader(name, bytes);
-    case ImageFormat::kBmp: return readBmpHeader(name, bytes);
-    case ImageFormat::kTga: return readTgaHeader(name, bytes);
+    case ImageFormat::kPng:
+      return readPngHeader(name, bytes);
+    case ImageFormat::kJpeg:
+      return readJpegHeader(name, bytes);
+    case ImageFormat::kWebp:
+      return readWebpHeader(name, bytes);
+    case ImageFormat::kBmp:
+      return readBmpHeader(name, bytes);
+    case ImageFormat::kTga:
+      return readTgaHeader(name, bytes);
     case ImageFormat::kKtx2:
-      return imageError(name, "a KTX2 texture (Basis Universal) is not supported: use a PNG, JPEG "
-                              "or WebP image");
-    case ImageFormat::kUnknown: break;
+      return imageError(name,
+                        "a KTX2 texture (Basis Universal) is not supported: use a PNG, JPEG "
+                        "or WebP image");
+    case ImageFormat::kUnknown:
+      break;
   }
   return imageError(name, unknownFormatMessage(bytes));
 }
@@ -999,8 +1123,8 @@ uint64_t decoderBytes(const ImageHeader& h, uint64_t factor, uint64_t out_width,
 }  // namespace
 
 ImagePlan planImage(const ImageHeader& header, const ImageLimits& limits) {
-  const uint64_t f = reductionFactor(uint64_t(header.width), uint64_t(header.height),
-                                     limits.max_size);
+  const uint64_t f =
+      reductionFactor(uint64_t(header.width), uint64_t(header.height), limits.max_size);
   ImagePlan plan;
   plan.width = int(ceilDiv(uint64_t(header.width), f));
   plan.height = int(ceilDiv(uint64_t(header.height), f));
@@ -1015,8 +1139,8 @@ ImagePlan planImage(const ImageHeader& header, const ImageLimits& limits) {
 }
 
 ImagePlan planDataImage(const ImageHeader& header, const ImageLimits& limits) {
-  const uint64_t f = reductionFactor(uint64_t(header.width), uint64_t(header.height),
-                                     limits.max_size);
+  const uint64_t f =
+      reductionFactor(uint64_t(header.width), uint64_t(header.height), limits.max_size);
   ImagePlan plan;
   plan.width = int(ceilDiv(uint64_t(header.width), f));
   plan.height = int(ceilDiv(uint64_t(header.height), f));
@@ -1088,17 +1212,42 @@ constexpr png_byte kIgnoredPngChunks[] =
     "bKGD\0cHRM\0eXIf\0gAMA\0hIST\0iCCP\0iTXt\0oFFs\0pCAL\0pHYs\0sBIT\0sCAL\0sPLT\0sRGB\0tEXt\0"
     "tIME\0zTXt";
 
-// libpng's transformations to RGBA, 8 or 16 bits a channel (16 in host byte order).
+// libpng's transformations to 8 or 16 bits a sample (16 in host byte order), tRNS expanded to
+// alpha; grey stays grey (BoxReducer expands it to RGBA after reducing). Palette indices come one
+// to a byte and are looked up here (pngLookUp): libpng's own expansion would not say whether an
+// index is past the palette.
 void pngSetTransforms(png_structp png, png_infop info) {
   const int type = png_get_color_type(png, info);
   const int depth = png_get_bit_depth(png, info);
-  const bool trns = png_get_valid(png, info, PNG_INFO_tRNS) != 0;
-  if (type == PNG_COLOR_TYPE_PALETTE) png_set_palette_to_rgb(png);
-  if (type == PNG_COLOR_TYPE_GRAY && depth < 8) png_set_expand_gray_1_2_4_to_8(png);
-  if (trns) png_set_tRNS_to_alpha(png);
-  if (type == PNG_COLOR_TYPE_GRAY || type == PNG_COLOR_TYPE_GRAY_ALPHA) png_set_gray_to_rgb(png);
-  if ((type & PNG_COLOR_MASK_ALPHA) == 0 && !trns) png_set_filler(png, 0xffff, PNG_FILLER_AFTER);
+  if (type == PNG_COLOR_TYPE_PALETTE) {
+    png_set_packing(png);
+  } else {
+    if (type == PNG_COLOR_TYPE_GRAY && depth < 8) png_set_expand_gray_1_2_4_to_8(png);
+    if (png_get_valid(png, info, PNG_INFO_tRNS)) png_set_tRNS_to_alpha(png);
+  }
   if (depth == 16 && std::endian::native == std::endian::little) png_set_swap(png);
+}
+
+// A palette as 256 RGBA entries: PLTE's colours, tRNS's alphas (255 past them), and opaque black
+// past the palette (as libpng's own expansion reads its zeroed 256-entry palette). Returns the
+// channels of a looked-up pixel: 4 with tRNS, else 3.
+int pngPaletteTable(png_structp png, png_infop info, std::array<uint8_t, 1024>& table,
+                    int& entries) {
+  png_colorp colours = nullptr;
+  png_bytep alphas = nullptr;
+  int alpha_count = 0;
+  png_color_16p unused = nullptr;
+  png_get_PLTE(png, info, &colours, &entries);
+  const bool trns = png_get_tRNS(png, info, &alphas, &alpha_count, &unused) != 0 && alphas;
+  for (int i = 0; i < 256; ++i) {
+    uint8_t* e = &table[4 * size_t(i)];
+    const bool known = i < entries;
+    e[0] = known ? colours[i].red : 0;
+    e[1] = known ? colours[i].green : 0;
+    e[2] = known ? colours[i].blue : 0;
+    e[3] = trns && i < alpha_count ? alphas[i] : 255;
+  }
+  return trns ? 4 : 3;
 }
 
 template <typename T>
@@ -1111,24 +1260,52 @@ struct PngJob {
   T* row = nullptr;  // one row of RGBA
   BoxReducer<T>* rows = nullptr;
   PixelSums<T>* pixels = nullptr;
-  int palette_max = -1;
-  bool transparency = false;
+  int colour_type = 0;  // as stored
+  int channels = 0;     // as decoded: 1 to 4
+  // Palette images: the lookup table, the looked-up row, the palette's size, the largest index.
+  std::array<uint8_t, 1024> palette{};
+  T* looked_up = nullptr;
+  int palette_entries = 0, max_index = -1;
 };
+
+// The decoded pixels of the row just read, `count` of them: palette indices looked up.
+template <typename T>
+const T* pngPixels(PngJob<T>& job, size_t count) {
+  if (job.colour_type != PNG_COLOR_TYPE_PALETTE) return job.row;
+  const size_t n = size_t(job.channels);
+  for (size_t i = 0; i < count; ++i) {
+    const uint8_t index = uint8_t(job.row[i]);
+    job.max_index = std::max<int>(job.max_index, index);
+    std::memcpy(&job.looked_up[n * i], &job.palette[4 * size_t(index)], n * sizeof(T));
+  }
+  return job.looked_up;
+}
+
+// A plain image's rows. Not inlined into pngRun, whose frame holds setjmp's buffer.
+template <typename T>
+[[gnu::noinline]] void pngReadRows(PngJob<T>& job) {
+  for (uint32_t y = 0; y < job.height; ++y) {
+    png_read_row(job.png, reinterpret_cast<png_bytep>(job.row), nullptr);
+    job.rows->add(pngPixels(job, job.width));
+    pngCheckTime(job.png, *job.io);
+  }
+}
 
 // An interlaced image's seven passes (PNG spec, 8.2), each a small image of its own, read as they
 // come: libpng's own de-interlacing would need the whole image.
 template <typename T>
-void pngReadPasses(PngJob<T>& job) {
+[[gnu::noinline]] void pngReadPasses(PngJob<T>& job) {
   for (int pass = 0; pass < 7; ++pass) {
     const uint32_t cols = PNG_PASS_COLS(job.width, pass);
     const uint32_t rows = PNG_PASS_ROWS(job.height, pass);
     if (cols == 0 || rows == 0) continue;  // libpng skips empty passes too
     for (uint32_t r = 0; r < rows; ++r) {
       png_read_row(job.png, reinterpret_cast<png_bytep>(job.row), nullptr);
+      const T* pixels = pngPixels(job, cols);
       const uint64_t y = PNG_PASS_START_ROW(pass) + uint64_t(r) * PNG_PASS_ROW_OFFSET(pass);
       for (uint32_t i = 0; i < cols; ++i) {
         const uint64_t x = PNG_PASS_START_COL(pass) + uint64_t(i) * PNG_PASS_COL_OFFSET(pass);
-        job.pixels->add(x, y, job.row + 4 * size_t(i));
+        job.pixels->add(x, y, pixels + size_t(job.channels) * i);
       }
       pngCheckTime(job.png, *job.io);
     }
@@ -1149,23 +1326,25 @@ bool pngRun(PngJob<T>& job) {
   png_set_keep_unknown_chunks(job.png, PNG_HANDLE_CHUNK_NEVER, kIgnoredPngChunks,
                               int(sizeof kIgnoredPngChunks / 5));
   png_read_info(job.png, job.info);
-  job.transparency = png_get_valid(job.png, job.info, PNG_INFO_tRNS) != 0;
+  job.colour_type = png_get_color_type(job.png, job.info);
   pngSetTransforms(job.png, job.info);
   png_read_update_info(job.png, job.info);
-  if (png_get_rowbytes(job.png, job.info) != size_t(job.width) * 4 * sizeof(T)) {
+  const size_t samples = png_get_channels(job.png, job.info);
+  if (samples < 1 || samples > 4 ||
+      png_get_rowbytes(job.png, job.info) != size_t(job.width) * samples * sizeof(T)) {
     png_error(job.png, "unexpected row size after transformations");
   }
+  job.channels = job.colour_type == PNG_COLOR_TYPE_PALETTE
+                     ? pngPaletteTable(job.png, job.info, job.palette, job.palette_entries)
+                     : int(samples);
+  job.rows->setChannels(job.channels);
+  job.pixels->setChannels(job.channels);
   if (job.interlaced) {
     pngReadPasses(job);
   } else {
-    for (uint32_t y = 0; y < job.height; ++y) {
-      png_read_row(job.png, reinterpret_cast<png_bytep>(job.row), nullptr);
-      job.rows->add(job.row);
-      pngCheckTime(job.png, *job.io);
-    }
+    pngReadRows(job);
   }
   png_read_end(job.png, nullptr);
-  job.palette_max = png_get_palette_max(job.png, job.info);
   return true;
 }
 
@@ -1179,7 +1358,8 @@ std::string pngErrorMessage(const PngIo& io, const ImageLimits& limits) {
   if (what == "the file ends early" || what.find("Not enough image data") != std::string::npos) {
     return "the file is truncated: its image data ends before its last row";
   }
-  if (what.find("Insufficient memory") != std::string::npos || what.find("Out of memory") != std::string::npos) {
+  if (what.find("Insufficient memory") != std::string::npos ||
+      what.find("Out of memory") != std::string::npos) {
     return "libpng ran out of memory decoding it";
   }
   return "the PNG is corrupt (libpng: " + what + ")";
@@ -1191,17 +1371,19 @@ void pngNoteWarnings(const PngIo& io, int palette_entries, int palette_max,
     const std::string w = io.warnings[size_t(i)].data();
     if (w.find("palette index exceeding") != std::string::npos) continue;  // said below
     if (w.find("CRC error") != std::string::npos) {
-      warnings.push_back(fmt::format("chunk {} fails its CRC check: ignored (Penumbra does not use "
-                                     "it)",
-                                     w.substr(0, 4)));
+      warnings.push_back(
+          fmt::format("chunk {} fails its CRC check: ignored (Penumbra does not use "
+                      "it)",
+                      w.substr(0, 4)));
     } else {
       warnings.push_back("libpng: " + w);
     }
   }
   if (palette_entries > 0 && palette_max >= palette_entries) {
-    warnings.push_back(fmt::format("pixels use colour {}, past the {} of its palette: they read as "
-                                   "opaque black",
-                                   palette_max, palette_entries));
+    warnings.push_back(
+        fmt::format("pixels use colour {}, past the {} of its palette: they read as "
+                    "opaque black",
+                    palette_max, palette_entries));
   }
 }
 
@@ -1215,10 +1397,12 @@ Status decodePngAs(DecodeJob& d, PngIo& io) {
   s.png = png_create_read_struct(PNG_LIBPNG_VER_STRING, &io, pngError, pngWarning);
   if (s.png) s.info = png_create_info_struct(s.png);
   if (!s.png || !s.info) return runtimeError(d.name, "libpng ran out of memory");
+  // Room for 4 channels: libpng says how many it hands over once it has read the header.
   std::vector<T> row(4 * size_t(d.header.width));
-  BoxReducer<T> rows(d.header.width, d.header.height, d.factor, d.out);
+  std::vector<T> looked_up(d.header.palette ? 4 * size_t(d.header.width) : 0);
+  BoxReducer<T> rows(d.header.width, d.header.height, d.factor, 4, d.out);
   PixelSums<T> pixels(d.header.width, d.header.interlaced ? d.header.height : 1,
-                      d.header.interlaced ? d.factor : 1, d.out);
+                      d.header.interlaced ? d.factor : 1, 4, d.out);
   PngJob<T> job;
   job.png = s.png;
   job.info = s.info;
@@ -1227,20 +1411,13 @@ Status decodePngAs(DecodeJob& d, PngIo& io) {
   job.height = uint32_t(d.header.height);
   job.interlaced = d.header.interlaced;
   job.row = row.data();
+  job.looked_up = looked_up.data();
   job.rows = &rows;
   job.pixels = &pixels;
   if (!pngRun(job)) return imageError(d.name, pngErrorMessage(io, d.limits));
   if (job.interlaced) pixels.finish();
-  png_colorp palette = nullptr;
-  int palette_entries = 0;
-  if (png_get_color_type(s.png, s.info) == PNG_COLOR_TYPE_PALETTE) {
-    png_get_PLTE(s.png, s.info, &palette, &palette_entries);
-  }
-  pngNoteWarnings(io, palette_entries, job.palette_max, d.warnings);
-  const bool grey = (png_get_color_type(s.png, s.info) & PNG_COLOR_MASK_COLOR) == 0;
-  const bool alpha =
-      (png_get_color_type(s.png, s.info) & PNG_COLOR_MASK_ALPHA) != 0 || job.transparency;
-  d.channels = (grey ? 1 : 3) + (alpha ? 1 : 0);
+  pngNoteWarnings(io, job.palette_entries, job.max_index, d.warnings);
+  d.channels = job.channels;
   return {};
 }
 
@@ -1275,13 +1452,18 @@ struct JpegJob {
   uint64_t max_memory = 0;
   unsigned scale = 1;
   unsigned expected_width = 0, expected_height = 0;
+  int channels = 3;  // 1 grey, 3 RGB
   uint8_t* row = nullptr;
   BoxReducer<uint8_t>* rows = nullptr;
 };
 
-JpegJob& jpegJobOf(j_common_ptr c) { return *static_cast<JpegJob*>(c->client_data); }
+JpegJob& jpegJobOf(j_common_ptr c) {
+  return *static_cast<JpegJob*>(c->client_data);
+}
 
-[[noreturn]] void jpegFail(JpegJob& job) { std::longjmp(job.jump, 1); }
+[[noreturn]] void jpegFail(JpegJob& job) {
+  std::longjmp(job.jump, 1);
+}
 
 [[noreturn]] void jpegFailWith(JpegJob& job, const char* message) {
   std::snprintf(job.error, sizeof job.error, "%s", message);
@@ -1336,12 +1518,13 @@ bool jpegRun(JpegJob& job, const unsigned char* data, size_t size) {
   job.cinfo.progress = &job.progress;
   jpeg_mem_src(&job.cinfo, data, static_cast<unsigned long>(size));
   jpeg_read_header(&job.cinfo, TRUE);
-  job.cinfo.out_color_space = JCS_EXT_RGBA;
+  job.cinfo.out_color_space = job.channels == 1 ? JCS_GRAYSCALE : JCS_RGB;
   job.cinfo.scale_num = 1;
   job.cinfo.scale_denom = job.scale;
   jpeg_start_decompress(&job.cinfo);
   if (job.cinfo.output_width != job.expected_width ||
-      job.cinfo.output_height != job.expected_height || job.cinfo.output_components != 4) {
+      job.cinfo.output_height != job.expected_height ||
+      job.cinfo.output_components != job.channels) {
     jpegFailWith(job, "libjpeg decodes it at another size than its header gives");
   }
   while (job.cinfo.output_scanline < job.cinfo.output_height) {
@@ -1355,9 +1538,10 @@ bool jpegRun(JpegJob& job, const unsigned char* data, size_t size) {
 
 std::string jpegErrorMessage(const JpegJob& job, const ImageLimits& limits) {
   if (job.scans_exceeded) {
-    return fmt::format("the JPEG has more than {} scans (a progressive JPEG has about 10; each "
-                       "scan rereads the whole image): decoding stopped at scan {}",
-                       limits.max_scans, limits.max_scans + 1);
+    return fmt::format(
+        "the JPEG has more than {} scans (a progressive JPEG has about 10; each "
+        "scan rereads the whole image): decoding stopped at scan {}",
+        limits.max_scans, limits.max_scans + 1);
   }
   if (job.timed_out) return timeMessage(limits.max_seconds);
   switch (job.error_code) {
@@ -1385,15 +1569,16 @@ Status decodeJpeg(DecodeJob& d) {
   job->progress.progress_monitor = jpegProgress;
   job->max_scans = d.limits.max_scans;
   job->deadline = &d.deadline;
-  job->max_memory = d.header.full_size_buffer_bytes + 64 * uint64_t(d.header.width) * 4 +
-                    (uint64_t(32) << 20);
+  job->max_memory =
+      d.header.full_size_buffer_bytes + 64 * uint64_t(d.header.width) * 4 + (uint64_t(32) << 20);
   // libjpeg scales by up to 8 in the DCT; the rest is a box filter on its rows.
   job->scale = unsigned(std::min<uint64_t>(d.factor, 8));
   job->expected_width = unsigned(ceilDiv(uint64_t(d.header.width), job->scale));
   job->expected_height = unsigned(ceilDiv(uint64_t(d.header.height), job->scale));
-  std::vector<uint8_t> row(4 * size_t(job->expected_width));
+  job->channels = d.header.channels;
+  std::vector<uint8_t> row(size_t(job->channels) * size_t(job->expected_width));
   BoxReducer<uint8_t> rows(int(job->expected_width), int(job->expected_height),
-                           d.factor / job->scale, d.out);
+                           d.factor / job->scale, job->channels, d.out);
   job->row = row.data();
   job->rows = &rows;
   const bool ok =
@@ -1401,10 +1586,9 @@ Status decodeJpeg(DecodeJob& d) {
   jpeg_destroy_decompress(&job->cinfo);
   if (!ok) return imageError(d.name, jpegErrorMessage(*job, d.limits));
   if (job->warnings > 0) {
-    d.warnings.push_back(fmt::format("libjpeg: {}{}", job->warning,
-                                     job->warnings > 1
-                                         ? fmt::format(" (and {} more warnings)", job->warnings - 1)
-                                         : ""));
+    d.warnings.push_back(fmt::format(
+        "libjpeg: {}{}", job->warning,
+        job->warnings > 1 ? fmt::format(" (and {} more warnings)", job->warnings - 1) : ""));
   }
   return {};
 }
@@ -1489,7 +1673,7 @@ Status decodeBmp(DecodeJob& d) {
     ch.full = ch.mask >> ch.shift;
   }
   std::vector<uint8_t> row(4 * size_t(m.width));
-  BoxReducer<uint8_t> rows(m.width, m.height, d.factor, d.out);
+  BoxReducer<uint8_t> rows(m.width, m.height, d.factor, 4, d.out);
   int64_t max_index = -1;
   for (size_t y = 0; y < size_t(m.height); ++y) {
     const size_t file_row = m.top_down ? y : size_t(m.height) - 1 - y;
@@ -1497,9 +1681,10 @@ Status decodeBmp(DecodeJob& d) {
     rows.add(row.data());
   }
   if (m.bpp <= 8 && max_index >= int64_t(m.palette_entries)) {
-    d.warnings.push_back(fmt::format("pixels use colour {}, past the {} of its palette: they read "
-                                     "as opaque black",
-                                     max_index, m.palette_entries));
+    d.warnings.push_back(
+        fmt::format("pixels use colour {}, past the {} of its palette: they read "
+                    "as opaque black",
+                    max_index, m.palette_entries));
   }
   return {};
 }
@@ -1517,30 +1702,33 @@ Status decodeTga(DecodeJob& d) {
       stbi_image_free);
   if (!pixels) {
     const std::string why = stbi_failure_reason();
-    return imageError(d.name, why == "outofmem" ? std::string("stb_image ran out of memory decoding it")
-                                                : "the TGA cannot be decoded (stb_image: " + why + ")");
+    return imageError(d.name, why == "outofmem"
+                                  ? std::string("stb_image ran out of memory decoding it")
+                                  : "the TGA cannot be decoded (stb_image: " + why + ")");
   }
   if (w != t.width || h != t.height || comp != t.channels) {
     return imageError(d.name, "the TGA decodes to another size than its header says");
   }
-  std::vector<uint8_t> row(4 * size_t(w));
-  BoxReducer<uint8_t> rows(w, h, d.factor, d.out);
+  // stb_image ignores the descriptor's right-to-left bit: mirror such rows here.
+  std::vector<uint8_t> mirrored(t.right_to_left ? size_t(w) * size_t(comp) : 0);
+  BoxReducer<uint8_t> rows(w, h, d.factor, comp, d.out);
   for (size_t y = 0; y < size_t(h); ++y) {
     const stbi_uc* in = pixels.get() + y * size_t(w) * size_t(comp);
-    for (size_t x = 0; x < size_t(w); ++x) {
-      const stbi_uc* p = in + (t.right_to_left ? size_t(w) - 1 - x : x) * size_t(comp);
-      uint8_t* out = row.data() + 4 * x;
-      out[0] = p[0];
-      out[1] = comp >= 3 ? p[1] : p[0];
-      out[2] = comp >= 3 ? p[2] : p[0];
-      out[3] = comp == 2 ? p[1] : comp == 4 ? p[3] : 255;
+    if (!t.right_to_left) {
+      rows.add(in);
+      continue;
     }
-    rows.add(row.data());
+    for (size_t x = 0; x < size_t(w); ++x) {
+      std::memcpy(&mirrored[x * size_t(comp)], in + (size_t(w) - 1 - x) * size_t(comp),
+                  size_t(comp));
+    }
+    rows.add(mirrored.data());
   }
   if ((t.type == 1 || t.type == 9) && t.max_index >= t.map_length) {
-    d.warnings.push_back(fmt::format("pixels use colour {}, past the {} of its colour map: they "
-                                     "read as its first colour",
-                                     t.max_index, t.map_length));
+    d.warnings.push_back(
+        fmt::format("pixels use colour {}, past the {} of its colour map: they "
+                    "read as its first colour",
+                    t.max_index, t.map_length));
   }
   return {};
 }
@@ -1549,12 +1737,18 @@ Status decodeTga(DecodeJob& d) {
 
 Status decodePixels(DecodeJob& d, uint8_t* webp_rgba) {
   switch (d.header.format) {
-    case ImageFormat::kPng: return decodePng(d);
-    case ImageFormat::kJpeg: return decodeJpeg(d);
-    case ImageFormat::kWebp: return decodeWebp(d, webp_rgba);
-    case ImageFormat::kBmp: return decodeBmp(d);
-    case ImageFormat::kTga: return decodeTga(d);
-    default: break;
+    case ImageFormat::kPng:
+      return decodePng(d);
+    case ImageFormat::kJpeg:
+      return decodeJpeg(d);
+    case ImageFormat::kWebp:
+      return decodeWebp(d, webp_rgba);
+    case ImageFormat::kBmp:
+      return decodeBmp(d);
+    case ImageFormat::kTga:
+      return decodeTga(d);
+    default:
+      break;
   }
   return imageError(d.name, "not an image format Penumbra decodes");
 }
@@ -1568,9 +1762,10 @@ std::string describe(const ImageHeader& h, const ImagePlan& plan) {
 }
 
 std::string reductionWarning(const ImageHeader& h, const ImagePlan& plan, const ImageLimits& l) {
-  return fmt::format("reduced from {} x {} to {} x {}: larger than the texture size limit ({} a "
-                     "side)",
-                     h.width, h.height, plan.width, plan.height, l.max_size);
+  return fmt::format(
+      "reduced from {} x {} to {} x {}: larger than the texture size limit ({} a "
+      "side)",
+      h.width, h.height, plan.width, plan.height, l.max_size);
 }
 
 Status checkPlan(const std::string& name, const ImageHeader& header, const ImagePlan& plan) {
@@ -1639,7 +1834,8 @@ Expected<Image> decodeData(const std::string& name, std::string_view bytes,
   // libwebp writes whole RGBA images: decode into texels, then convert.
   std::vector<uint8_t> rgba(4 * size_t(plan.width) * size_t(plan.height));
   PENUMBRA_TRY(decodePixels(d, rgba.data()));
-  for (int y = 0; y < plan.height; ++y) out.row(y, rgba.data() + 4 * size_t(y) * size_t(plan.width));
+  for (int y = 0; y < plan.height; ++y)
+    out.row(y, rgba.data() + 4 * size_t(y) * size_t(plan.width));
   return image;
 }
 

@@ -51,8 +51,9 @@ ImageFormat imageFormatOf(const std::string& name, std::string_view bytes);
 struct ImageHeader {
   ImageFormat format = ImageFormat::kUnknown;
   int width = 0, height = 0;
-  int channels = 0;  // as decoded: 1 grey, 2 grey+alpha, 3 RGB, 4 RGBA (a palette expands to 3 or 4)
-  int bits = 8;      // per stored sample: 1, 2, 4, 8, 16 (PNG), 8 (JPEG); BMP/TGA: per pixel
+  int channels =
+      0;         // as decoded: 1 grey, 2 grey+alpha, 3 RGB, 4 RGBA (a palette expands to 3 or 4)
+  int bits = 8;  // per stored sample: 1, 2, 4, 8, 16 (PNG), 8 (JPEG); BMP/TGA: per pixel
   bool palette = false;
   bool sixteen_bit = false;  // decoded at 16 bits per channel (16-bit PNG)
   bool interlaced = false;   // PNG Adam7: a reduced one sums the whole reduced image at once
@@ -69,10 +70,10 @@ Expected<ImageHeader> readImageHeader(const std::string& name, std::string_view 
 
 // Limits applied when decoding (defaults for the command line's --max-texture-size).
 struct ImageLimits {
-  int max_size = 8192;       // the largest width or height a texture keeps (at least 1)
-  int max_scans = 500;       // JPEG scans (libjpeg-turbo's own TJFLAG_LIMITSCANS allows 500)
-  double max_seconds = 60;   // wall time for decoding one image (a backstop; decoders check it
-                             // per row or per scan; BMP, TGA and WebP run to the end)
+  int max_size = 8192;      // the largest width or height a texture keeps (at least 1)
+  int max_scans = 500;      // JPEG scans (libjpeg-turbo's own TJFLAG_LIMITSCANS allows 500)
+  double max_seconds = 60;  // wall time for decoding one image (a backstop; decoders check it
+                            // per row or per scan; BMP, TGA and WebP run to the end)
 };
 
 // What a texture will take: its size after any reduction to `limits.max_size`, the bytes it holds

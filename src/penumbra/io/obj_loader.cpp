@@ -744,10 +744,20 @@ Status addObjShape(const std::string& path, const tinyobj::attrib_t& attrib,
 
 }  // namespace
 
-// Every texture the materials read, planned before any is decoded (io/texture_loader.h).
-Status planObjTextures(const std::string& path, const std::vector<tinyobj::material_t>& materials,
-                       ObjTextures& textures) {
+// Whether a usemtl line names material `name` (a material no face uses reads no texture: its
+// files need not exist).
+bool usedByFaces(const ObjScan& scan, const std::string& name) {
+  for (const auto& [use, line] : scan.material_uses) {
+    if (use == name) return true;
+  }
+  return false;
+}
+
+// Every texture the used materials read, planned before any is decoded (io/texture_loader.h).
+Status planObjTextures(const std::string& path, const ObjScan& scan,
+                       const std::vector<tinyobj::material_t>& materials, ObjTextures& textures) {
   for (const tinyobj::material_t& m : materials) {
+    if (!usedByFaces(scan, m.name)) continue;
     const std::pair<const std::string*, bool> maps[] = {
         {&m.diffuse_texname, true}, {&m.emissive_texname, true}, {&m.alpha_texname, false}};
     for (const auto& [name, colour] : maps) {
@@ -790,8 +800,19 @@ Expected<Scene> loadObj(const std::string& path, const SceneLoadOptions& options
     textures.dirs.push_back(
         std::filesystem::path(resolveRelativeTo(path, name)).parent_path().string());
   }
-  PENUMBRA_TRY(planObjTextures(path, obj_materials, textures));
+  PENUMBRA_TRY(planObjTextures(path, scan, obj_materials, textures));
   for (const tinyobj::material_t& m : obj_materials) {
+    if (!usedByFaces(scan, m.name)) {
+      // Kept for its index (faces name materials by it), without its textures.
+      tinyobj::material_t bare = m;
+      bare.diffuse_texname.clear();
+      bare.emissive_texname.clear();
+      bare.alpha_texname.clear();
+      Expected<Material> mat = objMaterial(path, bare, textures, scene);
+      if (!mat) return mat.error();
+      scene.materials.push_back(std::move(*mat));
+      continue;
+    }
     Expected<Material> mat = objMaterial(path, m, textures, scene);
     if (!mat) return mat.error();
     scene.materials.push_back(std::move(*mat));

@@ -134,7 +134,45 @@ Status GltfAsset::parse(std::string_view text) {
                       fmt::format("'{}': only glTF 2.0 is supported", version));
   }
   PENUMBRA_TRY(checkRequiredExtensions(path_, json_));
-  return checkGltfValues(path_, json_);
+  PENUMBRA_TRY(checkGltfValues(path_, json_));
+  return checkViewRanges();
+}
+
+// glTF 2.0 sec. 3.6.1: every buffer view lies inside the byteLength its buffer declares (and a
+// meshopt view's compressed range inside its own buffer's), checked on the JSON before anything
+// is read, whether or not the view is used.
+Status GltfAsset::checkViewRanges() const {
+  const size_t buffers = count("buffers");
+  auto inside = [&](const Json& v, const std::string& place) -> Status {
+    const int64_t b = v.at("buffer").get<int64_t>();
+    if (b < 0 || size_t(b) >= buffers) {
+      return inputError(path_, place,
+                        fmt::format("buffer {} does not exist (the file has {})", b, buffers));
+    }
+    const uint64_t length = unsignedValue(json_["buffers"][size_t(b)], "byteLength");
+    const uint64_t offset = unsignedValue(v, "byteOffset"), size = unsignedValue(v, "byteLength");
+    if (offset > length || size > length - offset) {
+      return inputError(path_, place,
+                        fmt::format("byteOffset {} + byteLength {} lie outside buffer {} ({} "
+                                    "bytes)",
+                                    offset, size, b, length));
+    }
+    return {};
+  };
+  for (size_t i = 0; i < count("bufferViews"); ++i) {
+    const Json& v = json_["bufferViews"][i];
+    const std::string place = fmt::format("bufferViews[{}]", i);
+    PENUMBRA_TRY(inside(v, place));
+    bool khr = false;
+    if (const Json* ext = meshoptExtension(v, khr)) {
+      if (!ext->is_object() || !ext->contains("buffer") || !(*ext)["buffer"].is_number_integer()) {
+        continue;  // readMeshoptView names what is wrong when the view is read
+      }
+      PENUMBRA_TRY(inside(*ext, place + (khr ? ".extensions.KHR_meshopt_compression"
+                                             : ".extensions.EXT_meshopt_compression")));
+    }
+  }
+  return {};
 }
 
 size_t GltfAsset::count(const char* key) const {
@@ -254,11 +292,15 @@ Expected<GltfAsset::ImageSource> GltfAsset::imageSource(int64_t index, const std
   Expected<const Json*> entry_json = entry("images", index, place);
   if (!entry_json) return entry_json.error();
   const Json& image = **entry_json;
-  const std::string where = fmt::format("images[{}]", index);
+  const std::string where = place.empty() ? fmt::format("images[{}]", index)
+                                          : fmt::format("{} (images[{}])", place, index);
   ImageSource s;
   const std::string mime = image.value("mimeType", std::string());
   s.extension = extensionForMime(mime);
   s.name = fmt::format("{} image {}", path_, index);
+  if (image.contains("uri") && image.contains("bufferView")) {
+    return inputError(path_, where, "has both a uri and a bufferView (glTF 2.0 sec. 5.17)");
+  }
   if (image.contains("uri")) {
     const std::string uri = image["uri"].get<std::string>();
     if (isDataUri(uri)) {
@@ -282,6 +324,11 @@ Expected<GltfAsset::ImageSource> GltfAsset::imageSource(int64_t index, const std
   }
   Expected<const Json*> view = entry("bufferViews", image["bufferView"].get<int64_t>(), where);
   if (!view) return view.error();
+  if ((*view)->contains("byteStride")) {
+    return inputError(path_, where,
+                      "its buffer view has a byteStride: an image's bytes are one run (glTF 2.0 "
+                      "sec. 3.6.1.2)");
+  }
   s.bytes = unsignedValue(**view, "byteLength");
   return s;
 }
@@ -292,7 +339,8 @@ Expected<std::string_view> GltfAsset::imageBytes(int64_t index, const std::strin
   Expected<ImageSource> source = imageSource(index, place);
   if (!source) return source.error();
   const Json& image = json_["images"][size_t(index)];
-  const std::string where = fmt::format("images[{}]", index);
+  const std::string where = place.empty() ? fmt::format("images[{}]", index)
+                                          : fmt::format("{} (images[{}])", place, index);
   std::string_view bytes;
   if (!source->file.empty()) {
     Expected<std::string> read = readFile(source->file);

@@ -66,6 +66,7 @@ class GltfAsset {
   GltfAsset() = default;
   Status parse(std::string_view text);
   Status readContainer();
+  Status checkViewRanges() const;
   Expected<std::string_view> readBuffer(size_t index, const std::string& place);
 
   std::string path_;

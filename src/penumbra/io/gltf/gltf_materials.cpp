@@ -17,6 +17,12 @@ namespace {
 
 using nlohmann::json;
 
+// `obj[key]` when `obj` is an object holding it, else `fallback` (a member that may be absent).
+template <typename T>
+T valueOr(const json& obj, const char* key, T fallback) {
+  return obj.is_object() && obj.contains(key) ? obj.at(key).get<T>() : fallback;
+}
+
 const json& member(const json& j, const char* key) {
   static const json kNull;
   return j.is_object() && j.contains(key) ? j.at(key) : kNull;
@@ -109,18 +115,21 @@ Expected<int64_t> GltfMaterials::textureImage(int64_t texture, const std::string
 Status GltfMaterials::collectImages(int64_t index, std::vector<ImageUse>& uses) {
   Expected<const json*> gm = asset_.entry("materials", index, "materials");
   if (!gm) return gm.error();
-  const std::string label = fmt::format("material {}", index);
+  const std::string name = valueOr((**gm), "name", std::string());
+  const std::string label = fmt::format("material {} ('{}')", index,
+                                        name.empty() ? fmt::format("material{}", index) : name);
   for (const Slot& slot : slotsOf(**gm)) {
-    Expected<int64_t> image =
-        textureImage(slot.info->at("index").get<int64_t>(), label + "." + slot.name);
+    const std::string place = label + "." + slot.name;
+    Expected<int64_t> image = textureImage(slot.info->at("index").get<int64_t>(), place);
     if (!image) return image.error();
-    uses.push_back({*image, slot.colour ? TextureKind::kColour : TextureKind::kData});
+    uses.push_back({*image, slot.colour ? TextureKind::kColour : TextureKind::kData, place});
   }
   const json& normal = member(**gm, "normalTexture");
   if (normal.is_object() && normal.value("texCoord", 0) == 0) {
-    Expected<int64_t> image = textureImage(normal["index"].get<int64_t>(), label + ".normalTexture");
+    const std::string place = label + ".normalTexture";
+    Expected<int64_t> image = textureImage(normal["index"].get<int64_t>(), place);
     if (!image) return image.error();
-    uses.push_back({*image, TextureKind::kNormalMap});
+    uses.push_back({*image, TextureKind::kNormalMap, place});
   }
   return {};
 }
@@ -135,17 +144,17 @@ Status GltfMaterials::plan(const std::set<int64_t>& used) {
   uint64_t file_bytes = 0;
   for (const ImageUse& u : uses) {
     if (!images.insert(u.image).second) continue;
-    Expected<GltfAsset::ImageSource> s = asset_.imageSource(u.image, "materials");
+    Expected<GltfAsset::ImageSource> s = asset_.imageSource(u.image, u.place);
     if (!s) return s.error();
     image_names_[u.image] = s->name + (s->file.empty() ? s->extension : "");
     file_bytes += s->bytes;
   }
   PENUMBRA_TRY(textures_.reserveFiles(file_bytes, images.size(), asset_.path()));
   for (const ImageUse& u : uses) {
-    Expected<std::string_view> bytes = asset_.imageBytes(u.image, "materials");
+    Expected<std::string_view> bytes = asset_.imageBytes(u.image, u.place);
     if (!bytes) return bytes.error();
     PENUMBRA_TRY(textures_.plan(imageName(u.image), *bytes, u.kind, asset_.path(),
-                                fmt::format("images[{}]", u.image)));
+                                fmt::format("{} (images[{}])", u.place, u.image)));
   }
   return textures_.checkPlan(asset_.path());
 }
@@ -428,7 +437,7 @@ Status GltfMaterials::readSpecular(const json& gm, const std::string& place, Mat
   // A smooth metal: a perfect mirror of the base colour.
   const json& pbr = member(gm, "pbrMetallicRoughness");
   if (extension(gm, "KHR_materials_pbrSpecularGlossiness").is_null() &&
-      pbr.value("metallicFactor", 1.0) == 1.0 && pbr.value("roughnessFactor", 1.0) == 0.0) {
+      valueOr(pbr, "metallicFactor", 1.0) == 1.0 && valueOr(pbr, "roughnessFactor", 1.0) == 0.0) {
     m.scattering = Scattering::kMirror;
     m.specular = glm::clamp(base, glm::vec3(0.0f), glm::vec3(1.0f));
     m.reflectance = diffuseStandIn(m);

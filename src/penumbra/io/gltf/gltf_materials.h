@@ -49,6 +49,7 @@ class GltfMaterials {
   struct ImageUse {
     int64_t image = -1;
     TextureKind kind = TextureKind::kColour;
+    std::string place;  // the material and slot, for messages
   };
   Status collectImages(int64_t index, std::vector<ImageUse>& uses);
   // The image a texture reads (EXT_texture_webp's first, then its source; KTX2, AVIF and DDS

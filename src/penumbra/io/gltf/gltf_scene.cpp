@@ -56,6 +56,12 @@ constexpr uint64_t kLoadedBytesPerTriangle = 64;
 // implementations use between photometric and radiometric quantities.
 constexpr double kLumensPerWatt = 683.0;
 
+// `obj[key]` when `obj` is an object holding it, else `fallback` (a member that may be absent).
+template <typename T>
+T valueOr(const json& obj, const char* key, T fallback) {
+  return obj.is_object() && obj.contains(key) ? obj.at(key).get<T>() : fallback;
+}
+
 const json& member(const json& j, const char* key) {
   static const json kNull;
   return j.is_object() && j.contains(key) ? j.at(key) : kNull;
@@ -599,8 +605,8 @@ Status GltfSceneReader::addLight(size_t n) {
     scene_.lights.push_back(PointLight{position, radiometric});
   } else if (type == "spot") {
     const json& spot = member(gl, "spot");
-    const double inner = spot.value("innerConeAngle", 0.0);
-    const double outer = spot.value("outerConeAngle", std::numbers::pi / 4.0);
+    const double inner = valueOr(spot, "innerConeAngle", 0.0);
+    const double outer = valueOr(spot, "outerConeAngle", std::numbers::pi / 4.0);
     if (!(inner >= 0.0 && inner < outer && outer <= 0.5 * std::numbers::pi + 1e-9)) {
       return inputError(path(), lplace,
                         fmt::format("spot cone angles need 0 <= innerConeAngle < outerConeAngle "
@@ -627,7 +633,7 @@ Status GltfSceneReader::addCamera(size_t n) {
         "{}: camera {}: '{}' cameras are not supported, only perspective", path(), ci, type));
     return {};
   }
-  const double yfov = member(gc, "perspective").value("yfov", 0.0);
+  const double yfov = valueOr(member(gc, "perspective"), "yfov", 0.0);
   if (!(yfov > 0.0 && yfov < std::numbers::pi)) {
     return inputError(path(), fmt::format("camera {}", ci),
                       fmt::format("yfov {} must be in (0, pi)", yfov));
