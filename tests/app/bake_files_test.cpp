@@ -175,7 +175,7 @@ TEST(BakeFiles, ASceneOfNothingButHolesIsRefusedAlikeByEveryMethod) {
   const json scene = {
       {"materials",
        {{"lamp", {{"reflectance", {0.5, 0.5, 0.5}}, {"emission", {5, 5, 5}},
-                  {"reflectance_texture", "hole.png"}, {"alpha_mode", "MASK"}}}}},
+                  {"reflectance_texture", "hole.png"}, {"alpha_mode", "mask"}}}}},
       {"meshes", {{{"sphere", 2}, {"material", "lamp"}}}}};
   put(dir.path() / "holes.json", scene.dump());
   std::string first;

@@ -362,7 +362,8 @@ TEST(GltfLoad, ErrorsNameFileAndPlace) {
     TestGltf g = makeTestGltf();
     g.doc["bufferViews"][2]["byteOffset"] = 100;  // 100 + 12 > 108
     const std::string p = writeGltf(dir, "view.gltf", g);
-    EXPECT_TRUE(errorNames(loadGltf(p), p, "accessor 2"));
+    EXPECT_TRUE(errorNames(loadGltf(p), p, "bufferViews[2]: byteOffset 100 + byteLength 12 lie "
+                                           "outside buffer 0 (108 bytes)"));
   }
   {
     TestGltf g = makeTestGltf();

@@ -162,8 +162,11 @@ Expected<DataUri> decodeDataUri(std::string_view uri, uint64_t max_bytes, const 
     std::string_view params = std::string_view(header).substr(semicolon);
     base64 = params.size() >= 7 && params.substr(params.size() - 7) == ";base64";
   }
-  const uint64_t decoded = base64 ? uint64_t(data.size()) / 4 * 3 + 3 : uint64_t(data.size());
-  if (decoded > max_bytes + 3) {
+  // What the data decodes to, from its length (base64: 3 bytes per 4 digits, padding aside).
+  size_t digits = data.size();
+  while (base64 && digits > 0 && data[digits - 1] == '=') --digits;
+  const uint64_t decoded = base64 ? uint64_t(digits) * 3 / 4 : uint64_t(data.size());
+  if (decoded > max_bytes) {
     return inputError(file, place,
                       fmt::format("the data URI holds about {} bytes, more than the {} it should",
                                   decoded, max_bytes));

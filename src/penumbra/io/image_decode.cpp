@@ -714,6 +714,16 @@ Expected<ImageHeader> readJpegHeader(const std::string& name, std::string_view b
   h.channels = j->components;
   h.bits = 8;
   h.full_size_buffer_bytes = j->multi_scan ? j->coefficient_bytes : 0;
+  // The scans, counted from the markers without decoding (entropy-coded data stuffs a 0x00
+  // after every 0xFF, so 0xFF 0xDA is always a marker): a budget is checked from the header,
+  // in a dry run too.
+  if (j->multi_scan) {
+    h.scans = 0;
+    const auto* p = reinterpret_cast<const unsigned char*>(b.data());
+    for (size_t i = 2; i + 1 < b.size(); ++i) {
+      if (p[i] == 0xff && p[i + 1] == 0xda) ++h.scans;
+    }
+  }
   return h;
 }
 

@@ -57,6 +57,7 @@ struct ImageHeader {
   bool palette = false;
   bool sixteen_bit = false;  // decoded at 16 bits per channel (16-bit PNG)
   bool interlaced = false;   // PNG Adam7: a reduced one sums the whole reduced image at once
+  int scans = 1;             // JPEG: the start-of-scan markers the file holds (others: 1)
   // Bytes the format's decoder holds for the whole image at full size, whatever size it is decoded
   // at: a progressive or multi-scan JPEG's DCT coefficients, a lossless WebP's ARGB pixels, a
   // WebP's alpha plane, stb's whole BMP or TGA. 0 where the decoder streams rows.

@@ -34,6 +34,7 @@
 #include <string>
 #include <string_view>
 #include <unordered_map>
+#include <tuple>
 #include <utility>
 #include <vector>
 
@@ -758,11 +759,13 @@ Status planObjTextures(const std::string& path, const ObjScan& scan,
                        const std::vector<tinyobj::material_t>& materials, ObjTextures& textures) {
   for (const tinyobj::material_t& m : materials) {
     if (!usedByFaces(scan, m.name)) continue;
-    const std::pair<const std::string*, bool> maps[] = {
-        {&m.diffuse_texname, true}, {&m.emissive_texname, true}, {&m.alpha_texname, false}};
-    for (const auto& [name, colour] : maps) {
+    const std::tuple<const std::string*, bool, const char*> maps[] = {
+        {&m.diffuse_texname, true, "map_Kd"},
+        {&m.emissive_texname, true, "map_Ke"},
+        {&m.alpha_texname, false, "map_d"}};
+    for (const auto& [name, colour, statement] : maps) {
       if (name->empty()) continue;
-      const std::string place = fmt::format("material '{}'", m.name);
+      const std::string place = fmt::format("material '{}' {}", m.name, statement);
       Expected<std::string> file = objTextureFile(path, *name, textures, place);
       if (!file) return file.error();
       PENUMBRA_TRY(textures.cache.planFile(
@@ -818,6 +821,7 @@ Expected<Scene> loadObj(const std::string& path, const SceneLoadOptions& options
     scene.materials.push_back(std::move(*mat));
   }
   warnUndefinedMaterials(path, scan, obj_materials, library_missing, scene);
+  for (const std::string& w : textures.cache.warnings()) scene.warnings.push_back(w);
 
   ObjMaterialIds material_for(obj_materials.size(), scene);
   const std::string stem = std::filesystem::path(path).stem().string();

@@ -1182,6 +1182,8 @@ Expected<Scene> SceneJsonReader::read(const json& root) {
   // The mesh files were validated by their loaders, whose warnings (degenerate triangles) name
   // the mesh file; the merged scene's validation would repeat them, so its warnings are dropped
   // (unless meshes were added from memory, which no loader has seen).
+  // What decoding the textures had to say (images reduced to the size limit).
+  for (const std::string& w : textures_.warnings()) scene.warnings.push_back(w);
   const size_t warnings_before = scene.warnings.size();
   if (complete_) complete_(scene);
   PENUMBRA_TRY(checkScene(scene));

@@ -39,6 +39,13 @@ Status TextureCache::plan(const std::string& name, std::string_view bytes, Textu
   if (planned_.count(key)) return {};
   Expected<ImageHeader> header = readImageHeader(name, bytes);
   if (!header) return atSlot(header.error(), name, scene_file, place);
+  if (header->scans > options_.limits.max_scans) {
+    return inputError(scene_file, place,
+                      fmt::format("image '{}': the JPEG has {} scans, more than the {} Penumbra "
+                                  "decodes (a progressive JPEG has about 10; each scan rereads the "
+                                  "whole image)",
+                                  name, header->scans, options_.limits.max_scans));
+  }
   Planned p;
   p.bytes = bytes;
   p.header = *header;

@@ -32,6 +32,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
 #include <new>
 #include <map>
@@ -370,8 +371,12 @@ Status GltfSceneReader::planScene(const std::vector<int64_t>& roots) {
           copies = std::max<uint64_t>(copies, (*a)->value("count", uint64_t(1)));
         }
       }
-      total += per_mesh[size_t(m)] * copies;
-      if (total > kMaxSceneTriangles) break;
+      // Saturating: a file's counts may claim more than 64 bits hold.
+      const uint64_t add = per_mesh[size_t(m)] > 0 && copies > (uint64_t(1) << 62) /
+                                                            per_mesh[size_t(m)]
+                               ? uint64_t(1) << 62
+                               : per_mesh[size_t(m)] * copies;
+      total = std::min(total + add, uint64_t(1) << 62);
       for (const json& prim : meshes[size_t(m)]["primitives"]) {
         materials.insert(prim.value("material", int64_t(-1)));
       }
@@ -515,6 +520,18 @@ Status GltfSceneReader::addPrimitive(size_t n, int64_t mesh_index, size_t p,
   }
   Expected<uint32_t> material = materials_.material(d->material, where);
   if (!material) return material.error();
+  // A texture reads a UV set the primitive has (glTF 2.0 sec. 5.20: texCoord names an attribute).
+  const Material& m = scene_.materials[*material];
+  for (const auto* binding : {&m.reflectance_texture, &m.emission_texture}) {
+    if (!*binding) continue;
+    const uint32_t set = (*binding)->uv_set;
+    if (set >= d->uvs.size() || d->uvs[set].empty()) {
+      return inputError(path(), where,
+                        fmt::format("material '{}' reads TEXCOORD_{}, which the primitive does "
+                                    "not have",
+                                    m.name, set));
+    }
+  }
   std::vector<glm::dmat4> joints;
   if (node.contains("skin")) {
     Expected<std::vector<glm::dmat4>> j = jointMatrices(n);
