@@ -196,6 +196,8 @@ nlohmann::json matrixStats(const RenderOptions& options, Communicator& comm,
                       {"width", setup.width},
                       {"height", setup.height},
                       {"spp", setup.spp}};
+  // What the sky or the environment brings to the surfaces directly (W per channel).
+  j["outside_power_w"] = {mr.outside_power.x, mr.outside_power.y, mr.outside_power.z};
   if (setup.frames > 1) j["frames"] = totals.frame_stats;
   if (comm.distributed()) {
     j["ranks"] = comm.size();
@@ -221,10 +223,12 @@ Status renderMatrix(const RenderOptions& options, const CommonOptions& common) {
   for (const std::string& w : scene->warnings) spdlog::warn("{}", w);
   for (const std::string& w : diffuseStandInWarnings(*scene, "matrix")) spdlog::warn("{}", w);
   PENUMBRA_TRY(prepareIlluminance(setup->lux, options, *scene, setup->width, setup->height));
-  bool any_emitter = !scene->lights.empty();
+  bool any_emitter =
+      !scene->lights.empty() || scene->sky.has_value() || scene->environment != glm::vec3(0.0f);
   for (const Material& m : scene->materials) any_emitter |= m.isEmissive();
   if (!any_emitter) {
-    spdlog::warn("{}: no emissive material and no light: the solution is black", scene->source);
+    spdlog::warn("{}: no emissive material, light, sky or environment: the solution is black",
+                 scene->source);
   }
 
   MatrixRadiosityOptions mo;

@@ -6,6 +6,7 @@
 #include "penumbra/core/rng.h"
 #include "penumbra/core/timer.h"
 #include "penumbra/kernels/form_factor.h"
+#include "penumbra/radiosity/outside_light.h"
 #include "penumbra/radiosity/progressive.h"
 
 #include <fmt/format.h>
@@ -64,8 +65,8 @@ Expected<StochasticRadiosity> StochasticRadiosity::build(const Scene& scene,
   }
   if (!(power > 0.0)) {
     return inputError(scene.source, place,
-                      "the scene emits no light that reaches a surface (no emissive surface, or "
-                      "lights that light nothing)");
+                      "the scene emits no light that reaches a surface (no emissive surface, "
+                      "light, sky or environment, or only ones that light nothing)");
   }
   sr.b_ = sr.source_;
   // Burn-in: E[B_i] - B = -T^(i+1) B falls at least as fast as the largest reflectance's powers;
@@ -222,7 +223,8 @@ void StochasticRadiosity::buildLocal() {
 }
 
 Status StochasticRadiosity::buildSource(const Scene& scene) {
-  // E' = E + rho E_direct: the lights' direct light reflected once, deterministic.
+  // E' = E + rho (E_direct + S): the lights' direct light and the sky's or the environment's
+  // (radiosity/outside_light.h) reflected once, deterministic.
   const size_t n = surface_.elementCount();
   source_ = surface_.emission;
   shot_.assign(n, glm::dvec3(0.0));
@@ -230,6 +232,10 @@ Status StochasticRadiosity::buildSource(const Scene& scene) {
     const std::vector<glm::dvec3> direct =
         surface_.lightIrradiance(scene.lights, options_.visibility);
     for (size_t e = 0; e < n; ++e) source_[e] += surface_.reflectance[e] * direct[e];
+  }
+  if (const OutsideLight outside(scene); outside.active()) {
+    const std::vector<glm::dvec3> s = outside.irradiance(surface_);
+    for (size_t e = 0; e < n; ++e) source_[e] += surface_.reflectance[e] * s[e];
   }
   return {};
 }

@@ -366,12 +366,13 @@ std::vector<std::string> diffuseStandInWarnings(const Scene& scene, const std::s
         method, m.reflectance.x, m.reflectance.y, m.reflectance.z, mirror ? "" : ", opaque",
         mirror ? "reflections" : "reflections and refractions"));
   }
-  // The sky (scene/sky.h) is taken by progressive radiosity and the path tracer only.
-  if (scene.sky && method != "progressive" && method != "pathtrace") {
+  // The sky (scene/sky.h) is taken by the three radiosity methods and the path tracer.
+  if (scene.sky && method != "progressive" && method != "pathtrace" && method != "matrix" &&
+      method != "stochastic") {
     out.push_back(
         fmt::format("{}: --method {} does not take the sky yet: only its sun's beam, "
-                    "if given, lights the scene (progressive and pathtrace take the "
-                    "sky, and so do the calculation points of matrix renders)",
+                    "if given, lights the scene (pathtrace, matrix, progressive and "
+                    "stochastic take the sky)",
                     scene.source, method));
   }
   return out;

@@ -25,8 +25,8 @@ struct Scene {
   std::optional<Camera> camera;
   // Uniform environment: the radiance (W m^-2 sr^-1, RGB, finite and non-negative) arriving from
   // every direction the scene does not block, as from an infinitely distant sphere around it.
-  // Zero (none) by default. The path tracer gathers it on rays that leave the scene; it is what
-  // furnace and albedo tests light a scene with.
+  // Zero (none) by default. The path tracer gathers it on rays that leave the scene, radiosity at
+  // its elements (radiosity/outside_light.h); furnace and albedo tests light a scene with it.
   glm::vec3 environment{0.0f};
   // Per-method settings from the scene file ("settings": {"pathtrace": {...}}), applied before
   // command-line options, which win.
