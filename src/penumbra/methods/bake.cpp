@@ -588,11 +588,9 @@ Status bake(const BakeOptions& options, const CommonOptions& common, bool* inter
     for (const std::string& w : diffuseStandInWarnings(*scene, options.method)) {
       spdlog::warn("{}", w);
     }
-    bool any_emitter = false;
-    for (const Material& m : scene->materials) any_emitter |= m.isEmissive();
-    if (!any_emitter && !progressive && options.method != "pathtrace") {
-      spdlog::warn("{}: no emissive material: the solution is black", scene->source);
-    }
+    bool any_emitter = hasLightOtherThanSurfaces(*scene);
+    for (const Material& m : scene->materials) any_emitter |= m.isEmissive() && !m.unlit;
+    if (!any_emitter) return noLightError(*scene, options.method);
   }
   const Timer total_timer;
   const bool stitch = options.seams == "stitch";

@@ -63,11 +63,14 @@ Expected<StochasticRadiosity> StochasticRadiosity::build(const Scene& scene,
     power += luminance(sr.shot_[e] + sr.source_[e]) * sr.surface_.atlas.element_area[e];
     sr.source_power_ += luminance(sr.source_[e]) * sr.surface_.atlas.element_area[e];
   }
-  if (!(power > 0.0)) {
-    return inputError(scene.source, place,
-                      "the scene emits no light that reaches a surface (no emissive surface, "
-                      "light, sky or environment, or only ones that light nothing)");
+  // No light at all is refused as every method refuses it (scene/scene.h); light that reaches no
+  // surface (a lamp over nothing but cut-out holes) gives a black solution, as it does there.
+  double emitted = 0.0;
+  for (size_t e = 0; e < n; ++e) {
+    emitted += luminance(sr.surface_.emission[e]) * sr.surface_.atlas.element_area[e];
   }
+  if (!(emitted > 0.0) && !hasLightOtherThanSurfaces(scene)) return noLightError(scene, place);
+  sr.dark_ = !(power > 0.0);
   sr.b_ = sr.source_;
   // Burn-in: E[B_i] - B = -T^(i+1) B falls at least as fast as the largest reflectance's powers;
   // averaging from the iterate where that is below 1e-3 leaves a bias under 1e-3 / (1 - rho).
@@ -414,6 +417,7 @@ StochasticIteration StochasticRadiosity::step() {
   StochasticIteration it;
   it.iteration = ++iterations_;
   it.power = total_;
+  if (dark_) return it;  // nothing to shoot: the solution stays black
   // B_m = E' + T* B_{m-1}: the shooters chosen from B_{m-1} (its sums are current).
   // B_m = E' + L B_{m-1} (the local operator, deterministic) + R* B_{m-1}.
   std::vector<glm::dvec3> next(source_.size());

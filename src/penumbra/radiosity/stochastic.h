@@ -204,6 +204,7 @@ class StochasticRadiosity {
   std::vector<glm::dvec3> b_;       // the current iterate
   std::vector<glm::dvec3> sum_[2];  // iterates summed by the parity of their number
   int iterations_ = 0;
+  bool dark_ = false;  // no light reaches a surface: every iteration leaves the solution black
   int burn_in_ = 0;
   // Per hierarchy level, per cluster: sum of lum(B) A over its elements (the mipmap of sec. 3.1).
   std::vector<std::vector<double>> level_sums_;
