@@ -434,6 +434,19 @@ TEST(ImageDecode, AJpegBombIsDecodedAtAFractionWithinItsPlan) {
   small.max_size = 1024;
   const ImagePlan pp = planImage(*p, small);
   EXPECT_GT(pp.peak_bytes, uint64_t(512) << 20);
+  {
+    // One of 8192 x 8192 decodes within its plan, coefficients included.
+    const std::string p8 = flatJpeg(8192, 8192, true);
+    Expected<ImageHeader> h8 = readImageHeader("p8.jpg", p8);
+    ASSERT_TRUE(h8.ok()) << h8.error().describe();
+    const ImagePlan plan8 = planImage(*h8, ImageLimits{});
+    PeakMemory peak8;
+    EXPECT_EQ(decodeOk("p8.jpg", p8).width, 8192);
+    if (peak8.ok()) {
+      EXPECT_LE(peak8.rise(), plan8.peak_bytes - plan8.texture_bytes);
+      EXPECT_GE(peak8.rise(), h8->full_size_buffer_bytes);
+    }
+  }
   MemoryBudgetScope budget(uint64_t(256) << 20);
   EXPECT_HAS(errorOf("p.jpg", progressive, small),
              "decoding this 16384 x 16384 JPEG (reduced to "
