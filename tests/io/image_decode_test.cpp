@@ -328,6 +328,13 @@ TEST(ImageDecode, BmpAndTgaBombsWithoutPixelDataAreRefusedFromTheirHeaders) {
   tga.rle = true;
   EXPECT_EQ(errorOf("rle.tga", tgaFile(tga)),
             "the file is truncated: its run-length encoded pixels end after 0 of 65535 x 65535");
+  // Run-length encoding holds 128 pixels in 5 bytes: 21 MB that stb_image would decode into 2 GiB
+  // is refused by name.
+  TgaSpec big{.type = 2, .width = 32768, .height = 16384, .bpp = 32, .rle = true};
+  std::string packets;
+  for (int i = 0; i < 32768 * 16384 / 128; ++i) packets += std::string("\xff\x01\x02\x03\x04", 5);
+  EXPECT_EQ(errorOf("big.tga", tgaFile(big).substr(0, 18) + packets),
+            "a TGA of 32768 x 16384 pixels is larger than its decoder takes (2 GiB decoded)");
 }
 
 TEST(ImageDecode, TruncatedBmpAndTgaFilesAreRefusedAtEveryCut) {

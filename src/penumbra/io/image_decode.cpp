@@ -1048,6 +1048,13 @@ Expected<TgaLayout> readTgaLayout(const std::string& name, std::string_view b) {
                                         t.pixels_at, b.size()));
   }
   PENUMBRA_TRY(walkTgaPixels(name, b, t));
+  // stb_image decodes the whole image into one buffer, which it keeps under 2 GiB.
+  if (uint64_t(t.width) * uint64_t(t.height) * uint64_t(t.channels) >
+      uint64_t(std::numeric_limits<int>::max())) {
+    return imageError(name, fmt::format("a TGA of {} x {} pixels is larger than its decoder takes "
+                                        "(2 GiB decoded)",
+                                        t.width, t.height));
+  }
   return t;
 }
 
