@@ -1442,6 +1442,11 @@ Status decodePng(DecodeJob& d) {
 }
 
 // ---- JPEG decoding (libjpeg-turbo) -----------------------------------------------------------
+//
+// Under valgrind, libjpeg-turbo's SIMD routines for scaled decoding read the padding of their row
+// buffers, which memcheck reports as output that depends on uninitialised memory; the texels are
+// the same whatever the padding holds (checked with MALLOC_PERTURB_). Run memcheck with
+// JSIMD_FORCENONE=1.
 
 // libjpeg's state and what its callbacks need; they longjmp, so plain data only.
 struct JpegJob {
