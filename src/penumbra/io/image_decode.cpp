@@ -1775,9 +1775,8 @@ std::string describe(const ImageHeader& h, const ImagePlan& plan) {
 
 std::string reductionWarning(const ImageHeader& h, const ImagePlan& plan, const ImageLimits& l) {
   return fmt::format(
-      "reduced from {} x {} to {} x {}: larger than the texture size limit ({} a "
-      "side)",
-      h.width, h.height, plan.width, plan.height, l.max_size);
+      "reduced from {} x {} to {} x {}: larger than the texture size limit ({} a side)", h.width,
+      h.height, plan.width, plan.height, l.max_size);
 }
 
 Status checkPlan(const std::string& name, const ImageHeader& header, const ImagePlan& plan) {
@@ -1838,16 +1837,21 @@ Expected<Image> decodeData(const std::string& name, std::string_view bytes,
               warnings,
               Deadline(limits.max_seconds),
               header->channels};
-  if (plan.reduced) warnings.push_back(reductionWarning(*header, plan, limits));
+  const auto first = std::ptrdiff_t(warnings.size());
   if (header->format != ImageFormat::kWebp) {
     PENUMBRA_TRY(decodePixels(d, nullptr));
-    return image;
+  } else {
+    // libwebp writes whole RGBA images: decode into texels, then convert.
+    std::vector<uint8_t> rgba(4 * size_t(plan.width) * size_t(plan.height));
+    PENUMBRA_TRY(decodePixels(d, rgba.data()));
+    for (int y = 0; y < plan.height; ++y) {
+      out.row(y, rgba.data() + 4 * size_t(y) * size_t(plan.width));
+    }
   }
-  // libwebp writes whole RGBA images: decode into texels, then convert.
-  std::vector<uint8_t> rgba(4 * size_t(plan.width) * size_t(plan.height));
-  PENUMBRA_TRY(decodePixels(d, rgba.data()));
-  for (int y = 0; y < plan.height; ++y)
-    out.row(y, rgba.data() + 4 * size_t(y) * size_t(plan.width));
+  // The reduction first, once decoding succeeded.
+  if (plan.reduced) {
+    warnings.insert(warnings.begin() + first, reductionWarning(*header, plan, limits));
+  }
   return image;
 }
 
