@@ -48,7 +48,7 @@ test-asan: deps
 # the solvers uninstrumented (src/CMakeLists.txt: PENUMBRA_SANITIZE_SOLVERS), less the few of them that take more than about 2 s without sanitizers and the command-line
 # tests that run a whole solve (their solvers' own suites are not in this job either).
 ASAN_FAST_BUILD ?= build-asan-fast
-ASAN_SLOW_TESTS = HostileValues.Resume*:HostileValues.Sigterm*:Cli.Progressive*:Cli.Stochastic*:Cli.Lpv*:Cli.MatrixRadiosity*:Cli.Bake*:Cli.PathTracerSamplers*:Cli.Signals*:Cli.TraceOnTheGpu*:ChartAtlas.Bunny*:SurfaceHierarchy.CutGives*:Readme.*:GltfCorpus.GpuInstancesAreEveryCopy:GltfCorpus.CompressedVariantsGiveThePlainFilesPicture:BakeFiles.*
+ASAN_SLOW_TESTS = HostileValues.Resume*:HostileValues.Sigterm*:Cli.Progressive*:Cli.Stochastic*:Cli.Lpv*:Cli.MatrixRadiosity*:Cli.Bake*:Cli.PathTracerSamplers*:Cli.Signals*:Cli.TraceOnTheGpu*:ChartAtlas.Bunny*:SurfaceHierarchy.CutGives*:Readme.*:GltfCorpus.GpuInstancesAreEveryCopy:GltfCorpus.CompressedVariantsGiveThePlainFilesPicture:BakeFiles.*:ImageDecode.*Bomb*
 test-asan-fast: deps
 	cmake -S . -B $(ASAN_FAST_BUILD) -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DPENUMBRA_SANITIZE=ON \
 	  -DPENUMBRA_SANITIZE_SOLVERS=OFF -DPENUMBRA_BUILD_BENCH=OFF \

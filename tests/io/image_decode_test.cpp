@@ -328,6 +328,13 @@ TEST(ImageDecode, BmpAndTgaBombsWithoutPixelDataAreRefusedFromTheirHeaders) {
   tga.rle = true;
   EXPECT_EQ(errorOf("rle.tga", tgaFile(tga)),
             "the file is truncated: its run-length encoded pixels end after 0 of 65535 x 65535");
+  // Run-length encoding holds 128 pixels in 5 bytes: 21 MB that stb_image would decode into 2 GiB
+  // is refused by name.
+  TgaSpec big{.type = 2, .width = 32768, .height = 16384, .bpp = 32, .rle = true};
+  std::string packets;
+  for (int i = 0; i < 32768 * 16384 / 128; ++i) packets += std::string("\xff\x01\x02\x03\x04", 5);
+  EXPECT_EQ(errorOf("big.tga", tgaFile(big).substr(0, 18) + packets),
+            "a TGA of 32768 x 16384 pixels is larger than its decoder takes (2 GiB decoded)");
 }
 
 TEST(ImageDecode, TruncatedBmpAndTgaFilesAreRefusedAtEveryCut) {
@@ -434,6 +441,19 @@ TEST(ImageDecode, AJpegBombIsDecodedAtAFractionWithinItsPlan) {
   small.max_size = 1024;
   const ImagePlan pp = planImage(*p, small);
   EXPECT_GT(pp.peak_bytes, uint64_t(512) << 20);
+  {
+    // One of 8192 x 8192 decodes within its plan, coefficients included.
+    const std::string p8 = flatJpeg(8192, 8192, true);
+    Expected<ImageHeader> h8 = readImageHeader("p8.jpg", p8);
+    ASSERT_TRUE(h8.ok()) << h8.error().describe();
+    const ImagePlan plan8 = planImage(*h8, ImageLimits{});
+    PeakMemory peak8;
+    EXPECT_EQ(decodeOk("p8.jpg", p8).width, 8192);
+    if (peak8.ok()) {
+      EXPECT_LE(peak8.rise(), plan8.peak_bytes - plan8.texture_bytes);
+      EXPECT_GE(peak8.rise(), h8->full_size_buffer_bytes);
+    }
+  }
   MemoryBudgetScope budget(uint64_t(256) << 20);
   EXPECT_HAS(errorOf("p.jpg", progressive, small),
              "decoding this 16384 x 16384 JPEG (reduced to "

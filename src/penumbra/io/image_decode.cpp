@@ -1058,6 +1058,13 @@ Expected<TgaLayout> readTgaLayout(const std::string& name, std::string_view b) {
                                         t.pixels_at, b.size()));
   }
   PENUMBRA_TRY(walkTgaPixels(name, b, t));
+  // stb_image decodes the whole image into one buffer, which it keeps under 2 GiB.
+  if (uint64_t(t.width) * uint64_t(t.height) * uint64_t(t.channels) >
+      uint64_t(std::numeric_limits<int>::max())) {
+    return imageError(name, fmt::format("a TGA of {} x {} pixels is larger than its decoder takes "
+                                        "(2 GiB decoded)",
+                                        t.width, t.height));
+  }
   return t;
 }
 
@@ -1445,6 +1452,11 @@ Status decodePng(DecodeJob& d) {
 }
 
 // ---- JPEG decoding (libjpeg-turbo) -----------------------------------------------------------
+//
+// Under valgrind, libjpeg-turbo's SIMD routines for scaled decoding read the padding of their row
+// buffers, which memcheck reports as output that depends on uninitialised memory; the texels are
+// the same whatever the padding holds (checked with MALLOC_PERTURB_). Run memcheck with
+// JSIMD_FORCENONE=1.
 
 // libjpeg's state and what its callbacks need; they longjmp, so plain data only.
 struct JpegJob {
@@ -1773,9 +1785,8 @@ std::string describe(const ImageHeader& h, const ImagePlan& plan) {
 
 std::string reductionWarning(const ImageHeader& h, const ImagePlan& plan, const ImageLimits& l) {
   return fmt::format(
-      "reduced from {} x {} to {} x {}: larger than the texture size limit ({} a "
-      "side)",
-      h.width, h.height, plan.width, plan.height, l.max_size);
+      "reduced from {} x {} to {} x {}: larger than the texture size limit ({} a side)", h.width,
+      h.height, plan.width, plan.height, l.max_size);
 }
 
 Status checkPlan(const std::string& name, const ImageHeader& header, const ImagePlan& plan) {
@@ -1836,16 +1847,21 @@ Expected<Image> decodeData(const std::string& name, std::string_view bytes,
               warnings,
               Deadline(limits.max_seconds),
               header->channels};
-  if (plan.reduced) warnings.push_back(reductionWarning(*header, plan, limits));
+  const auto first = std::ptrdiff_t(warnings.size());
   if (header->format != ImageFormat::kWebp) {
     PENUMBRA_TRY(decodePixels(d, nullptr));
-    return image;
+  } else {
+    // libwebp writes whole RGBA images: decode into texels, then convert.
+    std::vector<uint8_t> rgba(4 * size_t(plan.width) * size_t(plan.height));
+    PENUMBRA_TRY(decodePixels(d, rgba.data()));
+    for (int y = 0; y < plan.height; ++y) {
+      out.row(y, rgba.data() + 4 * size_t(y) * size_t(plan.width));
+    }
   }
-  // libwebp writes whole RGBA images: decode into texels, then convert.
-  std::vector<uint8_t> rgba(4 * size_t(plan.width) * size_t(plan.height));
-  PENUMBRA_TRY(decodePixels(d, rgba.data()));
-  for (int y = 0; y < plan.height; ++y)
-    out.row(y, rgba.data() + 4 * size_t(y) * size_t(plan.width));
+  // The reduction first, once decoding succeeded.
+  if (plan.reduced) {
+    warnings.insert(warnings.begin() + first, reductionWarning(*header, plan, limits));
+  }
   return image;
 }
 

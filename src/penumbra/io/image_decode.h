@@ -1,5 +1,6 @@
-// Texture images: PNG (libpng), JPEG (libjpeg-turbo), WebP (libwebp), BMP and TGA (stb_image,
-// after Penumbra's own header checks), read from bytes that may be hostile.
+// Texture images: PNG (libpng), JPEG (libjpeg-turbo), WebP (libwebp), BMP (Penumbra's own reader)
+// and TGA (stb_image, after Penumbra's own checks of its header and pixel data), read from bytes
+// that may be hostile.
 //
 // Every image goes through the same three steps, so a scene can refuse what will not fit before
 // it decodes anything (DESIGN.md sec. 5): readImageHeader reads and checks the header (sizes
@@ -13,10 +14,9 @@
 // elements and filtered by a mip pyramid, so detail finer than 1/8192 of a texture is not seen;
 // refusing would make valid assets (16K photo-scanned textures) unusable. The reduction never
 // holds the full image where the decoder allows it: JPEG decodes at 1/2, 1/4 or 1/8 scale in the
-// DCT (libjpeg-turbo), WebP through libwebp's scaler, PNG row by row into a running box filter.
-// BMP and TGA (stb) are decoded whole first; their files hold their pixels uncompressed (or
-// run-length encoded, at most 128:1), so the file bounds that. The caller warns (TextureTexels::
-// warnings).
+// DCT (libjpeg-turbo), WebP through libwebp's scaler, PNG and BMP row by row into a running box
+// filter. TGA (stb) is decoded whole first; its file holds the pixels raw or run-length encoded
+// (at most 128:1), so the file bounds that. The caller warns (TextureTexels::warnings).
 //
 // Budgets (ImageLimits): a JPEG may have at most `max_scans` scans (a progressive JPEG has about
 // 10; each scan walks the whole image, so 150,000 empty scans take minutes), and one image's
@@ -26,7 +26,10 @@
 // data images (normal maps) scaled to [0, 1]. Gamma, ICC and colour-space chunks are ignored:
 // textures are sRGB (glTF 2.0 sec. 3.8.4). Palette indices past the palette read as opaque black
 // (libpng's rule: its palette is 256 zeroed entries) in PNG and BMP, and as the first entry in
-// TGA (stb's rule), with a warning. Every error is one line naming the image, in plain words.
+// TGA (stb's rule), with a warning: what a browser shows, identical on every run. A PNG chunk whose
+// CRC fails is an error when it holds pixels (IHDR, PLTE, tRNS, IDAT: the file is damaged and its
+// colours cannot be trusted) and a warning otherwise (text, ICC: the pixels are intact). Every
+// error is one line naming the image, in plain words.
 #pragma once
 
 #include "penumbra/core/expected.h"
@@ -60,7 +63,7 @@ struct ImageHeader {
   int scans = 1;             // JPEG: the start-of-scan markers the file holds (others: 1)
   // Bytes the format's decoder holds for the whole image at full size, whatever size it is decoded
   // at: a progressive or multi-scan JPEG's DCT coefficients, a lossless WebP's ARGB pixels, a
-  // WebP's alpha plane, stb's whole BMP or TGA. 0 where the decoder streams rows.
+  // WebP's alpha plane, stb's whole TGA. 0 where the decoder streams rows.
   uint64_t full_size_buffer_bytes = 0;
 };
 // Reads and checks the header. An input error naming `name` when the bytes are not an image of a
