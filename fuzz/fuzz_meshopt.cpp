@@ -21,14 +21,14 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     v.filter = MeshoptView::Filter::kNone;
     if (v.mode == MeshoptView::Mode::kTriangles) v.count = 3 * (1 + data[3]);
   }
-  const bool stride_ok =
-      v.mode != MeshoptView::Mode::kAttributes ||
-      (v.byte_stride % 4 == 0 &&
-       (v.filter == MeshoptView::Filter::kNone ||
-        ((v.filter == MeshoptView::Filter::kOctahedral || v.filter == MeshoptView::Filter::kColor) &&
-         (v.byte_stride == 4 || v.byte_stride == 8)) ||
-        (v.filter == MeshoptView::Filter::kQuaternion && v.byte_stride == 8) ||
-        v.filter == MeshoptView::Filter::kExponential));
+  const bool stride_ok = v.mode != MeshoptView::Mode::kAttributes ||
+                         (v.byte_stride % 4 == 0 &&
+                          (v.filter == MeshoptView::Filter::kNone ||
+                           ((v.filter == MeshoptView::Filter::kOctahedral ||
+                             v.filter == MeshoptView::Filter::kColor) &&
+                            (v.byte_stride == 4 || v.byte_stride == 8)) ||
+                           (v.filter == MeshoptView::Filter::kQuaternion && v.byte_stride == 8) ||
+                           v.filter == MeshoptView::Filter::kExponential));
   if (!stride_ok) return 0;  // readMeshoptView refuses these layouts before decoding
   const std::string_view stream(reinterpret_cast<const char*>(data + 4), size - 4);
   Expected<std::string> out = decodeMeshoptView(v, stream, "x.glb", "bufferViews[0]");

@@ -13,7 +13,7 @@ packages=(
   # the photon map's kd-tree
   libnanoflann-dev
   # file formats
-  libtinyobjloader-dev libtinygltf-dev libstb-dev libopenexr-dev libwebp-dev
+  libtinyobjloader-dev libstb-dev libopenexr-dev libwebp-dev
   # texture images: PNG (libpng, with zlib) and JPEG (libjpeg-turbo)
   libpng-dev zlib1g-dev libjpeg-dev
   # compressed glTF: Draco (KHR_draco_mesh_compression) and meshopt (EXT_/KHR_meshopt_compression)

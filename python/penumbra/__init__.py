@@ -131,11 +131,15 @@ _LOAD_OPTIONS = ("allow_outside_files", "max_texture_size", "gltf_scene")
 
 def _scene_of(scene, options: dict) -> Scene:
     """The scene to run on: a :class:`Scene` as it is, a name or file loaded with the options
-    that say how to read it (which a loaded scene no longer needs)."""
-    load_options = {k: options.pop(k) for k in _LOAD_OPTIONS if options.get(k) is not None}
+    that say how to read it. They stay in ``options``, so the library checks their values as it
+    checks every option's (a loaded scene has no more use for them)."""
     if isinstance(scene, Scene):
         return scene
-    return load(scene, **load_options)
+    load_options = {k: options[k] for k in _LOAD_OPTIONS if options.get(k) is not None}
+    try:
+        return load(scene, **load_options)
+    except TypeError as e:
+        raise InputError(f"{scene}: {e}") from None
 
 
 def _values(options: dict) -> list:

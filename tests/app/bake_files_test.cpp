@@ -49,16 +49,16 @@ fs::path objScene(const fs::path& dir, const std::string& stem) {
   put(dir / (stem + ".mtl"),
       "newmtl card\nKd 1 1 1\nmap_Kd -s 2 2 wood tex.png\nmap_d mask.png\n"
       "newmtl floor\nKd 0.5 0.5 0.5\n");
-  put(dir / (stem + ".obj"),
-      "mtllib " + stem + ".mtl\n"
-      "v -1 0 -1\nv 1 0 -1\nv 1 0 1\nv -1 0 1\n"
-      "v -0.5 0.2 0\nv 0.5 0.2 0\nv 0.5 1.2 0\nv -0.5 1.2 0\n"
-      "vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n"
-      "usemtl floor\nf 1 4 3 2\n"
-      "usemtl card\nf 5/1 6/2 7/3 8/4\n");
-  const json scene = {{"meshes", {{{"file", stem + ".obj"}}}},
-                      {"lights", {{{"type", "point"}, {"position", {0, 2, 1}},
-                                   {"intensity", {3, 3, 3}}}}}};
+  put(dir / (stem + ".obj"), "mtllib " + stem +
+                                 ".mtl\n"
+                                 "v -1 0 -1\nv 1 0 -1\nv 1 0 1\nv -1 0 1\n"
+                                 "v -0.5 0.2 0\nv 0.5 0.2 0\nv 0.5 1.2 0\nv -0.5 1.2 0\n"
+                                 "vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n"
+                                 "usemtl floor\nf 1 4 3 2\n"
+                                 "usemtl card\nf 5/1 6/2 7/3 8/4\n");
+  const json scene = {
+      {"meshes", {{{"file", stem + ".obj"}}}},
+      {"lights", {{{"type", "point"}, {"position", {0, 2, 1}}, {"intensity", {3, 3, 3}}}}}};
   put(dir / (stem + ".json"), scene.dump(1));
   return dir / (stem + ".json");
 }
@@ -172,19 +172,20 @@ TEST(BakeFiles, ASceneOfNothingButHolesIsRefusedAlikeByEveryMethod) {
   TempDir dir;
   const uint8_t off[4] = {0, 0, 0, 0};
   put(dir.path() / "hole.png", test::pngBytes(test::chequer(4, 4, 1, off, off)));
-  const json scene = {
-      {"materials",
-       {{"lamp", {{"reflectance", {0.5, 0.5, 0.5}}, {"emission", {5, 5, 5}},
-                  {"reflectance_texture", "hole.png"}, {"alpha_mode", "mask"}}}}},
-      {"meshes", {{{"sphere", 2}, {"material", "lamp"}}}}};
+  const json scene = {{"materials",
+                       {{"lamp",
+                         {{"reflectance", {0.5, 0.5, 0.5}},
+                          {"emission", {5, 5, 5}},
+                          {"reflectance_texture", "hole.png"},
+                          {"alpha_mode", "mask"}}}}},
+                      {"meshes", {{{"sphere", 2}, {"material", "lamp"}}}}};
   put(dir.path() / "holes.json", scene.dump());
   std::string first;
-  for (const char* method : {"pathtrace", "whitted", "photons", "progressive", "stochastic",
-                             "matrix"}) {
+  for (const char* method :
+       {"pathtrace", "whitted", "photons", "progressive", "stochastic", "matrix"}) {
     SCOPED_TRACE(method);
-    const auto r = runCli("render " + (dir.path() / "holes.json").string() + " --method " +
-                          method + " --width 16 --height 16 --quiet -o " +
-                          (dir.path() / "x.png").string());
+    const auto r = runCli("render " + (dir.path() / "holes.json").string() + " --method " + method +
+                          " --width 16 --height 16 --quiet -o " + (dir.path() / "x.png").string());
     EXPECT_EQ(r.exit_code, 2) << r.output;
     EXPECT_NE(r.output.find("emits no light"), std::string::npos) << r.output;
     EXPECT_FALSE(fs::exists(dir.path() / "x.png"));

@@ -137,13 +137,13 @@ TEST(GltfCorpus, EveryPngLayoutDecodesToItsTexels) {
     float white_alpha;  // the alpha of the last colour
   };
   const Layout layouts[] = {
-      {"quad-rgba-8bit", 4, false, 1.0f},         {"quad-rgb-8bit-interlaced", 4, false, 1.0f},
-      {"quad-rgb-16bit", 4, false, 1.0f},         {"quad-rgba-16bit", 4, false, 32896 / 65535.0f},
-      {"quad-palette-1bit", 2, false, 1.0f},      {"quad-palette-2bit", 4, false, 1.0f},
-      {"quad-palette-4bit", 4, false, 1.0f},      {"quad-palette-4bit-trns", 4, false, 0.0f},
-      {"quad-palette-8bit", 4, false, 1.0f},      {"quad-grey-1bit", 2, true, 1.0f},
-      {"quad-grey-2bit", 4, true, 1.0f},          {"quad-grey-4bit", 4, true, 1.0f},
-      {"quad-grey-16bit", 4, true, 1.0f},         {"quad-greyalpha-16bit", 4, true, 0.0f},
+      {"quad-rgba-8bit", 4, false, 1.0f},    {"quad-rgb-8bit-interlaced", 4, false, 1.0f},
+      {"quad-rgb-16bit", 4, false, 1.0f},    {"quad-rgba-16bit", 4, false, 32896 / 65535.0f},
+      {"quad-palette-1bit", 2, false, 1.0f}, {"quad-palette-2bit", 4, false, 1.0f},
+      {"quad-palette-4bit", 4, false, 1.0f}, {"quad-palette-4bit-trns", 4, false, 0.0f},
+      {"quad-palette-8bit", 4, false, 1.0f}, {"quad-grey-1bit", 2, true, 1.0f},
+      {"quad-grey-2bit", 4, true, 1.0f},     {"quad-grey-4bit", 4, true, 1.0f},
+      {"quad-grey-16bit", 4, true, 1.0f},    {"quad-greyalpha-16bit", 4, true, 0.0f},
   };
   const glm::vec3 rgb[4] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {1, 1, 1}};
   auto srgb = [](float v) {
@@ -202,11 +202,16 @@ TEST(GltfCorpus, CompressedVariantsGiveThePlainFilesPicture) {
   // move silhouettes by a fraction of a pixel; lossy images (WebP, JPEG at their tools' default
   // quality) change texels by a few percent.
   const std::pair<const char*, double> variants[] = {
-      {"Avocado.glb", 1e-6},           {"Avocado.draco.glb", 0.03},
-      {"Avocado.meshopt.glb", 1e-6},   {"Avocado.meshopt-cf.glb", 1e-6},
-      {"Avocado.khr-meshopt.glb", 1e-6}, {"Avocado.quantized.glb", 0.03},
-      {"Avocado.meshopt-quantized.glb", 0.03}, {"Avocado.khr-meshopt-quantized.glb", 0.03},
-      {"Avocado.ktx2-fallback.gltf", 1e-6}, {"Avocado.webp.glb", 0.05},
+      {"Avocado.glb", 1e-6},
+      {"Avocado.draco.glb", 0.03},
+      {"Avocado.meshopt.glb", 1e-6},
+      {"Avocado.meshopt-cf.glb", 1e-6},
+      {"Avocado.khr-meshopt.glb", 1e-6},
+      {"Avocado.quantized.glb", 0.03},
+      {"Avocado.meshopt-quantized.glb", 0.03},
+      {"Avocado.khr-meshopt-quantized.glb", 0.03},
+      {"Avocado.ktx2-fallback.gltf", 1e-6},
+      {"Avocado.webp.glb", 0.05},
       {"Avocado.jpeg.glb", 0.05},
   };
   for (const auto& [file, tolerance] : variants) {
@@ -236,7 +241,8 @@ TEST(GltfCorpus, AKtx2TextureWithoutFallbackIsRefusedNamingTheExtensionAndMateri
 // Blender's export of a field of instanced objects (EXT_mesh_gpu_instancing): every copy, 7.66
 // million triangles from a 161 KB file.
 TEST(GltfCorpus, GpuInstancesAreEveryCopy) {
-  const Expected<Scene> s = loadGltf(kCorpus + "features/gpu-instancing-blender/24_gpu_instancing.gltf");
+  const Expected<Scene> s =
+      loadGltf(kCorpus + "features/gpu-instancing-blender/24_gpu_instancing.gltf");
   ASSERT_TRUE(s.ok()) << s.error().describe();
   EXPECT_EQ(census(*s).triangles, 7656770u);
 }

@@ -85,7 +85,8 @@ TEST(Meshopt, VersionZeroAndIndexStreamsRoundTripAndLiesAreRefused) {
   std::vector<float> vertices;
   for (int i = 0; i < 300; ++i) vertices.insert(vertices.end(), {float(i), float(i % 7), 0.5f});
   std::vector<unsigned char> encoded(meshopt_encodeVertexBufferBound(300, 12));
-  encoded.resize(meshopt_encodeVertexBuffer(encoded.data(), encoded.size(), vertices.data(), 300, 12));
+  encoded.resize(
+      meshopt_encodeVertexBuffer(encoded.data(), encoded.size(), vertices.data(), 300, 12));
   MeshoptView v;
   v.count = 300;
   v.byte_stride = 12;
@@ -120,16 +121,16 @@ TEST(Meshopt, VersionZeroAndIndexStreamsRoundTripAndLiesAreRefused) {
     }
     ASSERT_TRUE(same) << "triangle " << t / 3;
   }
-  EXPECT_FALSE(decodeMeshoptView(
-                   t, std::string_view(reinterpret_cast<const char*>(ib.data()), ib.size() / 2),
-                   "f", "p")
-                   .ok());
+  EXPECT_FALSE(
+      decodeMeshoptView(
+          t, std::string_view(reinterpret_cast<const char*>(ib.data()), ib.size() / 2), "f", "p")
+          .ok());
   // The extension's own layout rules.
-  const json bad = {{"buffer", 0}, {"byteLength", 10}, {"byteStride", 6}, {"count", 5},
-                    {"mode", "ATTRIBUTES"}};
+  const json bad = {
+      {"buffer", 0}, {"byteLength", 10}, {"byteStride", 6}, {"count", 5}, {"mode", "ATTRIBUTES"}};
   EXPECT_FALSE(readMeshoptView(bad, false, 30, "f", "p").ok());
-  const json color = {{"buffer", 0}, {"byteLength", 10}, {"byteStride", 4}, {"count", 5},
-                      {"mode", "ATTRIBUTES"}, {"filter", "COLOR"}};
+  const json color = {{"buffer", 0}, {"byteLength", 10},     {"byteStride", 4},
+                      {"count", 5},  {"mode", "ATTRIBUTES"}, {"filter", "COLOR"}};
   EXPECT_TRUE(readMeshoptView(color, true, 20, "f", "p").ok());
   EXPECT_FALSE(readMeshoptView(color, false, 20, "f", "p").ok());  // EXT has no COLOR filter
 }
@@ -146,8 +147,9 @@ std::string quadFile(const TempDir& dir, const std::string& name, const json& po
               {"scenes", {{{"nodes", {0}}}}},
               {"nodes", {{{"mesh", 0}}}},
               {"meshes", {{{"primitives", {{{"attributes", {{"POSITION", 0}}}, {"indices", 1}}}}}}},
-              {"buffers", {{{"byteLength", bin.size()},
-                            {"uri", "data:application/octet-stream;base64," + test::base64(bin)}}}},
+              {"buffers",
+               {{{"byteLength", bin.size()},
+                 {"uri", "data:application/octet-stream;base64," + test::base64(bin)}}}},
               {"bufferViews",
                {{{"buffer", 0}, {"byteOffset", 0}, {"byteLength", position_bytes.size()}},
                 {{"buffer", 0}, {"byteOffset", index_offset}, {"byteLength", 12}}}},
@@ -170,8 +172,9 @@ TEST(GltfQuantization, IntegerPositionsAreScaledByTheirNodeAndBadFlagsRefused) {
   a.erase("byteStride");
   const json quantized = {{"extensionsUsed", {"KHR_mesh_quantization"}},
                           {"extensionsRequired", {"KHR_mesh_quantization"}},
-                          {"bufferViews", {{{"buffer", 0}, {"byteLength", 32}, {"byteStride", 8}},
-                                           {{"buffer", 0}, {"byteOffset", 32}, {"byteLength", 12}}}},
+                          {"bufferViews",
+                           {{{"buffer", 0}, {"byteLength", 32}, {"byteStride", 8}},
+                            {{"buffer", 0}, {"byteOffset", 32}, {"byteLength", 12}}}},
                           {"nodes", {{{"mesh", 0}, {"scale", {2.0, 2.0, 2.0}}}}}};
   const std::string p = quadFile(dir, "q.gltf", a, bytes, quantized);
   Expected<Scene> s = loadGltf(p);
@@ -180,8 +183,8 @@ TEST(GltfQuantization, IntegerPositionsAreScaledByTheirNodeAndBadFlagsRefused) {
   EXPECT_NEAR(s->meshes[0].positions[2].y, 2.0f, 1e-6f);
   // Without the extension the same storage is refused by name; so is a NORMAL that is not
   // normalized.
-  const std::string plain = quadFile(dir, "plain.gltf", a, bytes,
-                                     {{"bufferViews", quantized["bufferViews"]}});
+  const std::string plain =
+      quadFile(dir, "plain.gltf", a, bytes, {{"bufferViews", quantized["bufferViews"]}});
   EXPECT_TRUE(test::errorNames(loadGltf(plain), plain, "needs KHR_mesh_quantization"));
   json doc = json::parse(readBytes(p));
   doc["accessors"].push_back(a);
@@ -203,10 +206,14 @@ TEST(GltfSparse, SparseValuesReplaceTheBaseAndBadIndicesAreRefused) {
   sparse.append(reinterpret_cast<const char*>(&index), 2);
   sparse.append(2, '\0');
   for (float v : {1.f, 1.f, 5.f}) sparse.append(reinterpret_cast<const char*>(&v), 4);
-  const json accessor = {{"bufferView", 0}, {"componentType", 5126}, {"count", 4}, {"type", "VEC3"},
-                         {"sparse", {{"count", 1},
-                                     {"indices", {{"bufferView", 2}, {"componentType", 5123}}},
-                                     {"values", {{"bufferView", 2}, {"byteOffset", 4}}}}}};
+  const json accessor = {{"bufferView", 0},
+                         {"componentType", 5126},
+                         {"count", 4},
+                         {"type", "VEC3"},
+                         {"sparse",
+                          {{"count", 1},
+                           {"indices", {{"bufferView", 2}, {"componentType", 5123}}},
+                           {"values", {{"bufferView", 2}, {"byteOffset", 4}}}}}};
   json extra = {{"bufferViews",
                  {{{"buffer", 0}, {"byteLength", 48}},
                   {{"buffer", 0}, {"byteOffset", 48}, {"byteLength", 12}},
@@ -269,8 +276,9 @@ TEST(GltfDraco, AStreamDecodesAndOneCutShortOrLyingIsRefused) {
                       {"extensions",
                        {{"KHR_draco_mesh_compression",
                          {{"bufferView", 0}, {"attributes", {{"POSITION", 0}}}}}}}}}}}}},
-                {"buffers", {{{"byteLength", bin.size()},
-                              {"uri", "data:application/octet-stream;base64," + test::base64(bin)}}}},
+                {"buffers",
+                 {{{"byteLength", bin.size()},
+                   {"uri", "data:application/octet-stream;base64," + test::base64(bin)}}}},
                 {"bufferViews", {{{"buffer", 0}, {"byteLength", bin.size()}}}},
                 {"accessors",
                  {{{"componentType", 5126}, {"count", 4}, {"type", "VEC3"}},

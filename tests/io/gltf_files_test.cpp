@@ -4,7 +4,7 @@
 //     percent-decoded ('+' is a plus), never from the current directory, never out of the folder
 //     unless allowed; a FIFO is refused without blocking;
 //   - every buffer view is checked against its buffer before a pointer is taken;
-//   - values tinygltf took on trust (a string wrapS, a texCoord of 2^32 + 1) are refused;
+//   - values of the wrong type or range (a string wrapS, a texCoord of 2^32 + 1) are refused;
 //   - data URIs of every image type decode.
 #include "penumbra/io/asset_files.h"
 #include "penumbra/io/scene_io.h"
@@ -45,28 +45,29 @@ Quad texturedQuad(const std::string& image_uri) {
   append<float>(q.bin, {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0});
   append<float>(q.bin, {0, 1, 1, 1, 1, 0, 0, 0});
   append<uint16_t>(q.bin, {0, 1, 2, 0, 2, 3});
-  q.doc = {{"asset", {{"version", "2.0"}}},
-           {"scene", 0},
-           {"scenes", {{{"nodes", {0}}}}},
-           {"nodes", {{{"mesh", 0}}}},
-           {"meshes",
-            {{{"primitives",
-               {{{"attributes", {{"POSITION", 0}, {"TEXCOORD_0", 1}}},
-                 {"indices", 2},
-                 {"material", 0}}}}}}},
-           {"materials",
-            {{{"name", "painted"}, {"pbrMetallicRoughness", {{"baseColorTexture", {{"index", 0}}}}}}}},
-           {"textures", {{{"source", 0}}}},
-           {"images", {{{"uri", image_uri}}}},
-           {"buffers", {{{"byteLength", 92}}}},
-           {"bufferViews",
-            {{{"buffer", 0}, {"byteOffset", 0}, {"byteLength", 48}},
-             {{"buffer", 0}, {"byteOffset", 48}, {"byteLength", 32}},
-             {{"buffer", 0}, {"byteOffset", 80}, {"byteLength", 12}}}},
-           {"accessors",
-            {{{"bufferView", 0}, {"componentType", 5126}, {"count", 4}, {"type", "VEC3"}},
-             {{"bufferView", 1}, {"componentType", 5126}, {"count", 4}, {"type", "VEC2"}},
-             {{"bufferView", 2}, {"componentType", 5123}, {"count", 6}, {"type", "SCALAR"}}}}};
+  q.doc = {
+      {"asset", {{"version", "2.0"}}},
+      {"scene", 0},
+      {"scenes", {{{"nodes", {0}}}}},
+      {"nodes", {{{"mesh", 0}}}},
+      {"meshes",
+       {{{"primitives",
+          {{{"attributes", {{"POSITION", 0}, {"TEXCOORD_0", 1}}},
+            {"indices", 2},
+            {"material", 0}}}}}}},
+      {"materials",
+       {{{"name", "painted"}, {"pbrMetallicRoughness", {{"baseColorTexture", {{"index", 0}}}}}}}},
+      {"textures", {{{"source", 0}}}},
+      {"images", {{{"uri", image_uri}}}},
+      {"buffers", {{{"byteLength", 92}}}},
+      {"bufferViews",
+       {{{"buffer", 0}, {"byteOffset", 0}, {"byteLength", 48}},
+        {{"buffer", 0}, {"byteOffset", 48}, {"byteLength", 32}},
+        {{"buffer", 0}, {"byteOffset", 80}, {"byteLength", 12}}}},
+      {"accessors",
+       {{{"bufferView", 0}, {"componentType", 5126}, {"count", 4}, {"type", "VEC3"}},
+        {{"bufferView", 1}, {"componentType", 5126}, {"count", 4}, {"type", "VEC2"}},
+        {{"bufferView", 2}, {"componentType", 5123}, {"count", 6}, {"type", "SCALAR"}}}}};
   return q;
 }
 
@@ -119,14 +120,15 @@ TEST(GltfFiles, UrisResolveInTheAssetsFolderPercentDecoded) {
   TempDir dir;
   writeFile(dir.path() / "asset" / "my tex+1.png", png2x2());
   // "%20" is a space, '+' a plus.
-  const std::string path = writeQuad(dir.path() / "asset", "q.gltf", texturedQuad("my%20tex+1.png"));
+  const std::string path =
+      writeQuad(dir.path() / "asset", "q.gltf", texturedQuad("my%20tex+1.png"));
   Expected<Scene> s = loadGltf(path);
   ASSERT_TRUE(s.ok()) << s.error().describe();
   ASSERT_TRUE(s->materials[0].reflectance_texture.has_value());
   EXPECT_EQ(s->materials[0].reflectance_texture->texture->width(), 2);
   // A query or fragment is not part of the file name.
-  Expected<Scene> q = loadGltf(writeQuad(dir.path() / "asset", "q2.gltf",
-                                         texturedQuad("my%20tex+1.png?v=2#x")));
+  Expected<Scene> q =
+      loadGltf(writeQuad(dir.path() / "asset", "q2.gltf", texturedQuad("my%20tex+1.png?v=2#x")));
   EXPECT_TRUE(q.ok()) << q.error().describe();
 }
 
@@ -151,8 +153,8 @@ TEST(GltfFiles, FilesOutsideTheAssetsFolderAreNotReadUnlessAllowed) {
                                        texturedQuad((dir.path() / "asset" / "tex.png").string()));
   writeFile(dir.path() / "asset" / "tex.png", png2x2());
   EXPECT_TRUE(loadGltf(inside).ok());
-  const std::string by_absolute = writeQuad(fs::absolute(dir.path()) / "asset", "abs-asset.gltf",
-                                            texturedQuad("tex.png"));
+  const std::string by_absolute =
+      writeQuad(fs::absolute(dir.path()) / "asset", "abs-asset.gltf", texturedQuad("tex.png"));
   EXPECT_TRUE(loadGltf(by_absolute).ok());
   // A link inside the folder that points out of it.
   std::filesystem::create_symlink(dir.path() / "secret.png", dir.path() / "asset" / "link.png");
@@ -167,8 +169,7 @@ TEST(GltfFiles, FilesOutsideTheAssetsFolderAreNotReadUnlessAllowed) {
 TEST(GltfFiles, TheCurrentDirectoryIsNeverSearched) {
   TempDir dir;
   writeFile(dir.path() / "cwd" / "only-here.png", png2x2());
-  const std::string path =
-      writeQuad(dir.path() / "asset", "q.gltf", texturedQuad("only-here.png"));
+  const std::string path = writeQuad(dir.path() / "asset", "q.gltf", texturedQuad("only-here.png"));
   const std::filesystem::path before = std::filesystem::current_path();
   std::filesystem::current_path(dir.path() / "cwd");
   const Expected<Scene> s = loadGltf(path);
@@ -183,9 +184,7 @@ TEST(GltfFiles, ImagesNoTextureReadsAreNotRead) {
   writeFile(dir.path() / "asset" / "tex.png", png2x2());
   // A host file, a FIFO, a missing file and a terabyte (sparse) named by images nothing uses.
   mkfifo((dir.path() / "asset" / "fifo.png").c_str(), 0600);
-  {
-    std::ofstream(dir.path() / "asset" / "huge.png");
-  }
+  { std::ofstream(dir.path() / "asset" / "huge.png"); }
   std::filesystem::resize_file(dir.path() / "asset" / "huge.png", uint64_t(1) << 40);
   for (const char* uri : {"../../../../etc/passwd", "/etc/passwd", "fif%6F.png", "missing.png"}) {
     q.doc["images"].push_back({{"uri", uri}});
@@ -238,10 +237,9 @@ TEST(GltfFiles, ImagesInDataUrisOfEveryTypeDecode) {
   TempDir dir;
   const uint8_t red[4] = {255, 0, 0, 255}, white[4] = {255, 255, 255, 255};
   const test::Rgba8Image image = test::chequer(4, 4, 2, red, white);
-  const std::pair<const char*, std::string> kinds[] = {
-      {"image/png", test::pngBytes(image)},
-      {"image/jpeg", test::jpegBytes(image)},
-      {"image/webp", test::webpBytes(image)}};
+  const std::pair<const char*, std::string> kinds[] = {{"image/png", test::pngBytes(image)},
+                                                       {"image/jpeg", test::jpegBytes(image)},
+                                                       {"image/webp", test::webpBytes(image)}};
   for (const auto& [mime, bytes] : kinds) {
     SCOPED_TRACE(mime);
     const std::string uri = std::string("data:") + mime + ";base64," + test::base64(bytes);

@@ -362,8 +362,9 @@ TEST(GltfLoad, ErrorsNameFileAndPlace) {
     TestGltf g = makeTestGltf();
     g.doc["bufferViews"][2]["byteOffset"] = 100;  // 100 + 12 > 108
     const std::string p = writeGltf(dir, "view.gltf", g);
-    EXPECT_TRUE(errorNames(loadGltf(p), p, "bufferViews[2]: byteOffset 100 + byteLength 12 lie "
-                                           "outside buffer 0 (108 bytes)"));
+    EXPECT_TRUE(errorNames(loadGltf(p), p,
+                           "bufferViews[2]: byteOffset 100 + byteLength 12 lie "
+                           "outside buffer 0 (108 bytes)"));
   }
   {
     TestGltf g = makeTestGltf();
@@ -377,8 +378,9 @@ TEST(GltfLoad, ErrorsNameFileAndPlace) {
     g.doc["extensionsUsed"].push_back("KHR_materials_clearcoat");
     g.doc["extensionsRequired"] = {"KHR_materials_clearcoat"};
     const std::string p = writeGltf(dir, "clearcoat.gltf", g);
-    EXPECT_TRUE(errorNames(loadGltf(p), p, "extensionsRequired: the file requires "
-                                           "KHR_materials_clearcoat"));
+    EXPECT_TRUE(errorNames(loadGltf(p), p,
+                           "extensionsRequired: the file requires "
+                           "KHR_materials_clearcoat"));
   }
   {
     TestGltf g = makeTestGltf();
@@ -559,9 +561,8 @@ TEST(GltfLoad, NormalTextureIsReadAsDataWithItsScale) {
 namespace penumbra {
 namespace {
 
-// Values of the wrong type or length are refused with their place; tinygltf alone reads a
-// baseColorFactor of three numbers or of a string as white, and a matrix of strings as the
-// identity.
+// Values of the wrong type or length are refused with their place, never read as a default (a
+// baseColorFactor of three numbers or of a string as white, a matrix of strings as the identity).
 TEST(GltfLoad, ValuesOfTheWrongShapeAreRefusedWithTheirPlace) {
   TempDir dir;
   const struct {

@@ -212,7 +212,9 @@ int Error::exitCode() const {
 
 Scene::Scene() : impl_(std::make_shared<const penumbra::Scene>()) {}
 
-Scene Scene::load(const std::string& name_or_path) { return load(name_or_path, LoadOptions{}); }
+Scene Scene::load(const std::string& name_or_path) {
+  return load(name_or_path, LoadOptions{});
+}
 
 Scene Scene::load(const std::string& name_or_path, const LoadOptions& options) {
   return guarded([&] {
@@ -221,9 +223,8 @@ Scene Scene::load(const std::string& name_or_path, const LoadOptions& options) {
     in.max_texture_size = options.max_texture_size;
     if (options.gltf_scene >= 0) in.gltf_scene = options.gltf_scene;
     if (options.max_texture_size < 1 || options.max_texture_size > 16384) {
-      throw Error(ErrorKind::kInput,
-                  fmt::format("max_texture_size {} is outside [1, 16384]",
-                              options.max_texture_size));
+      throw Error(ErrorKind::kInput, fmt::format("max_texture_size {} is outside [1, 16384]",
+                                                 options.max_texture_size));
     }
     Expected<penumbra::Scene> loaded = loadScene(name_or_path, sceneLoadOptions(in, false));
     if (!loaded) throw toApiError(loaded.error());

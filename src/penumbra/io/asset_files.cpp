@@ -212,9 +212,9 @@ Expected<std::string> resolveAssetFile(const std::string& asset_file, std::strin
   if (ref.is_absolute()) return confineAssetPath(asset_file, reference, policy, place);
   const fs::path folder = fs::path(asset_file).parent_path();
   if (climbsOut(ref) && !policy.allow_outside) {
-    return inputError(asset_file, place,
-                      outsideMessage(fmt::format("'{}' climbs out of the asset's folder",
-                                                 reference)));
+    return inputError(
+        asset_file, place,
+        outsideMessage(fmt::format("'{}' climbs out of the asset's folder", reference)));
   }
   return confineAssetPath(asset_file, (folder / ref).lexically_normal().string(), policy, place);
 }

@@ -3,8 +3,8 @@
 #include "penumbra/core/check.h"
 #include "penumbra/core/file_util.h"
 #include "penumbra/io/asset_files.h"
-#include "penumbra/io/image_io.h"
 #include "penumbra/io/gltf_common.h"
+#include "penumbra/io/image_io.h"
 
 #include <glm/geometric.hpp>
 
@@ -302,8 +302,9 @@ int addLightmapTexture(json& j, const LightmapReference& lm) {
   for (const char* key : {"images", "samplers", "textures"}) {
     if (!j.contains(key)) j[key] = json::array();
   }
-  j["images"].push_back(
-      {{"name", "penumbra_lightmap"}, {"uri", percentEncodePath(lm.png_uri)}, {"mimeType", "image/png"}});
+  j["images"].push_back({{"name", "penumbra_lightmap"},
+                         {"uri", percentEncodePath(lm.png_uri)},
+                         {"mimeType", "image/png"}});
   // Linear filtering without mipmaps (coarse levels would mix charts), clamped.
   j["samplers"].push_back(
       {{"magFilter", 9729}, {"minFilter", 9729}, {"wrapS", 33071}, {"wrapT", 33071}});
@@ -320,8 +321,8 @@ std::vector<GltfTriangleSource> gltfTriangleSources(const Scene& scene) {
   for (const Mesh& m : scene.meshes) {
     if (m.gltf_node < 0) return {};
     for (uint32_t t = 0; t < m.triangles.size(); ++t) {
-      out.push_back({m.gltf_node, m.gltf_mesh, m.gltf_primitive, m.gltf_instance, t,
-                     m.gltf_mirrored});
+      out.push_back(
+          {m.gltf_node, m.gltf_mesh, m.gltf_primitive, m.gltf_instance, t, m.gltf_mirrored});
     }
   }
   return out;
@@ -350,15 +351,16 @@ class SceneTextureWriter {
                              bool uv_origin_top) {
     const TextureBinding* binding = colour ? colour : alpha;
     if (!binding) return json();
-    Expected<int> image = imageOf(colour ? colour->texture.get() : nullptr,
-                                  alpha ? alpha->texture.get() : nullptr);
+    Expected<int> image =
+        imageOf(colour ? colour->texture.get() : nullptr, alpha ? alpha->texture.get() : nullptr);
     if (!image) return image.error();
     for (const char* key : {"images", "samplers", "textures"}) {
       if (!j_.contains(key)) j_[key] = json::array();
     }
     const auto wrap = [](TextureWrap w) {
-      return w == TextureWrap::kClampToEdge ? 33071 : w == TextureWrap::kMirroredRepeat ? 33648
-                                                                                        : 10497;
+      return w == TextureWrap::kClampToEdge      ? 33071
+             : w == TextureWrap::kMirroredRepeat ? 33648
+                                                 : 10497;
     };
     j_["samplers"].push_back({{"wrapS", wrap(binding->sampler.wrap_s)},
                               {"wrapT", wrap(binding->sampler.wrap_t)},
@@ -429,113 +431,76 @@ class SceneTextureWriter {
   bool used_transform_ = false;
 };
 
-}  // namespace
+// The steps of documentFromScene, over the document and the bytes of its one buffer.
+class SceneDocumentWriter {
+ public:
+  SceneDocumentWriter(const Scene& scene, GltfDocument& doc)
+      : scene_(scene), doc_(doc), j_(doc.json), textures_(doc) {
+    j_ = {{"asset", {{"version", "2.0"}}},
+          {"scene", 0},
+          {"scenes", json::array({{{"nodes", json::array()}}})},
+          {"nodes", json::array()},
+          {"meshes", json::array()},
+          {"materials", json::array()},
+          {"accessors", json::array()},
+          {"bufferViews", json::array()},
+          {"buffers", json::array({json::object()})}};
+    // Whether the scene's UVs run up (OBJ, JSON) or down (glTF): the transforms follow.
+    for (const Mesh& m : scene.meshes) uv_origin_top_ = uv_origin_top_ || m.uv_origin_top;
+  }
 
-GltfDocument documentFromScene(const Scene& scene, std::vector<GltfTriangleSource>& sources) {
-  GltfDocument doc;
-  json& j = doc.json;
-  j = {{"asset", {{"version", "2.0"}}},
-       {"scene", 0},
-       {"scenes", json::array({{{"nodes", json::array()}}})},
-       {"nodes", json::array()},
-       {"meshes", json::array()},
-       {"materials", json::array()},
-       {"accessors", json::array()},
-       {"bufferViews", json::array()},
-       {"buffers", json::array({json::object()})}};
-  std::string bin;
-  auto view = [&](const void* data, size_t size, size_t stride, int target) {
-    while (bin.size() % 4 != 0) bin.push_back('\0');
-    json v = {{"buffer", 0}, {"byteOffset", bin.size()}, {"byteLength", size}, {"target", target}};
-    if (stride) v["byteStride"] = stride;
-    bin.append(static_cast<const char*>(data), size);
-    j["bufferViews"].push_back(v);
-    return j["bufferViews"].size() - 1;
-  };
-  auto accessor = [&](size_t v, size_t count, const char* type, int component) {
-    j["accessors"].push_back(
-        {{"bufferView", v}, {"componentType", component}, {"count", count}, {"type", type}});
-    return j["accessors"].size() - 1;
-  };
-  bool emissive_strength = false;
-  // Whether the scene's UVs run up (OBJ, JSON) or down (glTF): the transforms follow.
-  bool uv_origin_top = false;
-  for (const Mesh& m : scene.meshes) uv_origin_top = uv_origin_top || m.uv_origin_top;
-  SceneTextureWriter textures(doc);
-  for (const Material& m : scene.materials) {
-    json g = {{"name", m.name},
-              {"pbrMetallicRoughness",
-               {{"baseColorFactor", {m.reflectance.x, m.reflectance.y, m.reflectance.z, 1.0}},
-                {"metallicFactor", 0.0},
-                {"roughnessFactor", 1.0}}},
-              {"doubleSided", m.two_sided}};
-    const float peak = std::max({m.emission.x, m.emission.y, m.emission.z});
-    if (peak > 0.0f) {
-      const float s = std::max(peak, 1.0f);
-      g["emissiveFactor"] = {m.emission.x / s, m.emission.y / s, m.emission.z / s};
-      if (s > 1.0f) {
-        g["extensions"]["KHR_materials_emissive_strength"] = {{"emissiveStrength", s}};
-        emissive_strength = true;
+  // glTF materials (metallic 0, roughness 1) with their textures and cut-outs (images re-encoded
+  // from what was decoded); emission over 1 as KHR_materials_emissive_strength.
+  void materials() {
+    bool emissive_strength = false;
+    for (const Material& m : scene_.materials) {
+      json g = {{"name", m.name},
+                {"pbrMetallicRoughness",
+                 {{"baseColorFactor", {m.reflectance.x, m.reflectance.y, m.reflectance.z, 1.0}},
+                  {"metallicFactor", 0.0},
+                  {"roughnessFactor", 1.0}}},
+                {"doubleSided", m.two_sided}};
+      const float peak = std::max({m.emission.x, m.emission.y, m.emission.z});
+      if (peak > 0.0f) {
+        const float s = std::max(peak, 1.0f);
+        g["emissiveFactor"] = {m.emission.x / s, m.emission.y / s, m.emission.z / s};
+        if (s > 1.0f) {
+          g["extensions"]["KHR_materials_emissive_strength"] = {{"emissiveStrength", s}};
+          emissive_strength = true;
+        }
       }
-    }
-    // Textures and cut-outs (images re-encoded from what was decoded).
-    const TextureBinding* colour = m.reflectance_texture ? &*m.reflectance_texture : nullptr;
-    const TextureBinding* mask = m.coverage_texture ? &*m.coverage_texture : nullptr;
-    if (Expected<json> base = textures.textureInfo(colour, mask, uv_origin_top); base && !base->is_null()) {
-      g["pbrMetallicRoughness"]["baseColorTexture"] = *base;
-      if (!colour) g["pbrMetallicRoughness"]["baseColorFactor"] = {1.0, 1.0, 1.0, 1.0};
-    }
-    if (m.emission_texture) {
-      Expected<json> e = textures.textureInfo(&*m.emission_texture, nullptr, uv_origin_top);
-      if (e && !e->is_null()) g["emissiveTexture"] = *e;
-    }
-    g["pbrMetallicRoughness"]["baseColorFactor"][3] = m.alpha;
-    if (m.alpha_mode == AlphaMode::kMask) {
-      g["alphaMode"] = "MASK";
-      g["alphaCutoff"] = m.alpha_cutoff;
-    } else if (m.alpha_mode == AlphaMode::kBlend) {
-      g["alphaMode"] = "BLEND";
-    }
-    j["materials"].push_back(g);
-  }
-  if (emissive_strength) j["extensionsUsed"] = {"KHR_materials_emissive_strength"};
-  if (textures.usedTransform()) {
-    if (!j.contains("extensionsUsed")) j["extensionsUsed"] = json::array();
-    j["extensionsUsed"].push_back("KHR_texture_transform");
-  }
-  sources.clear();
-  for (size_t mi = 0; mi < scene.meshes.size(); ++mi) {
-    const Mesh& m = scene.meshes[mi];
-    const size_t nv = m.positions.size();
-    json attributes;
-    glm::vec3 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
-    for (const glm::vec3& p : m.positions) {
-      lo = glm::min(lo, p);
-      hi = glm::max(hi, p);
-    }
-    const size_t pa =
-        accessor(view(m.positions.data(), nv * 12, 12, kArrayBuffer), nv, "VEC3", kFloat);
-    j["accessors"][pa]["min"] = {lo.x, lo.y, lo.z};
-    j["accessors"][pa]["max"] = {hi.x, hi.y, hi.z};
-    attributes["POSITION"] = pa;
-    if (m.normals.size() == nv) {
-      attributes["NORMAL"] =
-          accessor(view(m.normals.data(), nv * 12, 12, kArrayBuffer), nv, "VEC3", kFloat);
-    }
-    for (uint32_t set = 0; set < 8; ++set) {
-      if (m.uvSet(set).size() != nv) continue;
-      std::vector<glm::vec2> uv = m.uvSet(set);
-      if (!m.uv_origin_top) {
-        for (glm::vec2& t : uv) t.y = 1.0f - t.y;  // glTF: (0, 0) is the image's top-left
+      const TextureBinding* colour = m.reflectance_texture ? &*m.reflectance_texture : nullptr;
+      const TextureBinding* mask = m.coverage_texture ? &*m.coverage_texture : nullptr;
+      if (Expected<json> base = textures_.textureInfo(colour, mask, uv_origin_top_);
+          base && !base->is_null()) {
+        g["pbrMetallicRoughness"]["baseColorTexture"] = *base;
+        if (!colour) g["pbrMetallicRoughness"]["baseColorFactor"] = {1.0, 1.0, 1.0, 1.0};
       }
-      attributes[fmt::format("TEXCOORD_{}", set)] =
-          accessor(view(uv.data(), nv * 8, 8, kArrayBuffer), nv, "VEC2", kFloat);
+      if (m.emission_texture) {
+        Expected<json> e = textures_.textureInfo(&*m.emission_texture, nullptr, uv_origin_top_);
+        if (e && !e->is_null()) g["emissiveTexture"] = *e;
+      }
+      g["pbrMetallicRoughness"]["baseColorFactor"][3] = m.alpha;
+      if (m.alpha_mode == AlphaMode::kMask) {
+        g["alphaMode"] = "MASK";
+        g["alphaCutoff"] = m.alpha_cutoff;
+      } else if (m.alpha_mode == AlphaMode::kBlend) {
+        g["alphaMode"] = "BLEND";
+      }
+      j_["materials"].push_back(g);
     }
-    if (m.colors.size() == nv) {
-      attributes["COLOR_0"] =
-          accessor(view(m.colors.data(), nv * 16, 16, kArrayBuffer), nv, "VEC4", kFloat);
+    if (emissive_strength) j_["extensionsUsed"] = {"KHR_materials_emissive_strength"};
+    if (textures_.usedTransform()) {
+      if (!j_.contains("extensionsUsed")) j_["extensionsUsed"] = json::array();
+      j_["extensionsUsed"].push_back("KHR_texture_transform");
     }
-    // A primitive per material, its triangles in the mesh's order.
+  }
+
+  // Mesh `mi` as a glTF mesh (a primitive per material, its triangles in the mesh's order) under
+  // a node of its own; `sources` gains where each of its triangles went.
+  void mesh(size_t mi, std::vector<GltfTriangleSource>& sources) {
+    const Mesh& m = scene_.meshes[mi];
+    const json attributes = vertexAttributes(m);
     std::map<uint32_t, std::vector<uint32_t>> by_material;
     for (uint32_t t = 0; t < m.triangles.size(); ++t) by_material[m.material_ids[t]].push_back(t);
     std::vector<std::pair<uint32_t, uint32_t>> place(m.triangles.size());  // (primitive, index)
@@ -555,27 +520,99 @@ GltfDocument documentFromScene(const Scene& scene, std::vector<GltfTriangleSourc
       sources.push_back(
           {int32_t(mi), int32_t(mi), int32_t(place[t].first), -1, place[t].second, false});
     }
-    j["meshes"].push_back({{"name", m.name}, {"primitives", prims}});
-    j["nodes"].push_back({{"name", m.name}, {"mesh", mi}});
-    j["scenes"][0]["nodes"].push_back(mi);
+    j_["meshes"].push_back({{"name", m.name}, {"primitives", prims}});
+    j_["nodes"].push_back({{"name", m.name}, {"mesh", mi}});
+    j_["scenes"][0]["nodes"].push_back(mi);
   }
-  if (scene.camera) {
-    // glTF cameras look down their local -Z with +Y up (sec. 3.10.1).
-    const Camera& c = *scene.camera;
+
+  // The scene's camera as a node; glTF cameras look down their local -Z with +Y up (sec. 3.10.1).
+  void camera() {
+    if (!scene_.camera) return;
+    const Camera& c = *scene_.camera;
     const glm::vec3 forward = glm::normalize(c.look_at - c.position);
     const glm::vec3 right = glm::normalize(glm::cross(forward, c.up));
     const glm::vec3 up = glm::cross(right, forward);
-    j["cameras"] = json::array(
+    j_["cameras"] = json::array(
         {{{"type", "perspective"}, {"perspective", {{"yfov", c.vertical_fov}, {"znear", 0.01}}}}});
-    j["nodes"].push_back(
+    j_["nodes"].push_back(
         {{"name", "camera"},
          {"camera", 0},
          {"matrix",
           {right.x, right.y, right.z, 0.0, up.x, up.y, up.z, 0.0, -forward.x, -forward.y,
            -forward.z, 0.0, c.position.x, c.position.y, c.position.z, 1.0}}});
-    j["scenes"][0]["nodes"].push_back(j["nodes"].size() - 1);
+    j_["scenes"][0]["nodes"].push_back(j_["nodes"].size() - 1);
   }
-  doc.buffers.push_back(std::move(bin));
+
+  void finish() { doc_.buffers.push_back(std::move(bin_)); }
+
+ private:
+  size_t view(const void* data, size_t size, size_t stride, int target) {
+    while (bin_.size() % 4 != 0) bin_.push_back('\0');
+    json v = {{"buffer", 0}, {"byteOffset", bin_.size()}, {"byteLength", size}, {"target", target}};
+    if (stride) v["byteStride"] = stride;
+    bin_.append(static_cast<const char*>(data), size);
+    j_["bufferViews"].push_back(v);
+    return j_["bufferViews"].size() - 1;
+  }
+
+  size_t accessor(size_t v, size_t count, const char* type, int component) {
+    j_["accessors"].push_back(
+        {{"bufferView", v}, {"componentType", component}, {"count", count}, {"type", type}});
+    return j_["accessors"].size() - 1;
+  }
+
+  // The mesh's positions (with their bounds, as glTF requires), normals, UV sets and colours.
+  json vertexAttributes(const Mesh& m) {
+    const size_t nv = m.positions.size();
+    json attributes;
+    glm::vec3 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
+    for (const glm::vec3& p : m.positions) {
+      lo = glm::min(lo, p);
+      hi = glm::max(hi, p);
+    }
+    const size_t pa =
+        accessor(view(m.positions.data(), nv * 12, 12, kArrayBuffer), nv, "VEC3", kFloat);
+    j_["accessors"][pa]["min"] = {lo.x, lo.y, lo.z};
+    j_["accessors"][pa]["max"] = {hi.x, hi.y, hi.z};
+    attributes["POSITION"] = pa;
+    if (m.normals.size() == nv) {
+      attributes["NORMAL"] =
+          accessor(view(m.normals.data(), nv * 12, 12, kArrayBuffer), nv, "VEC3", kFloat);
+    }
+    for (uint32_t set = 0; set < 8; ++set) {
+      if (m.uvSet(set).size() != nv) continue;
+      std::vector<glm::vec2> uv = m.uvSet(set);
+      if (!m.uv_origin_top) {
+        for (glm::vec2& t : uv) t.y = 1.0f - t.y;  // glTF: (0, 0) is the image's top-left
+      }
+      attributes[fmt::format("TEXCOORD_{}", set)] =
+          accessor(view(uv.data(), nv * 8, 8, kArrayBuffer), nv, "VEC2", kFloat);
+    }
+    if (m.colors.size() == nv) {
+      attributes["COLOR_0"] =
+          accessor(view(m.colors.data(), nv * 16, 16, kArrayBuffer), nv, "VEC4", kFloat);
+    }
+    return attributes;
+  }
+
+  const Scene& scene_;
+  GltfDocument& doc_;
+  json& j_;
+  SceneTextureWriter textures_;
+  std::string bin_;
+  bool uv_origin_top_ = false;
+};
+
+}  // namespace
+
+GltfDocument documentFromScene(const Scene& scene, std::vector<GltfTriangleSource>& sources) {
+  GltfDocument doc;
+  SceneDocumentWriter writer(scene, doc);
+  writer.materials();
+  sources.clear();
+  for (size_t mi = 0; mi < scene.meshes.size(); ++mi) writer.mesh(mi, sources);
+  writer.camera();
+  writer.finish();
   return doc;
 }
 
@@ -653,8 +690,12 @@ class LightmapWriter {
     const int texture = addLightmapTexture(j_, lm);
     for (const auto& [material, set] : material_set_) {
       j_["materials"][size_t(material)]["extensions"]["PENUMBRA_lightmap"] = {
-          {"index", texture},  {"texCoord", set},          {"encoding", "RGBM"},
-          {"scale", lm.scale}, {"quantity", "irradiance"}, {"units", "W m^-2"},
+          {"index", texture},
+          {"texCoord", set},
+          {"encoding", "RGBM"},
+          {"scale", lm.scale},
+          {"quantity", "irradiance"},
+          {"units", "W m^-2"},
           {"exr", percentEncodePath(lm.exr_uri)}};
     }
     if (!j_.contains("extensionsUsed")) j_["extensionsUsed"] = json::array();

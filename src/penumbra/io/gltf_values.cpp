@@ -50,9 +50,9 @@ class Values {
     if (!obj_.contains(key)) return {};
     const json& v = obj_.at(key);
     if (!isInteger(v) || v.get<int64_t>() < lo || v.get<int64_t>() > hi) {
-      return inputError(path_, at(key),
-                        fmt::format("must be an integer from {} to {}, not {}", lo, hi,
-                                    describe(v)));
+      return inputError(
+          path_, at(key),
+          fmt::format("must be an integer from {} to {}, not {}", lo, hi, describe(v)));
     }
     return {};
   }
@@ -70,9 +70,9 @@ class Values {
         if (v.get<int64_t>() == a) return {};
       }
     }
-    return inputError(path_, at(key),
-                      fmt::format("must be one of {}, not {}", fmt::join(allowed, ", "),
-                                  describe(v)));
+    return inputError(
+        path_, at(key),
+        fmt::format("must be one of {}, not {}", fmt::join(allowed, ", "), describe(v)));
   }
   // A string of `allowed`.
   Status word(const char* key, std::initializer_list<const char*> allowed) const {
@@ -108,9 +108,9 @@ class Values {
     }
     for (size_t i = 0; i < v.size(); ++i) {
       if (!isInteger(v[i]) || v[i].get<int64_t>() < 0 || v[i].get<int64_t>() > kMaxIndex) {
-        return inputError(path_, fmt::format("{}[{}]", at(key), i),
-                          fmt::format("must be an integer from 0 to {}, not {}", kMaxIndex,
-                                      describe(v[i])));
+        return inputError(
+            path_, fmt::format("{}[{}]", at(key), i),
+            fmt::format("must be an integer from 0 to {}, not {}", kMaxIndex, describe(v[i])));
       }
     }
     return {};
@@ -292,7 +292,8 @@ Status checkAccessor(const std::string& path, const Values& a) {
     PENUMBRA_TRY(v.required("bufferView"));
     PENUMBRA_TRY(v.integer("byteOffset", 0, kMaxBytes));
     if (std::string(part) == "indices") {
-      if (!(*o)->contains("componentType")) return inputError(path, v.at("componentType"), "is missing");
+      if (!(*o)->contains("componentType"))
+        return inputError(path, v.at("componentType"), "is missing");
       PENUMBRA_TRY(v.oneOf("componentType", {5121, 5123, 5125}));
     }
   }
@@ -412,9 +413,8 @@ Status checkStructure(const std::string& path, const json& root) {
                           [&](const Values& s, const json&) { return checkSampler(s); }));
   PENUMBRA_TRY(eachObject(path, root, "textures", "",
                           [&](const Values& t, const json&) { return checkTexture(path, t); }));
-  PENUMBRA_TRY(eachObject(path, root, "meshes", "", [&](const Values& m, const json& j) {
-    return checkMesh(path, m, j);
-  }));
+  PENUMBRA_TRY(eachObject(path, root, "meshes", "",
+                          [&](const Values& m, const json& j) { return checkMesh(path, m, j); }));
   PENUMBRA_TRY(eachObject(path, root, "scenes", "",
                           [&](const Values& s, const json&) { return s.integers("nodes"); }));
   PENUMBRA_TRY(eachObject(path, root, "skins", "",

@@ -23,9 +23,8 @@
 #include <OpenEXR/ImfInputFile.h>
 #include <OpenEXR/ImfOutputFile.h>
 
-// The stb implementations are private to this file: another library in the link (TinyGLTF)
-// carries its own copy with external linkage, and image_decode.cpp one for TGA. stb_image reads
-// Radiance HDR only here.
+// The stb implementations are private to this file: image_decode.cpp has its own for TGA. stb_image
+// reads Radiance HDR only here.
 #define STB_IMAGE_STATIC
 #define STB_IMAGE_WRITE_STATIC
 #define STB_IMAGE_IMPLEMENTATION
@@ -630,11 +629,9 @@ Expected<Image> readImage(const std::string& path) {
   }
 }
 
-Expected<Image> decodePngData(const std::string& name, const std::string& bytes) {
-  return decodeDataImage(name, bytes);
+Expected<Image> readImageData(const std::string& path) {
+  return readImageData(path, {}, nullptr);
 }
-
-Expected<Image> readImageData(const std::string& path) { return readImageData(path, {}, nullptr); }
 
 Expected<Image> readImageData(const std::string& path, const ImageLimits& limits,
                               std::vector<std::string>* warnings) {

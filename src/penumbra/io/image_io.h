@@ -42,9 +42,5 @@ Expected<Image> readImage(const std::string& path);
 Expected<Image> readImageData(const std::string& path);
 Expected<Image> readImageData(const std::string& path, const ImageLimits& limits,
                               std::vector<std::string>* warnings);
-// The same for bytes in memory (an image embedded in a glTF file); `name` for messages. Kept for
-// the glTF reader: a thin wrapper over decodeDataImage, which reads every format above, not only
-// PNG.
-Expected<Image> decodePngData(const std::string& name, const std::string& bytes);
 
 }  // namespace penumbra

@@ -33,8 +33,8 @@
 #include <filesystem>
 #include <string>
 #include <string_view>
-#include <unordered_map>
 #include <tuple>
+#include <unordered_map>
 #include <utility>
 #include <vector>
 
@@ -555,15 +555,15 @@ Expected<Material> objMaterial(const std::string& path, const tinyobj::material_
   mat.reflectance = glm::vec3(m.diffuse[0], m.diffuse[1], m.diffuse[2]);
   mat.emission = glm::vec3(m.emission[0], m.emission[1], m.emission[2]);
   if (!m.diffuse_texname.empty()) {
-    Expected<TextureBinding> b = objTexture(path, m.name, "map_Kd", m.diffuse_texname,
-                                            m.diffuse_texopt, true, textures);
+    Expected<TextureBinding> b =
+        objTexture(path, m.name, "map_Kd", m.diffuse_texname, m.diffuse_texopt, true, textures);
     if (!b) return b.error();
     mat.reflectance_texture = std::move(*b);
     mat.reflectance = glm::vec3(1.0f);
   }
   if (!m.emissive_texname.empty()) {
-    Expected<TextureBinding> b = objTexture(path, m.name, "map_Ke", m.emissive_texname,
-                                            m.emissive_texopt, true, textures);
+    Expected<TextureBinding> b =
+        objTexture(path, m.name, "map_Ke", m.emissive_texname, m.emissive_texopt, true, textures);
     if (!b) return b.error();
     mat.emission_texture = std::move(*b);
     if (mat.emission == glm::vec3(0.0f)) mat.emission = glm::vec3(1.0f);

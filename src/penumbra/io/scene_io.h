@@ -18,7 +18,7 @@ namespace penumbra {
 // How scene files are read: which files an asset may name, the textures' limits, a glTF file's
 // scene.
 struct SceneLoadOptions {
-  AssetPolicy files;       // --allow-outside-files
+  AssetPolicy files;        // --allow-outside-files
   TextureOptions textures;  // --max-texture-size; no decoding in a dry run
   int gltf_scene = -1;      // --gltf-scene: a glTF file's scene (-1: its `scene`, else the first)
 };
@@ -51,8 +51,7 @@ nlohmann::json readSceneSettings(const std::string& path);
 Expected<Scene> loadSceneFile(const std::string& path, const SceneLoadOptions& options = {});
 
 // A built-in scene name or a file path.
-Expected<Scene> loadScene(const std::string& name_or_path,
-                          const SceneLoadOptions& options = {});
+Expected<Scene> loadScene(const std::string& name_or_path, const SceneLoadOptions& options = {});
 // The built-in `sss` scene (io/builtin_sss.cpp): the bunny in marble, lit from behind and the
 // side.
 Expected<Scene> sssBuiltinScene();

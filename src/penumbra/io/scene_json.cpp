@@ -78,7 +78,9 @@ class SceneJsonReader {
  public:
   SceneJsonReader(const std::string& path, std::function<void(Scene&)> complete,
                   const SceneLoadOptions& options)
-      : path_(path), complete_(std::move(complete)), options_(options),
+      : path_(path),
+        complete_(std::move(complete)),
+        options_(options),
         textures_(options.textures) {}
 
   Expected<Scene> read(const json& root);
@@ -279,9 +281,9 @@ Status SceneJsonReader::planTextures(const json& root) {
       {"normal_map", TextureKind::kNormalMap}};
   for (auto it = materials.begin(); it != materials.end(); ++it) {
     if (!it->is_object()) continue;
-    const std::string place =
-        materials.is_array() ? fmt::format("materials[{}]", it - materials.begin())
-                             : "materials." + it.key();
+    const std::string place = materials.is_array()
+                                  ? fmt::format("materials[{}]", it - materials.begin())
+                                  : "materials." + it.key();
     for (const auto& [key, kind] : kSlots) {
       if (!it->contains(key)) continue;
       const json& slot = it->at(key);

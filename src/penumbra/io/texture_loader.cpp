@@ -53,8 +53,8 @@ Status TextureCache::plan(const std::string& name, std::string_view bytes, Textu
                                            : planImage(*header, options_.limits);
   // Every texture kept, and the largest transient of any one decode (io/image_decode.h).
   planned_bytes_ += p.plan.texture_bytes;
-  peak_bytes_ = std::max(peak_bytes_, p.plan.peak_bytes - std::min(p.plan.peak_bytes,
-                                                                    p.plan.texture_bytes));
+  peak_bytes_ =
+      std::max(peak_bytes_, p.plan.peak_bytes - std::min(p.plan.peak_bytes, p.plan.texture_bytes));
   planned_.emplace(key, std::move(p));
   return {};
 }
@@ -86,8 +86,7 @@ Expected<TextureCache::Planned*> TextureCache::planned(const std::string& name, 
   return &it->second;
 }
 
-Expected<std::shared_ptr<const Texture>> TextureCache::texture(const std::string& name,
-                                                               bool colour,
+Expected<std::shared_ptr<const Texture>> TextureCache::texture(const std::string& name, bool colour,
                                                                const std::string& scene_file,
                                                                const std::string& place) {
   const TextureKind kind = colour ? TextureKind::kColour : TextureKind::kData;
@@ -153,8 +152,8 @@ Status TextureCache::planFile(const std::string& path, TextureKind kind,
 Expected<std::shared_ptr<const Texture>> TextureCache::file(const std::string& path, bool colour,
                                                             const std::string& scene_file,
                                                             const std::string& place) {
-  PENUMBRA_TRY(planFile(path, colour ? TextureKind::kColour : TextureKind::kData, scene_file,
-                        place));
+  PENUMBRA_TRY(
+      planFile(path, colour ? TextureKind::kColour : TextureKind::kData, scene_file, place));
   return texture(path, colour, scene_file, place);
 }
 

@@ -118,8 +118,8 @@ Expected<std::shared_ptr<const Scene>> applySceneInputs(std::shared_ptr<const Sc
   }
   if (environment) {
     out->sky.reset();
-    out->environment = glm::vec3(float(in.environment[0]), float(in.environment[1]),
-                                 float(in.environment[2]));
+    out->environment =
+        glm::vec3(float(in.environment[0]), float(in.environment[1]), float(in.environment[2]));
   }
   for (std::string& w : unitWarnings(*out)) out->warnings.push_back(std::move(w));
   PENUMBRA_TRY(validateScene(*out));

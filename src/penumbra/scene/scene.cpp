@@ -396,11 +396,10 @@ void scaleScene(Scene& scene, double s) {
     for (glm::vec3& p : m.positions) p *= f;
   }
   for (Light& light : scene.lights) {
-    std::visit(Overloaded{[&](PointLight& l) { l.position *= f; },
-                          [&](SpotLight& l) { l.position *= f; },
-                          [&](DirectionalLight&) {},
-                          [&](LuminaireLight& l) { l.position *= f; }},
-               light);
+    std::visit(
+        Overloaded{[&](PointLight& l) { l.position *= f; }, [&](SpotLight& l) { l.position *= f; },
+                   [&](DirectionalLight&) {}, [&](LuminaireLight& l) { l.position *= f; }},
+        light);
   }
   if (scene.camera) {
     scene.camera->position *= f;

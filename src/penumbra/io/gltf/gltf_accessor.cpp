@@ -140,9 +140,9 @@ Status applySparse(GltfAsset& asset, const json& sparse, size_t count, size_t el
       std::memcpy(&i, *idx + 4 * k, 4);
     }
     if (i >= count || (k > 0 && i <= previous)) {
-      return inputError(asset.path(), fmt::format("{}.sparse.indices, element {}", place, k),
-                        fmt::format("index {} must be below {} and above the one before", i,
-                                    count));
+      return inputError(
+          asset.path(), fmt::format("{}.sparse.indices, element {}", place, k),
+          fmt::format("index {} must be below {} and above the one before", i, count));
     }
     previous = i;
     std::memcpy(dense.data() + size_t(i) * element, *val + k * element, element);

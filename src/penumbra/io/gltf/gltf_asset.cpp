@@ -259,8 +259,8 @@ Expected<std::string_view> GltfAsset::bufferView(int64_t index, const std::strin
   const uint64_t offset = unsignedValue(v, "byteOffset"), length = unsignedValue(v, "byteLength");
   bool khr = false;
   if (const Json* ext = meshoptExtension(v, khr)) {
-    const std::string ext_place =
-        where + (khr ? ".extensions.KHR_meshopt_compression" : ".extensions.EXT_meshopt_compression");
+    const std::string ext_place = where + (khr ? ".extensions.KHR_meshopt_compression"
+                                               : ".extensions.EXT_meshopt_compression");
     Expected<MeshoptView> m = readMeshoptView(*ext, khr, length, path_, ext_place);
     if (!m) return m.error();
     Expected<std::string_view> source = buffer(m->buffer, ext_place);

@@ -64,10 +64,10 @@ Expected<std::unique_ptr<draco::Mesh>> decodeStream(std::string_view bytes, cons
     draco::Decoder decoder;
     draco::StatusOr<std::unique_ptr<draco::Mesh>> mesh = decoder.DecodeMeshFromBuffer(&buffer);
     if (!mesh.ok() || !mesh.value()) {
-      return inputError(file, place,
-                        fmt::format("the Draco stream cannot be decoded: {}",
-                                    mesh.ok() ? "it holds no mesh"
-                                              : mesh.status().error_msg_string()));
+      return inputError(
+          file, place,
+          fmt::format("the Draco stream cannot be decoded: {}",
+                      mesh.ok() ? "it holds no mesh" : mesh.status().error_msg_string()));
     }
     return std::move(mesh).value();
   } catch (const std::bad_alloc&) {
@@ -109,10 +109,10 @@ Expected<DracoPrimitive> decodeDracoPrimitive(GltfAsset& asset, const json& prim
     const int components = componentCount(a.value("type", std::string()));
     const int type = a.value("componentType", kGltfFloat);
     if (!att || components == 0 || att->num_components() < components) {
-      return inputError(file, at,
-                        fmt::format("Draco attribute {} {}", it->get<int64_t>(),
-                                    att ? "has fewer components than its accessor"
-                                        : "is not in the stream"));
+      return inputError(
+          file, at,
+          fmt::format("Draco attribute {} {}", it->get<int64_t>(),
+                      att ? "has fewer components than its accessor" : "is not in the stream"));
     }
     if (a.value("count", uint64_t(0)) != mesh.num_points()) {
       return inputError(file, at,

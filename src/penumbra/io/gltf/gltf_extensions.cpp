@@ -4,7 +4,6 @@
 
 #include <fmt/format.h>
 
-
 namespace penumbra {
 
 namespace {
@@ -43,7 +42,8 @@ constexpr GltfExtensionInfo kExtensions[] = {
     {"KHR_materials_dispersion", S::kIgnored, "the dispersion of glass"},
     {"KHR_materials_diffuse_transmission", S::kIgnored,
      "light passing diffusely through thin surfaces (leaves, paper)"},
-    {"KHR_materials_variants", S::kIgnored, "the material variants (the default materials are read)"},
+    {"KHR_materials_variants", S::kIgnored,
+     "the material variants (the default materials are read)"},
     {"KHR_animation_pointer", S::kIgnored, "animation of properties (the rest state is read)"},
     {"EXT_lights_image_based", S::kIgnored,
      "image-based lighting (light the scene with --environment or --sky instead)"},
@@ -76,12 +76,12 @@ Status checkRequiredExtensions(const std::string& path, const nlohmann::json& ro
   for (const std::string& name : names(root, "extensionsRequired")) {
     const GltfExtensionInfo* e = gltfExtension(name);
     if (e && (e->support == S::kRead || e->support == S::kFallback)) continue;
-    return inputError(path, "extensionsRequired",
-                      e ? fmt::format("the file requires {} ({}), which Penumbra does not "
-                                      "implement",
-                                      name, e->effect)
-                        : fmt::format("the file requires {}, an extension Penumbra does not know",
-                                      name));
+    return inputError(
+        path, "extensionsRequired",
+        e ? fmt::format("the file requires {} ({}), which Penumbra does not "
+                        "implement",
+                        name, e->effect)
+          : fmt::format("the file requires {}, an extension Penumbra does not know", name));
   }
   return {};
 }
@@ -91,11 +91,11 @@ std::vector<std::string> extensionWarnings(const std::string& path, const nlohma
   for (const std::string& name : names(root, "extensionsUsed")) {
     const GltfExtensionInfo* e = gltfExtension(name);
     if (!e) {
-      out.push_back(fmt::format("{}: extension {} is unknown to Penumbra and is ignored", path,
-                                name));
+      out.push_back(
+          fmt::format("{}: extension {} is unknown to Penumbra and is ignored", path, name));
     } else if (e->support == S::kIgnored) {
-      out.push_back(fmt::format("{}: extension {} is not implemented: {} left out", path, name,
-                                e->effect));
+      out.push_back(
+          fmt::format("{}: extension {} is not implemented: {} left out", path, name, e->effect));
     }
   }
   return out;

@@ -64,11 +64,13 @@ std::vector<Slot> slotsOf(const json& gm) {
   const json& sg = extension(gm, "KHR_materials_pbrSpecularGlossiness");
   std::vector<Slot> out;
   if (sg.is_object()) {
-    if (sg.contains("diffuseTexture")) out.push_back({"diffuseTexture", &sg["diffuseTexture"], true});
+    if (sg.contains("diffuseTexture"))
+      out.push_back({"diffuseTexture", &sg["diffuseTexture"], true});
   } else if (pbr.contains("baseColorTexture")) {
     out.push_back({"baseColorTexture", &pbr["baseColorTexture"], true});
   }
-  if (gm.contains("emissiveTexture")) out.push_back({"emissiveTexture", &gm["emissiveTexture"], true});
+  if (gm.contains("emissiveTexture"))
+    out.push_back({"emissiveTexture", &gm["emissiveTexture"], true});
   return out;
 }
 
@@ -416,7 +418,8 @@ Status GltfMaterials::readSpecular(const json& gm, const std::string& place, Mat
       double ior = 1.5;
       const json& i = extension(gm, "KHR_materials_ior");
       if (i.is_object() && i.contains("ior")) {
-        if (!i["ior"].is_number() || !(i["ior"].get<double>() >= 1.0 && i["ior"].get<double>() <= 4.0)) {
+        if (!i["ior"].is_number() ||
+            !(i["ior"].get<double>() >= 1.0 && i["ior"].get<double>() <= 4.0)) {
           return inputError(asset_.path(), place + ".extensions.KHR_materials_ior.ior",
                             "must be a number in [1, 4]");
         }

@@ -88,9 +88,15 @@ const unsigned char* decodeByteDeltas(const unsigned char* p, const unsigned cha
   return p;
 }
 
-uint16_t unzigzag16(uint16_t v) { return static_cast<uint16_t>(-(v & 1) ^ (v >> 1)); }
-uint8_t unzigzag8(uint8_t v) { return static_cast<uint8_t>(-(v & 1) ^ (v >> 1)); }
-uint32_t rotate(uint32_t v, unsigned r) { return (v << r) | (v >> ((32 - r) & 31)); }
+uint16_t unzigzag16(uint16_t v) {
+  return static_cast<uint16_t>(-(v & 1) ^ (v >> 1));
+}
+uint8_t unzigzag8(uint8_t v) {
+  return static_cast<uint8_t>(-(v & 1) ^ (v >> 1));
+}
+uint32_t rotate(uint32_t v, unsigned r) {
+  return (v << r) | (v >> ((32 - r) & 31));
+}
 
 // Adds the block's deltas (deltas[k * aligned + i]: byte position k of element i) to the previous
 // element, channel by channel (4 bytes each) by its mode: 0 bytes, 1 16-bit halves, 2 32-bit XOR
@@ -104,10 +110,12 @@ void applyDeltas(const unsigned char* deltas, size_t aligned, size_t elements, s
       const unsigned char* d = deltas + 4 * c * aligned + i;
       unsigned char* v = last + 4 * c;
       if (mode == 0) {
-        for (size_t b = 0; b < 4; ++b) v[b] = static_cast<unsigned char>(v[b] + unzigzag8(d[b * aligned]));
+        for (size_t b = 0; b < 4; ++b)
+          v[b] = static_cast<unsigned char>(v[b] + unzigzag8(d[b * aligned]));
       } else if (mode == 1) {
         for (size_t h = 0; h < 2; ++h) {
-          const uint16_t delta = static_cast<uint16_t>(d[2 * h * aligned] | d[(2 * h + 1) * aligned] << 8);
+          const uint16_t delta =
+              static_cast<uint16_t>(d[2 * h * aligned] | d[(2 * h + 1) * aligned] << 8);
           const uint16_t prev = static_cast<uint16_t>(v[2 * h] | v[2 * h + 1] << 8);
           const uint16_t now = static_cast<uint16_t>(prev + unzigzag16(delta));
           v[2 * h] = static_cast<unsigned char>(now & 0xff);
@@ -178,16 +186,17 @@ Status checkLayout(const MeshoptView& v, uint64_t view_byte_length, const std::s
   using F = MeshoptView::Filter;
   if (v.mode == M::kAttributes &&
       (v.byte_stride % 4 != 0 || v.byte_stride < 4 || v.byte_stride > 256)) {
-    return fail(fmt::format("ATTRIBUTES need a byteStride that is a multiple of 4 from 4 to 256, "
-                            "not {}",
-                            v.byte_stride));
+    return fail(
+        fmt::format("ATTRIBUTES need a byteStride that is a multiple of 4 from 4 to 256, "
+                    "not {}",
+                    v.byte_stride));
   }
   if (v.mode == M::kTriangles && v.count % 3 != 0) {
     return fail(fmt::format("TRIANGLES need a count divisible by 3, not {}", v.count));
   }
   if (v.mode != M::kAttributes && v.byte_stride != 2 && v.byte_stride != 4) {
-    return fail(fmt::format("{} need a byteStride of 2 or 4, not {}", modeName(v.mode),
-                            v.byte_stride));
+    return fail(
+        fmt::format("{} need a byteStride of 2 or 4, not {}", modeName(v.mode), v.byte_stride));
   }
   if (v.mode != M::kAttributes && v.filter != F::kNone) {
     return fail(fmt::format("{} take no filter", modeName(v.mode)));

@@ -5,7 +5,8 @@
 // Debian's libmeshoptimizer (0.18) decodes the version-0 attribute stream, both index streams
 // and the octahedral, quaternion and exponential filters: those go through it. It predates
 // KHR_meshopt_compression, so the version-1 attribute stream (control modes per byte, channel
-// modes per 4 bytes) and the COLOR filter are decoded here, from the extension's Appendices A and B.
+// modes per 4 bytes) and the COLOR filter are decoded here, from the extension's Appendices A and
+// B.
 #pragma once
 
 #include "penumbra/core/expected.h"

@@ -162,7 +162,8 @@ class PlainWriter {
       if (!node.contains("extensions") || !node["extensions"].contains("EXT_mesh_gpu_instancing")) {
         continue;
       }
-      const json attributes = node["extensions"]["EXT_mesh_gpu_instancing"].value("attributes", json::object());
+      const json attributes =
+          node["extensions"]["EXT_mesh_gpu_instancing"].value("attributes", json::object());
       std::map<std::string, AccessorView> views;
       size_t count = 0;
       for (const char* name : {"TRANSLATION", "ROTATION", "SCALE"}) {
@@ -174,8 +175,9 @@ class PlainWriter {
         views.emplace(name, std::move(*v));
       }
       for (size_t k = 0; k < count; ++k) {
-        json child = {{"mesh", node["mesh"]},
-                      {"name", fmt::format("{}@{}", node.value("name", std::string("instance")), k)}};
+        json child = {
+            {"mesh", node["mesh"]},
+            {"name", fmt::format("{}@{}", node.value("name", std::string("instance")), k)}};
         if (views.count("TRANSLATION")) {
           const AccessorView& t = views["TRANSLATION"];
           child["translation"] = {t.component(k, 0), t.component(k, 1), t.component(k, 2)};

@@ -105,8 +105,8 @@ Status readUvsAndColours(GltfAsset& asset, AttributeReader& reader, size_t n, Pr
   for (size_t i = 0; i < n; ++i) {
     glm::vec4 v(1.0f);
     for (int k = 0; k < (*c)->components; ++k) v[k] = float((*c)->component(i, k));
-    if (!(v.x >= 0.0f && v.x <= 1.0f && v.y >= 0.0f && v.y <= 1.0f && v.z >= 0.0f &&
-          v.z <= 1.0f && v.w >= 0.0f && v.w <= 1.0f)) {
+    if (!(v.x >= 0.0f && v.x <= 1.0f && v.y >= 0.0f && v.y <= 1.0f && v.z >= 0.0f && v.z <= 1.0f &&
+          v.w >= 0.0f && v.w <= 1.0f)) {
       return inputError(asset.path(), fmt::format("{}, vertex {}", reader.place("COLOR_0"), i),
                         "colour is outside [0, 1]");
     }
@@ -155,7 +155,8 @@ Status applyMorphTargets(GltfAsset& asset, const json& prim, std::span<const dou
     std::optional<DracoPrimitive> none;
     AttributeReader reader(asset, targets[t], none, fmt::format("{} target {}", where, t));
     std::vector<glm::dvec3> delta;
-    PENUMBRA_TRY(readVectors(asset, reader, "POSITION", "TARGET_POSITION", d.positions.size(), delta));
+    PENUMBRA_TRY(
+        readVectors(asset, reader, "POSITION", "TARGET_POSITION", d.positions.size(), delta));
     for (size_t i = 0; i < delta.size(); ++i) d.positions[i] += w * delta[i];
     delta.clear();
     if (d.normals.empty()) continue;

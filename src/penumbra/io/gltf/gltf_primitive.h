@@ -10,9 +10,9 @@
 #include "penumbra/core/expected.h"
 
 #include <glm/vec2.hpp>
-#include <nlohmann/json_fwd.hpp>
 #include <glm/vec3.hpp>
 #include <glm/vec4.hpp>
+#include <nlohmann/json_fwd.hpp>
 
 #include <cstdint>
 #include <span>
@@ -27,13 +27,13 @@ struct PrimitiveData {
   int mode = 4;  // 4 triangles, 5 strip, 6 fan (points and lines are not read)
   int64_t material = -1;
   std::vector<glm::dvec3> positions;
-  std::vector<glm::dvec3> normals;            // empty or one per position
-  std::vector<std::vector<glm::vec2>> uvs;    // TEXCOORD_k at k: empty or one per position
-  std::vector<glm::vec4> colors;              // COLOR_0: empty or one per position
-  std::vector<glm::uvec4> joints[2];          // JOINTS_0, JOINTS_1
-  std::vector<glm::vec4> weights[2];          // WEIGHTS_0, WEIGHTS_1
-  std::vector<uint32_t> corners;              // three per triangle
-  size_t dropped = 0;                         // vertices past the last whole triangle of a list
+  std::vector<glm::dvec3> normals;          // empty or one per position
+  std::vector<std::vector<glm::vec2>> uvs;  // TEXCOORD_k at k: empty or one per position
+  std::vector<glm::vec4> colors;            // COLOR_0: empty or one per position
+  std::vector<glm::uvec4> joints[2];        // JOINTS_0, JOINTS_1
+  std::vector<glm::vec4> weights[2];        // WEIGHTS_0, WEIGHTS_1
+  std::vector<uint32_t> corners;            // three per triangle
+  size_t dropped = 0;                       // vertices past the last whole triangle of a list
 };
 
 // Whether primitive `prim` of a mesh draws triangles (mode 4, 5 or 6).

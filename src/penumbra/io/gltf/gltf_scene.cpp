@@ -15,8 +15,8 @@
 //     multiplying by the light's linear colour; lights and cameras look down their node's -Z,
 //     a camera's up is its node's +Y; the first perspective camera is the scene's.
 #include "penumbra/core/memory.h"
-#include "penumbra/io/gltf/gltf_asset.h"
 #include "penumbra/io/gltf/gltf_accessor.h"
+#include "penumbra/io/gltf/gltf_asset.h"
 #include "penumbra/io/gltf/gltf_extensions.h"
 #include "penumbra/io/gltf/gltf_materials.h"
 #include "penumbra/io/gltf/gltf_primitive.h"
@@ -34,8 +34,8 @@
 
 #include <algorithm>
 #include <cmath>
-#include <new>
 #include <map>
+#include <new>
 #include <numbers>
 #include <set>
 #include <string>
@@ -89,7 +89,9 @@ glm::dmat4 trs(const glm::dvec3& t, const glm::dquat& q, const glm::dvec3& s) {
 class GltfSceneReader {
  public:
   GltfSceneReader(GltfAsset& asset, Scene& scene, const SceneLoadOptions& options)
-      : asset_(asset), scene_(scene), options_(options),
+      : asset_(asset),
+        scene_(scene),
+        options_(options),
         materials_(asset, scene, options.textures) {}
 
   Status read();
@@ -107,8 +109,8 @@ class GltfSceneReader {
   Status addPrimitive(size_t node, int64_t mesh, size_t primitive,
                       const std::vector<glm::dmat4>& placements);
   Expected<std::vector<glm::dmat4>> jointMatrices(size_t node);
-  void placeMesh(const PrimitiveData& d, const glm::dmat4& world, const std::vector<glm::dmat4>* joints,
-                 Mesh& mesh);
+  void placeMesh(const PrimitiveData& d, const glm::dmat4& world,
+                 const std::vector<glm::dmat4>* joints, Mesh& mesh);
   Status addLight(size_t node);
   Status addCamera(size_t node);
   std::vector<double> morphWeights(size_t node, int64_t mesh) const;
@@ -192,8 +194,8 @@ Expected<std::vector<int64_t>> GltfSceneReader::sceneRoots() {
     }
     return roots;
   }
-  int64_t si = options_.gltf_scene >= 0 ? options_.gltf_scene
-                                        : asset_.json().value("scene", int64_t(0));
+  int64_t si =
+      options_.gltf_scene >= 0 ? options_.gltf_scene : asset_.json().value("scene", int64_t(0));
   if (si < 0 || size_t(si) >= scenes.size()) {
     return inputError(path(), options_.gltf_scene >= 0 ? "--gltf-scene" : "scene",
                       fmt::format("scene {} does not exist (the file has {})", si, scenes.size()));
@@ -214,11 +216,12 @@ Expected<std::vector<int64_t>> GltfSceneReader::sceneRoots() {
       return inputError(path(), place, fmt::format("node {} does not exist", r));
     }
     if (parent_[size_t(r)] >= 0) {
-      return inputError(path(), place,
-                        fmt::format("node {} is a child of node {}, not a root", r,
-                                    parent_[size_t(r)]));
+      return inputError(
+          path(), place,
+          fmt::format("node {} is a child of node {}, not a root", r, parent_[size_t(r)]));
     }
-    if (listed[size_t(r)]) return inputError(path(), place, fmt::format("node {} is listed twice", r));
+    if (listed[size_t(r)])
+      return inputError(path(), place, fmt::format("node {} is listed twice", r));
     listed[size_t(r)] = true;
     roots.push_back(r);
   }
@@ -298,9 +301,9 @@ Expected<std::vector<glm::dmat4>> GltfSceneReader::instances(size_t n) {
         readAccessor(asset_, attributes[name].get<int64_t>(), name, where + " " + name);
     if (!v) return v.error();
     if (count != 0 && v->count != count) {
-      return inputError(path(), where + " " + name,
-                        fmt::format("count {} differs from the other attributes' {}", v->count,
-                                    count));
+      return inputError(
+          path(), where + " " + name,
+          fmt::format("count {} differs from the other attributes' {}", v->count, count));
     }
     count = v->count;
     views.emplace(name, std::move(*v));
@@ -347,7 +350,8 @@ Status GltfSceneReader::planScene(const std::vector<int64_t>& roots) {
                                    ? attributes["POSITION"].get<int64_t>()
                                    : -1;
       if (accessor < 0 || size_t(accessor) >= asset_.count("accessors")) continue;
-      const uint64_t count = asset_.json()["accessors"][size_t(accessor)].value("count", uint64_t(0));
+      const uint64_t count =
+          asset_.json()["accessors"][size_t(accessor)].value("count", uint64_t(0));
       per_mesh[m] += prim.value("mode", 4) == 4 ? count / 3 : count >= 3 ? count - 2 : 0;
     }
   }
@@ -372,10 +376,10 @@ Status GltfSceneReader::planScene(const std::vector<int64_t>& roots) {
         }
       }
       // Saturating: a file's counts may claim more than 64 bits hold.
-      const uint64_t add = per_mesh[size_t(m)] > 0 && copies > (uint64_t(1) << 62) /
-                                                            per_mesh[size_t(m)]
-                               ? uint64_t(1) << 62
-                               : per_mesh[size_t(m)] * copies;
+      const uint64_t add =
+          per_mesh[size_t(m)] > 0 && copies > (uint64_t(1) << 62) / per_mesh[size_t(m)]
+              ? uint64_t(1) << 62
+              : per_mesh[size_t(m)] * copies;
       total = std::min(total + add, uint64_t(1) << 62);
       for (const json& prim : meshes[size_t(m)]["primitives"]) {
         materials.insert(prim.value("material", int64_t(-1)));
@@ -395,9 +399,9 @@ Status GltfSceneReader::planScene(const std::vector<int64_t>& roots) {
 }
 
 std::vector<double> GltfSceneReader::morphWeights(size_t n, int64_t mesh) const {
-  const json& w = nodes()[n].contains("weights") ? nodes()[n]["weights"]
-                                                 : member(asset_.json()["meshes"][size_t(mesh)],
-                                                          "weights");
+  const json& w = nodes()[n].contains("weights")
+                      ? nodes()[n]["weights"]
+                      : member(asset_.json()["meshes"][size_t(mesh)], "weights");
   std::vector<double> out;
   for (const json& v : w) out.push_back(v.is_number() ? v.get<double>() : 0.0);
   return out;
@@ -418,9 +422,9 @@ Expected<std::vector<glm::dmat4>> GltfSceneReader::jointMatrices(size_t n) {
                                             "inverseBindMatrices", where + " inverseBindMatrices");
     if (!v) return v.error();
     if (v->count < joints.size()) {
-      return inputError(path(), where,
-                        fmt::format("{} inverse bind matrices for {} joints", v->count,
-                                    joints.size()));
+      return inputError(
+          path(), where,
+          fmt::format("{} inverse bind matrices for {} joints", v->count, joints.size()));
     }
     ibm = std::move(*v);
   }
@@ -592,8 +596,8 @@ Status GltfSceneReader::addLight(size_t n) {
     return inputError(path(), place, "needs an integer 'light'");
   }
   const int64_t li = ext["light"].get<int64_t>();
-  const json& lights = member(member(member(asset_.json(), "extensions"), "KHR_lights_punctual"),
-                              "lights");
+  const json& lights =
+      member(member(member(asset_.json(), "extensions"), "KHR_lights_punctual"), "lights");
   if (li < 0 || size_t(li) >= lights.size()) {
     return inputError(path(), place, fmt::format("light {} does not exist", li));
   }
