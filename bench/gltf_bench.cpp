@@ -4,6 +4,7 @@
 //     library's own encoder wrote it from the same data): bytes decoded per second;
 //   - loading the Avocado (tests/data/gltf-corpus) plain, Draco-, meshopt- and
 //     quantized-compressed: the whole loader (files, decoding, textures), against the plain file.
+#include "penumbra/core/file_util.h"
 #include "penumbra/io/gltf/gltf_meshopt.h"
 #include "penumbra/io/scene_io.h"
 
@@ -19,11 +20,10 @@
 namespace penumbra {
 namespace {
 
+// The whole file (empty when it cannot be read: the caller's check fails then).
 std::string readBytes(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
+  Expected<std::string> bytes = readFile(path);
+  return bytes ? std::move(*bytes) : std::string();
 }
 
 uint32_t le32(const std::string& b, size_t at) {

@@ -2,6 +2,7 @@
 // Draco streams, KHR_mesh_quantization, sparse accessors, morph targets with default weights,
 // skins posed by their joints, several scenes; and the malformed streams (cut short, lying about
 // their counts, a quantized accessor with a bad normalized flag) refused with one line.
+#include "penumbra/core/file_util.h"
 #include "penumbra/io/gltf/gltf_meshopt.h"
 #include "penumbra/io/scene_io.h"
 #include "support/test_util.h"
@@ -24,11 +25,10 @@ namespace {
 using nlohmann::json;
 using test::TempDir;
 
+// The whole file (empty when it cannot be read: the caller's check fails then).
 std::string readBytes(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
+  Expected<std::string> bytes = readFile(path);
+  return bytes ? std::move(*bytes) : std::string();
 }
 
 uint32_t le32(const std::string& b, size_t at) {

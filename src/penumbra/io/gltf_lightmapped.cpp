@@ -3,6 +3,7 @@
 #include "penumbra/core/check.h"
 #include "penumbra/core/file_util.h"
 #include "penumbra/io/asset_files.h"
+#include "penumbra/io/gltf/gltf_accessor.h"
 #include "penumbra/io/gltf_common.h"
 #include "penumbra/io/image_io.h"
 
@@ -28,32 +29,6 @@ using json = nlohmann::json;
 
 constexpr int kFloat = 5126, kUnsignedInt = 5125, kUnsignedShort = 5123;
 constexpr int kArrayBuffer = 34962, kElementArrayBuffer = 34963;
-
-int componentSize(int component_type) {
-  switch (component_type) {
-    case 5120:
-    case 5121:
-      return 1;
-    case 5122:
-    case 5123:
-      return 2;
-    case 5125:
-    case 5126:
-      return 4;
-    default:
-      return 0;
-  }
-}
-
-int componentCount(const std::string& type) {
-  if (type == "SCALAR") return 1;
-  if (type == "VEC2") return 2;
-  if (type == "VEC3") return 3;
-  if (type == "VEC4" || type == "MAT2") return 4;
-  if (type == "MAT3") return 9;
-  if (type == "MAT4") return 16;
-  return 0;
-}
 
 // An accessor's elements as bytes in their buffer: element i at data + i * stride, `size` bytes.
 struct AccessorBytes {

@@ -623,18 +623,10 @@ Status bake(const BakeOptions& options, const CommonOptions& common, bool* inter
 
 Expected<RunResult> bakeScene(BakeOptions options, const CommonOptions& common,
                               const RunContext& context) {
-  // The scene's "settings" first (they may set the scene's inputs), then the inputs: the run sees
-  // the scene as the options make it (methods/scene_inputs.h).
-  Expected<std::vector<std::string>> set =
-      applySceneSettings(options, context.scene->settings, context.scene->source, context.given);
-  if (!set) return set.error();
-  Expected<std::shared_ptr<const Scene>> scene = applySceneInputs(context.scene, options);
-  if (!scene) return scene.error();
-  RunContext run_context = context;
-  run_context.scene = *scene;
-  return runInScope(run_context, common, [&](bool* interrupted) -> Status {
-    options.given = context.given;
-    options.given.insert(options.given.end(), set->begin(), set->end());
+  // The run sees the scene as its settings and the options make it (methods/scene_inputs.h).
+  Expected<RunContext> run = prepareRun(options, context);
+  if (!run) return run.error();
+  return runInScope(*run, common, [&](bool* interrupted) -> Status {
     return bake(options, common, interrupted);
   });
 }

@@ -1,6 +1,7 @@
 #include "penumbra/methods/scene_inputs.h"
 
 #include "penumbra/io/daylight_json.h"
+#include "penumbra/methods/registry.h"
 
 #include <nlohmann/json.hpp>
 
@@ -124,6 +125,32 @@ Expected<std::shared_ptr<const Scene>> applySceneInputs(std::shared_ptr<const Sc
   for (std::string& w : unitWarnings(*out)) out->warnings.push_back(std::move(w));
   PENUMBRA_TRY(validateScene(*out));
   return std::shared_ptr<const Scene>(std::move(out));
+}
+
+namespace {
+
+template <typename Options>
+Expected<RunContext> prepareRunOf(Options& options, const RunContext& context) {
+  Expected<std::vector<std::string>> set =
+      applySceneSettings(options, context.scene->settings, context.scene->source, context.given);
+  if (!set) return set.error();
+  Expected<std::shared_ptr<const Scene>> scene = applySceneInputs(context.scene, options);
+  if (!scene) return scene.error();
+  RunContext run = context;
+  run.scene = *scene;
+  options.given = context.given;
+  options.given.insert(options.given.end(), set->begin(), set->end());
+  return run;
+}
+
+}  // namespace
+
+Expected<RunContext> prepareRun(RenderOptions& options, const RunContext& context) {
+  return prepareRunOf(options, context);
+}
+
+Expected<RunContext> prepareRun(BakeOptions& options, const RunContext& context) {
+  return prepareRunOf(options, context);
 }
 
 }  // namespace penumbra

@@ -14,6 +14,7 @@
 #include "penumbra/core/expected.h"
 #include "penumbra/io/scene_io.h"
 #include "penumbra/methods/command_options.h"
+#include "penumbra/methods/run_context.h"
 #include "penumbra/scene/scene.h"
 
 #include <memory>
@@ -29,6 +30,12 @@ SceneLoadOptions sceneLoadOptions(const SceneInputOptions& in, bool dry_run);
 // added to its own.
 Expected<std::shared_ptr<const Scene>> applySceneInputs(std::shared_ptr<const Scene> scene,
                                                         const SceneInputOptions& in);
+
+// The run `render` or `bake` makes of `context`: the scene's "settings" applied to `options` first
+// (they may set the scene's inputs), then the inputs to the scene; `options.given` becomes the
+// options the command line gave and those the settings set.
+Expected<RunContext> prepareRun(RenderOptions& options, const RunContext& context);
+Expected<RunContext> prepareRun(BakeOptions& options, const RunContext& context);
 
 // A warning when the scene is probably not in metres (kilometres across, or centimetres small).
 std::vector<std::string> unitWarnings(const Scene& scene);

@@ -26,6 +26,19 @@
 
 namespace penumbra {
 
+// `obj[key]` when `obj` is an object holding it, else `fallback` (a member that may be absent;
+// its type was checked by checkGltfValues).
+template <typename T>
+T valueOr(const nlohmann::json& obj, const char* key, T fallback) {
+  return obj.is_object() && obj.contains(key) ? obj.at(key).get<T>() : fallback;
+}
+
+// `obj[key]`, or null when `obj` is not an object holding it.
+inline const nlohmann::json& member(const nlohmann::json& obj, const char* key) {
+  static const nlohmann::json kNull;
+  return obj.is_object() && obj.contains(key) ? obj.at(key) : kNull;
+}
+
 class GltfAsset {
  public:
   // Reads and checks the .gltf or .glb file at `path`.

@@ -17,17 +17,6 @@ namespace {
 
 using nlohmann::json;
 
-// `obj[key]` when `obj` is an object holding it, else `fallback` (a member that may be absent).
-template <typename T>
-T valueOr(const json& obj, const char* key, T fallback) {
-  return obj.is_object() && obj.contains(key) ? obj.at(key).get<T>() : fallback;
-}
-
-const json& member(const json& j, const char* key) {
-  static const json kNull;
-  return j.is_object() && j.contains(key) ? j.at(key) : kNull;
-}
-
 const json& extension(const json& j, const char* name) {
   return member(member(j, "extensions"), name);
 }

@@ -57,17 +57,6 @@ constexpr uint64_t kLoadedBytesPerTriangle = 64;
 // implementations use between photometric and radiometric quantities.
 constexpr double kLumensPerWatt = 683.0;
 
-// `obj[key]` when `obj` is an object holding it, else `fallback` (a member that may be absent).
-template <typename T>
-T valueOr(const json& obj, const char* key, T fallback) {
-  return obj.is_object() && obj.contains(key) ? obj.at(key).get<T>() : fallback;
-}
-
-const json& member(const json& j, const char* key) {
-  static const json kNull;
-  return j.is_object() && j.contains(key) ? j.at(key) : kNull;
-}
-
 bool finite(const glm::dmat4& m) {
   for (int c = 0; c < 4; ++c) {
     for (int r = 0; r < 4; ++r) {
