@@ -2757,7 +2757,9 @@ def _bake_textures_case(fmt, kind):
         else:
             scene = std_scene(ctx, [{"uri": "cut.png"}], materials=[
                 textured_material(0, emissive=False, alpha_mode="MASK", cutoff=0.5)], light=True)
-        b = ctx.bake(scene, "accept")
+        # An OBJ given alone has no light: a uniform environment lights it.
+        lit = ("--environment", "1,1,1") if kind == "plain-obj" else ()
+        b = ctx.bake(scene, "accept", extra=lit)
         if b.code != 0:
             return
         g, doc = check_baked_uris(ctx, b)

@@ -136,7 +136,7 @@ TEST(GltfFiles, FilesOutsideTheAssetsFolderAreNotReadUnlessAllowed) {
   TempDir dir;
   writeFile(dir.path() / "secret.png", png2x2());
   const std::string up = writeQuad(dir.path() / "asset", "up.gltf", texturedQuad("../secret.png"));
-  EXPECT_TRUE(test::errorNames(loadGltf(up), up, "outside the asset's folder"));
+  EXPECT_TRUE(test::errorNames(loadGltf(up), up, "climbs out of the asset's folder"));
   EXPECT_TRUE(test::errorNames(loadGltf(up), up, "--allow-outside-files"));
   SceneLoadOptions allow;
   allow.files.allow_outside = true;
@@ -144,7 +144,7 @@ TEST(GltfFiles, FilesOutsideTheAssetsFolderAreNotReadUnlessAllowed) {
   // Percent-encoded dots climb the same way.
   const std::string encoded =
       writeQuad(dir.path() / "asset", "enc.gltf", texturedQuad("%2e%2e/secret.png"));
-  EXPECT_TRUE(test::errorNames(loadGltf(encoded), encoded, "outside the asset's folder"));
+  EXPECT_TRUE(test::errorNames(loadGltf(encoded), encoded, "climbs out of the asset's folder"));
   const std::string absolute = writeQuad(dir.path() / "asset", "abs.gltf",
                                          texturedQuad((dir.path() / "secret.png").string()));
   EXPECT_TRUE(test::errorNames(loadGltf(absolute), absolute, "outside the asset's folder"));
@@ -176,6 +176,24 @@ TEST(GltfFiles, TheCurrentDirectoryIsNeverSearched) {
   std::filesystem::current_path(before);
   EXPECT_TRUE(test::errorNames(s, path, "no such file"));
   EXPECT_TRUE(test::errorNames(s, path, "'painted'"));
+}
+
+// A scene named by a relative path that climbs ('../asset/q.gltf', from a sibling folder) reads
+// the files beside it: they are inside its folder, whatever the path's spelling.
+TEST(GltfFiles, AnAssetNamedThroughDotDotReadsItsOwnFiles) {
+  TempDir dir;
+  writeFile(dir.path() / "asset" / "tex.png", png2x2());
+  writeQuad(dir.path() / "asset", "q.gltf", texturedQuad("tex.png"));
+  std::filesystem::create_directories(dir.path() / "work");
+  const std::filesystem::path before = std::filesystem::current_path();
+  std::filesystem::current_path(dir.path() / "work");
+  const Expected<Scene> s = loadGltf("../asset/q.gltf");
+  const Expected<Scene> up = loadGltf("../asset/../asset/q.gltf");
+  std::filesystem::current_path(before);
+  ASSERT_TRUE(s.ok()) << s.error().describe();
+  ASSERT_TRUE(s->materials[0].reflectance_texture.has_value());
+  EXPECT_EQ(s->materials[0].reflectance_texture->texture->width(), 2);
+  EXPECT_TRUE(up.ok()) << up.error().describe();
 }
 
 TEST(GltfFiles, ImagesNoTextureReadsAreNotRead) {

@@ -3,6 +3,7 @@
 // KHR_materials_emissive_strength, KHR_lights_punctual point and spot lights and a camera; and
 // malformed files whose errors name the file and the accessor, vertex or extension.
 #include "penumbra/core/file_util.h"
+#include "penumbra/geometry/shading_normals.h"
 #include "penumbra/io/image_io.h"
 #include "penumbra/io/scene_io.h"
 #include "penumbra/kernels/dipole.h"
@@ -406,6 +407,32 @@ TEST(GltfLoad, ErrorsNameFileAndPlace) {
   EXPECT_TRUE(errorNames(loadGltf(missing), missing, "no such file"));
   const std::string empty = dir.write("empty.gltf", "");
   EXPECT_TRUE(errorNames(loadGltf(empty), empty, "empty"));
+}
+
+// A normal that is not a number only shades (Blender has exported NaN normals for degenerate
+// faces): the file loads, that vertex is shaded with its triangle's own normal, and one warning
+// names the primitive. A position that is not a number refuses the file (ErrorsNameFileAndPlace).
+TEST(GltfLoad, NormalsThatAreNotNumbersAreShadedByTheFaceWithAWarning) {
+  TempDir dir;
+  TestGltf g = makeTestGltf();
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  std::memcpy(g.bin.data() + 48 + 12 + 8, &nan, 4);  // normal 1's z
+  const std::string p = writeGltf(dir, "nannormal.gltf", g);
+  Expected<Scene> s = loadGltf(p);
+  ASSERT_TRUE(s) << s.error().message;
+  ASSERT_EQ(s->meshes.size(), 1u);
+  const Mesh& m = s->meshes[0];
+  expectNear(m.normals[0], {1, 0, 0});
+  expectNear(m.normals[1], {0, 0, 0});  // no direction: shading takes the face's
+  const std::vector<glm::vec3> corners = cornerShadingNormals(*s);
+  ASSERT_EQ(corners.size(), 6u);
+  expectNear(corners[1], {1, 0, 0});  // triangle 0, corner 1 is vertex 1
+  size_t named = 0;
+  for (const std::string& w : s->warnings) {
+    if (w.find("mesh 0 primitive 0: 1 normals are not finite numbers") != std::string::npos)
+      ++named;
+  }
+  EXPECT_EQ(named, 1u);
 }
 
 TEST(GltfLoad, ADeepChainOfNodesLoadsWithItsTransformsComposed) {

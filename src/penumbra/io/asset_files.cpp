@@ -92,8 +92,7 @@ bool isInside(const fs::path& inner, const fs::path& outer) {
 }
 
 std::string outsideMessage(const std::string& what) {
-  return fmt::format("{}, outside the asset's folder: not read (--allow-outside-files reads it)",
-                     what);
+  return fmt::format("{}: not read (--allow-outside-files reads it)", what);
 }
 
 }  // namespace
@@ -226,7 +225,9 @@ Expected<std::string> confineAssetPath(const std::string& asset_file, const std:
   // Compared as absolute paths: the asset may be named by an absolute path, and so its files.
   const fs::path folder = fs::path(asset_file).parent_path();
   const fs::path abs_folder = fs::absolute(folder.empty() ? fs::path(".") : folder);
-  if (climbsOut(fs::absolute(joined).lexically_relative(abs_folder.lexically_normal()))) {
+  // Both normalised: a scene named '../asset/scene.gltf' has its files at '../asset/...'.
+  if (climbsOut(fs::absolute(joined).lexically_normal().lexically_relative(
+          abs_folder.lexically_normal()))) {
     return inputError(asset_file, place,
                       outsideMessage(fmt::format("'{}' lies outside the asset's folder", path)));
   }
@@ -237,8 +238,10 @@ Expected<std::string> confineAssetPath(const std::string& asset_file, const std:
     std::error_code ec_dir;
     const fs::path real_folder = fs::canonical(folder.empty() ? fs::path(".") : folder, ec_dir);
     if (!ec_dir && !isInside(real, real_folder)) {
-      return inputError(asset_file, place,
-                        outsideMessage(fmt::format("'{}' is a link to '{}'", path, real.string())));
+      return inputError(
+          asset_file, place,
+          outsideMessage(fmt::format("'{}' is a link to '{}', outside the asset's folder", path,
+                                     real.string())));
     }
   }
   return joined.string();

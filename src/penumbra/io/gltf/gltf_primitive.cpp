@@ -63,8 +63,13 @@ class AttributeReader {
   std::string where_;
 };
 
+// Reads a vec3 attribute. A position that is not finite refuses the file. A normal that is not
+// finite (Blender's exporter has written NaN normals for degenerate faces, which the Khronos
+// validator reports as ACCESSOR_INVALID_FLOAT) only shades: when `bad` is given it is read as zero,
+// which shading takes as "use the triangle's own normal", and counted in *bad.
 Status readVectors(GltfAsset& asset, AttributeReader& reader, const std::string& name,
-                   const std::string& use, size_t count, std::vector<glm::dvec3>& out) {
+                   const std::string& use, size_t count, std::vector<glm::dvec3>& out,
+                   size_t* bad = nullptr) {
   Expected<std::optional<AccessorView>> v = reader.get(name, use, count);
   if (!v) return v.error();
   if (!*v) return {};
@@ -72,7 +77,10 @@ Status readVectors(GltfAsset& asset, AttributeReader& reader, const std::string&
   out.resize(a.count);
   for (size_t i = 0; i < a.count; ++i) {
     out[i] = glm::dvec3(a.component(i, 0), a.component(i, 1), a.component(i, 2));
-    if (!finite3(out[i])) {
+    if (!finite3(out[i]) && bad) {
+      out[i] = glm::dvec3(0.0);
+      ++*bad;
+    } else if (!finite3(out[i])) {
       return inputError(asset.path(), fmt::format("{}, vertex {}", reader.place(name), i),
                         fmt::format("{} is not a finite number", name));
     }
@@ -160,7 +168,8 @@ Status applyMorphTargets(GltfAsset& asset, const json& prim, std::span<const dou
     for (size_t i = 0; i < delta.size(); ++i) d.positions[i] += w * delta[i];
     delta.clear();
     if (d.normals.empty()) continue;
-    PENUMBRA_TRY(readVectors(asset, reader, "NORMAL", "TARGET_NORMAL", d.normals.size(), delta));
+    PENUMBRA_TRY(readVectors(asset, reader, "NORMAL", "TARGET_NORMAL", d.normals.size(), delta,
+                             &d.bad_normals));
     for (size_t i = 0; i < delta.size(); ++i) d.normals[i] += w * delta[i];
   }
   return {};
@@ -225,7 +234,7 @@ Expected<PrimitiveData> readPrimitive(GltfAsset& asset, int64_t mesh, size_t pri
   AttributeReader reader(asset, attributes, draco, where);
   PENUMBRA_TRY(readVectors(asset, reader, "POSITION", "POSITION", 0, d.positions));
   const size_t n = d.positions.size();
-  PENUMBRA_TRY(readVectors(asset, reader, "NORMAL", "NORMAL", n, d.normals));
+  PENUMBRA_TRY(readVectors(asset, reader, "NORMAL", "NORMAL", n, d.normals, &d.bad_normals));
   PENUMBRA_TRY(readUvsAndColours(asset, reader, n, d));
   PENUMBRA_TRY(readSkinAttributes(asset, reader, n, d));
   PENUMBRA_TRY(applyMorphTargets(asset, prim, weights, where, d));

@@ -34,6 +34,7 @@ struct PrimitiveData {
   std::vector<glm::vec4> weights[2];        // WEIGHTS_0, WEIGHTS_1
   std::vector<uint32_t> corners;            // three per triangle
   size_t dropped = 0;                       // vertices past the last whole triangle of a list
+  size_t bad_normals = 0;  // NORMAL values that were not finite, read as zero (face normal)
 };
 
 // Whether primitive `prim` of a mesh draws triangles (mode 4, 5 or 6).

@@ -504,6 +504,12 @@ Status GltfSceneReader::addPrimitive(size_t n, int64_t mesh_index, size_t p,
           fmt::format("{}: {}: {} vertices is not a multiple of 3; the last {} are ignored", path(),
                       where, read->corners.size() + read->dropped, read->dropped));
     }
+    if (read->bad_normals) {
+      scene_.warnings.push_back(fmt::format(
+          "{}: {}: {} normals are not finite numbers; those vertices are shaded with their "
+          "triangle's own normal",
+          path(), where, read->bad_normals));
+    }
     if (own) {
       local = std::move(*read);
       d = &local;
