@@ -7,6 +7,8 @@ rendered at a few samples under a uniform environment (`render FILE --spp 2 --wi
   refused    exit 2 with one line naming an extension or format Penumbra does not read (the
              reason's words below), or naming what is wrong in a file the Khronos validator also
              rejects
+  empty      exit 2 with one line saying the scene has no triangles and why (points or lines
+             only, an animation, an empty scene): nothing for a renderer of surfaces to draw
   misleading exit 2 on a file the validator accepts, for a reason that is not an unsupported
              extension or format: a message that blames a valid file
   breach     a signal, another exit code, a timeout, or more than one line on stderr
@@ -32,8 +34,11 @@ import time
 
 # Words of a refusal that names something Penumbra does not implement, rather than blaming the
 # file.
-UNSUPPORTED = ("does not implement", "Penumbra cannot decode", "no Debian library",
-               "is not supported", "are not supported", "not implemented")
+UNSUPPORTED = ("does not implement", "does not know", "Penumbra cannot decode",
+               "no Debian library", "is not supported", "are not supported", "not implemented")
+# Words of a refusal of a valid file that holds nothing Penumbra draws (points and lines only, an
+# animation, an empty scene), saying so.
+EMPTY = ("the scene has no triangles: ",)
 
 
 def run(cli, path, timeout, out_dir):
@@ -61,6 +66,8 @@ def classify(row, code, lines, wrote):
         message = lines[0]
         if any(w in message for w in UNSUPPORTED):
             return "refused", message
+        if any(w in message for w in EMPTY):
+            return "empty", message
         return ("misleading" if valid else "refused"), message
     return "breach", f"exit {code}: " + " | ".join(lines[:3])
 
@@ -96,23 +103,29 @@ def main():
         code, lines, seconds, wrote = results[i]
         kind, message = classify(row, code, lines, wrote)
         counts[kind] += 1
-        by_source[row.get("source", "").split(":")[0].split(" ")[0]][kind] += 1
+        by_source[row["path"].split("/")[0]][kind] += 1
         if row.get("interior") == "yes":
             interiors[kind] += 1
         if kind != "opens":
             table.append((kind, row["path"], message, seconds))
     total = len(rows)
     print(f"{total} files: " + ", ".join(f"{k} {counts[k]}" for k in
-                                         ("opens", "refused", "misleading", "breach")))
+                                         ("opens", "refused", "empty", "misleading", "breach")))
     print(f"interiors ({sum(interiors.values())}): " +
           ", ".join(f"{k} {v}" for k, v in sorted(interiors.items())))
     for kind, path, message, seconds in sorted(table):
         print(f"{kind:10s} {path}: {message} ({seconds:.1f} s)")
+    kinds = ("opens", "refused", "empty", "misleading", "breach")
     if args.markdown:
         with open(args.markdown, "w") as f:
-            f.write(f"| outcome | files |\n|---|---|\n")
-            for k in ("opens", "refused", "misleading", "breach"):
-                f.write(f"| {k} | {counts[k]} |\n")
+            f.write("| collection | files | " + " | ".join(kinds) + " |\n")
+            f.write("|---|---:|" + "---:|" * len(kinds) + "\n")
+            for src in sorted(by_source):
+                c = by_source[src]
+                f.write(f"| {src} | {sum(c.values())} | " +
+                        " | ".join(str(c[k]) for k in kinds) + " |\n")
+            f.write(f"| **all** | {total} | " + " | ".join(str(counts[k]) for k in kinds) +
+                    " |\n")
             f.write("\n| file | outcome | message |\n|---|---|---|\n")
             for kind, path, message, _ in sorted(table):
                 f.write(f"| `{path}` | {kind} | {message.replace('|', '/')} |\n")

@@ -146,9 +146,10 @@ Status checkCoverage(const Scene& scene, const Material& m, const std::string& p
   if (!(m.alpha >= 0.0f && m.alpha <= 1.0f)) {
     return inputError(scene.source, place, fmt::format("alpha {} is outside [0, 1]", m.alpha));
   }
-  if (!(m.alpha_cutoff >= 0.0f && m.alpha_cutoff <= 1.0f)) {
+  // glTF 2.0 gives alphaCutoff a minimum of 0 and no maximum: above 1 nothing is covered.
+  if (!(m.alpha_cutoff >= 0.0f && std::isfinite(m.alpha_cutoff))) {
     return inputError(scene.source, place,
-                      fmt::format("alpha cutoff {} is outside [0, 1]", m.alpha_cutoff));
+                      fmt::format("alpha cutoff {} is not a finite number >= 0", m.alpha_cutoff));
   }
   for (const auto* binding : {&m.reflectance_texture, &m.emission_texture, &m.coverage_texture}) {
     if (!*binding) continue;

@@ -8,6 +8,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -209,13 +210,15 @@ Status GltfMaterials::readBase(const json& gm, const std::string& label, Materia
       return inputError(asset_.path(), label + "." + factor_key, "needs 4 numbers");
     }
     for (int c = 0; c < 4; ++c) {
-      const double v = f[size_t(c)].is_number() ? f[size_t(c)].get<double>() : -1.0;
-      if (!(v >= 0.0 && v <= 1.0)) {
+      double v = f[size_t(c)].is_number() ? f[size_t(c)].get<double>() : -1.0;
+      // Within float32 rounding of [0, 1] (checkGltfValues): clamped.
+      if (!(v >= -1e-6 && v <= 1.0 + 1e-6)) {
         return inputError(asset_.path(), label + "." + factor_key, "must be 4 numbers in [0, 1]");
       }
+      v = std::clamp(v, 0.0, 1.0);
       if (c < 3) m.reflectance[c] = float(v);
+      if (c == 3) m.alpha = float(v);
     }
-    m.alpha = f[3].get<float>();
   } else {
     m.reflectance = glm::vec3(1.0f);
   }
@@ -253,8 +256,10 @@ Status GltfMaterials::readEmission(const json& gm, const std::string& label, Mat
   }
   if (gm.contains("emissiveFactor")) {
     const json& e = gm["emissiveFactor"];
-    m.emission = glm::vec3(glm::dvec3(e[0].get<double>(), e[1].get<double>(), e[2].get<double>()) *
-                           strength);
+    // Clamped: checkGltfValues lets float32 rounding past [0, 1] through.
+    const glm::dvec3 factor = glm::clamp(
+        glm::dvec3(e[0].get<double>(), e[1].get<double>(), e[2].get<double>()), 0.0, 1.0);
+    m.emission = glm::vec3(factor * strength);
   }
   if (gm.contains("emissiveTexture")) {
     Expected<TextureBinding> b = binding(gm["emissiveTexture"], true, label + ".emissiveTexture");

@@ -113,6 +113,7 @@ class GltfSceneReader {
   // Primitives read once for every node that places them unchanged (no skin, no weights of its
   // own), by (mesh, primitive).
   std::map<std::pair<int64_t, size_t>, PrimitiveData> shared_;
+  size_t skipped_primitives_ = 0;  // points and lines, which are not drawn
 };
 
 Status GltfSceneReader::checkHierarchy() {
@@ -197,22 +198,37 @@ Expected<std::vector<int64_t>> GltfSceneReader::sceneRoots() {
             ? fmt::format(" ('{}')", scenes[size_t(si)]["name"].get<std::string>())
             : std::string()));
   }
-  std::vector<bool> listed(parent_.size(), false);
   const std::string place = fmt::format("scene {}", si);
+  std::vector<bool> listed(parent_.size(), false);
+  std::vector<int64_t> given;
   for (const json& rj : member(scenes[size_t(si)], "nodes")) {
     const int64_t r = rj.get<int64_t>();
     if (r < 0 || size_t(r) >= parent_.size()) {
       return inputError(path(), place, fmt::format("node {} does not exist", r));
     }
-    if (parent_[size_t(r)] >= 0) {
-      return inputError(
-          path(), place,
-          fmt::format("node {} is a child of node {}, not a root", r, parent_[size_t(r)]));
+    if (listed[size_t(r)]) {
+      scene_.warnings.push_back(
+          fmt::format("{}: {}: node {} is listed twice; it is drawn once", path(), place, r));
+      continue;
     }
-    if (listed[size_t(r)])
-      return inputError(path(), place, fmt::format("node {} is listed twice", r));
     listed[size_t(r)] = true;
-    roots.push_back(r);
+    given.push_back(r);
+  }
+  // A scene must list roots only (glTF 2.0 sec. 3.5.1; the validator's SCENE_NON_ROOT_NODE), yet
+  // exporters list children too. Such a node is drawn once, where the file's node tree puts it
+  // (its parents' transforms apply): under a listed ancestor if it has one, else from itself.
+  for (const int64_t r : given) {
+    if (parent_[size_t(r)] < 0) {
+      roots.push_back(r);
+      continue;
+    }
+    int64_t a = parent_[size_t(r)];
+    while (a >= 0 && !listed[size_t(a)]) a = parent_[size_t(a)];
+    scene_.warnings.push_back(fmt::format(
+        "{}: {}: node {} is a child of node {}, not a root; it is drawn once, {}", path(), place, r,
+        parent_[size_t(r)],
+        a >= 0 ? fmt::format("under node {}", a) : std::string("with its parents' transforms")));
+    if (a < 0) roots.push_back(r);
   }
   return roots;
 }
@@ -487,6 +503,7 @@ Status GltfSceneReader::addPrimitive(size_t n, int64_t mesh_index, size_t p,
   if (!drawsTriangles(prim)) {
     scene_.warnings.push_back(fmt::format("{}: {}: points and lines (mode {}) are skipped", path(),
                                           where, prim.value("mode", 4)));
+    ++skipped_primitives_;
     return {};
   }
   const bool own = node.contains("skin") || node.contains("weights");
@@ -600,7 +617,8 @@ Status GltfSceneReader::addLight(size_t n) {
   const std::string lplace = fmt::format("KHR_lights_punctual.lights[{}]", li);
   glm::dvec3 color(1.0);
   if (gl.contains("color")) {
-    for (int i = 0; i < 3; ++i) color[i] = gl["color"][size_t(i)].get<double>();
+    for (int i = 0; i < 3; ++i)
+      color[i] = std::clamp(gl["color"][size_t(i)].get<double>(), 0.0, 1.0);
   }
   const double intensity = gl.value("intensity", 1.0);
   const glm::vec3 radiometric(color * (intensity / kLumensPerWatt));
@@ -692,6 +710,17 @@ Status GltfSceneReader::read() {
     }
   }
   for (const std::string& w : materials_.warnings()) scene_.warnings.push_back(w);
+  if (scene_.triangleCount() == 0) {
+    // Nothing to compute light on: say why, so a valid file is not taken for a broken one.
+    const std::string why = roots->empty() ? "the file's scene holds no nodes"
+                            : skipped_primitives_
+                                ? fmt::format(
+                                      "its primitives ({}) are points or lines, which "
+                                      "Penumbra does not draw (it computes light on surfaces)",
+                                      skipped_primitives_)
+                                : "none of its nodes holds a mesh (an animation or an empty scene)";
+    return inputError(path(), "", fmt::format("the scene has no triangles: {}", why));
+  }
   return {};
 }
 
