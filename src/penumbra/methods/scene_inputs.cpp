@@ -122,8 +122,12 @@ Expected<std::shared_ptr<const Scene>> applySceneInputs(std::shared_ptr<const Sc
     out->environment =
         glm::vec3(float(in.environment[0]), float(in.environment[1]), float(in.environment[2]));
   }
-  for (std::string& w : unitWarnings(*out)) out->warnings.push_back(std::move(w));
+  // Checked again (the scale changes lengths, the sky adds a sun); its warnings (degenerate
+  // triangles) were given when the scene was loaded.
+  const size_t warned = out->warnings.size();
   PENUMBRA_TRY(validateScene(*out));
+  out->warnings.resize(warned);
+  for (std::string& w : unitWarnings(*out)) out->warnings.push_back(std::move(w));
   return std::shared_ptr<const Scene>(std::move(out));
 }
 

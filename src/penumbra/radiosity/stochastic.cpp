@@ -201,13 +201,25 @@ void StochasticRadiosity::buildLocal() {
       }
       // Hidden pairs dropped; counts per receiver.
       counts[b].assign(end - begin, 0);
+      std::vector<double> row(end - begin, 0.0);
       size_t kept = 0;
       for (size_t k = 0; k < out.size(); ++k) {
         if (out[k].factor == 0.0f) continue;
+        row[owner[k] - begin] += out[k].factor;
         out[kept++] = out[k];
         ++counts[b][owner[k] - begin];
       }
       out.resize(kept);
+      // The form factors from a point to what it sees sum to at most 1 (its hemisphere). A point
+      // in contact with a surface (a column standing on the floor, its base's cap on the floor;
+      // the same cap modelled twice) sees each overlapping polygon fill its hemisphere, and the
+      // one visibility ray to each centre does not separate them: such a row is scaled back to
+      // 1, or the iteration's operator has a norm above 1 and B_m grows without bound.
+      size_t k = 0;
+      for (size_t i = 0; i < row.size(); ++i) {
+        const float scale = row[i] > 1.0 ? float(1.0 / row[i]) : 1.0f;
+        for (uint32_t c = 0; c < counts[b][i]; ++c) out[k++].factor *= scale;
+      }
     }
   });
   local_first_.assign(n + 1, 0);
