@@ -48,7 +48,7 @@ test-asan: deps
 # the solvers uninstrumented (src/CMakeLists.txt: PENUMBRA_SANITIZE_SOLVERS), less the few of them that take more than about 2 s without sanitizers and the command-line
 # tests that run a whole solve (their solvers' own suites are not in this job either).
 ASAN_FAST_BUILD ?= build-asan-fast
-ASAN_SLOW_TESTS = HostileValues.Resume*:HostileValues.Sigterm*:Cli.Progressive*:Cli.Stochastic*:Cli.Lpv*:Cli.MatrixRadiosity*:Cli.Bake*:Cli.PathTracerSamplers*:Cli.Signals*:Cli.TraceOnTheGpu*:ChartAtlas.Bunny*:SurfaceHierarchy.CutGives*:Readme.*
+ASAN_SLOW_TESTS = HostileValues.Resume*:HostileValues.Sigterm*:Cli.Progressive*:Cli.Stochastic*:Cli.Lpv*:Cli.MatrixRadiosity*:Cli.Bake*:Cli.PathTracerSamplers*:Cli.Signals*:Cli.TraceOnTheGpu*:ChartAtlas.Bunny*:SurfaceHierarchy.CutGives*:Readme.*:GltfCorpus.GpuInstancesAreEveryCopy:GltfCorpus.CompressedVariantsGiveThePlainFilesPicture:BakeFiles.*:ImageDecode.*Bomb*
 test-asan-fast: deps
 	cmake -S . -B $(ASAN_FAST_BUILD) -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DPENUMBRA_SANITIZE=ON \
 	  -DPENUMBRA_SANITIZE_SOLVERS=OFF -DPENUMBRA_BUILD_BENCH=OFF \
@@ -61,7 +61,7 @@ test-asan-fast: deps
 # fuzz/corpus/<target>, which grows with what it finds; crashes land in fuzz-out/.
 FUZZ_BUILD ?= build-fuzz
 FUZZ_SECONDS ?= 60
-FUZZ_TARGETS ?= obj ply gltf scene_json rays image checkpoint ldt ies scene_values gltf_values
+FUZZ_TARGETS ?= obj ply gltf scene_json rays image checkpoint ldt ies scene_values gltf_values meshopt
 fuzz-build: deps
 	CXX=clang++ cmake -S . -B $(FUZZ_BUILD) -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
 	  -DPENUMBRA_FUZZ=ON -DPENUMBRA_BUILD_TESTS=OFF -DPENUMBRA_BUILD_BENCH=OFF \
@@ -85,6 +85,7 @@ bench: build
 	$(BUILD)/bin/progressive_bench --benchmark_out=bench-out/progressive_bench.json --benchmark_out_format=json
 	$(BUILD)/bin/stochastic_bench --benchmark_out=bench-out/stochastic_bench.json --benchmark_out_format=json
 	$(BUILD)/bin/applications_bench --benchmark_out=bench-out/applications_bench.json --benchmark_out_format=json
+	$(BUILD)/bin/gltf_bench --benchmark_out=bench-out/gltf_bench.json --benchmark_out_format=json
 
 plots: build
 	mkdir -p bench-out

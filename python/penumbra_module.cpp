@@ -260,8 +260,19 @@ PYBIND11_MODULE(_penumbra, m) {
   m.def("version", &penumbra::api::version);
 
   py::class_<penumbra::api::Scene>(m, "Scene", py::dynamic_attr())
-      .def_static("load", &penumbra::api::Scene::load, py::arg("name_or_path"),
-                  py::call_guard<py::gil_scoped_release>())
+      .def_static(
+          "load",
+          [](const std::string& name_or_path, bool allow_outside_files, int max_texture_size,
+             int gltf_scene) {
+            penumbra::api::LoadOptions options;
+            options.allow_outside_files = allow_outside_files;
+            options.max_texture_size = max_texture_size;
+            options.gltf_scene = gltf_scene;
+            return penumbra::api::Scene::load(name_or_path, options);
+          },
+          py::arg("name_or_path"), py::arg("allow_outside_files") = false,
+          py::arg("max_texture_size") = 8192, py::arg("gltf_scene") = -1,
+          py::call_guard<py::gil_scoped_release>())
       .def_static(
           "from_arrays",
           [](const py::object& positions_in, const py::object& indices_in,

@@ -13,7 +13,11 @@ packages=(
   # the photon map's kd-tree
   libnanoflann-dev
   # file formats
-  libtinyobjloader-dev libtinygltf-dev libstb-dev libopenexr-dev libwebp-dev
+  libtinyobjloader-dev libstb-dev libopenexr-dev libwebp-dev
+  # texture images: PNG (libpng, with zlib) and JPEG (libjpeg-turbo)
+  libpng-dev zlib1g-dev libjpeg-dev
+  # compressed glTF: Draco (KHR_draco_mesh_compression) and meshopt (EXT_/KHR_meshopt_compression)
+  libdraco-dev libmeshoptimizer-dev
   # OpenGL 4.5 through EGL (Mesa llvmpipe where there is no GPU) and the viewer
   libepoxy-dev libegl-dev libgl-dev libegl-mesa0 libgl1-mesa-dri libglfw3-dev libimgui-dev
   # the viewer's tests: a virtual X display with Mesa's GLX

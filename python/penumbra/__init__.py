@@ -62,14 +62,21 @@ ProgressCallback = Callable[[str, float], None]
 Scene.save = _save_method
 
 
-def load(name_or_path: Union[str, os.PathLike], camera=None, lights=None, settings=None) -> Scene:
+def load(name_or_path: Union[str, os.PathLike], camera=None, lights=None, settings=None, *,
+         allow_outside_files: bool = False, max_texture_size: int = 8192,
+         gltf_scene: Optional[int] = None) -> Scene:
     """A built-in scene ("cornell", "sss", "lpv") or a .json, .obj, .gltf, .glb or .ply file.
 
     ``camera`` (a :class:`Camera` or the scene format's dict) replaces the file's camera,
     ``lights`` (:class:`PointLight`, :class:`SpotLight`, :class:`DirectionalLight`,
     :class:`Luminaire` or dicts) are added to its lights, and ``settings`` (``{"method":
-    {"option": value}}``) to its per-method settings; all are checked as a scene file's are."""
-    return _scene.load(name_or_path, camera, lights, settings)
+    {"option": value}}``) to its per-method settings; all are checked as a scene file's are.
+
+    ``allow_outside_files`` lets a glTF or OBJ file read files outside its own folder (refused
+    by default), ``max_texture_size`` is the largest side a texture keeps (larger ones are
+    reduced, with a warning), ``gltf_scene`` which scene of a glTF file to load."""
+    return _scene.load(name_or_path, camera, lights, settings, allow_outside_files,
+                       max_texture_size, gltf_scene)
 
 
 def from_arrays(
@@ -119,8 +126,20 @@ def write_image(path: Union[str, os.PathLike], image, tonemap: str = "reinhard",
     _write_image(os.fspath(path), np.asarray(image, dtype=np.float32), tonemap, exposure)
 
 
-def _scene_of(scene) -> Scene:
-    return scene if isinstance(scene, Scene) else load(scene)
+_LOAD_OPTIONS = ("allow_outside_files", "max_texture_size", "gltf_scene")
+
+
+def _scene_of(scene, options: dict) -> Scene:
+    """The scene to run on: a :class:`Scene` as it is, a name or file loaded with the options
+    that say how to read it. They stay in ``options``, so the library checks their values as it
+    checks every option's (a loaded scene has no more use for them)."""
+    if isinstance(scene, Scene):
+        return scene
+    load_options = {k: options[k] for k in _LOAD_OPTIONS if options.get(k) is not None}
+    try:
+        return load(scene, **load_options)
+    except TypeError as e:
+        raise InputError(f"{scene}: {e}") from None
 
 
 def _values(options: dict) -> list:
@@ -166,8 +185,9 @@ def render(scene, method: str = "pathtrace", *, progress=None, quiet: bool = Tru
     ``progress``: None shows a tqdm bar per stage when tqdm is installed and the call runs in a
     terminal or a Jupyter kernel; False shows nothing; a callable is called as ``progress(stage,
     fraction)`` now and then. Log lines go to stderr unless ``quiet``."""
+    loaded = _scene_of(scene, options)
     values = [("method", method), ("quiet", quiet)] + _values(options)
-    images, stats = _run(_render, _scene_of(scene), values, progress)
+    images, stats = _run(_render, loaded, values, progress)
     return RenderResult(
         image=images[-1] if images else None,
         images=images,
@@ -184,8 +204,9 @@ def bake(scene, output: Union[str, os.PathLike] = ".", method: str = "matrix", *
     :func:`render`'s. On Ctrl-C a progressive bake writes its checkpoint first (``resume=``
     continues it). The result holds the lightmap, the atlas UVs and the files written."""
     out = os.fspath(output)
+    loaded = _scene_of(scene, options)
     values = [("method", method), ("output", out), ("quiet", quiet)] + _values(options)
-    images, stats = _run(_bake, _scene_of(scene), values, progress)
+    images, stats = _run(_bake, loaded, values, progress)
     stats = json.loads(stats) if stats else {}
     outputs = stats.get("outputs")
     # The paths as the bake wrote them (inside `output`, relative where it is).
@@ -229,7 +250,7 @@ def trace(
             raise InputError(f"{name}: must be a whole number from 0 to {bound}, not {value!r}")
     if not isinstance(device, str):
         raise InputError(f"device: must be cpu, gpu, hybrid or auto, not {device!r}")
-    result = _trace(_scene_of(scene), rays, device, bool(occlusion), int(threads), int(t_min),
+    result = _trace(_scene_of(scene, {}), rays, device, bool(occlusion), int(threads), int(t_min),
                     int(t_max), int(r_min), int(cache_rays), bool(quiet))
     result["stats"] = json.loads(result["stats"])
     return result

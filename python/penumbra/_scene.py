@@ -197,10 +197,12 @@ def _strip_comments(text: str) -> str:
 _MESH_FILES = (".obj", ".gltf", ".glb", ".ply")
 
 
-def load(name_or_path, camera=None, lights=None, settings=None) -> Scene:
+def load(name_or_path, camera=None, lights=None, settings=None, allow_outside_files=False,
+         max_texture_size=8192, gltf_scene=None) -> Scene:
     path = os.fspath(name_or_path)
     if camera is None and lights is None and settings is None:
-        scene = Scene.load(path)
+        scene = Scene.load(path, bool(allow_outside_files), int(max_texture_size),
+                           -1 if gltf_scene is None else int(gltf_scene))
         scene._parts = None
         return scene
     # A file with parts added: its description with them, parsed by the library as the file

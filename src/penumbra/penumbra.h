@@ -66,12 +66,23 @@ struct Image {
 using ProgressCallback = std::function<void(const std::string& stage, double fraction)>;
 
 // A scene in memory. Cheap to copy (the data is shared and never changed).
+// How a scene file is read (the command line's --allow-outside-files, --max-texture-size and
+// --gltf-scene).
+struct LoadOptions {
+  // Files a glTF or OBJ file names outside its own folder (absolute paths, "..", links) are read;
+  // by default they are refused.
+  bool allow_outside_files = false;
+  int max_texture_size = 8192;  // the largest side a texture keeps (larger ones are reduced)
+  int gltf_scene = -1;          // a glTF file's scene; -1: its own `scene`, else the first
+};
+
 class Scene {
  public:
   Scene();
   // A built-in scene ("cornell", "sss", "lpv") or a file: .json, .obj, .gltf, .glb, .ply
   // (docs/scene-format.md).
   static Scene load(const std::string& name_or_path);
+  static Scene load(const std::string& name_or_path, const LoadOptions& options);
   // One mesh from arrays: `positions` holds x, y, z per vertex (metres), `indices` three vertex
   // indices per triangle (counter-clockwise is the front face), `material_ids` one index into
   // the description's materials per triangle (empty: material 0 everywhere). `description` is a

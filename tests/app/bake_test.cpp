@@ -1,6 +1,8 @@
-// `penumbra bake`: the files it writes hold the solver's solution (glTF read back with tinygltf,
+// `penumbra bake`: the files it writes hold the solver's solution (glTF read back with the reader,
 // the EXR sampled at element centroids), and bad input gives one error line, exit code 2 and no
 // files.
+#include "penumbra/io/gltf/gltf_accessor.h"
+#include "penumbra/io/gltf/gltf_asset.h"
 #include "penumbra/io/image_io.h"
 #include "penumbra/radiosity/matrix_radiosity.h"
 #include "penumbra/radiosity/progressive.h"
@@ -9,7 +11,6 @@
 #include "support/test_util.h"
 
 #include <gtest/gtest.h>
-#include <tiny_gltf.h>
 #include <glm/geometric.hpp>
 #include <nlohmann/json.hpp>
 
@@ -39,30 +40,28 @@ std::set<std::string> listDirectory(const fs::path& dir) {
   return names;
 }
 
-// Copies a float VEC2/VEC3 accessor out of the model.
+// Copies a float VEC2/VEC3 accessor out of the document.
 template <int N>
-std::vector<glm::vec<N, float>> readFloats(const tinygltf::Model& model, int accessor_index) {
-  const tinygltf::Accessor& a = model.accessors.at(size_t(accessor_index));
-  EXPECT_EQ(a.componentType, TINYGLTF_COMPONENT_TYPE_FLOAT);
-  EXPECT_EQ(a.type, N == 2 ? TINYGLTF_TYPE_VEC2 : TINYGLTF_TYPE_VEC3);
-  const tinygltf::BufferView& view = model.bufferViews.at(size_t(a.bufferView));
-  const tinygltf::Buffer& buffer = model.buffers.at(size_t(view.buffer));
-  const size_t stride = view.byteStride ? view.byteStride : sizeof(glm::vec<N, float>);
-  std::vector<glm::vec<N, float>> out(a.count);
-  for (size_t i = 0; i < a.count; ++i) {
-    std::memcpy(&out[i], buffer.data.data() + view.byteOffset + a.byteOffset + i * stride,
-                sizeof(out[i]));
+std::vector<glm::vec<N, float>> readFloats(GltfAsset& asset, int accessor_index) {
+  Expected<AccessorView> a = readAccessor(asset, accessor_index, "ANY", "test");
+  EXPECT_TRUE(a.ok()) << a.error().describe();
+  if (!a) return {};
+  EXPECT_EQ(a->component_type, kGltfFloat);
+  EXPECT_EQ(a->components, N);
+  std::vector<glm::vec<N, float>> out(a->count);
+  for (size_t i = 0; i < a->count; ++i) {
+    for (int c = 0; c < N; ++c) out[i][c] = float(a->component(i, c));
   }
   return out;
 }
 
-std::vector<uint32_t> readIndices(const tinygltf::Model& model, int accessor_index) {
-  const tinygltf::Accessor& a = model.accessors.at(size_t(accessor_index));
-  EXPECT_EQ(a.componentType, TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT);
-  const tinygltf::BufferView& view = model.bufferViews.at(size_t(a.bufferView));
-  const tinygltf::Buffer& buffer = model.buffers.at(size_t(view.buffer));
-  std::vector<uint32_t> out(a.count);
-  std::memcpy(out.data(), buffer.data.data() + view.byteOffset + a.byteOffset, 4 * a.count);
+std::vector<uint32_t> readIndices(GltfAsset& asset, int accessor_index) {
+  Expected<AccessorView> a = readAccessor(asset, accessor_index, "indices", "test");
+  EXPECT_TRUE(a.ok()) << a.error().describe();
+  if (!a) return {};
+  EXPECT_EQ(a->component_type, kGltfUnsignedInt);
+  std::vector<uint32_t> out(a->count);
+  for (size_t i = 0; i < a->count; ++i) out[i] = a->index(i);
   return out;
 }
 
@@ -74,8 +73,8 @@ bool same(const glm::vec3& a, const glm::vec3& b) {
 // The baked glTF holds every face of the atlas once: the front of each triangle as in the scene,
 // the back (two-sided materials) wound the other way, with the atlas's UVs on TEXCOORD_1 and, per
 // corner, the lightmap's bilinear value there.
-void expectFacesOfTheAtlas(const tinygltf::Model& model, const ChartAtlas& atlas,
-                           const FlatTriangles& flat, const Image& lightmap) {
+void expectFacesOfTheAtlas(GltfAsset& model, const ChartAtlas& atlas, const FlatTriangles& flat,
+                           const Image& lightmap) {
   // Every face once: the front of each triangle as in the scene, the back (two-sided
   // materials) wound the other way.
   std::vector<int32_t> face_of(2 * flat.triangles.size(), -1);
@@ -86,11 +85,11 @@ void expectFacesOfTheAtlas(const tinygltf::Model& model, const ChartAtlas& atlas
     ++faces;
   }
   std::vector<bool> seen(face_of.size(), false);
-  for (const tinygltf::Primitive& p : model.meshes.at(0).primitives) {
-    const auto positions = readFloats<3>(model, p.attributes.at("POSITION"));
-    const auto radiance = readFloats<3>(model, p.attributes.at("_RADIANCE"));
-    const auto uv1 = readFloats<2>(model, p.attributes.at("TEXCOORD_1"));
-    const std::vector<uint32_t> indices = readIndices(model, p.indices);
+  for (const nlohmann::json& p : model.json()["meshes"][0]["primitives"]) {
+    const auto positions = readFloats<3>(model, p["attributes"]["POSITION"].get<int>());
+    const auto radiance = readFloats<3>(model, p["attributes"]["_RADIANCE"].get<int>());
+    const auto uv1 = readFloats<2>(model, p["attributes"]["TEXCOORD_1"].get<int>());
+    const std::vector<uint32_t> indices = readIndices(model, p["indices"].get<int>());
     for (size_t t = 0; t < indices.size() / 3; ++t) {
       // The scene face with these corners.
       size_t found = face_of.size();
@@ -178,29 +177,24 @@ TEST(Bake, CornellWritesAGltfAndLightmapsHoldingTheSolution) {
   }
   EXPECT_EQ(differ, 0u);
 
-  tinygltf::TinyGLTF loader;
-  loader.SetImageLoader([](tinygltf::Image*, const int, std::string*, std::string*, int, int,
-                           const unsigned char*, int, void*) { return true; },
-                        nullptr);
-  tinygltf::Model model;
-  std::string err, warn;
-  ASSERT_TRUE(loader.LoadASCIIFromFile(&model, &err, &warn, (out / "cornell.gltf").string()))
-      << err;
-  EXPECT_EQ(model.asset.version, "2.0");
-  ASSERT_EQ(model.materials.size(), scene->materials.size());
-  for (const tinygltf::Material& m : model.materials) {
-    EXPECT_EQ(m.emissiveTexture.index, 0);
-    EXPECT_EQ(m.emissiveTexture.texCoord, 1);  // the lightmap is on TEXCOORD_1
+  Expected<GltfAsset> model = GltfAsset::open((out / "cornell.gltf").string(), {});
+  ASSERT_TRUE(model.ok()) << model.error().describe();
+  const nlohmann::json& doc = model->json();
+  EXPECT_EQ(doc["asset"]["version"], "2.0");
+  ASSERT_EQ(doc["materials"].size(), scene->materials.size());
+  for (const nlohmann::json& m : doc["materials"]) {
+    EXPECT_EQ(m["emissiveTexture"]["index"], 0);
+    EXPECT_EQ(m["emissiveTexture"]["texCoord"], 1);  // the lightmap is on TEXCOORD_1
   }
-  ASSERT_EQ(model.images.size(), 1u);
-  EXPECT_EQ(model.images[0].uri, "cornell_lightmap.png");
-  const tinygltf::Value& extras = model.asset.extras.Get("penumbra");
-  ASSERT_TRUE(extras.IsObject());
-  const double color_scale = extras.Get("color_0_scale").GetNumberAsDouble();
+  ASSERT_EQ(doc["images"].size(), 1u);
+  EXPECT_EQ(doc["images"][0]["uri"], "cornell_lightmap.png");
+  const nlohmann::json& extras = doc["asset"]["extras"]["penumbra"];
+  ASSERT_TRUE(extras.is_object());
+  const double color_scale = extras["color_0_scale"].get<double>();
   EXPECT_GT(color_scale, 0.0);
-  for (const tinygltf::Primitive& p : model.meshes.at(0).primitives) {
-    const auto radiance = readFloats<3>(model, p.attributes.at("_RADIANCE"));
-    const auto color = readFloats<3>(model, p.attributes.at("COLOR_0"));
+  for (const nlohmann::json& p : doc["meshes"][0]["primitives"]) {
+    const auto radiance = readFloats<3>(*model, p["attributes"]["_RADIANCE"].get<int>());
+    const auto color = readFloats<3>(*model, p["attributes"]["COLOR_0"].get<int>());
     for (size_t v = 0; v < color.size(); ++v) {
       for (int c = 0; c < 3; ++c) {
         EXPECT_FLOAT_EQ(color[v][c], std::min(1.0f, float(color_scale) * radiance[v][c]));
@@ -208,7 +202,7 @@ TEST(Bake, CornellWritesAGltfAndLightmapsHoldingTheSolution) {
       }
     }
   }
-  expectFacesOfTheAtlas(model, mr->surface.atlas, mr->surface.flat, lightmap);
+  expectFacesOfTheAtlas(*model, mr->surface.atlas, mr->surface.flat, lightmap);
 }
 
 // Progressive radiosity's bake: the EXR is the solver's own lightmap (its texels are the
@@ -254,16 +248,12 @@ TEST(Bake, ProgressiveWritesTheSolversOwnLightmap) {
     differ += !same(exr->pixels[i], lightmap.pixels[i]);
   EXPECT_EQ(differ, 0u);
 
-  tinygltf::TinyGLTF loader;
-  loader.SetImageLoader([](tinygltf::Image*, const int, std::string*, std::string*, int, int,
-                           const unsigned char*, int, void*) { return true; },
-                        nullptr);
-  tinygltf::Model model;
-  std::string err, warn;
-  ASSERT_TRUE(loader.LoadASCIIFromFile(&model, &err, &warn, (out / "cornell.gltf").string()))
-      << err;
-  for (const tinygltf::Material& m : model.materials) EXPECT_EQ(m.emissiveTexture.texCoord, 1);
-  expectFacesOfTheAtlas(model, pr->atlas(), pr->triangles(), lightmap);
+  Expected<GltfAsset> model = GltfAsset::open((out / "cornell.gltf").string(), {});
+  ASSERT_TRUE(model.ok()) << model.error().describe();
+  for (const nlohmann::json& m : model->json()["materials"]) {
+    EXPECT_EQ(m["emissiveTexture"]["texCoord"], 1);
+  }
+  expectFacesOfTheAtlas(*model, pr->atlas(), pr->triangles(), lightmap);
 }
 TEST(Bake, BadInputGivesOneErrorLineExitCode2AndNoFiles) {
   TempDir dir;

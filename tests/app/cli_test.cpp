@@ -1085,6 +1085,28 @@ TEST(Cli, InfoDevicesListsContextsAndTheirLimits) {
   EXPECT_NE(r.output.find("max shader storage block"), std::string::npos) << r.output;
 }
 
+// A warning is given once: --sky and --scale check the scene again, and its load already said
+// which triangles are degenerate.
+TEST(Cli, TheLoadsWarningsAreGivenOnceWhateverLightsTheScene) {
+  TempDir dir;
+  const std::string obj = dir.write("floor.obj",
+                                    "v -1 0 -1\nv -1 0 1\nv 1 0 1\nv 1 0 -1\nv 2 0 2\n"
+                                    "f 1 2 3\nf 1 3 4\nf 5 5 5\n");
+  for (const char* light :
+       {"--sky overcast", "--environment 1,1,1", "--environment 1,1,1 --scale 2"}) {
+    SCOPED_TRACE(light);
+    const auto r = runCli("render " + obj + " " + light + " --width 8 --height 8 --spp 1 -o " +
+                          dir.file("x.png"));
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    size_t count = 0;
+    for (size_t at = r.output.find("degenerate"); at != std::string::npos;
+         at = r.output.find("degenerate", at + 1)) {
+      ++count;
+    }
+    EXPECT_EQ(count, 1u) << r.output;
+  }
+}
+
 TEST(Cli, InfoDescribesTheBuiltInCornellBox) {
   const auto r = runCli("info cornell");
   ASSERT_EQ(r.exit_code, 0) << r.output;

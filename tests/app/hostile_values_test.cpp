@@ -3,7 +3,7 @@
 // 1 (a failed write), one error line naming the file or option, and no output left behind. The
 // values inside scene files themselves are in io/scene_json_test.cpp (LightsAndEmissionThat
 // OverflowAreRefused) and io/gltf_loader_test.cpp (ValuesOfTheWrongShape...); the fuzz targets
-// scene_values and gltf_values search further (fuzz/README.md).
+// scene_values and gltf_values search further (fuzz/README.md, docs/hostile-inputs.md).
 #include "support/test_util.h"
 
 #include <gtest/gtest.h>

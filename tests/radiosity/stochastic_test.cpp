@@ -254,6 +254,55 @@ TEST(StochasticRadiosity, PointLightsEnterAsTheirReflectedDirectLight) {
   EXPECT_LT(worst, 1e-9);
 }
 
+// Surfaces in contact, as modelled scenes hold them: a slab lying 1 mm over the floor, its
+// underside facing the floor, modelled twice (a copy on the copy, as exporters leave them). From
+// a floor point under it each copy fills the hemisphere, and one visibility ray per element does
+// not tell them apart: unscaled, the local operator's rows sum to about 2 rho and B_m doubles
+// every few iterations until it overflows. Every row sums to at most 1, and the floor's light
+// stays what the lamp and one bounce can give.
+TEST(StochasticRadiosity, SurfacesInContactKeepTheOperatorANonExpansion) {
+  Scene s;
+  s.source = "test:contact";
+  s.materials = {{"white", glm::vec3(0.95f), glm::vec3(0.0f)}};
+  auto quad = [&](const char* name, float y, bool down) {
+    Mesh m;
+    m.name = name;
+    const float h = down ? 0.5f : 2.0f;
+    m.positions = {{-h, y, -h}, {-h, y, h}, {h, y, h}, {h, y, -h}};
+    m.triangles = down ? std::vector<glm::uvec3>{{0, 2, 1}, {0, 3, 2}}
+                       : std::vector<glm::uvec3>{{0, 1, 2}, {0, 2, 3}};
+    m.material_ids = {0, 0};
+    s.meshes.push_back(m);
+  };
+  quad("floor", 0.0f, false);
+  quad("slab", 0.001f, true);
+  quad("slab copy", 0.001f, true);
+  s.lights.push_back(PointLight{glm::vec3(0.0f, 1.5f, 1.5f), glm::vec3(10.0f)});
+  StochasticOptions o;
+  o.atlas.texel_density = 8.0;
+  o.iterations = 300;
+  Expected<StochasticRadiosity> sr = StochasticRadiosity::build(s, o);
+  ASSERT_TRUE(sr.ok()) << sr.error().describe();
+  double widest = 0.0;
+  for (size_t r = 0; r < sr->elementCount(); ++r) {
+    double row = 0.0;
+    for (uint32_t k = sr->localBegin(r); k < sr->localBegin(r + 1); ++k) {
+      row += sr->local()[k].factor;
+    }
+    widest = std::max(widest, row);
+  }
+  EXPECT_LE(widest, 1.0 + 1e-5);
+  EXPECT_GT(widest, 0.9);  // the floor under the slab sees it fill its hemisphere
+  sr->solve();
+  // Bound: the brightest floor point's direct radiosity rho I / d^2 (d >= 1.5 m), times
+  // 1 / (1 - rho) for every bounce there could be.
+  const double bound = 0.95 * 10.0 / (1.5 * 1.5) / (1.0 - 0.95);
+  for (size_t e = 0; e < sr->elementCount(); ++e) {
+    const glm::dvec3 b = sr->radiosity(e);
+    ASSERT_TRUE(std::isfinite(b.x) && b.x >= 0.0 && b.x <= bound) << e << ": " << b.x;
+  }
+}
+
 // A square lamp (1 m, facing down, one-sided) 1 m over a 4 m floor (rho 0.5), nothing else: the
 // first shots carry all the light there is (the floor's reflection leaves the scene), so the
 // estimate is deterministic and every floor texel is rho E F, F the closed-form form factor from

@@ -17,6 +17,7 @@
 #include "penumbra/methods/registry.h"
 #include "penumbra/methods/render.h"
 #include "penumbra/methods/run_context.h"
+#include "penumbra/methods/scene_inputs.h"
 #include "penumbra/methods/trace.h"
 #include "penumbra/scene/scene.h"
 
@@ -212,8 +213,20 @@ int Error::exitCode() const {
 Scene::Scene() : impl_(std::make_shared<const penumbra::Scene>()) {}
 
 Scene Scene::load(const std::string& name_or_path) {
+  return load(name_or_path, LoadOptions{});
+}
+
+Scene Scene::load(const std::string& name_or_path, const LoadOptions& options) {
   return guarded([&] {
-    Expected<penumbra::Scene> loaded = loadScene(name_or_path);
+    SceneInputOptions in;
+    in.allow_outside_files = options.allow_outside_files;
+    in.max_texture_size = options.max_texture_size;
+    if (options.gltf_scene >= 0) in.gltf_scene = options.gltf_scene;
+    if (options.max_texture_size < 1 || options.max_texture_size > 16384) {
+      throw Error(ErrorKind::kInput, fmt::format("max_texture_size {} is outside [1, 16384]",
+                                                 options.max_texture_size));
+    }
+    Expected<penumbra::Scene> loaded = loadScene(name_or_path, sceneLoadOptions(in, false));
     if (!loaded) throw toApiError(loaded.error());
     Scene s;
     s.impl_ = std::make_shared<const penumbra::Scene>(std::move(*loaded));

@@ -8,6 +8,7 @@
 #include "penumbra/io/image_io.h"
 #include "penumbra/io/photometry.h"
 #include "penumbra/io/scene_io.h"
+#include "penumbra/methods/scene_inputs.h"
 #include "penumbra/render/plot.h"
 #include "penumbra/render/ugr_table.h"
 
@@ -181,7 +182,9 @@ int runInfo(const InfoOptions& options, const CommonOptions&) {
   for (const Mesh& m : s.meshes) {
     std::string sets;
     for (size_t k = 0; k <= m.extra_uvs.size(); ++k) {
-      if (!m.uvSet(uint32_t(k)).empty()) sets += (sets.empty() ? "" : " ") + std::to_string(k);
+      if (m.uvSet(uint32_t(k)).empty()) continue;
+      if (!sets.empty()) sets += ' ';
+      sets += std::to_string(k);
     }
     fmt::print("  {:<20} {:>9} triangles {:>9} vertices{}{}{}\n", m.name.empty() ? "-" : m.name,
                m.triangles.size(), m.positions.size(), m.normals.empty() ? "" : ", normals",
@@ -260,10 +263,12 @@ int runInfo(const InfoOptions& options, const CommonOptions&) {
         s.camera->position.x, s.camera->position.y, s.camera->position.z, s.camera->look_at.x,
         s.camera->look_at.y, s.camera->look_at.z, glm::degrees(s.camera->vertical_fov));
   } else {
-    fmt::print("camera     none (render frames the bounding box)\n");
+    fmt::print("camera     none (render frames the bounding box from +z)\n");
   }
-  fmt::print("warnings   {}\n", s.warnings.size());
-  for (const std::string& w : s.warnings) fmt::print("  {}\n", w);
+  std::vector<std::string> warnings = s.warnings;
+  for (std::string& w : firstPictureWarnings(s)) warnings.push_back(std::move(w));
+  fmt::print("warnings   {}\n", warnings.size());
+  for (const std::string& w : warnings) fmt::print("  {}\n", w);
   return 0;
 }
 

@@ -4,6 +4,7 @@
 #include "penumbra/cluster/communicator.h"
 #include "penumbra/core/interrupt.h"
 #include "penumbra/io/scene_io.h"
+#include "penumbra/methods/scene_inputs.h"
 
 #include <memory>
 
@@ -14,8 +15,9 @@ namespace {
 // The command's scene, loaded on every rank of an MPI job (each agrees it has it before any
 // goes on, so that a rank that cannot read the file stops the job instead of leaving the others
 // waiting).
-Expected<std::shared_ptr<const Scene>> loadCommandScene(const std::string& name) {
-  Expected<Scene> scene = loadScene(name);
+Expected<std::shared_ptr<const Scene>> loadCommandScene(const std::string& name,
+                                                        const SceneLoadOptions& options) {
+  Expected<Scene> scene = loadScene(name, options);
   Communicator& comm = currentCommunicator();
   if (comm.distributed()) {
     PENUMBRA_TRY(agreeReady(comm, scene ? Status{} : Status(scene.error())));
@@ -28,7 +30,8 @@ Expected<std::shared_ptr<const Scene>> loadCommandScene(const std::string& name)
 template <typename Options, typename Run>
 int runCommand(Options options, const CommonOptions& common, const std::vector<std::string>& given,
                Run run) {
-  Expected<std::shared_ptr<const Scene>> scene = loadCommandScene(options.scene);
+  Expected<std::shared_ptr<const Scene>> scene =
+      loadCommandScene(options.scene, sceneLoadOptions(options, common.dry_run));
   if (!scene) return reportError(scene.error());
   RunContext context;
   context.scene = *scene;

@@ -17,6 +17,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <sstream>
 #include <system_error>
 
@@ -154,6 +155,13 @@ OutputTransaction::~OutputTransaction() {
   for (auto it = created_.rbegin(); it != created_.rend(); ++it) fs::remove(it->first, ec);
 }
 
+std::string OutputTransaction::pendingTemporary(const std::string& path) const {
+  for (const Pending& p : pending_) {
+    if (p.path == path) return p.tmp;
+  }
+  return {};
+}
+
 OutputTransaction* OutputTransaction::current() {
   return g_current;
 }
@@ -275,6 +283,10 @@ Status checkInputFile(const std::string& path) {
 }
 
 Expected<std::string> readFile(const std::string& path) {
+  return readFile(path, std::numeric_limits<uint64_t>::max());
+}
+
+Expected<std::string> readFile(const std::string& path, uint64_t limit) {
   PENUMBRA_TRY(checkInputFile(path));
   // Opened without blocking (a FIFO put in place since the check would wait for a writer), then
   // checked again on the descriptor: what is read is what was checked.
@@ -289,12 +301,14 @@ Expected<std::string> readFile(const std::string& path) {
     return inputError(path, "", fmt::format("cannot open: {}", std::strerror(errno)));
   }
   if (!S_ISREG(st.st_mode)) return inputError(path, "", notRegular(st.st_mode));
-  PENUMBRA_TRY(checkMemory(uint64_t(st.st_size), fmt::format("reading '{}'", path)));
+  const uint64_t size = std::min(uint64_t(st.st_size), limit);
+  PENUMBRA_TRY(checkMemory(size, fmt::format("reading '{}'", path)));
   std::string bytes;
-  bytes.reserve(size_t(st.st_size));
+  bytes.reserve(size_t(size));
   char buffer[1 << 16];
-  for (;;) {
-    const ssize_t n = ::read(fd, buffer, sizeof buffer);
+  while (bytes.size() < limit) {
+    const ssize_t n =
+        ::read(fd, buffer, size_t(std::min<uint64_t>(sizeof buffer, limit - bytes.size())));
     if (n == 0) break;
     if (n < 0) {
       if (errno == EINTR) continue;

@@ -6,6 +6,7 @@
 #include "penumbra/core/expected.h"
 #include "penumbra/core/interrupt.h"
 
+#include <cstdint>
 #include <functional>
 #include <string>
 #include <string_view>
@@ -64,6 +65,9 @@ class OutputTransaction {
   // on) and stays open for the rest. Directories it created stay while they hold what it placed.
   Status placeSoFar();
 
+  // The temporary that holds `path` until commit, or "" when `path` is not pending.
+  std::string pendingTemporary(const std::string& path) const;
+
   // The open transaction, or null.
   static OutputTransaction* current();
 
@@ -83,8 +87,9 @@ class OutputTransaction {
 // Reads a whole file into a string (binary). Only a regular file is read: a directory, a device,
 // a FIFO or a socket is refused as input (exit 2) before anything is read (a FIFO is opened
 // without blocking), and a file larger than the memory the process may still allocate is refused
-// with both sizes.
+// with both sizes. With `limit`, at most its first `limit` bytes are read.
 Expected<std::string> readFile(const std::string& path);
+Expected<std::string> readFile(const std::string& path, uint64_t limit);
 
 // Before handing `path` to a library that opens it itself: it exists and is a regular file (after
 // following links), else an input error naming what it is ("is a FIFO, not a regular file").

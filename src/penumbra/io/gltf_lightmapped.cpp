@@ -2,9 +2,11 @@
 
 #include "penumbra/core/check.h"
 #include "penumbra/core/file_util.h"
+#include "penumbra/io/asset_files.h"
+#include "penumbra/io/gltf/gltf_accessor.h"
 #include "penumbra/io/gltf_common.h"
+#include "penumbra/io/image_io.h"
 
-#include <tiny_gltf.h>
 #include <glm/geometric.hpp>
 
 #include <fmt/format.h>
@@ -27,32 +29,6 @@ using json = nlohmann::json;
 
 constexpr int kFloat = 5126, kUnsignedInt = 5125, kUnsignedShort = 5123;
 constexpr int kArrayBuffer = 34962, kElementArrayBuffer = 34963;
-
-int componentSize(int component_type) {
-  switch (component_type) {
-    case 5120:
-    case 5121:
-      return 1;
-    case 5122:
-    case 5123:
-      return 2;
-    case 5125:
-    case 5126:
-      return 4;
-    default:
-      return 0;
-  }
-}
-
-int componentCount(const std::string& type) {
-  if (type == "SCALAR") return 1;
-  if (type == "VEC2") return 2;
-  if (type == "VEC3") return 3;
-  if (type == "VEC4" || type == "MAT2") return 4;
-  if (type == "MAT3") return 9;
-  if (type == "MAT4") return 16;
-  return 0;
-}
 
 // An accessor's elements as bytes in their buffer: element i at data + i * stride, `size` bytes.
 struct AccessorBytes {
@@ -301,8 +277,9 @@ int addLightmapTexture(json& j, const LightmapReference& lm) {
   for (const char* key : {"images", "samplers", "textures"}) {
     if (!j.contains(key)) j[key] = json::array();
   }
-  j["images"].push_back(
-      {{"name", "penumbra_lightmap"}, {"uri", lm.png_uri}, {"mimeType", "image/png"}});
+  j["images"].push_back({{"name", "penumbra_lightmap"},
+                         {"uri", percentEncodePath(lm.png_uri)},
+                         {"mimeType", "image/png"}});
   // Linear filtering without mipmaps (coarse levels would mix charts), clamped.
   j["samplers"].push_back(
       {{"magFilter", 9729}, {"minFilter", 9729}, {"wrapS", 33071}, {"wrapT", 33071}});
@@ -314,146 +291,191 @@ int addLightmapTexture(json& j, const LightmapReference& lm) {
 
 }  // namespace
 
-Expected<GltfDocument> readGltfDocument(const std::string& path) {
-  Expected<std::string> bytes = readFile(path);
-  if (!bytes) return bytes.error();
-  GltfDocument doc;
-  doc.path = path;
-  const bool binary = bytes->size() >= 4 && bytes->compare(0, 4, "glTF") == 0;
-  std::string_view text = *bytes;
-  if (binary) {
-    Expected<std::string_view> chunk = glbJsonChunk(path, *bytes);
-    if (!chunk) return chunk.error();
-    text = *chunk;
-  }
-  doc.json = json::parse(text, nullptr, /*allow_exceptions=*/false);
-  if (doc.json.is_discarded() || !doc.json.is_object()) {
-    return inputError(path, "", "not a glTF JSON document");
-  }
-  tinygltf::Model model;
-  std::map<int, std::string> images;
-  std::string err, warn;
-  bool ok = false;
-  try {
-    tinygltf::TinyGLTF loader;
-    loader.SetImageLoader(&keepGltfImageBytes, &images);
-    const std::string base = fs::path(path).parent_path().string();
-    ok = binary ? loader.LoadBinaryFromMemory(&model, &err, &warn,
-                                              reinterpret_cast<const unsigned char*>(bytes->data()),
-                                              static_cast<unsigned int>(bytes->size()), base)
-                : loader.LoadASCIIFromString(&model, &err, &warn, bytes->data(),
-                                             static_cast<unsigned int>(bytes->size()), base);
-  } catch (const std::exception& e) {
-    err = e.what();
-  }
-  if (!ok) return inputError(path, "", fmt::format("cannot read the glTF again: {}", err));
-  for (tinygltf::Buffer& b : model.buffers) {
-    doc.buffers.emplace_back(reinterpret_cast<const char*>(b.data.data()), b.data.size());
-  }
-  if (doc.json.contains("images")) {
-    for (size_t i = 0; i < doc.json["images"].size(); ++i) {
-      const json& image = doc.json["images"][i];
-      if (!image.contains("uri") || !image["uri"].is_string()) continue;
-      if (image["uri"].get<std::string>().rfind("data:", 0) == 0) continue;
-      auto it = images.find(int(i));
-      if (it == images.end()) {
-        return inputError(path, fmt::format("images[{}]", i), "the image file cannot be read");
-      }
-      doc.file_images.emplace_back(int(i), std::move(it->second));
-    }
-  }
-  return doc;
-}
-
 std::vector<GltfTriangleSource> gltfTriangleSources(const Scene& scene) {
   std::vector<GltfTriangleSource> out;
   for (const Mesh& m : scene.meshes) {
     if (m.gltf_node < 0) return {};
     for (uint32_t t = 0; t < m.triangles.size(); ++t) {
-      out.push_back({m.gltf_node, m.gltf_mesh, m.gltf_primitive, t, m.gltf_mirrored});
+      out.push_back(
+          {m.gltf_node, m.gltf_mesh, m.gltf_primitive, m.gltf_instance, t, m.gltf_mirrored});
     }
   }
   return out;
 }
 
-GltfDocument documentFromScene(const Scene& scene, std::vector<GltfTriangleSource>& sources) {
-  GltfDocument doc;
-  json& j = doc.json;
-  j = {{"asset", {{"version", "2.0"}}},
-       {"scene", 0},
-       {"scenes", json::array({{{"nodes", json::array()}}})},
-       {"nodes", json::array()},
-       {"meshes", json::array()},
-       {"materials", json::array()},
-       {"accessors", json::array()},
-       {"bufferViews", json::array()},
-       {"buffers", json::array({json::object()})}};
-  std::string bin;
-  auto view = [&](const void* data, size_t size, size_t stride, int target) {
-    while (bin.size() % 4 != 0) bin.push_back('\0');
-    json v = {{"buffer", 0}, {"byteOffset", bin.size()}, {"byteLength", size}, {"target", target}};
-    if (stride) v["byteStride"] = stride;
-    bin.append(static_cast<const char*>(data), size);
-    j["bufferViews"].push_back(v);
-    return j["bufferViews"].size() - 1;
-  };
-  auto accessor = [&](size_t v, size_t count, const char* type, int component) {
-    j["accessors"].push_back(
-        {{"bufferView", v}, {"componentType", component}, {"count", count}, {"type", type}});
-    return j["accessors"].size() - 1;
-  };
-  bool emissive_strength = false;
-  for (const Material& m : scene.materials) {
-    json g = {{"name", m.name},
-              {"pbrMetallicRoughness",
-               {{"baseColorFactor", {m.reflectance.x, m.reflectance.y, m.reflectance.z, 1.0}},
-                {"metallicFactor", 0.0},
-                {"roughnessFactor", 1.0}}},
-              {"doubleSided", m.two_sided}};
-    const float peak = std::max({m.emission.x, m.emission.y, m.emission.z});
-    if (peak > 0.0f) {
-      const float s = std::max(peak, 1.0f);
-      g["emissiveFactor"] = {m.emission.x / s, m.emission.y / s, m.emission.z / s};
-      if (s > 1.0f) {
-        g["extensions"]["KHR_materials_emissive_strength"] = {{"emissiveStrength", s}};
-        emissive_strength = true;
-      }
+namespace {
+
+// sRGB-encoded 8 bits of a linear value in [0, 1] (IEC 61966-2-1).
+uint8_t srgbByte(float linear) {
+  const float v = std::clamp(linear, 0.0f, 1.0f);
+  const float e = v <= 0.0031308f ? 12.92f * v : 1.055f * std::pow(v, 1.0f / 2.4f) - 0.055f;
+  return uint8_t(std::lround(e * 255.0f));
+}
+
+// The textures of a scene that is not one glTF file, as glTF images, samplers and textures: each
+// texture (as decoded, at the size it was kept) written as a PNG embedded in the buffer; an MTL
+// cut-out (map_d, a mask of its own) becomes the alpha of the base colour's image, which is where
+// glTF keeps coverage.
+class SceneTextureWriter {
+ public:
+  SceneTextureWriter(GltfDocument& doc) : doc_(doc), j_(doc.json) {}
+
+  // The glTF textureInfo of `colour` (null: white) with `alpha` (null: opaque) as its alpha,
+  // read through `binding`'s UV set, transform and sampler; null when there is neither.
+  Expected<json> textureInfo(const TextureBinding* colour, const TextureBinding* alpha,
+                             bool uv_origin_top) {
+    const TextureBinding* binding = colour ? colour : alpha;
+    if (!binding) return json();
+    Expected<int> image =
+        imageOf(colour ? colour->texture.get() : nullptr, alpha ? alpha->texture.get() : nullptr);
+    if (!image) return image.error();
+    for (const char* key : {"images", "samplers", "textures"}) {
+      if (!j_.contains(key)) j_[key] = json::array();
     }
-    j["materials"].push_back(g);
+    const auto wrap = [](TextureWrap w) {
+      return w == TextureWrap::kClampToEdge      ? 33071
+             : w == TextureWrap::kMirroredRepeat ? 33648
+                                                 : 10497;
+    };
+    j_["samplers"].push_back({{"wrapS", wrap(binding->sampler.wrap_s)},
+                              {"wrapT", wrap(binding->sampler.wrap_t)},
+                              {"magFilter", binding->sampler.nearest ? 9728 : 9729}});
+    j_["textures"].push_back({{"source", *image}, {"sampler", j_["samplers"].size() - 1}});
+    json info = {{"index", j_["textures"].size() - 1}, {"texCoord", binding->uv_set}};
+    addTransform(*binding, uv_origin_top, info);
+    return info;
   }
-  if (emissive_strength) j["extensionsUsed"] = {"KHR_materials_emissive_strength"};
-  sources.clear();
-  for (size_t mi = 0; mi < scene.meshes.size(); ++mi) {
-    const Mesh& m = scene.meshes[mi];
-    const size_t nv = m.positions.size();
-    json attributes;
-    glm::vec3 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
-    for (const glm::vec3& p : m.positions) {
-      lo = glm::min(lo, p);
-      hi = glm::max(hi, p);
+
+ private:
+  // KHR_texture_transform of the binding's rows, for UVs written with v down (the mesh's own are
+  // flipped when they run up): (s, t) = M (u, v, 1), M = T(offset) R(rotation) S(scale).
+  void addTransform(const TextureBinding& b, bool uv_origin_top, json& info) {
+    glm::vec3 ru = b.row_u, rv = b.row_v;
+    if (!uv_origin_top) {  // v_file = 1 - v_written, and t = 1 - v'
+      ru = glm::vec3(ru.x, -ru.y, ru.y + ru.z);
+      rv = glm::vec3(-rv.x, rv.y, 1.0f - rv.y - rv.z);
     }
-    const size_t pa =
-        accessor(view(m.positions.data(), nv * 12, 12, kArrayBuffer), nv, "VEC3", kFloat);
-    j["accessors"][pa]["min"] = {lo.x, lo.y, lo.z};
-    j["accessors"][pa]["max"] = {hi.x, hi.y, hi.z};
-    attributes["POSITION"] = pa;
-    if (m.normals.size() == nv) {
-      attributes["NORMAL"] =
-          accessor(view(m.normals.data(), nv * 12, 12, kArrayBuffer), nv, "VEC3", kFloat);
-    }
-    if (m.uvs.size() == nv) {
-      std::vector<glm::vec2> uv = m.uvs;
-      if (!m.uv_origin_top) {
-        for (glm::vec2& t : uv) t.y = 1.0f - t.y;  // glTF: (0, 0) is the image's top-left
+    if (ru == glm::vec3(1.0f, 0.0f, 0.0f) && rv == glm::vec3(0.0f, 1.0f, 0.0f)) return;
+    const float sx = std::hypot(ru.x, rv.x);
+    const float rotation = std::atan2(-rv.x, ru.x);
+    const float det = ru.x * rv.y - ru.y * rv.x;
+    const float sy = std::copysign(std::hypot(ru.y, rv.y), det);
+    info["extensions"]["KHR_texture_transform"] = {
+        {"offset", {ru.z, rv.z}}, {"rotation", rotation}, {"scale", {sx, sy}}};
+    used_transform_ = true;
+  }
+
+  Expected<int> imageOf(const Texture* colour, const Texture* alpha) {
+    const auto key = std::make_pair(colour, alpha);
+    auto it = images_.find(key);
+    if (it != images_.end()) return it->second;
+    const Texture& size = colour ? *colour : *alpha;
+    const int w = size.width(), h = size.height();
+    std::vector<uint8_t> rgba(size_t(w) * size_t(h) * 4);
+    for (int y = 0; y < h; ++y) {
+      for (int x = 0; x < w; ++x) {
+        glm::vec4 c = colour ? colour->fetch(0, x, y) : glm::vec4(1.0f);
+        if (alpha) {
+          // The mask at the same place of its own image (map_d: its alpha, else its first channel).
+          const int ax = x * alpha->width() / w, ay = y * alpha->height() / h;
+          const glm::vec4 a = alpha->fetch(0, ax, ay);
+          c.w = alpha->fileChannels() == 2 || alpha->fileChannels() == 4 ? a.w : a.x;
+        }
+        uint8_t* p = &rgba[(size_t(y) * size_t(w) + size_t(x)) * 4];
+        for (int k = 0; k < 3; ++k) p[k] = srgbByte(c[k]);
+        p[3] = uint8_t(std::lround(std::clamp(c.w, 0.0f, 1.0f) * 255.0f));
       }
-      attributes["TEXCOORD_0"] =
-          accessor(view(uv.data(), nv * 8, 8, kArrayBuffer), nv, "VEC2", kFloat);
     }
-    if (m.colors.size() == nv) {
-      attributes["COLOR_0"] =
-          accessor(view(m.colors.data(), nv * 16, 16, kArrayBuffer), nv, "VEC4", kFloat);
+    Expected<std::string> png = encodePng8(w, h, rgba, 4);
+    if (!png) return png.error();
+    if (!j_.contains("images")) j_["images"] = json::array();
+    j_["images"].push_back({{"name", fs::path(size.source()).filename().string()}});
+    const int index = int(j_["images"].size()) - 1;
+    doc_.file_images.emplace_back(index, std::move(*png));
+    images_[key] = index;
+    return index;
+  }
+
+ public:
+  bool usedTransform() const { return used_transform_; }
+
+ private:
+  GltfDocument& doc_;
+  json& j_;
+  std::map<std::pair<const Texture*, const Texture*>, int> images_;
+  bool used_transform_ = false;
+};
+
+// The steps of documentFromScene, over the document and the bytes of its one buffer.
+class SceneDocumentWriter {
+ public:
+  SceneDocumentWriter(const Scene& scene, GltfDocument& doc)
+      : scene_(scene), doc_(doc), j_(doc.json), textures_(doc) {
+    j_ = {{"asset", {{"version", "2.0"}}},
+          {"scene", 0},
+          {"scenes", json::array({{{"nodes", json::array()}}})},
+          {"nodes", json::array()},
+          {"meshes", json::array()},
+          {"materials", json::array()},
+          {"accessors", json::array()},
+          {"bufferViews", json::array()},
+          {"buffers", json::array({json::object()})}};
+    // Whether the scene's UVs run up (OBJ, JSON) or down (glTF): the transforms follow.
+    for (const Mesh& m : scene.meshes) uv_origin_top_ = uv_origin_top_ || m.uv_origin_top;
+  }
+
+  // glTF materials (metallic 0, roughness 1) with their textures and cut-outs (images re-encoded
+  // from what was decoded); emission over 1 as KHR_materials_emissive_strength.
+  void materials() {
+    bool emissive_strength = false;
+    for (const Material& m : scene_.materials) {
+      json g = {{"name", m.name},
+                {"pbrMetallicRoughness",
+                 {{"baseColorFactor", {m.reflectance.x, m.reflectance.y, m.reflectance.z, 1.0}},
+                  {"metallicFactor", 0.0},
+                  {"roughnessFactor", 1.0}}},
+                {"doubleSided", m.two_sided}};
+      const float peak = std::max({m.emission.x, m.emission.y, m.emission.z});
+      if (peak > 0.0f) {
+        const float s = std::max(peak, 1.0f);
+        g["emissiveFactor"] = {m.emission.x / s, m.emission.y / s, m.emission.z / s};
+        if (s > 1.0f) {
+          g["extensions"]["KHR_materials_emissive_strength"] = {{"emissiveStrength", s}};
+          emissive_strength = true;
+        }
+      }
+      const TextureBinding* colour = m.reflectance_texture ? &*m.reflectance_texture : nullptr;
+      const TextureBinding* mask = m.coverage_texture ? &*m.coverage_texture : nullptr;
+      if (Expected<json> base = textures_.textureInfo(colour, mask, uv_origin_top_);
+          base && !base->is_null()) {
+        g["pbrMetallicRoughness"]["baseColorTexture"] = *base;
+        if (!colour) g["pbrMetallicRoughness"]["baseColorFactor"] = {1.0, 1.0, 1.0, 1.0};
+      }
+      if (m.emission_texture) {
+        Expected<json> e = textures_.textureInfo(&*m.emission_texture, nullptr, uv_origin_top_);
+        if (e && !e->is_null()) g["emissiveTexture"] = *e;
+      }
+      g["pbrMetallicRoughness"]["baseColorFactor"][3] = m.alpha;
+      if (m.alpha_mode == AlphaMode::kMask) {
+        g["alphaMode"] = "MASK";
+        g["alphaCutoff"] = m.alpha_cutoff;
+      } else if (m.alpha_mode == AlphaMode::kBlend) {
+        g["alphaMode"] = "BLEND";
+      }
+      j_["materials"].push_back(g);
     }
-    // A primitive per material, its triangles in the mesh's order.
+    if (emissive_strength) j_["extensionsUsed"] = {"KHR_materials_emissive_strength"};
+    if (textures_.usedTransform()) {
+      if (!j_.contains("extensionsUsed")) j_["extensionsUsed"] = json::array();
+      j_["extensionsUsed"].push_back("KHR_texture_transform");
+    }
+  }
+
+  // Mesh `mi` as a glTF mesh (a primitive per material, its triangles in the mesh's order) under
+  // a node of its own; `sources` gains where each of its triangles went.
+  void mesh(size_t mi, std::vector<GltfTriangleSource>& sources) {
+    const Mesh& m = scene_.meshes[mi];
+    const json attributes = vertexAttributes(m);
     std::map<uint32_t, std::vector<uint32_t>> by_material;
     for (uint32_t t = 0; t < m.triangles.size(); ++t) by_material[m.material_ids[t]].push_back(t);
     std::vector<std::pair<uint32_t, uint32_t>> place(m.triangles.size());  // (primitive, index)
@@ -471,29 +493,101 @@ GltfDocument documentFromScene(const Scene& scene, std::vector<GltfTriangleSourc
     }
     for (uint32_t t = 0; t < m.triangles.size(); ++t) {
       sources.push_back(
-          {int32_t(mi), int32_t(mi), int32_t(place[t].first), place[t].second, false});
+          {int32_t(mi), int32_t(mi), int32_t(place[t].first), -1, place[t].second, false});
     }
-    j["meshes"].push_back({{"name", m.name}, {"primitives", prims}});
-    j["nodes"].push_back({{"name", m.name}, {"mesh", mi}});
-    j["scenes"][0]["nodes"].push_back(mi);
+    j_["meshes"].push_back({{"name", m.name}, {"primitives", prims}});
+    j_["nodes"].push_back({{"name", m.name}, {"mesh", mi}});
+    j_["scenes"][0]["nodes"].push_back(mi);
   }
-  if (scene.camera) {
-    // glTF cameras look down their local -Z with +Y up (sec. 3.10.1).
-    const Camera& c = *scene.camera;
+
+  // The scene's camera as a node; glTF cameras look down their local -Z with +Y up (sec. 3.10.1).
+  void camera() {
+    if (!scene_.camera) return;
+    const Camera& c = *scene_.camera;
     const glm::vec3 forward = glm::normalize(c.look_at - c.position);
     const glm::vec3 right = glm::normalize(glm::cross(forward, c.up));
     const glm::vec3 up = glm::cross(right, forward);
-    j["cameras"] = json::array(
+    j_["cameras"] = json::array(
         {{{"type", "perspective"}, {"perspective", {{"yfov", c.vertical_fov}, {"znear", 0.01}}}}});
-    j["nodes"].push_back(
+    j_["nodes"].push_back(
         {{"name", "camera"},
          {"camera", 0},
          {"matrix",
           {right.x, right.y, right.z, 0.0, up.x, up.y, up.z, 0.0, -forward.x, -forward.y,
            -forward.z, 0.0, c.position.x, c.position.y, c.position.z, 1.0}}});
-    j["scenes"][0]["nodes"].push_back(j["nodes"].size() - 1);
+    j_["scenes"][0]["nodes"].push_back(j_["nodes"].size() - 1);
   }
-  doc.buffers.push_back(std::move(bin));
+
+  void finish() { doc_.buffers.push_back(std::move(bin_)); }
+
+ private:
+  size_t view(const void* data, size_t size, size_t stride, int target) {
+    while (bin_.size() % 4 != 0) bin_.push_back('\0');
+    json v = {{"buffer", 0}, {"byteOffset", bin_.size()}, {"byteLength", size}, {"target", target}};
+    if (stride) v["byteStride"] = stride;
+    bin_.append(static_cast<const char*>(data), size);
+    j_["bufferViews"].push_back(v);
+    return j_["bufferViews"].size() - 1;
+  }
+
+  size_t accessor(size_t v, size_t count, const char* type, int component) {
+    j_["accessors"].push_back(
+        {{"bufferView", v}, {"componentType", component}, {"count", count}, {"type", type}});
+    return j_["accessors"].size() - 1;
+  }
+
+  // The mesh's positions (with their bounds, as glTF requires), normals, UV sets and colours.
+  json vertexAttributes(const Mesh& m) {
+    const size_t nv = m.positions.size();
+    json attributes;
+    glm::vec3 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
+    for (const glm::vec3& p : m.positions) {
+      lo = glm::min(lo, p);
+      hi = glm::max(hi, p);
+    }
+    const size_t pa =
+        accessor(view(m.positions.data(), nv * 12, 12, kArrayBuffer), nv, "VEC3", kFloat);
+    j_["accessors"][pa]["min"] = {lo.x, lo.y, lo.z};
+    j_["accessors"][pa]["max"] = {hi.x, hi.y, hi.z};
+    attributes["POSITION"] = pa;
+    if (m.normals.size() == nv) {
+      attributes["NORMAL"] =
+          accessor(view(m.normals.data(), nv * 12, 12, kArrayBuffer), nv, "VEC3", kFloat);
+    }
+    for (uint32_t set = 0; set < 8; ++set) {
+      if (m.uvSet(set).size() != nv) continue;
+      std::vector<glm::vec2> uv = m.uvSet(set);
+      if (!m.uv_origin_top) {
+        for (glm::vec2& t : uv) t.y = 1.0f - t.y;  // glTF: (0, 0) is the image's top-left
+      }
+      attributes[fmt::format("TEXCOORD_{}", set)] =
+          accessor(view(uv.data(), nv * 8, 8, kArrayBuffer), nv, "VEC2", kFloat);
+    }
+    if (m.colors.size() == nv) {
+      attributes["COLOR_0"] =
+          accessor(view(m.colors.data(), nv * 16, 16, kArrayBuffer), nv, "VEC4", kFloat);
+    }
+    return attributes;
+  }
+
+  const Scene& scene_;
+  GltfDocument& doc_;
+  json& j_;
+  SceneTextureWriter textures_;
+  std::string bin_;
+  bool uv_origin_top_ = false;
+};
+
+}  // namespace
+
+GltfDocument documentFromScene(const Scene& scene, std::vector<GltfTriangleSource>& sources) {
+  GltfDocument doc;
+  SceneDocumentWriter writer(scene, doc);
+  writer.materials();
+  sources.clear();
+  for (size_t mi = 0; mi < scene.meshes.size(); ++mi) writer.mesh(mi, sources);
+  writer.camera();
+  writer.finish();
   return doc;
 }
 
@@ -513,7 +607,17 @@ class LightmapWriter {
                  std::span<const TriangleLightmapUvs> uvs) {
     for (size_t t = 0; t < sources.size(); ++t) {
       const GltfTriangleSource& s = sources[t];
-      std::vector<glm::vec2>& c = instances_[{s.node, s.mesh, s.primitive}];
+      // A copy of an EXT_mesh_gpu_instancing node is a node of its own in the plain document.
+      int node = s.node;
+      if (s.instance >= 0) {
+        auto copy = doc_.instance_nodes.find({s.node, s.instance});
+        if (copy == doc_.instance_nodes.end()) {
+          return inputError(at_.where(), fmt::format("node {}", s.node),
+                            "the file has changed since it was loaded");
+        }
+        node = copy->second;
+      }
+      std::vector<glm::vec2>& c = instances_[{node, s.mesh, s.primitive}];
       const size_t end = 3 * (size_t(s.triangle) + 1);
       if (c.size() < end) c.resize(end, glm::vec2(0.0f));
       c[end - 3] = uvs[t].uv[0];
@@ -561,9 +665,13 @@ class LightmapWriter {
     const int texture = addLightmapTexture(j_, lm);
     for (const auto& [material, set] : material_set_) {
       j_["materials"][size_t(material)]["extensions"]["PENUMBRA_lightmap"] = {
-          {"index", texture},  {"texCoord", set},          {"encoding", "RGBM"},
-          {"scale", lm.scale}, {"quantity", "irradiance"}, {"units", "W m^-2"},
-          {"exr", lm.exr_uri}};
+          {"index", texture},
+          {"texCoord", set},
+          {"encoding", "RGBM"},
+          {"scale", lm.scale},
+          {"quantity", "irradiance"},
+          {"units", "W m^-2"},
+          {"exr", percentEncodePath(lm.exr_uri)}};
     }
     if (!j_.contains("extensionsUsed")) j_["extensionsUsed"] = json::array();
     j_["extensionsUsed"].push_back("PENUMBRA_lightmap");
@@ -575,7 +683,8 @@ class LightmapWriter {
     if (!asset.contains("extras") || !asset["extras"].is_object()) asset["extras"] = json::object();
     asset["extras"]["penumbra"] = extras;
     std::string bin = at_.takeBin();
-    j_["buffers"] = json::array({{{"byteLength", bin.size()}, {"uri", bin_uri}}});
+    j_["buffers"] =
+        json::array({{{"byteLength", bin.size()}, {"uri", percentEncodePath(bin_uri)}}});
     return bin;
   }
 

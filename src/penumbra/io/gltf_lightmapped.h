@@ -18,12 +18,14 @@
 #pragma once
 
 #include "penumbra/core/expected.h"
+#include "penumbra/io/asset_files.h"
 #include "penumbra/scene/scene.h"
 
 #include <glm/vec2.hpp>
 #include <nlohmann/json.hpp>
 
 #include <cstdint>
+#include <map>
 #include <span>
 #include <string>
 #include <vector>
@@ -37,15 +39,20 @@ struct GltfDocument {
   nlohmann::json json;
   std::vector<std::string> buffers;
   std::vector<std::pair<int, std::string>> file_images;  // (image index, bytes)
+  // (node, copy) of an EXT_mesh_gpu_instancing node -> the node that now holds the copy.
+  std::map<std::pair<int, int>, int> instance_nodes;
 };
 
-// Reads a .gltf or .glb file that loadScene has accepted.
-Expected<GltfDocument> readGltfDocument(const std::string& path);
+// Reads a .gltf or .glb file that loadScene has accepted (with the same `policy`), as a plain
+// document (io/gltf/gltf_plain.cpp): compressed views and primitives decoded, sparse accessors
+// dense, GPU instances as nodes, only the images textures read.
+Expected<GltfDocument> readGltfDocument(const std::string& path, const AssetPolicy& policy = {});
 
 // Where a scene triangle sits in a glTF document: node, mesh, primitive and the triangle's index
 // among the primitive's triangles; mirrored when the scene swapped its corners 1 and 2.
 struct GltfTriangleSource {
   int32_t node = -1, mesh = -1, primitive = -1;
+  int32_t instance = -1;  // the EXT_mesh_gpu_instancing copy, -1 for none
   uint32_t triangle = 0;
   bool mirrored = false;
 };
@@ -62,6 +69,7 @@ GltfDocument documentFromScene(const Scene& scene, std::vector<GltfTriangleSourc
 
 // The lightmap the materials reference.
 struct LightmapReference {
+  // File names beside the glTF (percent-encoded where the glTF names them).
   std::string png_uri;  // RGBM, 8 bits per channel, linear
   std::string exr_uri;  // the same, float
   double scale = 1.0;   // irradiance = scale * rgb * a

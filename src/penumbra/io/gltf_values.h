@@ -1,6 +1,7 @@
-// The values of a glTF document that tinygltf drops without a word when their type or length is
-// wrong (a baseColorFactor of three numbers or a string reads as white, a node matrix of strings
-// as the identity), checked on the JSON against glTF 2.0's schema before tinygltf parses it.
+// The values of a glTF document checked against glTF 2.0's schema on the JSON, before the reader
+// (io/gltf/) uses any: types, lengths, ranges and enumerations, so that nothing of the wrong shape
+// is read as a default (a baseColorFactor of three numbers or a string as white, a node matrix of
+// strings as the identity, a string wrapS as REPEAT).
 #pragma once
 
 #include "penumbra/core/expected.h"

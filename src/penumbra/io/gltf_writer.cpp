@@ -1,11 +1,11 @@
 #include "penumbra/io/gltf_writer.h"
 
+#include "penumbra/io/asset_files.h"
+
 #include "penumbra/core/check.h"
 #include "penumbra/core/file_util.h"
 
 #include <glm/common.hpp>
-
-#include <tiny_gltf.h>
 
 #include <fmt/format.h>
 
@@ -15,85 +15,42 @@
 #include <exception>
 #include <filesystem>
 #include <limits>
-#include <sstream>
 #include <vector>
 
 namespace penumbra {
 
 namespace {
 
-tinygltf::Value toValue(const nlohmann::json& j) {
-  switch (j.type()) {
-    case nlohmann::json::value_t::object: {
-      tinygltf::Value::Object o;
-      for (const auto& [key, value] : j.items()) o[key] = toValue(value);
-      return tinygltf::Value(std::move(o));
-    }
-    case nlohmann::json::value_t::array: {
-      tinygltf::Value::Array a;
-      for (const nlohmann::json& value : j) a.push_back(toValue(value));
-      return tinygltf::Value(std::move(a));
-    }
-    case nlohmann::json::value_t::string:
-      return tinygltf::Value(j.get<std::string>());
-    case nlohmann::json::value_t::boolean:
-      return tinygltf::Value(j.get<bool>());
-    case nlohmann::json::value_t::number_integer:
-    case nlohmann::json::value_t::number_unsigned: {
-      const double d = j.get<double>();
-      if (d >= double(std::numeric_limits<int>::min()) &&
-          d <= double(std::numeric_limits<int>::max())) {
-        return tinygltf::Value(int(d));
-      }
-      return tinygltf::Value(d);
-    }
-    case nlohmann::json::value_t::number_float:
-      return tinygltf::Value(j.get<double>());
-    default:
-      return tinygltf::Value();
-  }
-}
+using json = nlohmann::json;
+
+// glTF 2.0 enums (sec. 3.6.2, 3.7.2, 3.8.3).
+constexpr int kFloat = 5126, kUnsignedInt = 5125;
+constexpr int kArrayBuffer = 34962, kElementArrayBuffer = 34963;
+constexpr int kLinear = 9729, kClampToEdge = 33071;
 
 // Appends raw bytes to the buffer, 4-byte aligned, and returns their offset.
-size_t append(std::vector<unsigned char>& data, const void* bytes, size_t size) {
-  while (data.size() % 4 != 0) data.push_back(0);
+size_t append(std::string& data, const void* bytes, size_t size) {
+  while (data.size() % 4 != 0) data.push_back('\0');
   const size_t offset = data.size();
-  data.resize(offset + size);
-  if (size > 0) std::memcpy(data.data() + offset, bytes, size);
+  data.append(static_cast<const char*>(bytes), size);
   return offset;
 }
 
-int addView(tinygltf::Model& model, size_t offset, size_t length, size_t stride, int target) {
-  tinygltf::BufferView view;
-  view.buffer = 0;
-  view.byteOffset = offset;
-  view.byteLength = length;
-  view.byteStride = stride;
-  view.target = target;
-  model.bufferViews.push_back(view);
-  return int(model.bufferViews.size()) - 1;
+int addView(json& doc, size_t offset, size_t length, size_t stride, int target) {
+  json view = {{"buffer", 0}, {"byteOffset", offset}, {"byteLength", length}, {"target", target}};
+  if (stride > 0) view["byteStride"] = stride;
+  doc["bufferViews"].push_back(std::move(view));
+  return int(doc["bufferViews"].size()) - 1;
 }
 
-int addAccessor(tinygltf::Model& model, int view, size_t byte_offset, size_t count, int type,
+int addAccessor(json& doc, int view, size_t byte_offset, size_t count, const char* type,
                 int component_type) {
-  tinygltf::Accessor a;
-  a.bufferView = view;
-  a.byteOffset = byte_offset;
-  a.count = count;
-  a.type = type;
-  a.componentType = component_type;
-  model.accessors.push_back(a);
-  return int(model.accessors.size()) - 1;
-}
-
-// The asset: its version, generator and extras.penumbra (the caller's extras and
-// color_0_scale).
-void describeAsset(tinygltf::Model& model, const BakedGltfInfo& info) {
-  model.asset.version = "2.0";
-  model.asset.generator = "penumbra 0.1.0";
-  nlohmann::json extras = info.extras;
-  extras["color_0_scale"] = info.color_0_scale;
-  model.asset.extras = tinygltf::Value(tinygltf::Value::Object{{"penumbra", toValue(extras)}});
+  doc["accessors"].push_back({{"bufferView", view},
+                              {"byteOffset", byte_offset},
+                              {"count", count},
+                              {"type", type},
+                              {"componentType", component_type}});
+  return int(doc["accessors"].size()) - 1;
 }
 
 // COLOR_0: the radiance times color_0_scale, clamped to [0, 1].
@@ -110,7 +67,7 @@ struct Attribute {
   const char* name;
   const void* data;
   size_t stride;
-  int type;
+  const char* type;
   int view = -1;
 };
 
@@ -120,18 +77,18 @@ std::array<Attribute, 6> bakedAttributes(const BakedMesh& mesh,
   const std::vector<glm::vec2>& uv0 = mesh.has_scene_uvs ? mesh.uv0 : mesh.uv1;
   const size_t v3 = sizeof(glm::vec3), v2 = sizeof(glm::vec2);
   return {{
-      {"POSITION", mesh.positions.data(), v3, TINYGLTF_TYPE_VEC3},
-      {"NORMAL", mesh.normals.data(), v3, TINYGLTF_TYPE_VEC3},
-      {"TEXCOORD_0", uv0.data(), v2, TINYGLTF_TYPE_VEC2},
-      {"TEXCOORD_1", mesh.uv1.data(), v2, TINYGLTF_TYPE_VEC2},
-      {"COLOR_0", colors.data(), v3, TINYGLTF_TYPE_VEC3},
-      {"_RADIANCE", mesh.values.data(), v3, TINYGLTF_TYPE_VEC3},
+      {"POSITION", mesh.positions.data(), v3, "VEC3"},
+      {"NORMAL", mesh.normals.data(), v3, "VEC3"},
+      {"TEXCOORD_0", uv0.data(), v2, "VEC2"},
+      {"TEXCOORD_1", mesh.uv1.data(), v2, "VEC2"},
+      {"COLOR_0", colors.data(), v3, "VEC3"},
+      {"_RADIANCE", mesh.values.data(), v3, "VEC3"},
   }};
 }
 
 // The buffer: attributes one after another (tightly packed), then the indices, local to each
-// primitive's vertices. Sets each attribute's view; the indices' view.
-int addBakedBuffer(tinygltf::Model& model, const BakedMesh& mesh, const std::string& bin_uri,
+// primitive's vertices. Sets each attribute's view; returns the indices' view.
+int addBakedBuffer(json& doc, const BakedMesh& mesh, std::string& bin,
                    std::array<Attribute, 6>& attributes) {
   const size_t nv = mesh.positions.size();
   std::vector<uint32_t> indices(3 * mesh.triangles.size());
@@ -142,34 +99,23 @@ int addBakedBuffer(tinygltf::Model& model, const BakedMesh& mesh, const std::str
       }
     }
   }
-  tinygltf::Buffer buffer;
-  buffer.uri = bin_uri;
-  std::vector<unsigned char>& data = buffer.data;
   for (Attribute& a : attributes) {
-    const size_t offset = append(data, a.data, a.stride * nv);
-    a.view = addView(model, offset, a.stride * nv, a.stride, TINYGLTF_TARGET_ARRAY_BUFFER);
+    const size_t offset = append(bin, a.data, a.stride * nv);
+    a.view = addView(doc, offset, a.stride * nv, a.stride, kArrayBuffer);
   }
-  const size_t index_offset = append(data, indices.data(), indices.size() * sizeof(uint32_t));
-  const int index_view = addView(model, index_offset, indices.size() * sizeof(uint32_t), 0,
-                                 TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER);
-  model.buffers.push_back(std::move(buffer));
-  return index_view;
+  const size_t bytes = indices.size() * sizeof(uint32_t);
+  return addView(doc, append(bin, indices.data(), bytes), bytes, 0, kElementArrayBuffer);
 }
 
 // The mesh: a primitive per group, with its accessors into the attributes' and indices' views.
-tinygltf::Mesh bakedPrimitives(tinygltf::Model& model, const BakedMesh& mesh,
-                               const std::string& name, const std::array<Attribute, 6>& attributes,
-                               int index_view) {
-  tinygltf::Mesh gltf_mesh;
-  gltf_mesh.name = name;
+json bakedPrimitives(json& doc, const BakedMesh& mesh, const std::string& name,
+                     const std::array<Attribute, 6>& attributes, int index_view) {
+  json primitives = json::array();
   for (const BakedMesh::Group& g : mesh.groups) {
-    tinygltf::Primitive p;
-    p.mode = TINYGLTF_MODE_TRIANGLES;
-    p.material = int(g.material);
+    json p = {{"mode", 4}, {"material", g.material}, {"attributes", json::object()}};
     for (const Attribute& a : attributes) {
-      const int accessor = addAccessor(model, a.view, size_t(g.first_vertex) * a.stride,
-                                       g.vertex_count, a.type, TINYGLTF_COMPONENT_TYPE_FLOAT);
-      p.attributes[a.name] = accessor;
+      p["attributes"][a.name] = addAccessor(doc, a.view, size_t(g.first_vertex) * a.stride,
+                                            g.vertex_count, a.type, kFloat);
     }
     // POSITION needs its bounds.
     glm::vec3 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
@@ -177,92 +123,53 @@ tinygltf::Mesh bakedPrimitives(tinygltf::Model& model, const BakedMesh& mesh,
       lo = glm::min(lo, mesh.positions[v]);
       hi = glm::max(hi, mesh.positions[v]);
     }
-    tinygltf::Accessor& position = model.accessors[size_t(p.attributes["POSITION"])];
-    position.minValues = {lo.x, lo.y, lo.z};
-    position.maxValues = {hi.x, hi.y, hi.z};
-    p.indices = addAccessor(model, index_view, size_t(g.first_triangle) * 3 * sizeof(uint32_t),
-                            size_t(g.triangle_count) * 3, TINYGLTF_TYPE_SCALAR,
-                            TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT);
-    gltf_mesh.primitives.push_back(std::move(p));
+    json& position = doc["accessors"][p["attributes"]["POSITION"].get<size_t>()];
+    position["min"] = {lo.x, lo.y, lo.z};
+    position["max"] = {hi.x, hi.y, hi.z};
+    p["indices"] = addAccessor(doc, index_view, size_t(g.first_triangle) * 3 * sizeof(uint32_t),
+                               size_t(g.triangle_count) * 3, "SCALAR", kUnsignedInt);
+    primitives.push_back(std::move(p));
   }
-  return gltf_mesh;
-}
-
-// The lightmap: linear filtering without mipmaps (coarse mip levels would mix charts), clamped.
-void addLightmap(tinygltf::Model& model, const std::string& lightmap_uri) {
-  tinygltf::Image image;
-  image.name = "lightmap";
-  image.uri = lightmap_uri;
-  image.mimeType = "image/png";
-  model.images.push_back(image);
-  tinygltf::Sampler sampler;
-  sampler.magFilter = TINYGLTF_TEXTURE_FILTER_LINEAR;
-  sampler.minFilter = TINYGLTF_TEXTURE_FILTER_LINEAR;
-  sampler.wrapS = TINYGLTF_TEXTURE_WRAP_CLAMP_TO_EDGE;
-  sampler.wrapT = TINYGLTF_TEXTURE_WRAP_CLAMP_TO_EDGE;
-  model.samplers.push_back(sampler);
-  tinygltf::Texture texture;
-  texture.name = "lightmap";
-  texture.source = 0;
-  texture.sampler = 0;
-  model.textures.push_back(texture);
+  return {{"name", name}, {"primitives", std::move(primitives)}};
 }
 
 // A scene material as glTF: black, emitting the lightmap (texture 0 on texCoord 1); its
 // reflectance and emission in extras.penumbra.
-tinygltf::Material bakedMaterial(const Material& m) {
-  tinygltf::Material g;
-  g.name = m.name;
-  g.pbrMetallicRoughness.baseColorFactor = {0.0, 0.0, 0.0, 1.0};
-  g.pbrMetallicRoughness.metallicFactor = 0.0;
-  g.pbrMetallicRoughness.roughnessFactor = 1.0;
-  g.emissiveFactor = {1.0, 1.0, 1.0};
-  g.emissiveTexture.index = 0;
-  g.emissiveTexture.texCoord = 1;
-  g.extras = tinygltf::Value(tinygltf::Value::Object{
-      {"penumbra", toValue({{"reflectance", {m.reflectance.x, m.reflectance.y, m.reflectance.z}},
-                            {"emission", {m.emission.x, m.emission.y, m.emission.z}}})}});
-  return g;
+json bakedMaterial(const Material& m) {
+  return {{"name", m.name},
+          {"pbrMetallicRoughness",
+           {{"baseColorFactor", {0.0, 0.0, 0.0, 1.0}},
+            {"metallicFactor", 0.0},
+            {"roughnessFactor", 1.0}}},
+          {"emissiveFactor", {1.0, 1.0, 1.0}},
+          {"emissiveTexture", {{"index", 0}, {"texCoord", 1}}},
+          {"extras",
+           {{"penumbra",
+             {{"reflectance", {m.reflectance.x, m.reflectance.y, m.reflectance.z}},
+              {"emission", {m.emission.x, m.emission.y, m.emission.z}}}}}}};
 }
 
-// One node holding mesh 0, in the default scene.
-void addScene(tinygltf::Model& model, const std::string& name) {
-  tinygltf::Node node;
-  node.name = name;
-  node.mesh = 0;
-  model.nodes.push_back(node);
-  tinygltf::Scene scene;
-  scene.name = name;
-  scene.nodes = {0};
-  model.scenes.push_back(scene);
-  model.defaultScene = 0;
-}
-
-// The .gltf and its buffer, each through writeAtomically (placed with the command's other
-// outputs, the buffer first) and written with every call checked: tinygltf's own file writer does
-// not check that its stream was flushed, so a full disk would leave a truncated .gltf. The model
-// is serialised without the buffer's bytes (they move out of `model`), and the buffer entry then
-// names the .bin.
-Status writeGltfAndBuffer(tinygltf::Model& model, const std::string& gltf_path,
-                          const std::string& bin_uri) {
-  namespace fs = std::filesystem;
-  const std::string bin_path = (fs::path(gltf_path).parent_path() / bin_uri).string();
-  std::vector<unsigned char> bin;
-  bin.swap(model.buffers.at(0).data);
-  std::ostringstream json_text;
-  tinygltf::TinyGLTF writer;
-  writer.SetImageWriter(nullptr, nullptr);  // the PNG is written separately; keep its uri
-  const bool serialised = writer.WriteGltfSceneToStream(&model, json_text, /*prettyPrint=*/true,
-                                                        /*writeBinary=*/false);
-  if (!serialised) return runtimeError(gltf_path, "cannot serialise the glTF document");
-  nlohmann::json doc = nlohmann::json::parse(json_text.str());
-  doc["buffers"][0] = {{"byteLength", bin.size()}, {"uri", bin_uri}};
-  const std::string text = doc.dump(2) + "\n";
-  const std::string_view bin_bytes(reinterpret_cast<const char*>(bin.data()), bin.size());
-  PENUMBRA_TRY(writeAtomically(
-      bin_path, [&](const std::string& tmp) { return writeBytesTo(bin_path, tmp, bin_bytes); }));
-  return writeAtomically(
-      gltf_path, [&](const std::string& tmp) { return writeBytesTo(gltf_path, tmp, text); });
+// The document around the mesh: the asset (version, generator, extras.penumbra with the caller's
+// extras and color_0_scale), the lightmap's image, sampler (linear without mipmaps, whose coarse
+// levels would mix charts; clamped) and texture, the materials, one node in the default scene.
+void describeDocument(json& doc, std::span<const Material> materials, const BakedGltfInfo& info) {
+  json extras = info.extras;
+  extras["color_0_scale"] = info.color_0_scale;
+  doc["asset"] = {
+      {"version", "2.0"}, {"generator", "penumbra 0.1.0"}, {"extras", {{"penumbra", extras}}}};
+  doc["images"] = {{{"name", "lightmap"},
+                    {"uri", percentEncodePath(info.lightmap_uri)},
+                    {"mimeType", "image/png"}}};
+  doc["samplers"] = {{{"magFilter", kLinear},
+                      {"minFilter", kLinear},
+                      {"wrapS", kClampToEdge},
+                      {"wrapT", kClampToEdge}}};
+  doc["textures"] = {{{"name", "lightmap"}, {"source", 0}, {"sampler", 0}}};
+  doc["materials"] = json::array();
+  for (const Material& m : materials) doc["materials"].push_back(bakedMaterial(m));
+  doc["nodes"] = {{{"name", info.name}, {"mesh", 0}}};
+  doc["scenes"] = {{{"name", info.name}, {"nodes", {0}}}};
+  doc["scene"] = 0;
 }
 
 }  // namespace
@@ -272,21 +179,27 @@ Status writeBakedGltf(const std::string& gltf_path, const BakedMesh& mesh,
   const size_t nv = mesh.positions.size();
   PENUMBRA_CHECK(mesh.normals.size() == nv && mesh.values.size() == nv && mesh.uv0.size() == nv &&
                  mesh.uv1.size() == nv);
+  namespace fs = std::filesystem;
   try {
-    tinygltf::Model model;
-    describeAsset(model, info);
+    json doc = {{"bufferViews", json::array()}, {"accessors", json::array()}};
+    describeDocument(doc, materials, info);
     const std::vector<glm::vec3> colors = bakedColors(mesh, info.color_0_scale);
     std::array<Attribute, 6> attributes = bakedAttributes(mesh, colors);
-    const int index_view = addBakedBuffer(model, mesh, info.bin_uri, attributes);
-    model.meshes.push_back(bakedPrimitives(model, mesh, info.name, attributes, index_view));
-    addLightmap(model, info.lightmap_uri);
-    for (const Material& m : materials) model.materials.push_back(bakedMaterial(m));
-    addScene(model, info.name);
-    PENUMBRA_TRY(writeGltfAndBuffer(model, gltf_path, info.bin_uri));
+    std::string bin;
+    const int index_view = addBakedBuffer(doc, mesh, bin, attributes);
+    doc["meshes"] = {bakedPrimitives(doc, mesh, info.name, attributes, index_view)};
+    doc["buffers"] = {{{"byteLength", bin.size()}, {"uri", percentEncodePath(info.bin_uri)}}};
+    // The .gltf and its buffer, each through writeAtomically (placed with the command's other
+    // outputs, the buffer first), every write checked.
+    const std::string text = doc.dump(2) + "\n";
+    const std::string bin_path = (fs::path(gltf_path).parent_path() / info.bin_uri).string();
+    PENUMBRA_TRY(writeAtomically(
+        bin_path, [&](const std::string& tmp) { return writeBytesTo(bin_path, tmp, bin); }));
+    return writeAtomically(
+        gltf_path, [&](const std::string& tmp) { return writeBytesTo(gltf_path, tmp, text); });
   } catch (const std::exception& e) {
     return runtimeError(gltf_path, std::string("cannot write glTF file: ") + e.what());
   }
-  return {};
 }
 
 }  // namespace penumbra

@@ -1,5 +1,5 @@
 // glTF 2.0 output of a baked solution (the refined element mesh with its per-corner outgoing
-// radiance and a lightmap), through tinygltf. Conventions (docs/algorithms.md, "Baked output"):
+// radiance and a lightmap). Conventions (docs/algorithms.md, "Baked output"):
 //   - one mesh, one primitive per scene material (each with its own vertices), triangles with
 //     counter-clockwise front faces, metres;
 //   - POSITION, NORMAL (the element's front face);

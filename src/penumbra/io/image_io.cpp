@@ -5,7 +5,8 @@
 //   .pfm  Portable Float Map, by hand: "PF" (RGB) or "Pf" (grey), "width height", a scale whose
 //         sign gives the byte order (negative: little endian), then float32 rows from the
 //         bottom of the image to the top. Lossless.
-//   .png  8-bit sRGB (IEC 61966-2-1) after tone mapping, via stb_image(_write).
+//   .png  8-bit sRGB (IEC 61966-2-1) after tone mapping, written by stb_image_write and read
+//         back by libpng (image_decode.h).
 // Writes go through writeAtomically; no exception escapes this file.
 #include "penumbra/io/image_io.h"
 
@@ -22,20 +23,16 @@
 #include <OpenEXR/ImfInputFile.h>
 #include <OpenEXR/ImfOutputFile.h>
 
-// The stb implementations are private to this file: another library in the link (TinyGLTF)
-// carries its own copy with external linkage.
+// The stb implementations are private to this file: image_decode.cpp has its own for TGA. stb_image
+// reads Radiance HDR only here.
 #define STB_IMAGE_STATIC
 #define STB_IMAGE_WRITE_STATIC
 #define STB_IMAGE_IMPLEMENTATION
 #define STB_IMAGE_WRITE_IMPLEMENTATION
-#define STBI_ONLY_PNG
 #define STBI_ONLY_HDR
-#define STBI_ONLY_JPEG
-#define STBI_ONLY_BMP
-#define STBI_ONLY_TGA
+#define STBI_NO_STDIO
 #include <stb_image.h>
 #include <stb_image_write.h>
-#include <webp/decode.h>
 
 #include <algorithm>
 #include <array>
@@ -405,62 +402,33 @@ Expected<Image> readHdr(const std::string& path) {
   return image;
 }
 
-// `srgb`: decode the sRGB transfer function (colour); false: the stored values over 255 or 65535
-// (data such as normal maps).
-Expected<Image> decodePng(const std::string& path, const std::string* bytes, bool srgb);
-
-Expected<Image> readPng(const std::string& path, bool srgb) {
+// A PNG read back (a render, a reference): libpng through image_decode.h, never reduced, decoded
+// from sRGB to linear.
+Expected<Image> readPng(const std::string& path) {
   Expected<std::string> bytes = readWholeFile(path);
   if (!bytes) return bytes.error();
-  return decodePng(path, &*bytes, srgb);
-}
-
-// `path` names the bytes in messages.
-Expected<Image> decodePng(const std::string& path, const std::string* bytes, bool srgb) {
-  const auto* data = reinterpret_cast<const stbi_uc*>(bytes->data());
-  const int len = int(bytes->size());
-  // stb_image would also decode a Radiance file here; insist on the PNG signature.
-  constexpr std::string_view kPngSignature("\x89PNG\r\n\x1a\n", 8);
-  if (std::string_view(*bytes).substr(0, 8) != kPngSignature) {
+  // Not a JPEG or Radiance file that happens to be named .png.
+  if (imageFormatOf(path, *bytes) != ImageFormat::kPng) {
     return inputError(path, "", "not a PNG file (no PNG signature)");
   }
-  int w = 0, h = 0, n = 0;
-  if (!stbi_info_from_memory(data, len, &w, &h, &n)) {
-    return inputError(path, "", std::string("not a readable PNG file: ") + stbi_failure_reason());
-  }
-  if (int64_t(w) * int64_t(h) > kMaxReadPixels) return inputError(path, "", "image too large");
-  // Deflate expands at most 1032:1, so a 64-byte file that claims 16 million x 12 pixels is
-  // refused from its header, before anything is allocated for it.
-  const uint64_t raw = uint64_t(w) * uint64_t(h) * uint64_t(std::max(n, 1));
-  if (raw > 1100 * uint64_t(bytes->size()) + 4096) {
-    return inputError(
-        path, "",
-        fmt::format("claims {} x {} pixels, more than its {} bytes can hold", w, h, bytes->size()));
-  }
-  PENUMBRA_TRY(checkDecodeMemory(path, w, h));
-  Image image(w, h);
-  if (stbi_is_16_bit_from_memory(data, len)) {
-    std::unique_ptr<stbi_us, StbFree> pixels(stbi_load_16_from_memory(data, len, &w, &h, &n, 3));
-    if (!pixels) {
-      return inputError(path, "", std::string("malformed PNG file: ") + stbi_failure_reason());
-    }
-    for (size_t i = 0; i < image.pixels.size(); ++i) {
+  Expected<ImageHeader> header = readImageHeader(path, *bytes);
+  if (!header) return header.error();
+  ImageLimits limits;
+  limits.max_size = std::numeric_limits<int>::max();
+  Expected<Image> image = decodeDataImage(path, *bytes, limits);
+  if (!image) return image.error();
+  // The stored codes, through a table of the transfer function.
+  const int max_code = header->sixteen_bit ? 65535 : 255;
+  std::vector<float> linear(size_t(max_code) + 1);
+  for (int k = 0; k <= max_code; ++k) linear[size_t(k)] = decodeSrgb(double(k) / max_code);
+  parallelRange(image->pixels.size(), 4096, [&](size_t begin, size_t end) {
+    for (size_t i = begin; i < end; ++i) {
       for (int c = 0; c < 3; ++c) {
-        const double v = pixels.get()[3 * i + size_t(c)] / 65535.0;
-        image.pixels[i][c] = srgb ? decodeSrgb(v) : float(v);
+        float& v = image->pixels[i][c];
+        v = linear[size_t(std::lround(double(v) * max_code))];
       }
     }
-    return image;
-  }
-  std::unique_ptr<stbi_uc, StbFree> pixels(stbi_load_from_memory(data, len, &w, &h, &n, 3));
-  if (!pixels) {
-    return inputError(path, "", std::string("malformed PNG file: ") + stbi_failure_reason());
-  }
-  std::array<float, 256> linear;
-  for (int k = 0; k < 256; ++k) linear[size_t(k)] = srgb ? decodeSrgb(k / 255.0) : float(k / 255.0);
-  for (size_t i = 0; i < image.pixels.size(); ++i) {
-    for (int c = 0; c < 3; ++c) image.pixels[i][c] = linear[pixels.get()[3 * i + size_t(c)]];
-  }
+  });
   return image;
 }
 
@@ -596,6 +564,20 @@ std::vector<uint8_t> displayBytes(const Image& linear, const ToneMapSettings& to
   return data;
 }
 
+Expected<std::string> encodePng8(int width, int height, std::span<const uint8_t> pixels,
+                                 int channels) {
+  if (width < 1 || height < 1 || (channels != 3 && channels != 4) ||
+      pixels.size() != size_t(width) * size_t(height) * size_t(channels)) {
+    return runtimeError("", "cannot encode a PNG: the pixels do not fill the image");
+  }
+  std::string bytes;
+  if (!stbi_write_png_to_func(appendToString, &bytes, width, height, channels, pixels.data(),
+                              width * channels)) {
+    return runtimeError("", "cannot encode a PNG");
+  }
+  return bytes;
+}
+
 Status writePng8(const std::string& path, int width, int height, std::span<const uint8_t> rgb,
                  int channels) {
   if (extensionOf(path) != ".png") return unsupportedFormat(path);
@@ -641,134 +623,23 @@ Expected<Image> readImage(const std::string& path) {
     if (ext == ".exr") return readExr(path);
     if (ext == ".hdr") return readHdr(path);
     if (ext == ".pfm") return readPfm(path);
-    return readPng(path, true);
+    return readPng(path);
   } catch (const std::exception& e) {  // std::bad_alloc and the like
     return runtimeError(path, std::string("cannot read: ") + e.what());
   }
 }
 
-Expected<Image> decodePngData(const std::string& name, const std::string& bytes) {
-  try {
-    return decodePng(name, &bytes, false);
-  } catch (const std::exception& e) {
-    return runtimeError(name, std::string("cannot decode: ") + e.what());
-  }
+Expected<Image> readImageData(const std::string& path) {
+  return readImageData(path, {}, nullptr);
 }
 
-namespace {
-
-// The format of a texture's bytes, by signature; TGA, which has none, by its name.
-enum class TextureFormat { kPng, kJpeg, kWebp, kBmp, kTga, kUnknown };
-
-TextureFormat textureFormatOf(const std::string& name, std::string_view bytes) {
-  if (bytes.substr(0, 8) == std::string_view("\x89PNG\r\n\x1a\n", 8)) return TextureFormat::kPng;
-  if (bytes.substr(0, 3) == std::string_view("\xff\xd8\xff", 3)) return TextureFormat::kJpeg;
-  if (bytes.size() >= 12 && bytes.substr(0, 4) == "RIFF" && bytes.substr(8, 4) == "WEBP") {
-    return TextureFormat::kWebp;
-  }
-  if (bytes.substr(0, 2) == "BM") return TextureFormat::kBmp;
-  if (extensionOf(name) == ".tga") return TextureFormat::kTga;
-  return TextureFormat::kUnknown;
-}
-
-Expected<TextureTexels> decodeTextureBytes(const std::string& name, std::string_view bytes) {
-  if (bytes.size() > size_t(std::numeric_limits<int>::max())) {
-    return inputError(name, "", "image file too large");
-  }
-  const TextureFormat format = textureFormatOf(name, bytes);
-  if (format == TextureFormat::kUnknown) {
-    return inputError(name, "",
-                      "not a PNG, JPEG, WebP, BMP or TGA image (no signature of any of them)");
-  }
-  TextureTexels out;
-  auto check_size = [&](int w, int h, int channels_in_file, size_t bytes_per_channel) -> Status {
-    if (w <= 0 || h <= 0 || int64_t(w) * int64_t(h) > kMaxReadPixels) {
-      return inputError(name, "", fmt::format("unsupported image size {} x {}", w, h));
-    }
-    // Compressed formats expand at most about 1032:1 (deflate); refuse a header that claims
-    // more than the file can hold before allocating it.
-    const uint64_t raw = uint64_t(w) * uint64_t(h) * uint64_t(std::max(channels_in_file, 1));
-    if (format != TextureFormat::kBmp && format != TextureFormat::kTga &&
-        raw > 1100 * uint64_t(bytes.size()) + 4096) {
-      return inputError(name, "",
-                        fmt::format("claims {} x {} pixels, more than its {} bytes can hold", w, h,
-                                    bytes.size()));
-    }
-    // The texels, the pyramid (a third more) and the decoder's own buffer.
-    const uint64_t need = uint64_t(w) * uint64_t(h) * 4 * bytes_per_channel * 7 / 3;
-    if (Status m = checkMemory(need, fmt::format("decoding a {} x {} texture", w, h)); !m.ok()) {
-      return inputError(name, "", m.error().message);
-    }
-    return {};
-  };
-  if (format == TextureFormat::kWebp) {
-    const auto* data = reinterpret_cast<const uint8_t*>(bytes.data());
-    WebPBitstreamFeatures features;
-    if (WebPGetFeatures(data, bytes.size(), &features) != VP8_STATUS_OK) {
-      return inputError(name, "", "malformed WebP image");
-    }
-    PENUMBRA_TRY(check_size(features.width, features.height, 4, 1));
-    int w = 0, h = 0;
-    uint8_t* rgba = WebPDecodeRGBA(data, bytes.size(), &w, &h);
-    if (!rgba) return inputError(name, "", "malformed WebP image (cannot decode)");
-    out.width = w;
-    out.height = h;
-    out.channels = features.has_alpha ? 4 : 3;
-    out.rgba8.assign(rgba, rgba + 4 * size_t(w) * size_t(h));
-    WebPFree(rgba);
-    return out;
-  }
-  const auto* data = reinterpret_cast<const stbi_uc*>(bytes.data());
-  const int len = int(bytes.size());
-  int w = 0, h = 0, n = 0;
-  if (!stbi_info_from_memory(data, len, &w, &h, &n)) {
-    return inputError(name, "", std::string("not a readable image: ") + stbi_failure_reason());
-  }
-  const bool sixteen = format == TextureFormat::kPng && stbi_is_16_bit_from_memory(data, len);
-  PENUMBRA_TRY(check_size(w, h, n, sixteen ? 2 : 1));
-  out.channels = n;
-  if (sixteen) {
-    std::unique_ptr<stbi_us, StbFree> texels(stbi_load_16_from_memory(data, len, &w, &h, &n, 4));
-    if (!texels) {
-      return inputError(name, "", std::string("malformed image: ") + stbi_failure_reason());
-    }
-    out.sixteen_bit = true;
-    out.rgba16.assign(texels.get(), texels.get() + 4 * size_t(w) * size_t(h));
-  } else {
-    std::unique_ptr<stbi_uc, StbFree> texels(stbi_load_from_memory(data, len, &w, &h, &n, 4));
-    if (!texels) {
-      return inputError(name, "", std::string("malformed image: ") + stbi_failure_reason());
-    }
-    out.rgba8.assign(texels.get(), texels.get() + 4 * size_t(w) * size_t(h));
-  }
-  out.width = w;
-  out.height = h;
-  return out;
-}
-
-}  // namespace
-
-Expected<TextureTexels> decodeTextureImage(const std::string& name, std::string_view bytes) {
-  try {
-    return decodeTextureBytes(name, bytes);
-  } catch (const std::exception& e) {
-    return runtimeError(name, std::string("cannot decode: ") + e.what());
-  }
-}
-
-Expected<TextureTexels> readTextureImage(const std::string& path) {
+Expected<Image> readImageData(const std::string& path, const ImageLimits& limits,
+                              std::vector<std::string>* warnings) {
+  const std::string ext = extensionOf(path);
+  if (ext == ".exr" || ext == ".hdr" || ext == ".pfm") return readImage(path);
   Expected<std::string> bytes = readFile(path);
   if (!bytes) return bytes.error();
-  return decodeTextureImage(path, *bytes);
-}
-
-Expected<Image> readImageData(const std::string& path) {
-  if (extensionOf(path) != ".png") return readImage(path);
-  try {
-    return readPng(path, false);
-  } catch (const std::exception& e) {
-    return runtimeError(path, std::string("cannot read: ") + e.what());
-  }
+  return decodeDataImage(path, *bytes, limits, warnings);
 }
 
 }  // namespace penumbra

@@ -1,5 +1,5 @@
 // Limits checked on JSON text before a recursive parser sees it. nlohmann::json (the scene
-// format) and tinygltf (which parses with it) descend one stack frame per nesting level, so a
+// format and glTF) descends one stack frame per nesting level, so a
 // small file nested tens of thousands deep overflows the stack; here the nesting is counted in
 // one flat pass and refused with the line and column where the limit is passed.
 #pragma once

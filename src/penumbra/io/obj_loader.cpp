@@ -15,6 +15,7 @@
 // d < 1 without map_d is partial coverage. Their -o, -s and -clamp options apply. Texture files
 // are looked for beside the OBJ file, then beside each material library, with '\\' read as '/'.
 #include "penumbra/core/file_util.h"
+#include "penumbra/io/asset_files.h"
 #include "penumbra/io/scene_io.h"
 #include "penumbra/io/texture_loader.h"
 
@@ -32,6 +33,7 @@
 #include <filesystem>
 #include <string>
 #include <string_view>
+#include <tuple>
 #include <unordered_map>
 #include <utility>
 #include <vector>
@@ -398,13 +400,59 @@ struct CornerKeyHash {
   }
 };
 
+// An MTL map statement's -s, -o and -t take one to three numbers (the others default to 1, 0 and
+// 0); tinyobjloader reads three, taking the file name as the third when two are given. The
+// missing ones are written out here, so "map_Kd -s 2 2 wood.png" keeps its texture.
+std::string completeMapOptions(const std::string& text) {
+  std::string out;
+  out.reserve(text.size());
+  size_t pos = 0;
+  std::string_view line;
+  std::vector<std::string_view> tok;
+  while (nextLine(text, &pos, &line)) {
+    splitTokens(line, tok);
+    const bool map = !tok.empty() && (tok[0].rfind("map_", 0) == 0 || tok[0] == "bump" ||
+                                      tok[0] == "disp" || tok[0] == "decal" || tok[0] == "refl");
+    if (!map) {
+      out.append(line);
+      out.push_back('\n');
+      continue;
+    }
+    std::string rebuilt(tok[0]);
+    for (size_t i = 1; i < tok.size(); ++i) {
+      rebuilt += ' ';
+      rebuilt += tok[i];
+      if (tok[i] != "-s" && tok[i] != "-o" && tok[i] != "-t") continue;
+      size_t numbers = 0;
+      double value = 0.0;
+      while (numbers < 3 && i + 1 + numbers < tok.size() - 1 &&
+             parseNumber(tok[i + 1 + numbers], &value)) {
+        ++numbers;
+      }
+      for (size_t k = 0; k < numbers; ++k) {
+        rebuilt += ' ';
+        rebuilt += tok[i + 1 + k];
+      }
+      for (size_t k = numbers; k < 3 && numbers > 0; ++k) rebuilt += tok[i] == "-s" ? " 1" : " 0";
+      i += numbers;
+    }
+    out += rebuilt;
+    out.push_back('\n');
+  }
+  return out;
+}
+
 // The material libraries the file names, read here so that a missing one is only a warning (and
 // sets `library_missing`): their texts, one after another.
 Expected<std::string> readMaterialLibraries(const std::string& path, const ObjScan& scan,
-                                            Scene& scene, bool& library_missing) {
+                                            const AssetPolicy& policy, Scene& scene,
+                                            bool& library_missing) {
   std::string mtl_text;
   for (const auto& [name, line] : scan.material_libraries) {
-    const std::string mtl_path = resolveRelativeTo(path, name);
+    Expected<std::string> resolved =
+        resolveAssetFile(path, name, false, policy, fmt::format("line {}: mtllib", line));
+    if (!resolved) return resolved.error();
+    const std::string& mtl_path = *resolved;
     Expected<std::string> mtl = readFile(mtl_path);
     if (!mtl.ok()) {
       scene.warnings.push_back(
@@ -415,7 +463,7 @@ Expected<std::string> readMaterialLibraries(const std::string& path, const ObjSc
       continue;
     }
     PENUMBRA_TRY(scanMtl(mtl_path, *mtl));
-    mtl_text += *mtl;
+    mtl_text += completeMapOptions(*mtl);
     mtl_text += "\n";
   }
   return mtl_text;
@@ -456,12 +504,26 @@ std::string findTextureFile(std::string name, const std::vector<std::string>& di
   return (std::filesystem::path(dirs.front()) / name).string();
 }
 
+// Where an OBJ file's textures are looked for and how they are read: the folders of the file and
+// of its material libraries, inside the file's folder unless the policy allows otherwise.
+struct ObjTextures {
+  std::vector<std::string> dirs;
+  AssetPolicy policy;
+  TextureCache cache;
+};
+
+// The file of an MTL map statement, confined to the OBJ file's folder (io/asset_files.h).
+Expected<std::string> objTextureFile(const std::string& path, const std::string& name,
+                                     const ObjTextures& textures, const std::string& place) {
+  return confineAssetPath(path, findTextureFile(name, textures.dirs), textures.policy, place);
+}
+
 // An MTL map statement's texture as a binding: the file, -clamp, and -s / -o as the UV transform
 // u' = s u + o.
 Expected<TextureBinding> objTexture(const std::string& path, const std::string& material,
                                     const char* statement, const std::string& name,
                                     const tinyobj::texture_option_t& option, bool colour,
-                                    const std::vector<std::string>& dirs, TextureCache& textures) {
+                                    ObjTextures& textures) {
   const std::string place = fmt::format("material '{}' {}", material, statement);
   for (int k = 0; k < 2; ++k) {
     if (!std::isfinite(option.scale[k]) || !std::isfinite(option.origin_offset[k]) ||
@@ -469,8 +531,9 @@ Expected<TextureBinding> objTexture(const std::string& path, const std::string& 
       return inputError(path, place, "-s and -o must be finite numbers within 1e6");
     }
   }
-  Expected<std::shared_ptr<const Texture>> t =
-      textures.file(findTextureFile(name, dirs), colour, path, place);
+  Expected<std::string> file = objTextureFile(path, name, textures, place);
+  if (!file) return file.error();
+  Expected<std::shared_ptr<const Texture>> t = textures.cache.file(*file, colour, path, place);
   if (!t) return t.error();
   TextureBinding b;
   b.texture = *t;
@@ -486,22 +549,21 @@ Expected<TextureBinding> objTexture(const std::string& path, const std::string& 
 // One MTL material: Kd -> reflectance, Ke -> emission, the textures (see the top of the file);
 // illum 3 and 5 a mirror of Ks, illum 4, 6, 7 and 9 glass of index Ni filtered by Tf.
 Expected<Material> objMaterial(const std::string& path, const tinyobj::material_t& m,
-                               const std::vector<std::string>& texture_dirs, TextureCache& textures,
-                               Scene& scene) {
+                               ObjTextures& textures, Scene& scene) {
   Material mat;
   mat.name = m.name;
   mat.reflectance = glm::vec3(m.diffuse[0], m.diffuse[1], m.diffuse[2]);
   mat.emission = glm::vec3(m.emission[0], m.emission[1], m.emission[2]);
   if (!m.diffuse_texname.empty()) {
-    Expected<TextureBinding> b = objTexture(path, m.name, "map_Kd", m.diffuse_texname,
-                                            m.diffuse_texopt, true, texture_dirs, textures);
+    Expected<TextureBinding> b =
+        objTexture(path, m.name, "map_Kd", m.diffuse_texname, m.diffuse_texopt, true, textures);
     if (!b) return b.error();
     mat.reflectance_texture = std::move(*b);
     mat.reflectance = glm::vec3(1.0f);
   }
   if (!m.emissive_texname.empty()) {
-    Expected<TextureBinding> b = objTexture(path, m.name, "map_Ke", m.emissive_texname,
-                                            m.emissive_texopt, true, texture_dirs, textures);
+    Expected<TextureBinding> b =
+        objTexture(path, m.name, "map_Ke", m.emissive_texname, m.emissive_texopt, true, textures);
     if (!b) return b.error();
     mat.emission_texture = std::move(*b);
     if (mat.emission == glm::vec3(0.0f)) mat.emission = glm::vec3(1.0f);
@@ -509,8 +571,8 @@ Expected<Material> objMaterial(const std::string& path, const tinyobj::material_
   // map_Kd's own alpha is not coverage in MTL; map_d (or d) is.
   mat.alpha_from_reflectance = false;
   if (!m.alpha_texname.empty()) {
-    Expected<TextureBinding> b = objTexture(path, m.name, "map_d", m.alpha_texname, m.alpha_texopt,
-                                            false, texture_dirs, textures);
+    Expected<TextureBinding> b =
+        objTexture(path, m.name, "map_d", m.alpha_texname, m.alpha_texopt, false, textures);
     if (!b) return b.error();
     mat.coverage_texture = std::move(*b);
     mat.alpha_mode = AlphaMode::kMask;
@@ -683,7 +745,37 @@ Status addObjShape(const std::string& path, const tinyobj::attrib_t& attrib,
 
 }  // namespace
 
-Expected<Scene> loadObj(const std::string& path) {
+// Whether a usemtl line names material `name` (a material no face uses reads no texture: its
+// files need not exist).
+bool usedByFaces(const ObjScan& scan, const std::string& name) {
+  for (const auto& [use, line] : scan.material_uses) {
+    if (use == name) return true;
+  }
+  return false;
+}
+
+// Every texture the used materials read, planned before any is decoded (io/texture_loader.h).
+Status planObjTextures(const std::string& path, const ObjScan& scan,
+                       const std::vector<tinyobj::material_t>& materials, ObjTextures& textures) {
+  for (const tinyobj::material_t& m : materials) {
+    if (!usedByFaces(scan, m.name)) continue;
+    const std::tuple<const std::string*, bool, const char*> maps[] = {
+        {&m.diffuse_texname, true, "map_Kd"},
+        {&m.emissive_texname, true, "map_Ke"},
+        {&m.alpha_texname, false, "map_d"}};
+    for (const auto& [name, colour, statement] : maps) {
+      if (name->empty()) continue;
+      const std::string place = fmt::format("material '{}' {}", m.name, statement);
+      Expected<std::string> file = objTextureFile(path, *name, textures, place);
+      if (!file) return file.error();
+      PENUMBRA_TRY(textures.cache.planFile(
+          *file, colour ? TextureKind::kColour : TextureKind::kData, path, place));
+    }
+  }
+  return {};
+}
+
+Expected<Scene> loadObj(const std::string& path, const SceneLoadOptions& options) {
   Expected<std::string> text = readFile(path);
   if (!text.ok()) return text.error();
 
@@ -697,24 +789,39 @@ Expected<Scene> loadObj(const std::string& path) {
   scene.source = path;
   scene.warnings = std::move(scan.warnings);
   bool library_missing = false;
-  Expected<std::string> mtl_text = readMaterialLibraries(path, scan, scene, library_missing);
+  Expected<std::string> mtl_text =
+      readMaterialLibraries(path, scan, options.files, scene, library_missing);
   if (!mtl_text) return mtl_text.error();
   tinyobj::ObjReader reader;
   PENUMBRA_TRY(parseWithTinyObj(path, clean, *mtl_text, reader));
 
   const std::vector<tinyobj::material_t>& obj_materials = reader.GetMaterials();
-  std::vector<std::string> texture_dirs = {std::filesystem::path(path).parent_path().string()};
+  ObjTextures textures{{std::filesystem::path(path).parent_path().string()},
+                       options.files,
+                       TextureCache(options.textures)};
   for (const auto& [name, line] : scan.material_libraries) {
-    texture_dirs.push_back(
+    textures.dirs.push_back(
         std::filesystem::path(resolveRelativeTo(path, name)).parent_path().string());
   }
-  TextureCache textures;
+  PENUMBRA_TRY(planObjTextures(path, scan, obj_materials, textures));
   for (const tinyobj::material_t& m : obj_materials) {
-    Expected<Material> mat = objMaterial(path, m, texture_dirs, textures, scene);
+    if (!usedByFaces(scan, m.name)) {
+      // Kept for its index (faces name materials by it), without its textures.
+      tinyobj::material_t bare = m;
+      bare.diffuse_texname.clear();
+      bare.emissive_texname.clear();
+      bare.alpha_texname.clear();
+      Expected<Material> mat = objMaterial(path, bare, textures, scene);
+      if (!mat) return mat.error();
+      scene.materials.push_back(std::move(*mat));
+      continue;
+    }
+    Expected<Material> mat = objMaterial(path, m, textures, scene);
     if (!mat) return mat.error();
     scene.materials.push_back(std::move(*mat));
   }
   warnUndefinedMaterials(path, scan, obj_materials, library_missing, scene);
+  for (const std::string& w : textures.cache.warnings()) scene.warnings.push_back(w);
 
   ObjMaterialIds material_for(obj_materials.size(), scene);
   const std::string stem = std::filesystem::path(path).stem().string();

@@ -76,8 +76,12 @@ struct MeshEntry {
 
 class SceneJsonReader {
  public:
-  SceneJsonReader(const std::string& path, std::function<void(Scene&)> complete)
-      : path_(path), complete_(std::move(complete)) {}
+  SceneJsonReader(const std::string& path, std::function<void(Scene&)> complete,
+                  const SceneLoadOptions& options)
+      : path_(path),
+        complete_(std::move(complete)),
+        options_(options),
+        textures_(options.textures) {}
 
   Expected<Scene> read(const json& root);
 
@@ -105,7 +109,8 @@ class SceneJsonReader {
   Expected<glm::vec3> environment(const json& j, const std::string& place) const;
 
   Status readMaterials(const json& root, Scene& scene);
-  TextureCache textures_;
+  // Every image the materials name, planned before any is decoded (io/texture_loader.h).
+  Status planTextures(const json& root);
   Status readMaterial(const json& entry, const std::string& place, const std::string& name,
                       bool named, Scene& scene);
   // A texture slot: a file name, or {"file", "uv_set", "wrap", "filter", "offset", "scale",
@@ -153,6 +158,8 @@ class SceneJsonReader {
   const std::string& path_;
   // Adds what the caller has in memory (parseSceneJson) before the scene is validated.
   std::function<void(Scene&)> complete_;
+  const SceneLoadOptions& options_;
+  TextureCache textures_;
   std::map<std::string, uint32_t> material_index_;
   // The luminaire files read so far (resolved path, tilt): their photometry and LDT.
   std::map<std::pair<std::string, double>, LuminaireData> luminaires_;
@@ -261,6 +268,34 @@ Expected<glm::vec3> SceneJsonReader::environment(const json& j, const std::strin
   if (!v.ok()) return v.error();
   if (*v < 0.0) return error(place, fmt::format("{} is outside [0, inf)", *v));
   return glm::vec3(float(*v));
+}
+
+Status SceneJsonReader::planTextures(const json& root) {
+  if (!root.contains("materials")) return {};
+  const json& materials = root.at("materials");
+  if (!materials.is_object() && !materials.is_array()) return {};  // readMaterials refuses it
+  static constexpr std::pair<const char*, TextureKind> kSlots[] = {
+      {"reflectance_texture", TextureKind::kColour},
+      {"emission_texture", TextureKind::kColour},
+      {"coverage_texture", TextureKind::kData},
+      {"normal_map", TextureKind::kNormalMap}};
+  for (auto it = materials.begin(); it != materials.end(); ++it) {
+    if (!it->is_object()) continue;
+    const std::string place = materials.is_array()
+                                  ? fmt::format("materials[{}]", it - materials.begin())
+                                  : "materials." + it.key();
+    for (const auto& [key, kind] : kSlots) {
+      if (!it->contains(key)) continue;
+      const json& slot = it->at(key);
+      const json& file = slot.is_object() && slot.contains("file") ? slot.at("file") : slot;
+      if (!file.is_string()) continue;  // readMaterial names what is wrong
+      const std::string at = fmt::format("{}.{}", place, key);
+      Expected<std::string> resolved = existingFile(file.get<std::string>(), at);
+      if (!resolved) return resolved.error();
+      PENUMBRA_TRY(textures_.planFile(*resolved, kind, path_, at));
+    }
+  }
+  return {};
 }
 
 Status SceneJsonReader::readMaterials(const json& root, Scene& scene) {
@@ -446,10 +481,10 @@ Status SceneJsonReader::readMaterial(const json& entry, const std::string& place
     if (!file) return file.error();
     Expected<std::string> resolved = existingFile(*file, place + ".normal_map");
     if (!resolved) return resolved.error();
-    Expected<Image> map = readImageData(*resolved);
+    Expected<std::shared_ptr<const Image>> map =
+        textures_.normalMapFile(*resolved, path_, place + ".normal_map");
     if (!map) return map.error();
-    if (map->width < 1 || map->height < 1) return error(place + ".normal_map", "empty image");
-    m.normal_map = std::make_shared<const Image>(std::move(*map));
+    m.normal_map = *map;
     m.normal_map_source = *resolved;
   }
   if (entry.contains("normal_scale")) {
@@ -693,7 +728,7 @@ Status SceneJsonReader::readMesh(const json& entry, const std::string& place, Sc
     loaded->meshes.push_back(icosphere(m.sphere_level));
     loaded->materials.push_back(Material{"sphere", glm::vec3(0.8f), glm::vec3(0.0f)});
   } else {
-    loaded = loadSceneFile(m.resolved);
+    loaded = loadSceneFile(m.resolved, options_);
     if (!loaded.ok()) return loaded.error();  // names the mesh file and the place in it
   }
   addPlacedScene(m, *loaded, scene);
@@ -1079,9 +1114,10 @@ Expected<Scene> SceneJsonReader::read(const json& root) {
   }
   PENUMBRA_TRY(checkKeys(root, "",
                          {"materials", "meshes", "lights", "camera", "settings", "environment",
-                          "calculation", "sky", "openings"}));
+                          "calculation", "sky", "openings", "scale"}));
   Scene scene;
   scene.source = path_;
+  PENUMBRA_TRY(planTextures(root));
   PENUMBRA_TRY(readMaterials(root, scene));
 
   if (root.contains("meshes")) {
@@ -1136,9 +1172,20 @@ Expected<Scene> SceneJsonReader::read(const json& root) {
     if (!objects.ok()) return objects.error();
     scene.calculation = std::move(*objects);
   }
+  if (root.contains("scale")) {
+    // Metres per unit of the file's lengths (a scene modelled in millimetres: 0.001).
+    Expected<double> scale = number(root.at("scale"), "scale");
+    if (!scale) return scale.error();
+    if (!(*scale >= 1e-6 && *scale <= 1e6)) {
+      return error("scale", fmt::format("{} is outside [1e-6, 1e6] metres per unit", *scale));
+    }
+    scaleScene(scene, *scale);
+  }
   // The mesh files were validated by their loaders, whose warnings (degenerate triangles) name
   // the mesh file; the merged scene's validation would repeat them, so its warnings are dropped
   // (unless meshes were added from memory, which no loader has seen).
+  // What decoding the textures had to say (images reduced to the size limit).
+  for (const std::string& w : textures_.warnings()) scene.warnings.push_back(w);
   const size_t warnings_before = scene.warnings.size();
   if (complete_) complete_(scene);
   PENUMBRA_TRY(checkScene(scene));
@@ -1149,14 +1196,15 @@ Expected<Scene> SceneJsonReader::read(const json& root) {
 
 }  // namespace
 
-Expected<Scene> loadSceneJson(const std::string& path) {
+Expected<Scene> loadSceneJson(const std::string& path, const SceneLoadOptions& options) {
   Expected<std::string> text = readFile(path);
   if (!text.ok()) return text.error();
-  return parseSceneJson(path, *text);
+  return parseSceneJson(path, *text, {}, options);
 }
 
 Expected<Scene> parseSceneJson(const std::string& path, const std::string& text_in,
-                               const std::function<void(Scene&)>& complete) {
+                               const std::function<void(Scene&)>& complete,
+                               const SceneLoadOptions& options) {
   const std::string* text = &text_in;
   PENUMBRA_TRY(checkJsonNesting(path, *text, /*comments=*/true));
   json root;
@@ -1174,7 +1222,7 @@ Expected<Scene> parseSceneJson(const std::string& path, const std::string& text_
     return inputError(path, "", fmt::format("JSON error: {}", e.what()));
   }
   try {
-    SceneJsonReader reader(path, complete);
+    SceneJsonReader reader(path, complete, options);
     return reader.read(root);
   } catch (const std::exception& e) {
     // Every access above is checked; this is a safety net so no exception leaves the loader.
@@ -1192,11 +1240,11 @@ json readSceneSettings(const std::string& path) {
   return root["settings"];
 }
 
-Expected<Scene> loadSceneFile(const std::string& path) {
+Expected<Scene> loadSceneFile(const std::string& path, const SceneLoadOptions& options) {
   const std::string ext = extensionOf(path);
-  if (ext == ".json") return loadSceneJson(path);
-  if (ext == ".obj") return loadObj(path);
-  if (ext == ".gltf" || ext == ".glb") return loadGltf(path);
+  if (ext == ".json") return loadSceneJson(path, options);
+  if (ext == ".obj") return loadObj(path, options);
+  if (ext == ".gltf" || ext == ".glb") return loadGltf(path, options);
   if (ext == ".ply") return loadPly(path);
   return inputError(path, "",
                     ext.empty() ? std::string("no file extension: expected .json, .obj, .gltf, "
@@ -1206,7 +1254,7 @@ Expected<Scene> loadSceneFile(const std::string& path) {
                                               ext));
 }
 
-Expected<Scene> loadScene(const std::string& name_or_path) {
+Expected<Scene> loadScene(const std::string& name_or_path, const SceneLoadOptions& options) {
   std::error_code ec;
   const bool is_file =
       std::filesystem::exists(name_or_path, ec) && !std::filesystem::is_directory(name_or_path, ec);
@@ -1219,7 +1267,7 @@ Expected<Scene> loadScene(const std::string& name_or_path) {
     return inputError(name_or_path, "", "is a directory, not a scene file");
   }
   if (!is_file && extensionOf(name_or_path).empty()) return builtinScene(name_or_path);
-  return loadSceneFile(name_or_path);
+  return loadSceneFile(name_or_path, options);
 }
 
 }  // namespace penumbra

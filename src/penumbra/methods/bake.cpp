@@ -24,6 +24,7 @@
 #include "penumbra/methods/registry.h"
 #include "penumbra/methods/render.h"
 #include "penumbra/methods/run_context.h"
+#include "penumbra/methods/scene_inputs.h"
 #include "penumbra/methods/stats_file.h"
 #include "penumbra/methods/stochastic_run.h"
 #include "penumbra/radiosity/lightmap_seams.h"
@@ -379,8 +380,11 @@ Status writeBakeOutputs(const BakeOptions& options, const Scene& scene, const Ba
                     exr_name = stem + "_lightmap.exr", png_name = stem + "_lightmap.png";
   // The lightmap the EXR holds: irradiance for the asset output, radiance for the emissive one.
   emitImage(asset ? product.irradiance : product.lightmap);
-  nlohmann::json extras = {
-      {"method", options.method}, {"scene", scene.source}, {"units", {{"length", "m"}}}};
+  // The scene by its file name only: the bake may be published (--web), and the path as typed
+  // names the user's folders.
+  nlohmann::json extras = {{"method", options.method},
+                           {"scene", fs::path(scene.source).filename().string()},
+                           {"units", {{"length", "m"}}}};
   extras.update(product.extras);
   if (asset) {
     extras["lights_baked"] = true;
@@ -435,7 +439,8 @@ Status writeBakeOutputs(const BakeOptions& options, const Scene& scene, const Ba
     const std::vector<TriangleLightmapUvs> uvs =
         triangleLightmapUvs(scene, product.faces, product.uvs, product.irradiance);
     AssetBakeFiles files{(out_dir / gltf_name).string(), (out_dir / bin_name).string(),
-                         (out_dir / exr_name).string(), (out_dir / png_name).string()};
+                         (out_dir / exr_name).string(), (out_dir / png_name).string(),
+                         AssetPolicy{options.allow_outside_files}};
     PENUMBRA_TRY(writeAssetBake(scene, product.irradiance, uvs, extras, files));
   } else {
     PENUMBRA_TRY(writeMethodImage((out_dir / exr_name).string(), product.lightmap));
@@ -451,8 +456,9 @@ Status writeBakeOutputs(const BakeOptions& options, const Scene& scene, const Ba
         writeBakedGltf((out_dir / gltf_name).string(), product.mesh, scene.materials, info));
   }
   if (!options.web.empty()) {
-    PENUMBRA_TRY(
-        writeWebViewer(normalDirectory(options.web).string(), (out_dir / gltf_name).string()));
+    std::vector<std::string> files = {(out_dir / gltf_name).string(), (out_dir / bin_name).string(),
+                                      (out_dir / png_name).string(), (out_dir / exr_name).string()};
+    PENUMBRA_TRY(writeWebViewer(normalDirectory(options.web).string(), files));
   }
 
   return {};
@@ -565,6 +571,8 @@ Status bake(const BakeOptions& options, const CommonOptions& common, bool* inter
     if (!viewer) return viewer.error();
     Expected<std::vector<fs::path>> web_missing = checkOutputDirectory(options.web);
     if (!web_missing) return web_missing.error();
+    // Made now, as the output directory is, and removed again if the bake does not complete.
+    PENUMBRA_TRY(transaction.createDirectories(normalDirectory(options.web).string()));
     for (const char* name : {"index.html", "bake.json"}) {
       PENUMBRA_TRY(checkOutputPath((normalDirectory(options.web) / name).string()));
     }
@@ -580,11 +588,9 @@ Status bake(const BakeOptions& options, const CommonOptions& common, bool* inter
     for (const std::string& w : diffuseStandInWarnings(*scene, options.method)) {
       spdlog::warn("{}", w);
     }
-    bool any_emitter = false;
-    for (const Material& m : scene->materials) any_emitter |= m.isEmissive();
-    if (!any_emitter && !progressive && options.method != "pathtrace") {
-      spdlog::warn("{}: no emissive material: the solution is black", scene->source);
-    }
+    bool any_emitter = hasLightOtherThanSurfaces(*scene);
+    for (const Material& m : scene->materials) any_emitter |= m.isEmissive() && !m.unlit;
+    if (!any_emitter) return noLightError(*scene, options.method);
   }
   const Timer total_timer;
   const bool stitch = options.seams == "stitch";
@@ -617,14 +623,10 @@ Status bake(const BakeOptions& options, const CommonOptions& common, bool* inter
 
 Expected<RunResult> bakeScene(BakeOptions options, const CommonOptions& common,
                               const RunContext& context) {
-  return runInScope(context, common, [&](bool* interrupted) -> Status {
-    // The scene's "settings" for the method, checked as the caller's values are; the caller's
-    // win.
-    Expected<std::vector<std::string>> set =
-        applySceneSettings(options, context.scene->settings, context.scene->source, context.given);
-    if (!set) return set.error();
-    options.given = context.given;
-    options.given.insert(options.given.end(), set->begin(), set->end());
+  // The run sees the scene as its settings and the options make it (methods/scene_inputs.h).
+  Expected<RunContext> run = prepareRun(options, context);
+  if (!run) return run.error();
+  return runInScope(*run, common, [&](bool* interrupted) -> Status {
     return bake(options, common, interrupted);
   });
 }

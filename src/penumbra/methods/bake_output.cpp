@@ -3,6 +3,7 @@
 #include "penumbra/core/check.h"
 #include "penumbra/core/file_util.h"
 #include "penumbra/core/memory.h"
+#include "penumbra/io/asset_files.h"
 #include "penumbra/io/image_io.h"
 #include "penumbra/methods/render.h"
 #include "penumbra/radiosity/radiosity_surface.h"
@@ -152,7 +153,7 @@ Status writeAssetBake(const Scene& scene, const Image& irradiance,
       PENUMBRA_TRY(checkMemory(3 * uint64_t(bytes),
                                fmt::format("{}: writing the baked asset", scene.source)));
     }
-    Expected<GltfDocument> read = readGltfDocument(scene.source);
+    Expected<GltfDocument> read = readGltfDocument(scene.source, files.policy);
     if (!read) return read.error();
     doc = std::move(*read);
   } else {
@@ -201,7 +202,14 @@ Expected<std::string> webViewerDirectory() {
                                 where));
 }
 
-Status writeWebViewer(const std::string& dir, const std::string& gltf_path) {
+// Copies `from` to `to` through the run's transaction.
+Status copyOutput(const std::string& from, const std::string& to) {
+  Expected<std::string> bytes = readFile(from);
+  if (!bytes) return bytes.error();
+  return writeAtomically(to, [&](const std::string& tmp) { return writeBytesTo(to, tmp, *bytes); });
+}
+
+Status writeWebViewer(const std::string& dir, const std::vector<std::string>& bake_files) {
   Expected<std::string> source = webViewerDirectory();
   if (!source) return source.error();
   OutputTransaction& transaction = *OutputTransaction::current();
@@ -213,17 +221,23 @@ Status writeWebViewer(const std::string& dir, const std::string& gltf_path) {
     const fs::path rel = fs::relative(it->path(), *source);
     const fs::path target = fs::path(dir) / rel;
     PENUMBRA_TRY(transaction.createDirectories(target.parent_path().string()));
-    Expected<std::string> bytes = readFile(it->path().string());
-    if (!bytes) return bytes.error();
-    PENUMBRA_TRY(writeAtomically(target.string(), [&](const std::string& tmp) {
-      return writeBytesTo(target.string(), tmp, *bytes);
-    }));
+    PENUMBRA_TRY(copyOutput(it->path().string(), target.string()));
   }
   if (ec)
     return runtimeError(*source, fmt::format("cannot list the viewer's files: {}", ec.message()));
-  const std::string rel =
-      fs::absolute(gltf_path).lexically_relative(fs::absolute(dir)).generic_string();
-  const std::string manifest = nlohmann::json{{"gltf", rel}}.dump(2) + "\n";
+  const fs::path bake_dir = fs::absolute(fs::path(bake_files.front()).parent_path());
+  if (bake_dir.lexically_normal() != fs::absolute(dir).lexically_normal()) {
+    // The bake's outputs are not yet in place (the transaction places them at its end): copied
+    // from what was written.
+    for (const std::string& f : bake_files) {
+      const OutputTransaction* t = OutputTransaction::current();
+      const std::string written = t ? t->pendingTemporary(f) : f;
+      PENUMBRA_TRY(copyOutput(written.empty() ? f : written,
+                              (fs::path(dir) / fs::path(f).filename()).string()));
+    }
+  }
+  const std::string name = fs::path(bake_files.front()).filename().string();
+  const std::string manifest = nlohmann::json{{"gltf", percentEncodePath(name)}}.dump(2) + "\n";
   const std::string path = (fs::path(dir) / "bake.json").string();
   return writeAtomically(path,
                          [&](const std::string& tmp) { return writeBytesTo(path, tmp, manifest); });

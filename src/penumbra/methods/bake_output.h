@@ -54,6 +54,7 @@ std::vector<TriangleLightmapUvs> triangleLightmapUvs(const Scene& scene,
 
 struct AssetBakeFiles {
   std::string gltf, bin, exr, png;  // paths
+  AssetPolicy policy;               // how the scene's glTF file was read (--allow-outside-files)
 };
 
 // Writes the asset output: `irradiance` as EXR and RGBM PNG, and the glTF (the scene's own file
@@ -67,7 +68,9 @@ Status writeAssetBake(const Scene& scene, const Image& irradiance,
 // naming the places looked in when none holds index.html.
 Expected<std::string> webViewerDirectory();
 // Copies the viewer into `dir` (created through the run's OutputTransaction) with bake.json
-// naming `gltf_path` relative to `dir`.
-Status writeWebViewer(const std::string& dir, const std::string& gltf_path);
+// naming the bake's glTF, `bake_files.front()`, by a URI the page can fetch from `dir`: when `dir`
+// is another folder than the bake's, the bake's files (`bake_files`: the glTF and the files it
+// names) are copied into it, so that a server rooted at `dir` serves everything the page reads.
+Status writeWebViewer(const std::string& dir, const std::vector<std::string>& bake_files);
 
 }  // namespace penumbra

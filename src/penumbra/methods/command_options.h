@@ -59,7 +59,19 @@ struct LightmapMethodOptions {
   std::vector<std::string> given;
 };
 
-struct RenderOptions : LightmapMethodOptions {
+// How `render` and `bake` read their scene (io/scene_io.h: SceneLoadOptions) and what they add to
+// it (methods/scene_inputs.h): its unit, and light for a scene that brings none.
+struct SceneInputOptions {
+  bool allow_outside_files = false;       // files an asset names may lie outside its folder
+  int max_texture_size = 8192;            // the largest side a texture keeps (io/image_decode.h)
+  std::optional<int> gltf_scene;          // a glTF file's scene other than its own `scene`
+  std::optional<double> scale;            // metres per unit of the scene's files
+  std::string sky;                        // overcast, uniform, clear or sunny: a CIE sky
+  std::optional<double> sky_illuminance;  // its horizontal illuminance, lx (default 10,000)
+  std::vector<double> environment;        // a uniform environment's radiance, RGB W m^-2 sr^-1
+};
+
+struct RenderOptions : LightmapMethodOptions, SceneInputOptions {
   std::string scene = "cornell";
   std::string method = "pathtrace";
   std::string device = "auto";
@@ -135,7 +147,7 @@ struct RenderOptions : LightmapMethodOptions {
 };
 
 // `penumbra bake`: a radiosity solution as files (bake_command.cpp).
-struct BakeOptions : LightmapMethodOptions {
+struct BakeOptions : LightmapMethodOptions, SceneInputOptions {
   std::string scene;
   std::string method = "matrix";
   std::string device = "cpu";  // progressive: cpu, gpu or auto; matrix: cpu

@@ -630,10 +630,73 @@ void luxOptions(const Adder<RenderOptions>& add) {
       field<R>(&R::illuminance_rays));
 }
 
+// How the scene is read and what it is given (methods/scene_inputs.h), alike for render and bake;
+// `sky_methods` and `environment_methods` are the methods that take a sky and an environment.
+template <typename Options>
+void addSceneInputOptions(std::vector<Bound<Options>>& b,
+                          const std::vector<std::string>& sky_methods,
+                          const std::vector<std::string>& environment_methods) {
+  const Adder<Options> add{b};
+  add({.name = "allow-outside-files",
+       .kind = K::kFlag,
+       .help = "read files a glTF or OBJ file names outside its own folder (absolute paths, "
+               "'..', links); by default they are refused, so a downloaded file cannot copy the "
+               "machine's files into a bake"},
+      field<Options>(&Options::allow_outside_files));
+  add({.name = "max-texture-size",
+       .kind = K::kInt,
+       .range = range(1, 16384),
+       .unit = "texels",
+       .help = "the largest side a texture keeps; larger images are reduced as they are "
+               "decoded, with a warning (default 8192)"},
+      field<Options>(&Options::max_texture_size));
+  add({.name = "gltf-scene",
+       .kind = K::kInt,
+       .range = range(0, 1 << 20),
+       .help = "which scene of a glTF file holding several (default: the file's own `scene`, "
+               "else the first)"},
+      field<Options>(&Options::gltf_scene));
+  add({.name = "scale",
+       .kind = K::kReal,
+       .range = range(1e-6, 1e6),
+       .unit = "m per unit",
+       .help = "the length of one unit of the scene's files: 0.001 for millimetres, 0.0254 for "
+               "inches; lightmap density, light positions and lux follow"},
+      field<Options>(&Options::scale));
+  add({.name = "sky",
+       .kind = K::kChoice,
+       .choices = {"overcast", "uniform", "clear", "sunny"},
+       .help = "light the scene with a CIE sky: overcast (the traditional CIE overcast sky), "
+               "uniform, clear (CIE clear sky, type 12) or sunny (the clear sky and the sun's "
+               "beam, 45 degrees high in the south, the scene's +z), over a ground of "
+               "reflectance 0.2",
+       .uses = all(sky_methods)},
+      field<Options>(&Options::sky));
+  add({.name = "sky-illuminance",
+       .kind = K::kReal,
+       .range = range(0, 1e6, true),
+       .unit = "lx",
+       .help = "--sky's horizontal illuminance (sunny: of the sky alone; the beam adds 60,000 "
+               "lx square to it)",
+       .uses = all(sky_methods, "10000")},
+      field<Options>(&Options::sky_illuminance));
+  add({.name = "environment",
+       .kind = K::kRealList,
+       .range = range(0, 1e6),
+       .count = 3,
+       .unit = "W m^-2 sr^-1",
+       .help = "light the scene with a uniform environment of this RGB radiance from every "
+               "direction the scene does not block (as a viewer's neutral environment)",
+       .uses = all(environment_methods)},
+      field<Options>(&Options::environment));
+}
+
 std::vector<Bound<RenderOptions>> renderBindings() {
   std::vector<Bound<RenderOptions>> b;
   const Adder<RenderOptions> add{b};
   renderOutputOptions(add);
+  addSceneInputOptions(b, {"pathtrace", "matrix", "progressive", "stochastic"},
+                       {"pathtrace", "whitted", "photons", "matrix", "progressive", "stochastic"});
   rayTracedOptions(add);
   samplingOptions(add);
   radiosityOptions(add);
@@ -672,6 +735,7 @@ std::vector<Bound<BakeOptions>> bakeBindings() {
       field<B>(&B::output));
   add({.name = "stats", .kind = K::kText, .help = "write statistics to this JSON file"},
       field<B>(&B::stats));
+  addSceneInputOptions(b, kBakes, kBakes);
   add({.name = "gltf",
        .kind = K::kChoice,
        .choices = {"asset", "emissive"},

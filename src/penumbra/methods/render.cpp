@@ -16,6 +16,7 @@
 #include "penumbra/methods/illuminance_output.h"
 #include "penumbra/methods/registry.h"
 #include "penumbra/methods/run_context.h"
+#include "penumbra/methods/scene_inputs.h"
 #include "penumbra/methods/stats_file.h"
 #include "penumbra/raytrace/path_tracer.h"
 #include "penumbra/raytrace/ray_queries.h"
@@ -97,15 +98,11 @@ Status runMethod(const RenderOptions& options, const CommonOptions& common, bool
 
 Expected<RunResult> renderScene(RenderOptions options, const CommonOptions& common,
                                 const RunContext& context) {
-  return runInScope(context, common, [&](bool* interrupted) -> Status {
+  // The run sees the scene as its settings and the options make it (methods/scene_inputs.h).
+  Expected<RunContext> run = prepareRun(options, context);
+  if (!run) return run.error();
+  return runInScope(*run, common, [&](bool* interrupted) -> Status {
     PENUMBRA_TRY(checkDistributedMethod(currentCommunicator(), "render", options.method));
-    // The scene's "settings" for the method, checked as the caller's values are; the caller's
-    // win.
-    Expected<std::vector<std::string>> set =
-        applySceneSettings(options, context.scene->settings, context.scene->source, context.given);
-    if (!set) return set.error();
-    options.given = context.given;
-    options.given.insert(options.given.end(), set->begin(), set->end());
     return runMethod(options, common, interrupted);
   });
 }

@@ -196,6 +196,8 @@ nlohmann::json matrixStats(const RenderOptions& options, Communicator& comm,
                       {"width", setup.width},
                       {"height", setup.height},
                       {"spp", setup.spp}};
+  // What the sky or the environment brings to the surfaces directly (W per channel).
+  j["outside_power_w"] = {mr.outside_power.x, mr.outside_power.y, mr.outside_power.z};
   if (setup.frames > 1) j["frames"] = totals.frame_stats;
   if (comm.distributed()) {
     j["ranks"] = comm.size();
@@ -221,11 +223,6 @@ Status renderMatrix(const RenderOptions& options, const CommonOptions& common) {
   for (const std::string& w : scene->warnings) spdlog::warn("{}", w);
   for (const std::string& w : diffuseStandInWarnings(*scene, "matrix")) spdlog::warn("{}", w);
   PENUMBRA_TRY(prepareIlluminance(setup->lux, options, *scene, setup->width, setup->height));
-  bool any_emitter = !scene->lights.empty();
-  for (const Material& m : scene->materials) any_emitter |= m.isEmissive();
-  if (!any_emitter) {
-    spdlog::warn("{}: no emissive material and no light: the solution is black", scene->source);
-  }
 
   MatrixRadiosityOptions mo;
   mo.elements = options.elements.value_or(kMatrixDefaultElements);
@@ -305,6 +302,12 @@ Expected<MatrixRadiosity> buildMatrixWithProgress(const Scene& scene,
       },
       &comm);
   if (progress) progress->finish();
+  if (!built) return built;
+  // Nothing emits once cut-outs are taken into account (an emitter of holes), and no light comes
+  // from elsewhere: refused as every method refuses it (scene/scene.h).
+  bool emits = hasLightOtherThanSurfaces(scene);
+  for (const glm::dvec3& e : built->surface.emission) emits = emits || e != glm::dvec3(0.0);
+  if (!emits) return noLightError(scene, "matrix radiosity");
   return built;
 }
 

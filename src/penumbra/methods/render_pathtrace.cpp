@@ -114,6 +114,9 @@ Status renderPathTrace(const RenderOptions& options, const CommonOptions& common
   Timer build_timer;
   const PathTracer tracer(*scene);
   const double build_seconds = build_timer.seconds();
+  if (tracer.geometry().emitters.empty() && !hasLightOtherThanSurfaces(*scene)) {
+    return noLightError(*scene, "pathtrace");
+  }
   // Devices: the CPU traces paths one by one; gpu and hybrid advance them as a wavefront whose
   // batches go to the Ray Engine's GPU kernel or its CPU/GPU split (same image).
   const bool hybrid = options.device == "hybrid";

@@ -125,6 +125,9 @@ Status renderRayTraced(const RenderOptions& options, const CommonOptions& common
   Timer build_timer;
   const WhittedTracer tracer(*scene);
   const double build_seconds = build_timer.seconds();
+  if (tracer.geometry().emitters.empty() && !hasLightOtherThanSurfaces(*scene)) {
+    return noLightError(*scene, options.method);
+  }
   // Every device traces the same batches: the CPU engine, the GPU kernel or the split.
   const bool hybrid = options.device == "hybrid";
   Expected<DeviceChoice> device = chooseDevice(hybrid ? "gpu" : options.device);

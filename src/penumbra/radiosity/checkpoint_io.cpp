@@ -37,7 +37,23 @@ uint64_t radiosityFingerprint(const Scene& scene, const RadiositySurface& surfac
     h.addValue(m.reflectance);
     h.addValue(m.emission);
     h.addValue(uint8_t(m.two_sided ? 1 : 0));
+    h.addValue(uint8_t(m.alpha_mode));
+    h.addValue(m.alpha);
+    h.addValue(m.alpha_cutoff);
+    h.addValue(uint8_t(m.unlit ? 1 : 0));
   }
+  // What the textures, vertex colours, cut-outs and normal maps make of each element: a texture
+  // or alpha mode changed since the checkpoint changes these (resuming onto them would mix two
+  // solutions).
+  auto add_all = [&](const auto& v) {
+    if (!v.empty()) h.add(v.data(), v.size() * sizeof(v[0]));
+  };
+  add_all(surface.texture_reflectance);
+  add_all(surface.texture_emission);
+  add_all(surface.coverage);
+  add_all(surface.reflectance);
+  add_all(surface.emission);
+  add_all(surface.shading_normal);
   for (const Light& light : scene.lights) {
     h.addValue(uint32_t(light.index()));
     std::visit([&](const auto& l) { h.addValue(l); }, light);

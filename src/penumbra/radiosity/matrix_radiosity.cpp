@@ -6,6 +6,7 @@
 #include "penumbra/core/rng.h"
 #include "penumbra/core/timer.h"
 #include "penumbra/kernels/sampling.h"
+#include "penumbra/radiosity/outside_light.h"
 
 #include <fmt/format.h>
 
@@ -144,6 +145,7 @@ void MatrixRadiosity::applyMaterials(std::span<const Material> materials) {
       rho_area += surface.reflectance[i] * a;
       area += a;
       if (!direct.empty()) reflected += surface.reflectance[i] * direct[i] * a;
+      if (!outside.empty()) reflected += surface.reflectance[i] * outside[i] * a;
     }
     system->reflectance[k] = glm::vec3(area > 0.0 ? rho_area / area : surface.reflectance[b]);
     system->emission[k] = glm::vec3((emitted + reflected) / cluster_area[k]);
@@ -264,6 +266,7 @@ std::vector<glm::dvec3> MatrixRadiosity::elementRadiosity(bool interpolate) cons
   parallelRange(n_el, 1024, [&](size_t b, size_t end) {
     for (size_t e = b; e < end; ++e) {
       const glm::dvec3 in = h[e] + (direct.empty() ? glm::dvec3(0.0) : direct[e]) +
+                            (outside.empty() ? glm::dvec3(0.0) : outside[e]) +
                             (g.empty() ? glm::dvec3(0.0) : g[e]);
       h[e] = surface.emission[e] + surface.reflectance[e] * in;
     }
@@ -311,6 +314,11 @@ Expected<MatrixRadiosity> buildMatrixRadiosity(const Scene& scene,
   mr.system.emplace(std::move(*f), options.precision);
   mr.light_visibility = options.form_factors.visibility;
   mr.form_factor_stats.rays += mr.setLights(scene.lights);
+  if (const OutsideLight sky(scene); sky.active()) {
+    // The same on every rank (each element has its own stream).
+    mr.outside = sky.irradiance(mr.surface, &mr.form_factor_stats.rays);
+    mr.outside_power = arrivingPower(mr.surface, mr.outside);
+  }
   mr.applyMaterials(scene.materials);
   {
     // The emitting clusters, if they are few enough.

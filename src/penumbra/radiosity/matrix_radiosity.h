@@ -6,12 +6,17 @@
 // all the geometry and visibility, are kept; the previous solution is the starting point).
 //
 //  - The system, per cluster c (area-weighted means over its elements):
-//      B_c = E_c + rho_c (D_c + sum_j F_cj B_j),
-//    D the direct irradiance of the point, spot and directional lights (raytrace/lights.h),
-//    computed at every element with a Ray Engine shadow ray.
+//      B_c = E_c + rho_c (D_c + S_c + sum_j F_cj B_j),
+//    D the direct irradiance of the point, spot and directional lights (raytrace/lights.h; the
+//    sun is one), computed at every element with a Ray Engine shadow ray; S the direct
+//    irradiance of the sky and its ground through the openings and straight, or of the uniform
+//    environment (radiosity/outside_light.h, eq. 1-2 there), at every element. Both enter the
+//    right-hand side E' = E + rho (D + S) of M B = E', so the residual that ends the solve
+//    (matrix_solver.h) measures their light as the emitters'.
 //  - Display and bake (the solution interpolated down to level 0): each element takes
-//      B_e = E_e + rho_e (D_e + G_e + H_e),
-//    with its own emission, reflectance and direct light (sharp shadows of point lights); G_e
+//      B_e = E_e + rho_e (D_e + S_e + G_e + H_e),
+//    with its own emission, reflectance and direct light (sharp shadows of point lights and of
+//    the sky's window patches); G_e
 //    the light gathered at the element itself from the emitting clusters (those with E > 0 when
 //    built, if they cover at most kElementGatherArea of the surface and elements x emitters <=
 //    kElementGatherBudget, else none), with element-to-cluster form factors and their own shadow
@@ -80,7 +85,11 @@ struct MatrixRadiosity {
   std::vector<ClusterRef> clusters;  // the cut: cluster k is unknown k, in element order
   std::vector<double> cluster_area;  // m^2
   std::vector<glm::dvec3> direct;    // per element: the lights' irradiance D_e (W m^-2)
-  bool light_visibility = true;      // shadow rays for D_e (FormFactorOptions::visibility)
+  // Per element: the sky's or the environment's irradiance S_e (W m^-2), empty when the scene
+  // has neither; and the power it brings to the surfaces (sum S_e A_e, W), for the stats.
+  std::vector<glm::dvec3> outside;
+  glm::dvec3 outside_power{0.0};
+  bool light_visibility = true;  // shadow rays for D_e (FormFactorOptions::visibility)
   // The emitting clusters gathered at every element, and their form factors:
   // element_ff[e * emitters.size() + s] = F(element e -> cluster emitters[s]).
   std::vector<uint32_t> emitters;
@@ -102,7 +111,7 @@ struct MatrixRadiosity {
   // Whether cluster k's own elements emit (E_e > 0, not only reflected light).
   bool emittedByMaterial(size_t k) const;
   // Sets reflectance and emission, per element and per cluster, from the materials (indexed as
-  // the scene's), with the lights' direct term reflected.
+  // the scene's), with the lights' and the outside's direct terms reflected.
   void applyMaterials(std::span<const Material> materials);
   // The lights' direct irradiance D_e at every element again, for lights that moved or changed
   // (shadow rays as at build time); applyMaterials then sets the system's emission from it.

@@ -1,5 +1,6 @@
 #include "penumbra/radiosity/progressive.h"
 #include "penumbra/radiosity/cutout_jitter.h"
+#include "penumbra/radiosity/outside_light.h"
 
 #include "penumbra/geometry/shading_normals.h"
 #include "penumbra/kernels/form_factor.h"
@@ -207,13 +208,12 @@ Expected<ProgressiveRadiosity> ProgressiveRadiosity::build(RadiositySurface surf
     pr.balance_.emitted += pr.surface_.emission[e] * area;
   }
   pr.lights_ = scene.lights;
-  if (scene.sky) pr.daylight_.emplace(scene);
-  pr.lights_shot_ = pr.lights_.empty() && !pr.daylight_;
+  if (OutsideLight outside(scene); outside.active()) pr.outside_.emplace(std::move(outside));
+  pr.lights_shot_ = pr.lights_.empty() && !pr.outside_;
   for (const Light& light : pr.lights_) pr.light_power_ += lightPower(light, pr.surface_.bounds);
   pr.balance_.emitted += pr.light_power_;
-  if (residualLuminance(pr.balance_.emitted) <= 0.0 && !pr.daylight_) {
-    return inputError(scene.source, "progressive radiosity",
-                      "the scene emits no light (no emissive surface or light)");
+  if (residualLuminance(pr.balance_.emitted) <= 0.0 && !pr.outside_) {
+    return noLightError(scene, "progressive radiosity");
   }
   // Shooters: chart roots, split down to at most shooter_elements elements.
   for (uint32_t c = 0; c < pr.surface_.hierarchy.chartCount(); ++c) {
@@ -455,37 +455,6 @@ double shooterDiscIrradiance(const glm::dvec3& residual, double area, const glm:
   return residualLuminance(residual) * discFormFactor(area, cos_s, cos_r, d2);
 }
 
-glm::dvec3 ProgressiveRadiosity::skyIrradianceAt(size_t e, uint64_t& rays) const {
-  constexpr int kSamples = 64;
-  const glm::dvec3 p = surface_.atlas.element_position[e], n = surface_.atlas.element_normal[e];
-  Rng rng(mixBits(0x5ca1ab1e), e);
-  glm::dvec3 through(0.0);
-  const bool portals = daylight_->active();
-  if (portals) {
-    const DaylightIrradiance d = daylight_->irradiance(
-        surface_.engine, p, n, surface_.lift, kSamples, false, rng,
-        [](const Ray&, const Hit&, Rng&) { return glm::vec3(0.0f); }, rays);
-    through = d.sky + d.external;
-  }
-  // The sky each element sees straight, over its hemisphere (8 x 8 strata): all of it in an
-  // outdoor scene; with openings, what outside surfaces (an overhang, a building opposite, CIE
-  // 171:2006 cases 5.13 and 5.14) see without looking through one, the portals having counted
-  // the rest. An element inside sees the sky only through the openings and gets nothing more.
-  const Frame frame = Frame::fromNormal(glm::vec3(n));
-  glm::dvec3 sum(0.0);
-  for (int k = 0; k < kSamples; ++k) {
-    const float u1 = (float(k % 8) + rng.uniform()) / 8.0f,
-                u2 = (float(k / 8) + rng.uniform()) / 8.0f;
-    const glm::vec3 d = frame.toWorld(sampleCosineHemisphere(u1, u2));
-    const Ray ray{glm::vec3(p + surface_.lift * n), 0.0f, d, std::numeric_limits<float>::max()};
-    ++rays;
-    if (surface_.engine.occluded(ray)) continue;
-    if (portals && daylight_->crosses(ray, ray.tmax)) continue;
-    sum += glm::dvec3(daylight_->skyRadiance(glm::dvec3(d)));
-  }
-  return through + sum * (std::numbers::pi / kSamples);
-}
-
 double subdivisionShare(double shooter_irradiance, const glm::dvec3& radiosity,
                         const glm::dvec3& emission, const glm::dvec3& reflectance) {
   if (!(shooter_irradiance > 0.0)) return 0.0;
@@ -549,14 +518,9 @@ ProgressiveIteration ProgressiveRadiosity::shootLights() {
         irradiance = sum;
       },
       it);
-  // Black elements that stop all light arriving (reflectance 0, full coverage) take no part in
-  // the books of the sky and the sun: nothing they absorb on arrival enters the solve, and
-  // counting it as emitted would let a black facade or surround, lit over its whole area, make
-  // the unshot fraction of a room's own light look converged before it is shot (a sunlit room
-  // behind a 2 m window in a 204 m black facade stopped with its ceiling 9-16% dark).
-  const auto absorbsOnArrival = [&](size_t e) {
-    return surface_.reflectance[e] == glm::dvec3(0.0) && surface_.coverageOf(e) >= 1.0;
-  };
+  // Black elements that stop all light arriving take no part in the books of the sky, the
+  // environment and the sun (absorbsOnArrival, radiosity/outside_light.h).
+  const auto absorbs = [&](size_t e) { return absorbsOnArrival(surface_, e); };
   // A distant light (the sun) has no power of its own: the books take what it delivers to the
   // surfaces that take part instead of lightPower's pi r^2 E over the scene's bounding sphere,
   // most of which misses them. Its irradiance is gathered apart from the other lights' (the same
@@ -580,7 +544,7 @@ ProgressiveIteration ProgressiveRadiosity::shootLights() {
         surface_,
         receiverIrradiance(surface_, receivers_, distant, options_.visibility, share, traced));
     for (size_t e = 0; e < sun.size(); ++e) {
-      if (absorbsOnArrival(e)) continue;
+      if (absorbs(e)) continue;
       incident_[e] += sun[e];
       distant_delivered += sun[e] * surface_.atlas.element_area[e] * surface_.coverageOf(e);
     }
@@ -588,33 +552,23 @@ ProgressiveIteration ProgressiveRadiosity::shootLights() {
     balance_.unshot += distant_delivered - distant_nominal;
   }
   traced = share.sum(traced);
-  // The sky, element by element (the same on every rank: each element has its own stream); what
-  // it sends in is emitted now.
-  glm::dvec3 sky_power(0.0);
-  if (daylight_) {
-    std::vector<glm::dvec3> sky(incident_.size(), glm::dvec3(0.0));
-    std::atomic<uint64_t> sky_rays{0};
-    parallelRange(sky.size(), 256, [&](size_t begin, size_t end) {
-      uint64_t count = 0;
-      for (size_t e = begin; e < end; ++e) {
-        if (!absorbsOnArrival(e)) sky[e] = skyIrradianceAt(e, count);
-      }
-      sky_rays += count;
-    });
-    for (size_t e = 0; e < sky.size(); ++e) {
-      incident_[e] += sky[e];
-      sky_power += sky[e] * surface_.atlas.element_area[e] * surface_.coverageOf(e);
-    }
-    traced += sky_rays.load();
-    balance_.emitted += sky_power;
-    balance_.unshot += sky_power;
+  // The sky or the environment (radiosity/outside_light.h), element by element (the same on every
+  // rank: each element has its own stream); what it brings to the surfaces that take part is
+  // emitted now, as the sun's.
+  glm::dvec3 outside_power(0.0);
+  if (outside_) {
+    const std::vector<glm::dvec3> outside = outside_->irradiance(surface_, &traced);
+    for (size_t e = 0; e < outside.size(); ++e) incident_[e] += outside[e];
+    outside_power = arrivingPower(surface_, outside);
+    balance_.emitted += outside_power;
+    balance_.unshot += outside_power;
   }
   uint64_t probes = 0;
   glm::dvec3 scale(1.0);
-  it.closed = !daylight_ && shotClosed(kLights, &probes);
+  it.closed = !outside_ && shotClosed(kLights, &probes);
   if (it.closed) scale = closedScale(light_power_);
   lights_shot_ = true;
-  const glm::dvec3 shot = light_power_ - distant_nominal + distant_delivered + sky_power;
+  const glm::dvec3 shot = light_power_ - distant_nominal + distant_delivered + outside_power;
   const glm::dvec3 got = applyIncident(scale, 0, 0);
   balance_.unshot -= shot;
   balance_.escaped += shot - got;
@@ -1346,7 +1300,7 @@ Status ProgressiveRadiosity::setState(ProgressiveState state) {
   refreshShooterPowers();
   balance_ = state.balance;
   iterations_ = state.iterations;
-  lights_shot_ = state.lights_shot || lights_.empty();
+  lights_shot_ = state.lights_shot || (lights_.empty() && !outside_);
   return {};
 }
 
@@ -1358,8 +1312,9 @@ glm::dvec3 ProgressiveRadiosity::unshotPower() const {
 }
 
 double ProgressiveRadiosity::unshotFraction() const {
-  // Before the lights' iteration the sky's power is not known (it is found element by element as
-  // the lights are shot): all is unshot. A scene that emits nothing has nothing left to shoot.
+  // Before the lights' iteration the power of the sky or the environment is not known (it is
+  // found element by element as the lights are shot): all is unshot. A scene that emits nothing has
+  // nothing left to shoot.
   if (!lights_shot_) return 1.0;
   const double emitted = residualLuminance(balance_.emitted);
   return emitted > 0.0 ? residualLuminance(balance_.unshot) / emitted : 0.0;

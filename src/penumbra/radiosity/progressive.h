@@ -19,8 +19,10 @@
 //    shooter kLights): every element facing a light receives its irradiance, I cos / d^2 for
 //    a point or spot (with the glTF cone fall-off), E cos for a directional light, with a Ray
 //    Engine shadow ray; their power is booked as emitted (4 pi I for a point, the integral of
-//    the cone for a spot, E times the scene's bounding-sphere cross-section for a directional
-//    light).
+//    the cone for a spot). A directional light (the sun) has no power of its own: the books take
+//    what it delivers to the surfaces that take part. The sky or the uniform environment shoots
+//    in the same iteration, as direct irradiance at every element (radiosity/outside_light.h),
+//    and is booked the same way.
 //  - Shooting (eq. 1-2): the shooter's unshot radiosity reaches every receiver element r in
 //    front of it that faces it: dB_r += rho_r dB_s F_rs, B_r += the same; then dB_s = 0.
 //    Visibility: one Ray Engine shadow ray per (receiver, shooter point) pair, the rays of a
@@ -78,9 +80,9 @@
 #include "penumbra/core/timer.h"
 #include "penumbra/geometry/chart_atlas.h"
 #include "penumbra/geometry/surface_hierarchy.h"
+#include "penumbra/radiosity/outside_light.h"
 #include "penumbra/radiosity/progressive_receivers.h"
 #include "penumbra/radiosity/radiosity_surface.h"
-#include "penumbra/raytrace/daylight_gather.h"
 #include "penumbra/raytrace/ray_engine.h"
 #include "penumbra/scene/scene.h"
 
@@ -374,11 +376,10 @@ class ProgressiveRadiosity {
   std::vector<Light> lights_;
   bool lights_shot_ = true;
   glm::dvec3 light_power_{0.0};
-  // Daylight (scene/sky.h): shot with the lights, the sky's irradiance at every element sampled
-  // through the openings (raytrace/daylight_gather.h), or, without openings, found by cosine
-  // rays that leave the scene.
-  std::optional<OpeningLight> daylight_;
-  glm::dvec3 skyIrradianceAt(size_t element, uint64_t& rays) const;
+  // The sky (scene/sky.h) or the environment, shot with the lights: their irradiance at every
+  // element, through the openings and by cosine rays that leave the scene
+  // (radiosity/outside_light.h); what it brings is booked as emitted.
+  std::optional<OutsideLight> outside_;
   std::vector<ClusterRef> shooters_;
   ProgressiveReceivers receivers_;
   int receiver_level_ = 0;

@@ -353,7 +353,8 @@ void RadiositySurface::applyMaterials(std::span<const Material> materials) {
     const Material& m = materials[material[e]];
     const bool back = atlas.faces[atlas.element_face[e]].back;
     reflectance[e] = glm::dvec3(m.reflectance);
-    emission[e] = back ? glm::dvec3(0.0) : std::numbers::pi * glm::dvec3(m.emission);
+    // An unlit surface emits nothing into the solution (views show it, Material::unlit).
+    emission[e] = back || m.unlit ? glm::dvec3(0.0) : std::numbers::pi * glm::dvec3(m.emission);
     if (textured) {
       reflectance[e] *= texture_reflectance[e];
       emission[e] *= texture_emission[e];

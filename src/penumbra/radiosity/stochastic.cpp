@@ -6,6 +6,7 @@
 #include "penumbra/core/rng.h"
 #include "penumbra/core/timer.h"
 #include "penumbra/kernels/form_factor.h"
+#include "penumbra/radiosity/outside_light.h"
 #include "penumbra/radiosity/progressive.h"
 
 #include <fmt/format.h>
@@ -62,11 +63,14 @@ Expected<StochasticRadiosity> StochasticRadiosity::build(const Scene& scene,
     power += luminance(sr.shot_[e] + sr.source_[e]) * sr.surface_.atlas.element_area[e];
     sr.source_power_ += luminance(sr.source_[e]) * sr.surface_.atlas.element_area[e];
   }
-  if (!(power > 0.0)) {
-    return inputError(scene.source, place,
-                      "the scene emits no light that reaches a surface (no emissive surface, or "
-                      "lights that light nothing)");
+  // No light at all is refused as every method refuses it (scene/scene.h); light that reaches no
+  // surface (a lamp over nothing but cut-out holes) gives a black solution, as it does there.
+  double emitted = 0.0;
+  for (size_t e = 0; e < n; ++e) {
+    emitted += luminance(sr.surface_.emission[e]) * sr.surface_.atlas.element_area[e];
   }
+  if (!(emitted > 0.0) && !hasLightOtherThanSurfaces(scene)) return noLightError(scene, place);
+  sr.dark_ = !(power > 0.0);
   sr.b_ = sr.source_;
   // Burn-in: E[B_i] - B = -T^(i+1) B falls at least as fast as the largest reflectance's powers;
   // averaging from the iterate where that is below 1e-3 leaves a bias under 1e-3 / (1 - rho).
@@ -197,13 +201,25 @@ void StochasticRadiosity::buildLocal() {
       }
       // Hidden pairs dropped; counts per receiver.
       counts[b].assign(end - begin, 0);
+      std::vector<double> row(end - begin, 0.0);
       size_t kept = 0;
       for (size_t k = 0; k < out.size(); ++k) {
         if (out[k].factor == 0.0f) continue;
+        row[owner[k] - begin] += out[k].factor;
         out[kept++] = out[k];
         ++counts[b][owner[k] - begin];
       }
       out.resize(kept);
+      // The form factors from a point to what it sees sum to at most 1 (its hemisphere). A point
+      // in contact with a surface (a column standing on the floor, its base's cap on the floor;
+      // the same cap modelled twice) sees each overlapping polygon fill its hemisphere, and the
+      // one visibility ray to each centre does not separate them: such a row is scaled back to
+      // 1, or the iteration's operator has a norm above 1 and B_m grows without bound.
+      size_t k = 0;
+      for (size_t i = 0; i < row.size(); ++i) {
+        const float scale = row[i] > 1.0 ? float(1.0 / row[i]) : 1.0f;
+        for (uint32_t c = 0; c < counts[b][i]; ++c) out[k++].factor *= scale;
+      }
     }
   });
   local_first_.assign(n + 1, 0);
@@ -222,7 +238,8 @@ void StochasticRadiosity::buildLocal() {
 }
 
 Status StochasticRadiosity::buildSource(const Scene& scene) {
-  // E' = E + rho E_direct: the lights' direct light reflected once, deterministic.
+  // E' = E + rho (E_direct + S): the lights' direct light and the sky's or the environment's
+  // (radiosity/outside_light.h) reflected once, deterministic.
   const size_t n = surface_.elementCount();
   source_ = surface_.emission;
   shot_.assign(n, glm::dvec3(0.0));
@@ -230,6 +247,10 @@ Status StochasticRadiosity::buildSource(const Scene& scene) {
     const std::vector<glm::dvec3> direct =
         surface_.lightIrradiance(scene.lights, options_.visibility);
     for (size_t e = 0; e < n; ++e) source_[e] += surface_.reflectance[e] * direct[e];
+  }
+  if (const OutsideLight outside(scene); outside.active()) {
+    const std::vector<glm::dvec3> s = outside.irradiance(surface_);
+    for (size_t e = 0; e < n; ++e) source_[e] += surface_.reflectance[e] * s[e];
   }
   return {};
 }
@@ -408,6 +429,7 @@ StochasticIteration StochasticRadiosity::step() {
   StochasticIteration it;
   it.iteration = ++iterations_;
   it.power = total_;
+  if (dark_) return it;  // nothing to shoot: the solution stays black
   // B_m = E' + T* B_{m-1}: the shooters chosen from B_{m-1} (its sums are current).
   // B_m = E' + L B_{m-1} (the local operator, deterministic) + R* B_{m-1}.
   std::vector<glm::dvec3> next(source_.size());

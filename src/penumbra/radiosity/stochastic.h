@@ -17,8 +17,11 @@
 //    the power, spread over the scene, instead of picking one texel of a lamp at a time.
 //    With first_shots = 0 (the paper's scheme) E' is the surfaces' own emission plus what they
 //    reflect of the point, spot, directional and luminaire lights' direct irradiance (rho
-//    E_direct, with Ray Engine shadow rays), and the emitters' light enters by the random
-//    operator, one texel a shot.
+//    E_direct, with Ray Engine shadow rays) and of the sky's or the environment's (rho S,
+//    radiosity/outside_light.h), and the emitters' light enters by the random operator, one
+//    texel a shot. With first shots, the sky and the environment shoot with the lights, as
+//    progressive radiosity shoots them (booked as emitted: the first shots' stopping fraction
+//    counts them).
 //  - The random operator (eq. 3, perspective ray-bundle shooting): a texel j of B_{m-1} is
 //    chosen with probability P_j = lum(B_j) A_j / Phi, Phi = sum_i lum(B_i) A_i (lum: 0.3 R +
 //    0.59 G + 0.11 B, sec. 3.1), and sends its radiosity to every element r that faces it:
@@ -201,6 +204,7 @@ class StochasticRadiosity {
   std::vector<glm::dvec3> b_;       // the current iterate
   std::vector<glm::dvec3> sum_[2];  // iterates summed by the parity of their number
   int iterations_ = 0;
+  bool dark_ = false;  // no light reaches a surface: every iteration leaves the solution black
   int burn_in_ = 0;
   // Per hierarchy level, per cluster: sum of lum(B) A over its elements (the mipmap of sec. 3.1).
   std::vector<std::vector<double>> level_sums_;

@@ -109,6 +109,7 @@ class TexelTracer {
   glm::dvec3 emittedAt(size_t e, const Hit& hit) const {
     if (surface_.atlas.faces[surface_.atlas.element_face[e]].back) return glm::dvec3(0.0);
     const uint32_t tri = uint32_t(hit.triangle);
+    if (scene_.materials[surface_.flat.material_ids[tri]].unlit) return glm::dvec3(0.0);
     if (surface_.textures) return glm::dvec3(surface_.textures->emission(tri, {hit.u, hit.v}));
     return glm::dvec3(scene_.materials[surface_.flat.material_ids[tri]].emission);
   }

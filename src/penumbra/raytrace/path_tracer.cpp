@@ -267,7 +267,8 @@ int PathTracer::shade(PathState& s, const Hit& hit, const PathTracerSettings& se
 
   // Emission reached by BSDF sampling (or seen directly), MIS-weighted against the emitter
   // sample taken at the previous vertex; with full weight after a vertex that took none.
-  if (mat.isEmissive() && cos_front > 0.0f) {
+  // An unlit surface shows its colour to the camera only (Material::unlit).
+  if (mat.isEmissive() && cos_front > 0.0f && (!mat.unlit || s.depth == 0)) {
     float w = 1.0f;
     if (!s.specular && s.prev_pdf > 0.0f && geometry_.emitter_pick_pdf[tri] > 0.0f) {
       const glm::vec3 d = p - s.prev_point;

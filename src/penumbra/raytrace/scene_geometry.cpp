@@ -45,7 +45,8 @@ SceneGeometry SceneGeometry::build(const Scene& scene) {
   std::vector<double> power;
   for (size_t i = 0; i < nt; ++i) {
     const Material& m = g.materials[g.material_ids[i]];
-    if (m.isEmissive() && g.areas[i] > 0.0f) {
+    // An unlit surface's emission is what the camera sees of it, not light (Material::unlit).
+    if (m.isEmissive() && !m.unlit && g.areas[i] > 0.0f) {
       // A textured or cut-out emitter by its mean emission over the triangle.
       const bool varies = g.textures->varies(uint32_t(i)) || g.textures->isCutout(uint32_t(i));
       const glm::vec3 le =

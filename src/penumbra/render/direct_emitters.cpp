@@ -35,7 +35,7 @@ AreaEmitters::AreaEmitters(const Scene& scene, const FlatTriangles& flat) {
   std::vector<uint32_t> ids;
   for (size_t t = 0; t < flat.triangles.size(); ++t) {
     const Material& m = scene.materials[flat.material_ids[t]];
-    if (!m.isEmissive() || m.emission_texture || m.coverage_texture) continue;
+    if (!m.isEmissive() || m.unlit || m.emission_texture || m.coverage_texture) continue;
     const glm::uvec3 tri = flat.triangles[t];
     Emitter e;
     e.a = glm::dvec3(flat.positions[tri.x]);

@@ -95,6 +95,14 @@ struct Material {
   AlphaMode alpha_mode = AlphaMode::kOpaque;
   float alpha_cutoff = 0.5f;  // kMask: covered where alpha >= alpha_cutoff
 
+  // An unlit surface (glTF KHR_materials_unlit): seen by the camera in its own colour whatever
+  // light falls on it, and outside the light transport. The reader puts that colour in
+  // `emission` and `emission_texture` and makes `reflectance` black: every method's view shows
+  // the emission at a camera hit, while light sampling, radiosity's emission and the path
+  // tracer's later bounces leave an unlit surface's out. It reflects nothing and blocks light as
+  // any surface does.
+  bool unlit = false;
+
   Scattering scattering = Scattering::kDiffuse;
   glm::vec3 specular{1.0f};  // mirror reflectance, or glass transmittance (see Scattering)
   float ior = 1.5f;          // glass: index of refraction relative to the outside

@@ -39,7 +39,8 @@ struct Mesh {
   // order). -1 for meshes from other sources. Triangle i is the primitive's i-th triangle
   // (strips and fans expanded as glTF 2.0 sec. 3.7.2.1 says), so a writer can add an attribute
   // to the file's own primitive (io/gltf_lightmapped.h).
-  int gltf_node = -1, gltf_mesh = -1, gltf_primitive = -1;
+  // `gltf_instance`: the copy of an EXT_mesh_gpu_instancing node (-1 for a node without it).
+  int gltf_node = -1, gltf_mesh = -1, gltf_primitive = -1, gltf_instance = -1;
   bool gltf_mirrored = false;
 
   size_t triangleCount() const { return triangles.size(); }

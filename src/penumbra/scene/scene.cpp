@@ -146,9 +146,10 @@ Status checkCoverage(const Scene& scene, const Material& m, const std::string& p
   if (!(m.alpha >= 0.0f && m.alpha <= 1.0f)) {
     return inputError(scene.source, place, fmt::format("alpha {} is outside [0, 1]", m.alpha));
   }
-  if (!(m.alpha_cutoff >= 0.0f && m.alpha_cutoff <= 1.0f)) {
+  // glTF 2.0 gives alphaCutoff a minimum of 0 and no maximum: above 1 nothing is covered.
+  if (!(m.alpha_cutoff >= 0.0f && std::isfinite(m.alpha_cutoff))) {
     return inputError(scene.source, place,
-                      fmt::format("alpha cutoff {} is outside [0, 1]", m.alpha_cutoff));
+                      fmt::format("alpha cutoff {} is not a finite number >= 0", m.alpha_cutoff));
   }
   for (const auto* binding : {&m.reflectance_texture, &m.emission_texture, &m.coverage_texture}) {
     if (!*binding) continue;
@@ -366,15 +367,53 @@ std::vector<std::string> diffuseStandInWarnings(const Scene& scene, const std::s
         method, m.reflectance.x, m.reflectance.y, m.reflectance.z, mirror ? "" : ", opaque",
         mirror ? "reflections" : "reflections and refractions"));
   }
-  // The sky (scene/sky.h) is taken by progressive radiosity and the path tracer only.
-  if (scene.sky && method != "progressive" && method != "pathtrace") {
+  // The sky (scene/sky.h) is taken by the three radiosity methods and the path tracer.
+  if (scene.sky && method != "progressive" && method != "pathtrace" && method != "matrix" &&
+      method != "stochastic") {
     out.push_back(
         fmt::format("{}: --method {} does not take the sky yet: only its sun's beam, "
-                    "if given, lights the scene (progressive and pathtrace take the "
-                    "sky, and so do the calculation points of matrix renders)",
+                    "if given, lights the scene (pathtrace, matrix, progressive and "
+                    "stochastic take the sky)",
                     scene.source, method));
   }
   return out;
+}
+
+bool hasLightOtherThanSurfaces(const Scene& scene) {
+  return !scene.lights.empty() || scene.sky.has_value() || scene.environment.x > 0.0f ||
+         scene.environment.y > 0.0f || scene.environment.z > 0.0f;
+}
+
+Error noLightError(const Scene& scene, const std::string& method) {
+  return inputError(scene.source, method,
+                    "the scene emits no light (no light, no emitting surface that is there, no "
+                    "sky and no environment): light it with --sky overcast or --environment "
+                    "1,1,1, or add lights");
+}
+
+void scaleScene(Scene& scene, double s) {
+  const float f = float(s);
+  for (Mesh& m : scene.meshes) {
+    for (glm::vec3& p : m.positions) p *= f;
+  }
+  for (Light& light : scene.lights) {
+    std::visit(
+        Overloaded{[&](PointLight& l) { l.position *= f; }, [&](SpotLight& l) { l.position *= f; },
+                   [&](DirectionalLight&) {}, [&](LuminaireLight& l) { l.position *= f; }},
+        light);
+  }
+  if (scene.camera) {
+    scene.camera->position *= f;
+    scene.camera->look_at *= f;
+  }
+  for (Opening& o : scene.openings) {
+    for (glm::dvec3& c : o.corners) c *= s;
+  }
+  for (CalculationGrid& g : scene.calculation) {
+    for (glm::dvec3& p : g.points) p *= s;
+    g.spacing *= s;
+    for (double& a : g.areas) a *= s * s;
+  }
 }
 
 Camera defaultCamera(const Scene& scene) {
@@ -391,7 +430,7 @@ Camera defaultCamera(const Scene& scene) {
   const float radius = 0.5f * glm::length(hi - lo);
   const float distance = radius / std::tan(0.5f * cam.vertical_fov) + 1e-3f;
   cam.look_at = center;
-  cam.position = center - glm::vec3(0.0f, 0.0f, distance);
+  cam.position = center + glm::vec3(0.0f, 0.0f, distance);
   cam.up = glm::vec3(0.0f, 1.0f, 0.0f);
   return cam;
 }

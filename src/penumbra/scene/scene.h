@@ -25,8 +25,8 @@ struct Scene {
   std::optional<Camera> camera;
   // Uniform environment: the radiance (W m^-2 sr^-1, RGB, finite and non-negative) arriving from
   // every direction the scene does not block, as from an infinitely distant sphere around it.
-  // Zero (none) by default. The path tracer gathers it on rays that leave the scene; it is what
-  // furnace and albedo tests light a scene with.
+  // Zero (none) by default. The path tracer gathers it on rays that leave the scene, radiosity at
+  // its elements (radiosity/outside_light.h); furnace and albedo tests light a scene with it.
   glm::vec3 environment{0.0f};
   // Per-method settings from the scene file ("settings": {"pathtrace": {...}}), applied before
   // command-line options, which win.
@@ -96,7 +96,21 @@ glm::vec3 diffuseStandIn(const Material& m);
 // when there is nothing to say.
 std::vector<std::string> diffuseStandInWarnings(const Scene& scene, const std::string& method);
 
-// A camera that frames the scene's bounding box from the front (-z looking +z) when it has none.
+// Whether light enters the scene from somewhere other than its surfaces: a light, a sky or a
+// uniform environment.
+bool hasLightOtherThanSurfaces(const Scene& scene);
+// The error every method gives a scene that emits no light at all (no light, sky or environment,
+// and no emitting surface that is there: a cut-out emitter whose texels are all holes emits
+// nothing), naming `method`.
+Error noLightError(const Scene& scene, const std::string& method);
+
+// Every length of `scene` (geometry, light positions, the camera, openings, calculation objects)
+// times `metres_per_unit`: a scene read in another unit than the metre, in metres.
+void scaleScene(Scene& scene, double metres_per_unit);
+
+// A camera that frames the scene's bounding box from the front when it has none: from +z looking
+// down -z with +y up, where glTF 2.0 (sec. 3.4), OBJ files from Blender and the Stanford scans put
+// a model's front, as glTF viewers frame it.
 Camera defaultCamera(const Scene& scene);
 
 }  // namespace penumbra
