@@ -1174,7 +1174,7 @@ uint64_t plannedSceneBytes(std::span<const ImagePlan> plans) {
   uint64_t kept = 0, transient = 0;
   for (const ImagePlan& p : plans) {
     kept += p.texture_bytes;
-    transient = std::max(transient, p.peak_bytes - p.texture_bytes);
+    transient = std::max(transient, p.peak_bytes - std::min(p.peak_bytes, p.texture_bytes));
   }
   return kept + transient;
 }
@@ -1878,12 +1878,6 @@ Expected<TextureTexels> decodeTextureImage(const std::string& name, std::string_
   } catch (const std::bad_alloc&) {
     return outOfMemory(name);
   }
-}
-
-Expected<TextureTexels> readTextureImage(const std::string& path, const ImageLimits& limits) {
-  Expected<std::string> bytes = readFile(path);
-  if (!bytes) return bytes.error();
-  return decodeTextureImage(path, *bytes, limits);
 }
 
 Expected<Image> decodeDataImage(const std::string& name, std::string_view bytes,

@@ -10,7 +10,9 @@
 //
 // Size limit. An image wider or taller than ImageLimits::max_size is reduced, not refused: by the
 // smallest power of two that brings both sides within the limit, each texel the mean of the
-// texels it covers (a box filter, as a mip level). A scene's textures are averaged over surface
+// stored (sRGB-encoded) values it covers, as JPEG's DCT scaling and libwebp's scaler give them (a
+// mip level averages in linear light instead: on detail finer than the reduction, a black and
+// white checker gives code 128, 0.22 linear, not 0.5). A scene's textures are averaged over surface
 // elements and filtered by a mip pyramid, so detail finer than 1/8192 of a texture is not seen;
 // refusing would make valid assets (16K photo-scanned textures) unusable. The reduction never
 // holds the full image where the decoder allows it: JPEG decodes at 1/2, 1/4 or 1/8 scale in the
@@ -121,7 +123,6 @@ struct TextureTexels {
 // `name` for messages. Memory is checked (core/memory.h) against planImage before allocating.
 Expected<TextureTexels> decodeTextureImage(const std::string& name, std::string_view bytes,
                                            const ImageLimits& limits = {});
-Expected<TextureTexels> readTextureImage(const std::string& path, const ImageLimits& limits = {});
 
 // A data image (normal map): any format above, values as stored scaled to [0, 1] (alpha dropped),
 // no sRGB decoding. The second form appends what the caller should warn about to `warnings`.

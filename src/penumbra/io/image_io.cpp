@@ -581,18 +581,10 @@ Expected<std::string> encodePng8(int width, int height, std::span<const uint8_t>
 Status writePng8(const std::string& path, int width, int height, std::span<const uint8_t> rgb,
                  int channels) {
   if (extensionOf(path) != ".png") return unsupportedFormat(path);
-  if (width < 1 || height < 1 || (channels != 3 && channels != 4) ||
-      rgb.size() != size_t(width) * size_t(height) * size_t(channels)) {
-    return runtimeError(path, "cannot write PNG file: the pixels do not fill the image");
-  }
-  return writeAtomically(path, [&](const std::string& tmp) -> Status {
-    std::string bytes;
-    if (!stbi_write_png_to_func(appendToString, &bytes, width, height, channels, rgb.data(),
-                                width * channels)) {
-      return runtimeError(path, "cannot encode a PNG file");
-    }
-    return writeBytesTo(path, tmp, bytes);
-  });
+  Expected<std::string> bytes = encodePng8(width, height, rgb, channels);
+  if (!bytes) return runtimeError(path, bytes.error().message);
+  return writeAtomically(path,
+                         [&](const std::string& tmp) { return writeBytesTo(path, tmp, *bytes); });
 }
 
 bool isSupportedImageExtension(const std::string& path) {

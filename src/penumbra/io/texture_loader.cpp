@@ -51,21 +51,25 @@ Status TextureCache::plan(const std::string& name, std::string_view bytes, Textu
   p.header = *header;
   p.plan = kind == TextureKind::kNormalMap ? planDataImage(*header, options_.limits)
                                            : planImage(*header, options_.limits);
-  // Every texture kept, and the largest transient of any one decode (io/image_decode.h).
-  planned_bytes_ += p.plan.texture_bytes;
-  peak_bytes_ =
-      std::max(peak_bytes_, p.plan.peak_bytes - std::min(p.plan.peak_bytes, p.plan.texture_bytes));
   planned_.emplace(key, std::move(p));
   return {};
 }
 
 Status TextureCache::checkPlan(const std::string& scene_file) {
   if (planned_.empty()) return {};
-  return checkMemory(file_bytes_ + planned_bytes_ + peak_bytes_,
-                     fmt::format("{}: the {} textures the materials use ({} decoded, {} while "
-                                 "decoding the largest)",
-                                 scene_file, planned_.size(), formatBytes(planned_bytes_),
-                                 formatBytes(peak_bytes_)));
+  // Every texture kept, and the largest transient of any one decode (plannedSceneBytes).
+  std::vector<ImagePlan> plans;
+  uint64_t kept = 0;
+  for (const auto& [key, p] : planned_) {
+    plans.push_back(p.plan);
+    kept += p.plan.texture_bytes;
+  }
+  const uint64_t total = plannedSceneBytes(plans);
+  return checkMemory(
+      file_bytes_ + total,
+      fmt::format("{}: the {} textures the materials use ({} decoded, {} while "
+                  "decoding the largest)",
+                  scene_file, planned_.size(), formatBytes(kept), formatBytes(total - kept)));
 }
 
 Expected<TextureCache::Planned*> TextureCache::planned(const std::string& name, TextureKind kind,

@@ -70,8 +70,6 @@ class TextureCache {
 
   // Warnings about what was planned or decoded (images reduced to the size limit).
   const std::vector<std::string>& warnings() const { return warnings_; }
-  // Bytes the planned textures take (for `info` and tests).
-  uint64_t plannedBytes() const { return planned_bytes_; }
 
  private:
   struct Planned {
@@ -88,7 +86,7 @@ class TextureCache {
   TextureOptions options_;
   std::map<Key, Planned> planned_;
   std::map<std::string, std::unique_ptr<std::string>> files_;  // bytes read by planFile
-  uint64_t planned_bytes_ = 0, peak_bytes_ = 0, file_bytes_ = 0;
+  uint64_t file_bytes_ = 0;
   std::vector<std::string> warnings_;
 };
 
