@@ -156,6 +156,83 @@ TEST(GltfLightmapped, InstancesStripsAndSharedMaterialsGetTheirOwnLightmapUvs) {
   EXPECT_EQ(back->materials[0].reflectance, scene->materials[0].reflectance);
 }
 
+// A mesh under a plain node and under an EXT_mesh_gpu_instancing node of one copy: the copy
+// gets its own node and mesh in the lightmapped asset, as any instanced copy does, and each
+// triangle reads back where it was with its own lightmap UVs (a single copy was once left on its
+// node, so the baked asset drew it twice, with the plain node's UVs).
+TEST(GltfLightmapped, ASingleGpuInstanceIsItsOwnCopy) {
+  TempDir dir;
+  std::string bin;
+  test::appendBytes<float>(bin, {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0});  // positions, 0
+  test::appendBytes<float>(bin, {0, 0, 1, 0, 1, 1, 0, 1});              // uv, 48
+  test::appendBytes<uint16_t>(bin, {0, 1, 2, 0, 2, 3});                 // indices, 80
+  test::appendBytes<uint16_t>(bin, {0, 0});                             // padding, 92
+  test::appendBytes<float>(bin, {3, 0, 0});                             // translation, 96
+  const json doc = {
+      {"asset", {{"version", "2.0"}}},
+      {"extensionsUsed", {"EXT_mesh_gpu_instancing"}},
+      {"scenes", {{{"nodes", {0, 1}}}}},
+      {"nodes",
+       {{{"mesh", 0}, {"name", "plain"}},
+        {{"mesh", 0},
+         {"name", "one copy"},
+         {"extensions", {{"EXT_mesh_gpu_instancing", {{"attributes", {{"TRANSLATION", 3}}}}}}}}}},
+      {"meshes",
+       {{{"primitives",
+          {{{"attributes", {{"POSITION", 0}, {"TEXCOORD_0", 1}}}, {"indices", 2}}}}}}},
+      {"accessors",
+       {{{"bufferView", 0},
+         {"componentType", 5126},
+         {"count", 4},
+         {"type", "VEC3"},
+         {"min", {0, 0, 0}},
+         {"max", {1, 1, 0}}},
+        {{"bufferView", 1}, {"componentType", 5126}, {"count", 4}, {"type", "VEC2"}},
+        {{"bufferView", 2}, {"componentType", 5123}, {"count", 6}, {"type", "SCALAR"}},
+        {{"bufferView", 3}, {"componentType", 5126}, {"count", 1}, {"type", "VEC3"}}}},
+      {"bufferViews",
+       {{{"buffer", 0}, {"byteOffset", 0}, {"byteLength", 48}},
+        {{"buffer", 0}, {"byteOffset", 48}, {"byteLength", 32}},
+        {{"buffer", 0}, {"byteOffset", 80}, {"byteLength", 12}},
+        {{"buffer", 0}, {"byteOffset", 96}, {"byteLength", 12}}}},
+      {"buffers",
+       {{{"byteLength", bin.size()},
+         {"uri", "data:application/octet-stream;base64," + base64(bin)}}}}};
+  const std::string path = dir.write("one.gltf", doc.dump());
+  Expected<Scene> scene = loadScene(path);
+  ASSERT_TRUE(scene.ok()) << scene.error().describe();
+  ASSERT_EQ(scene->triangleCount(), 4u);
+  const std::vector<GltfTriangleSource> sources = gltfTriangleSources(*scene);
+  std::vector<TriangleLightmapUvs> uvs(sources.size());
+  for (size_t t = 0; t < uvs.size(); ++t) {
+    for (int k = 0; k < 3; ++k) uvs[t].uv[k] = glm::vec2(0.1f * float(t) + 0.01f * float(k), 0.5f);
+  }
+  Expected<GltfDocument> plain = readGltfDocument(path);
+  ASSERT_TRUE(plain.ok()) << plain.error().describe();
+  const std::string out = (dir.path() / "out.gltf").string();
+  ASSERT_TRUE(writeLightmappedGltf(std::move(*plain), sources, uvs,
+                                   LightmapReference{"lm.png", "lm.exr", 2.5, 8, 8}, {}, out,
+                                   "out.bin")
+                  .ok());
+  Expected<Scene> back = loadScene(out);
+  ASSERT_TRUE(back.ok()) << back.error().describe();
+  ASSERT_EQ(back->triangleCount(), 4u);  // not drawn twice
+  ASSERT_EQ(back->meshes.size(), scene->meshes.size());
+  size_t t = 0;
+  for (size_t m = 0; m < back->meshes.size(); ++m) {
+    const Mesh& a = scene->meshes[m];
+    const Mesh& b = back->meshes[m];
+    const std::vector<glm::vec2>& lightmap_uv = b.uvSet(1);
+    ASSERT_EQ(lightmap_uv.size(), b.positions.size()) << m;
+    for (size_t i = 0; i < a.triangles.size(); ++i, ++t) {
+      for (int k = 0; k < 3; ++k) {
+        EXPECT_EQ(a.positions[a.triangles[i][k]], b.positions[b.triangles[i][k]]);
+        EXPECT_EQ(lightmap_uv[b.triangles[i][k]], uvs[t].uv[k]) << m << " " << i << " " << k;
+      }
+    }
+  }
+}
+
 // A sparse accessor under a lightmapped primitive is written out densely (io/gltf/gltf_plain.cpp):
 // its values with the substitution made, the primitive's vertices split as any other attribute.
 TEST(GltfLightmapped, SparseAccessorsUnderALightmappedPrimitiveAreWrittenDensely) {

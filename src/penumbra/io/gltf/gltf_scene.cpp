@@ -506,7 +506,9 @@ Status GltfSceneReader::addPrimitive(size_t n, int64_t mesh_index, size_t p,
     ++skipped_primitives_;
     return {};
   }
-  const bool own = node.contains("skin") || node.contains("weights");
+  // A primitive is read once per mesh; a node's own morph weights give it its own reading (a
+  // skin does not: placeMesh poses the shared reading).
+  const bool own = node.contains("weights");
   PrimitiveData local;
   const PrimitiveData* d = nullptr;
   auto cached = shared_.find({mesh_index, p});
@@ -574,7 +576,10 @@ Status GltfSceneReader::addPrimitive(size_t n, int64_t mesh_index, size_t p,
     mesh.gltf_node = int(n);
     mesh.gltf_mesh = int(mesh_index);
     mesh.gltf_primitive = int(p);
-    mesh.gltf_instance = placements.size() > 1 || k > 0 ? int(k) : -1;
+    // Every copy of an instancing node, a single one included: the plain document
+    // (gltf_plain.h) gives each its own child node.
+    mesh.gltf_instance =
+        member(member(node, "extensions"), "EXT_mesh_gpu_instancing").is_object() ? int(k) : -1;
     mesh.gltf_mirrored = mirrored;
     if (mesh.triangles.empty()) {
       scene_.warnings.push_back(fmt::format("{}: {}: no triangles", path(), where));
