@@ -95,7 +95,12 @@ TEST(AssetFiles, PercentDecodingIsRfc3986AndPlusIsAPlus) {
   EXPECT_EQ(*d, "a b+c+d%");
   EXPECT_FALSE(percentDecode("bad%2", "f", "p").ok());
   EXPECT_FALSE(percentDecode("bad%zz", "f", "p").ok());
-  EXPECT_FALSE(percentDecode("nul%00", "f", "p").ok());
+  // A NUL decodes (it is data in a data URI); a file name holding one is refused.
+  Expected<std::string> nul = percentDecode("nul%00", "f", "p");
+  ASSERT_TRUE(nul.ok());
+  EXPECT_EQ(*nul, std::string("nul\0", 4));
+  EXPECT_TRUE(test::errorNames(resolveAssetFile("f.gltf", "nul%00.png", true, {}, "images[0]"),
+                               "f.gltf", "NUL"));
   EXPECT_EQ(percentEncodePath("room #1/a+b?.png"), "room%20%231/a%2Bb%3F.png");
   // What is encoded reads back as itself.
   Expected<std::string> back = percentDecode(percentEncodePath("x %+#?\\\xc3\xa9.png"), "f", "p");
@@ -114,6 +119,12 @@ TEST(AssetFiles, DataUrisDecodeAndLiesAreRefused) {
   Expected<DataUri> plain = decodeDataUri("data:,a%20b", 100, "f", "p");
   ASSERT_TRUE(plain.ok());
   EXPECT_EQ(plain->bytes, "a b");
+  // Percent-encoded bytes are measured decoded: 3 bytes in 9 characters fit a limit of 3, NULs
+  // included; 4 do not.
+  Expected<DataUri> bytes = decodeDataUri("data:,%00%01%FF", 3, "f", "p");
+  ASSERT_TRUE(bytes.ok()) << bytes.error().describe();
+  EXPECT_EQ(bytes->bytes, std::string("\0\1\xff", 3));
+  EXPECT_FALSE(decodeDataUri("data:,%41%42%43%44", 3, "f", "p").ok());
 }
 
 TEST(GltfFiles, UrisResolveInTheAssetsFolderPercentDecoded) {

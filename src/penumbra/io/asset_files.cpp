@@ -114,9 +114,8 @@ Expected<std::string> percentDecode(std::string_view uri, const std::string& fil
                                     "digits (write a percent sign as %25)",
                                     uri, i));
     }
-    const char c = static_cast<char>(hi * 16 + lo);
-    if (c == '\0') return inputError(file, place, fmt::format("uri '{}' encodes a NUL byte", uri));
-    out.push_back(c);
+    // A NUL is data in a data URI; in a file name resolveAssetFile refuses it.
+    out.push_back(static_cast<char>(hi * 16 + lo));
     i += 2;
   }
   return out;
@@ -161,22 +160,25 @@ Expected<DataUri> decodeDataUri(std::string_view uri, uint64_t max_bytes, const 
     std::string_view params = std::string_view(header).substr(semicolon);
     base64 = params.size() >= 7 && params.substr(params.size() - 7) == ";base64";
   }
-  // What the data decodes to, from its length (base64: 3 bytes per 4 digits, padding aside).
-  size_t digits = data.size();
-  while (base64 && digits > 0 && data[digits - 1] == '=') --digits;
-  const uint64_t decoded = base64 ? uint64_t(digits) * 3 / 4 : uint64_t(data.size());
-  if (decoded > max_bytes) {
+  const auto tooLarge = [&](uint64_t bytes) {
     return inputError(file, place,
                       fmt::format("the data URI holds about {} bytes, more than the {} it should",
-                                  decoded, max_bytes));
-  }
+                                  bytes, max_bytes));
+  };
   if (base64) {
+    // What the data decodes to, from its length (3 bytes per 4 digits, padding aside), before
+    // any is decoded.
+    size_t digits = data.size();
+    while (digits > 0 && data[digits - 1] == '=') --digits;
+    if (uint64_t(digits) * 3 / 4 > max_bytes) return tooLarge(uint64_t(digits) * 3 / 4);
     Expected<std::string> bytes = decodeBase64(data, file, place);
     if (!bytes) return bytes.error();
     out.bytes = std::move(*bytes);
   } else {
+    // Percent-encoded data decodes to at most its own length (held already): measured after.
     Expected<std::string> bytes = percentDecode(data, file, place);
     if (!bytes) return bytes.error();
+    if (bytes->size() > max_bytes) return tooLarge(bytes->size());
     out.bytes = std::move(*bytes);
   }
   return out;
