@@ -135,8 +135,9 @@ TEST(BakeFiles, NamesAreEncodedTheWebDirectoryIsMadeAndNoPathOfTheMachineIsPubli
 
 // A checkpoint's fingerprint (radiosity/checkpoint_io.h) holds what textures, vertex colours and
 // cut-outs make of every element: a texture or an alpha mode changed since the checkpoint was
-// written gives another fingerprint, so --resume refuses it ("another scene").
-TEST(BakeFiles, ACheckpointDoesNotResumeOntoChangedTexturesOrAlpha) {
+// written gives another fingerprint, so --resume refuses it ("another scene"); so does another
+// sky or environment.
+TEST(BakeFiles, ACheckpointDoesNotResumeOntoChangedTexturesAlphaOrOutsideLight) {
   TempDir dir;
   const fs::path scene = objScene(dir.path() / "in", "card");
   auto fingerprint = [&]() {
@@ -166,6 +167,21 @@ TEST(BakeFiles, ACheckpointDoesNotResumeOntoChangedTexturesOrAlpha) {
   ASSERT_TRUE(again.ok());
   EXPECT_NE(radiosityFingerprint(blended, *surface, true),
             radiosityFingerprint(loaded, *again, true));
+  // The light from outside (--environment, --sky): another environment, a sky, another sky.
+  const uint64_t dark = radiosityFingerprint(loaded, *again, true);
+  Scene lit = loaded;
+  lit.environment = glm::vec3(1.0f);
+  EXPECT_NE(radiosityFingerprint(lit, *again, true), dark);
+  Scene overcast = loaded;
+  overcast.sky = Sky{};
+  overcast.sky->zenith_luminance = 3000.0;
+  overcast.sky->prepare();
+  EXPECT_NE(radiosityFingerprint(overcast, *again, true), dark);
+  Scene clear = overcast;
+  clear.sky->type = 12;
+  clear.sky->prepare();
+  EXPECT_NE(radiosityFingerprint(clear, *again, true),
+            radiosityFingerprint(overcast, *again, true));
 }
 
 TEST(BakeFiles, ASceneOfNothingButHolesIsRefusedAlikeByEveryMethod) {

@@ -58,6 +58,27 @@ uint64_t radiosityFingerprint(const Scene& scene, const RadiositySurface& surfac
     h.addValue(uint32_t(light.index()));
     std::visit([&](const auto& l) { h.addValue(l); }, light);
   }
+  // The light from outside (radiosity/outside_light.h): a checkpoint solved under one sky or
+  // environment must not resume under another (--sky and --environment change them).
+  h.addValue(scene.environment);
+  h.addValue(uint8_t(scene.sky ? 1 : 0));
+  if (scene.sky) {
+    const Sky& sky = *scene.sky;
+    h.addValue(sky.type);
+    h.addValue(sky.zenith_luminance);
+    h.addValue(sky.sun_elevation_deg);
+    h.addValue(sky.sun_azimuth_deg);
+    h.addValue(sky.ground_reflectance);
+    h.addValue(sky.sun_illuminance);
+    h.addValue(sky.north);
+  }
+  for (const Opening& o : scene.openings) {
+    add_all(o.corners);
+    h.addValue(uint8_t(o.glazed ? 1 : 0));
+    h.addValue(o.transmittance);
+    h.addValue(o.ior);
+    h.addValue(uint8_t(o.falloff));
+  }
   h.addValue(surface.atlas.width);
   h.addValue(surface.atlas.height);
   h.addValue(uint64_t(surface.elementCount()));
