@@ -355,12 +355,12 @@ function useFileCamera() {
   return true;
 }
 
-// Without a camera in the file: the bounding box's whole sphere in view, from -z, as Penumbra's
-// own default camera sees a scene.
+// Without a camera in the file: the bounding box's whole sphere in view, from +z (the front of a
+// glTF model), as Penumbra's own default camera sees a scene.
 function frameBounds() {
   const view = new THREE.PerspectiveCamera(45, aspect(), 0.01, 100);
   const distance = boundingSphere.radius / Math.sin(THREE.MathUtils.degToRad(view.fov / 2));
-  view.position.copy(boundingSphere.center).add(new THREE.Vector3(0, 0, -distance));
+  view.position.copy(boundingSphere.center).add(new THREE.Vector3(0, 0, distance));
   view.near = Math.max(distance - boundingSphere.radius, distance * 1e-3) * 0.5;
   view.updateProjectionMatrix();
   fitFar = true;
