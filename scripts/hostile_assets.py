@@ -3470,6 +3470,11 @@ def main(argv=None):
                     "(default 60)")
     ap.add_argument("--only", help="case ids or categories: substrings, or fnmatch patterns, "
                     "separated by commas")
+    ap.add_argument("--categories", help="whole categories, by exact name, separated by commas "
+                    "(with --only: the cases both select)")
+    ap.add_argument("--no-skips", action="store_true", help="a skipped case fails the run (a "
+                    "missing WebP encoder, a lost race): for unattended runs, where a skip "
+                    "would pass unseen")
     ap.add_argument("--list", action="store_true", help="list the cases and exit")
     ap.add_argument("--markdown", help="also write the table (and every case) as Markdown here")
     ap.add_argument("--json", help="write every case's record (runs, exit codes, RSS) here "
@@ -3480,6 +3485,13 @@ def main(argv=None):
     ap.add_argument("--quiet", action="store_true", help="no line per case while running")
     a = ap.parse_args(argv)
     cases = select(define_all(), a.only)
+    if a.categories:
+        wanted = {c.strip() for c in a.categories.split(",") if c.strip()}
+        unknown = wanted - {c.category for c in define_all()}
+        if unknown:
+            print("no such category: %s" % ", ".join(sorted(unknown)), file=sys.stderr)
+            return 2
+        cases = [c for c in cases if c.category in wanted]
     if a.list:
         for c in cases:
             print("%-48s %-15s %-12s %s" % (c.id, c.category, c.expect, c.title))
@@ -3529,6 +3541,8 @@ def main(argv=None):
     if not a.keep:
         shutil.rmtree(os.path.join(opts.out, "_cache"), ignore_errors=True)
     bad = total.get("breach", 0) + total.get("harness-error", 0)
+    if a.no_skips:
+        bad += total.get("skipped", 0)
     return 1 if bad else 0
 
 
