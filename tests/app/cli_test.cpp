@@ -1107,6 +1107,25 @@ TEST(Cli, TheLoadsWarningsAreGivenOnceWhateverLightsTheScene) {
   }
 }
 
+// Under a uniform environment of radiance L (and nothing else), an open plane's work plane gets
+// E = pi L at every point (683 lm/W): in every method's lux, the radiosity methods' included
+// (their rays that leave the scene find no lightmap; they see the environment).
+TEST(Cli, LuxUnderAnEnvironmentIsPiLInEveryMethod) {
+  TempDir dir;
+  const std::string obj =
+      dir.write("plane.obj", "v -5 0 -5\nv -5 0 5\nv 5 0 5\nv 5 0 -5\nf 1 2 3\nf 1 3 4\n");
+  for (const char* method : {"pathtrace", "progressive", "matrix"}) {
+    SCOPED_TRACE(method);
+    const auto r = runCli("render " + obj + " --method " + method +
+                          " --environment 1,1,1 --work-plane 0.5 --width 8 --height 8 -o " +
+                          dir.file("x.png"));
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    const size_t at = r.output.find("E_avg ");
+    ASSERT_NE(at, std::string::npos) << r.output;
+    EXPECT_NEAR(std::stod(r.output.substr(at + 6)), M_PI * 683.0, 0.5) << r.output;
+  }
+}
+
 TEST(Cli, InfoDescribesTheBuiltInCornellBox) {
   const auto r = runCli("info cornell");
   ASSERT_EQ(r.exit_code, 0) << r.output;

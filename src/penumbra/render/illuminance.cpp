@@ -135,7 +135,10 @@ Gathered gatherRays(const GatherContext& c, const glm::dvec3& from, const glm::d
       (d.y >= 0.0f ? g.sky : g.ground) += weight * l;
       continue;
     }
-    glm::dvec3 l(c.incident(ray, hit, incident_rng));
+    // A ray that leaves the scene sees the uniform environment, whatever the method's solution
+    // holds (a lightmap has nothing to look up there); with a sky, as above or through openings.
+    glm::dvec3 l = !hit.hit() && !c.scene.sky ? glm::dvec3(c.scene.environment)
+                                              : glm::dvec3(c.incident(ray, hit, incident_rng));
     if (hit.hit()) {
       const glm::uvec3 t = c.flat.triangles[size_t(hit.triangle)];
       const glm::vec3 ng = glm::cross(c.flat.positions[t.y] - c.flat.positions[t.x],
