@@ -21,6 +21,7 @@
 #include "penumbra/io/gltf/gltf_materials.h"
 #include "penumbra/io/gltf/gltf_primitive.h"
 #include "penumbra/io/scene_io.h"
+#include "penumbra/scene/luminaire.h"
 
 #include <nlohmann/json.hpp>
 
@@ -52,10 +53,6 @@ using nlohmann::json;
 // (positions, normals and indices of an expanded instance, with the vectors' slack).
 constexpr uint64_t kMaxSceneTriangles = uint64_t(1) << 31;
 constexpr uint64_t kLoadedBytesPerTriangle = 64;
-
-// lm/W: luminous efficacy of monochromatic 555 nm light, the conversion KHR_lights_punctual
-// implementations use between photometric and radiometric quantities.
-constexpr double kLumensPerWatt = 683.0;
 
 bool finite(const glm::dmat4& m) {
   for (int c = 0; c < 4; ++c) {
@@ -577,7 +574,7 @@ Status GltfSceneReader::addPrimitive(size_t n, int64_t mesh_index, size_t p,
     mesh.gltf_mesh = int(mesh_index);
     mesh.gltf_primitive = int(p);
     // Every copy of an instancing node, a single one included: the plain document
-    // (gltf_plain.h) gives each its own child node.
+    // (gltf_plain.cpp) gives each its own child node.
     mesh.gltf_instance =
         member(member(node, "extensions"), "EXT_mesh_gpu_instancing").is_object() ? int(k) : -1;
     mesh.gltf_mirrored = mirrored;
@@ -626,6 +623,7 @@ Status GltfSceneReader::addLight(size_t n) {
       color[i] = std::clamp(gl["color"][size_t(i)].get<double>(), 0.0, 1.0);
   }
   const double intensity = gl.value("intensity", 1.0);
+  // KHR_lights_punctual: photometric intensities, at 683 lm/W as its implementations take them.
   const glm::vec3 radiometric(color * (intensity / kLumensPerWatt));
   const glm::dmat4& world = world_[n];
   const glm::vec3 position(world * glm::dvec4(0.0, 0.0, 0.0, 1.0));
