@@ -6,7 +6,13 @@ and the relative error of the mean over each block of a 4 x 4 grid. The bar: the
 every block within 5%.
 
   defaults_audit.py PENUMBRA [OUT_DIR] [--seeds N] [--scenes NAME,...] [--methods NAME,...]
-                    [--device cpu|gpu]
+                    [--device cpu|gpu] [--scene NAME=PATH:WxH ...] [--light ARGS]
+                    [--surfaces-only] [--reference-spp N]
+
+--scene adds a scene file of one's own (a downloaded model, a scene file placing one) and
+--light gives every run, the reference's included, the same lighting options ("--sky
+overcast"). --surfaces-only compares the pixels both images draw (not black in either): the
+radiosity views show the sky through openings as black, the path tracer shows the sky.
 
 prints one row per method and scene (seconds from --stats, mean ratio, block RMS, worst block);
 --seeds N repeats each method with --seed 0 .. N-1 and reports the worst of them. Needs numpy.
@@ -42,8 +48,11 @@ def luminance(image):
     return image @ np.array([0.2126, 0.7152, 0.0722])
 
 
-def compare(path, reference):
+def compare(path, reference, surfaces_only=False):
     a, r = luminance(read_pfm(path)), luminance(read_pfm(reference))
+    if surfaces_only:
+        drawn = (a > 0) & (r > 0)
+        a, r = np.where(drawn, a, 0.0), np.where(drawn, r, 0.0)
     h, w = a.shape
     ys = np.linspace(0, h, 5).round().astype(int)
     xs = np.linspace(0, w, 5).round().astype(int)
@@ -70,8 +79,18 @@ def main(argv):
     parser.add_argument("--scenes", default=",".join(s[0] for s in SCENES))
     parser.add_argument("--methods", default=",".join(METHODS))
     parser.add_argument("--device", default="", help="--device for the methods (not the reference)")
+    parser.add_argument("--scene", action="append", default=[], help="NAME=PATH:WxH, repeatable")
+    parser.add_argument("--light", default="", help="lighting options for every run")
+    parser.add_argument("--surfaces-only", action="store_true")
+    parser.add_argument("--reference-spp", type=int, default=REFERENCE_SPP)
     args = parser.parse_args(argv[1:])
-    scenes = [s for s in SCENES if s[0] in args.scenes.split(",")]
+    scenes = [s for s in SCENES if s[0] in args.scenes.split(",")] if not args.scene else []
+    for given in args.scene:
+        name, rest = given.split("=", 1)
+        path, size = rest.rsplit(":", 1)
+        width, height = map(int, size.split("x"))
+        scenes.append((name, path, width, height))
+    light = args.light.split()
     methods = [m for m in METHODS if m in args.methods.split(",")]
     penumbra, seeds = args.penumbra, args.seeds
     out_dir = args.out_dir or tempfile.mkdtemp(prefix="penumbra-audit-")
@@ -82,7 +101,8 @@ def main(argv):
     for name, scene, width, height in scenes:
         reference = os.path.join(out_dir, f"ref_{name}.pfm")
         if not os.path.exists(reference):
-            render(penumbra, scene, width, height, reference, ["--spp", str(REFERENCE_SPP)])
+            render(penumbra, scene, width, height, reference,
+                   ["--spp", str(args.reference_spp)] + light)
         for method in methods:
             rows = []
             for seed in range(seeds):
@@ -90,8 +110,8 @@ def main(argv):
                 out = os.path.join(out_dir, f"{method}{tag}_{name}_{seed}.pfm")
                 extra = ["--device", args.device] if args.device else []
                 seconds = render(penumbra, scene, width, height, out,
-                                 ["--method", method, "--seed", str(seed)] + extra)
-                rows.append((seconds, *compare(out, reference)))
+                                 ["--method", method, "--seed", str(seed)] + extra + light)
+                rows.append((seconds, *compare(out, reference, args.surfaces_only)))
             # The worst seed: the largest worst block, then the mean furthest from 1.
             seconds, mean, rms, worst = max(rows, key=lambda r: (abs(r[3]), abs(r[1] - 1.0)))
             meets = abs(mean - 1.0) <= 0.02 and abs(worst) <= 0.05
