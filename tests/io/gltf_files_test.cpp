@@ -89,6 +89,38 @@ void writeFile(const std::filesystem::path& path, const std::string& bytes) {
   std::ofstream(path, std::ios::binary) << bytes;
 }
 
+// A bake embeds the scene's texture images in its .bin; glTF takes PNG, JPEG and WebP there, so
+// a TGA or BMP texture (which Penumbra reads) is written as a PNG of its texels, and the baked
+// asset opens again with the same texels (it was stored as image/png holding TGA bytes, and
+// refused on reopening).
+TEST(GltfFiles, ABakeWritesATgaTextureAsAPng) {
+  TempDir dir;
+  // 2 x 2, 24-bit, bottom-up: blue, red / green, white (BGR bytes).
+  std::string tga = {0, 0, 2, 0, 0, 0, 0, 0, 0, 0, 0, 0, 2, 0, 2, 0, 24, 0};
+  for (int v : {255, 0, 0, 0, 0, 255, 0, 255, 0, 255, 255, 255}) tga.push_back(char(v));
+  writeFile(dir.path() / "in" / "t.tga", tga);
+  Quad q = texturedQuad("t.tga");
+  q.doc["materials"][0]["doubleSided"] = true;
+  const std::string path = writeQuad(dir.path() / "in", "quad.gltf", q);
+  Expected<Scene> before = loadGltf(path);
+  ASSERT_TRUE(before.ok()) << before.error().describe();
+  const std::string out = (dir.path() / "out").string();
+  const auto r =
+      test::runCli("bake " + path + " -o " + out + " --method matrix --environment 1,1,1 --quiet");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const json baked = test::readJson(out + "/quad.gltf");
+  EXPECT_EQ(baked["images"][0]["mimeType"], "image/png");
+  Expected<Scene> after = loadGltf(out + "/quad.gltf");
+  ASSERT_TRUE(after.ok()) << after.error().describe();
+  const Texture& a = *before->materials[0].reflectance_texture->texture;
+  const Texture& b = *after->materials[0].reflectance_texture->texture;
+  ASSERT_EQ(b.width(), 2);
+  ASSERT_EQ(b.height(), 2);
+  for (int y = 0; y < 2; ++y) {
+    for (int x = 0; x < 2; ++x) EXPECT_EQ(a.fetch(0, x, y), b.fetch(0, x, y)) << x << "," << y;
+  }
+}
+
 TEST(AssetFiles, PercentDecodingIsRfc3986AndPlusIsAPlus) {
   Expected<std::string> d = percentDecode("a%20b+c%2Bd%25", "f", "p");
   ASSERT_TRUE(d.ok());

@@ -5,6 +5,7 @@
 #include "penumbra/io/asset_files.h"
 #include "penumbra/io/gltf/gltf_accessor.h"
 #include "penumbra/io/gltf_common.h"
+#include "penumbra/io/image_decode.h"
 #include "penumbra/io/image_io.h"
 
 #include <glm/geometric.hpp>
@@ -237,7 +238,7 @@ class Attacher {
 
 // All buffers become buffer 0 (the originals one after another, 16-byte aligned), and images
 // given by a file are appended as buffer views of it.
-void mergeBuffers(GltfDocument& doc, Attacher& at) {
+Status mergeBuffers(GltfDocument& doc, Attacher& at) {
   std::string& bin = at.bin();
   std::vector<size_t> base(doc.buffers.size());
   for (size_t b = 0; b < doc.buffers.size(); ++b) {
@@ -257,11 +258,19 @@ void mergeBuffers(GltfDocument& doc, Attacher& at) {
   }
   for (auto& [index, bytes] : doc.file_images) {
     json& image = doc.json["images"][size_t(index)];
-    std::string mime = "image/png";
-    if (bytes.size() > 3 && uint8_t(bytes[0]) == 0xff && uint8_t(bytes[1]) == 0xd8) {
-      mime = "image/jpeg";
-    } else if (bytes.size() > 12 && bytes.compare(8, 4, "WEBP") == 0) {
-      mime = "image/webp";
+    // glTF takes PNG, JPEG and (EXT_texture_webp) WebP: a BMP or TGA texture (which Penumbra
+    // reads) is written as a PNG of its texels, or the baked asset could not be opened again.
+    const std::string name = image.value("uri", std::string());
+    const ImageFormat format = imageFormatOf(name, bytes);
+    std::string mime = format == ImageFormat::kJpeg   ? "image/jpeg"
+                       : format == ImageFormat::kWebp ? "image/webp"
+                                                      : "image/png";
+    if (format == ImageFormat::kBmp || format == ImageFormat::kTga) {
+      Expected<TextureTexels> texels = decodeTextureImage(name, bytes);
+      if (!texels) return texels.error();
+      Expected<std::string> png = encodePng8(texels->width, texels->height, texels->rgba8, 4);
+      if (!png) return png.error();
+      bytes = std::move(*png);
     }
     image.erase("uri");
     image["bufferView"] = at.addView(bytes, 0, 0);
@@ -270,6 +279,7 @@ void mergeBuffers(GltfDocument& doc, Attacher& at) {
   }
   // Views made below read the originals through doc.buffers: point them at the merged bytes.
   doc.buffers.assign(1, std::string());
+  return {};
 }
 
 // Adds the lightmap's image, sampler and texture; returns the texture's index.
@@ -639,11 +649,11 @@ class LightmapWriter {
   }
 
   // Gathering reads the original buffers: a copy of them is kept, then all become buffer 0.
-  void mergeBuffers() {
+  Status mergeBuffers() {
     originals_.json = j_;
     originals_.buffers = doc_.buffers;
     reader_ = std::make_unique<Attacher>(originals_, at_.where());
-    penumbra::mergeBuffers(doc_, at_);
+    return penumbra::mergeBuffers(doc_, at_);
   }
 
   Status attachAll() {
@@ -854,7 +864,7 @@ Status writeLightmappedGltf(GltfDocument doc, std::span<const GltfTriangleSource
   PENUMBRA_CHECK(sources.size() == uvs.size());
   LightmapWriter writer(doc, gltf_path);
   PENUMBRA_TRY(writer.collect(sources, uvs));
-  writer.mergeBuffers();
+  PENUMBRA_TRY(writer.mergeBuffers());
   PENUMBRA_TRY(writer.attachAll());
   const std::string bin = writer.finish(lm, penumbra_extras, bin_uri);
   const std::string text = doc.json.dump(2) + "\n";
